@@ -1,0 +1,91 @@
+"""The stages a pipeline can declare, each a thin wrapper over the library call the matching command makes."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from .atomic import write_text
+from .errors import UserError
+from .pipeline import Stage, StageContext
+from .stage_settings import IdentifyOptions, TrackOptions
+
+
+def _save_figure(fig: Any, path: Path) -> str:
+    """Write a matplotlib figure as PNG and close it; returns the file name for the index page."""
+    import matplotlib.pyplot as plt
+
+    fig.savefig(path, dpi=100, bbox_inches="tight")
+    plt.close(fig)
+    return path.name
+
+
+def track_one(video: Path, opts: TrackOptions, out_dir: Path) -> dict[str, Any]:
+    """Track one video into out_dir/<stem>.csv (and overlay); returns its summary. Runs on Dask workers too."""
+    from .tracker import track_video
+
+    overlay = out_dir / f"{video.stem}_overlay.mp4" if opts.overlay else None
+    res = track_video(video, opts.track_settings(), overlay=overlay, progress=True)
+    res.to_csv(out_dir / f"{video.stem}.csv")
+    return {"video": str(video), "csv": f"{video.stem}.csv", "frames": len(res.t_s),
+            "valid_share": float(res.valid.mean()), "warnings": res.warnings,
+            "overlay": overlay.name if overlay else None}  # fmt: skip
+
+
+def run_track(opts: TrackOptions, ctx: StageContext) -> dict[str, Any]:
+    """Track every video (on a local Dask cluster when [run].workers > 1); one angles CSV per video."""
+    import matplotlib.pyplot as plt
+
+    from .tables import read_csv
+
+    if not opts.videos:
+        raise UserError("[track].videos is empty; list at least one video.")
+    if len({v.stem for v in opts.videos}) < len(opts.videos):
+        raise UserError("[track].videos has two files with the same name; their CSVs would collide.")
+    if ctx.run.workers > 1 and len(opts.videos) > 1:
+        from .batch import dask_client
+
+        with dask_client(ctx.run.workers, None) as client:
+            summaries = client.gather(client.map(track_one, opts.videos, opts=opts, out_dir=ctx.out_dir))
+    else:
+        summaries = [track_one(v, opts, ctx.out_dir) for v in opts.videos]
+    fig, ax = plt.subplots(figsize=(10, 3.2))
+    for summary in summaries:
+        table = read_csv(ctx.out_dir / summary["csv"])
+        ok = table["valid"] == 1
+        ax.plot(table["t_s"][ok], table["angle_deg"][ok], ".", ms=2, alpha=0.5)
+        ax.plot(table["t_s"], table["angle_smoothed_deg"], lw=1, label=f"{Path(summary['video']).name} (smoothed)")
+    ax.set(xlabel="time t (s)", ylabel="float angle (deg)", title="tracked float angle (dots: measured frames)")
+    ax.legend(fontsize=8)
+    return {"figure": _save_figure(fig, ctx.out_dir / "angle.png"), "videos": summaries}
+
+
+def run_identify(opts: IdentifyOptions, ctx: StageContext) -> dict[str, Any]:
+    """Joint identification of the tracked angles and the listed signal files; JSON and HTML report."""
+    from .identify import Identifier
+    from .identify_report import build_report
+    from .signals import load_signal
+
+    files = sorted((ctx.upstream["track"]).glob("*.csv")) if "track" in ctx.upstream else []
+    signals = [load_signal(p) for p in files] + [load_signal(p, **opts.load_options()) for p in opts.signals]
+    result = Identifier(opts.ident_settings()).fit(signals).result
+    doc = result.to_json_dict()
+    write_text(ctx.out_dir / "params.json", json.dumps(doc, indent=2, allow_nan=False) + "\n")
+    (ctx.out_dir / "report").mkdir()
+    build_report(result).save(ctx.out_dir / "report")
+    return {"params": "params.json", "report": "report/index.html", "quality": doc["quality"],
+            "reasons": doc["reasons"], "parameters": doc["parameters"], "n_signals": len(signals)}  # fmt: skip
+
+
+def _identify_needs(opts: IdentifyOptions, present: set[str]) -> list[str]:
+    """Identify consumes the track stage when the pipeline has one; without it, it needs its own signals."""
+    if "track" in present:
+        return ["track"]
+    return [] if opts.signals else ["track"]
+
+
+TRACK = Stage("track", TrackOptions, run_track, input_files=lambda o: list(o.videos))
+IDENTIFY = Stage("identify", IdentifyOptions, run_identify, input_files=lambda o: list(o.signals),
+                 needs=_identify_needs)  # fmt: skip
