@@ -8,7 +8,10 @@ environment has no H.264 encoder; every frame gets an explicit pts, so VFR files
 
 from __future__ import annotations
 
+import contextlib
 import math
+import queue
+import threading
 from dataclasses import dataclass, field
 from fractions import Fraction
 from pathlib import Path
@@ -38,6 +41,21 @@ class VideoInfo:
     """Frames the container declares (0 when unknown)."""
 
 
+cv2.utils.logging.setLogLevel(cv2.utils.logging.LOG_LEVEL_ERROR)  # OpenCV errors only: failures reach the user as one UserError sentence, not log noise
+
+
+def _why_unreadable(path: Path) -> str:
+    """One sentence on why OpenCV could not open `path`: no video frames, or not a video at all."""
+    try:
+        with av.open(str(path)) as probe:
+            streams = probe.streams.video
+            if not streams or not streams[0].frames:
+                return f"{path} contains no video frames."
+    except (av.FFmpegError, OSError, ValueError):
+        pass
+    return f"{path} is not a video OpenCV/FFmpeg can decode (or it is cut off before its index)."
+
+
 @dataclass
 class FrameReader:
     """Iterate (index, t_s, BGR frame) over a video sequentially; afterwards `decoded` and `lost_share` tell
@@ -56,7 +74,7 @@ class FrameReader:
             raise UserError(f"video {self.path} is not a file.")
         cap = cv2.VideoCapture(str(self.path), cv2.CAP_FFMPEG)
         if not cap.isOpened():
-            raise UserError(f"{self.path} is not a video OpenCV/FFmpeg can decode.")
+            raise UserError(_why_unreadable(self.path))
         cap.set(cv2.CAP_PROP_ORIENTATION_AUTO, 1)
         w, h = int(cap.get(cv2.CAP_PROP_FRAME_WIDTH)), int(cap.get(cv2.CAP_PROP_FRAME_HEIGHT))
         if w <= 0 or h <= 0:
@@ -68,18 +86,41 @@ class FrameReader:
         self.info = VideoInfo(self.path, w, h, float(cap.get(cv2.CAP_PROP_FPS) or 0.0), count)
 
     def __iter__(self) -> Iterator[tuple[int, float, np.ndarray]]:
-        cap = self._cap
+        """Frames in order. Decoding runs in a background thread (OpenCV releases the GIL while decoding),
+        so the caller's per-frame work overlaps with decoding the next frames."""
+        frames: queue.Queue = queue.Queue(maxsize=8)
+        stop = threading.Event()
+        worker = threading.Thread(target=self._decode, args=(frames, stop), daemon=True)
+        worker.start()
         try:
             while True:
+                item = frames.get()
+                if item is None:
+                    break
+                t_s, frame = item
+                yield self.decoded, t_s, frame
+                self.decoded += 1
+        finally:
+            stop.set()
+            while worker.is_alive():  # unblock a producer waiting on a full queue
+                with contextlib.suppress(queue.Empty):
+                    frames.get_nowait()
+                worker.join(timeout=0.01)
+            self._cap.release()
+        if self.decoded == 0:
+            raise UserError(f"{self.path} contains no decodable video frames.")
+
+    def _decode(self, frames: queue.Queue, stop: threading.Event) -> None:
+        """Producer: read frames sequentially with their presentation time until the end or `stop`."""
+        cap = self._cap
+        try:
+            while not stop.is_set():
                 ok, frame = cap.read()
                 if not ok or frame is None:
                     break
-                yield self.decoded, cap.get(cv2.CAP_PROP_POS_MSEC) / 1000.0, frame
-                self.decoded += 1
+                frames.put((cap.get(cv2.CAP_PROP_POS_MSEC) / 1000.0, frame))
         finally:
-            cap.release()
-        if self.decoded == 0:
-            raise UserError(f"{self.path} contains no decodable video frames.")
+            frames.put(None) if not stop.is_set() else None
 
     @property
     def lost_share(self) -> float:
