@@ -136,15 +136,21 @@ class _JointModel:
         return np.concatenate([[omega, zeta], *lins])
 
 
-def correlation_lags(r: np.ndarray) -> int:
-    """Newey-West bandwidth: the larger of the textbook rule 4 (N/100)^(2/9) and three times the lag at which
-    the residual autocorrelation first falls inside its white-noise band; at most N/4."""
+def correlation_lags(r: np.ndarray, period: int) -> int:
+    """Newey-West bandwidth: the larger of the textbook rule 4 (N/100)^(2/9) and the lag after which the residual
+    autocorrelation stays inside +-3/sqrt(N) for a whole mode period (`period` samples), so that periodic
+    leftovers (nonlinear crests, a second mode) widen the intervals instead of hiding; at most N/4."""
     n = r.size
-    acf = autocorrelation(r, min(n - 1, max(10, n // 4)))
-    inside = np.flatnonzero(np.abs(acf[1:]) < 1.96 / np.sqrt(n))
-    first = int(inside[0]) + 1 if inside.size else acf.size
+    cap = n // 4
     rule = int(np.floor(4 * (n / 100) ** (2 / 9)))
-    return int(min(max(rule, 3 * first), n // 4))
+    acf = autocorrelation(r, min(n - 1, cap + period))
+    outside = np.flatnonzero(np.abs(acf[1:]) >= 3 / np.sqrt(n)) + 1
+    last = 0
+    for lag in outside:  # the first run of `period` quiet lags ends the correlated part
+        if lag - last > period:
+            break
+        last = lag
+    return int(min(max(rule, last), cap))
 
 
 def autocorrelation(r: np.ndarray, max_lag: int) -> np.ndarray:
@@ -172,17 +178,19 @@ def long_run_covariance(g: np.ndarray, lag: int) -> np.ndarray:
     return recolour @ meat @ recolour.T * (g.shape[0] / e.shape[0])
 
 
-def hac_covariance(jac: np.ndarray, resid: np.ndarray, blocks: list[slice]) -> tuple[np.ndarray, np.ndarray, list[int]]:
+def hac_covariance(
+    jac: np.ndarray, resid: np.ndarray, blocks: list[slice], periods: list[int]
+) -> tuple[np.ndarray, np.ndarray, list[int]]:
     """Sandwich covariance (J'J)^-1 S (J'J)^-1 with S the long-run covariance of the scores J_t r_t;
     windows are independent of each other. Returns (corrected covariance, white-noise covariance, lags per window)."""
     n, p = jac.shape
     bread = np.linalg.pinv(jac.T @ jac)
     meat = np.zeros((p, p))
     lags = []
-    for rows in blocks:
+    for rows, period in zip(blocks, periods):
         used = np.flatnonzero(np.any(jac[rows] != 0, axis=0))
         g = jac[rows][:, used] * resid[rows, None]
-        lag = correlation_lags(resid[rows])
+        lag = correlation_lags(resid[rows], period)
         lags.append(lag)
         meat[np.ix_(used, used)] += long_run_covariance(g, lag)
     dof = n / max(n - p, 1)
@@ -221,7 +229,8 @@ def fit_pt2(
     x = best.x
     resid = model.residuals(x)
     jac = model.jacobian(x)
-    cov, naive, lags = hac_covariance(jac, resid, model.blocks)
+    periods = [max(2, int(round(2 * np.pi / x[0] / np.median(np.diff(t))))) for t in model.t]
+    cov, naive, lags = hac_covariance(jac, resid, model.blocks, periods)
     se = np.sqrt(np.clip(np.diag(cov), 0, None))
     at_bound = []
     for name, i in (("omega", 0), ("zeta", 1)):
