@@ -1,0 +1,109 @@
+"""Find the free-decay part of a recording: after the last excitation, where the mode rings down on its own."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import ndimage
+from scipy import signal as sps
+
+from .errors import UserError
+from .signals import Signal
+from .spectrum import to_uniform
+
+SEGMENT_S = 4.0
+"""Length of the segments scanned for the rough mode frequency (several periods of any lab sloshing mode)."""
+
+FORCED_RATIO = 0.5
+"""A one-period mean that moves by more than this fraction of the oscillation amplitude means forced motion."""
+
+START_MARGIN_PERIODS = 2
+"""Periods skipped after the detected end of forced motion: its fading tail still drives the liquid."""
+
+END_NOISE_FACTOR = 3.0
+"""The window ends where the oscillation amplitude falls below this many noise standard deviations."""
+
+
+@dataclass(frozen=True)
+class DecayWindow:
+    """The time span fitted, and how it was chosen."""
+
+    t0_s: float
+    t1_s: float
+    chosen_by: str
+    """'auto' or 'user'."""
+    excitation_end_s: float | None
+    """Last time the record was driven (quasi-static offset larger than the ringing), None when never."""
+    f_guess_hz: float
+
+    @property
+    def duration_s(self) -> float:
+        """Window length in seconds."""
+        return self.t1_s - self.t0_s
+
+
+def rough_mode_frequency(sig: Signal, f_range_hz: tuple[float, float]) -> float:
+    """Dominant frequency of the last active segments (the ring-down comes after any forced motion).
+
+    Peaks are picked on f * PSD (power per octave) so that a slow drift of the resting level does not win."""
+    u = to_uniform(sig.t_s, sig.value)
+    if np.ptp(u.value) == 0:
+        raise UserError(f"{sig.source}: '{sig.label}' is constant, so there is no oscillation to identify.")
+    n_seg = min(u.value.size, int(round(SEGMENT_S * u.fs_hz)))
+    step = max(1, int(round(u.fs_hz)))
+    starts = list(range(0, u.value.size - n_seg + 1, step)) or [0]
+    stds = np.array([np.std(sps.detrend(u.value[s : s + n_seg])) for s in starts])
+    active = np.flatnonzero(stds >= 3 * stds.min()) if stds.min() > 0 else np.arange(len(starts))
+    if active.size == 0:
+        active = np.arange(len(starts))
+    freqs = []
+    for k in active[-3:]:
+        seg = sps.detrend(u.value[starts[k] : starts[k] + n_seg])
+        f, p = sps.periodogram(seg, fs=u.fs_hz, window="hann", nfft=8 * n_seg)
+        band = (f >= f_range_hz[0]) & (f <= f_range_hz[1])
+        if band.any():
+            freqs.append(f[band][np.argmax((f * p)[band])])
+    if not freqs:
+        raise UserError(f"{sig.source}: no frequency in the search range {f_range_hz[0]:g}-{f_range_hz[1]:g} Hz.")
+    return float(np.median(freqs))
+
+
+def find_decay_window(sig: Signal, f_guess_hz: float, noise_std: float) -> DecayWindow:
+    """Automatic window: from two periods after the last forced motion (or from the largest swing) to where it fades.
+
+    Forced motion shows as a one-period running mean (which cancels the mode and its harmonics) that departs from
+    the final resting level by more than half the ringing amplitude and by more than the noise.
+    """
+    u = to_uniform(sig.t_s, sig.value)
+    n = max(3, int(round(u.fs_hz / f_guess_hz)))
+    slow = ndimage.uniform_filter1d(u.value, n, mode="nearest")
+    span = ndimage.maximum_filter1d(u.value, n, mode="nearest") - ndimage.minimum_filter1d(u.value, n, mode="nearest")
+    amp = ndimage.uniform_filter1d(span, n, mode="nearest") / 2
+    rest = float(np.median(slow[-max(n, slow.size // 5) :]))
+    dev = np.abs(slow - rest)
+    floor = max(0.2 * float(dev.max()), 5 * noise_std / np.sqrt(n))
+    forced = np.flatnonzero(dev > np.maximum(FORCED_RATIO * amp, floor))
+    forced = forced[forced >= n]  # the first period's running means are padded at the edge: not evidence
+    if forced.size:
+        i_end = int(forced[-1])
+        excitation_end = float(u.t_s[i_end])
+        i0 = min(u.value.size - 1, i_end + START_MARGIN_PERIODS * n)
+    else:
+        excitation_end = None
+        i0 = int(np.argmax(amp[: max(1, amp.size - 3 * n)]))
+        i0 = max(0, i0 - n // 2)
+    above = np.flatnonzero(amp[i0:] > END_NOISE_FACTOR * noise_std)
+    i1 = i0 + int(above[-1]) + n // 2 if above.size else u.value.size - 1
+    i1 = min(i1, u.value.size - 1)
+    return DecayWindow(float(u.t_s[i0]), float(u.t_s[i1]), "auto", excitation_end, f_guess_hz)
+
+
+def user_window(sig: Signal, t0: float, t1: float, f_guess_hz: float) -> DecayWindow:
+    """A window given by the user, checked to lie inside the data."""
+    lo, hi = float(sig.t_s[0]), float(sig.t_s[-1])
+    if not t0 < t1:
+        raise UserError(f"--window start {t0:g} s must be before its end {t1:g} s.")
+    if t0 < lo - 1e-9 or t1 > hi + 1e-9:
+        raise UserError(f"--window {t0:g},{t1:g} s lies outside the data of {sig.source} ({lo:g} to {hi:g} s).")
+    return DecayWindow(float(t0), float(t1), "user", None, f_guess_hz)
