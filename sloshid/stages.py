@@ -89,3 +89,6 @@ def _identify_needs(opts: IdentifyOptions, present: set[str]) -> list[str]:
 TRACK = Stage("track", TrackOptions, run_track, input_files=lambda o: list(o.videos))
 IDENTIFY = Stage("identify", IdentifyOptions, run_identify, input_files=lambda o: list(o.signals),
                  needs=_identify_needs)  # fmt: skip
+
+REGISTRY: dict[str, Stage] = {"track": TRACK, "identify": IDENTIFY}
+"""Stages in the order they run."""
