@@ -198,9 +198,8 @@ def _guess(s: Structure, scenario: Scenario, start, goal, T0: float, inflate_m: 
         ang = np.clip(np.column_stack([-np.arctan(acc[:, 1] / G), np.arctan(acc[:, 0] / G)]), -tilt, tilt)
     cols = [pos[:, ax], vel[:, ax]] + ([acc[:, ax]] if s.jerk_limited else [])
     cols += [ang, np.zeros_like(ang)] * (1 + s.n_robust)
-    X = np.column_stack(cols)
     mid = (jerk[:-1] + jerk[1:]) / 2 if s.jerk_limited else (acc[:-1] + acc[1:]) / 2
-    return np.concatenate([[T0], X.ravel(), mid[:, ax].ravel()])
+    return get_solver(s)._join(T0, np.column_stack(cols), mid[:, ax])
 
 
 def solve_segment(
@@ -213,10 +212,10 @@ def solve_segment(
 ) -> SegmentResult:
     """Solve the rest-to-rest segment from waypoint `index` to `index + 1` (cached solver, optional warm start)."""
     start, goal = scenario.waypoints[index], scenario.waypoints[index + 1]
-    inflate = scenario.container_radius_m + extra_margin_m
+    inflate = scenario.container_radius_m + scenario.solver.clearance_margin_m + extra_margin_m
     use_warm = warm is not None and bool(warm.warm)
     s = _structure(scenario, start, goal, len(robust), use_warm)
-    if use_warm and len(warm.warm["x"]) != 1 + s.nx * (s.N + 1) + s.n_pos * s.N:
+    if use_warm and len(warm.warm["x"]) != (s.nx + 1) * (s.N + 1) + s.n_pos * s.N:
         use_warm, s = False, _structure(scenario, start, goal, len(robust), False)
     solver = get_solver(s)
     t_lb = time_lower_bound(start, goal, scenario.limits, scenario.solver.kappa_T)
