@@ -17,11 +17,17 @@ def _link(run_dir: Path, rel: str, text: str) -> str:
     return html.escape(f"{text} (not written)")
 
 
+def _figure(report: Report, run_dir: Path, stage: str, s: dict[str, Any], caption: str) -> None:
+    """Show the stage's summary figure (a PNG beside its outputs) when it exists."""
+    rel = f"{stage}/{s.get('figure')}"
+    if s.get("figure") and (run_dir / rel).exists():
+        report.add_html(f'<figure><img src="{html.escape(rel)}" alt="{html.escape(caption)}">'
+                        f"<figcaption>{html.escape(caption)}</figcaption></figure>")
+
+
 def _track(report: Report, run_dir: Path, s: dict[str, Any]) -> None:
     """Tracked angle figure and a row per video."""
-    if s.get("figure") and (run_dir / "track" / s["figure"]).exists():
-        report.add_html(f'<figure><img src="track/{html.escape(s["figure"])}" alt="tracked angle">'
-                        "<figcaption>Float angle per frame (dots) and Kalman/RTS-smoothed (line).</figcaption></figure>")
+    _figure(report, run_dir, "track", s, "Float angle per frame (dots) and Kalman/RTS-smoothed (line).")
     rows = []
     for v in s.get("videos", []):
         links = _link(run_dir, f"track/{v['csv']}", "angles CSV")
@@ -44,6 +50,20 @@ def _identify(report: Report, run_dir: Path, s: dict[str, Any]) -> None:
                     + _link(run_dir, "identify/report/index.html", "identification report") + "</p>")
 
 
+def _plan(report: Report, run_dir: Path, s: dict[str, Any]) -> None:
+    """Transfer time, solver, tilt, limits and the independent verification, with the files."""
+    v = s["verification"]
+    _figure(report, run_dir, "plan", s, "Container speed and tilt along the planned move.")
+    report.add_table(
+        ["transfer time T (s)", "segments", "solver status", "solve time (s)", "max tilt (deg)",
+         "max tilt rate (deg/s)", "robot limits", "liquid vs container during / after (deg)"],
+        [[s["T_s"], len(s["segments"]), s["status"], s["solve_time_s"], s["max_tilt_deg"], s["max_tilt_rate_deg_s"],
+          "ok" if s["limits_ok"] else "EXCEEDED", f"{v['peak_during_deg']:.3g} / {v['residual_deg']:.3g}"]],
+    )  # fmt: skip
+    report.add_html("<p>" + _link(run_dir, "plan/trajectory.csv", "1 kHz robot trajectory (CSV)") + " · "
+                    + _link(run_dir, "plan/report/index.html", "plan report") + "</p>")
+
+
 def _generic(report: Report, run_dir: Path, name: str, s: dict[str, Any]) -> None:
     """Scalar summary values as a table plus links to the files the stage listed."""
     scalars = [[k, v] for k, v in s.items() if isinstance(v, (int, float, str, bool)) and k not in ("report",)]
@@ -54,7 +74,7 @@ def _generic(report: Report, run_dir: Path, name: str, s: dict[str, Any]) -> Non
             report.add_html("<p>" + _link(run_dir, f"{name}/{s[key]}", f"{name} {key}") + "</p>")
 
 
-RENDERERS = {"track": _track, "identify": _identify}
+RENDERERS = {"track": _track, "identify": _identify, "plan": _plan}
 
 
 def write_index(run_dir: Path, records: list[StageRecord], title: str) -> Path:

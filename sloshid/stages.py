@@ -86,9 +86,63 @@ def _identify_needs(opts: IdentifyOptions, present: set[str]) -> list[str]:
     return [] if opts.signals else ["track"]
 
 
+@dataclass(frozen=True)
+class PlanOptions:
+    """The [plan] table: the scenario to plan and where the liquid model comes from."""
+
+    scenario: Path
+    """Scenario TOML ([move], [limits], [[obstacles]], [container], [solver], [liquid]), relative to the pipeline."""
+    use_identified: bool = True
+    """Plan for the liquid identified by this pipeline's [identify] stage; false (or no [identify]) uses the
+    scenario's [liquid] table."""
+
+
+def _liquid(opts: Any, ctx: StageContext, scenario: Any) -> Any:
+    """The identified liquid when the stage consumes [identify], else the scenario's own [liquid]."""
+    from .model import SloshParams
+    from .scenario import resolve_liquid
+
+    if "identify" in ctx.upstream:
+        return SloshParams.from_identify_json(ctx.upstream["identify"] / "params.json")
+    return resolve_liquid(scenario, None)
+
+
+def _liquid_needs(opts: Any, present: set[str]) -> list[str]:
+    """Plan and compare consume [identify] when asked to and when the pipeline has it."""
+    return ["identify"] if opts.use_identified and "identify" in present else []
+
+
+def run_plan(opts: PlanOptions, ctx: StageContext) -> dict[str, Any]:
+    """Solve the scenario, write the 1 kHz trajectory CSV and the plan report."""
+    from .plan_report import plan_report
+    from .planner import plan
+    from .scenario import load_scenario
+
+    scenario = load_scenario(opts.scenario)
+    result = plan(scenario, _liquid(opts, ctx, scenario), progress=True)
+    traj = result.trajectory
+    traj.to_csv(ctx.out_dir / "trajectory.csv")
+    (ctx.out_dir / "report").mkdir()
+    plan_report(result, scenario).save(ctx.out_dir / "report")
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(10, 3))
+    ax1.plot(traj.t_s, np.linalg.norm(traj.vel_m_s, axis=1), color="#36c")
+    ax1.set(xlabel="time t (s)", ylabel="speed (m/s)", title="container speed")
+    ax2.plot(traj.t_s, np.degrees(traj.euler_rad[:, 0]), label="roll phi")
+    ax2.plot(traj.t_s, np.degrees(traj.euler_rad[:, 1]), label="pitch theta")
+    ax2.set(xlabel="time t (s)", ylabel="tilt (deg)", title="container tilt = liquid surface")
+    ax2.legend(fontsize=8)
+    figure = _save_figure(fig, ctx.out_dir / "plan.png")
+    return {"trajectory": "trajectory.csv", "report": "report/index.html", "figure": figure, **result.summary()}
+
+
 TRACK = Stage("track", TrackOptions, run_track, input_files=lambda o: list(o.videos))
 IDENTIFY = Stage("identify", IdentifyOptions, run_identify, input_files=lambda o: list(o.signals),
                  needs=_identify_needs)  # fmt: skip
 
-REGISTRY: dict[str, Stage] = {"track": TRACK, "identify": IDENTIFY}
+PLAN = Stage("plan", PlanOptions, run_plan, input_files=lambda o: [o.scenario], needs=_liquid_needs)
+
+REGISTRY: dict[str, Stage] = {"track": TRACK, "identify": IDENTIFY, "plan": PLAN}
 """Stages in the order they run."""
