@@ -82,9 +82,10 @@ def find_decay_window(sig: Signal, f_guess_hz: float, noise_std: float) -> Decay
     amp = ndimage.uniform_filter1d(span, n, mode="nearest") / 2
     rest = float(np.median(slow[-max(n, slow.size // 5) :]))
     dev = np.abs(slow - rest)
-    floor = max(0.2 * float(dev.max()), 5 * noise_std / np.sqrt(n))
+    # an offset counts as forcing only if it is large against the noise, the record's biggest swing and its offsets
+    floor = max(0.2 * float(dev.max()), 0.1 * float(amp.max()), 5 * noise_std / np.sqrt(n))
     forced = np.flatnonzero(dev > np.maximum(FORCED_RATIO * amp, floor))
-    forced = forced[forced >= n]  # the first period's running means are padded at the edge: not evidence
+    forced = forced[(forced >= n) & (forced < dev.size - n)]  # running means are padded at the edges: no evidence
     if forced.size:
         i_end = int(forced[-1])
         excitation_end = float(u.t_s[i_end])

@@ -24,6 +24,8 @@ Z95 = float(stats.norm.ppf(0.975))
 MIN_PERIODS_ERROR = 3.0
 AMPLITUDE_SNR = 3.0
 """A fitted amplitude less than this many standard errors above zero is barely distinguishable from noise."""
+CROSS_CHECK_MIN_PERIODS = 8.0
+"""A cross-check built on fewer mode periods than this is shown but does not sway the verdict (too coarse)."""
 
 
 class NotFittedError(RuntimeError):
@@ -444,7 +446,7 @@ def judge(st, sigs, windows, spectra, fit, params, checks, lb, fits) -> tuple[st
                 f"correlation over {fit.hac_lags[i]} lags."
             )
         for c in checks[i]:
-            if math.isfinite(c.f_hz) and abs(c.f_hz - f) > 0.02 * f:
+            if c.n_periods >= CROSS_CHECK_MIN_PERIODS and math.isfinite(c.f_hz) and abs(c.f_hz - f) > 0.02 * f:
                 reasons.append(f"{name}: {c.method} gives f = {c.f_hz:.4g} Hz, more than 2 % from the fit's {f:.4g} Hz.")
         snr = fit.amplitude(i) / fit.amplitude_se(i)
         if snr < AMPLITUDE_SNR:

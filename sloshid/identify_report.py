@@ -80,10 +80,10 @@ def build_report(res: IdentResult) -> Report:
     rows = [["PT2 least squares (all signals)", res.parameters["f_hz"].value, res.parameters["zeta"].value, "", ""]]
     for i, checks in enumerate(res.cross_checks):
         for c in checks:
-            rows.append([f"{c.method} ({Path(res.signals[i].source).name})", c.f_hz, c.zeta, c.n_used, c.note])
-    rep.add_table(["method", "f (Hz)", "zeta", "samples/peaks used", "note"], rows,
+            rows.append([f"{c.method} ({Path(res.signals[i].source).name})", c.f_hz, c.zeta, c.n_periods, c.note])
+    rep.add_table(["method", "f (Hz)", "zeta", "periods used", "note"], rows,
                   "Independent estimates; nan means the method could not tell (see note). The frequencies should agree "
-                  "within about 2 %, damping within a factor of about two on clean decays.")
+                  "within about 2 %; a method that could use fewer than 8 periods is too coarse to overrule the fit.")
 
     rep.add_heading("Identified model (seed eq. 5)")
     axes = res.plot_bode()
