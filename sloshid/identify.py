@@ -179,7 +179,10 @@ class IdentResult:
                 "input": "container acceleration (m/s^2)",
                 "output": "surface angle (rad)",
             },
-            "psd": [s.to_json_dict() for s in self.spectra],
+            "psd": {
+                "peak_f_hz": float(np.median([s.peak_f_hz for s in self.spectra])),
+                "per_signal": [s.to_json_dict() for s in self.spectra],
+            },
             "cross_checks": {
                 "pt2_fit": {"f_hz": self.parameters["f_hz"].value, "zeta": self.parameters["zeta"].value},
                 "per_signal": [[c.to_json_dict() for c in cc] for cc in self.cross_checks],

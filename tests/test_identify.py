@@ -54,7 +54,7 @@ def test_uneven_timestamps_gaps_and_invalid_frames_through_cli(tmp_path, run_cli
     per = data["fit"]["per_signal"][0]
     assert per["sampling"]["n_dropped"] == int((~valid).sum())
     assert per["sampling"]["timestamp_jitter_s"] > 0.002  # jitter of 0.3 frames at 50 fps is visible
-    assert "interpolated" in data["psd"][0]["resampling"]  # Welch needed a uniform grid; the fit did not
+    assert "interpolated" in data["psd"]["per_signal"][0]["resampling"]  # Welch needed a uniform grid; the fit did not
     assert data["parameters"]["f_hz"]["value"] == pytest.approx(2.8, rel=0.004)
     assert data["parameters"]["zeta"]["value"] == pytest.approx(0.04, rel=0.12)
     assert "verdict: good" in stdout and "skipped" in err
