@@ -29,7 +29,7 @@ def main() -> None:
     joint = Identifier().fit(sigs).result
     jf = joint.parameters["f_hz"]
     rows.append(["joint (all 8)", joint.quality, f"{jf.value:.4f} ± {jf.stderr:.4f}", f"{100 * (jf.value / F_PHYS - 1):+.2f}",
-                 f"{joint.parameters['zeta'].value:.4f} ± {joint.parameters['zeta'].stderr:.4f}", "", f"{len(joint.reasons)} reasons (per-run ones above)"])
+                 f"{joint.parameters['zeta'].value:.4f} ± {joint.parameters['zeta'].stderr:.4f}", "", "; ".join(joint.reasons) or "-"])
     good = [r for r in runs if r["quality"] == "good"]
     summary = {"n_good": len(good), "n_runs": len(runs), "good_within_2pct": all(abs(r["f_err_pct"]) <= 2 for r in good),
                "all_within_2pct": all(abs(r["f_err_pct"]) <= 2 for r in runs), "joint_f_hz": jf.value}

@@ -18,8 +18,9 @@ SEGMENT_S = 4.0
 FORCED_RATIO = 0.5
 """A one-period mean that moves by more than this fraction of the oscillation amplitude means forced motion."""
 
-START_MARGIN_PERIODS = 2
-"""Periods skipped after the detected end of forced motion: its fading tail still drives the liquid."""
+START_SEARCH_PERIODS = 2
+"""After the detected end of forced motion the window starts at the largest swing within this many periods:
+the fading tail of the forcing still drives the liquid, and a damped liquid loses signal with every period."""
 
 END_NOISE_FACTOR = 3.0
 """The window ends where the oscillation amplitude falls below this many noise standard deviations."""
@@ -70,7 +71,7 @@ def rough_mode_frequency(sig: Signal, f_range_hz: tuple[float, float]) -> float:
 
 
 def find_decay_window(sig: Signal, f_guess_hz: float, noise_std: float) -> DecayWindow:
-    """Automatic window: from two periods after the last forced motion (or from the largest swing) to where it fades.
+    """Automatic window: from the largest swing just after the last forced motion (or in the record) to where it fades.
 
     Forced motion shows as a one-period running mean (which cancels the mode and its harmonics) that departs from
     the final resting level by more than half the ringing amplitude and by more than the noise.
@@ -89,7 +90,8 @@ def find_decay_window(sig: Signal, f_guess_hz: float, noise_std: float) -> Decay
     if forced.size:
         i_end = int(forced[-1])
         excitation_end = float(u.t_s[i_end])
-        i0 = min(u.value.size - 1, i_end + START_MARGIN_PERIODS * n)
+        lo = min(u.value.size - 1, i_end + n)
+        i0 = lo + int(np.argmax(amp[lo : i_end + START_SEARCH_PERIODS * n + 1]))
     else:
         excitation_end = None
         i0 = int(np.argmax(amp[: max(1, amp.size - 3 * n)]))

@@ -47,7 +47,7 @@ class IdentSettings:
     min_fit_percent: float = 15.0
     """Below this NRMSE fit % the mode does not dominate the window and the verdict is uncertain. Fit % scores
     the whole waveform: clean tracker angles reach 80-99 %, wall-height sensors with nonlinear crests 35-65 %."""
-    min_periods: float = 5.0
+    min_periods: float = 4.0
     """Fewer decay periods than this in a window make the verdict uncertain (fewer than 3 is an error)."""
     second_mode_ratio: float = 0.25
     """A non-harmonic PSD peak above this fraction of the dominant one counts as a strong second mode (-6 dB)."""
@@ -429,7 +429,8 @@ class Identifier:
 
 
 def judge(st, sigs, windows, spectra, fit, params, checks, lb, fits) -> tuple[str, list[str], list[str]]:
-    """The verdict: 'good' unless one of the listed reasons to doubt the numbers applies."""
+    """The verdict: 'good' unless a reason applies to doubt the numbers *beyond their intervals* (model misfit,
+    bound hits, disagreeing methods); a merely wide interval is honest and only noted."""
     reasons, notes = [], []
     f = params["f_hz"].value
     for i, sig in enumerate(sigs):
@@ -457,9 +458,9 @@ def judge(st, sigs, windows, spectra, fit, params, checks, lb, fits) -> tuple[st
     for name in fit.at_bound:
         reasons.append(f"{name} ended on its search bound.")
     z = params["zeta"]
-    if "zeta" not in fit.at_bound and z.ci95[0] <= 0:
-        reasons.append(
-            f"zeta = {z.value:.2g} ± {z.stderr:.2g} cannot be told from zero: the amplitude does not visibly decay."
+    if "zeta" not in fit.at_bound and z.ci95[0] <= 0:  # a wide but valid interval: reported, not a doubt
+        notes.append(
+            f"zeta = {z.value:.2g} ± {z.stderr:.2g} cannot be told from zero: the amplitude barely decays in the window."
         )
     return ("uncertain" if reasons else "good"), reasons, notes
 

@@ -155,3 +155,23 @@ def test_estimator_api_unfitted_pickle_and_planner_contract(tmp_path):
     tf = ident.result_.tf  # seed eq. 5: DC gain 1/g rad per m/s^2
     assert float(np.real(tf.dcgain())) == pytest.approx(1 / 9.81, rel=1e-9)
     assert math.isclose(ident.result_.to_json_dict()["transfer_function"]["num"][0], 1 / 9.81)
+
+
+def test_seed_pendulum_ring_down_after_a_move_gives_table_i():
+    # The nonlinear seed eq. 2 with Table I, driven by a +-1 m/s^2 bang-bang move (peak ~15 deg), then left to
+    # ring down; the end-to-end target is l within 1 % and d within 10 %.
+    from scipy.integrate import solve_ivp
+
+    from sloshid.model import pendulum_rhs_1d
+
+    def accel(t):
+        return 1.0 if 1.0 < t < 1.4 else (-1.0 if 1.4 < t < 1.8 else 0.0)
+
+    t = np.arange(0, 10, 1 / 60)
+    sol = solve_ivp(pendulum_rhs_1d, (0, 10), [0, 0], t_eval=t, args=(accel, TABLE_I), max_step=0.002, rtol=1e-9)
+    y = np.degrees(sol.y[0]) + tracker_noise(np.random.default_rng(0), t.size, 0.3, 0.3)
+    res = Identifier(mass_kg=0.5).fit(make_signal(t, y, "angle_deg", "deg", "seed eq. 2")).result
+    assert res.windows[0].t0_s > 1.8  # the move ends at 1.8 s
+    assert res.parameters["l_m"].value == pytest.approx(0.021, rel=0.01)
+    assert res.parameters["d_ns_per_m"].value == pytest.approx(1.51, rel=0.10)
+    assert res.quality == "good", res.reasons
