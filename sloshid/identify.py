@@ -325,9 +325,12 @@ class Identifier:
     def __init__(self, settings: IdentSettings | None = None, **overrides: Any):
         self.settings = settings if settings is not None else IdentSettings(**overrides)
 
-    def fit(self, signals: Signal | Sequence[Signal]) -> "Identifier":
-        """Find windows and spectra, fit the PT2 response jointly, derive parameters, judge quality."""
-        sigs = [signals] if isinstance(signals, Signal) else list(signals)
+    def fit(self, signals: Signal | str | Path | Sequence[Signal | str | Path]) -> "Identifier":
+        """Find windows and spectra, fit the PT2 response jointly, derive parameters, judge quality.
+
+        Accepts Signal objects or file paths (read with load_signal's defaults)."""
+        items = [signals] if isinstance(signals, (Signal, str, Path)) else list(signals)
+        sigs = [s if isinstance(s, Signal) else load_signal(s) for s in items]
         if not sigs:
             raise UserError("no signal given to identify.")
         st = self.settings

@@ -175,3 +175,19 @@ def test_seed_pendulum_ring_down_after_a_move_gives_table_i():
     assert res.parameters["l_m"].value == pytest.approx(0.021, rel=0.01)
     assert res.parameters["d_ns_per_m"].value == pytest.approx(1.51, rel=0.10)
     assert res.quality == "good", res.reasons
+
+
+def test_settings_from_toml_table_and_paths(tmp_path):
+    # the pipeline configures identify from a TOML table: typos are caught with a suggestion, tuples coerced
+    from sloshid.errors import UserError
+    from sloshid.settings import from_dict
+
+    st = from_dict(IdentSettings, {"mass_kg": 0.5, "f_range_hz": [1, 10]}, "[identify]")
+    assert st.f_range_hz == (1.0, 10.0)
+    with pytest.raises(UserError, match="did you mean 'mass_kg'"):
+        from_dict(IdentSettings, {"mass_kgs": 0.5}, "[identify]")
+    t, y = free_decay(3.0, 0.03, 60, seed=9)
+    path = tmp_path / "s.csv"
+    path.write_text("t_s,angle_deg\n" + "\n".join(f"{a},{b}" for a, b in zip(t, y)))
+    res = Identifier(st).fit(path).result  # a path is read with load_signal's defaults
+    assert res.parameters["f_hz"].value == pytest.approx(3.0, rel=0.003)
