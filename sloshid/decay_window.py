@@ -22,8 +22,15 @@ START_SEARCH_PERIODS = 2
 """After the detected end of forced motion the window starts at the largest swing within this many periods:
 the fading tail of the forcing still drives the liquid, and a damped liquid loses signal with every period."""
 
+ONSET_FRACTION = 0.3
+"""Without forcing, the window starts at the first sample swinging past this fraction of the largest swing."""
+
 END_NOISE_FACTOR = 3.0
-"""The window ends where the oscillation amplitude falls below this many noise standard deviations."""
+"""The window ends where the oscillation amplitude falls below this many noise standard deviations (pure noise
+shows about 1.7 on the half-range measure used) ..."""
+
+QUIET_PERIODS = 2
+"""... and stays there for this many periods, so one quiet dip in a beating decay does not end it."""
 
 
 @dataclass(frozen=True)
@@ -94,11 +101,14 @@ def find_decay_window(sig: Signal, f_guess_hz: float, noise_std: float) -> Decay
         i0 = lo + int(np.argmax(amp[lo : i_end + START_SEARCH_PERIODS * n + 1]))
     else:
         excitation_end = None
-        i0 = int(np.argmax(amp[: max(1, amp.size - 3 * n)]))
-        i0 = max(0, i0 - n // 2)
-    above = np.flatnonzero(amp[i0:] > END_NOISE_FACTOR * noise_std)
-    i1 = i0 + int(above[-1]) + n // 2 if above.size else u.value.size - 1
-    i1 = min(i1, u.value.size - 1)
+        peak = int(np.argmax(amp[: max(1, amp.size - 3 * n)]))
+        lo = max(0, peak - n)  # the running measures lag the onset; step back to the first large sample
+        swing = np.abs(u.value[lo : peak + 1] - rest)
+        i0 = lo + int(np.argmax(swing > ONSET_FRACTION * swing.max()))
+    quiet = (amp[i0:] <= END_NOISE_FACTOR * noise_std).astype(int)
+    run = np.convolve(quiet, np.ones(QUIET_PERIODS * n, int), mode="valid")  # quiet samples in each stretch
+    fades = np.flatnonzero(run == QUIET_PERIODS * n)
+    i1 = min(i0 + int(fades[0]) + n // 2, u.value.size - 1) if fades.size else u.value.size - 1
     return DecayWindow(float(u.t_s[i0]), float(u.t_s[i1]), "auto", excitation_end, f_guess_hz)
 
 

@@ -22,6 +22,10 @@ from .spectrum import MIN_PROMINENCE, Spectrum, welch_spectrum
 
 Z95 = float(stats.norm.ppf(0.975))
 MIN_PERIODS_ERROR = 3.0
+NO_MODE_SNR = 5.0
+"""A window whose PSD shows no clear resonance is still accepted when the fitted decay stands this many standard
+errors out and reaches the minimum fit % (short, strongly damped ring-downs give coarse Welch spectra);
+otherwise there is no mode, only noise."""
 AMPLITUDE_SNR = 3.0
 """A fitted amplitude less than this many standard errors above zero is barely distinguishable from noise."""
 CROSS_CHECK_MIN_PERIODS = 8.0
@@ -344,16 +348,22 @@ class Identifier:
             else:
                 win = find_decay_window(sig, f_guess, whole.noise_std)
             part = sig.between(win.t0_s, win.t1_s)
+            whole_periods = (sig.t_s[-1] - sig.t_s[0]) * f_guess
+            if whole_periods < MIN_PERIODS_ERROR:
+                raise UserError(
+                    f"{sig.source}: the signal lasts only {whole_periods:.1f} periods of the {f_guess:.3g} Hz mode; "
+                    f"at least {MIN_PERIODS_ERROR:g} are needed."
+                )
+            if win.chosen_by == "auto" and (part.t_s.size < 16 or win.duration_s * f_guess < MIN_PERIODS_ERROR):
+                raise UserError(
+                    f"{sig.source}: no oscillatory mode found; nowhere does a ring-down of {MIN_PERIODS_ERROR:g} "
+                    f"periods ({f_guess:.3g} Hz) stand above the noise."
+                )
             if part.t_s.size < 16:
                 raise UserError(f"{sig.source}: the window {win.t0_s:g}-{win.t1_s:g} s holds only {part.t_s.size} samples.")
             spec = welch_spectrum(part.t_s, part.value, st.f_range_hz)
-            if spec.prominence < MIN_PROMINENCE:
-                raise UserError(
-                    f"{sig.source}: no oscillatory mode found; the strongest spectral peak ({spec.peak_f_hz:.3g} Hz) "
-                    f"stands only {10 * np.log10(spec.prominence):.1f} dB above the noise floor (10 dB needed)."
-                )
             periods = win.duration_s * spec.peak_f_hz
-            if periods < MIN_PERIODS_ERROR:
+            if spec.prominence >= MIN_PROMINENCE and periods < MIN_PERIODS_ERROR:
                 raise UserError(
                     f"{sig.source}: the window {win.t0_s:.2f}-{win.t1_s:.2f} s holds only {periods:.1f} periods of "
                     f"the {spec.peak_f_hz:.3g} Hz mode; at least {MIN_PERIODS_ERROR:g} are needed."
@@ -371,6 +381,17 @@ class Identifier:
             float(np.median(zeta_hints)) if zeta_hints else None,
             st.drift,
         )
+        for i, (sig, spec, part) in enumerate(zip(sigs, spectra, parts)):
+            snr = fit.amplitude(i) / fit.amplitude_se(i)
+            explained = fit.fit_percent(i, part.value)
+            if (spec.prominence < MIN_PROMINENCE or not spec.resonant) and (
+                not snr >= NO_MODE_SNR or explained < st.min_fit_percent
+            ):
+                raise UserError(
+                    f"{sig.source}: no oscillatory mode found; the PSD shows no resonance standing 10 dB above the "
+                    f"noise in {st.f_range_hz[0]:g}-{st.f_range_hz[1]:g} Hz, and a fitted decay explains only "
+                    f"{explained:.0f} % ({snr:.1f} standard errors)."
+                )
         self.result_ = self._assemble(sigs, windows, parts, spectra, [s.noise_std for s in fullspec], fit)
         self.params_ = self.result_.params
         return self

@@ -77,7 +77,7 @@ def _bad_cases(tmp_path, decay):
     tt[100] = tt[99]
     cases.append(("time repeats", [_csv(tmp_path / "rep.csv", ["t_s", "angle_deg"], tt, y)], "not strictly increasing at sample 100"))
     short = slice(0, 45)  # 0.75 s at 60 fps: 2.2 periods of 3 Hz
-    cases.append(("short", [_csv(tmp_path / "short.csv", ["t_s", "angle_deg"], t[short], y[short])], "at least 3 are needed"))
+    cases.append(("short", [_csv(tmp_path / "short.csv", ["t_s", "angle_deg"], t[short], y[short])], "periods of the 3.17 Hz mode; at least 3 are needed"))  # coarse guess from 0.75 s
     ok = _csv(tmp_path / "ok.csv", ["t_s", "angle_deg"], t, y)
     cases.append(("window outside", [ok, "--window", "2,30"], "lies outside the data"))
     cases.append(("window reversed", [ok, "--window", "5,2"], "must be before its end"))
