@@ -94,7 +94,7 @@ def hilbert_envelope(t: np.ndarray, y: np.ndarray, f0_hz: float, noise_std: floa
     nyq = u.fs_hz / 2
     band = [0.6 * f0_hz / nyq, min(1.4 * f0_hz / nyq, 0.95)]
     sos = sps.butter(4, band, btype="bandpass", output="sos")
-    x = sps.sosfiltfilt(sos, u.value - u.value.mean())
+    x = sps.sosfiltfilt(sos, u.value - u.value.mean(), padlen=min(3 * (2 * len(sos) + 1), u.value.size - 1))
     z = sps.hilbert(x)
     env, phase = np.abs(z), np.unwrap(np.angle(z))
     edge = int(round(u.fs_hz / f0_hz))

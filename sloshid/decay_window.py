@@ -77,6 +77,14 @@ def rough_mode_frequency(sig: Signal, f_range_hz: tuple[float, float]) -> float:
     return float(np.median(freqs))
 
 
+def period_mean(t: np.ndarray, y: np.ndarray, period_s: float) -> np.ndarray:
+    """Running mean over exactly one period (fractional ends from the interpolated running integral), which
+    cancels the mode and all its harmonics even with few samples per period; ends are held at the edge value."""
+    integral = np.concatenate([[0.0], np.cumsum(0.5 * (y[1:] + y[:-1]) * np.diff(t))])
+    lo = np.clip(t - period_s / 2, t[0], t[-1] - period_s)
+    return (np.interp(lo + period_s, t, integral) - np.interp(lo, t, integral)) / period_s
+
+
 def find_decay_window(sig: Signal, f_guess_hz: float, noise_std: float) -> DecayWindow:
     """Automatic window: from the largest swing just after the last forced motion (or in the record) to where it fades.
 
@@ -85,7 +93,7 @@ def find_decay_window(sig: Signal, f_guess_hz: float, noise_std: float) -> Decay
     """
     u = to_uniform(sig.t_s, sig.value)
     n = max(3, int(round(u.fs_hz / f_guess_hz)))
-    slow = ndimage.uniform_filter1d(u.value, n, mode="nearest")
+    slow = period_mean(u.t_s, u.value, 1.0 / f_guess_hz)
     span = ndimage.maximum_filter1d(u.value, n, mode="nearest") - ndimage.minimum_filter1d(u.value, n, mode="nearest")
     amp = ndimage.uniform_filter1d(span, n, mode="nearest") / 2
     rest = float(np.median(slow[-max(n, slow.size // 5) :]))
