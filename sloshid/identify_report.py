@@ -7,6 +7,7 @@ import math
 from pathlib import Path
 
 import matplotlib.pyplot as plt
+from tqdm import tqdm
 
 from .identify import IdentResult
 from .report import Report
@@ -35,7 +36,7 @@ def build_report(res: IdentResult) -> Report:
     for note in res.notes:
         rep.add_text(note, "meta")
 
-    for i, sig in enumerate(res.signals):
+    for i, sig in enumerate(tqdm(res.signals, desc="report figures", unit="signal", disable=None)):
         name = Path(sig.source).name
         w, sp = res.windows[i], res.spectra[i]
         rep.add_heading(f"Signal {i + 1}: {name}")

@@ -100,3 +100,17 @@ def test_every_bad_input_fails_cleanly(tmp_path, decay, run_cli):
         assert err.count("\n") == 1 and "Traceback" not in err, (name, err)
         assert not out.exists() and not report.exists(), name
     assert not [p for p in tmp_path.iterdir() if p.name.startswith(".")]  # no temporary leftovers
+
+
+def test_user_window_is_used_and_reported(tmp_path, decay, run_cli):
+    t, y = decay
+    path = _csv(tmp_path / "w.csv", ["t_s", "angle_deg"], t, y)
+    out = tmp_path / "p.json"
+    code, stdout, err = run_cli("identify", path, "-o", out, "--window", "1.5,6")
+    assert code == 0, err
+    import json
+
+    data = json.loads(out.read_text())
+    assert data["window_s"] == [[1.5, 6.0]] and data["window_chosen_by"] == ["user"]
+    assert data["parameters"]["f_hz"]["value"] == pytest.approx(3.0, rel=0.003)  # 13 periods, 5 deg vs 0.3 deg
+    assert "window 1.50-6.00 s (user)" in stdout
