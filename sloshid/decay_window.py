@@ -85,7 +85,7 @@ def period_mean(t: np.ndarray, y: np.ndarray, period_s: float) -> np.ndarray:
     return (np.interp(lo + period_s, t, integral) - np.interp(lo, t, integral)) / period_s
 
 
-def find_decay_window(sig: Signal, f_guess_hz: float, noise_std: float) -> DecayWindow:
+def find_decay_window(sig: Signal, f_guess_hz: float, noise_std: float, drift: bool = False) -> DecayWindow:
     """Automatic window: from the largest swing just after the last forced motion (or in the record) to where it fades.
 
     Forced motion shows as a one-period running mean (which cancels the mode and its harmonics) that departs from
@@ -96,6 +96,8 @@ def find_decay_window(sig: Signal, f_guess_hz: float, noise_std: float) -> Decay
     slow = period_mean(u.t_s, u.value, 1.0 / f_guess_hz)
     span = ndimage.maximum_filter1d(u.value, n, mode="nearest") - ndimage.minimum_filter1d(u.value, n, mode="nearest")
     amp = ndimage.uniform_filter1d(span, n, mode="nearest") / 2
+    if drift:  # a zero that creeps steadily is not forcing: measure departures from its straight line
+        slow = slow - np.polyval(np.polyfit(u.t_s, slow, 1), u.t_s)
     rest = float(np.median(slow[-max(n, slow.size // 5) :]))
     dev = np.abs(slow - rest)
     # an offset counts as forcing only if it is large against the noise, the record's biggest swing and its offsets

@@ -346,7 +346,7 @@ class Identifier:
             if st.window_s is not None:
                 win = user_window(sig, *st.window_s, f_guess)
             else:
-                win = find_decay_window(sig, f_guess, whole.noise_std)
+                win = find_decay_window(sig, f_guess, whole.noise_std, st.drift)
             part = sig.between(win.t0_s, win.t1_s)
             whole_periods = (sig.t_s[-1] - sig.t_s[0]) * f_guess
             if whole_periods < MIN_PERIODS_ERROR:

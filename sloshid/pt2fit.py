@@ -97,6 +97,9 @@ class _JointModel:
         self.y = [w.value for w in windows]
         self.nl = 4 if drift else 3
         self.drift = drift
+        ends = np.cumsum([0] + [t.size for t in self.t])
+        self.blocks = [slice(a, b) for a, b in zip(ends[:-1], ends[1:])]
+        """Rows of each window in the stacked residual vector."""
 
     def split(self, x: np.ndarray) -> list[np.ndarray]:
         """Per-window linear parameters from the stacked vector."""
@@ -111,23 +114,16 @@ class _JointModel:
         omega, zeta = x[0], x[1]
         root = np.sqrt(max(1 - zeta * zeta, 1e-12))
         sigma, wd = zeta * omega, omega * root
-        blocks, lins = [], self.split(x)
-        n_total = sum(t.size for t in self.t)
-        jac = np.zeros((n_total, x.size))
-        row = 0
-        for k, (t, lin) in enumerate(zip(self.t, lins)):
+        jac = np.zeros((self.blocks[-1].stop, x.size))
+        for k, (t, lin, rows) in enumerate(zip(self.t, self.split(x), self.blocks)):
             e = np.exp(-sigma * t)
             c, s = np.cos(wd * t), np.sin(wd * t)
             osc = e * (lin[0] * c + lin[1] * s)
             d_sigma = -t * osc
             d_wd = e * t * (-lin[0] * s + lin[1] * c)
-            rows = slice(row, row + t.size)
             jac[rows, 0] = d_sigma * zeta + d_wd * root
             jac[rows, 1] = d_sigma * omega - d_wd * omega * zeta / root
             jac[rows, 2 + k * self.nl : 2 + (k + 1) * self.nl] = _basis(t, omega, zeta, self.drift)
-            row += t.size
-            blocks.append(rows)
-        self.blocks = blocks
         return jac
 
     def linear_start(self, omega: float, zeta: float) -> np.ndarray:

@@ -191,3 +191,14 @@ def test_settings_from_toml_table_and_paths(tmp_path):
     path.write_text("t_s,angle_deg\n" + "\n".join(f"{a},{b}" for a, b in zip(t, y)))
     res = Identifier(st).fit(path).result  # a path is read with load_signal's defaults
     assert res.parameters["f_hz"].value == pytest.approx(3.0, rel=0.003)
+
+
+def test_drift_option_recovers_a_creeping_zero():
+    # a float creeping across the surface: the zero drifts by 0.4 deg/s under the ring-down
+    t, y = free_decay(3.0, 0.02, 60, amplitude=6, seed=12)
+    sig = make_signal(t, y + 0.4 * t, "angle_deg", "deg", "drifting")
+    res = Identifier(drift=True).fit(sig).result
+    assert res.fit.linear[0][3] == pytest.approx(0.4, abs=0.03)  # 0.3 deg noise over 10 s: slope sd ~0.005 deg/s
+    assert res.parameters["f_hz"].value == pytest.approx(3.0, rel=0.002)
+    assert res.parameters["zeta"].value == pytest.approx(0.02, rel=0.1)
+    assert res.to_json_dict()["fit"]["per_signal"][0]["drift_per_s"] == pytest.approx(0.4, abs=0.03)
