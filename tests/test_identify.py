@@ -202,3 +202,15 @@ def test_drift_option_recovers_a_creeping_zero():
     assert res.parameters["f_hz"].value == pytest.approx(3.0, rel=0.002)
     assert res.parameters["zeta"].value == pytest.approx(0.02, rel=0.1)
     assert res.to_json_dict()["fit"]["per_signal"][0]["drift_per_s"] == pytest.approx(0.4, abs=0.03)
+
+
+@pytest.mark.parametrize("f0,z0", [(2.5, 0.02), (3.0, 0.05)])
+def test_cross_checks_agree_with_truth(f0, z0):
+    # the three independent methods are coarser than the fit: frequency within 1.5 %, zeta within 30 %
+    # (peaks lifted by noise bias the decrement low, the periodogram's finite window widens the half-power band)
+    res = Identifier().fit(free_decay_signal(f0, z0, 60, amplitude=10, rho=0.3, seed=1)).result
+    methods = {c.method: c for c in res.cross_checks[0]}
+    assert set(methods) == {"half-power bandwidth", "logarithmic decrement", "Hilbert envelope"}
+    for c in methods.values():
+        assert c.f_hz == pytest.approx(f0, rel=0.015), c
+        assert c.zeta == pytest.approx(z0, rel=0.3), c
