@@ -1,0 +1,216 @@
+"""Identification on synthetic decays with known truth: recovery, windows, joint fit, interval calibration, API."""
+
+from __future__ import annotations
+
+import json
+import math
+import pickle
+
+import numpy as np
+import pytest
+
+from sloshid.decay_synth import free_decay, free_decay_signal, tracker_noise
+from sloshid.identify import IdentSettings, Identifier, NotFittedError
+from sloshid.model import TABLE_I, SloshParams
+from sloshid.signals import make_signal
+
+F_T1, Z_T1 = TABLE_I.f_hz, TABLE_I.zeta  # seed Table I: 3.44 Hz, zeta 0.070
+
+
+def write_tracker_csv(path, t, angle, valid):
+    """A CSV in the tracker's column contract (only angle_deg/t_s/valid matter to identify)."""
+    rows = ["frame,t_s,angle_deg,float_angle_deg,container_angle_deg,x_px,y_px,quality,valid,angle_smoothed_deg"]
+    for k, (ti, a, v) in enumerate(zip(t, angle, valid)):
+        shown = a if v else 37.0  # invalid frames carry garbage that must be ignored
+        rows.append(f"{k},{ti:.6f},{shown:.5f},{shown:.5f},0.0,320.0,240.0,{0.9 if v else 0.1},{int(v)},{a:.5f}")
+    path.write_text("\n".join(rows) + "\n")
+
+
+def test_recovers_table_i_from_noisy_decay():
+    # 10 s at 60 fps, 0.3 deg tracker-like noise: the benchmark's 95th percentile errors are ~0.3 % (f) and ~6 %
+    # (zeta) over random draws, so 0.3 % / 8 % here, plus the truth inside 3 reported standard errors.
+    sig = free_decay_signal(F_T1, Z_T1, 60, amplitude=10, rho=0.4, seed=11)
+    res = Identifier(mass_kg=0.5).fit(sig).result
+    f, z, d = res.parameters["f_hz"], res.parameters["zeta"], res.parameters["d_ns_per_m"]
+    assert f.value == pytest.approx(F_T1, rel=0.003) and abs(f.value - F_T1) < 3 * f.stderr
+    assert z.value == pytest.approx(Z_T1, rel=0.08) and abs(z.value - Z_T1) < 3 * z.stderr
+    assert res.parameters["l_m"].value == pytest.approx(0.021, rel=0.006)  # l ~ 1/f^2: twice f's tolerance
+    assert d.value == pytest.approx(1.51, rel=0.09)
+    assert d.ci95[0] < 1.51 < d.ci95[1] or abs(d.value - 1.51) < 3 * d.stderr
+    assert res.quality == "good", res.reasons
+    assert res.fit_percent(0) > 80  # A = 10 deg against 0.3 deg noise
+
+
+def test_uneven_timestamps_gaps_and_invalid_frames_through_cli(tmp_path, run_cli):
+    # variable frame rate (+-30 % jitter), 10 % frames lost by the tracker (valid = 0, garbage angle)
+    t, y = free_decay(2.8, 0.04, 50, amplitude=8, jitter=0.3, seed=5, rho=0.3)
+    valid = np.random.default_rng(1).uniform(size=t.size) > 0.1
+    csv = tmp_path / "track.csv"
+    write_tracker_csv(csv, t, y, valid)
+    out = tmp_path / "p.json"
+    code, stdout, err = run_cli("identify", csv, "-o", out)
+    assert code == 0, err
+    data = json.loads(out.read_text())
+    per = data["fit"]["per_signal"][0]
+    assert per["sampling"]["n_dropped"] == int((~valid).sum())
+    assert per["sampling"]["timestamp_jitter_s"] > 0.002  # jitter of 0.3 frames at 50 fps is visible
+    assert "interpolated" in data["psd"]["per_signal"][0]["resampling"]  # Welch needed a uniform grid; the fit did not
+    assert data["parameters"]["f_hz"]["value"] == pytest.approx(2.8, rel=0.004)
+    assert data["parameters"]["zeta"]["value"] == pytest.approx(0.04, rel=0.12)
+    assert "verdict: good" in stdout and "skipped" in err
+
+
+def test_window_skips_quiet_lead_in_and_forced_motion():
+    # 4 s rest, 3 s of slow forced swing (0.4 Hz, large offset), then the free decay of the mode
+    fps, f0, z0 = 60, 3.0, 0.03
+    t = np.arange(0, 20, 1 / fps)
+    rng = np.random.default_rng(3)
+    y = np.where((t > 4) & (t < 7), 15 * np.sin(np.pi * (t - 4) / 3) ** 2, 0.0)
+    td = t - 7
+    y += np.where(td > 0, 6 * np.exp(-z0 * 2 * np.pi * f0 * td) * np.sin(2 * np.pi * f0 * np.sqrt(1 - z0**2) * td), 0)
+    y += tracker_noise(rng, t.size, 0.2, 0.3)
+    res = Identifier().fit(make_signal(t, y, "height_mm", "mm", "forced")).result
+    w = res.windows[0]
+    assert 6.5 < w.excitation_end_s < 7.5  # the forcing ends at 7 s
+    assert 7.0 <= w.t0_s < 8.0  # the ring-down starts at 7 s; a sample earlier would bias zeta
+    assert res.parameters["f_hz"].value == pytest.approx(f0, rel=0.003)
+    assert res.parameters["zeta"].value == pytest.approx(z0, rel=0.1)
+
+
+def test_joint_fit_shares_frequency_and_damping():
+    # three tap tests of the same liquid: different amplitude, phase, offset, rate
+    sigs = [
+        free_decay_signal(3.2, 0.05, fps, amplitude=a, seed=s, rho=0.3)
+        for fps, a, s in ((30, 6, 1), (60, 9, 2), (120, 4, 3))
+    ]
+    joint = Identifier().fit(sigs).result
+    singles = [Identifier().fit(s).result for s in sigs]
+    f = joint.parameters["f_hz"]
+    assert f.value == pytest.approx(3.2, rel=0.002)
+    assert joint.parameters["zeta"].value == pytest.approx(0.05, rel=0.06)
+    # pooling three records must tighten the frequency interval compared with each record alone
+    assert f.stderr < min(s.parameters["f_hz"].stderr for s in singles)
+    sigma = joint.fit.zeta * joint.fit.omega_rad_s  # amplitudes are at each window start: back to t = 0
+    at_zero = [joint.fit.amplitude(i) * math.exp(sigma * joint.windows[i].t0_s) for i in range(3)]
+    assert at_zero == pytest.approx([6, 9, 4], rel=0.05)  # 0.3 deg noise on 4-9 deg amplitudes
+    assert len(joint.to_json_dict()["window_s"]) == 3
+
+
+def test_interval_coverage_on_seeded_batch():
+    # 40 seeded trials (10 s, 30-120 fps, 0.3 deg noise with AR(1) correlation up to 0.6). For a true 95 % interval
+    # the hit count is Binomial(40, 0.95): P(<= 34) = 2.4 %, so >= 35 hits is the lower bound; too wide intervals
+    # are caught by the spread check: reported stderr must match the actual error spread within a factor 1.5.
+    rng = np.random.default_rng(2024)
+    hits = {"f_hz": 0, "zeta": 0}
+    z_scores = {"f_hz": [], "zeta": []}
+    for k in range(40):
+        f0, z0 = rng.uniform(2.5, 4.5), rng.uniform(0.02, 0.08)
+        sig = free_decay_signal(
+            f0, z0, rng.uniform(30, 120), amplitude=rng.uniform(5, 15), rho=rng.uniform(0, 0.6), seed=1000 + k
+        )
+        res = Identifier().fit(sig).result
+        for key, truth in (("f_hz", f0), ("zeta", z0)):
+            est = res.parameters[key]
+            hits[key] += est.ci95[0] <= truth <= est.ci95[1]
+            z_scores[key].append((est.value - truth) / est.stderr)
+    for key in hits:
+        assert hits[key] >= 35, (key, hits[key])
+        spread = np.std(z_scores[key])
+        assert 1 / 1.5 < spread < 1.5, (key, spread)
+
+
+def test_pure_noise_and_constant_are_refused():
+    from sloshid.errors import UserError
+
+    t = np.arange(0, 10, 1 / 60)
+    noise = make_signal(t, np.random.default_rng(0).normal(size=t.size), "x", "", "noise")
+    with pytest.raises(UserError, match="no oscillatory mode"):
+        Identifier().fit(noise)
+    with pytest.raises(UserError, match="constant"):
+        Identifier().fit(make_signal(t, np.full(t.size, 2.0), "x", "", "flat"))
+
+
+def test_second_mode_makes_verdict_uncertain():
+    # a 4.1 Hz mode at 80 % of the amplitude of the 3.0 Hz one, the situation of the tilted real runs
+    t, y = free_decay(3.0, 0.02, 60, amplitude=6, seed=4)
+    y = y + 5 * np.exp(-0.02 * 2 * np.pi * 4.1 * t) * np.cos(2 * np.pi * 4.1 * t)
+    res = Identifier().fit(make_signal(t, y, "a_deg", "deg", "two modes")).result
+    assert res.quality == "uncertain"
+    assert any("second mode" in r for r in res.reasons)
+
+
+def test_estimator_api_unfitted_pickle_and_planner_contract(tmp_path):
+    ident = Identifier(IdentSettings(mass_kg=0.5))
+    with pytest.raises(NotFittedError, match="not fitted"):
+        ident.result
+    ident.fit(free_decay_signal(F_T1, Z_T1, 90, seed=8))
+    back = pickle.loads(pickle.dumps(ident))
+    assert back.result_.parameters["f_hz"].value == ident.result_.parameters["f_hz"].value
+    assert isinstance(ident.params_, SloshParams)
+    path = tmp_path / "p.json"
+    path.write_text(json.dumps(ident.result_.to_json_dict()))
+    read = SloshParams.from_identify_json(path)  # the planner's reader
+    assert read.l_m == pytest.approx(ident.params_.l_m, rel=1e-12)
+    assert read.d_ns_per_m == pytest.approx(ident.params_.d_ns_per_m, rel=1e-12)
+    tf = ident.result_.tf  # seed eq. 5: DC gain 1/g rad per m/s^2
+    assert float(np.real(tf.dcgain())) == pytest.approx(1 / 9.81, rel=1e-9)
+    assert math.isclose(ident.result_.to_json_dict()["transfer_function"]["num"][0], 1 / 9.81)
+
+
+def test_seed_pendulum_ring_down_after_a_move_gives_table_i():
+    # The nonlinear seed eq. 2 with Table I, driven by a +-1 m/s^2 bang-bang move (peak ~15 deg), then left to
+    # ring down; the issue's end-to-end target is l within 1 % and d within 10 %.
+    from scipy.integrate import solve_ivp
+
+    from sloshid.model import pendulum_rhs_1d
+
+    def accel(t):
+        return 1.0 if 1.0 < t < 1.4 else (-1.0 if 1.4 < t < 1.8 else 0.0)
+
+    t = np.arange(0, 10, 1 / 60)
+    sol = solve_ivp(pendulum_rhs_1d, (0, 10), [0, 0], t_eval=t, args=(accel, TABLE_I), max_step=0.002, rtol=1e-9)
+    y = np.degrees(sol.y[0]) + tracker_noise(np.random.default_rng(0), t.size, 0.3, 0.3)
+    res = Identifier(mass_kg=0.5).fit(make_signal(t, y, "angle_deg", "deg", "seed eq. 2")).result
+    assert res.windows[0].t0_s > 1.8  # the move ends at 1.8 s
+    assert res.parameters["l_m"].value == pytest.approx(0.021, rel=0.01)
+    assert res.parameters["d_ns_per_m"].value == pytest.approx(1.51, rel=0.10)
+    assert res.quality == "good", res.reasons
+
+
+def test_settings_from_toml_table_and_paths(tmp_path):
+    # the pipeline configures identify from a TOML table: typos are caught with a suggestion, tuples coerced
+    from sloshid.errors import UserError
+    from sloshid.settings import from_dict
+
+    st = from_dict(IdentSettings, {"mass_kg": 0.5, "f_range_hz": [1, 10]}, "[identify]")
+    assert st.f_range_hz == (1.0, 10.0)
+    with pytest.raises(UserError, match="did you mean 'mass_kg'"):
+        from_dict(IdentSettings, {"mass_kgs": 0.5}, "[identify]")
+    t, y = free_decay(3.0, 0.03, 60, seed=9)
+    path = tmp_path / "s.csv"
+    path.write_text("t_s,angle_deg\n" + "\n".join(f"{a},{b}" for a, b in zip(t, y)))
+    res = Identifier(st).fit(path).result  # a path is read with load_signal's defaults
+    assert res.parameters["f_hz"].value == pytest.approx(3.0, rel=0.003)
+
+
+def test_drift_option_recovers_a_creeping_zero():
+    # a float creeping across the surface: the zero drifts by 0.4 deg/s under the ring-down
+    t, y = free_decay(3.0, 0.02, 60, amplitude=6, seed=12)
+    sig = make_signal(t, y + 0.4 * t, "angle_deg", "deg", "drifting")
+    res = Identifier(drift=True).fit(sig).result
+    assert res.fit.linear[0][3] == pytest.approx(0.4, abs=0.03)  # 0.3 deg noise over 10 s: slope sd ~0.005 deg/s
+    assert res.parameters["f_hz"].value == pytest.approx(3.0, rel=0.002)
+    assert res.parameters["zeta"].value == pytest.approx(0.02, rel=0.1)
+    assert res.to_json_dict()["fit"]["per_signal"][0]["drift_per_s"] == pytest.approx(0.4, abs=0.03)
+
+
+@pytest.mark.parametrize("f0,z0", [(2.5, 0.02), (3.0, 0.05)])
+def test_cross_checks_agree_with_truth(f0, z0):
+    # the three independent methods are coarser than the fit: frequency within 1.5 %, zeta within 30 %
+    # (peaks lifted by noise bias the decrement low, the periodogram's finite window widens the half-power band)
+    res = Identifier().fit(free_decay_signal(f0, z0, 60, amplitude=10, rho=0.3, seed=1)).result
+    methods = {c.method: c for c in res.cross_checks[0]}
+    assert set(methods) == {"half-power bandwidth", "logarithmic decrement", "Hilbert envelope"}
+    for c in methods.values():
+        assert c.f_hz == pytest.approx(f0, rel=0.015), c
+        assert c.zeta == pytest.approx(z0, rel=0.3), c
