@@ -153,7 +153,7 @@ class SolverSettings:
     """Weight of the obstacle barrier (seed eq. 9-10)."""
     rk4_steps: int = 2
     """RK4 steps per shooting interval."""
-    clearance_points: int = 3
+    clearance_points: int = 1
     """Extra points per interval at which the hard obstacle clearance is also imposed."""
     clearance_margin_m: float = 0.002
     """Safety margin added to every inflated obstacle by the hard clearance constraint (m)."""
@@ -163,7 +163,7 @@ class SolverSettings:
     """Largest angle between a robust copy and the container during the move (deg)."""
     max_iter: int = 1000
     """IPOPT iteration limit."""
-    tol: float = 1e-8
+    tol: float = 1e-6
     """IPOPT convergence tolerance."""
     parallel: bool = False
     """Solve independent waypoint segments in two worker processes (pays off only on an idle machine)."""

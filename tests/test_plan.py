@@ -175,5 +175,5 @@ def test_robust_variant_keeps_residual_small_over_frequency_band(paper_1d):
 
 def test_warm_start_reuses_the_solution(paper_1d, plan_1d):
     again = plan(paper_1d, paper_1d.liquid, warm_from=plan_1d)
-    assert again.T_s == pytest.approx(plan_1d.T_s, rel=1e-6)
+    assert again.T_s == pytest.approx(plan_1d.T_s, rel=1e-5)  # both stop at IPOPT tol 1e-6
     assert again.iterations < plan_1d.iterations
