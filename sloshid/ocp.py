@@ -188,8 +188,8 @@ class SegmentSolver:
         self.s = s
         self.lay = lay = _Layout(s)
         nx, nu, N = s.nx, s.n_pos, s.N
-        # parameters: l, d/m, kappa_r, kappa_j, kappa_B, robust factors, obstacles
-        l_p, c_p, k_r, k_j, k_b = (ca.SX.sym(n) for n in ("l", "c", "kr", "kj", "kb"))
+        # parameters: l, d/m, kappa_r, kappa_j, kappa_B, kappa_z, robot limits, robust factors, obstacles
+        l_p, c_p, k_r, k_j, k_b, k_z = (ca.SX.sym(n) for n in ("l", "c", "kr", "kj", "kb", "kz"))
         factors = ca.SX.sym("f", s.n_robust)
         sph = ca.SX.sym("sph", 4 * s.n_spheres)
         cyl = ca.SX.sym("cyl", 5 * s.n_cylinders)
@@ -197,7 +197,7 @@ class SegmentSolver:
         cylinders = [cyl[5 * i : 5 * i + 5] for i in range(s.n_cylinders)]
         # robot limits (vel, acc, rot_vel, rot_acc, rot_jerk) normalise the norm constraints to O(1)
         rl = ca.SX.sym("robot", 5)
-        P = ca.vertcat(l_p, c_p, k_r, k_j, k_b, rl, factors, sph, cyl)
+        P = ca.vertcat(l_p, c_p, k_r, k_j, k_b, k_z, rl, factors, sph, cyl)
         # a robust copy with omega*f and the same zeta has l/f^2 and damping rate c*f
         liquids = [SimpleNamespace(l_m=l_p, damping_rate_1_s=c_p)]
         liquids += [SimpleNamespace(l_m=l_p / factors[i] ** 2, damping_rate_1_s=c_p * factors[i]) for i in range(s.n_robust)]
@@ -217,6 +217,8 @@ class SegmentSolver:
             xe = xe + hs / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
         acc = x[lay.acc] if s.jerk_limited else u
         run = k_r / 2 * ca.sumsqr(acc) + (k_j / 2 * ca.sumsqr(u) if s.jerk_limited else 0)
+        if s.axis is None:  # vertical acceleration changes gravity: without a price it is used to steer the liquid
+            run += k_z / 2 * acc[2] ** 2
         sub, sub_kinds = [], []
         if spheres or cylinders:
             hard, soft = _obstacle_terms(x[lay.pos], spheres, cylinders)
@@ -305,7 +307,7 @@ class SegmentSolver:
         """The NLP parameter vector p: liquid, weights, robot limits, robust factors, inflated obstacles."""
         robot_p = [robot.vel_m_s, robot.acc_m_s2, robot.rot_vel_rad_s * ROBOT_MARGIN,
                    robot.rot_acc_rad_s2 * ROBOT_MARGIN, robot.rot_jerk_rad_s3 * ROBOT_MARGIN]  # fmt: skip
-        params = [liquid.l_m, liquid.damping_rate_1_s, solver.kappa_r, solver.kappa_j, solver.kappa_B, *robot_p, *robust]
+        params = [liquid.l_m, liquid.damping_rate_1_s, solver.kappa_r, solver.kappa_j, solver.kappa_B, solver.kappa_z, *robot_p, *robust]
         for o in obstacles:
             if o.kind == "sphere":
                 params += [*o.center, o.radius + inflate_m]
