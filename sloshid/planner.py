@@ -127,7 +127,8 @@ def _rates(seg: SegmentResult) -> np.ndarray:
 
 def check_feasible(scenario: Scenario) -> None:
     """Reject requests no solver can meet, naming the constraint at fault (UserError)."""
-    lim, R = scenario.limits, scenario.container_radius_m
+    lim = scenario.limits
+    R = scenario.container_radius_m + scenario.solver.clearance_margin_m  # what the hard constraint keeps clear
     for i, p in enumerate(scenario.waypoints):
         label = "start" if i == 0 else "goal" if i == len(scenario.waypoints) - 1 else f"waypoint {i}"
         if not lim.z_range[0] <= p[2] <= lim.z_range[1]:
@@ -138,8 +139,8 @@ def check_feasible(scenario: Scenario) -> None:
         for j, obstacle in enumerate(scenario.obstacles):
             if obstacle.clearance(p, R) < 0:
                 raise UserError(
-                    f"the {label} {list(p)} lies inside obstacle {j + 1} ({obstacle.describe(R)}); "
-                    "move it out or shrink the obstacle."
+                    f"the {label} {list(p)} lies inside obstacle {j + 1} ({obstacle.describe(R)}: container "
+                    "radius plus [solver].clearance_margin_m); move it out or shrink the obstacle."
                 )
     for i, (a, b) in enumerate(zip(scenario.waypoints[:-1], scenario.waypoints[1:])):
         t_lb = time_lower_bound(a, b, lim, scenario.solver.kappa_T)
