@@ -98,6 +98,23 @@ class SegmentResult:
         """'jerk' or 'acceleration'."""
         return "jerk" if self.jerk_limited else "acceleration"
 
+    def _nominal(self, which: int) -> np.ndarray:
+        """Nominal pendulum angles (which=0) or rates (which=1) at the nodes, by the Structure's state layout."""
+        n_pos = 1 if self.axis is not None else 3
+        n_ang = 1 if self.axis is not None else 2
+        off = n_pos * (3 if self.jerk_limited else 2) + which * n_ang
+        return self.x_nodes[:, off : off + n_ang]
+
+    @property
+    def angles(self) -> np.ndarray:
+        """Container tilt at the nodes (rad): the 1-D angle, or phi and theta."""
+        return self._nominal(0)
+
+    @property
+    def rates(self) -> np.ndarray:
+        """Container tilt rates at the nodes (rad/s)."""
+        return self._nominal(1)
+
 
 def bang_bang_time(distance_m: float, acc_max: float, vel_max: float) -> float:
     """Minimum rest-to-rest time of a double integrator under |a| <= acc_max, |v| <= vel_max (no sloshing)."""

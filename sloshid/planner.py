@@ -10,7 +10,7 @@ from __future__ import annotations
 import math
 import time
 from concurrent.futures import ProcessPoolExecutor
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Sequence
 
 import numpy as np
@@ -18,7 +18,7 @@ import numpy as np
 from .errors import UserError
 from .export import sample_segments
 from .model import G, SloshParams
-from .ocp import OK_STATUSES, SegmentResult, Structure, get_solver, segment_axis, time_lower_bound
+from .ocp import SegmentResult, Structure, get_solver, segment_axis, time_lower_bound
 from .scenario import Obstacle, Scenario
 from .simulate import LiquidResponse, simulate_liquid
 from .trajectory import LimitUsage, Trajectory, check_limits
@@ -102,27 +102,12 @@ class PlanResult:
                     "index": s.index, "start_m": list(s.start), "goal_m": list(s.goal), "T_s": s.T_s,
                     "status": s.status, "iterations": s.iterations, "solve_time_s": s.solve_time_s,
                     "model": "1-D" if s.axis is not None else "3-D",
-                    "max_tilt_deg": float(np.degrees(np.abs(_angles(s)).max())),
-                    "max_tilt_rate_deg_s": float(np.degrees(np.abs(_rates(s)).max())),
+                    "max_tilt_deg": float(np.degrees(np.abs(s.angles).max())),
+                    "max_tilt_rate_deg_s": float(np.degrees(np.abs(s.rates).max())),
                 }  # fmt: skip
                 for s in self.segments
             ],
         }
-
-
-def _angles(seg: SegmentResult) -> np.ndarray:
-    """Nominal pendulum angles at the nodes (N+1, 1 or 2)."""
-    n_pos = 1 if seg.axis is not None else 3
-    off = n_pos * (3 if seg.jerk_limited else 2)
-    n_ang = 1 if seg.axis is not None else 2
-    return seg.x_nodes[:, off : off + n_ang]
-
-
-def _rates(seg: SegmentResult) -> np.ndarray:
-    """Nominal pendulum angle rates at the nodes."""
-    n_ang = 1 if seg.axis is not None else 2
-    off = (1 if seg.axis is not None else 3) * (3 if seg.jerk_limited else 2) + n_ang
-    return seg.x_nodes[:, off : off + n_ang]
 
 
 def check_feasible(scenario: Scenario) -> None:
@@ -358,4 +343,4 @@ def _clearance(scenario: Scenario, segments: list[SegmentResult], traj: Trajecto
     return clear, seg_of
 
 
-__all__ = ["PlanResult", "plan", "solve_segment", "check_feasible", "OK_STATUSES"]
+__all__ = ["PlanResult", "plan", "solve_segment", "check_feasible"]
