@@ -19,8 +19,8 @@ OUT = ROOT / "reports" / "benchmarks"
 
 
 def scenario(name: str, **solver_changes) -> Scenario:
-    """A bundled scenario from scenarios/, with [solver] settings changed."""
-    sc = load_scenario(ROOT / "scenarios" / f"{name}.toml")
+    """A bundled scenario from data/scenarios/, with [solver] settings changed."""
+    sc = load_scenario(ROOT / "data" / "scenarios" / f"{name}.toml")
     return dataclasses.replace(sc, solver=dataclasses.replace(sc.solver, **solver_changes)) if solver_changes else sc
 
 

@@ -17,10 +17,10 @@ ROOT = Path(__file__).resolve().parents[1]
 
 
 def test_bundled_scenarios_load():
-    one = load_scenario(ROOT / "scenarios" / "paper_1d.toml")
+    one = load_scenario(ROOT / "data" / "scenarios" / "paper_1d.toml")
     assert one.waypoints == [(0.3, -0.27, 0.2), (0.3, 0.27, 0.2)] and one.liquid == TABLE_I
     assert one.limits.acc_max == (0.5, 0.5, 0.5) and one.robot == RobotLimits() and one.compare == {}
-    three = load_scenario(ROOT / "scenarios" / "paper_3d.toml")
+    three = load_scenario(ROOT / "data" / "scenarios" / "paper_3d.toml")
     assert len(three.waypoints) == 6 and len(three.obstacles) == 2 and three.container_radius_m == 0.04
 
 
