@@ -8,10 +8,11 @@ import statistics
 
 import numpy as np
 
-from plan_common import scenario, timed, write
+from plan_common import save_figure, scenario, timed, write
 
 from sloshid import ocp
 from sloshid.ocp import bang_bang_time
+from sloshid.plan_report import states_figure
 from sloshid.planner import plan, solve_segment
 from sloshid.simulate import simulate_liquid
 
@@ -34,6 +35,7 @@ def measure(jerk_limited: bool) -> dict:
         warm_s.append(wall)
         warm_it.append(res.iterations)
     full, full_wall, _ = timed(plan, sc, sc.liquid)
+    save_figure(states_figure(full), f"plan_1d_states_{'jerk' if jerk_limited else 'acceleration'}")
     return {
         "formulation": "jerk" if jerk_limited else "acceleration",
         "T_s": seg.T_s, "iterations_cold": seg.iterations, "cold_build_and_solve_s": cold_wall,
@@ -81,6 +83,7 @@ def main() -> None:
         f"Robust variant (copies at 0.9 and 1.1 omega end at rest): T {rob['T_robust_s']:.4f} s vs {rob['T_nominal_s']:.4f} s "
         f"(+{rob['time_cost_pct']:.1f} %); residual over omega x {rob['factors']}: robust "
         f"{[round(v, 3) for v in rob['residual_robust_deg']]} deg, nominal {[round(v, 3) for v in rob['residual_nominal_deg']]} deg.",
+        "Figures: plan_1d_states_jerk.png and plan_1d_states_acceleration.png (the seed's Fig. 6 for both formulations).",
         "Wall-clock times on a shared 2-core machine (load average in the JSON). 'cold' and 'warm' time the "
         "optimisation (bounds, guess, IPOPT); 'plan()' is the whole call with the 1 kHz export, the robot-limit check "
         "and the solve_ivp verification (about 5 s of liquid at 1 kHz), which dominate it.",

@@ -3,9 +3,10 @@ five segments solved sequentially and in two worker processes, T, clearance, lim
 
 from __future__ import annotations
 
-from plan_common import scenario, timed, write
+from plan_common import save_figure, scenario, timed, write
 
 from sloshid import ocp
+from sloshid.plan_report import path_figure, states_figure
 from sloshid.planner import plan
 
 
@@ -14,6 +15,9 @@ def run(parallel: bool) -> dict:
     sc = scenario("paper_3d", parallel=parallel)
     ocp._CACHE.clear()
     res, wall, cpu = timed(plan, sc, sc.liquid)
+    if not parallel:
+        save_figure(path_figure(res, sc), "plan_3d_path")
+        save_figure(states_figure(res), "plan_3d_states")
     s = res.summary()
     return {
         "parallel": parallel, "plan_wall_s": wall, "main_process_cpu_s": cpu, "solve_time_s": res.solve_time_s,
@@ -39,6 +43,8 @@ def main() -> None:
         "in one run; worker processes each build their own solver).",
         "Waypoints and obstacles are invented (the seed gives none), inside a Panda's reach; N = 60 per segment, "
         "jerk-limited formulation, acc_max 0.5 m/s^2, clearance margin 2 mm beyond the container radius (40 mm).",
+        "Figures: plan_3d_path.png (the seed's Fig. 9: path, obstacles, container z-axis arrows with tilt x5) and "
+        "plan_3d_states.png (Fig. 6 style states over time).",
     ]  # fmt: skip
     header = ["segments solved", "total wall (s)", "total CPU (s)", "IPOPT time (s)", "T (s)", "iterations", "min clearance (mm)",
               "robot limits ok", "rel. angle during (deg)", "residual (deg)"]  # fmt: skip
