@@ -303,9 +303,8 @@ class SegmentSolver:
         nlp = {"x": w, "f": N * X[nx, 0] + ca.sum2(cost_k), "g": ca.vertcat(*g), "p": Pm}
         self.nlp = ca.nlpsol("segment", "ipopt", nlp, opts)
         self.kinds = np.array(kinds)
-        self.nw = w.numel()
 
-    def _split(self, w: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
+    def split(self, w: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
         """Decision vector -> (T, X (N+1, nx), U (N, nu))."""
         s = self.s
         nX = (s.nx + 1) * (s.N + 1)
@@ -313,7 +312,7 @@ class SegmentSolver:
         U = w[nX:].reshape(s.N, s.n_pos)
         return float(X[0, -1] * s.N), X[:, :-1], U
 
-    def _join(self, T: float, X: np.ndarray, U: np.ndarray) -> np.ndarray:
+    def join(self, T: float, X: np.ndarray, U: np.ndarray) -> np.ndarray:
         """(T, X, U) -> decision vector (CasADi vec is column-major, i.e. node after node, h last)."""
         Xa = np.column_stack([X, np.full(len(X), T / self.s.N)])
         return np.concatenate([Xa.ravel(), U.ravel()])
@@ -372,8 +371,8 @@ class SegmentSolver:
             rest[lay.pos] = [point[i] for i in ax]
             lo[node], hi[node] = rest, rest
         ulim = np.array(jmax if s.jerk_limited else amax)
-        lbx = self._join(T_bounds[0], lo, np.tile(-ulim, (s.N, 1)))
-        ubx = self._join(T_bounds[1], hi, np.tile(ulim, (s.N, 1)))
+        lbx = self.join(T_bounds[0], lo, np.tile(-ulim, (s.N, 1)))
+        ubx = self.join(T_bounds[1], hi, np.tile(ulim, (s.N, 1)))
         ubg_of = {"eq": 0.0, "clear": inf, "unit": 1.0, "norm": 1.0, "robust": math.radians(solver.robust_max_rel_deg)}
         lbg_of = {"eq": 0.0, "clear": 0.0, "unit": -1.0, "norm": -inf, "robust": -math.radians(solver.robust_max_rel_deg)}
         ubg = np.array([ubg_of[k] for k in self.kinds])

@@ -197,7 +197,7 @@ def _guess(s: Structure, scenario: Scenario, obstacles, start, goal, T0: float, 
     cols = [pos[:, ax], vel[:, ax]] + ([acc[:, ax]] if s.jerk_limited else [])
     cols += [ang, np.zeros_like(ang)] * (1 + s.n_robust)
     mid = (jerk[:-1] + jerk[1:]) / 2 if s.jerk_limited else (acc[:-1] + acc[1:]) / 2
-    return get_solver(s)._join(T0, np.column_stack(cols), mid[:, ax])
+    return get_solver(s).join(T0, np.column_stack(cols), mid[:, ax])
 
 
 def solve_segment(
@@ -227,7 +227,7 @@ def solve_segment(
         np.asarray(start), np.asarray(goal), scenario.limits, scenario.robot, scenario.solver, params, robust,
         obstacles, inflate, T_bounds, guess, warm.warm if use_warm else None,
     )  # fmt: skip
-    T, X, U = solver._split(w)
+    T, X, U = solver.split(w)
     return SegmentResult(index, tuple(start), tuple(goal), s.axis, s.jerk_limited, T, status, iters, elapsed, X, U, warm_out)
 
 
