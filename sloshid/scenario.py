@@ -224,6 +224,9 @@ def scenario_from_dict(data: dict[str, Any], source: str = "") -> Scenario:
             raise UserError(f"unknown table '[{key}]'{did_you_mean(key, _TABLES)} in {source or 'the scenario'}.")
         if key != "obstacles" and not isinstance(data[key], dict):
             raise UserError(f"'{key}' must be a table [{key}], got {data[key]!r}.")
+    misplaced = [k for k in data.get("solver", {}) if k in Limits.__dataclass_fields__]
+    if misplaced:
+        raise UserError(f"'[solver].{misplaced[0]}' belongs in the [limits] table.")
     if "move" not in data:
         raise UserError(f"{source or 'the scenario'} has no [move] table (start and goal, or waypoints).")
     move = from_dict(Move, data["move"], "[move]")

@@ -45,6 +45,8 @@ def test_compare_table_is_kept_unvalidated_and_robot_overrides_apply():
         ({"move": {"start": [0, 0, 0.3], "goal": [0.1, 0, 0.3]}, "limits": {"z_range": [0.5, 0.1]}}, r"low < high"),
         ({"move": {"start": [0, 0, 0.3], "goal": [0.1, 0, 0.3]}, "robot": {"vel_m_s": -1}}, r"vel_m_s must be positive"),
         ({"limits": {}}, r"has no \[move\] table"),
+        ({"move": {"start": [0, 0, 0.3], "goal": [0.1, 0, 0.3]}, "solver": {"jerk_max": [9, 9, 9]}},
+         r"'\[solver\].jerk_max' belongs in the \[limits\] table"),
     ],
 )  # fmt: skip
 def test_scenario_errors_name_the_key(data, message):
