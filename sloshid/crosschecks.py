@@ -22,7 +22,8 @@ class CrossCheck:
     method: str
     f_hz: float
     zeta: float
-    n_used: int
+    n_periods: float
+    """How many mode periods of data the method could use (its weight in the verdict)."""
     note: str = ""
 
     def to_json_dict(self) -> dict:
@@ -44,6 +45,7 @@ def half_power(t: np.ndarray, y: np.ndarray, f0_hz: float) -> CrossCheck:
     f, p = sps.periodogram(x, fs=u.fs_hz, window="boxcar", nfft=nfft, detrend="linear")
     near = np.abs(f - f0_hz) < 0.5 * f0_hz
     k = int(np.flatnonzero(near)[np.argmax(p[near])])
+    periods = float((t[-1] - t[0]) * f0_hz)
     half = p[k] / 2
     lo = k
     while lo > 0 and p[lo] > half:
@@ -52,17 +54,17 @@ def half_power(t: np.ndarray, y: np.ndarray, f0_hz: float) -> CrossCheck:
     while hi < f.size - 1 and p[hi] > half:
         hi += 1
     if lo == 0 or hi == f.size - 1:
-        return CrossCheck("half-power bandwidth", float(f[k]), float("nan"), x.size, "peak edges not found")
+        return CrossCheck("half-power bandwidth", float(f[k]), float("nan"), periods, "peak edges not found")
     f_lo = np.interp(half, [p[lo], p[lo + 1]], [f[lo], f[lo + 1]])
     f_hi = np.interp(half, [p[hi], p[hi - 1]], [f[hi], f[hi - 1]])
     width = f_hi - f_lo
     duration = t[-1] - t[0]
     note = ""
     zeta = width / (2 * f[k])
-    if width < 1.5 / duration:  # a boxcar of length T alone is ~0.89/T wide: damping hidden by the window
+    if width * duration < 1.0:  # the ring-down did not fade within the window: its edges, not damping, set the width
         note = f"bandwidth {width:.3g} Hz is limited by the {duration:.1f} s window; zeta not resolved"
         zeta = float("nan")
-    return CrossCheck("half-power bandwidth", float(f[k]), float(zeta), x.size, note)
+    return CrossCheck("half-power bandwidth", float(f[k]), float(zeta), periods, note)
 
 
 def log_decrement(t: np.ndarray, y: np.ndarray, f0_hz: float, noise_std: float) -> CrossCheck:
@@ -73,7 +75,7 @@ def log_decrement(t: np.ndarray, y: np.ndarray, f0_hz: float, noise_std: float) 
     idx, _ = sps.find_peaks(x, distance=max(1, int(0.7 * u.fs_hz / f0_hz)), height=PEAK_SNR * noise_std)
     idx = idx[(idx > 0) & (idx < x.size - 1)]
     if idx.size < 4:
-        return CrossCheck("logarithmic decrement", float("nan"), float("nan"), int(idx.size), "fewer than 4 peaks above noise")
+        return CrossCheck("logarithmic decrement", float("nan"), float("nan"), float(idx.size), "fewer than 4 peaks above noise")
     a, b, c = x[idx - 1], x[idx], x[idx + 1]  # parabolic refinement of each maximum
     den = np.where(a - 2 * b + c != 0, a - 2 * b + c, -1.0)
     shift = 0.5 * (a - c) / den
@@ -83,7 +85,7 @@ def log_decrement(t: np.ndarray, y: np.ndarray, f0_hz: float, noise_std: float) 
     cycles = np.round((tt - tt[0]) * f0_hz)  # a maximum lost in noise must not shorten the period
     period = np.polyfit(cycles, tt, 1)[0]
     f, zeta = _modal(-slope, 2 * math.pi / period)
-    return CrossCheck("logarithmic decrement", f, zeta, int(tt.size), f"{tt.size} maxima above {PEAK_SNR:g} noise sd")
+    return CrossCheck("logarithmic decrement", f, zeta, float(cycles[-1]), f"{tt.size} maxima above {PEAK_SNR:g} noise sd")
 
 
 def hilbert_envelope(t: np.ndarray, y: np.ndarray, f0_hz: float, noise_std: float) -> CrossCheck:
@@ -92,16 +94,17 @@ def hilbert_envelope(t: np.ndarray, y: np.ndarray, f0_hz: float, noise_std: floa
     nyq = u.fs_hz / 2
     band = [0.6 * f0_hz / nyq, min(1.4 * f0_hz / nyq, 0.95)]
     sos = sps.butter(4, band, btype="bandpass", output="sos")
-    x = sps.sosfiltfilt(sos, u.value - u.value.mean())
+    x = sps.sosfiltfilt(sos, u.value - u.value.mean(), padlen=min(3 * (2 * len(sos) + 1), u.value.size - 1))
     z = sps.hilbert(x)
     env, phase = np.abs(z), np.unwrap(np.angle(z))
     edge = int(round(u.fs_hz / f0_hz))
     keep = np.zeros(x.size, bool)
     keep[edge : x.size - edge] = True
     keep &= env > PEAK_SNR * noise_std
+    periods = float(keep.sum() / u.fs_hz * f0_hz)
     if keep.sum() < 2 * edge:
-        return CrossCheck("Hilbert envelope", float("nan"), float("nan"), int(keep.sum()), "envelope too short above noise")
+        return CrossCheck("Hilbert envelope", float("nan"), float("nan"), periods, "envelope too short above noise")
     slope = np.polyfit(u.t_s[keep], np.log(env[keep]), 1)[0]
     omega_d = np.polyfit(u.t_s[keep], phase[keep], 1)[0]
     f, zeta = _modal(-slope, abs(omega_d))
-    return CrossCheck("Hilbert envelope", f, zeta, int(keep.sum()), "band-pass 0.6-1.4 f0, one period cut at each end")
+    return CrossCheck("Hilbert envelope", f, zeta, periods, "band-pass 0.6-1.4 f0, one period cut at each end")

@@ -18,11 +18,19 @@ SEGMENT_S = 4.0
 FORCED_RATIO = 0.5
 """A one-period mean that moves by more than this fraction of the oscillation amplitude means forced motion."""
 
-START_MARGIN_PERIODS = 2
-"""Periods skipped after the detected end of forced motion: its fading tail still drives the liquid."""
+START_SEARCH_PERIODS = 2
+"""After the detected end of forced motion the window starts at the largest swing within this many periods:
+the fading tail of the forcing still drives the liquid, and a damped liquid loses signal with every period."""
+
+ONSET_FRACTION = 0.3
+"""Without forcing, the window starts at the first sample swinging past this fraction of the largest swing."""
 
 END_NOISE_FACTOR = 3.0
-"""The window ends where the oscillation amplitude falls below this many noise standard deviations."""
+"""The window ends where the oscillation amplitude falls below this many noise standard deviations (pure noise
+shows about 1.7 on the half-range measure used) ..."""
+
+QUIET_PERIODS = 2
+"""... and stays there for this many periods, so one quiet dip in a beating decay does not end it."""
 
 
 @dataclass(frozen=True)
@@ -69,33 +77,48 @@ def rough_mode_frequency(sig: Signal, f_range_hz: tuple[float, float]) -> float:
     return float(np.median(freqs))
 
 
-def find_decay_window(sig: Signal, f_guess_hz: float, noise_std: float) -> DecayWindow:
-    """Automatic window: from two periods after the last forced motion (or from the largest swing) to where it fades.
+def period_mean(t: np.ndarray, y: np.ndarray, period_s: float) -> np.ndarray:
+    """Running mean over exactly one period (fractional ends from the interpolated running integral), which
+    cancels the mode and all its harmonics even with few samples per period; ends are held at the edge value."""
+    integral = np.concatenate([[0.0], np.cumsum(0.5 * (y[1:] + y[:-1]) * np.diff(t))])
+    lo = np.clip(t - period_s / 2, t[0], t[-1] - period_s)
+    return (np.interp(lo + period_s, t, integral) - np.interp(lo, t, integral)) / period_s
+
+
+def find_decay_window(sig: Signal, f_guess_hz: float, noise_std: float, drift: bool = False) -> DecayWindow:
+    """Automatic window: from the largest swing just after the last forced motion (or in the record) to where it fades.
 
     Forced motion shows as a one-period running mean (which cancels the mode and its harmonics) that departs from
     the final resting level by more than half the ringing amplitude and by more than the noise.
     """
     u = to_uniform(sig.t_s, sig.value)
     n = max(3, int(round(u.fs_hz / f_guess_hz)))
-    slow = ndimage.uniform_filter1d(u.value, n, mode="nearest")
+    slow = period_mean(u.t_s, u.value, 1.0 / f_guess_hz)
     span = ndimage.maximum_filter1d(u.value, n, mode="nearest") - ndimage.minimum_filter1d(u.value, n, mode="nearest")
     amp = ndimage.uniform_filter1d(span, n, mode="nearest") / 2
+    if drift:  # a zero that creeps steadily is not forcing: measure departures from its straight line
+        slow = slow - np.polyval(np.polyfit(u.t_s, slow, 1), u.t_s)
     rest = float(np.median(slow[-max(n, slow.size // 5) :]))
     dev = np.abs(slow - rest)
-    floor = max(0.2 * float(dev.max()), 5 * noise_std / np.sqrt(n))
+    # an offset counts as forcing only if it is large against the noise, the record's biggest swing and its offsets
+    floor = max(0.2 * float(dev.max()), 0.1 * float(amp.max()), 5 * noise_std / np.sqrt(n))
     forced = np.flatnonzero(dev > np.maximum(FORCED_RATIO * amp, floor))
-    forced = forced[forced >= n]  # the first period's running means are padded at the edge: not evidence
+    forced = forced[(forced >= n) & (forced < dev.size - n)]  # running means are padded at the edges: no evidence
     if forced.size:
         i_end = int(forced[-1])
         excitation_end = float(u.t_s[i_end])
-        i0 = min(u.value.size - 1, i_end + START_MARGIN_PERIODS * n)
+        lo = min(u.value.size - 1, i_end + n)
+        i0 = lo + int(np.argmax(amp[lo : i_end + START_SEARCH_PERIODS * n + 1]))
     else:
         excitation_end = None
-        i0 = int(np.argmax(amp[: max(1, amp.size - 3 * n)]))
-        i0 = max(0, i0 - n // 2)
-    above = np.flatnonzero(amp[i0:] > END_NOISE_FACTOR * noise_std)
-    i1 = i0 + int(above[-1]) + n // 2 if above.size else u.value.size - 1
-    i1 = min(i1, u.value.size - 1)
+        peak = int(np.argmax(amp[: max(1, amp.size - 3 * n)]))
+        lo = max(0, peak - n)  # the running measures lag the onset; step back to the first large sample
+        swing = np.abs(u.value[lo : peak + 1] - rest)
+        i0 = lo + int(np.argmax(swing > ONSET_FRACTION * swing.max()))
+    quiet = (amp[i0:] <= END_NOISE_FACTOR * noise_std).astype(int)
+    run = np.convolve(quiet, np.ones(QUIET_PERIODS * n, int), mode="valid")  # quiet samples in each stretch
+    fades = np.flatnonzero(run == QUIET_PERIODS * n)
+    i1 = min(i0 + int(fades[0]) + n // 2, u.value.size - 1) if fades.size else u.value.size - 1
     return DecayWindow(float(u.t_s[i0]), float(u.t_s[i1]), "auto", excitation_end, f_guess_hz)
 
 

@@ -7,6 +7,7 @@ import math
 from pathlib import Path
 
 import matplotlib.pyplot as plt
+from tqdm import tqdm
 
 from .identify import IdentResult
 from .report import Report
@@ -35,7 +36,7 @@ def build_report(res: IdentResult) -> Report:
     for note in res.notes:
         rep.add_text(note, "meta")
 
-    for i, sig in enumerate(res.signals):
+    for i, sig in enumerate(tqdm(res.signals, desc="report figures", unit="signal", disable=None)):
         name = Path(sig.source).name
         w, sp = res.windows[i], res.spectra[i]
         rep.add_heading(f"Signal {i + 1}: {name}")
@@ -80,10 +81,10 @@ def build_report(res: IdentResult) -> Report:
     rows = [["PT2 least squares (all signals)", res.parameters["f_hz"].value, res.parameters["zeta"].value, "", ""]]
     for i, checks in enumerate(res.cross_checks):
         for c in checks:
-            rows.append([f"{c.method} ({Path(res.signals[i].source).name})", c.f_hz, c.zeta, c.n_used, c.note])
-    rep.add_table(["method", "f (Hz)", "zeta", "samples/peaks used", "note"], rows,
+            rows.append([f"{c.method} ({Path(res.signals[i].source).name})", c.f_hz, c.zeta, c.n_periods, c.note])
+    rep.add_table(["method", "f (Hz)", "zeta", "periods used", "note"], rows,
                   "Independent estimates; nan means the method could not tell (see note). The frequencies should agree "
-                  "within about 2 %, damping within a factor of about two on clean decays.")
+                  "within about 2 %; a method that could use fewer than 8 periods is too coarse to overrule the fit.")
 
     rep.add_heading("Identified model (seed eq. 5)")
     axes = res.plot_bode()

@@ -97,6 +97,9 @@ class _JointModel:
         self.y = [w.value for w in windows]
         self.nl = 4 if drift else 3
         self.drift = drift
+        ends = np.cumsum([0] + [t.size for t in self.t])
+        self.blocks = [slice(a, b) for a, b in zip(ends[:-1], ends[1:])]
+        """Rows of each window in the stacked residual vector."""
 
     def split(self, x: np.ndarray) -> list[np.ndarray]:
         """Per-window linear parameters from the stacked vector."""
@@ -111,23 +114,16 @@ class _JointModel:
         omega, zeta = x[0], x[1]
         root = np.sqrt(max(1 - zeta * zeta, 1e-12))
         sigma, wd = zeta * omega, omega * root
-        blocks, lins = [], self.split(x)
-        n_total = sum(t.size for t in self.t)
-        jac = np.zeros((n_total, x.size))
-        row = 0
-        for k, (t, lin) in enumerate(zip(self.t, lins)):
+        jac = np.zeros((self.blocks[-1].stop, x.size))
+        for k, (t, lin, rows) in enumerate(zip(self.t, self.split(x), self.blocks)):
             e = np.exp(-sigma * t)
             c, s = np.cos(wd * t), np.sin(wd * t)
             osc = e * (lin[0] * c + lin[1] * s)
             d_sigma = -t * osc
             d_wd = e * t * (-lin[0] * s + lin[1] * c)
-            rows = slice(row, row + t.size)
             jac[rows, 0] = d_sigma * zeta + d_wd * root
             jac[rows, 1] = d_sigma * omega - d_wd * omega * zeta / root
             jac[rows, 2 + k * self.nl : 2 + (k + 1) * self.nl] = _basis(t, omega, zeta, self.drift)
-            row += t.size
-            blocks.append(rows)
-        self.blocks = blocks
         return jac
 
     def linear_start(self, omega: float, zeta: float) -> np.ndarray:
@@ -181,21 +177,27 @@ def long_run_covariance(g: np.ndarray, lag: int) -> np.ndarray:
 def hac_covariance(
     jac: np.ndarray, resid: np.ndarray, blocks: list[slice], periods: list[int]
 ) -> tuple[np.ndarray, np.ndarray, list[int]]:
-    """Sandwich covariance (J'J)^-1 S (J'J)^-1 with S the long-run covariance of the scores J_t r_t;
+    """Sandwich covariance (J'J)^-1 S (J'J)^-1 with S the long-run covariance of the scores J_t r_t (residuals
+    leverage-adjusted as in HC2);
     windows are independent of each other. Returns (corrected covariance, white-noise covariance, lags per window)."""
     n, p = jac.shape
     bread = np.linalg.pinv(jac.T @ jac)
+    leverage = np.clip(np.sum((jac @ bread) * jac, axis=1), 0, 0.9)
+    adjusted = resid / np.sqrt(1 - leverage)  # HC2: the fit pulls high-leverage residuals toward zero
     meat = np.zeros((p, p))
     lags = []
     for rows, period in zip(blocks, periods):
         used = np.flatnonzero(np.any(jac[rows] != 0, axis=0))
-        g = jac[rows][:, used] * resid[rows, None]
+        g = jac[rows][:, used] * adjusted[rows, None]
         lag = correlation_lags(resid[rows], period)
         lags.append(lag)
         meat[np.ix_(used, used)] += long_run_covariance(g, lag)
     dof = n / max(n - p, 1)
     naive = bread * float(resid @ resid) / max(n - p, 1)
-    return bread @ meat @ bread * dof, naive, lags
+    hac = bread @ meat @ bread * dof
+    # HAC estimates run low in short records; never report less spread than white residuals would imply
+    scale = np.sqrt(np.maximum(np.diag(naive), np.diag(hac)) / np.where(np.diag(hac) > 0, np.diag(hac), 1.0))
+    return hac * np.outer(scale, scale), naive, lags
 
 
 def fit_pt2(
@@ -221,7 +223,7 @@ def fit_pt2(
     for omega_s, zeta_s in screened:
         x0 = model.linear_start(omega_s, zeta_s)
         res = optimize.least_squares(
-            model.residuals, x0, jac=model.jacobian, bounds=(lower, upper), x_scale="jac", method="trf",
+            model.residuals, x0, jac=model.jacobian, bounds=(lower, upper), x_scale="jac", method="trf", tr_solver="lsmr",
             xtol=1e-12, ftol=1e-12, gtol=1e-12, max_nfev=200,
         )
         if best is None or res.cost < best.cost:

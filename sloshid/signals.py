@@ -173,6 +173,7 @@ def _read_rows(p: Path) -> tuple[list[str] | None, list[list[str]]]:
     first = [c.strip() for c in rows[0]]
 
     def numeric(cell: str) -> bool:
+        """True when the cell parses as a number."""
         try:
             float(cell)
             return True

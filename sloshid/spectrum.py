@@ -73,6 +73,9 @@ class Spectrum:
     noise_std: float
     """Broadband noise standard deviation implied by the median density (white-noise assumption)."""
     secondary: tuple[SpectralPeak, ...]
+    resonant: bool
+    """The dominant peak is a true resonance: inside the search band the PSD falls below half of it on both
+    sides (red noise or drift only rises toward the band's lower edge)."""
 
     def to_json_dict(self) -> dict:
         """The summary numbers (not the arrays) with unit-named keys."""
@@ -87,6 +90,7 @@ class Spectrum:
             "peak_f_hz": self.peak_f_hz,
             "peak_bin_f_hz": self.peak_bin_f_hz,
             "prominence_db": float(10 * np.log10(self.prominence)),
+            "resonant": self.resonant,
             "secondary_peaks": [
                 {"f_hz": p.f_hz, "relative_power": p.relative, "harmonic": p.harmonic} for p in self.secondary
             ],
@@ -114,9 +118,11 @@ def welch_spectrum(
     floor = float(np.median(p[f > 0]))
     prominence = float(p[k] / floor) if floor > 0 else np.inf
     noise_std = float(np.sqrt(floor * u.fs_hz / 2))
+    low, high = band & (f < f[k]), band & (f > f[k])
+    resonant = bool(low.any() and high.any() and p[low].min() < 0.5 * p[k] and p[high].min() < 0.5 * p[k])
     return Spectrum(
         f, p, u.fs_hz, seg, nfft, n_avg, resolution, u.note, peak_f, float(f[k]), float(p[k]), prominence, noise_std,
-        _secondary_peaks(f, p, k, peak_f, resolution),
+        _secondary_peaks(f, p, k, peak_f, resolution), resonant,
     )
 
 

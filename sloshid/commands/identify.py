@@ -31,9 +31,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--mass", type=float, metavar="KG", help="liquid mass in kg; needed for the damping constant d")
     parser.add_argument("--report", metavar="DIR", help="write a self-contained HTML report to DIR/index.html")
     parser.add_argument("--window", type=_pair, metavar="T0,T1",
-                        help="fit window in seconds of the signals' own time axis (default: found automatically)")
-    parser.add_argument("--f-range", type=_pair, default=(0.5, 30.0), metavar="LO,HI",
-                        help="frequency band in Hz searched for the sloshing mode")
+                        help="fit window in seconds of the signals' own time axis; without it the free decay is found "
+                        "automatically")
+    parser.add_argument("--f-range", type=_pair, metavar="LO,HI",
+                        help="frequency band in Hz searched for the sloshing mode (0.5,30 when not given)")
     parser.add_argument("--drift", action="store_true", help="also fit a slow linear drift of the signal's zero")
     parser.add_argument("--min-fit", type=float, default=15.0, metavar="PERCENT",
                         help="NRMSE fit %% below which the verdict is 'uncertain'")
@@ -53,7 +54,7 @@ def run(args: argparse.Namespace) -> int:
     settings = IdentSettings(
         mass_kg=args.mass,
         window_s=args.window,
-        f_range_hz=args.f_range,
+        f_range_hz=args.f_range or IdentSettings.f_range_hz,
         drift=args.drift,
         min_fit_percent=args.min_fit,
         container_radius_m=args.container_radius_m,

@@ -1,0 +1,133 @@
+"""Reading signals (tracker CSV, any CSV, .mat) and refusing every bad input of issue 3 with one sentence."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import scipy.io
+
+from sloshid.decay_synth import free_decay
+from sloshid.signals import load_signal
+
+
+def _csv(path, header, t, y, sep=","):
+    """Write a plain two-column CSV."""
+    lines = ([sep.join(header)] if header else []) + [f"{a:.6f}{sep}{b:.6f}" for a, b in zip(t, y)]
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+@pytest.fixture
+def decay():
+    """A clean 10 s, 60 fps decay at 3 Hz."""
+    return free_decay(3.0, 0.03, 60, amplitude=5, seed=2)
+
+
+def test_generic_csv_semicolon_and_indices(tmp_path, decay):
+    t, y = decay
+    path = _csv(tmp_path / "x.csv", None, t, y, sep=";")  # no header: columns by index, delimiter sniffed
+    sig = load_signal(path, time_col="0", value_col="1")
+    assert sig.t_s.size == t.size and sig.value[5] == pytest.approx(y[5], abs=1e-6)
+    named = _csv(tmp_path / "n.csv", ["time", "h_mm", "other"], t, y)
+    named.write_text(named.read_text().replace("\n", ",0\n").replace("h_mm,0", "h_mm", 1))
+    sig = load_signal(named, value_col="h_mm")
+    assert sig.unit == "mm" and sig.label == "h_mm"
+
+
+def test_mat_defaults_and_named_variables(tmp_path, decay):
+    t, y = decay
+    scipy.io.savemat(tmp_path / "a.mat", {"slosh_times": t[None, :], "slosh_heights": y[None, :]})
+    sig = load_signal(tmp_path / "a.mat")
+    assert sig.unit == "mm" and sig.value.size == y.size
+    scipy.io.savemat(tmp_path / "b.mat", {"tt": t, "phi_rad": y})
+    sig = load_signal(tmp_path / "b.mat", time_var="tt", value_var="phi_rad")
+    assert sig.unit == "rad"
+
+
+def test_few_nan_dropped_with_warning(tmp_path, decay, run_cli):
+    t, y = decay
+    y = y.copy()
+    y[[10, 200, 400]] = np.nan
+    path = _csv(tmp_path / "s.csv", ["t_s", "angle_deg"], t, y)
+    out = tmp_path / "p.json"
+    code, _, err = run_cli("identify", path, "-o", out)
+    assert code == 0 and out.exists()
+    assert "dropped 3 NaN/inf samples" in err
+
+
+def _bad_cases(tmp_path, decay):
+    """(name, argv tail, expected message fragment) for every bad input the issue names."""
+    t, y = decay
+    cases = []
+    cases.append(("missing", [tmp_path / "nope.csv"], "does not exist"))
+    p = _csv(tmp_path / "cols.csv", ["t_s", "a", "b"], t, y)
+    p.write_text(p.read_text().replace("\n", ",1\n").replace("a,b,1", "a,b", 1))
+    cases.append(("unknown column", [p, "--value-col", "angle"], "no value column 'angle'; available: t_s, a, b"))
+    scipy.io.savemat(tmp_path / "v.mat", {"slosh_times": t, "slosh_heights": y})
+    cases.append(("unknown variable", [tmp_path / "v.mat", "--value-var", "h"], "no variable 'h'; it has: slosh_heights, slosh_times"))
+    p = _csv(tmp_path / "text.csv", ["t_s", "angle_deg"], t, y)
+    lines = p.read_text().splitlines()
+    lines[20] = f"{t[19]:.6f},abc"
+    p.write_text("\n".join(lines) + "\n")
+    cases.append(("non-numeric", [p], "holds 'abc', which is not a number"))
+    yy = y.copy()
+    yy[: int(0.6 * yy.size)] = np.inf
+    cases.append(("mostly inf", [_csv(tmp_path / "inf.csv", ["t_s", "angle_deg"], t, yy)], "too many to identify from"))
+    tt = t.copy()
+    tt[100] = tt[99]
+    cases.append(("time repeats", [_csv(tmp_path / "rep.csv", ["t_s", "angle_deg"], tt, y)], "not strictly increasing at sample 100"))
+    short = slice(0, 45)  # 0.75 s at 60 fps: 2.2 periods of 3 Hz
+    cases.append(("short", [_csv(tmp_path / "short.csv", ["t_s", "angle_deg"], t[short], y[short])], "periods of the 3.17 Hz mode; at least 3 are needed"))  # coarse guess from 0.75 s
+    ok = _csv(tmp_path / "ok.csv", ["t_s", "angle_deg"], t, y)
+    cases.append(("window outside", [ok, "--window", "2,30"], "lies outside the data"))
+    cases.append(("window reversed", [ok, "--window", "5,2"], "must be before its end"))
+    cases.append(("zero mass", [ok, "--mass", "0"], "--mass must be a positive number"))
+    cases.append(("negative mass", [ok, "--mass", "-0.5"], "--mass must be a positive number"))
+    cases.append(("constant", [_csv(tmp_path / "flat.csv", ["t_s", "angle_deg"], t, np.ones_like(y))], "is constant"))
+    rng = np.random.default_rng(0)
+    cases.append(("noise", [_csv(tmp_path / "noise.csv", ["t_s", "angle_deg"], t, rng.normal(size=t.size))], "no oscillatory mode found"))
+    cases.append(("half prior", [ok, "--container-radius-m", "0.05"], "needs both"))
+    return cases
+
+
+def test_every_bad_input_fails_cleanly(tmp_path, decay, run_cli):
+    for name, tail, message in _bad_cases(tmp_path, decay):
+        out = tmp_path / f"{name}.json"
+        report = tmp_path / f"{name}_report"
+        code, stdout, err = run_cli("identify", *tail, "-o", out, "--report", report)
+        assert code == 2, (name, err)
+        assert message in err, (name, err)
+        assert err.count("\n") == 1 and "Traceback" not in err, (name, err)
+        assert not out.exists() and not report.exists(), name
+    assert not [p for p in tmp_path.iterdir() if p.name.startswith(".")]  # no temporary leftovers
+
+
+def test_user_window_is_used_and_reported(tmp_path, decay, run_cli):
+    t, y = decay
+    path = _csv(tmp_path / "w.csv", ["t_s", "angle_deg"], t, y)
+    out = tmp_path / "p.json"
+    code, stdout, err = run_cli("identify", path, "-o", out, "--window", "1.5,6")
+    assert code == 0, err
+    import json
+
+    data = json.loads(out.read_text())
+    assert data["window_s"] == [[1.5, 6.0]] and data["window_chosen_by"] == ["user"]
+    assert data["parameters"]["f_hz"]["value"] == pytest.approx(3.0, rel=0.003)  # 13 periods, 5 deg vs 0.3 deg
+    assert "window 1.50-6.00 s (user)" in stdout
+
+
+def test_welch_peak_refined_beyond_its_bin_and_uniform_grid_exact_for_lines():
+    from sloshid.spectrum import to_uniform, welch_spectrum
+
+    rng = np.random.default_rng(0)
+    for _ in range(20):
+        f = rng.uniform(1, 10)
+        t = np.arange(0, 10, 1 / 60)
+        s = welch_spectrum(t, np.sin(2 * np.pi * f * t + rng.uniform(0, 6)))
+        # the zero-padded bin alone is off by up to 1/32 resolution; the log-parabola brings it to ~1e-4
+        assert abs(s.peak_f_hz - f) < 0.002 * s.resolution_hz
+        assert abs(s.peak_f_hz - f) <= abs(s.peak_bin_f_hz - f)
+        assert s.n_averages == 3 and s.resonant
+    t = np.sort(rng.uniform(0, 5, 300))  # uneven timestamps: interpolation must be exact for a straight line
+    u = to_uniform(t, 2 * t + 1)
+    assert np.allclose(u.value, 2 * u.t_s + 1) and "interpolated" in u.note

@@ -1,0 +1,59 @@
+"""The eight measured antisloshing runs (known physics: first mode 3.047 Hz) and the HTML report's content."""
+
+from __future__ import annotations
+
+import json
+import re
+
+import pytest
+
+from sloshid.identify import Identifier, identify_file
+from sloshid.signals import load_signal
+
+F_PHYS = 3.047  # analytic first mode for R = 49 mm, h = 78 mm (data README); a force-torque log shows 3.05 Hz
+
+
+def test_real_runs_frequency_and_verdicts(antisloshing_dir):
+    runs = sorted((antisloshing_dir / "slosh").glob("*.mat"))
+    assert len(runs) == 8
+    results = {p.stem: identify_file(p) for p in runs}
+    for name, res in results.items():
+        f = res.parameters["f_hz"].value
+        # every run, good or not, must land within the +-2 % the issue allows (nonlinear, 20-50 mm crests)
+        assert abs(f / F_PHYS - 1) < 0.02, (name, f)
+    good = [n for n, r in results.items() if r.quality == "good"]
+    # measured: 5 of 8 good; the others have a growing or non-decaying wall amplitude or a strong 3.98 Hz mode
+    assert len(good) >= 5, {n: r.reasons for n, r in results.items()}
+    tilt = results["Tilt_TRD_2D_0.3m_3s_30deg"]
+    assert tilt.quality == "uncertain" and any("second mode" in r for r in tilt.reasons)
+
+
+def test_joint_identification_of_all_runs(antisloshing_dir):
+    sigs = [load_signal(p) for p in sorted((antisloshing_dir / "slosh").glob("*.mat"))]
+    res = Identifier().fit(sigs).result
+    assert abs(res.parameters["f_hz"].value / F_PHYS - 1) < 0.02
+    assert len(res.windows) == 8 and all(w.t0_s > 10 for w in res.windows)  # ~10 s quiet lead-in plus motion
+
+
+def test_report_has_every_figure_and_table(antisloshing_dir, tmp_path, run_cli):
+    src = antisloshing_dir / "slosh" / "Tilt_RD_2D_0.3m_7s_30deg.mat"
+    out, rep = tmp_path / "p.json", tmp_path / "rep"
+    code, stdout, err = run_cli(
+        "identify", src, "-o", out, "--mass", "0.59", "--report", rep,
+        "--container-radius-m", "0.049", "--fill-height-m", "0.078",
+    )
+    assert code == 0, err
+    page = (rep / "index.html").read_text()
+    assert len(re.findall(r'<img [^>]*src="data:image/png;base64,', page)) == 5  # signal, PSD, fit, ACF, Bode
+    for caption in ("free-decay window", "Welch PSD", "Time-domain fit", "Residual autocorrelation", "Bode plot"):
+        assert caption in page
+    assert page.count("<table>") == 4  # sampling, parameters, cross-checks, geometric prior
+    for text in ("timestamp jitter", "95 % low", "Hilbert envelope", "logarithmic decrement", "half-power",
+                 "identified/prior", "verdict-good"):
+        assert text in page
+    data = json.loads(out.read_text())
+    assert set(data) >= {"sloshid_version", "sources", "window_s", "quality", "reasons", "parameters",
+                         "transfer_function", "psd", "cross_checks", "fit", "prior"}
+    assert set(data["parameters"]) == {"f_hz", "omega_rad_s", "zeta", "l_m", "d_ns_per_m", "m_kg"}
+    assert data["prior"]["f_hz"] == pytest.approx(F_PHYS, abs=0.001)
+    assert "f_hz" in stdout and "95 % CI" in stdout and "verdict: good" in stdout
