@@ -22,7 +22,7 @@ from .atomic import atomic_path
 from .colors import DEFAULT_FLOAT_COLOR, HsvRange, preset
 from .container_ref import ContainerMeasurement, ContainerTracker
 from .errors import UserError
-from .float_angle import FloatFinder, FloatMeasurement
+from .float_angle import FloatFinder
 from .overlay import draw_overlay
 from .smooth import smooth_angle
 from .tables import write_csv
