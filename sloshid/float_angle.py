@@ -21,7 +21,7 @@ from .colors import HsvRange
 _KERNEL = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (3, 3))
 MIN_AREA_PX = 12
 """Blobs smaller than this many pixels are not taken for the float."""
-REFIT_EVERY = 4
+REFIT_EVERY = 8
 """The colour model is refitted every this many frames (and after every loss): lighting drifts slowly."""
 
 
@@ -83,11 +83,13 @@ def fit_colour_model(crop: np.ndarray, blob: np.ndarray) -> tuple[np.ndarray, fl
 def membership_map(crop: np.ndarray, coef: np.ndarray) -> np.ndarray:
     """Soft membership 0..1 of every crop pixel: the colour model, linear from 0.1 to 0.9 and clipped.
 
-    The ramp is symmetric about half coverage, so edges stay where they are while background noise
+    The ramp is symmetric about half coverage, so edges stay where they are, while background noise
     (membership near 0) and the float's interior (near 1) stop adding scatter to the moments.
     """
-    value = cv2.transform(crop.astype(np.float32), coef[None, :3].astype(np.float32)) + np.float32(coef[3])
-    return np.clip((value - np.float32(0.1)) * np.float32(1.25), 0, 1).reshape(crop.shape[:2])
+    value = cv2.transform(crop.astype(np.float32), coef[None, :3].astype(np.float32)).reshape(crop.shape[:2])
+    # a slight isotropic blur smooths H.264's 2-pixel chroma staircase; it cannot turn the moments' axes
+    value = cv2.GaussianBlur(value, (3, 3), 0.8) + np.float32(coef[3])
+    return np.clip((value - np.float32(0.1)) * np.float32(1.25), 0, 1)
 
 
 class FloatFinder:
@@ -105,14 +107,24 @@ class FloatFinder:
     def measure(self, frame: np.ndarray) -> FloatMeasurement:
         """Measure the float in one BGR frame (near the last position first, then the whole ROI)."""
         if self._last is not None:
-            m = self._measure_in(frame, self._window(self._last), local=True)
-            if m.found:
-                return self._remember(m)
+            for box in (self._tight_box(self._last), self._window(self._last)):
+                m = self._measure_in(frame, box, local=True)
+                if m.found:
+                    return self._remember(m)
         return self._remember(self._measure_in(frame, self._roi_box(), local=False))
 
     def _roi_box(self) -> tuple[int, int, int, int]:
         x, y, w, h = self.roi
         return x, y, x + w, y + h
+
+    def _tight_box(self, last: FloatMeasurement) -> tuple[int, int, int, int]:
+        """The last measurement box moved by the last motion plus a few pixels: the cheap first try."""
+        vx, vy = self._velocity
+        x0, y0, x1, y1 = last.bbox
+        m = 3.0 + 0.05 * last.length_px
+        rx0, ry0, rx1, ry1 = self._roi_box()
+        return (max(rx0, int(x0 + vx - m)), max(ry0, int(y0 + vy - m)),
+                min(rx1, int(x1 + vx + m) + 1), min(ry1, int(y1 + vy + m) + 1))
 
     def _window(self, last: FloatMeasurement) -> tuple[int, int, int, int]:
         """Search box around where the float should be now (last position plus last motion), half its
@@ -175,7 +187,7 @@ class FloatFinder:
         sy0, sx0 = Y0 - oy, X0 - ox
         src = blob_full[max(0, sy0):Y1 - oy, max(0, sx0):X1 - ox]
         blob[max(0, -sy0):max(0, -sy0) + src.shape[0], max(0, -sx0):max(0, -sx0) + src.shape[1]] = src.astype(np.uint8) * 255
-        crop = cv2.GaussianBlur(frame[Y0:Y1, X0:X1], (3, 3), 0.8)  # smooths H.264's 2-px chroma staircase
+        crop = frame[Y0:Y1, X0:X1]
         self._frames_since_fit += 1
         if self._model is None or self._frames_since_fit >= REFIT_EVERY or self._last is None:
             self._model = fit_colour_model(crop, blob)

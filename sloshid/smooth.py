@@ -12,7 +12,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from filterpy.kalman import KalmanFilter
+from filterpy.kalman import predict as kf_predict
+from filterpy.kalman import rts_smoother
+from filterpy.kalman import update as kf_update
 from scipy.linalg import expm
 from scipy.signal import welch
 
@@ -71,12 +73,10 @@ def smooth_angle(t_s: np.ndarray, angle_deg: np.ndarray, valid: np.ndarray, qual
     period = 2 * math.pi / omega if omega else max(t[-1] - t[0], 1e-3)
     a, qc, h = _model(omega, spread, period)
     n = len(a)
-    kf = KalmanFilter(dim_x=n, dim_z=1)
-    kf.H = h
     first = int(np.argmax(ok))
-    kf.x = np.zeros((n, 1))
-    kf.x[0, 0] = z[first]
-    kf.P = np.diag([spread**2, spread**2, (spread * (omega or 1.0)) ** 2][:n]) * 4
+    x = np.zeros(n)
+    x[0] = z[first]
+    P = np.diag([spread**2, spread**2, (spread * (omega or 1.0)) ** 2][:n]) * 4
     dts = np.diff(t, prepend=t[0])
     cache: dict[float, tuple[np.ndarray, np.ndarray]] = {}
     Fs, Qs = [], []
@@ -86,10 +86,12 @@ def smooth_angle(t_s: np.ndarray, angle_deg: np.ndarray, valid: np.ndarray, qual
             cache[key] = _discretise(a, qc, key)
         Fs.append(cache[key][0])
         Qs.append(cache[key][1])
-    q = np.clip(np.asarray(quality, float), 0.05, 1.0)
-    Rs = [np.array([[(MEASUREMENT_SIGMA_DEG / qi) ** 2]]) for qi in q]
-    zs = [np.array([[zi]]) if oki else None for zi, oki in zip(z, ok)]
-    mu, cov, _, _ = kf.batch_filter(zs, Fs=Fs, Qs=Qs, Rs=Rs)
-    xs, _, _, _ = kf.rts_smoother(mu, cov, Fs=Fs, Qs=Qs)
-    xs = xs.reshape(len(t), n)
-    return xs @ h[0]
+    r = (MEASUREMENT_SIGMA_DEG / np.clip(np.asarray(quality, float), 0.05, 1.0)) ** 2
+    xs, ps = np.zeros((len(t), n)), np.zeros((len(t), n, n))
+    for k in range(len(t)):  # filterpy's functional filter: the same equations as KalmanFilter, less overhead
+        x, P = kf_predict(x, P, Fs[k], Qs[k])
+        if ok[k]:
+            x, P = kf_update(x, P, z[k], r[k], h)
+        xs[k], ps[k] = x, P
+    smoothed, _, _, _ = rts_smoother(xs, ps, Fs, Qs)
+    return smoothed @ h[0]

@@ -32,7 +32,8 @@ TRUTH_COLUMNS = ("frame", "t_s", "rel_angle_deg", "container_angle_deg", "float_
                  "float_y_px", "container_x_px", "container_y_px", "accel_m_s2")
 """Ground-truth CSV columns; angles CCW positive as seen, pixel coordinates with (0,0) the top-left pixel centre."""
 
-LIQUID_BGR = (190, 150, 70)
+LIQUID_BGR = (200, 165, 110)
+"""Pale blue water: saturation below every float preset, so no preset mistakes the liquid for the float."""
 WALL_BGR = (70, 70, 70)
 BACKGROUND_TOP_BGR = np.array([225, 225, 220], np.float32)
 BACKGROUND_BOTTOM_BGR = np.array([165, 170, 175], np.float32)

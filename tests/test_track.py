@@ -6,6 +6,7 @@ import av
 import numpy as np
 import pytest
 
+from sloshid.colors import PRESETS
 from sloshid.synth import SynthSettings, render_frames, render_video
 from sloshid.tables import read_csv
 from sloshid.tracker import TRACK_COLUMNS, TrackSettings, track_video
@@ -121,6 +122,17 @@ def test_named_preset_and_explicit_hsv(tmp_path, run_cli):
         assert _rmse(res["angle_deg"] - truth["float_angle_deg"]) < 0.3
 
 
+@pytest.mark.parametrize("colour", sorted(PRESETS))
+def test_every_preset_finds_the_float_synth_paints(tmp_path, colour):
+    # each preset's HSV range must catch the float painted in that colour and nothing else in the scene
+    s = SynthSettings(**{**SMALL, "duration_s": 0.5}, float_color=colour)
+    truth = render_video(tmp_path / "p.mp4", s)
+    res = track_video(tmp_path / "p.mp4", TrackSettings(hsv=PRESETS[colour].hsv))
+    assert res.valid.all()
+    assert np.abs(res.x_px - truth["float_x_px"]).max() < 1.0  # the float, not the liquid
+    assert _rmse(res.angle_deg - truth["float_angle_deg"]) < 0.3
+
+
 def test_roi_restricts_the_search(decay_video, tmp_path, run_cli):
     path, truth = decay_video
     code, _, _ = run_cli("track", path, "-o", tmp_path / "r.csv", "--roi", "100,80,140,100")
@@ -171,6 +183,14 @@ def test_never_found_names_the_range_and_suggests_overlay(bad_files, tmp_path, r
     code, _, err = run_cli("track", bad_files / "full.mp4", "-o", tmp_path / "a.csv", "--float-color", "yellow")
     assert code == 2
     assert "H 22..35, S 110..255, V 90..255" in err and "--overlay" in err
+
+
+def test_never_found_still_writes_the_overlay_as_diagnosis(bad_files, tmp_path, run_cli):
+    code, _, err = run_cli("track", bad_files / "full.mp4", "-o", tmp_path / "a.csv", "--float-color", "yellow",
+                           "--overlay", tmp_path / "o.mp4")
+    assert code == 2 and f"see the overlay {tmp_path / 'o.mp4'}" in err
+    assert not (tmp_path / "a.csv").exists()
+    assert len(list(FrameReader(tmp_path / "o.mp4"))) == 60
 
 
 def test_truncated_video_tracks_what_decodes_and_warns(bad_files, tmp_path, run_cli):
