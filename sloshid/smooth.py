@@ -93,5 +93,6 @@ def smooth_angle(t_s: np.ndarray, angle_deg: np.ndarray, valid: np.ndarray, qual
         if ok[k]:
             x, P = kf_update(x, P, z[k], r[k], h)
         xs[k], ps[k] = x, P
-    smoothed, _, _, _ = rts_smoother(xs, ps, Fs, Qs)
+    # filterpy's functional smoother steps from k to k+1 with Fs[k]; ours hold the step into k: shift by one
+    smoothed, _, _, _ = rts_smoother(xs, ps, Fs[1:] + Fs[-1:], Qs[1:] + Qs[-1:])
     return smoothed @ h[0]
