@@ -22,6 +22,8 @@ MEASUREMENT_SIGMA_DEG = 0.05
 """Standard deviation of a quality-1 angle measurement, degrees (tracker accuracy on synthetic video)."""
 ASSUMED_ZETA = 0.05
 """Damping ratio of the bridging oscillator (typical sloshing); the data corrects it wherever measured."""
+BASELINE_CHANGE_PER_PERIOD = 0.5
+"""How much the baseline may move within one oscillation period, relative to the trace's spread."""
 OSCILLATION_CHANGE_PER_PERIOD = 1.0
 """How much the oscillation may change within one period, relative to the trace's spread: small values
 bridge gaps more faithfully, large ones follow sudden excitation (a tap) without ringing; 1.0 balances both."""
@@ -56,8 +58,11 @@ def _model(omega: float | None, spread: float, period: float) -> tuple[np.ndarra
         qc = np.diag([0.0, (spread / period**1.5) ** 2 * 10])
         return a, qc, np.array([[1.0, 0.0]])
     a = np.array([[0.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, -omega**2, -2 * ASSUMED_ZETA * omega]])
-    # per period: the baseline drifts ~5 % of the trace's spread, the oscillation changes by the set share
-    qc = np.diag([(0.05 * spread) ** 2 / period, 0.0, (OSCILLATION_CHANGE_PER_PERIOD * spread * omega) ** 2 / period])
+    # per period, the baseline (a robot move's quasi-static tilt) may move by half the trace's spread and
+    # the oscillation change by its spread: stiffer settings lag behind moves and taps (measured on
+    # synthetic traces), looser ones bridge gaps less faithfully
+    qc = np.diag([(BASELINE_CHANGE_PER_PERIOD * spread) ** 2 / period, 0.0,
+                  (OSCILLATION_CHANGE_PER_PERIOD * spread * omega) ** 2 / period])
     return a, qc, np.array([[1.0, 1.0, 0.0]])
 
 
