@@ -124,6 +124,7 @@ def track_video(path: str | Path, settings: TrackSettings | None = None, overlay
     walls = ContainerTracker(roi) if settings.reference == "container" else None
     rows: list[tuple] = []
     last_angle = math.nan
+    floats_found = 0
     with contextlib.ExitStack() as stack:
         writer = None
         if overlay is not None:
@@ -133,6 +134,7 @@ def track_video(path: str | Path, settings: TrackSettings | None = None, overlay
                       disable=None if progress else True, leave=False)
         for index, t, frame in frames:
             fm = finder.measure(frame)
+            floats_found += fm.found
             cm = ContainerMeasurement(True, 0.0)
             if walls is not None:
                 cm = walls.measure(frame, fm.x_px, fm.y_px, fm.length_px) if fm.found else ContainerMeasurement(False)
@@ -146,10 +148,12 @@ def track_video(path: str | Path, settings: TrackSettings | None = None, overlay
                 writer.write(draw_overlay(frame, fm, cm, float_angle - cm.angle_deg, ok, roi), t)
     # raised after the overlay is finished: when nothing is found, the overlay is the user's diagnosis
     if not any(r[-1] for r in rows):
-        what = f"HSV range {settings.hsv.describe()}" + (" and container walls" if walls is not None else "")
         hint = (f"see the overlay {overlay}" if overlay else "write --overlay OUT.mp4 to see what was searched")
-        raise UserError(f"no float found in any of the {len(rows)} frames of {path} with {what}; {hint} and "
-                        "adjust --float-hsv-low/--float-hsv-high or --float-color.")
+        if walls is not None and floats_found:
+            raise UserError(f"the float was found in {floats_found} of {len(rows)} frames of {path} but the container's "
+                            f"side walls in none of them; {hint}, or use --reference image.")
+        raise UserError(f"no float found in any of the {len(rows)} frames of {path} with HSV range "
+                        f"{settings.hsv.describe()}; {hint} and adjust --float-hsv-low/--float-hsv-high or --float-color.")
     return _result(Path(path), rows, reader.lost_share, reader.info.frame_count, settings.smooth)
 
 

@@ -209,6 +209,16 @@ def test_never_found_still_writes_the_overlay_as_diagnosis(bad_files, tmp_path, 
     assert len(list(FrameReader(tmp_path / "o.mp4"))) == 60
 
 
+def test_container_reference_without_walls_says_so(tmp_path, run_cli):
+    # a float with no container walls in view (the ROI cuts them off): the float is found, the walls are not
+    truth = render_video(tmp_path / "v.mp4", SynthSettings(**{**SMALL, "duration_s": 0.5}))
+    x, y = int(truth["float_x_px"][0]), int(truth["float_y_px"][0])
+    code, _, err = run_cli("track", tmp_path / "v.mp4", "-o", tmp_path / "a.csv", "--reference", "container",
+                           "--roi", f"{x - 45},{y - 30},90,60")
+    assert code == 2 and "side walls in none of them" in err and "--reference image" in err
+    assert not (tmp_path / "a.csv").exists()
+
+
 def test_truncated_video_tracks_what_decodes_and_warns(bad_files, tmp_path, run_cli):
     out = tmp_path / "t.csv"
     code, _, err = run_cli("track", bad_files / "truncated.mp4", "-o", out)
