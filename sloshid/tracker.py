@@ -112,9 +112,9 @@ def track_video(path: str | Path, settings: TrackSettings | None = None, overlay
                 progress: bool = False) -> TrackResult:
     """Track the float in every decoded frame of `path`; optionally write an overlay video.
 
-    Raises UserError for unreadable videos, a bad ROI and a float found in no frame (the overlay, if
-    requested, is still written then: it shows what was searched). Truncation and partial loss are
-    reported in `warnings`.
+    Raises UserError for unreadable videos, a bad ROI, and a float (or, with the container reference,
+    container walls) found in no frame; the overlay, if requested, is still written then: it shows what
+    was searched. Truncation and partial loss are reported in `warnings`, `lost_share`, `invalid_share`.
     """
     settings = settings or TrackSettings()
     reader = FrameReader(Path(path))
