@@ -75,7 +75,7 @@ class SynthSettings:
     """Move: start time."""
     move_duration_s: float = 1.0
     """Move: total time (half accelerating, half decelerating)."""
-    px_per_m: float = 1200.0
+    px_per_m: float = 500.0
     """Move: image scale used to translate the container with the move."""
     travel_px: float = 0.0
     """Decay: the container crosses this many pixels to the right over the video (smooth start and stop)."""
@@ -237,7 +237,14 @@ def _scene(s: SynthSettings) -> _Scene:
     h = s.height
     return _Scene(inner_w=0.5 * h, wall=max(3.0, 0.012 * h), depth=0.32 * h, head=0.18 * h,
                   float_l=s.float_length_frac * h, float_t=max(4.0, 0.035 * h),
-                  x0=s.width / 2 - s.travel_px / 2, y0=0.55 * h)
+                  x0=s.width / 2 - _total_travel_px(s) / 2, y0=0.55 * h)
+
+
+def _total_travel_px(s: SynthSettings) -> float:
+    """How far the container moves across the picture in total (the scene is centred on the travel)."""
+    if s.motion == "move":
+        return s.px_per_m * s.accel_m_s2 * (s.move_duration_s / 2) ** 2
+    return s.travel_px
 
 
 def _rot(angle: float) -> np.ndarray:
