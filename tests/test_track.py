@@ -68,10 +68,10 @@ def test_vfr_timestamps_reach_the_csv(tmp_path, run_cli):
     np.testing.assert_allclose(got["t_s"], truth["t_s"], atol=1 / 180000)  # half a 90 kHz tick
 
 
-def _video_with_gap(path, settings, gap):
+def _video_with_gap(path, settings, gap, display_rotation_deg=0):
     """Render `settings` but replace frames in `gap` (a slice) with an empty grey picture."""
     rows = []
-    with VideoWriter(path, settings.width, settings.height, settings.fps) as w:
+    with VideoWriter(path, settings.width, settings.height, settings.fps, display_rotation_deg=display_rotation_deg) as w:
         for row, frame in render_frames(settings):
             if gap.start <= row["frame"] < gap.stop:
                 frame[:] = 128
@@ -113,6 +113,21 @@ def test_smoother_on_uneven_timestamps_follows_a_tap_and_bridges():
     smoothed = smooth_angle(t, noisy, valid, np.ones(len(t)))
     assert np.abs(smoothed - truth).max() < 0.3
     assert _rmse((smoothed - truth)[valid]) < 0.05
+
+
+def test_orientation_metadata_is_respected(tmp_path):
+    # A phone-style file: pixels stored landscape with a "rotate 90 deg CCW" display matrix. The tracker
+    # must see the picture as displayed (portrait), so the float lies at its true angle + 90 deg.
+    s = SynthSettings(**{**SMALL, "duration_s": 1.0})
+    truth = _video_with_gap(tmp_path / "rot.mp4", s, slice(0, 0), display_rotation_deg=90)
+    res = track_video(tmp_path / "rot.mp4")
+    assert FrameReader(tmp_path / "rot.mp4").frame_size == (240, 320)
+    turned = res.angle_deg - (truth["float_angle_deg"] + 90)
+    err = (turned + 90) % 180 - 90  # a line's angle is defined modulo 180 deg
+    assert _rmse(err) < 0.3
+    # displayed (x, y) = (stored y, width - 1 - stored x) for a 90 deg CCW turn
+    assert np.abs(res.x_px - truth["float_y_px"]).max() < 1.0
+    assert np.abs(res.y_px - (319 - truth["float_x_px"])).max() < 1.0
 
 
 def test_overlay_is_written_frame_for_frame(decay_video, tmp_path, run_cli):
