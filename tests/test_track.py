@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import av
 import numpy as np
 import pytest
@@ -45,6 +47,19 @@ def test_image_reference_matches_truth(decay_video):
     assert np.abs(res.y_px - truth["float_y_px"]).max() < 1.0
     assert np.all(res.container_angle_deg == 0)
     assert np.all((res.quality > 0.5) & (res.quality <= 1))
+
+
+def test_readme_main_job_on_the_bundled_sample(tmp_path, run_cli):
+    # the command the README opens with, on data/sample_tap.mp4 (seed Table I tap test, noise 5, H.264);
+    # measured 0.063 deg RMSE, 0.20 max: 0.15 / 0.5 leave room for other FFmpeg builds' decoders
+    root = Path(__file__).resolve().parents[1]
+    out, overlay = tmp_path / "sample_angles.csv", tmp_path / "sample_overlay.mp4"
+    code, stdout, _ = run_cli("track", root / "data" / "sample_tap.mp4", "-o", out, "--overlay", overlay)
+    assert code == 0 and "180 valid" in stdout
+    got, truth = read_csv(out), read_csv(root / "data" / "sample_tap_truth.csv")
+    err = got["angle_deg"] - truth["rel_angle_deg"]
+    assert _rmse(err) < 0.15 and np.abs(err).max() < 0.5
+    assert overlay.stat().st_size > 0
 
 
 def test_container_reference_on_tilting_travelling_container(tmp_path):
