@@ -82,6 +82,7 @@ def baseline(path: Path) -> tuple[np.ndarray, np.ndarray]:
 
 
 def stats(err: np.ndarray) -> dict[str, float]:
+    """RMSE and max absolute error over the finite entries."""
     err = err[np.isfinite(err)]
     return {"rmse_deg": float(np.sqrt(np.mean(err**2))), "max_deg": float(np.max(np.abs(err)))}
 
@@ -110,6 +111,7 @@ def plot_errors(traces: list[tuple[str, np.ndarray, np.ndarray, np.ndarray]], pa
 
 
 def main() -> None:
+    """Render every case, track it, compare with truth and the baseline, write JSON, Markdown and a figure."""
     rows = []
     traces = []
     with tempfile.TemporaryDirectory() as tmp:

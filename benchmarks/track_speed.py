@@ -60,6 +60,7 @@ def track_fps_no_smooth(path: Path) -> tuple[float, float]:
 
 
 def main() -> None:
+    """Render (once) and time both loops alternately per size; write JSON and Markdown."""
     CACHE.mkdir(parents=True, exist_ok=True)
     rows = []
     for w, h in SIZES:

@@ -52,6 +52,7 @@ class ContainerMeasurement:
 
 
 def _gray(frame: np.ndarray) -> np.ndarray:
+    """Grey levels as float32 (edge profiles are differenced)."""
     return cv2.cvtColor(frame, cv2.COLOR_BGR2GRAY).astype(np.float32)
 
 

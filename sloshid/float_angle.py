@@ -114,6 +114,7 @@ class FloatFinder:
         return self._remember(self._measure_in(frame, self._roi_box(), local=False))
 
     def _roi_box(self) -> tuple[int, int, int, int]:
+        """The ROI as (x0, y0, x1, y1)."""
         x, y, w, h = self.roi
         return x, y, x + w, y + h
 
@@ -145,6 +146,7 @@ class FloatFinder:
         return m
 
     def _measure_in(self, frame: np.ndarray, box: tuple[int, int, int, int], local: bool) -> FloatMeasurement:
+        """Detect the float blob by HSV inside `box` (near the last one when `local`) and refine it."""
         x0, y0, x1, y1 = box
         mask = hsv_mask(frame[y0:y1, x0:x1], self.hsv)
         if local:

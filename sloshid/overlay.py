@@ -20,6 +20,7 @@ _GREEN, _RED, _BLUE, _YELLOW = (60, 220, 60), (40, 40, 255), (255, 140, 30), (0,
 
 
 def _pt(x: float, y: float) -> tuple[int, int]:
+    """Sub-pixel point in OpenCV's fixed-point drawing coordinates."""
     return int(round(x * (1 << _SHIFT))), int(round(y * (1 << _SHIFT)))
 
 

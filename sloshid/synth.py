@@ -234,6 +234,7 @@ class _Scene:
 
 
 def _scene(s: SynthSettings) -> _Scene:
+    """Scene proportions from the frame height (container, walls, float) and the travel's start."""
     h = s.height
     return _Scene(inner_w=0.5 * h, wall=max(3.0, 0.012 * h), depth=0.32 * h, head=0.18 * h,
                   float_l=s.float_length_frac * h, float_t=max(4.0, 0.035 * h),
@@ -340,6 +341,7 @@ def render_frames(s: SynthSettings):
         R_c = _rot(tilt[k])
 
         def to_img(pts: np.ndarray) -> np.ndarray:
+            """Container coordinates (x right, y up) -> image pixels (y down), through tilt, pose and roll."""
             world = pts @ R_c.T + pos_world
             cam = (world - np.array([s.width / 2, s.height / 2])) @ R_roll.T
             return np.column_stack([cam[:, 0] + centre_img[0], centre_img[1] - cam[:, 1]])

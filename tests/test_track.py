@@ -23,6 +23,7 @@ SMALL = dict(width=320, height=240, fps=30.0, duration_s=2.0, noise_sigma=3.0, b
 
 
 def _rmse(e: np.ndarray) -> float:
+    """Root mean square."""
     return float(np.sqrt(np.mean(np.square(e))))
 
 
