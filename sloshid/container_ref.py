@@ -4,8 +4,9 @@ The walls are found once with a Hough transform (the nearest near-vertical lines
 the float) and then followed frame to frame: in a narrow band around each predicted wall, every row's
 strongest falling and rising intensity edge is located to sub-pixel precision (parabola through the
 gradient peak, unbiased for any edge contrast), and a robust straight-line fit per edge gives the wall's
-angle. The container angle is the weighted mean over all edges that fit well (CCW positive as seen,
-0 when the walls are vertical in the picture).
+angle. Each wall's angle is the precision-weighted mean of its well-fitting edges, and the container
+angle is the mean of the two walls (CCW positive as seen, 0 when the walls are vertical in the picture),
+so a tapered glass, whose walls lean in opposite directions, reads upright.
 """
 
 from __future__ import annotations
@@ -51,6 +52,7 @@ class ContainerMeasurement:
 
 
 def _gray(frame: np.ndarray) -> np.ndarray:
+    """Grey levels as float32 (edge profiles are differenced)."""
     return cv2.cvtColor(frame, cv2.COLOR_BGR2GRAY).astype(np.float32)
 
 
@@ -125,6 +127,12 @@ def detect_walls(frame: np.ndarray, float_x: float, float_y: float, float_len: f
     return [best[s][1] for s in sorted(best)]
 
 
+def _weighted_angle(edges: list[EdgeLine]) -> float:
+    """Mean angle of a wall's edges, weighted by slope precision (~ rows * span^2 / rms^2)."""
+    wts = np.array([e.rows * (e.y1 - e.y0) ** 2 / max(e.rms_px, 0.05) ** 2 for e in edges])
+    return float(np.sum(wts * np.array([e.angle_deg for e in edges])) / np.sum(wts))
+
+
 class ContainerTracker:
     """Follows the container walls from frame to frame and returns the container's angle."""
 
@@ -149,6 +157,7 @@ class ContainerTracker:
         """Refit every wall edge near its predicted position (last line moved by the last shift)."""
         gray = _gray(frame)
         fitted: list[EdgeLine] = []
+        wall_angles: list[float] = []
         new_walls: list[EdgeLine] = []
         for wall in self._walls:
             pred = EdgeLine(wall.a, wall.b + self._shift, rows[0], rows[1], wall.rms_px, wall.rows)
@@ -156,6 +165,7 @@ class ContainerTracker:
             if not fits:
                 continue
             fitted.extend(fits)
+            wall_angles.append(_weighted_angle(fits))
             mid_a = float(np.mean([f.a for f in fits]))
             mid_b = float(np.mean([f.b for f in fits]))
             new_walls.append(EdgeLine(mid_a, mid_b, rows[0], rows[1], 0.0, 0))
@@ -165,7 +175,5 @@ class ContainerTracker:
         yc = 0.5 * (rows[0] + rows[1])
         self._shift = float(np.mean([nw.x_at(yc) - ow.x_at(yc) for nw, ow in zip(new_walls, self._walls)]))
         self._walls = new_walls
-        # weights: precision of a line's slope ~ rows * span^2 / rms^2
-        wts = np.array([f.rows * (f.y1 - f.y0) ** 2 / max(f.rms_px, 0.05) ** 2 for f in fitted])
-        angle = float(np.sum(wts * [f.angle_deg for f in fitted]) / np.sum(wts))
-        return ContainerMeasurement(True, angle, tuple(fitted))
+        # each wall counts once, so a tapered glass (walls leaning in opposite directions) reads as upright
+        return ContainerMeasurement(True, float(np.mean(wall_angles)), tuple(fitted))

@@ -21,6 +21,8 @@ from .colors import HsvRange
 _KERNEL = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (3, 3))
 MIN_AREA_PX = 12
 """Blobs smaller than this many pixels are not taken for the float."""
+REFIT_EVERY = 8
+"""The colour model is refitted every this many frames (and after every loss): lighting drifts slowly."""
 
 
 @dataclass
@@ -52,22 +54,21 @@ def hsv_mask(bgr: np.ndarray, hsv: HsvRange) -> np.ndarray:
     return cv2.bitwise_or(upper, lower)
 
 
-def soft_membership(crop: np.ndarray, blob: np.ndarray) -> tuple[np.ndarray, float]:
-    """Soft float membership of a BGR crop, from a linear colour model fitted to this crop's own pixels.
+def fit_colour_model(crop: np.ndarray, blob: np.ndarray) -> tuple[np.ndarray, float] | None:
+    """Least-squares linear colour model w.bgr + c ~ float membership, fitted to this crop's own pixels.
 
-    `blob` (0/255) marks the float roughly. Eroded blob pixels are 'float' (1), pixels beyond a
-    dilated blob are 'background' (0); least squares gives w, c with w.bgr + c ~ membership. A ramp of
-    width 0.5 centred at 0.5 (symmetric, so edges stay put) clips noise. Returns (map, rms fit error).
+    `blob` (0/255) marks the float roughly: eroded blob pixels are 'float' (1), pixels beyond a dilated
+    blob are 'background' (0), whatever colours they have (air above, liquid below). Returns
+    (coefficients [wb, wg, wr, c], rms fit error) or None when the crop holds no background.
     """
     core = cv2.erode(blob, _KERNEL, iterations=2)
     if cv2.countNonZero(core) < 6:
         core = blob
-    outside = cv2.dilate(blob, _KERNEL, iterations=3) == 0
-    pix = crop.reshape(-1, 3).astype(np.float32)
     inside = core.reshape(-1) > 0
-    out = outside.reshape(-1)
+    out = (cv2.dilate(blob, _KERNEL, iterations=3) == 0).reshape(-1)
     if not out.any():
-        return (blob > 0).astype(np.float32), 1.0
+        return None
+    pix = crop.reshape(-1, 3)
     X = np.ones((int(inside.sum() + out.sum()), 4), np.float64)
     X[:, :3] = np.concatenate([pix[inside], pix[out]])
     target = np.zeros(len(X))
@@ -75,11 +76,20 @@ def soft_membership(crop: np.ndarray, blob: np.ndarray) -> tuple[np.ndarray, flo
     try:  # normal equations: 4 unknowns, thousands of rows, well conditioned when float and background differ
         coef = np.linalg.solve(X.T @ X, X.T @ target)
     except np.linalg.LinAlgError:
-        return (blob > 0).astype(np.float32), 1.0
-    rms = float(np.sqrt(np.mean((X @ coef - target) ** 2)))
-    value = cv2.transform(crop.astype(np.float32), coef[None, :3].astype(np.float32)) + np.float32(coef[3])
-    soft = np.clip((value - np.float32(0.1)) * np.float32(1.25), 0, 1)
-    return soft.reshape(crop.shape[:2]), rms
+        return None
+    return coef, float(np.sqrt(np.mean((X @ coef - target) ** 2)))
+
+
+def membership_map(crop: np.ndarray, coef: np.ndarray) -> np.ndarray:
+    """Soft membership 0..1 of every crop pixel: the colour model, linear from 0.1 to 0.9 and clipped.
+
+    The ramp is symmetric about half coverage, so edges stay where they are, while background noise
+    (membership near 0) and the float's interior (near 1) stop adding scatter to the moments.
+    """
+    value = cv2.transform(crop.astype(np.float32), coef[None, :3].astype(np.float32)).reshape(crop.shape[:2])
+    # a slight isotropic blur smooths H.264's 2-pixel chroma staircase; it cannot turn the moments' axes
+    value = cv2.GaussianBlur(value, (3, 3), 0.8) + np.float32(coef[3])
+    return np.clip((value - np.float32(0.1)) * np.float32(1.25), 0, 1)
 
 
 class FloatFinder:
@@ -90,34 +100,53 @@ class FloatFinder:
         self.roi = roi  # x, y, w, h within the frame
         self._last: FloatMeasurement | None = None
         self._ref_area = 0.0
-        self._ref_elong = 0.0
+        self._velocity = (0.0, 0.0)  # px per frame
+        self._model: tuple[np.ndarray, float] | None = None
+        self._frames_since_fit = 0
 
     def measure(self, frame: np.ndarray) -> FloatMeasurement:
         """Measure the float in one BGR frame (near the last position first, then the whole ROI)."""
         if self._last is not None:
-            m = self._measure_in(frame, self._window(self._last), local=True)
-            if m.found:
-                return self._remember(m)
+            for box in (self._tight_box(self._last), self._window(self._last)):
+                m = self._measure_in(frame, box, local=True)
+                if m.found:
+                    return self._remember(m)
         return self._remember(self._measure_in(frame, self._roi_box(), local=False))
 
     def _roi_box(self) -> tuple[int, int, int, int]:
+        """The ROI as (x0, y0, x1, y1)."""
         x, y, w, h = self.roi
         return x, y, x + w, y + h
 
-    def _window(self, last: FloatMeasurement) -> tuple[int, int, int, int]:
-        """Search box around the last float: half its length plus a margin for motion between frames."""
-        r = 0.5 * last.length_px + max(10.0, 0.25 * last.length_px)
+    def _tight_box(self, last: FloatMeasurement) -> tuple[int, int, int, int]:
+        """The last measurement box moved by the last motion plus a few pixels: the cheap first try."""
+        vx, vy = self._velocity
+        x0, y0, x1, y1 = last.bbox
+        m = 3.0 + 0.05 * last.length_px
         rx0, ry0, rx1, ry1 = self._roi_box()
-        return (max(rx0, int(last.x_px - r)), max(ry0, int(last.y_px - r)),
-                min(rx1, int(last.x_px + r) + 1), min(ry1, int(last.y_px + r) + 1))
+        return (max(rx0, int(x0 + vx - m)), max(ry0, int(y0 + vy - m)),
+                min(rx1, int(x1 + vx + m) + 1), min(ry1, int(y1 + vy + m) + 1))
+
+    def _window(self, last: FloatMeasurement) -> tuple[int, int, int, int]:
+        """Search box around where the float should be now (last position plus last motion), half its
+        length plus a margin in every direction (covers any rotation and a change of speed)."""
+        vx, vy = self._velocity
+        cx, cy = last.x_px + vx, last.y_px + vy
+        r = 0.5 * last.length_px + max(8.0, 0.15 * last.length_px + 0.5 * math.hypot(vx, vy))
+        rx0, ry0, rx1, ry1 = self._roi_box()
+        return (max(rx0, int(cx - r)), max(ry0, int(cy - r)), min(rx1, int(cx + r) + 1), min(ry1, int(cy + r) + 1))
 
     def _remember(self, m: FloatMeasurement) -> FloatMeasurement:
+        """Keep the measurement, the motion since the last one and the float's typical area for the next frame."""
+        last = self._last
+        self._velocity = (m.x_px - last.x_px, m.y_px - last.y_px) if (m.found and last is not None) else (0.0, 0.0)
         self._last = m if m.found else None
         if m.found and m.quality > 0.5:
             self._ref_area = m.area_px if self._ref_area == 0 else 0.9 * self._ref_area + 0.1 * m.area_px
         return m
 
     def _measure_in(self, frame: np.ndarray, box: tuple[int, int, int, int], local: bool) -> FloatMeasurement:
+        """Detect the float blob by HSV inside `box` (near the last one when `local`) and refine it."""
         x0, y0, x1, y1 = box
         mask = hsv_mask(frame[y0:y1, x0:x1], self.hsv)
         if local:
@@ -160,8 +189,15 @@ class FloatFinder:
         sy0, sx0 = Y0 - oy, X0 - ox
         src = blob_full[max(0, sy0):Y1 - oy, max(0, sx0):X1 - ox]
         blob[max(0, -sy0):max(0, -sy0) + src.shape[0], max(0, -sx0):max(0, -sx0) + src.shape[1]] = src.astype(np.uint8) * 255
-        crop = cv2.GaussianBlur(frame[Y0:Y1, X0:X1], (0, 0), 0.8)  # smooths H.264's 2-px chroma staircase
-        soft, rms = soft_membership(crop, blob)
+        crop = frame[Y0:Y1, X0:X1]
+        self._frames_since_fit += 1
+        if self._model is None or self._frames_since_fit >= REFIT_EVERY or self._last is None:
+            self._model = fit_colour_model(crop, blob)
+            self._frames_since_fit = 0
+        if self._model is None:
+            return FloatMeasurement(False)
+        coef, rms = self._model
+        soft = membership_map(crop, coef)
         soft *= cv2.dilate(blob, _KERNEL, iterations=pad - 1) > 0  # only this blob, not other things
         mo = cv2.moments(soft)
         if mo["m00"] <= 1e-6:

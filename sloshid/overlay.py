@@ -20,6 +20,7 @@ _GREEN, _RED, _BLUE, _YELLOW = (60, 220, 60), (40, 40, 255), (255, 140, 30), (0,
 
 
 def _pt(x: float, y: float) -> tuple[int, int]:
+    """Sub-pixel point in OpenCV's fixed-point drawing coordinates."""
     return int(round(x * (1 << _SHIFT))), int(round(y * (1 << _SHIFT)))
 
 
@@ -45,8 +46,8 @@ def draw_overlay(frame: np.ndarray, fm: FloatMeasurement, cm: ContainerMeasureme
         cv2.line(out, _pt(e.x_at(e.y0), e.y0), _pt(e.x_at(e.y1), e.y1), _BLUE, 1, cv2.LINE_AA, _SHIFT)
     text = (f"angle {angle_deg:+.2f} deg  q {fm.quality:.2f}" if valid else
             ("float not valid" if fm.found else "float not found"))
-    scale = max(0.4, h / 900)
-    cv2.putText(out, text, (8, int(24 * scale / 0.5)), cv2.FONT_HERSHEY_SIMPLEX, scale, (0, 0, 0), 3, cv2.LINE_AA)
-    cv2.putText(out, text, (8, int(24 * scale / 0.5)), cv2.FONT_HERSHEY_SIMPLEX, scale,
-                _GREEN if valid else _RED, 1, cv2.LINE_AA)
+    scale = max(0.45, h / 800)
+    (tw, th), base = cv2.getTextSize(text, cv2.FONT_HERSHEY_SIMPLEX, scale, 1)
+    cv2.rectangle(out, (4, 4), (12 + tw, 12 + th + base), (0, 0, 0), -1)  # dark box: readable on any scene
+    cv2.putText(out, text, (8, 8 + th), cv2.FONT_HERSHEY_SIMPLEX, scale, _GREEN if valid else _RED, 1, cv2.LINE_AA)
     return out

@@ -12,7 +12,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from filterpy.kalman import KalmanFilter
+from filterpy.kalman import predict as kf_predict
+from filterpy.kalman import rts_smoother
+from filterpy.kalman import update as kf_update
 from scipy.linalg import expm
 from scipy.signal import welch
 
@@ -20,6 +22,8 @@ MEASUREMENT_SIGMA_DEG = 0.05
 """Standard deviation of a quality-1 angle measurement, degrees (tracker accuracy on synthetic video)."""
 ASSUMED_ZETA = 0.05
 """Damping ratio of the bridging oscillator (typical sloshing); the data corrects it wherever measured."""
+BASELINE_CHANGE_PER_PERIOD = 0.5
+"""How much the baseline may move within one oscillation period, relative to the trace's spread."""
 OSCILLATION_CHANGE_PER_PERIOD = 1.0
 """How much the oscillation may change within one period, relative to the trace's spread: small values
 bridge gaps more faithfully, large ones follow sudden excitation (a tap) without ringing; 1.0 balances both."""
@@ -54,8 +58,11 @@ def _model(omega: float | None, spread: float, period: float) -> tuple[np.ndarra
         qc = np.diag([0.0, (spread / period**1.5) ** 2 * 10])
         return a, qc, np.array([[1.0, 0.0]])
     a = np.array([[0.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, -omega**2, -2 * ASSUMED_ZETA * omega]])
-    # per period: the baseline drifts ~5 % of the trace's spread, the oscillation changes by the set share
-    qc = np.diag([(0.05 * spread) ** 2 / period, 0.0, (OSCILLATION_CHANGE_PER_PERIOD * spread * omega) ** 2 / period])
+    # per period, the baseline (a robot move's quasi-static tilt) may move by half the trace's spread and
+    # the oscillation change by its spread: stiffer settings lag behind moves and taps (measured on
+    # synthetic traces), looser ones bridge gaps less faithfully
+    qc = np.diag([(BASELINE_CHANGE_PER_PERIOD * spread) ** 2 / period, 0.0,
+                  (OSCILLATION_CHANGE_PER_PERIOD * spread * omega) ** 2 / period])
     return a, qc, np.array([[1.0, 1.0, 0.0]])
 
 
@@ -71,12 +78,10 @@ def smooth_angle(t_s: np.ndarray, angle_deg: np.ndarray, valid: np.ndarray, qual
     period = 2 * math.pi / omega if omega else max(t[-1] - t[0], 1e-3)
     a, qc, h = _model(omega, spread, period)
     n = len(a)
-    kf = KalmanFilter(dim_x=n, dim_z=1)
-    kf.H = h
     first = int(np.argmax(ok))
-    kf.x = np.zeros((n, 1))
-    kf.x[0, 0] = z[first]
-    kf.P = np.diag([spread**2, spread**2, (spread * (omega or 1.0)) ** 2][:n]) * 4
+    x = np.zeros(n)
+    x[0] = z[first]
+    P = np.diag([spread**2, spread**2, (spread * (omega or 1.0)) ** 2][:n]) * 4
     dts = np.diff(t, prepend=t[0])
     cache: dict[float, tuple[np.ndarray, np.ndarray]] = {}
     Fs, Qs = [], []
@@ -86,10 +91,13 @@ def smooth_angle(t_s: np.ndarray, angle_deg: np.ndarray, valid: np.ndarray, qual
             cache[key] = _discretise(a, qc, key)
         Fs.append(cache[key][0])
         Qs.append(cache[key][1])
-    q = np.clip(np.asarray(quality, float), 0.05, 1.0)
-    Rs = [np.array([[(MEASUREMENT_SIGMA_DEG / qi) ** 2]]) for qi in q]
-    zs = [np.array([[zi]]) if oki else None for zi, oki in zip(z, ok)]
-    mu, cov, _, _ = kf.batch_filter(zs, Fs=Fs, Qs=Qs, Rs=Rs)
-    xs, _, _, _ = kf.rts_smoother(mu, cov, Fs=Fs, Qs=Qs)
-    xs = xs.reshape(len(t), n)
-    return xs @ h[0]
+    r = (MEASUREMENT_SIGMA_DEG / np.clip(np.asarray(quality, float), 0.05, 1.0)) ** 2
+    xs, ps = np.zeros((len(t), n)), np.zeros((len(t), n, n))
+    for k in range(len(t)):  # filterpy's functional filter: the same equations as KalmanFilter, less overhead
+        x, P = kf_predict(x, P, Fs[k], Qs[k])
+        if ok[k]:
+            x, P = kf_update(x, P, z[k], r[k], h)
+        xs[k], ps[k] = x, P
+    # filterpy's functional smoother steps from k to k+1 with Fs[k]; ours hold the step into k: shift by one
+    smoothed, _, _, _ = rts_smoother(xs, ps, Fs[1:] + Fs[-1:], Qs[1:] + Qs[-1:])
+    return smoothed @ h[0]

@@ -32,7 +32,8 @@ TRUTH_COLUMNS = ("frame", "t_s", "rel_angle_deg", "container_angle_deg", "float_
                  "float_y_px", "container_x_px", "container_y_px", "accel_m_s2")
 """Ground-truth CSV columns; angles CCW positive as seen, pixel coordinates with (0,0) the top-left pixel centre."""
 
-LIQUID_BGR = (190, 150, 70)
+LIQUID_BGR = (200, 165, 110)
+"""Pale blue water: saturation below every float preset, so no preset mistakes the liquid for the float."""
 WALL_BGR = (70, 70, 70)
 BACKGROUND_TOP_BGR = np.array([225, 225, 220], np.float32)
 BACKGROUND_BOTTOM_BGR = np.array([165, 170, 175], np.float32)
@@ -74,7 +75,7 @@ class SynthSettings:
     """Move: start time."""
     move_duration_s: float = 1.0
     """Move: total time (half accelerating, half decelerating)."""
-    px_per_m: float = 1200.0
+    px_per_m: float = 500.0
     """Move: image scale used to translate the container with the move."""
     travel_px: float = 0.0
     """Decay: the container crosses this many pixels to the right over the video (smooth start and stop)."""
@@ -233,10 +234,18 @@ class _Scene:
 
 
 def _scene(s: SynthSettings) -> _Scene:
+    """Scene proportions from the frame height (container, walls, float) and the travel's start."""
     h = s.height
     return _Scene(inner_w=0.5 * h, wall=max(3.0, 0.012 * h), depth=0.32 * h, head=0.18 * h,
                   float_l=s.float_length_frac * h, float_t=max(4.0, 0.035 * h),
-                  x0=s.width / 2 - s.travel_px / 2, y0=0.55 * h)
+                  x0=s.width / 2 - _total_travel_px(s) / 2, y0=0.55 * h)
+
+
+def _total_travel_px(s: SynthSettings) -> float:
+    """How far the container moves across the picture in total (the scene is centred on the travel)."""
+    if s.motion == "move":
+        return s.px_per_m * s.accel_m_s2 * (s.move_duration_s / 2) ** 2
+    return s.travel_px
 
 
 def _rot(angle: float) -> np.ndarray:
@@ -332,6 +341,7 @@ def render_frames(s: SynthSettings):
         R_c = _rot(tilt[k])
 
         def to_img(pts: np.ndarray) -> np.ndarray:
+            """Container coordinates (x right, y up) -> image pixels (y down), through tilt, pose and roll."""
             world = pts @ R_c.T + pos_world
             cam = (world - np.array([s.width / 2, s.height / 2])) @ R_roll.T
             return np.column_stack([cam[:, 0] + centre_img[0], centre_img[1] - cam[:, 1]])

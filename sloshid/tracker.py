@@ -22,7 +22,7 @@ from .atomic import atomic_path
 from .colors import DEFAULT_FLOAT_COLOR, HsvRange, preset
 from .container_ref import ContainerMeasurement, ContainerTracker
 from .errors import UserError
-from .float_angle import FloatFinder, FloatMeasurement
+from .float_angle import FloatFinder
 from .overlay import draw_overlay
 from .smooth import smooth_angle
 from .tables import write_csv
@@ -112,9 +112,9 @@ def track_video(path: str | Path, settings: TrackSettings | None = None, overlay
                 progress: bool = False) -> TrackResult:
     """Track the float in every decoded frame of `path`; optionally write an overlay video.
 
-    Raises UserError for unreadable videos, a bad ROI and a float found in no frame (the overlay, if
-    requested, is still written then: it shows what was searched). Truncation and partial loss are
-    reported in `warnings`.
+    Raises UserError for unreadable videos, a bad ROI, and a float (or, with the container reference,
+    container walls) found in no frame; the overlay, if requested, is still written then: it shows what
+    was searched. Truncation and partial loss are reported in `warnings`, `lost_share`, `invalid_share`.
     """
     settings = settings or TrackSettings()
     reader = FrameReader(Path(path))
@@ -124,6 +124,7 @@ def track_video(path: str | Path, settings: TrackSettings | None = None, overlay
     walls = ContainerTracker(roi) if settings.reference == "container" else None
     rows: list[tuple] = []
     last_angle = math.nan
+    floats_found = 0
     with contextlib.ExitStack() as stack:
         writer = None
         if overlay is not None:
@@ -133,6 +134,7 @@ def track_video(path: str | Path, settings: TrackSettings | None = None, overlay
                       disable=None if progress else True, leave=False)
         for index, t, frame in frames:
             fm = finder.measure(frame)
+            floats_found += fm.found
             cm = ContainerMeasurement(True, 0.0)
             if walls is not None:
                 cm = walls.measure(frame, fm.x_px, fm.y_px, fm.length_px) if fm.found else ContainerMeasurement(False)
@@ -146,10 +148,12 @@ def track_video(path: str | Path, settings: TrackSettings | None = None, overlay
                 writer.write(draw_overlay(frame, fm, cm, float_angle - cm.angle_deg, ok, roi), t)
     # raised after the overlay is finished: when nothing is found, the overlay is the user's diagnosis
     if not any(r[-1] for r in rows):
-        what = f"HSV range {settings.hsv.describe()}" + (" and container walls" if walls is not None else "")
         hint = (f"see the overlay {overlay}" if overlay else "write --overlay OUT.mp4 to see what was searched")
-        raise UserError(f"no float found in any of the {len(rows)} frames of {path} with {what}; {hint} and "
-                        "adjust --float-hsv-low/--float-hsv-high or --float-color.")
+        if walls is not None and floats_found:
+            raise UserError(f"the float was found in {floats_found} of {len(rows)} frames of {path} but the container's "
+                            f"side walls in none of them; {hint}, or use --reference image.")
+        raise UserError(f"no float found in any of the {len(rows)} frames of {path} with HSV range "
+                        f"{settings.hsv.describe()}; {hint} and adjust --float-hsv-low/--float-hsv-high or --float-color.")
     return _result(Path(path), rows, reader.lost_share, reader.info.frame_count, settings.smooth)
 
 

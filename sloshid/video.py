@@ -138,11 +138,12 @@ class VideoWriter:
     """Write BGR frames with explicit presentation times (seconds) through PyAV: H.264 (libx264) or MPEG-4 Part 2.
 
     `quality` is the codec's own scale: x264 CRF for h264 (0..51, lower is better, 23 typical) and
-    qscale for mpeg4 (1..31, lower is better, 4 typical). Use as a context manager.
+    qscale for mpeg4 (1..31, lower is better, 4 typical). `display_rotation_deg` (CCW) is stored as
+    orientation metadata, not applied to the pixels. Use as a context manager.
     """
 
     def __init__(self, path: str | Path, width: int, height: int, fps: float, codec: Codec = "h264",
-                 quality: float | None = None) -> None:
+                 quality: float | None = None, display_rotation_deg: int = 0) -> None:
         if codec not in _ENCODERS:
             raise UserError(f"codec must be one of {', '.join(_ENCODERS)}, got {codec!r}.")
         self._out = av.open(str(path), "w", format="mp4", options={"movflags": "faststart"})
@@ -154,6 +155,8 @@ class VideoWriter:
         else:
             qscale = 4 if quality is None else quality
             stream.codec_context.qmin = stream.codec_context.qmax = int(round(qscale))  # fixed quantiser
+        if display_rotation_deg:  # orientation metadata, as phones write it: players turn the picture
+            stream.set_display_rotation(display_rotation_deg)
         self._time_base = _TIME_BASES[codec]
         stream.codec_context.time_base = self._time_base
         self._stream = stream
