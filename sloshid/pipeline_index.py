@@ -64,6 +64,22 @@ def _plan(report: Report, run_dir: Path, s: dict[str, Any]) -> None:
                     + _link(run_dir, "plan/report/index.html", "plan report") + "</p>")
 
 
+def _compare(report: Report, run_dir: Path, s: dict[str, Any]) -> None:
+    """The verdict sentence and the score table of every method."""
+    report.add_text(s["verdict"])
+    rows = []
+    for m in s["methods"]:
+        if not m["applicable"]:
+            rows.append([m["label"], "not applicable", m["reason"], "", "", ""])
+            continue
+        ok = "ok" if m["robot_limits_ok"] and m["move_limits_ok"] else "exceeded"
+        rows.append([m["label"], m["transfer_time_s"], m["peak_during_deg"], m["residual_deg"], m["peak_tilt_deg"], ok])
+    report.add_table(["method", "transfer time (s)", "peak slosh during (deg)", "residual slosh (deg)",
+                      "peak tilt (deg)", "limits"], rows)  # fmt: skip
+    report.add_html("<p>" + _link(run_dir, "compare/report/index.html", "comparison report") + " · "
+                    + _link(run_dir, "compare/scores.json", "scores (JSON)") + "</p>")
+
+
 def _generic(report: Report, run_dir: Path, name: str, s: dict[str, Any]) -> None:
     """Scalar summary values as a table plus links to the files the stage listed."""
     scalars = [[k, v] for k, v in s.items() if isinstance(v, (int, float, str, bool)) and k not in ("report",)]
@@ -74,7 +90,7 @@ def _generic(report: Report, run_dir: Path, name: str, s: dict[str, Any]) -> Non
             report.add_html("<p>" + _link(run_dir, f"{name}/{s[key]}", f"{name} {key}") + "</p>")
 
 
-RENDERERS = {"track": _track, "identify": _identify, "plan": _plan}
+RENDERERS = {"track": _track, "identify": _identify, "plan": _plan, "compare": _compare}
 
 
 def write_index(run_dir: Path, records: list[StageRecord], title: str) -> Path:

@@ -138,11 +138,38 @@ def run_plan(opts: PlanOptions, ctx: StageContext) -> dict[str, Any]:
     return {"trajectory": "trajectory.csv", "report": "report/index.html", "figure": figure, **result.summary()}
 
 
+@dataclass(frozen=True)
+class CompareOptions:
+    """The [compare] table of a pipeline: the scenario whose move is compared (its own [compare] table tunes it)."""
+
+    scenario: Path
+    """Scenario TOML, relative to the pipeline; the methods and studies come from its [compare] table."""
+    use_identified: bool = True
+    """Compare for the liquid identified by this pipeline's [identify] stage; false uses the scenario's [liquid]."""
+
+
+def run_compare(opts: CompareOptions, ctx: StageContext) -> dict[str, Any]:
+    """Build and score every method, write scores.json and the comparison report."""
+    from .compare import compare, from_scenario
+    from .compare_report import save_report
+    from .scenario import load_scenario
+
+    scenario = load_scenario(opts.scenario)
+    comp = compare(from_scenario(scenario, _liquid(opts, ctx, scenario)), progress=True)
+    summary = comp.summary()
+    write_text(ctx.out_dir / "scores.json", json.dumps(summary, indent=2, default=float) + "\n")
+    save_report(comp, ctx.out_dir / "report")
+    return {"scores": "scores.json", "report": "report/index.html", "verdict": summary["verdict"],
+            "methods": summary["methods"]}  # fmt: skip
+
+
 TRACK = Stage("track", TrackOptions, run_track, input_files=lambda o: list(o.videos))
 IDENTIFY = Stage("identify", IdentifyOptions, run_identify, input_files=lambda o: list(o.signals),
                  needs=_identify_needs)  # fmt: skip
 
 PLAN = Stage("plan", PlanOptions, run_plan, input_files=lambda o: [o.scenario], needs=_liquid_needs)
 
-REGISTRY: dict[str, Stage] = {"track": TRACK, "identify": IDENTIFY, "plan": PLAN}
+COMPARE = Stage("compare", CompareOptions, run_compare, input_files=lambda o: [o.scenario], needs=_liquid_needs)
+
+REGISTRY: dict[str, Stage] = {"track": TRACK, "identify": IDENTIFY, "plan": PLAN, "compare": COMPARE}
 """Stages in the order they run."""
