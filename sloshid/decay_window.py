@@ -33,10 +33,9 @@ QUIET_PERIODS = 2
 """... and stays there for this many periods, so one quiet dip in a beating decay does not end it."""
 
 TAIL_TIME_CONSTANTS = 2.0
-"""Once the decay rate is known, the window is extended this many time constants 1/(zeta omega) past the fade (or
-to the end of the quiet stretch): the low tail still pins down the decay rate. The Fisher information on the rate
-that lies beyond an amplitude of 3 noise sd is about 30 % for a ring-down starting at 20 noise sd; two time
-constants further on only about 2 % remains."""
+"""When two modes beat (the first quiet stretch may be a beat's null), the window is extended this many decay time
+constants 1/(zeta omega) past it: for a ring-down starting at 20 noise sd about 30 % of the Fisher information on
+the decay rate lies beyond the 3-noise-sd fade, and two time constants further on only about 2 % remains."""
 
 RISE_FACTOR = 2.0
 """The tail extension stops where the swing climbs above this multiple of the fade level (END_NOISE_FACTOR noise sd):

@@ -404,10 +404,13 @@ class Identifier:
                     f"noise in {st.f_range_hz[0]:g}-{st.f_range_hz[1]:g} Hz, and a fitted decay explains only "
                     f"{explained:.0f} % ({snr:.1f} standard errors)."
                 )
-        if st.window_s is None:  # the decay rate is known now: let the automatic windows take in the low tail
+        if st.window_s is None and any(strong_peaks(sp, st.second_mode_ratio) for sp in spectra):
+            # two modes beat, so the first quiet stretch may be a beat's null rather than the fade: now that the decay
+            # rate is known, let the automatic windows take in the ring-down's tail (a single mode's envelope only
+            # falls, so there the first quiet stretch is the fade and the window stays)
             rate, f_fit = fit.zeta * fit.omega_rad_s, fit.omega_rad_s / (2 * math.pi)
             longer = [extend_tail(s, w, f_fit, rate, fs.noise_std) for s, w, fs in zip(sigs, windows, fullspec)]
-            if any(a.t1_s > b.t1_s for a, b in zip(longer, windows)):
+            if any(a.t1_s > b.t1_s + 1 / f_fit for a, b in zip(longer, windows)):  # at least a period more
                 windows = longer
                 parts = [s.between(w.t0_s, w.t1_s) for s, w in zip(sigs, windows)]
                 spectra = [welch_spectrum(p.t_s, p.value, st.f_range_hz) for p in parts]
@@ -521,7 +524,10 @@ def judge(st, sigs, windows, spectra, fit, params, checks, lb, fits, second=None
         if snr < AMPLITUDE_SNR:
             reasons.append(f"{name}: the fitted amplitude is only {snr:.1f} standard errors above zero.")
     for name in fit.at_bound:
-        reasons.append(f"{name} ended on its search bound.")
+        if name == "zeta" and fit.zeta < 0.5:  # the lower bound: no decay, or a growing amplitude, in the window
+            reasons.append("zeta ended on its search bound 0: the oscillation does not decay in the window (no free decay).")
+        else:
+            reasons.append(f"{name} ended on its search bound.")
     z = params["zeta"]
     if "zeta" not in fit.at_bound and z.ci95[0] <= 0:  # a wide but valid interval: reported, not a doubt
         notes.append(
