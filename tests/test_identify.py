@@ -137,8 +137,10 @@ def _two_modes(f2, z2, a2, seed=4):
     return make_signal(t, y, "a_deg", "deg", "two modes")
 
 
-def test_two_mode_fit_recovers_the_first_mode_beside_a_strong_second():
+def test_two_mode_fit_recovers_the_first_mode_beside_a_strong_second(tmp_path):
     # a 4.1 Hz mode at 2/3 of the 3.0 Hz one's amplitude, the situation of the tilted real runs (3.0 + 3.97 Hz)
+    from sloshid.identify_report import build_report
+
     res = Identifier().fit(_two_modes(4.1, 0.015, 4.0)).result
     sm = res.second_mode
     assert sm is not None and sm.separated, sm and sm.problems
@@ -156,6 +158,8 @@ def test_two_mode_fit_recovers_the_first_mode_beside_a_strong_second():
     js = res.to_json_dict()
     assert js["second_mode"]["separated"] and js["second_mode"]["f_hz"]["value"] == pytest.approx(4.1, rel=0.002)
     assert "a2 exp(-zeta2" in js["fit"]["model"] and "second mode: f2 = 4.1" in res.summary()
+    page = build_report(res).save(tmp_path).read_text()  # the HTML report shows the second mode and the rule's outcome
+    assert "Second mode" in page and "Here they are separated." in page
 
 
 def test_single_mode_signal_uses_the_single_mode_model():
