@@ -11,18 +11,18 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field
-from typing import Any, Callable
+from typing import Any
 
 import numpy as np
 from tqdm import tqdm
 
 from .closed_loop import ClosedLoopResponse, closed_loop_response
 from .errors import UserError
-from .feedback import FeedbackSettings, run_feedback
+from .feedback import FeedbackSettings
 from .jerk_profile import jerk_limited
 from .model import SloshParams
 from .profiles import MoveTask, NotApplicable, constant_acceleration
-from .robustness import RobustnessResult, sweep
+from .robustness import Replay, RobustnessResult, sweep
 from .shapers import shaped_constant_acceleration
 from .simulate import LiquidResponse, simulate_liquid
 from .trajectory import RobotLimits, Trajectory, check_limits
@@ -57,7 +57,7 @@ class CompareSettings:
     """Residual relative angle at or below which a move counts as slosh-free, degrees."""
     omega_factors: list[float] = field(default_factory=lambda: [0.8, 0.85, 0.9, 0.95, 1.0, 1.05, 1.1, 1.15, 1.2])
     """True/identified natural-frequency ratios of the robustness sweep."""
-    zeta_factors: list[float] = field(default_factory=lambda: [0.5, 0.71, 1.0, 1.41, 2.0])
+    zeta_factors: list[float] = field(default_factory=lambda: [0.5, 1.0, 2.0])
     """True/identified damping-ratio ratios of the robustness sweep."""
     robust_omega_factors: list[float] = field(default_factory=lambda: [0.9, 1.0, 1.1])
     """Frequency ratios that sloshid's robust plan must all bring to rest."""
@@ -69,6 +69,8 @@ class CompareSettings:
     """Accelerations of the constant-acceleration move in the linear-vs-nonlinear study, m/s^2."""
     feedback: FeedbackSettings = field(default_factory=FeedbackSettings)
     """Camera and LQR of the feedback methods ([compare.feedback])."""
+    workers: int = 2
+    """Processes for the robustness sweep (1: run in this process)."""
 
     def __post_init__(self) -> None:
         from .settings import did_you_mean
@@ -84,6 +86,8 @@ class CompareSettings:
                 raise UserError(f"[compare].{name} must be positive, got {getattr(self, name)!r}.")
         if self.jerk_max_m_s3 is not None and not self.jerk_max_m_s3 > 0:
             raise UserError(f"[compare].jerk_max_m_s3 must be positive, got {self.jerk_max_m_s3!r}.")
+        if not 1 <= self.workers <= 64:
+            raise UserError(f"[compare].workers must lie between 1 and 64, got {self.workers!r}.")
         lists = ("omega_factors", "zeta_factors", "robust_omega_factors", "camera_fps_sweep", "linearity_acc_m_s2")
         for name in lists:
             if not getattr(self, name) or min(getattr(self, name)) <= 0:
@@ -126,7 +130,7 @@ class MethodResult:
     """Why the method is not applicable (empty when it is)."""
     build_time_s: float = 0.0
     """Time to compute the trajectory (planner solve time for sloshid's methods), s."""
-    replay: Callable[[SloshParams], Trajectory] | None = None
+    replay: Replay | None = None
     """What it executes when the true liquid differs (robustness sweep)."""
 
     @property
@@ -196,6 +200,18 @@ class CompareInput:
         return s if s is not None else max(self.limits.task.acc_max_m_s2) * self.params.f_hz
 
 
+def from_scenario(scenario: Any, params: SloshParams) -> CompareInput:
+    """The comparison's input from a loaded sloshid.scenario.Scenario; the [compare] table is validated here."""
+    from .settings import from_dict
+
+    settings = from_dict(CompareSettings, scenario.compare, "[compare]")
+    lim = scenario.limits
+    task = MoveTask(tuple(tuple(map(float, p)) for p in scenario.waypoints), tuple(lim.acc_max), tuple(lim.vel_max))
+    limits = MoveLimits(task, lim.tilt_max_deg, lim.tilt_rate_max_deg_s, scenario.robot, list(scenario.obstacles),
+                        scenario.container_radius_m)  # fmt: skip
+    return CompareInput(limits, params, settings, scenario)
+
+
 def sloshid_plan(inp: CompareInput, robust: bool) -> tuple[Trajectory, float]:
     """sloshid's plan (issue 4's planner) for the scenario, nominal or robust; (trajectory, solve time in s)."""
     if inp.scenario is None:
@@ -204,7 +220,7 @@ def sloshid_plan(inp: CompareInput, robust: bool) -> tuple[Trajectory, float]:
         from .planner import plan
     except ImportError as exc:
         raise NotApplicable(f"the planner is not available ({exc}).") from None
-    factors = inp.settings.robust_omega_factors if robust else None
+    factors = inp.settings.robust_omega_factors if robust else ()  # () is nominal; None would take [solver]'s
     try:
         result = plan(inp.scenario, inp.params, robust_omega_factors=factors)
     except UserError as exc:
@@ -212,15 +228,9 @@ def sloshid_plan(inp: CompareInput, robust: bool) -> tuple[Trajectory, float]:
     return result.trajectory, float(result.solve_time_s)
 
 
-def fixed(traj: Trajectory) -> Callable[[SloshParams], Trajectory]:
-    """Open-loop replay: the same trajectory whatever the true liquid."""
-    return lambda _truth: traj
-
-
-def with_feedback(inp: CompareInput, base: Trajectory, fb: FeedbackSettings | None = None) -> Callable:
+def with_feedback(inp: CompareInput, base: Trajectory, fb: FeedbackSettings | None = None) -> Replay:
     """Closed-loop replay: the feedback loop around `base`, re-run against the given true liquid."""
-    s = fb or inp.settings.feedback
-    return lambda truth: run_feedback(base, inp.params, truth, s, inp.settings.robot_bandwidth_hz).trajectory
+    return Replay(base, inp.params, fb or inp.settings.feedback, inp.settings.robot_bandwidth_hz)
 
 
 def build_method(key: str, inp: CompareInput, built: dict[str, MethodResult]) -> MethodResult:
@@ -253,7 +263,7 @@ def build_method(key: str, inp: CompareInput, built: dict[str, MethodResult]) ->
         res.build_time_s = time.perf_counter() - t0
     traj.name = res.label
     res.trajectory = traj
-    res.replay = res.replay or fixed(traj)
+    res.replay = res.replay or Replay(traj)
     res.score, res.response = score(traj, inp.params, inp.limits, inp.settings.settle_s)
     return res
 
@@ -369,7 +379,7 @@ def compare(inp: CompareInput, progress: bool = False) -> Comparison:
     ok = [r for r in results if r.applicable]
     closed = {r.key: closed_loop_response(r.trajectory, inp.params, s.robot_bandwidth_hz) for r in ok}  # type: ignore[arg-type]
     robust = sweep({r.label: r.replay for r in ok}, inp.params, s.omega_factors, s.zeta_factors,  # type: ignore[misc]
-                   progress=progress)  # fmt: skip
+                   progress=progress, workers=s.workers)  # fmt: skip
     camera, reference = camera_study(inp, built)
     comp = Comparison(inp.params, s, results, closed, robust, camera, reference, linearity_study(inp))
     comp.verdict = verdict(comp)
@@ -388,8 +398,9 @@ def verdict(comp: Comparison) -> str:
                f"({best.score.transfer_time_s:.3g} s, peak {best.score.peak_during_deg:.2g} deg during the move)"  # type: ignore[union-attr]
         zvd = comp.result("zvd")
         if zvd is not None and zvd.applicable and zvd is not best:
-            gain = 1 - best.score.transfer_time_s / zvd.score.transfer_time_s  # type: ignore[union-attr]
-            line += f", {100 * gain:.0f} % faster than ZVD shaping ({zvd.score.transfer_time_s:.3g} s)"  # type: ignore[union-attr]
+            t_best, t_zvd = best.score.transfer_time_s, zvd.score.transfer_time_s  # type: ignore[union-attr]
+            line += (f"; ZVD shaping takes {100 * (t_zvd / t_best - 1):.1f} % longer ({t_zvd:.3g} s), "
+                     f"i.e. it saves {100 * (1 - t_best / t_zvd):.1f} % of ZVD's transfer time")  # fmt: skip
         parts.append(line + ".")
     else:
         parts.append(f"No method keeps the residual slosh at or below {limit:g} deg.")

@@ -13,11 +13,11 @@ import numpy as np
 from ruckig import InputParameter, Result, Ruckig, Synchronization
 from ruckig import Trajectory as RuckigTrajectory
 
-from .profiles import DT_S, Move, NotApplicable, container_orientation
+from .profiles import DT_S, MoveTask, NotApplicable, container_orientation
 from .trajectory import Trajectory
 
 
-def ruckig_leg(start, goal, move: Move, jerk_max_m_s3: float) -> RuckigTrajectory:
+def ruckig_leg(start, goal, move: MoveTask, jerk_max_m_s3: float) -> RuckigTrajectory:
     """One rest-to-rest ruckig trajectory; raises NotApplicable when ruckig reports an error."""
     inp = InputParameter(3)
     inp.current_position = list(map(float, start))
@@ -35,7 +35,7 @@ def ruckig_leg(start, goal, move: Move, jerk_max_m_s3: float) -> RuckigTrajector
     return traj
 
 
-def jerk_limited(move: Move, jerk_max_m_s3: float, tilt: bool = False, dt_s: float = DT_S) -> Trajectory:
+def jerk_limited(move: MoveTask, jerk_max_m_s3: float, tilt: bool = False, dt_s: float = DT_S) -> Trajectory:
     """Methods 3 and 4: ruckig's time-optimal jerk-limited move through the waypoints (stop at each)."""
     t_parts, pos_parts, vel_parts, acc_parts = [], [], [], []
     t0 = 0.0

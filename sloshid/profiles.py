@@ -25,7 +25,7 @@ class NotApplicable(Exception):
 
 
 @dataclass(frozen=True)
-class Move:
+class MoveTask:
     """What every method has to do: visit the waypoints in order, stopping at each, within box limits."""
 
     waypoints: tuple[tuple[float, float, float], ...]
@@ -105,7 +105,7 @@ def container_orientation(acc_m_s2: np.ndarray, dt_s: float, tilt: bool) -> tupl
 
 
 def sample_move(
-    move: Move,
+    move: MoveTask,
     profiles: Sequence[PathProfile],
     name: str,
     tilt: bool = False,
@@ -129,10 +129,10 @@ def sample_move(
     return Trajectory(t, pos, vel, acc, euler, rates, name=name)
 
 
-def constant_acceleration(move: Move) -> Trajectory:
+def constant_acceleration(move: MoveTask) -> Trajectory:
     """Method 1: the seed's 'classical' planning, trapezoidal velocity per leg, container upright."""
     profiles = [
-        trapezoid(length, Move.path_limit(move.acc_max_m_s2, e), Move.path_limit(move.vel_max_m_s, e))
+        trapezoid(length, MoveTask.path_limit(move.acc_max_m_s2, e), MoveTask.path_limit(move.vel_max_m_s, e))
         for _, e, length in move.segments()
     ]
     return sample_move(move, profiles, "constant acceleration")

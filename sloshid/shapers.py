@@ -14,7 +14,7 @@ from typing import Literal
 import numpy as np
 
 from .model import SloshParams
-from .profiles import Move, PathProfile, sample_move, trapezoid
+from .profiles import MoveTask, PathProfile, sample_move, trapezoid
 from .trajectory import Trajectory
 
 
@@ -56,11 +56,11 @@ def shape(profile: PathProfile, shaper: Shaper) -> PathProfile:
     return PathProfile(profile.length_m, profile.duration_s + shaper.duration_s, evaluate)
 
 
-def shaped_constant_acceleration(move: Move, params: SloshParams, kind: Literal["ZV", "ZVD"]) -> Trajectory:
+def shaped_constant_acceleration(move: MoveTask, params: SloshParams, kind: Literal["ZV", "ZVD"]) -> Trajectory:
     """Method 2: the constant-acceleration move of every leg shaped with a ZV or ZVD shaper, container upright."""
     shaper = design_shaper(kind, params)
     profiles = [
-        shape(trapezoid(length, Move.path_limit(move.acc_max_m_s2, e), Move.path_limit(move.vel_max_m_s, e)), shaper)
+        shape(trapezoid(length, MoveTask.path_limit(move.acc_max_m_s2, e), MoveTask.path_limit(move.vel_max_m_s, e)), shaper)
         for _, e, length in move.segments()
     ]
     return sample_move(move, profiles, f"{kind} shaped")
