@@ -377,7 +377,7 @@ def compare(inp: CompareInput, progress: bool = False) -> Comparison:
         built[key] = build_method(key, inp, built)
     results = [built[k] for k in s.methods]
     ok = [r for r in results if r.applicable]
-    closed = {r.key: closed_loop_response(r.trajectory, inp.params, s.robot_bandwidth_hz) for r in ok}  # type: ignore[arg-type]
+    closed = {r.key: closed_loop_response(r.trajectory, inp.params, s.robot_bandwidth_hz, s.settle_s) for r in ok}  # type: ignore[arg-type]
     robust = sweep({r.label: r.replay for r in ok}, inp.params, s.omega_factors, s.zeta_factors,  # type: ignore[misc]
                    progress=progress, workers=s.workers)  # fmt: skip
     camera, reference = camera_study(inp, built)

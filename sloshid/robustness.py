@@ -93,8 +93,8 @@ def sweep(
     The residual peaks in the first slosh period after arrival, so `settle_s` = 1 s covers it for f > 1 Hz;
     `workers` > 1 spreads the points over that many processes.
     """
-    omega_factors = np.asarray(sorted(omega_factors), float)
-    zeta_factors = np.asarray(sorted(zeta_factors), float)
+    omega_factors = np.asarray(sorted(set(omega_factors) | {1.0}), float)  # the nominal point is always swept
+    zeta_factors = np.asarray(sorted(set(zeta_factors) | {1.0}), float)
     truths = [params.scaled(f, 1.0) for f in omega_factors] + [params.scaled(1.0, z) for z in zeta_factors]
     jobs = [(replay, truth, settle_s) for replay in replays.values() for truth in truths]
     bar = dict(total=len(jobs), desc="robustness sweep", disable=not progress, leave=False)
