@@ -24,7 +24,7 @@ from .scenario import Limits, Obstacle, SolverSettings
 from .trajectory import RobotLimits
 
 OK_STATUSES = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
-ROBOT_MARGIN = 0.95
+ROBOT_MARGIN = 0.9
 """Rotational robot limits are imposed at this share, since they are enforced at the nodes only."""
 BARRIER_SHARPNESS = 4.0
 """Exponent k of the smooth barrier (1/k) ln(1 + s^-k), which tends to -ln(min{1, s}) of seed eq. 10."""
@@ -169,14 +169,14 @@ def _obstacle_terms(p, spheres, cylinders) -> tuple[list, list]:
     hard, soft = [], []
     for c in spheres:  # c = [cx, cy, cz, r_inflated]
         d2 = ca.sumsqr(p - c[0:3])
-        hard.append(d2 / c[3] ** 2 - 1)
+        hard.append(ca.log(d2 / c[3] ** 2))
         soft.append(d2 - c[3] ** 2)
     for c in cylinders:  # c = [cx, cy, z_bottom, z_top, r_inflated] (z extent already inflated)
         rho2 = ((p[0] - c[0]) ** 2 + (p[1] - c[1]) ** 2) / c[4] ** 2
         mid, half = (c[2] + c[3]) / 2, (c[3] - c[2]) / 2
         dz2 = ((p[2] - mid) / half) ** 2
         shell = (rho2**CYLINDER_POWER + dz2**CYLINDER_POWER) / 2
-        hard.append(shell - 1)
+        hard.append(ca.log(shell))
         soft.append(c[4] ** 2 * (shell ** (1 / (2 * CYLINDER_POWER)) - 1) * 2)
     return hard, soft
 
@@ -205,6 +205,8 @@ class SegmentSolver:
         # one shooting interval, built once in SX and mapped over the grid (fast construction and evaluation)
         x, u, h = ca.SX.sym("x", nx), ca.SX.sym("u", nu), ca.SX.sym("h")
         f = ca.Function("f", [x, u, P], [_rhs(s, lay, x, u, liquids)])
+        self.rhs = f
+        """The model's right-hand side f(x, u, p) exactly as the NLP uses it (for tests and inspection)."""
         hs = h / s.rk4_steps
         xe = x
         for _ in range(s.rk4_steps):
@@ -257,29 +259,29 @@ class SegmentSolver:
             add(x[ang_r] - x[ang_n], "robust")
         node_fn = ca.Function("node", [x, u, P], [ca.vertcat(*node)])
 
-        T = ca.MX.sym("T")
-        X = ca.MX.sym("X", nx, N + 1)
+        # the interval length h is carried as an extra, constant state: every interval then depends on its own
+        # node only, which keeps the exact Hessian block-diagonal (cheap to colour and evaluate)
+        X = ca.MX.sym("X", nx + 1, N + 1)
         U = ca.MX.sym("U", nu, N)
         Pm = ca.MX.sym("P", P.numel())
-        hm = T / N
-        x_next, cost_k, sub_g = interval.map(N)(X[:, :N], U, hm, Pm)
-        g = [ca.vec(x_next - X[:, 1:])]
-        kinds = ["eq"] * (nx * N)
+        x_next, cost_k, sub_g = interval.map(N)(X[:nx, :N], U, X[nx, :N], Pm)
+        g = [ca.vec(x_next - X[:nx, 1:]), ca.vec(X[nx, 1:] - X[nx, :N])]
+        kinds = ["eq"] * (nx * N + N)
         if node:
-            g.append(ca.vec(node_fn.map(N + 1)(X, ca.horzcat(U, U[:, N - 1]), Pm)))
+            g.append(ca.vec(node_fn.map(N + 1)(X[:nx, :], ca.horzcat(U, U[:, N - 1]), Pm)))
             kinds += node_kinds * (N + 1)
         if sub:
             g.append(ca.vec(sub_g))
             kinds += sub_kinds * N
-        w = ca.vertcat(T, ca.vec(X), ca.vec(U))
+        w = ca.vertcat(ca.vec(X), ca.vec(U))
         opts = {
             "ipopt.print_level": 0, "print_time": False, "ipopt.sb": "yes",
-            "ipopt.max_iter": s.max_iter, "ipopt.tol": s.tol, "ipopt.mu_strategy": "adaptive",
+            "ipopt.max_iter": s.max_iter, "ipopt.tol": s.tol, "ipopt.mu_strategy": "monotone", "ipopt.mu_init": 1e-3,
         }  # fmt: skip
-        if s.warm:
-            opts.update({"ipopt.warm_start_init_point": "yes", "ipopt.mu_init": 1e-5,
+        if s.warm:  # re-solves: expand to SX (slower to build once, about twice as fast per iteration)
+            opts.update({"expand": True, "ipopt.warm_start_init_point": "yes", "ipopt.mu_init": 1e-5, "ipopt.mu_strategy": "adaptive",
                          "ipopt.warm_start_bound_push": 1e-6, "ipopt.warm_start_mult_bound_push": 1e-6})  # fmt: skip
-        nlp = {"x": w, "f": T + ca.sum2(cost_k), "g": ca.vertcat(*g), "p": Pm}
+        nlp = {"x": w, "f": N * X[nx, 0] + ca.sum2(cost_k), "g": ca.vertcat(*g), "p": Pm}
         self.nlp = ca.nlpsol("segment", "ipopt", nlp, opts)
         self.kinds = np.array(kinds)
         self.nw = w.numel()
@@ -287,14 +289,30 @@ class SegmentSolver:
     def _split(self, w: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
         """Decision vector -> (T, X (N+1, nx), U (N, nu))."""
         s = self.s
-        nX = s.nx * (s.N + 1)
-        X = w[1 : 1 + nX].reshape(s.N + 1, s.nx)
-        U = w[1 + nX :].reshape(s.N, s.n_pos)
-        return float(w[0]), X, U
+        nX = (s.nx + 1) * (s.N + 1)
+        X = w[:nX].reshape(s.N + 1, s.nx + 1)
+        U = w[nX:].reshape(s.N, s.n_pos)
+        return float(X[0, -1] * s.N), X[:, :-1], U
 
     def _join(self, T: float, X: np.ndarray, U: np.ndarray) -> np.ndarray:
-        """(T, X, U) -> decision vector (CasADi vec is column-major, i.e. node after node)."""
-        return np.concatenate([[T], X.ravel(), U.ravel()])
+        """(T, X, U) -> decision vector (CasADi vec is column-major, i.e. node after node, h last)."""
+        Xa = np.column_stack([X, np.full(len(X), T / self.s.N)])
+        return np.concatenate([Xa.ravel(), U.ravel()])
+
+    @staticmethod
+    def parameters(robot: RobotLimits, solver: SolverSettings, liquid: SloshParams, robust: Sequence[float],
+                   obstacles: Sequence[Obstacle], inflate_m: float) -> list[float]:  # fmt: skip
+        """The NLP parameter vector p: liquid, weights, robot limits, robust factors, inflated obstacles."""
+        robot_p = [robot.vel_m_s, robot.acc_m_s2, robot.rot_vel_rad_s * ROBOT_MARGIN,
+                   robot.rot_acc_rad_s2 * ROBOT_MARGIN, robot.rot_jerk_rad_s3 * ROBOT_MARGIN]  # fmt: skip
+        params = [liquid.l_m, liquid.damping_rate_1_s, solver.kappa_r, solver.kappa_j, solver.kappa_B, *robot_p, *robust]
+        for o in obstacles:
+            if o.kind == "sphere":
+                params += [*o.center, o.radius + inflate_m]
+        for o in obstacles:
+            if o.kind == "cylinder":
+                params += [*o.center[:2], o.z_range[0] - inflate_m, o.z_range[1] + inflate_m, o.radius + inflate_m]
+        return params
 
     def solve(
         self,
@@ -341,16 +359,7 @@ class SegmentSolver:
         lbg_of = {"eq": 0.0, "clear": 0.0, "unit": -1.0, "norm": -inf, "robust": -math.radians(solver.robust_max_rel_deg)}
         ubg = np.array([ubg_of[k] for k in self.kinds])
         lbg = np.array([lbg_of[k] for k in self.kinds])
-        robot_p = [robot.vel_m_s, robot.acc_m_s2, robot.rot_vel_rad_s * ROBOT_MARGIN,
-                   robot.rot_acc_rad_s2 * ROBOT_MARGIN, robot.rot_jerk_rad_s3 * ROBOT_MARGIN]  # fmt: skip
-        params = [liquid.l_m, liquid.damping_rate_1_s, solver.kappa_r, solver.kappa_j, solver.kappa_B, *robot_p, *robust]
-        for o in obstacles:
-            r = o.radius + inflate_m
-            if o.kind == "sphere":
-                params += [*o.center, r]
-        for o in obstacles:
-            if o.kind == "cylinder":
-                params += [*o.center[:2], o.z_range[0] - inflate_m, o.z_range[1] + inflate_m, o.radius + inflate_m]
+        params = self.parameters(robot, solver, liquid, robust, obstacles, inflate_m)
         args = dict(x0=guess, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg, p=np.array(params, dtype=float))
         if warm:
             args.update(lam_x0=warm["lam_x"], lam_g0=warm["lam_g"])

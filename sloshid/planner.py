@@ -19,7 +19,7 @@ from .errors import UserError
 from .export import sample_segments
 from .model import G, SloshParams
 from .ocp import OK_STATUSES, SegmentResult, Structure, get_solver, segment_axis, time_lower_bound
-from .scenario import Scenario
+from .scenario import Obstacle, Scenario
 from .simulate import LiquidResponse, simulate_liquid
 from .trajectory import LimitUsage, Trajectory, check_limits
 
@@ -31,6 +31,8 @@ GUESS_MARGIN_M = 0.02
 """Initial-guess points inside an inflated obstacle are pushed this far outside it."""
 CLEARANCE_RETRIES = 3
 """Re-solves with a grown obstacle margin when a 1 kHz sample dips into an obstacle between constraint points."""
+NEAR_M = 0.1
+"""A segment's problem includes the obstacles that come this close to its straight line (all, if the check fails)."""
 
 
 @dataclass
@@ -148,17 +150,23 @@ def check_feasible(scenario: Scenario) -> None:
             )
 
 
-def _structure(scenario: Scenario, start, goal, n_robust: int, warm: bool) -> Structure:
+def near_obstacles(scenario: Scenario, start, goal) -> list[Obstacle]:
+    """Obstacles within NEAR_M of the straight segment (the others cannot matter unless the path bulges far)."""
+    line = np.linspace(start, goal, 64)
+    return [o for o in scenario.obstacles if o.clearance(line, scenario.container_radius_m).min() < NEAR_M]
+
+
+def _structure(scenario: Scenario, start, goal, obstacles, n_robust: int, warm: bool) -> Structure:
     """The NLP shape for one segment; norm constraints only where the per-axis bounds do not imply them."""
     lim, robot, sv = scenario.limits, scenario.robot, scenario.solver
-    axis = segment_axis(start, goal, len(scenario.obstacles))
+    axis = segment_axis(start, goal, len(obstacles))
     three = axis is None
     rate = math.radians(lim.tilt_rate_max_deg_s)
     return Structure(
         axis=axis, jerk_limited=sv.jerk_limited, N=sv.N, rk4_steps=sv.rk4_steps,
-        clearance_points=sv.clearance_points if scenario.obstacles else 0,
-        n_spheres=sum(o.kind == "sphere" for o in scenario.obstacles),
-        n_cylinders=sum(o.kind == "cylinder" for o in scenario.obstacles),
+        clearance_points=sv.clearance_points if obstacles else 0,
+        n_spheres=sum(o.kind == "sphere" for o in obstacles),
+        n_cylinders=sum(o.kind == "cylinder" for o in obstacles),
         n_robust=n_robust,
         vel_norm=three and float(np.linalg.norm(lim.vel_max)) > robot.vel_m_s,
         acc_norm=three and float(np.linalg.norm(lim.acc_max)) > robot.acc_m_s2,
@@ -167,7 +175,7 @@ def _structure(scenario: Scenario, start, goal, n_robust: int, warm: bool) -> St
     )  # fmt: skip
 
 
-def _guess(s: Structure, scenario: Scenario, start, goal, T0: float, inflate_m: float) -> np.ndarray:
+def _guess(s: Structure, scenario: Scenario, obstacles, start, goal, T0: float, inflate_m: float) -> np.ndarray:
     """Initial guess: a minimum-jerk straight line pushed out of obstacles, liquid at its quasi-static tilt."""
     N = s.N
     tau = np.linspace(0, 1, N + 1)[:, None]
@@ -176,20 +184,24 @@ def _guess(s: Structure, scenario: Scenario, start, goal, T0: float, inflate_m: 
     vel = (30 * tau**2 - 60 * tau**3 + 30 * tau**4) * delta / T0
     acc = (60 * tau - 180 * tau**2 + 120 * tau**3) * delta / T0**2
     jerk = (60 - 360 * tau + 360 * tau**2) * delta / T0**3
-    for o in scenario.obstacles:
-        r = o.radius + inflate_m + GUESS_MARGIN_M
-        c = np.array(o.center[:2] + ((o.center[2],) if o.kind == "sphere" else (0.0,)))
-        for k in range(N + 1):
-            if o.clearance(pos[k], inflate_m + GUESS_MARGIN_M) >= 0:
-                continue
-            d = pos[k] - c
-            if o.kind == "cylinder":
-                d[2] = 0.0
-            if np.linalg.norm(d) < 1e-6:  # on the centre: step sideways, perpendicular to the move
-                d = np.cross(delta[0], [0.0, 0.0, 1.0])
-                d = d if np.linalg.norm(d) > 1e-9 else np.array([1.0, 0.0, 0.0])
-            d = d / np.linalg.norm(d) * r
-            pos[k] = c + d if o.kind == "sphere" else np.r_[c[:2] + d[:2], pos[k][2]]
+    for o in obstacles:  # bend the line around each obstacle it enters: a smooth sideways bump
+        clear = o.clearance(pos, inflate_m + GUESS_MARGIN_M)
+        if clear.min() >= 0:
+            continue
+        k = int(np.argmin(clear))
+        center = np.array([*o.center[:2], o.center[2] if o.kind == "sphere" else pos[k, 2]])
+        unit = delta[0] / np.linalg.norm(delta[0])
+        side = pos[k] - center
+        side -= side.dot(unit) * unit  # perpendicular to the move
+        if o.kind == "cylinder":
+            side[2] = 0.0
+        if np.linalg.norm(side) < 1e-6:  # straight through the centre: go around horizontally
+            side = np.cross(unit, [0.0, 0.0, 1.0])
+            side = side if np.linalg.norm(side) > 1e-9 else np.array([1.0, 0.0, 0.0])
+        side /= np.linalg.norm(side)
+        need = o.radius + inflate_m + GUESS_MARGIN_M - (pos[k] - center).dot(side)
+        bump = np.sin(np.pi * tau[:, 0]) ** 2
+        pos += np.outer(bump / max(bump[k], 0.3), side) * need
     ax = [s.axis] if s.axis is not None else [0, 1, 2]
     tilt = math.radians(scenario.limits.tilt_max_deg) * 0.9
     if s.axis is not None:
@@ -198,9 +210,8 @@ def _guess(s: Structure, scenario: Scenario, start, goal, T0: float, inflate_m: 
         ang = np.clip(np.column_stack([-np.arctan(acc[:, 1] / G), np.arctan(acc[:, 0] / G)]), -tilt, tilt)
     cols = [pos[:, ax], vel[:, ax]] + ([acc[:, ax]] if s.jerk_limited else [])
     cols += [ang, np.zeros_like(ang)] * (1 + s.n_robust)
-    X = np.column_stack(cols)
     mid = (jerk[:-1] + jerk[1:]) / 2 if s.jerk_limited else (acc[:-1] + acc[1:]) / 2
-    return np.concatenate([[T0], X.ravel(), mid[:, ax].ravel()])
+    return get_solver(s)._join(T0, np.column_stack(cols), mid[:, ax])
 
 
 def solve_segment(
@@ -210,21 +221,25 @@ def solve_segment(
     robust: Sequence[float] = (),
     extra_margin_m: float = 0.0,
     warm: SegmentResult | None = None,
+    all_obstacles: bool = False,
 ) -> SegmentResult:
-    """Solve the rest-to-rest segment from waypoint `index` to `index + 1` (cached solver, optional warm start)."""
+    """Solve the rest-to-rest segment from waypoint `index` to `index + 1` (cached solver, optional warm start).
+
+    Only obstacles near the straight segment enter the problem unless `all_obstacles`."""
     start, goal = scenario.waypoints[index], scenario.waypoints[index + 1]
-    inflate = scenario.container_radius_m + extra_margin_m
+    obstacles = scenario.obstacles if all_obstacles else near_obstacles(scenario, start, goal)
+    inflate = scenario.container_radius_m + scenario.solver.clearance_margin_m + extra_margin_m
     use_warm = warm is not None and bool(warm.warm)
-    s = _structure(scenario, start, goal, len(robust), use_warm)
-    if use_warm and len(warm.warm["x"]) != 1 + s.nx * (s.N + 1) + s.n_pos * s.N:
-        use_warm, s = False, _structure(scenario, start, goal, len(robust), False)
+    s = _structure(scenario, start, goal, obstacles, len(robust), use_warm)
+    if use_warm and len(warm.warm["x"]) != (s.nx + 1) * (s.N + 1) + s.n_pos * s.N:
+        use_warm, s = False, _structure(scenario, start, goal, obstacles, len(robust), False)
     solver = get_solver(s)
     t_lb = time_lower_bound(start, goal, scenario.limits, scenario.solver.kappa_T)
     T_bounds = (t_lb, scenario.limits.t_max_s)
-    guess = warm.warm["x"] if use_warm else _guess(s, scenario, start, goal, min(1.15 * t_lb, T_bounds[1]), inflate)
+    guess = warm.warm["x"] if use_warm else _guess(s, scenario, obstacles, start, goal, min(1.15 * t_lb, T_bounds[1]), inflate)
     status, iters, elapsed, w, warm_out = solver.solve(
         np.asarray(start), np.asarray(goal), scenario.limits, scenario.robot, scenario.solver, params, robust,
-        scenario.obstacles, inflate, T_bounds, guess, warm.warm if use_warm else None,
+        obstacles, inflate, T_bounds, guess, warm.warm if use_warm else None,
     )  # fmt: skip
     T, X, U = solver._split(w)
     return SegmentResult(index, tuple(start), tuple(goal), s.axis, s.jerk_limited, T, status, iters, elapsed, X, U, warm_out)
@@ -241,11 +256,11 @@ def _advice(status: str) -> str:
 
 
 def _solve_all(scenario: Scenario, params: SloshParams, robust: tuple[float, ...], margins: list[float],
-               which: list[int], warm: list[SegmentResult] | None, progress: bool) -> dict[int, SegmentResult]:  # fmt: skip
+               which: list[int], warm: list[SegmentResult] | None, progress: bool, full: set[int]) -> dict[int, SegmentResult]:  # fmt: skip
     """Solve the listed segments, in two worker processes when there are at least three and parallel is on."""
     from tqdm import tqdm
 
-    jobs = [(scenario, params, i, robust, margins[i], warm[i] if warm else None) for i in which]
+    jobs = [(scenario, params, i, robust, margins[i], warm[i] if warm else None, i in full) for i in which]
     bar = tqdm(total=len(jobs), desc="segments", unit="seg", disable=not progress)
     out: dict[int, SegmentResult] = {}
     if scenario.solver.parallel and len(jobs) >= 3:
@@ -286,7 +301,8 @@ def plan(
     n_seg = len(scenario.waypoints) - 1
     margins = [0.0] * n_seg
     warm = warm_from.segments if warm_from is not None and len(warm_from.segments) == n_seg else None
-    segs = _solve_all(scenario, params, robust, margins, list(range(n_seg)), warm, progress)
+    full: set[int] = set()  # segments solved with every obstacle, not only the near ones
+    segs = _solve_all(scenario, params, robust, margins, list(range(n_seg)), warm, progress, full)
     for attempt in range(CLEARANCE_RETRIES + 1):
         bad = [s for s in segs.values() if not s.success]
         if bad:
@@ -307,8 +323,10 @@ def plan(
                 "constraint points; raise [solver].clearance_points or [solver].N."
             )
         for i in dipped:
-            margins[i] += float(-clearance[seg_of_sample == i].min()) + 1e-3
-        segs.update(_solve_all(scenario, params, robust, margins, dipped, None, progress))
+            if i in full:
+                margins[i] += float(-clearance[seg_of_sample == i].min()) + 1e-3
+            full.add(i)
+        segs.update(_solve_all(scenario, params, robust, margins, dipped, None, progress, full))
     usages = check_limits(traj, scenario.robot)
     verification = simulate_liquid(traj, params)
     return PlanResult(

@@ -153,18 +153,20 @@ class SolverSettings:
     """Weight of the obstacle barrier (seed eq. 9-10)."""
     rk4_steps: int = 2
     """RK4 steps per shooting interval."""
-    clearance_points: int = 3
+    clearance_points: int = 1
     """Extra points per interval at which the hard obstacle clearance is also imposed."""
+    clearance_margin_m: float = 0.002
+    """Safety margin added to every inflated obstacle by the hard clearance constraint (m)."""
     robust_omega_factors: list[float] = field(default_factory=list)
     """Natural-frequency factors of extra pendulum copies that must also end at rest (robust variant), e.g. [0.9, 1.1]."""
     robust_max_rel_deg: float = 1.0
     """Largest angle between a robust copy and the container during the move (deg)."""
     max_iter: int = 1000
     """IPOPT iteration limit."""
-    tol: float = 1e-8
+    tol: float = 1e-6
     """IPOPT convergence tolerance."""
-    parallel: bool = True
-    """Solve independent waypoint segments in worker processes."""
+    parallel: bool = False
+    """Solve independent waypoint segments in two worker processes (pays off only on an idle machine)."""
 
     def __post_init__(self) -> None:
         if not 10 <= self.N <= 5000:
@@ -178,6 +180,8 @@ class SolverSettings:
             raise UserError("[solver].rk4_steps must lie in 1..20 and clearance_points in 0..20.")
         if any(not f > 0 for f in self.robust_omega_factors):
             raise UserError("[solver].robust_omega_factors must be positive numbers.")
+        if not self.clearance_margin_m >= 0:
+            raise UserError(f"[solver].clearance_margin_m must be zero or positive, got {self.clearance_margin_m}.")
         if not self.robust_max_rel_deg > 0 or not self.tol > 0 or not self.max_iter > 0:
             raise UserError("[solver].robust_max_rel_deg, tol and max_iter must be positive.")
 

@@ -6,6 +6,7 @@ The liquid is the pendulum pair of `sloshid.model.pendulum_rhs_3d`; what spills 
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -58,11 +59,23 @@ def simulate_liquid(
     n_after = int(np.ceil(settle_s / dt))
     t_all = np.concatenate([t, t[-1] + dt * np.arange(1, n_after + 1)])
 
+    t0, t_end, n = float(t[0]), float(t[-1]), len(t)
+    rows = acc.tolist()
+
     def rhs(time: float, y: np.ndarray) -> list[float]:
-        ux, uy, uz = (np.interp(time, t, acc[:, k], right=0.0) for k in range(3))
+        # acceleration linear between samples, zero after arrival (as np.interp(..., right=0)), in plain
+        # floats: this function runs ~10^5 times per second of motion, so it avoids NumPy scalar overhead
+        if time > t_end:
+            ux = uy = uz = 0.0
+        else:
+            s = (time - t0) / dt
+            i = min(max(int(s), 0), n - 2)
+            f = s - i
+            a, b = rows[i], rows[i + 1]
+            ux, uy, uz = (a[0] + f * (b[0] - a[0]), a[1] + f * (b[1] - a[1]), a[2] + f * (b[2] - a[2]))
         g_eff = G + uz
-        tilt_y_dd = angle_accel(-y[0], -y[2], uy, params, g_eff)  # -phi tilts toward +uy (model.py)
-        theta_dd = angle_accel(y[1], y[3], ux, params, g_eff)
+        tilt_y_dd = angle_accel(-y[0], -y[2], uy, params, g_eff, math.sin, math.cos)  # -phi tilts toward +uy
+        theta_dd = angle_accel(y[1], y[3], ux, params, g_eff, math.sin, math.cos)
         return [y[2], y[3], -tilt_y_dd, theta_dd]
 
     sol = solve_ivp(rhs, (t_all[0], t_all[-1]), np.zeros(4), method="DOP853", t_eval=t_all,

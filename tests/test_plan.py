@@ -1,0 +1,179 @@
+"""The planner: sign convention end to end, the seed's 1-D case against its bound, obstacle clearance on every
+1 kHz sample, independent liquid simulation, robot-limit check, waypoint continuity, robust variant."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+from scipy.integrate import solve_ivp
+
+from sloshid.model import G, SloshParams, steady_tilt
+from sloshid.ocp import Structure, bang_bang_time, get_solver
+from sloshid.planner import plan
+from sloshid.scenario import Scenario, load_scenario, scenario_from_dict
+from sloshid.simulate import simulate_liquid
+from sloshid.trajectory import RobotLimits, Trajectory, check_limits
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _with_solver(sc: Scenario, **changes) -> Scenario:
+    """The scenario with some [solver] settings changed."""
+    return dataclasses.replace(sc, solver=dataclasses.replace(sc.solver, **changes))
+
+
+@pytest.fixture(scope="module")
+def paper_1d() -> Scenario:
+    return load_scenario(ROOT / "scenarios" / "paper_1d.toml")
+
+
+@pytest.fixture(scope="module")
+def plan_1d(paper_1d):
+    """The seed's 1-D case with the default (jerk-limited) formulation."""
+    return plan(paper_1d, paper_1d.liquid)
+
+
+def _small_3d(obstacles: list[dict], waypoints=None, N: int = 30) -> Scenario:
+    """A short 3-D scenario, coarse grid, Table I liquid: quick to solve in tests."""
+    return scenario_from_dict({
+        "move": {"waypoints": waypoints or [[0.4, -0.15, 0.3], [0.4, 0.15, 0.3]]},
+        "limits": {"acc_max": [0.5, 0.5, 0.5]},
+        "obstacles": obstacles,
+        "container": {"radius_m": 0.03},
+        "solver": {"N": N},
+        "liquid": {"m_kg": 0.5, "l_m": 0.021, "d_ns_per_m": 1.51},
+    })  # fmt: skip
+
+
+@pytest.mark.parametrize("u", [(0.8, 0.0, 0.0), (0.0, 0.8, 0.0), (-0.5, 1.2, 1.0)])
+def test_planner_model_settles_at_steady_tilt(u):
+    # The NLP's own right-hand side (3-D, acceleration input) under a constant acceleration settles at
+    # theta = atan(ux/(g+uz)), phi = -atan(uy/(g+uz)); heavy damping (zeta 0.5) settles within 6 s.
+    liquid = SloshParams.from_modal(2 * math.pi * 3.0, 0.5)
+    s = Structure(axis=None, jerk_limited=False, N=10, rk4_steps=1, clearance_points=0, n_spheres=0,
+                  n_cylinders=0, n_robust=0, vel_norm=False, acc_norm=False, rot_vel_norm=False)  # fmt: skip
+    solver = get_solver(s)
+    sc = load_scenario(ROOT / "scenarios" / "paper_1d.toml")
+    p = solver.parameters(RobotLimits(), sc.solver, liquid, (), (), 0.0)
+    sol = solve_ivp(lambda t, x: np.asarray(solver.rhs(x, u, p)).ravel(), (0, 6), np.zeros(s.nx), rtol=1e-10, atol=1e-12)
+    phi, theta = sol.y[6, -1], sol.y[7, -1]  # layout: pos(3), vel(3), phi, theta, rates
+    assert (phi, theta) == pytest.approx(steady_tilt(*u), abs=1e-6)
+
+
+def test_exported_tilt_leans_into_the_acceleration(plan_1d):
+    # A move along +y: while accelerating (ay > 0) the container rolls to phi < 0, braking the other way;
+    # phi follows -atan(ay/g) in shape (correlation), not exactly (the pendulum lags the input).
+    tr = plan_1d.trajectory
+    accelerating, braking = tr.acc_m_s2[:, 1] > 0.2, tr.acc_m_s2[:, 1] < -0.2
+    assert tr.euler_rad[accelerating, 0].mean() < -0.02 and tr.euler_rad[braking, 0].mean() > 0.02  # ~ +-atan(0.5/g)
+    # measured 0.85: the time-optimal plan swings the pendulum beyond its quasi-static tilt at the switches
+    assert np.corrcoef(tr.euler_rad[:, 0], -np.arctan(tr.acc_m_s2[:, 1] / G))[0, 1] > 0.8
+    assert np.all(tr.euler_rad[:, 1] == 0) and np.all(tr.euler_rad[:, 2] == 0)  # no pitch, no yaw on a y move
+
+
+def test_paper_1d_meets_the_seed_time_and_bang_bang_bound(plan_1d, paper_1d):
+    bound = bang_bang_time(0.54, 0.5, 1.7)
+    assert bound == pytest.approx(2 * math.sqrt(0.54 / 0.5))
+    # jerk-limited default: at most the seed's 2.15 s, and never below the sloshing-free bound
+    assert bound <= plan_1d.T_s <= 2.15
+    # the seed's piecewise-constant acceleration: within 2 % of the bound (issue target)
+    seed = plan(_with_solver(paper_1d, jerk_limited=False), paper_1d.liquid)
+    assert bound <= seed.T_s <= 1.02 * bound
+    assert seed.segments[0].formulation == "acceleration" and plan_1d.segments[0].formulation == "jerk"
+    # rest to rest at the goal
+    tr = plan_1d.trajectory
+    assert tr.pos_m[-1] == pytest.approx([0.3, 0.27, 0.2], abs=1e-6)
+    assert np.abs(tr.vel_m_s[-1]).max() < 1e-6 and np.abs(tr.acc_m_s2[-1]).max() < 1e-6
+
+
+def test_independent_simulation_of_the_csv(plan_1d, tmp_path):
+    # Write the CSV, read it back and simulate the liquid under its accelerations: the surface stays
+    # with the container (< 0.1 deg while moving, < 0.05 deg after arrival: the issue's thresholds).
+    path = tmp_path / "traj.csv"
+    plan_1d.trajectory.to_csv(path)
+    back = Trajectory.from_csv(path)
+    assert back.dt_s == pytest.approx(1e-3)
+    resp = simulate_liquid(back, plan_1d.params)
+    assert resp.peak_during_deg < 0.1 and resp.residual_deg < 0.05
+    assert plan_1d.verification_ok
+    # the same plan flown with an upright container would slosh by degrees: the check is not vacuous
+    upright = dataclasses.replace(back, euler_rad=np.zeros_like(back.euler_rad))
+    assert simulate_liquid(upright, plan_1d.params).peak_during_deg > 2.0
+
+
+def test_limits_check_flags_the_seed_formulation_and_a_sped_up_plan(plan_1d, paper_1d):
+    assert plan_1d.limits_ok  # jerk-limited default respects the Panda's limits
+    seed = plan(_with_solver(paper_1d, jerk_limited=False), paper_1d.liquid)
+    usage = {u.quantity: u for u in seed.limits}
+    # an acceleration step of 1 m/s^2 turns the pendulum's angular acceleration by 1/l = 48 rad/s^2 at once
+    assert not seed.limits_ok and not usage["rot_acc_rad_s2"].ok
+    # the default plan replayed 3x faster (velocities x3, accelerations x9) breaks the robot's rotation limits
+    tr = plan_1d.trajectory
+    fast = Trajectory(tr.t_s / 3, tr.pos_m, tr.vel_m_s * 3, tr.acc_m_s2 * 9, tr.euler_rad, tr.euler_rate_rad_s * 3)
+    bad = [u.quantity for u in check_limits(fast, RobotLimits()) if not u.ok]
+    assert "rot_vel_rad_s" in bad and "rot_acc_rad_s2" in bad
+
+
+@pytest.mark.parametrize(
+    "obstacle",
+    [
+        {"center": [0.4, 0.0, 0.3], "radius": 0.05},
+        {"kind": "cylinder", "center": [0.4, 0.0], "radius": 0.04, "z_range": [0.0, 0.5]},
+    ],
+)
+def test_obstacle_clearance_on_every_sample(obstacle):
+    # The straight line runs through the obstacle's centre: the plan must go around, and no 1 kHz
+    # sample may come closer than the container radius (exact distance, independent of the NLP's form).
+    sc = _small_3d([obstacle])
+    res = plan(sc, sc.liquid)
+    o = sc.obstacles[0]
+    clearance = o.clearance(res.trajectory.pos_m, sc.container_radius_m)
+    assert clearance.min() >= 0.0
+    assert res.min_clearance_m == pytest.approx(clearance.min())
+    straight = np.linspace(sc.waypoints[0], sc.waypoints[1], 50)
+    assert o.clearance(straight, sc.container_radius_m).min() < 0  # the test would fail for a straight move
+    assert res.verification_ok
+
+
+def test_waypoints_concatenate_continuously():
+    sc = _small_3d([], waypoints=[[0.4, -0.15, 0.3], [0.45, 0.05, 0.35], [0.3, 0.1, 0.3]])
+    res = plan(sc, sc.liquid)
+    tr = res.trajectory
+    assert len(res.segments) == 2 and np.allclose(np.diff(tr.t_s), 1e-3)
+    junction = int(math.ceil(res.segments[0].T_s * 1000 - 1e-9))
+    assert tr.pos_m[junction] == pytest.approx(sc.waypoints[1], abs=1e-6)
+    assert np.abs(tr.vel_m_s[junction]).max() < 1e-6
+    # no jumps anywhere: per-sample steps bounded by the largest speed / tilt rate times dt (plus 1 % slack)
+    dt = tr.dt_s
+    step_pos = np.linalg.norm(np.diff(tr.pos_m, axis=0), axis=1).max()
+    assert step_pos <= np.linalg.norm(tr.vel_m_s, axis=1).max() * dt * 1.01
+    step_ang = np.abs(np.diff(tr.euler_rad, axis=0)).max()
+    assert step_ang <= np.abs(tr.euler_rate_rad_s).max() * dt * 1.01
+    assert np.abs(np.diff(tr.vel_m_s, axis=0)).max() <= np.abs(tr.acc_m_s2).max() * dt * 1.01
+    assert res.verification_ok
+
+
+@pytest.mark.slow
+def test_robust_variant_keeps_residual_small_over_frequency_band(paper_1d):
+    # Copies at 0.9 and 1.1 omega must end at rest too: residual slosh stays <= 0.5 deg over +-10 %
+    # frequency error (the comparison stage's target), at a time cost over the nominal plan.
+    nominal = plan(paper_1d, paper_1d.liquid)
+    robust = plan(paper_1d, paper_1d.liquid, robust_omega_factors=(0.9, 1.0, 1.1))
+    assert robust.robust_omega_factors == (0.9, 1.1)
+    assert robust.T_s > nominal.T_s
+    for factor in (0.9, 0.95, 1.1):
+        true_liquid = paper_1d.liquid.scaled(omega_factor=factor)
+        assert simulate_liquid(robust.trajectory, true_liquid).residual_deg <= 0.5
+    assert simulate_liquid(nominal.trajectory, paper_1d.liquid.scaled(0.9)).residual_deg > simulate_liquid(
+        robust.trajectory, paper_1d.liquid.scaled(0.9)
+    ).residual_deg
+
+
+def test_warm_start_reuses_the_solution(paper_1d, plan_1d):
+    again = plan(paper_1d, paper_1d.liquid, warm_from=plan_1d)
+    assert again.T_s == pytest.approx(plan_1d.T_s, rel=1e-5)  # both stop at IPOPT tol 1e-6
+    assert again.iterations < plan_1d.iterations
