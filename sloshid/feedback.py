@@ -50,9 +50,11 @@ class FeedbackSettings:
     """LQR (Bryson): acceptable feedback acceleration; also its saturation, m/s^2."""
     settle_s: float = 3.0
     """How long feedback may keep acting after the feedforward has arrived, s."""
+    calm_deg: float = 0.2
+    """The move counts as arrived once the estimated slosh amplitude stays below this (and the position is back), deg."""
 
     def __post_init__(self) -> None:
-        for name in ("camera_fps", "noise_deg", "pos_tol_m", "vel_tol_m_s", "angle_tol_deg", "acc_tol_m_s2"):
+        for name in ("camera_fps", "noise_deg", "pos_tol_m", "vel_tol_m_s", "angle_tol_deg", "acc_tol_m_s2", "calm_deg"):
             if not getattr(self, name) > 0:
                 raise UserError(f"[compare.feedback] {name} must be positive, got {getattr(self, name)!r}.")
         if not (0 <= self.latency_s < 1.0 and 0 < self.settle_s <= 30):
@@ -114,6 +116,7 @@ def run_feedback(
     dev_hist = np.zeros((n, len(AXES), 2))
     q_true = np.zeros((n, len(AXES)))
     q_est = np.zeros((n, len(AXES)))
+    amp_est = np.zeros((n, len(AXES)))  # estimated slosh amplitude relative to the commanded tilt
     history: list[list[tuple[np.ndarray, np.ndarray]]] = [[] for _ in AXES]
     pending: list[tuple[int, int, np.ndarray]] = []  # (arrival step, frame step, measurement per axis)
     next_frame, frames = 0.0, 0
@@ -138,6 +141,7 @@ def run_feedback(
         for k, kf in enumerate(filters):
             q_est[j, k] = kf.x[0, 0]
             err = np.array([dev[k, 0], dev[k, 1], kf.x[0, 0] - tilt_cmd[j, k], kf.x[1, 0] - tilt_rate[j, k]])
+            amp_est[j, k] = math.hypot(err[2], err[3] / model.omega_rad_s)
             u_fb[j, k] = float(np.clip(-gain @ err, -s.acc_tol_m_s2, s.acc_tol_m_s2))
         dev_hist[j] = dev
         a_cmd = padded.acc_m_s2[j, [a for a, _, _ in AXES]] + u_fb[j]
@@ -145,7 +149,7 @@ def run_feedback(
             kf.predict(u=np.array([[a_cmd[k]]]))
         x_plant = (pa @ x_plant[:, :, None])[:, :, 0] + pb[:, 0] * a_cmd[:, None]
         dev = np.column_stack([dev[:, 0] + dev[:, 1] * dt + 0.5 * u_fb[j] * dt * dt, dev[:, 1] + u_fb[j] * dt])
-    end = arrival_index(dev_hist, len(traj.t_s), n)
+    end = arrival_index(dev_hist, amp_est, len(traj.t_s), math.radians(s.calm_deg))
     pos, vel, acc = padded.pos_m.copy(), padded.vel_m_s.copy(), padded.acc_m_s2.copy()
     for k, (col, _, _) in enumerate(AXES):
         pos[:, col] += dev_hist[:, k, 0]
@@ -158,9 +162,14 @@ def run_feedback(
     return FeedbackRun(run, rms, frames)
 
 
-def arrival_index(dev_hist: np.ndarray, n_ff: int, n: int, pos_tol_m: float = 1e-3, vel_tol_m_s: float = 5e-3) -> int:
-    """Samples until the container is back on the feedforward's goal (within 1 mm and 5 mm/s) for good."""
+def arrival_index(
+    dev_hist: np.ndarray, amp_est: np.ndarray, n_ff: int, calm_rad: float, pos_tol_m: float = 1e-3,
+    vel_tol_m_s: float = 5e-3,
+) -> int:
+    """Samples until the container is back on the goal (1 mm, 5 mm/s) and the estimated slosh calm, for good."""
+    n = len(dev_hist)
     off = (np.abs(dev_hist[:, :, 0]) > pos_tol_m).any(axis=1) | (np.abs(dev_hist[:, :, 1]) > vel_tol_m_s).any(axis=1)
+    off |= (amp_est > calm_rad).any(axis=1)
     off[:n_ff] = True
     last = np.flatnonzero(off)
     return int(min(n, last[-1] + 2)) if len(last) else n

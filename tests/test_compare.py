@@ -112,6 +112,7 @@ def test_robot_tracking_lag_shows_in_the_closed_loop():
     assert slow.residual_linear_deg > 0.05 > fast.residual_linear_deg
 
 
+@pytest.mark.slow
 def test_feedback_damps_the_constant_acceleration_residual():
     traj = constant_acceleration(SHORT)
     s = FeedbackSettings(camera_fps=30.0, latency_s=0.05, noise_deg=0.3, seed=1, settle_s=2.0)
@@ -126,6 +127,7 @@ def test_feedback_damps_the_constant_acceleration_residual():
     assert run.frames == pytest.approx(30.0 * (traj.duration_s + s.settle_s - s.latency_s), abs=2)
 
 
+@pytest.mark.slow
 def test_robustness_ordering_at_and_around_the_nominal_point():
     replays = {
         "const": Replay(constant_acceleration(SHORT)),
