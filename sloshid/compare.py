@@ -390,11 +390,14 @@ def verdict(comp: Comparison) -> str:
     """A few sentences drawn from the numbers: who is fastest slosh-free, at what cost, and how robust."""
     limit = comp.settings.residual_ok_deg
     ok = [r for r in comp.results if r.applicable]
-    free = sorted((r for r in ok if r.score.residual_deg <= limit), key=lambda r: r.score.transfer_time_s)  # type: ignore[union-attr]
+    collides = [r for r in ok if r.score.min_clearance_m is not None and r.score.min_clearance_m < 0]  # type: ignore[union-attr]
+    free = sorted((r for r in ok if r.score.residual_deg <= limit and r not in collides),  # type: ignore[union-attr]
+                  key=lambda r: r.score.transfer_time_s)  # type: ignore[union-attr]  # fmt: skip
     parts = []
     if free:
         best = free[0]
-        line = f"{best.label} is the fastest move that leaves at most {limit:g} deg of residual slosh " \
+        kind = "collision-free move" if any(r.score.min_clearance_m is not None for r in ok) else "move"  # type: ignore[union-attr]
+        line = f"{best.label} is the fastest {kind} that leaves at most {limit:g} deg of residual slosh " \
                f"({best.score.transfer_time_s:.3g} s, peak {best.score.peak_during_deg:.2g} deg during the move)"  # type: ignore[union-attr]
         zvd = comp.result("zvd")
         if zvd is not None and zvd.applicable and zvd is not best:
@@ -419,6 +422,8 @@ def verdict(comp: Comparison) -> str:
     if nominal is not None and rob is not None and nominal.applicable and rob.applicable:
         cost = rob.score.transfer_time_s / nominal.score.transfer_time_s - 1  # type: ignore[union-attr]
         parts.append(f"The robust plan costs {100 * cost:.1f} % more transfer time.")
+    if collides:
+        parts.append("Going straight between waypoints collides with an obstacle: " + ", ".join(r.label for r in collides) + ".")
     broken = [r.label for r in ok if not r.score.robot_limits_ok]  # type: ignore[union-attr]
     if broken:
         parts.append("Robot limits fail for: " + ", ".join(broken) + ".")

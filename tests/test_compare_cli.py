@@ -113,6 +113,8 @@ def test_bad_files_and_options(tmp_path, run_cli):
     assert code == 2 and "not valid JSON" in err and not report.exists()
     code, _, err = run_cli("compare", path, "--report", tmp_path / "out.html")
     assert code == 2 and "--report takes a directory" in err and not (tmp_path / "out.html").exists()
+    code, _, err = run_cli("compare", path, "--report", bad_params)  # an existing file, not a directory
+    assert code == 2 and "--report takes a directory" in err and bad_params.read_text() == "{not json"
     broken = tmp_path / "broken.toml"
     broken.write_text("[move\nstart = 1")
     code, _, err = run_cli("compare", broken)

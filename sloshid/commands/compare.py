@@ -13,6 +13,7 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+from pathlib import Path
 
 from ..errors import UserError
 
@@ -51,7 +52,7 @@ def run(args: argparse.Namespace) -> int:
     scenario = load_scenario(args.scenario)
     params = resolve_liquid(scenario, args.params)
     inp = from_scenario(scenario, params)
-    if args.report is not None and args.report.endswith((".html", ".htm")):
+    if args.report is not None and (args.report.endswith((".html", ".htm")) or Path(args.report).is_file()):
         raise UserError(f"--report takes a directory (index.html is written inside it), got {args.report}.")
     comp = compare(inp, progress=sys.stderr.isatty())
     summary = comp.summary()
