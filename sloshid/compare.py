@@ -99,6 +99,7 @@ class Score:
     """How one method does on the liquid's relative angle (what spills) and on the limits."""
 
     transfer_time_s: float
+    """From the start of the move to arrival (feedback methods: until settled on the goal)."""
     peak_during_deg: float
     """Largest relative angle liquid - container while moving."""
     residual_deg: float
@@ -314,8 +315,7 @@ class Comparison:
         for r in self.results:
             row: dict[str, Any] = {"method": r.key, "label": r.label, "applicable": r.applicable}
             if r.applicable:
-                sc = r.score
-                row.update({k: v for k, v in vars(sc).items()})  # type: ignore[arg-type]
+                row.update(vars(r.score))
                 row["build_time_s"] = r.build_time_s
                 band = self.robustness.tolerance_band(r.label, self.settings.residual_ok_deg)
                 row["omega_band_residual_ok"] = list(band) if band else None

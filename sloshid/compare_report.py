@@ -88,7 +88,10 @@ def linearity_figure(comp: Comparison):
     ax.axhline(45, color="r", lw=0.8, ls=":", label="seed Fig. 8: ~45 deg observed")
     ax.set_xlabel("acceleration of the constant-acceleration move (m/s^2)")
     ax.set_ylabel("peak relative angle (deg)")
-    ax.legend(fontsize=8)
+    gap = ax.twinx()
+    gap.plot(acc, [p.max_gap_deg for p in comp.linearity], "^:", color="grey", label="largest gap (right axis)")
+    gap.set_ylabel("largest linear - nonlinear gap over time (deg)", color="grey")
+    ax.legend(handles=ax.get_lines() + gap.get_lines(), fontsize=8)
     return fig
 
 
