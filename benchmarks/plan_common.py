@@ -4,6 +4,10 @@ from __future__ import annotations
 
 import dataclasses
 import json
+
+import matplotlib
+
+matplotlib.use("Agg")
 import platform
 import sys
 import time
@@ -19,8 +23,8 @@ OUT = ROOT / "reports" / "benchmarks"
 
 
 def scenario(name: str, **solver_changes) -> Scenario:
-    """A bundled scenario from scenarios/, with [solver] settings changed."""
-    sc = load_scenario(ROOT / "scenarios" / f"{name}.toml")
+    """A bundled scenario from data/scenarios/, with [solver] settings changed."""
+    sc = load_scenario(ROOT / "data" / "scenarios" / f"{name}.toml")
     return dataclasses.replace(sc, solver=dataclasses.replace(sc.solver, **solver_changes)) if solver_changes else sc
 
 
@@ -29,6 +33,17 @@ def timed(fn, *args, **kwargs):
     w, c = time.perf_counter(), time.process_time()
     out = fn(*args, **kwargs)
     return out, time.perf_counter() - w, time.process_time() - c
+
+
+def save_figure(fig, name: str) -> None:
+    """reports/benchmarks/<name>.png, written atomically."""
+    import matplotlib.pyplot as plt
+
+    from sloshid.atomic import atomic_path
+
+    with atomic_path(OUT / f"{name}.png") as tmp:
+        fig.savefig(tmp, dpi=100, bbox_inches="tight")
+    plt.close(fig)
 
 
 def write(name: str, data: dict, header: list[str], rows: list[list], notes: list[str]) -> None:

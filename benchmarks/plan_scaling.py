@@ -56,8 +56,10 @@ def main() -> None:
         "Every row builds its solver from scratch (cache cleared): 'build' is CasADi graph + IPOPT interface, 'IPOPT' "
         "the solve. Wall-clock seconds on a shared 2-core machine (load average in the JSON).",
         "1-D rows: the seed's case (0.54 m along y, Table I, acc_max 0.5 m/s^2). 3-D rows: segments of "
-        "scenarios/paper_3d.toml; the obstacle rows put 30 mm spheres 15 mm beside the straight line of segment 1, "
-        "alternating sides, so every one of them enters the problem and constrains it.",
+        "data/scenarios/paper_3d.toml (the 'on the line' rows: waypoint 1 -> 2, whose straight line runs through "
+        "obstacle 1's centre); the obstacle rows put 30 mm spheres 15 mm beside the straight line of waypoint 0 -> 1, "
+        "alternating sides, so every one of them enters the problem (its constraints and barrier are evaluated at "
+        "every node) without forcing a detour: the rows show the cost per obstacle, not a harder path.",
     ]  # fmt: skip
     header = ["case", "N", "obstacles", "build (s)", "IPOPT (s)", "iterations", "T (s)", "status"]
     write("plan_scaling", data, header, rows, notes)

@@ -98,6 +98,23 @@ class SegmentResult:
         """'jerk' or 'acceleration'."""
         return "jerk" if self.jerk_limited else "acceleration"
 
+    def _nominal(self, which: int) -> np.ndarray:
+        """Nominal pendulum angles (which=0) or rates (which=1) at the nodes, by the Structure's state layout."""
+        n_pos = 1 if self.axis is not None else 3
+        n_ang = 1 if self.axis is not None else 2
+        off = n_pos * (3 if self.jerk_limited else 2) + which * n_ang
+        return self.x_nodes[:, off : off + n_ang]
+
+    @property
+    def angles(self) -> np.ndarray:
+        """Container tilt at the nodes (rad): the 1-D angle, or phi and theta."""
+        return self._nominal(0)
+
+    @property
+    def rates(self) -> np.ndarray:
+        """Container tilt rates at the nodes (rad/s)."""
+        return self._nominal(1)
+
 
 def bang_bang_time(distance_m: float, acc_max: float, vel_max: float) -> float:
     """Minimum rest-to-rest time of a double integrator under |a| <= acc_max, |v| <= vel_max (no sloshing)."""
@@ -188,8 +205,8 @@ class SegmentSolver:
         self.s = s
         self.lay = lay = _Layout(s)
         nx, nu, N = s.nx, s.n_pos, s.N
-        # parameters: l, d/m, kappa_r, kappa_j, kappa_B, robust factors, obstacles
-        l_p, c_p, k_r, k_j, k_b = (ca.SX.sym(n) for n in ("l", "c", "kr", "kj", "kb"))
+        # parameters: l, d/m, kappa_r, kappa_j, kappa_B, kappa_z, robot limits, robust factors, obstacles
+        l_p, c_p, k_r, k_j, k_b, k_z = (ca.SX.sym(n) for n in ("l", "c", "kr", "kj", "kb", "kz"))
         factors = ca.SX.sym("f", s.n_robust)
         sph = ca.SX.sym("sph", 4 * s.n_spheres)
         cyl = ca.SX.sym("cyl", 5 * s.n_cylinders)
@@ -197,7 +214,7 @@ class SegmentSolver:
         cylinders = [cyl[5 * i : 5 * i + 5] for i in range(s.n_cylinders)]
         # robot limits (vel, acc, rot_vel, rot_acc, rot_jerk) normalise the norm constraints to O(1)
         rl = ca.SX.sym("robot", 5)
-        P = ca.vertcat(l_p, c_p, k_r, k_j, k_b, rl, factors, sph, cyl)
+        P = ca.vertcat(l_p, c_p, k_r, k_j, k_b, k_z, rl, factors, sph, cyl)
         # a robust copy with omega*f and the same zeta has l/f^2 and damping rate c*f
         liquids = [SimpleNamespace(l_m=l_p, damping_rate_1_s=c_p)]
         liquids += [SimpleNamespace(l_m=l_p / factors[i] ** 2, damping_rate_1_s=c_p * factors[i]) for i in range(s.n_robust)]
@@ -217,6 +234,8 @@ class SegmentSolver:
             xe = xe + hs / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
         acc = x[lay.acc] if s.jerk_limited else u
         run = k_r / 2 * ca.sumsqr(acc) + (k_j / 2 * ca.sumsqr(u) if s.jerk_limited else 0)
+        if s.axis is None:  # vertical acceleration changes gravity: without a price it is used to steer the liquid
+            run += k_z / 2 * acc[2] ** 2
         sub, sub_kinds = [], []
         if spheres or cylinders:
             hard, soft = _obstacle_terms(x[lay.pos], spheres, cylinders)
@@ -284,9 +303,8 @@ class SegmentSolver:
         nlp = {"x": w, "f": N * X[nx, 0] + ca.sum2(cost_k), "g": ca.vertcat(*g), "p": Pm}
         self.nlp = ca.nlpsol("segment", "ipopt", nlp, opts)
         self.kinds = np.array(kinds)
-        self.nw = w.numel()
 
-    def _split(self, w: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
+    def split(self, w: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
         """Decision vector -> (T, X (N+1, nx), U (N, nu))."""
         s = self.s
         nX = (s.nx + 1) * (s.N + 1)
@@ -294,7 +312,7 @@ class SegmentSolver:
         U = w[nX:].reshape(s.N, s.n_pos)
         return float(X[0, -1] * s.N), X[:, :-1], U
 
-    def _join(self, T: float, X: np.ndarray, U: np.ndarray) -> np.ndarray:
+    def join(self, T: float, X: np.ndarray, U: np.ndarray) -> np.ndarray:
         """(T, X, U) -> decision vector (CasADi vec is column-major, i.e. node after node, h last)."""
         Xa = np.column_stack([X, np.full(len(X), T / self.s.N)])
         return np.concatenate([Xa.ravel(), U.ravel()])
@@ -305,7 +323,7 @@ class SegmentSolver:
         """The NLP parameter vector p: liquid, weights, robot limits, robust factors, inflated obstacles."""
         robot_p = [robot.vel_m_s, robot.acc_m_s2, robot.rot_vel_rad_s * ROBOT_MARGIN,
                    robot.rot_acc_rad_s2 * ROBOT_MARGIN, robot.rot_jerk_rad_s3 * ROBOT_MARGIN]  # fmt: skip
-        params = [liquid.l_m, liquid.damping_rate_1_s, solver.kappa_r, solver.kappa_j, solver.kappa_B, *robot_p, *robust]
+        params = [liquid.l_m, liquid.damping_rate_1_s, solver.kappa_r, solver.kappa_j, solver.kappa_B, solver.kappa_z, *robot_p, *robust]
         for o in obstacles:
             if o.kind == "sphere":
                 params += [*o.center, o.radius + inflate_m]
@@ -353,8 +371,8 @@ class SegmentSolver:
             rest[lay.pos] = [point[i] for i in ax]
             lo[node], hi[node] = rest, rest
         ulim = np.array(jmax if s.jerk_limited else amax)
-        lbx = self._join(T_bounds[0], lo, np.tile(-ulim, (s.N, 1)))
-        ubx = self._join(T_bounds[1], hi, np.tile(ulim, (s.N, 1)))
+        lbx = self.join(T_bounds[0], lo, np.tile(-ulim, (s.N, 1)))
+        ubx = self.join(T_bounds[1], hi, np.tile(ulim, (s.N, 1)))
         ubg_of = {"eq": 0.0, "clear": inf, "unit": 1.0, "norm": 1.0, "robust": math.radians(solver.robust_max_rel_deg)}
         lbg_of = {"eq": 0.0, "clear": 0.0, "unit": -1.0, "norm": -inf, "robust": -math.radians(solver.robust_max_rel_deg)}
         ubg = np.array([ubg_of[k] for k in self.kinds])

@@ -10,7 +10,7 @@ from __future__ import annotations
 import math
 import time
 from concurrent.futures import ProcessPoolExecutor
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Sequence
 
 import numpy as np
@@ -18,7 +18,7 @@ import numpy as np
 from .errors import UserError
 from .export import sample_segments
 from .model import G, SloshParams
-from .ocp import OK_STATUSES, SegmentResult, Structure, get_solver, segment_axis, time_lower_bound
+from .ocp import SegmentResult, Structure, get_solver, segment_axis, time_lower_bound
 from .scenario import Obstacle, Scenario
 from .simulate import LiquidResponse, simulate_liquid
 from .trajectory import LimitUsage, Trajectory, check_limits
@@ -102,32 +102,18 @@ class PlanResult:
                     "index": s.index, "start_m": list(s.start), "goal_m": list(s.goal), "T_s": s.T_s,
                     "status": s.status, "iterations": s.iterations, "solve_time_s": s.solve_time_s,
                     "model": "1-D" if s.axis is not None else "3-D",
-                    "max_tilt_deg": float(np.degrees(np.abs(_angles(s)).max())),
-                    "max_tilt_rate_deg_s": float(np.degrees(np.abs(_rates(s)).max())),
+                    "max_tilt_deg": float(np.degrees(np.abs(s.angles).max())),
+                    "max_tilt_rate_deg_s": float(np.degrees(np.abs(s.rates).max())),
                 }  # fmt: skip
                 for s in self.segments
             ],
         }
 
 
-def _angles(seg: SegmentResult) -> np.ndarray:
-    """Nominal pendulum angles at the nodes (N+1, 1 or 2)."""
-    n_pos = 1 if seg.axis is not None else 3
-    off = n_pos * (3 if seg.jerk_limited else 2)
-    n_ang = 1 if seg.axis is not None else 2
-    return seg.x_nodes[:, off : off + n_ang]
-
-
-def _rates(seg: SegmentResult) -> np.ndarray:
-    """Nominal pendulum angle rates at the nodes."""
-    n_ang = 1 if seg.axis is not None else 2
-    off = (1 if seg.axis is not None else 3) * (3 if seg.jerk_limited else 2) + n_ang
-    return seg.x_nodes[:, off : off + n_ang]
-
-
 def check_feasible(scenario: Scenario) -> None:
     """Reject requests no solver can meet, naming the constraint at fault (UserError)."""
-    lim, R = scenario.limits, scenario.container_radius_m
+    lim = scenario.limits
+    R = scenario.container_radius_m + scenario.solver.clearance_margin_m  # what the hard constraint keeps clear
     for i, p in enumerate(scenario.waypoints):
         label = "start" if i == 0 else "goal" if i == len(scenario.waypoints) - 1 else f"waypoint {i}"
         if not lim.z_range[0] <= p[2] <= lim.z_range[1]:
@@ -138,8 +124,8 @@ def check_feasible(scenario: Scenario) -> None:
         for j, obstacle in enumerate(scenario.obstacles):
             if obstacle.clearance(p, R) < 0:
                 raise UserError(
-                    f"the {label} {list(p)} lies inside obstacle {j + 1} ({obstacle.describe(R)}); "
-                    "move it out or shrink the obstacle."
+                    f"the {label} {list(p)} lies inside obstacle {j + 1} ({obstacle.describe(R)}: container "
+                    "radius plus [solver].clearance_margin_m); move it out or shrink the obstacle."
                 )
     for i, (a, b) in enumerate(zip(scenario.waypoints[:-1], scenario.waypoints[1:])):
         t_lb = time_lower_bound(a, b, lim, scenario.solver.kappa_T)
@@ -211,7 +197,7 @@ def _guess(s: Structure, scenario: Scenario, obstacles, start, goal, T0: float, 
     cols = [pos[:, ax], vel[:, ax]] + ([acc[:, ax]] if s.jerk_limited else [])
     cols += [ang, np.zeros_like(ang)] * (1 + s.n_robust)
     mid = (jerk[:-1] + jerk[1:]) / 2 if s.jerk_limited else (acc[:-1] + acc[1:]) / 2
-    return get_solver(s)._join(T0, np.column_stack(cols), mid[:, ax])
+    return get_solver(s).join(T0, np.column_stack(cols), mid[:, ax])
 
 
 def solve_segment(
@@ -241,7 +227,7 @@ def solve_segment(
         np.asarray(start), np.asarray(goal), scenario.limits, scenario.robot, scenario.solver, params, robust,
         obstacles, inflate, T_bounds, guess, warm.warm if use_warm else None,
     )  # fmt: skip
-    T, X, U = solver._split(w)
+    T, X, U = solver.split(w)
     return SegmentResult(index, tuple(start), tuple(goal), s.axis, s.jerk_limited, T, status, iters, elapsed, X, U, warm_out)
 
 
@@ -357,4 +343,4 @@ def _clearance(scenario: Scenario, segments: list[SegmentResult], traj: Trajecto
     return clear, seg_of
 
 
-__all__ = ["PlanResult", "plan", "solve_segment", "check_feasible", "OK_STATUSES"]
+__all__ = ["PlanResult", "plan", "solve_segment", "check_feasible"]

@@ -147,6 +147,9 @@ class SolverSettings:
     """Weight of the acceleration regulariser kappa_r/2 |u|^2 (seed eq. 8a), s^3/m^2."""
     kappa_j: float = 1e-7
     """Weight of the jerk regulariser kappa_j/2 |j|^2 (jerk-limited formulation only), s^5/m^2."""
+    kappa_z: float = 5.0
+    """Extra weight on vertical acceleration kappa_z/2 uz^2 (s^3/m^2): vertical acceleration changes the effective
+    gravity of the liquid, and without a price the optimiser uses it to steer the liquid (bouncing in z)."""
     kappa_T: float = 1.0
     """Factor of the lower bound on T from distance / |vel_max| (seed eq. 8e), >= 1."""
     kappa_B: float = 1e-3
@@ -173,7 +176,7 @@ class SolverSettings:
             raise UserError(f"[solver].N must lie between 10 and 5000, got {self.N}.")
         if self.kappa_T < 1:
             raise UserError(f"[solver].kappa_T must be at least 1 (seed eq. 8e), got {self.kappa_T}.")
-        for name in ("kappa_r", "kappa_j", "kappa_B"):
+        for name in ("kappa_r", "kappa_j", "kappa_z", "kappa_B"):
             if not getattr(self, name) >= 0:
                 raise UserError(f"[solver].{name} must be zero or positive, got {getattr(self, name)}.")
         if not 1 <= self.rk4_steps <= 20 or not 0 <= self.clearance_points <= 20:
@@ -221,6 +224,9 @@ def scenario_from_dict(data: dict[str, Any], source: str = "") -> Scenario:
             raise UserError(f"unknown table '[{key}]'{did_you_mean(key, _TABLES)} in {source or 'the scenario'}.")
         if key != "obstacles" and not isinstance(data[key], dict):
             raise UserError(f"'{key}' must be a table [{key}], got {data[key]!r}.")
+    misplaced = [k for k in data.get("solver", {}) if k in Limits.__dataclass_fields__]
+    if misplaced:
+        raise UserError(f"'[solver].{misplaced[0]}' belongs in the [limits] table.")
     if "move" not in data:
         raise UserError(f"{source or 'the scenario'} has no [move] table (start and goal, or waypoints).")
     move = from_dict(Move, data["move"], "[move]")

@@ -28,7 +28,7 @@ def _with_solver(sc: Scenario, **changes) -> Scenario:
 
 @pytest.fixture(scope="module")
 def paper_1d() -> Scenario:
-    return load_scenario(ROOT / "scenarios" / "paper_1d.toml")
+    return load_scenario(ROOT / "data" / "scenarios" / "paper_1d.toml")
 
 
 @pytest.fixture(scope="module")
@@ -57,7 +57,7 @@ def test_planner_model_settles_at_steady_tilt(u):
     s = Structure(axis=None, jerk_limited=False, N=10, rk4_steps=1, clearance_points=0, n_spheres=0,
                   n_cylinders=0, n_robust=0, vel_norm=False, acc_norm=False, rot_vel_norm=False)  # fmt: skip
     solver = get_solver(s)
-    sc = load_scenario(ROOT / "scenarios" / "paper_1d.toml")
+    sc = load_scenario(ROOT / "data" / "scenarios" / "paper_1d.toml")
     p = solver.parameters(RobotLimits(), sc.solver, liquid, (), (), 0.0)
     sol = solve_ivp(lambda t, x: np.asarray(solver.rhs(x, u, p)).ravel(), (0, 6), np.zeros(s.nx), rtol=1e-10, atol=1e-12)
     phi, theta = sol.y[6, -1], sol.y[7, -1]  # layout: pos(3), vel(3), phi, theta, rates

@@ -12,7 +12,7 @@ import pytest
 from sloshid.trajectory import CSV_COLUMNS
 
 ROOT = Path(__file__).resolve().parents[1]
-PAPER_1D = ROOT / "scenarios" / "paper_1d.toml"
+PAPER_1D = ROOT / "data" / "scenarios" / "paper_1d.toml"
 
 BASE = """
 [move]
