@@ -1,5 +1,5 @@
-"""Issue 5 targets, measured in one run: every method on the seed's 1-D case (scenarios/paper_1d.toml) and on the
-3-D move with obstacles (scenarios/paper_3d.toml); writes reports/benchmarks/compare_paper.{json,md} and the two
+"""Issue 5 targets, measured in one run: every method on the seed's 1-D case (data/scenarios/paper_1d.toml) and on the
+3-D move with obstacles (data/scenarios/paper_3d.toml); writes reports/benchmarks/compare_paper.{json,md} and the two
 HTML reports (figures embedded) under reports/benchmarks/compare_paper_{1d,3d}/."""
 
 from __future__ import annotations
