@@ -278,6 +278,11 @@ class CameraPoint:
     transfer_time_s: float
     peak_during_deg: float
     residual_deg: float
+    seen_peak_deg: float
+    """Seed Remark 1: the feedforward's peak relative angle (nominal liquid, no feedback) as frames at this rate
+    see it, averaged over the frame clock's phase."""
+    true_peak_deg: float
+    """The same peak at 1 kHz."""
 
 
 @dataclass
@@ -340,6 +345,15 @@ class Comparison:
         }
 
 
+def camera_seen_peak(angle_deg: np.ndarray, dt_s: float, fps: float, phases: int = 16) -> float:
+    """Largest value a camera at `fps` samples from a 1 kHz signal, averaged over `phases` frame-clock offsets."""
+    peaks = []
+    for offset in np.arange(phases) / (phases * fps):
+        frames = np.round(np.arange(offset, len(angle_deg) * dt_s, 1.0 / fps) / dt_s).astype(int)
+        peaks.append(angle_deg[frames[frames < len(angle_deg)]].max())
+    return float(np.mean(peaks))
+
+
 def camera_study(inp: CompareInput, built: dict[str, MethodResult]) -> tuple[list[CameraPoint], dict[str, float]]:
     """Feedback residual against camera rate at the configured model error, for each applicable feedforward."""
     s = inp.settings
@@ -350,11 +364,14 @@ def camera_study(inp: CompareInput, built: dict[str, MethodResult]) -> tuple[lis
         if base is None or not base.applicable or f"{base_key}_feedback" not in built:
             continue
         reference[base.label] = simulate_liquid(base.trajectory, truth, settle_s=s.settle_s).residual_deg
+        rel, dt = base.response.rel_angle_deg, base.trajectory.dt_s  # type: ignore[union-attr]
         for fps in s.camera_fps_sweep:
+            seen = camera_seen_peak(rel, dt, fps)
             fb = FeedbackSettings(**{**vars(s.feedback), "camera_fps": fps})
             traj = with_feedback(inp, base.trajectory, fb)(truth)  # type: ignore[arg-type]
             resp = simulate_liquid(traj, truth, settle_s=s.settle_s)
-            points.append(CameraPoint(base.label, fps, traj.duration_s, resp.peak_during_deg, resp.residual_deg))
+            points.append(CameraPoint(base.label, fps, traj.duration_s, resp.peak_during_deg, resp.residual_deg,
+                                      seen, float(rel.max())))  # fmt: skip
     return points, reference
 
 

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from sloshid.closed_loop import closed_loop_response
+from sloshid.compare import camera_seen_peak
 from sloshid.feedback import FeedbackSettings, run_feedback
 from sloshid.jerk_profile import jerk_limited
 from sloshid.model import G, TABLE_I, SloshParams
@@ -148,3 +149,13 @@ def test_scaled_truth_changes_the_feedback_loop_only():
     assert isinstance(truth, SloshParams) and truth.omega_rad_s == pytest.approx(0.9 * TABLE_I.omega_rad_s)
     open_loop = Replay(constant_acceleration(SHORT))
     assert open_loop(truth) is open_loop.trajectory
+
+
+def test_a_slow_camera_misses_a_fast_peak():
+    # seed Remark 1: a 20 ms wide 10 deg peak; 30 fps frames (33 ms apart) land on its flank on average,
+    # 1 kHz sees it whole. The average over frame phases of a Gaussian sampled every 33 ms is well below 10.
+    t = np.arange(0, 1.0, 1e-3)
+    pulse = 10.0 * np.exp(-0.5 * ((t - 0.5) / 0.01) ** 2)
+    assert camera_seen_peak(pulse, 1e-3, 1000.0) == pytest.approx(10.0)
+    slow, fast = camera_seen_peak(pulse, 1e-3, 30.0), camera_seen_peak(pulse, 1e-3, 240.0)
+    assert slow < 0.8 * 10.0 and fast > 0.98 * 10.0
