@@ -282,7 +282,7 @@ class CameraPoint:
     """Seed Remark 1: the feedforward's peak relative angle (nominal liquid, no feedback) as frames at this rate
     see it, averaged over the frame clock's phase."""
     true_peak_deg: float
-    """The same peak at 1 kHz."""
+    """The same peak at 1 kHz (the feedforward's peak_during_deg)."""
 
 
 @dataclass
@@ -364,7 +364,8 @@ def camera_study(inp: CompareInput, built: dict[str, MethodResult]) -> tuple[lis
         if base is None or not base.applicable or f"{base_key}_feedback" not in built:
             continue
         reference[base.label] = simulate_liquid(base.trajectory, truth, settle_s=s.settle_s).residual_deg
-        rel, dt = base.response.rel_angle_deg, base.trajectory.dt_s  # type: ignore[union-attr]
+        dt = base.trajectory.dt_s  # type: ignore[union-attr]
+        rel = base.response.rel_angle_deg[: len(base.trajectory.t_s)]  # type: ignore[union-attr]  # while moving
         for fps in s.camera_fps_sweep:
             seen = camera_seen_peak(rel, dt, fps)
             fb = FeedbackSettings(**{**vars(s.feedback), "camera_fps": fps})

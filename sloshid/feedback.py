@@ -6,7 +6,9 @@ angle relative to the commanded container tilt. A camera sees the float relative
 `camera_fps` with Gaussian noise, and each frame reaches the controller `latency_s` late; the filter rewinds
 to the frame's time, updates, and re-predicts with the inputs it has applied since (no information is lost
 to latency, only timeliness). The plant in the loop is the robot's tracking (20 Hz) in series with the
-linearised liquid of the *true* parameters; the filter and the LQR use the *model's* parameters.
+linearised liquid of the *true* parameters; the filter and the LQR use the *model's* parameters. Feedback
+keeps acting after the feedforward ends until the container is back on the goal and the estimated slosh is
+calm; the executed trajectory (feedforward plus feedback) is what the comparison scores.
 """
 
 from __future__ import annotations
