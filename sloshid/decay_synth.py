@@ -8,7 +8,11 @@ from scipy import signal as sps
 from .signals import Signal, make_signal
 
 
-def tracker_noise(rng: np.random.Generator, n: int, std: float, rho: float, share: float = 0.5) -> np.ndarray:
+NOISE_WHITE_SHARE = 0.5
+"""Default variance fraction of the white part of tracker-like noise (the rest is AR(1))."""
+
+
+def tracker_noise(rng: np.random.Generator, n: int, std: float, rho: float, share: float = 1 - NOISE_WHITE_SHARE) -> np.ndarray:
     """Tracker-like measurement noise of total standard deviation `std`: white per-frame error plus an AR(1) part
     (per-frame correlation `rho`, variance fraction `share`) as compression and blur leave it."""
     white = rng.normal(size=n)

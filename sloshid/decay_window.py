@@ -32,6 +32,15 @@ shows about 1.7 on the half-range measure used) ..."""
 QUIET_PERIODS = 2
 """... and stays there for this many periods, so one quiet dip in a beating decay does not end it."""
 
+TAIL_TIME_CONSTANTS = 2.0
+"""When two modes beat (the first quiet stretch may be a beat's null), the window is extended this many decay time
+constants 1/(zeta omega) past it: for a ring-down starting at 20 noise sd about 30 % of the Fisher information on
+the decay rate lies beyond the 3-noise-sd fade, and two time constants further on only about 2 % remains."""
+
+RISE_FACTOR = 2.0
+"""The tail extension stops where the swing climbs above this multiple of the fade level (END_NOISE_FACTOR noise sd):
+a new disturbance, not the ring-down's own low tail that hovers around the fade level."""
+
 
 @dataclass(frozen=True)
 class DecayWindow:
@@ -94,8 +103,7 @@ def find_decay_window(sig: Signal, f_guess_hz: float, noise_std: float, drift: b
     u = to_uniform(sig.t_s, sig.value)
     n = max(3, int(round(u.fs_hz / f_guess_hz)))
     slow = period_mean(u.t_s, u.value, 1.0 / f_guess_hz)
-    span = ndimage.maximum_filter1d(u.value, n, mode="nearest") - ndimage.minimum_filter1d(u.value, n, mode="nearest")
-    amp = ndimage.uniform_filter1d(span, n, mode="nearest") / 2
+    amp = _swing(u.value, n)
     if drift:  # a zero that creeps steadily is not forcing: measure departures from its straight line
         slow = slow - np.polyval(np.polyfit(u.t_s, slow, 1), u.t_s)
     rest = float(np.median(slow[-max(n, slow.size // 5) :]))
@@ -120,6 +128,25 @@ def find_decay_window(sig: Signal, f_guess_hz: float, noise_std: float, drift: b
     fades = np.flatnonzero(run == QUIET_PERIODS * n)
     i1 = min(i0 + int(fades[0]) + n // 2, u.value.size - 1) if fades.size else u.value.size - 1
     return DecayWindow(float(u.t_s[i0]), float(u.t_s[i1]), "auto", excitation_end, f_guess_hz)
+
+
+def _swing(y: np.ndarray, n: int) -> np.ndarray:
+    """Oscillation amplitude per sample: half the max-min range over one period (n samples), smoothed over one more."""
+    span = ndimage.maximum_filter1d(y, n, mode="nearest") - ndimage.minimum_filter1d(y, n, mode="nearest")
+    return ndimage.uniform_filter1d(span, n, mode="nearest") / 2
+
+
+def extend_tail(sig: Signal, win: DecayWindow, f_hz: float, decay_rate_1_s: float, noise_std: float) -> DecayWindow:
+    """The automatic window carried TAIL_TIME_CONSTANTS decay time constants past its fade, stopping early before the
+    signal swings well above the fade level again (a later disturbance) and at the end of the data."""
+    u = to_uniform(sig.t_s, sig.value)
+    n = max(3, int(round(u.fs_hz / f_hz)))
+    amp = _swing(u.value, n)
+    i1 = int(np.searchsorted(u.t_s, win.t1_s))
+    rise = np.flatnonzero(amp[i1:] > RISE_FACTOR * END_NOISE_FACTOR * noise_std)
+    stop = u.t_s[min(i1 + int(rise[0]) - n, u.t_s.size - 1)] if rise.size else u.t_s[-1]
+    t1 = min(win.t1_s + TAIL_TIME_CONSTANTS / max(decay_rate_1_s, 1e-9), float(stop))
+    return DecayWindow(win.t0_s, max(win.t1_s, t1), win.chosen_by, win.excitation_end_s, win.f_guess_hz)
 
 
 def user_window(sig: Signal, t0: float, t1: float, f_guess_hz: float) -> DecayWindow:

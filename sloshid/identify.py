@@ -13,14 +13,14 @@ from scipy import stats
 
 from . import __version__
 from .crosschecks import CrossCheck, half_power, hilbert_envelope, log_decrement
-from .decay_window import DecayWindow, find_decay_window, rough_mode_frequency, user_window
+from .decay_window import DecayWindow, extend_tail, find_decay_window, rough_mode_frequency, user_window
 from .errors import UserError
 from .model import G, SloshParams, cylinder_first_mode_omega, linear_tf, linear_tf_coeffs
-from .pt2fit import PT2Fit, WindowData, autocorrelation, fit_pt2
+from .pt2fit import Z95, PT2Fit, WindowData, autocorrelation, fit_pt2
+from .second_mode import SecondMode, resolve_second_mode, strong_peaks
 from .signals import Signal, load_signal
 from .spectrum import MIN_PROMINENCE, Spectrum, welch_spectrum
 
-Z95 = float(stats.norm.ppf(0.975))
 MIN_PERIODS_ERROR = 3.0
 NO_MODE_SNR = 5.0
 """A window whose PSD shows no clear resonance is still accepted when the fitted decay stands this many standard
@@ -54,7 +54,8 @@ class IdentSettings:
     min_periods: float = 4.0
     """Fewer decay periods than this in a window make the verdict uncertain (fewer than 3 is an error)."""
     second_mode_ratio: float = 0.25
-    """A non-harmonic PSD peak above this fraction of the dominant one counts as a strong second mode (-6 dB)."""
+    """A non-harmonic PSD peak above this fraction of the dominant one counts as a strong second mode (-6 dB): it is
+    fitted as a second damped mode, and only when the data cannot separate the two is the verdict uncertain."""
     container_radius_m: float | None = None
     """Cylinder radius R for the analytic first-mode prior (needs fill_height_m)."""
     fill_height_m: float | None = None
@@ -122,6 +123,8 @@ class IdentResult:
     prior: dict[str, float] = field(default_factory=dict)
     ljung_box: list[float] = field(default_factory=list)
     lb_lags: list[int] = field(default_factory=list)
+    second_mode: SecondMode | None = None
+    """The two-mode fit tried for a strong second PSD peak (None when no PSD showed one)."""
 
     @property
     def params(self) -> SloshParams:
@@ -191,8 +194,10 @@ class IdentResult:
                 "pt2_fit": {"f_hz": self.parameters["f_hz"].value, "zeta": self.parameters["zeta"].value},
                 "per_signal": [[c.to_json_dict() for c in cc] for cc in self.cross_checks],
             },
+            "second_mode": self.second_mode.to_json_dict() if self.second_mode is not None else None,
             "fit": {
-                "model": "a exp(-zeta omega t) cos(omega sqrt(1-zeta^2) t + phase) + offset" + (" + drift t" if self.fit.drift else ""),
+                "model": "a exp(-zeta omega t) cos(omega sqrt(1-zeta^2) t + phase) + offset" + (" + drift t" if self.fit.drift else "")
+                + (" + a2 exp(-zeta2 omega2 t) cos(omega2 sqrt(1-zeta2^2) t + phase2)" if self.fit.second else ""),
                 "fit_percent": float(np.mean([self.fit_percent(i) for i in range(len(self.signals))])),
                 "ljung_box_p": float(min(self.ljung_box)),
                 "interval_method": "Newey-West sandwich (VAR(1) prewhitened, Bartlett kernel) on the least-squares "
@@ -222,6 +227,8 @@ class IdentResult:
                 f"  geometric prior (cylinder): f = {self.prior['f_hz']:.4g} Hz, identified/prior = "
                 f"{self.prior['identified_over_prior']:.3f}"
             )
+        if self.second_mode is not None:
+            lines.append(f"  {self.second_mode.summary()}")
         fits = ", ".join(f"{self.fit_percent(i):.1f}" for i in range(len(self.signals)))
         lines.append(f"  fit % (NRMSE): {fits}")
         lines.append(f"verdict: {self.quality}")
@@ -250,7 +257,10 @@ class IdentResult:
         sp, win = self.spectra[i], self.window_signal(i)
         model = welch_spectrum(win.t_s, self.fit.fitted[i], nperseg=sp.nperseg)
         ax.semilogy(sp.f_hz, sp.psd, color="0.2", lw=1, label="measured (Welch)")
-        ax.semilogy(model.f_hz, model.psd, color="tab:orange", lw=1.2, label="fitted PT2 response (same Welch)")
+        what = "two-mode" if self.fit.second else "PT2"
+        ax.semilogy(model.f_hz, model.psd, color="tab:orange", lw=1.2, label=f"fitted {what} response (same Welch)")
+        if self.fit.second:
+            ax.axvline(self.fit.second.omega_rad_s / (2 * math.pi), color="tab:red", ls=":", label="second mode")
         ax.axvline(self.parameters["f_hz"].value, color="tab:blue", ls=":", label=f"f = {self.parameters['f_hz'].value:.4g} Hz")
         for p in sp.secondary:
             ax.plot(p.f_hz, p.psd, "v", color="tab:purple" if p.harmonic else "tab:red", ms=6)
@@ -267,7 +277,8 @@ class IdentResult:
         ax = _axes(ax)
         win = self.window_signal(i)
         ax.plot(win.t_s, win.value, ".", ms=2, color="0.3", label="measured")
-        ax.plot(win.t_s, self.fit.fitted[i], color="tab:orange", lw=1, label=f"PT2 fit ({self.fit_percent(i):.1f} % fit)")
+        what = "two-mode fit" if self.fit.second else "PT2 fit"
+        ax.plot(win.t_s, self.fit.fitted[i], color="tab:orange", lw=1, label=f"{what} ({self.fit_percent(i):.1f} % fit)")
         ax.plot(win.t_s, self.fit.residuals[i], color="tab:red", lw=0.5, alpha=0.6, label="residual")
         ax.set_xlabel("t (s)")
         ax.set_ylabel(_ylabel(self.signals[i]))
@@ -375,8 +386,9 @@ class Identifier:
         omega_starts = [2 * math.pi * float(np.median([sp.peak_f_hz for sp in spectra]))]
         omega_starts += [2 * math.pi * h.f_hz for h in hp0]
         zeta_hints = [h.zeta for h in hp0 if math.isfinite(h.zeta)]
+        wdata = [WindowData(p.t_s, p.value, w.t0_s) for p, w in zip(parts, windows)]
         fit = fit_pt2(
-            [WindowData(p.t_s, p.value, w.t0_s) for p, w in zip(parts, windows)],
+            wdata,
             omega_starts,
             float(np.median(zeta_hints)) if zeta_hints else None,
             st.drift,
@@ -392,11 +404,26 @@ class Identifier:
                     f"noise in {st.f_range_hz[0]:g}-{st.f_range_hz[1]:g} Hz, and a fitted decay explains only "
                     f"{explained:.0f} % ({snr:.1f} standard errors)."
                 )
-        self.result_ = self._assemble(sigs, windows, parts, spectra, [s.noise_std for s in fullspec], fit)
+        if st.window_s is None and any(strong_peaks(sp, st.second_mode_ratio) for sp in spectra):
+            # two modes beat, so the first quiet stretch may be a beat's null rather than the fade: now that the decay
+            # rate is known, let the automatic windows take in the ring-down's tail (a single mode's envelope only
+            # falls, so there the first quiet stretch is the fade and the window stays)
+            rate, f_fit = fit.zeta * fit.omega_rad_s, fit.omega_rad_s / (2 * math.pi)
+            longer = [extend_tail(s, w, f_fit, rate, fs.noise_std) for s, w, fs in zip(sigs, windows, fullspec)]
+            if any(a.t1_s > b.t1_s + 1 / f_fit for a, b in zip(longer, windows)):  # at least a period more
+                windows = longer
+                parts = [s.between(w.t0_s, w.t1_s) for s, w in zip(sigs, windows)]
+                spectra = [welch_spectrum(p.t_s, p.value, st.f_range_hz) for p in parts]
+                wdata = [WindowData(p.t_s, p.value, w.t0_s) for p, w in zip(parts, windows)]
+                fit = fit_pt2(wdata, [fit.omega_rad_s, *omega_starts[1:]], fit.zeta or None, st.drift)
+        second = resolve_second_mode(wdata, fit, spectra, st.second_mode_ratio, AMPLITUDE_SNR)
+        if second is not None and second.separated:
+            fit = second.fit
+        self.result_ = self._assemble(sigs, windows, parts, spectra, [s.noise_std for s in fullspec], fit, second)
         self.params_ = self.result_.params
         return self
 
-    def _assemble(self, sigs, windows, parts, spectra, noise_std, fit: PT2Fit) -> IdentResult:
+    def _assemble(self, sigs, windows, parts, spectra, noise_std, fit: PT2Fit, second: SecondMode | None) -> IdentResult:
         """Derived parameters with delta-method errors, cross-checks and the verdict."""
         st = self.settings
         omega, zeta = fit.omega_rad_s, fit.zeta
@@ -413,6 +440,8 @@ class Identifier:
         checks, lb, lb_lags = [], [], []
         for i, (p, sp) in enumerate(zip(parts, spectra)):
             base = fit.linear[i][2] + (fit.linear[i][3] * (p.t_s - windows[i].t0_s) if fit.drift else 0.0)
+            if fit.second:  # the cross-checks judge the main mode, so the fitted second mode is taken out first
+                base = base + fit.second_fitted[i]
             clean = p.value - base
             noise = noise_std[i]
             f_fit = omega / (2 * math.pi)
@@ -428,7 +457,7 @@ class Identifier:
             lb.append(ljung_box_p(fit.residuals[i], h))
         quality, reasons, notes = judge(st, sigs, windows, spectra, fit, params, checks, lb, [
             fit.fit_percent(i, p.value) for i, p in enumerate(parts)
-        ])
+        ], second)
         for s in sigs:
             notes.extend(s.warnings)
         prior = {}
@@ -442,7 +471,9 @@ class Identifier:
                 "l_m": G / w_prior**2,
                 "identified_over_prior": omega / w_prior,
             }
-        return IdentResult(sigs, windows, spectra, fit, checks, params, quality, reasons, notes, st.mass_kg, prior, lb, lb_lags)
+        return IdentResult(
+            sigs, windows, spectra, fit, checks, params, quality, reasons, notes, st.mass_kg, prior, lb, lb_lags, second
+        )
 
     @property
     def result(self) -> IdentResult:
@@ -452,10 +483,17 @@ class Identifier:
         return self.result_
 
 
-def judge(st, sigs, windows, spectra, fit, params, checks, lb, fits) -> tuple[str, list[str], list[str]]:
+def judge(st, sigs, windows, spectra, fit, params, checks, lb, fits, second=None) -> tuple[str, list[str], list[str]]:
     """The verdict: 'good' unless a reason applies to doubt the numbers *beyond their intervals* (model misfit,
-    bound hits, disagreeing methods); a merely wide interval is honest and only noted."""
+    bound hits, disagreeing methods, a strong second mode the two-mode fit could not separate); a merely wide
+    interval is honest and only noted."""
     reasons, notes = [], []
+    f2 = fit.second.omega_rad_s / (2 * math.pi) if fit.second else None
+    if second is not None and second.separated:
+        notes.append(
+            f"a second mode at {f2:.4g} Hz (zeta {fit.second.zeta:.2g}) was fitted beside the main one; "
+            f"the main mode's numbers account for it."
+        )
     f = params["f_hz"].value
     for i, sig in enumerate(sigs):
         name = Path(sig.source).name
@@ -464,10 +502,16 @@ def judge(st, sigs, windows, spectra, fit, params, checks, lb, fits) -> tuple[st
         periods = windows[i].duration_s * f
         if periods < st.min_periods:
             reasons.append(f"{name}: only {periods:.1f} periods in the window (fewer than {st.min_periods:g}).")
-        strong = [p for p in spectra[i].secondary if not p.harmonic and p.relative > st.second_mode_ratio]
+        # a peak the fitted second mode accounts for (within one bin) is no longer a doubt; any other one is
+        strong = [p for p in strong_peaks(spectra[i], st.second_mode_ratio)
+                  if f2 is None or abs(p.f_hz - f2) > spectra[i].resolution_hz]
         if strong:
             p = strong[0]
-            reasons.append(f"{name}: strong second mode at {p.f_hz:.3g} Hz ({100 * p.relative:.0f} % of the main peak's PSD).")
+            why = "; ".join(second.problems) if second is not None and not second.separated else ""
+            reasons.append(
+                f"{name}: strong second mode at {p.f_hz:.3g} Hz ({100 * p.relative:.0f} % of the main peak's PSD)"
+                + (f" that a two-mode fit could not separate ({why})." if why else ".")
+            )
         if lb[i] < 0.01:
             notes.append(
                 f"{name}: residuals are not white (Ljung-Box p = {lb[i]:.2g}); the intervals are corrected for "
@@ -480,7 +524,10 @@ def judge(st, sigs, windows, spectra, fit, params, checks, lb, fits) -> tuple[st
         if snr < AMPLITUDE_SNR:
             reasons.append(f"{name}: the fitted amplitude is only {snr:.1f} standard errors above zero.")
     for name in fit.at_bound:
-        reasons.append(f"{name} ended on its search bound.")
+        if name == "zeta" and fit.zeta < 0.5:  # the lower bound: no decay, or a growing amplitude, in the window
+            reasons.append("zeta ended on its search bound 0: the oscillation does not decay in the window (no free decay).")
+        else:
+            reasons.append(f"{name} ended on its search bound.")
     z = params["zeta"]
     if "zeta" not in fit.at_bound and z.ci95[0] <= 0:  # a wide but valid interval: reported, not a doubt
         notes.append(

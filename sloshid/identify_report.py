@@ -77,6 +77,28 @@ def build_report(res: IdentResult) -> Report:
     if res.mass_kg is None:
         rep.add_text("No --mass given, so the damping constant d is not reported (it scales with the liquid mass).")
 
+    if res.second_mode is not None:
+        sm, m = res.second_mode, res.second_mode.to_json_dict()
+        rep.add_heading("Second mode")
+        rows = [["second mode f2 (Hz)", m["f_hz"]["value"], m["f_hz"]["stderr"]],
+                ["second mode zeta2", m["zeta"]["value"], m["zeta"]["stderr"]],
+                ["main mode f without the second mode (Hz)", m["single_mode_f_hz"], ""]]
+        rows += [[f"amplitude share A2/(A1+A2), {Path(res.signals[i].source).name}", share, ""]
+                 for i, share in enumerate(m["amplitude_share"])]
+        rep.add_table(["", "value", "sigma"], rows,
+                      f"The PSD of {Path(res.signals[sm.signal].source).name} showed a non-harmonic peak at "
+                      f"{sm.peak.f_hz:.4g} Hz ({100 * sm.peak.relative:.0f} % of the main peak), so two damped modes "
+                      "were fitted together.")
+        rep.add_text(
+            "The modes count as separated, and the main mode's numbers above come from the two-mode fit, when both "
+            "modes stay off their search bounds, lie at least two Welch resolution bins apart, the second mode's "
+            "amplitude stands three standard errors out, the two frequency intervals do not overlap and the main "
+            "mode's intervals widen no more than two-fold. "
+            + ("Here they are separated." if sm.separated else
+               "Here they are not (" + "; ".join(sm.problems) + "), so the numbers above come from the single-mode "
+               "fit and the verdict is uncertain.")
+        )
+
     rep.add_heading("Cross-checks")
     rows = [["PT2 least squares (all signals)", res.parameters["f_hz"].value, res.parameters["zeta"].value, "", ""]]
     for i, checks in enumerate(res.cross_checks):

@@ -1,8 +1,10 @@
-"""Least-squares fit of a damped PT2 free response to one or several windows (shared omega and zeta).
+"""Least-squares fit of a damped PT2 free response to one or several windows (shared omega and zeta), optionally
+with a second damped mode beside it (shared omega2, zeta2) when the spectrum shows one.
 
-Model per window (t' = t - window start):  y = exp(-zeta omega t') (a cos(omega_d t') + b sin(omega_d t')) + c [+ r t'],
-omega_d = omega sqrt(1 - zeta^2). Standard errors come from a Newey-West (Bartlett kernel) sandwich covariance,
-which stays honest when residuals are serially correlated (video tracking noise, unmodelled harmonics).
+Model per window (t' = t - window start):  y = exp(-zeta omega t') (a cos(omega_d t') + b sin(omega_d t')) + c [+ r t']
+[+ exp(-zeta2 omega2 t') (a2 cos(omega2_d t') + b2 sin(omega2_d t'))], omega_d = omega sqrt(1 - zeta^2).
+Standard errors come from a Newey-West (Bartlett kernel) sandwich covariance, which stays honest when residuals are
+serially correlated (video tracking noise, unmodelled harmonics).
 """
 
 from __future__ import annotations
@@ -10,7 +12,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import optimize
+from scipy import optimize, stats
+
+Z95 = float(stats.norm.ppf(0.975))
+"""Two-sided 95 % normal quantile used for every interval."""
 
 ZETA_BOUNDS = (0.0, 0.95)
 OMEGA_SPAN = 0.25
@@ -28,6 +33,15 @@ class WindowData:
 
 
 @dataclass(frozen=True)
+class ModeFit:
+    """A second damped mode fitted beside the main one: omega, zeta and their 2x2 corrected covariance."""
+
+    omega_rad_s: float
+    zeta: float
+    cov: np.ndarray
+
+
+@dataclass(frozen=True)
 class PT2Fit:
     """Result of the (joint) PT2 fit with its corrected covariance."""
 
@@ -38,7 +52,7 @@ class PT2Fit:
     cov_naive: np.ndarray
     """2x2 covariance assuming white residuals (s^2 (J'J)^-1), kept to show how much the correction widened it."""
     linear: tuple[np.ndarray, ...]
-    """Per window: (a, b, c[, r])."""
+    """Per window: (a, b, c[, r][, a2, b2])."""
     linear_se: tuple[np.ndarray, ...]
     fitted: tuple[np.ndarray, ...]
     residuals: tuple[np.ndarray, ...]
@@ -47,22 +61,32 @@ class PT2Fit:
     at_bound: tuple[str, ...]
     """Names of parameters that ended on a search bound."""
     n_starts: int
+    second: ModeFit | None = None
+    """The second mode when the model had one."""
+    second_fitted: tuple[np.ndarray, ...] = ()
+    """Per window: the second mode's part of `fitted` (empty without a second mode)."""
 
     def fit_percent(self, i: int, values: np.ndarray) -> float:
         """NRMSE fit in percent (100 = perfect, 0 = no better than the mean) of window i."""
         return nrmse_fit_percent(values, self.fitted[i])
 
-    def amplitude(self, i: int) -> float:
-        """Oscillation amplitude at the start of window i (value unit)."""
-        a, b = self.linear[i][:2]
+    def amplitude(self, i: int, mode: int = 0) -> float:
+        """Oscillation amplitude of mode 0 (main) or 1 (second) at the start of window i (value unit)."""
+        a, b = self.linear[i][_mode_cols(mode, len(self.linear[i]))]
         return float(np.hypot(a, b))
 
-    def amplitude_se(self, i: int) -> float:
+    def amplitude_se(self, i: int, mode: int = 0) -> float:
         """Standard error of that amplitude (delta method, a and b treated as independent)."""
-        a, b = self.linear[i][:2]
-        sa, sb = self.linear_se[i][:2]
+        cols = _mode_cols(mode, len(self.linear[i]))
+        a, b = self.linear[i][cols]
+        sa, sb = self.linear_se[i][cols]
         amp = np.hypot(a, b)
         return float(np.sqrt((a * sa) ** 2 + (b * sb) ** 2) / amp) if amp > 0 else float("inf")
+
+
+def _mode_cols(mode: int, n_lin: int) -> list[int]:
+    """Positions of a mode's (a, b) in a window's linear parameters: the main mode first, a second mode last."""
+    return [0, 1] if mode == 0 else [n_lin - 2, n_lin - 1]
 
 
 def nrmse_fit_percent(y: np.ndarray, yhat: np.ndarray) -> float:
@@ -71,65 +95,81 @@ def nrmse_fit_percent(y: np.ndarray, yhat: np.ndarray) -> float:
     return float(100 * (1 - np.linalg.norm(y - yhat) / denom)) if denom > 0 else float("-inf")
 
 
-def free_response(t_rel: np.ndarray, omega: float, zeta: float, lin: np.ndarray) -> np.ndarray:
-    """The damped free response with linear parameters lin = (a, b, c[, r])."""
+def _damped(t_rel: np.ndarray, omega: float, zeta: float) -> tuple[np.ndarray, np.ndarray]:
+    """The two columns exp(-zeta omega t) cos(omega_d t) and exp(-zeta omega t) sin(omega_d t) of one mode."""
     sigma, wd = zeta * omega, omega * np.sqrt(1 - zeta * zeta)
     e = np.exp(-sigma * t_rel)
-    y = e * (lin[0] * np.cos(wd * t_rel) + lin[1] * np.sin(wd * t_rel)) + lin[2]
-    return y + lin[3] * t_rel if len(lin) > 3 else y
+    return e * np.cos(wd * t_rel), e * np.sin(wd * t_rel)
 
 
-def _basis(t_rel: np.ndarray, omega: float, zeta: float, drift: bool) -> np.ndarray:
-    """Columns multiplying the linear parameters (a, b, c[, r]) for given omega, zeta."""
-    sigma, wd = zeta * omega, omega * np.sqrt(1 - zeta * zeta)
-    e = np.exp(-sigma * t_rel)
-    cols = [e * np.cos(wd * t_rel), e * np.sin(wd * t_rel), np.ones_like(t_rel)]
+def _basis(t_rel: np.ndarray, modes: np.ndarray, drift: bool) -> np.ndarray:
+    """Columns multiplying the linear parameters (a, b, c[, r][, a2, b2]) for given modes [(omega, zeta), ...]."""
+    cols = [*_damped(t_rel, *modes[0]), np.ones_like(t_rel)]
     if drift:
         cols.append(t_rel)
+    for omega, zeta in modes[1:]:
+        cols += _damped(t_rel, omega, zeta)
     return np.column_stack(cols)
 
 
 class _JointModel:
-    """Residuals and analytic Jacobian of the stacked windows for x = (omega, zeta, lin_1, ..., lin_K)."""
+    """Residuals and analytic Jacobian of the stacked windows for x = (omega, zeta[, omega2, zeta2], lin_1, ..., lin_K)."""
 
-    def __init__(self, windows: list[WindowData], drift: bool):
+    def __init__(self, windows: list[WindowData], drift: bool, n_modes: int = 1):
         self.t = [w.t_s - w.t0_s for w in windows]
         self.y = [w.value for w in windows]
-        self.nl = 4 if drift else 3
+        self.n_modes = n_modes
+        self.nq = 2 * n_modes
+        """Number of nonlinear parameters (omega, zeta per mode)."""
+        self.nl = (4 if drift else 3) + 2 * (n_modes - 1)
         self.drift = drift
         ends = np.cumsum([0] + [t.size for t in self.t])
         self.blocks = [slice(a, b) for a, b in zip(ends[:-1], ends[1:])]
         """Rows of each window in the stacked residual vector."""
 
+    def modes(self, x: np.ndarray) -> np.ndarray:
+        """(omega, zeta) per mode from the stacked vector."""
+        return x[: self.nq].reshape(self.n_modes, 2)
+
     def split(self, x: np.ndarray) -> list[np.ndarray]:
         """Per-window linear parameters from the stacked vector."""
-        return [x[2 + k * self.nl : 2 + (k + 1) * self.nl] for k in range(len(self.t))]
+        return [x[self.nq + k * self.nl : self.nq + (k + 1) * self.nl] for k in range(len(self.t))]
+
+    def fitted(self, x: np.ndarray) -> list[np.ndarray]:
+        """Model values per window."""
+        return [_basis(t, self.modes(x), self.drift) @ lin for t, lin in zip(self.t, self.split(x))]
 
     def residuals(self, x: np.ndarray) -> np.ndarray:
         """Model minus data, all windows stacked."""
-        return np.concatenate([free_response(t, x[0], x[1], lin) - y for t, y, lin in zip(self.t, self.y, self.split(x))])
+        return np.concatenate([f - y for f, y in zip(self.fitted(x), self.y)])
 
     def jacobian(self, x: np.ndarray) -> np.ndarray:
         """d residuals / d x, analytic."""
-        omega, zeta = x[0], x[1]
-        root = np.sqrt(max(1 - zeta * zeta, 1e-12))
-        sigma, wd = zeta * omega, omega * root
+        modes = self.modes(x)
         jac = np.zeros((self.blocks[-1].stop, x.size))
         for k, (t, lin, rows) in enumerate(zip(self.t, self.split(x), self.blocks)):
-            e = np.exp(-sigma * t)
-            c, s = np.cos(wd * t), np.sin(wd * t)
-            osc = e * (lin[0] * c + lin[1] * s)
-            d_sigma = -t * osc
-            d_wd = e * t * (-lin[0] * s + lin[1] * c)
-            jac[rows, 0] = d_sigma * zeta + d_wd * root
-            jac[rows, 1] = d_sigma * omega - d_wd * omega * zeta / root
-            jac[rows, 2 + k * self.nl : 2 + (k + 1) * self.nl] = _basis(t, omega, zeta, self.drift)
+            for m, (omega, zeta) in enumerate(modes):
+                a, b = lin[_mode_cols(m, self.nl)]
+                root = np.sqrt(max(1 - zeta * zeta, 1e-12))
+                sigma, wd = zeta * omega, omega * root
+                e = np.exp(-sigma * t)
+                c, s = np.cos(wd * t), np.sin(wd * t)
+                d_sigma = -t * e * (a * c + b * s)
+                d_wd = e * t * (-a * s + b * c)
+                jac[rows, 2 * m] = d_sigma * zeta + d_wd * root
+                jac[rows, 2 * m + 1] = d_sigma * omega - d_wd * omega * zeta / root
+            jac[rows, self.nq + k * self.nl : self.nq + (k + 1) * self.nl] = _basis(t, modes, self.drift)
         return jac
 
-    def linear_start(self, omega: float, zeta: float) -> np.ndarray:
-        """Best linear parameters for fixed omega, zeta (variable projection), stacked behind omega, zeta."""
-        lins = [np.linalg.lstsq(_basis(t, omega, zeta, self.drift), y, rcond=None)[0] for t, y in zip(self.t, self.y)]
-        return np.concatenate([[omega, zeta], *lins])
+    def linear_start(self, q: tuple[float, ...]) -> np.ndarray:
+        """Best linear parameters for fixed nonlinear ones q (variable projection), stacked behind q."""
+        modes = np.reshape(q, (self.n_modes, 2))
+        lins = [np.linalg.lstsq(_basis(t, modes, self.drift), y, rcond=None)[0] for t, y in zip(self.t, self.y)]
+        return np.concatenate([q, *lins])
+
+    def cost(self, q: tuple[float, ...]) -> float:
+        """Sum of squared residuals after variable projection (the screen for starting points)."""
+        return float(np.sum(self.residuals(self.linear_start(q)) ** 2))
 
 
 def correlation_lags(r: np.ndarray, period: int) -> int:
@@ -162,7 +202,11 @@ def long_run_covariance(g: np.ndarray, lag: int) -> np.ndarray:
     """Long-run covariance of score rows g: VAR(1) prewhitening, Bartlett-kernel sum over `lag` lags, recolouring
     (Andrews and Monahan 1992), which keeps small-sample coverage close to nominal under strong correlation."""
     p = g.shape[1]
-    a = np.linalg.lstsq(g[:-1], g[1:], rcond=None)[0].T
+    scale = np.linalg.norm(g, axis=0)
+    scale[scale == 0] = 1.0
+    gs = g / scale  # VAR(1) by normal equations on unit-norm columns: as accurate here and far cheaper than lstsq
+    b = np.linalg.lstsq(gs[:-1].T @ gs[:-1], gs[:-1].T @ gs[1:], rcond=None)[0]
+    a = b.T * scale[:, None] / scale[None, :]
     if np.max(np.abs(np.linalg.eigvals(a))) > 0.97:  # near unit root: prewhitening would explode, skip it
         a = np.zeros((p, p))
     e = g[1:] - g[:-1] @ a.T
@@ -200,28 +244,16 @@ def hac_covariance(
     return hac * np.outer(scale, scale), naive, lags
 
 
-def fit_pt2(
-    windows: list[WindowData], omega_starts: list[float], zeta_hint: float | None = None, drift: bool = False
-) -> PT2Fit:
-    """Fit the free response jointly to all windows from several starts; keep the lowest cost.
-
-    The first of omega_starts (the spectral estimate) centres the +-25 % search interval for omega."""
-    model = _JointModel(windows, drift)
-    omega0 = omega_starts[0]
-    lo_w, hi_w = omega0 * (1 - OMEGA_SPAN), omega0 * (1 + OMEGA_SPAN)
-    zetas = sorted({*ZETA_STARTS, *([float(np.clip(zeta_hint, 1e-3, 0.9))] if zeta_hint else [])})
-    omegas = [float(np.clip(w * f, lo_w, hi_w)) for w in omega_starts for f in (1.0, 0.99, 1.01)]
-    starts = [(w, z) for z in zetas for w in omegas]
-    npar = 2 + len(windows) * model.nl
-    lower = np.full(npar, -np.inf)
-    upper = np.full(npar, np.inf)
-    lower[:2] = (lo_w, ZETA_BOUNDS[0])
-    upper[:2] = (hi_w, ZETA_BOUNDS[1])
-    # a cheap variable-projection screen picks the most promising starts before the full solves
-    screened = sorted(starts, key=lambda s: np.sum(model.residuals(model.linear_start(*s)) ** 2))[:5]
+def _solve(model: _JointModel, starts: list[tuple[float, ...]], lower_q, upper_q, keep: int = 5) -> PT2Fit:
+    """Screen the starts by variable projection, polish the best `keep` with bounded least squares, keep the lowest
+    cost, and attach the corrected covariance."""
+    npar = model.nq + len(model.t) * model.nl
+    lower, upper = np.full(npar, -np.inf), np.full(npar, np.inf)
+    lower[: model.nq], upper[: model.nq] = lower_q, upper_q
+    screened = sorted(starts, key=model.cost)[:keep]
     best = None
-    for omega_s, zeta_s in screened:
-        x0 = model.linear_start(omega_s, zeta_s)
+    for q in screened:
+        x0 = model.linear_start(tuple(np.clip(q, lower_q, upper_q)))
         res = optimize.least_squares(
             model.residuals, x0, jac=model.jacobian, bounds=(lower, upper), x_scale="jac", method="trf", tr_solver="lsmr",
             xtol=1e-12, ftol=1e-12, gtol=1e-12, max_nfev=200,
@@ -234,15 +266,51 @@ def fit_pt2(
     periods = [max(2, int(round(2 * np.pi / x[0] / np.median(np.diff(t))))) for t in model.t]
     cov, naive, lags = hac_covariance(jac, resid, model.blocks, periods)
     se = np.sqrt(np.clip(np.diag(cov), 0, None))
-    at_bound = []
-    for name, i in (("omega", 0), ("zeta", 1)):
-        span = upper[i] - lower[i]
-        if x[i] - lower[i] < 1e-6 * span or upper[i] - x[i] < 1e-6 * span:
-            at_bound.append(name)
+    names = ("omega", "zeta", "omega2", "zeta2")
+    at_bound = [
+        names[i] for i in range(model.nq)
+        if x[i] - lower[i] < 1e-6 * (upper[i] - lower[i]) or upper[i] - x[i] < 1e-6 * (upper[i] - lower[i])
+    ]
     lins = model.split(x)
-    ses = model.split(se)
-    fitted = [free_response(t, x[0], x[1], lin) for t, lin in zip(model.t, lins)]
+    fitted = model.fitted(x)
+    second, second_fitted = None, ()
+    if model.n_modes == 2:
+        second = ModeFit(float(x[2]), float(x[3]), cov[2:4, 2:4])
+        second_fitted = tuple(
+            np.column_stack(_damped(t, x[2], x[3])) @ lin[_mode_cols(1, model.nl)] for t, lin in zip(model.t, lins)
+        )
     return PT2Fit(
-        float(x[0]), float(x[1]), cov[:2, :2], naive[:2, :2], tuple(lins), tuple(ses), tuple(fitted),
-        tuple(y - f for y, f in zip(model.y, fitted)), tuple(lags), drift, tuple(at_bound), len(screened),
+        float(x[0]), float(x[1]), cov[:2, :2], naive[:2, :2], tuple(lins), tuple(model.split(se)), tuple(fitted),
+        tuple(y - f for y, f in zip(model.y, fitted)), tuple(lags), model.drift, tuple(at_bound), len(screened),
+        second, second_fitted,
     )
+
+
+def fit_pt2(
+    windows: list[WindowData], omega_starts: list[float], zeta_hint: float | None = None, drift: bool = False
+) -> PT2Fit:
+    """Fit the free response jointly to all windows from several starts; keep the lowest cost.
+
+    The first of omega_starts (the spectral estimate) centres the +-25 % search interval for omega."""
+    model = _JointModel(windows, drift)
+    omega0 = omega_starts[0]
+    lo_w, hi_w = omega0 * (1 - OMEGA_SPAN), omega0 * (1 + OMEGA_SPAN)
+    zetas = sorted({*ZETA_STARTS, *([float(np.clip(zeta_hint, 1e-3, 0.9))] if zeta_hint else [])})
+    omegas = [float(np.clip(w * f, lo_w, hi_w)) for w in omega_starts for f in (1.0, 0.99, 1.01)]
+    starts = [(w, z) for z in zetas for w in omegas]
+    return _solve(model, starts, (lo_w, ZETA_BOUNDS[0]), (hi_w, ZETA_BOUNDS[1]))
+
+
+def fit_two_modes(windows: list[WindowData], first: PT2Fit, omega2_start: float) -> PT2Fit:
+    """Fit the main mode and a second damped mode together (second started at the PSD's secondary peak).
+
+    Each mode's omega may move at most half-way toward the other's start, so the two cannot swap or merge; a mode
+    that ends on that bound was not separated by the data."""
+    model = _JointModel(windows, first.drift, n_modes=2)
+    w1 = first.omega_rad_s
+    half = abs(omega2_start - w1) / 2
+    lower = (max(w1 - half, w1 * (1 - OMEGA_SPAN)), ZETA_BOUNDS[0], omega2_start - half, ZETA_BOUNDS[0])
+    upper = (min(w1 + half, w1 * (1 + OMEGA_SPAN)), ZETA_BOUNDS[1], omega2_start + half, ZETA_BOUNDS[1])
+    # the main mode starts where the single-mode fit put it; the second from the PSD peak, with several dampings
+    starts = [(w1, first.zeta, omega2_start * f2, z2) for z2 in ZETA_STARTS for f2 in (1.0, 0.99, 1.01)]
+    return _solve(model, starts, lower, upper, keep=3)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 import re
 
 import pytest
@@ -22,10 +23,14 @@ def test_real_runs_frequency_and_verdicts(antisloshing_dir):
         # every run, good or not, must land within the +-2 % the issue allows (nonlinear, 20-50 mm crests)
         assert abs(f / F_PHYS - 1) < 0.02, (name, f)
     good = [n for n, r in results.items() if r.quality == "good"]
-    # measured: 5 of 8 good; the others have a growing or non-decaying wall amplitude or a strong 3.98 Hz mode
-    assert len(good) >= 5, {n: r.reasons for n, r in results.items()}
+    # measured: 7 of 8 good (the issue's target); the eighth's wall amplitude grows until the recording stops
+    assert len(good) >= 7, {n: r.reasons for n, r in results.items()}
+    grow = results["TRD_2D_0.3m_2.2s_270deg"]
+    assert grow.quality == "uncertain" and "zeta" in grow.fit.at_bound
+    # the tilted run with the 3.97 Hz second mode (data README): fitted as a second mode, separated from the first
     tilt = results["Tilt_TRD_2D_0.3m_3s_30deg"]
-    assert tilt.quality == "uncertain" and any("second mode" in r for r in tilt.reasons)
+    assert tilt.second_mode is not None and tilt.second_mode.separated, tilt.second_mode.problems
+    assert tilt.fit.second.omega_rad_s / (2 * math.pi) == pytest.approx(3.97, abs=0.05)
 
 
 def test_joint_identification_of_all_runs(antisloshing_dir):

@@ -1,0 +1,121 @@
+"""`sloshid compare` end to end: report content, JSON keys, not-applicable rows, and every bad input named in issue 5."""
+
+from __future__ import annotations
+
+import json
+import re
+
+import pytest
+
+from sloshid.commands.compare import table_text
+
+SCENARIO = """
+[move]
+start = [0.3, 0.0, 0.2]
+goal = [0.4, 0.0, 0.2]
+[limits]
+acc_max = [0.5, 0.5, 0.5]
+[liquid]
+m_kg = 0.5
+l_m = 0.021
+d_ns_per_m = 1.51
+[solver]
+N = 50
+{solver}
+[compare]
+methods = {methods}
+omega_factors = [0.9, 1.1]
+zeta_factors = [1.0]
+camera_fps_sweep = [30]
+linearity_acc_m_s2 = [0.5]
+settle_s = 0.7
+workers = 1
+{extra}
+[compare.feedback]
+settle_s = 1.5
+"""
+
+
+def write_scenario(tmp_path, methods='["constant_acc", "zvd", "sloshid"]', solver="", extra=""):
+    """A short 0.1 m move along x (fast to simulate) with a reduced [compare] table."""
+    path = tmp_path / "scenario.toml"
+    path.write_text(SCENARIO.format(methods=methods, solver=solver, extra=extra))
+    return path
+
+
+@pytest.mark.slow
+def test_report_and_json_carry_every_method_and_the_verdict(tmp_path, run_cli):
+    path = write_scenario(tmp_path, methods='["constant_acc", "zvd", "sloshid", "constant_acc_feedback"]')
+    report = tmp_path / "rep"
+    code, out, err = run_cli("compare", path, "--report", report, "--json")
+    assert code == 0, err
+    summary = json.loads(out)
+    rows = {m["method"]: m for m in summary["methods"]}
+    assert list(rows) == ["constant_acc", "zvd", "sloshid", "constant_acc_feedback"]
+    for key in ("transfer_time_s", "peak_during_deg", "residual_deg", "peak_tilt_deg", "peak_tilt_rate_deg_s",
+                "robot_limits_ok", "move_limits_ok"):  # fmt: skip
+        assert all(key in m for m in rows.values())
+    # the physics the report must show: the plan is the fastest slosh-free move, the unshaped one sloshes
+    assert rows["sloshid"]["residual_deg"] < 0.05 and rows["constant_acc"]["residual_deg"] > 1.0
+    assert rows["sloshid"]["transfer_time_s"] < rows["zvd"]["transfer_time_s"]
+    assert summary["verdict"].startswith("sloshid plan is the fastest move")
+    html = (report / "index.html").read_text()
+    for text in ("Relative slosh angle over time", "Scores", "Closed loop", "Robustness to model error",
+                 "camera rate", "ZVD shaped", "constant acceleration + feedback", summary["verdict"][:40]):  # fmt: skip
+        assert text in html
+    assert len(re.findall(r"<img ", html)) == 5  # Fig. 7, closed loop, linearity, robustness, camera
+
+
+def test_a_method_that_cannot_be_built_is_reported_not_applicable(tmp_path, run_cli):
+    # two IPOPT iterations cannot converge: the planner raises, the comparison goes on without it
+    path = write_scenario(tmp_path, methods='["constant_acc", "sloshid", "sloshid_feedback"]', solver="max_iter = 2")
+    code, out, err = run_cli("compare", path, "--json")
+    assert code == 0, err
+    rows = {m["method"]: m for m in json.loads(out)["methods"]}
+    assert rows["constant_acc"]["applicable"]
+    assert not rows["sloshid"]["applicable"] and "did not converge" in rows["sloshid"]["reason"]
+    assert not rows["sloshid_feedback"]["applicable"] and "not applicable" in rows["sloshid_feedback"]["reason"]
+    assert re.search(r"sloshid plan\s+not applicable", table_text(json.loads(out)))  # the plain table too
+
+
+@pytest.mark.parametrize(
+    "extra, message",
+    [
+        ("jerk_max = 2.0", "unknown key '[compare].jerk_max' (did you mean 'jerk_max_m_s3'?)"),
+        ('residual_ok_deg = "small"', "[compare].residual_ok_deg must be a number"),
+        ("robust_omega_factors = []", "[compare].robust_omega_factors must be a non-empty list"),
+        ("robot_bandwidth_hz = 0.0", "[compare].robot_bandwidth_hz must be positive"),
+    ],
+)
+def test_bad_compare_table_is_one_sentence_and_writes_nothing(tmp_path, run_cli, extra, message):
+    path = write_scenario(tmp_path, extra=extra)
+    report = tmp_path / "rep"
+    code, out, err = run_cli("compare", path, "--report", report)
+    assert code == 2 and message in err and err.count("\n") == 1 and out == ""
+    assert not report.exists()
+
+
+def test_bad_method_name_suggests_the_right_one(tmp_path, run_cli):
+    path = write_scenario(tmp_path, methods='["constant_acc", "contant_acc_feedback"]')
+    code, _, err = run_cli("compare", path)
+    assert code == 2 and "unknown method 'contant_acc_feedback'" in err
+    assert "did you mean 'constant_acc_feedback'" in err
+
+
+def test_bad_files_and_options(tmp_path, run_cli):
+    report = tmp_path / "rep"
+    code, _, err = run_cli("compare", tmp_path / "missing.toml", "--report", report)
+    assert code == 2 and "does not exist" in err and not report.exists()
+    path = write_scenario(tmp_path)
+    bad_params = tmp_path / "p.json"
+    bad_params.write_text("{not json")
+    code, _, err = run_cli("compare", path, "--params", bad_params, "--report", report)
+    assert code == 2 and "not valid JSON" in err and not report.exists()
+    code, _, err = run_cli("compare", path, "--report", tmp_path / "out.html")
+    assert code == 2 and "--report takes a directory" in err and not (tmp_path / "out.html").exists()
+    code, _, err = run_cli("compare", path, "--report", bad_params)  # an existing file, not a directory
+    assert code == 2 and "--report takes a directory" in err and bad_params.read_text() == "{not json"
+    broken = tmp_path / "broken.toml"
+    broken.write_text("[move\nstart = 1")
+    code, _, err = run_cli("compare", broken)
+    assert code == 2 and "not valid TOML" in err
