@@ -43,8 +43,7 @@ def _interval(params: dict[str, Any], key: str) -> list[Any]:
 def process_video(video: str, config: BatchConfig, out_root: str) -> dict[str, Any]:
     """Track one video and identify its mode; returns its summary row (status 'failed' with the reason on error).
 
-    Runs on a Dask worker: imports are local and OpenCV is kept to one thread, since the batch is parallel
-    over videos already.
+    Runs on a Dask worker: imports are local.
     """
     import cv2
 
@@ -52,7 +51,7 @@ def process_video(video: str, config: BatchConfig, out_root: str) -> dict[str, A
     from .signals import load_signal
     from .tracker import track_video
 
-    cv2.setNumThreads(1)
+    cv2.setNumThreads(1)  # the batch is parallel over videos: each video gets one core
     row: dict[str, Any] = {c: "" for c in SUMMARY_COLUMNS}
     row["file"] = video
     try:
@@ -70,7 +69,7 @@ def process_video(video: str, config: BatchConfig, out_root: str) -> dict[str, A
     row["outputs"] = str(out)
     try:
         overlay = out / "overlay.mp4" if config.track.overlay else None
-        tracked = track_video(video, config.track.track_settings(), overlay=overlay)
+        tracked = track_video(video, config.track.track_settings(), overlay=overlay, multithreaded=False)
         tracked.to_csv(out / "angles.csv")
         row.update(frames=len(tracked.t_s), valid_share=round(float(tracked.valid.mean()), 4))
         result = Identifier(config.identify.ident_settings()).fit(load_signal(out / "angles.csv")).result

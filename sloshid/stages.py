@@ -22,12 +22,14 @@ def _save_figure(fig: Any, path: Path) -> str:
     return path.name
 
 
-def track_one(video: Path, opts: TrackOptions, out_dir: Path) -> dict[str, Any]:
-    """Track one video into out_dir/<stem>.csv (and overlay); returns its summary. Runs on Dask workers too."""
+def track_one(video: Path, opts: TrackOptions, out_dir: Path, one_core: bool = False) -> dict[str, Any]:
+    """Track one video into out_dir/<stem>.csv (and overlay); returns its summary. On Dask workers one_core
+    keeps each video to one core, since the workers already run videos side by side."""
     from .tracker import track_video
 
     overlay = out_dir / f"{video.stem}_overlay.mp4" if opts.overlay else None
-    res = track_video(video, opts.track_settings(), overlay=overlay, progress=True)
+    res = track_video(video, opts.track_settings(), overlay=overlay, progress=not one_core,
+                      multithreaded=not one_core)  # fmt: skip
     res.to_csv(out_dir / f"{video.stem}.csv")
     return {"video": str(video), "csv": f"{video.stem}.csv", "frames": len(res.t_s),
             "valid_share": float(res.valid.mean()), "warnings": res.warnings,
@@ -48,7 +50,7 @@ def run_track(opts: TrackOptions, ctx: StageContext) -> dict[str, Any]:
         from .batch import dask_client
 
         with dask_client(ctx.run.workers, None) as client:
-            summaries = client.gather(client.map(track_one, opts.videos, opts=opts, out_dir=ctx.out_dir))
+            summaries = client.gather(client.map(track_one, opts.videos, opts=opts, out_dir=ctx.out_dir, one_core=True))
     else:
         summaries = [track_one(v, opts, ctx.out_dir) for v in opts.videos]
     fig, ax = plt.subplots(figsize=(10, 3.2))
