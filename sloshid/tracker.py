@@ -109,15 +109,16 @@ def _unwrap(angle: float, previous: float) -> float:
 
 
 def track_video(path: str | Path, settings: TrackSettings | None = None, overlay: str | Path | None = None,
-                progress: bool = False) -> TrackResult:
+                progress: bool = False, multithreaded: bool = True) -> TrackResult:
     """Track the float in every decoded frame of `path`; optionally write an overlay video.
 
     Raises UserError for unreadable videos, a bad ROI, and a float (or, with the container reference,
     container walls) found in no frame; the overlay, if requested, is still written then: it shows what
     was searched. Truncation and partial loss are reported in `warnings`, `lost_share`, `invalid_share`.
+    multithreaded=False decodes on one core in this thread (for batches that run many videos side by side).
     """
     settings = settings or TrackSettings()
-    reader = FrameReader(Path(path))
+    reader = FrameReader(Path(path), multithreaded)
     width, height = reader.frame_size
     roi = _roi_box(settings, width, height)
     finder = FloatFinder(settings.hsv, roi)

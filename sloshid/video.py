@@ -62,6 +62,9 @@ class FrameReader:
     how much of the declared content could actually be decoded (a truncated file decodes only a prefix)."""
 
     path: Path
+    multithreaded: bool = True
+    """Let FFmpeg decode with several threads, in a background thread that overlaps the caller's work (one
+    video, several cores); off when many videos run side by side and each should use one core."""
     info: VideoInfo = field(init=False)
     decoded: int = field(init=False, default=0)
     _cap: cv2.VideoCapture = field(init=False, repr=False)
@@ -72,7 +75,8 @@ class FrameReader:
             raise UserError(f"video {self.path} does not exist.")
         if not self.path.is_file():
             raise UserError(f"video {self.path} is not a file.")
-        cap = cv2.VideoCapture(str(self.path), cv2.CAP_FFMPEG)
+        params = [] if self.multithreaded else [cv2.CAP_PROP_N_THREADS, 1]
+        cap = cv2.VideoCapture(str(self.path), cv2.CAP_FFMPEG, params)
         if not cap.isOpened():
             raise UserError(_why_unreadable(self.path))
         cap.set(cv2.CAP_PROP_ORIENTATION_AUTO, 1)
@@ -87,7 +91,10 @@ class FrameReader:
 
     def __iter__(self) -> Iterator[tuple[int, float, np.ndarray]]:
         """Frames in order. Decoding runs in a background thread (OpenCV releases the GIL while decoding),
-        so the caller's per-frame work overlaps with decoding the next frames."""
+        so the caller's per-frame work overlaps with decoding the next frames (unless multithreaded is off)."""
+        if not self.multithreaded:
+            yield from self._in_this_thread()
+            return
         frames: queue.Queue = queue.Queue(maxsize=8)
         stop = threading.Event()
         worker = threading.Thread(target=self._decode, args=(frames, stop), daemon=True)
@@ -106,6 +113,20 @@ class FrameReader:
                 with contextlib.suppress(queue.Empty):
                     frames.get_nowait()
                 worker.join(timeout=0.01)
+            self._cap.release()
+        if self.decoded == 0:
+            raise UserError(f"{self.path} contains no decodable video frames.")
+
+    def _in_this_thread(self) -> Iterator[tuple[int, float, np.ndarray]]:
+        """Frames in order, decoded in the caller's thread."""
+        try:
+            while True:
+                ok, frame = self._cap.read()
+                if not ok or frame is None:
+                    break
+                yield self.decoded, self._cap.get(cv2.CAP_PROP_POS_MSEC) / 1000.0, frame
+                self.decoded += 1
+        finally:
             self._cap.release()
         if self.decoded == 0:
             raise UserError(f"{self.path} contains no decodable video frames.")

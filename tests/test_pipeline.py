@@ -1,0 +1,97 @@
+"""Pipelines: validation before running, stage caching by content hash, failure handling, the index page."""
+
+from __future__ import annotations
+
+import json
+import re
+from pathlib import Path
+
+import pytest
+
+from sloshid.synth import SynthSettings, render_video
+
+
+@pytest.fixture(scope="module")
+def video(tmp_path_factory) -> Path:
+    """A small tap-test video (f = 3.0 Hz, zeta = 0.05) that tracks and identifies in a few seconds."""
+    path = tmp_path_factory.mktemp("pipe") / "tap.mp4"
+    render_video(path, SynthSettings(width=320, height=240, duration_s=4.0, f_hz=3.0, zeta=0.05, noise_sigma=3))
+    return path
+
+
+def _write(path: Path, text: str) -> Path:
+    path.write_text(text)
+    return path
+
+
+def _statuses(index_dir: Path) -> dict[str, str]:
+    manifest = json.loads((index_dir / "manifest.json").read_text())
+    return {s["name"]: s["status"] for s in manifest["stages"]}
+
+
+def _links_exist(index: Path) -> None:
+    """Every href/src of the index page that is not embedded data points at a file of the run."""
+    html = index.read_text()
+    targets = [t for t in re.findall(r'(?:href|src)="([^"]+)"', html) if not t.startswith("data:")]
+    assert targets, "the index links nothing"
+    for t in targets:
+        assert (index.parent / t).exists(), t
+
+
+def test_cache_skips_unchanged_and_reruns_changed_stage_downstream_only(video, tmp_path, run_cli):
+    pipe = _write(tmp_path / "p.toml", f'[track]\nvideos = ["{video}"]\n\n[identify]\nmass_kg = 0.5\n')
+    code, out, _ = run_cli("run", pipe, "--output-dir", tmp_path / "runs", "--quiet")
+    assert code == 0
+    first = Path(out.strip()).parent
+    assert _statuses(first) == {"track": "ran", "identify": "ran"}
+    params = json.loads((first / "identify" / "params.json").read_text())["parameters"]
+    assert params["f_hz"]["value"] == pytest.approx(3.0, rel=0.01)  # clean synthetic mode: well under 1 %
+    assert params["m_kg"]["value"] == 0.5
+    _links_exist(first / "index.html")
+    manifest = json.loads((first / "manifest.json").read_text())
+    assert str(video) in manifest["input_sha256"] and manifest["settings"]["identify"]["mass_kg"] == 0.5
+
+    code, out, _ = run_cli("run", pipe, "--output-dir", tmp_path / "runs", "--quiet")
+    second = Path(out.strip()).parent
+    assert code == 0 and second != first
+    assert _statuses(second) == {"track": "cached", "identify": "cached"}
+    assert (second / "identify" / "params.json").read_text() == (first / "identify" / "params.json").read_text()
+
+    _write(pipe, f'[track]\nvideos = ["{video}"]\n\n[identify]\nmass_kg = 1.0\n')
+    code, out, _ = run_cli("run", pipe, "--output-dir", tmp_path / "runs", "--quiet")
+    third = Path(out.strip()).parent
+    assert _statuses(third) == {"track": "cached", "identify": "ran"}
+    params = json.loads((third / "identify" / "params.json").read_text())["parameters"]
+    assert params["m_kg"]["value"] == 1.0
+
+
+def test_failing_stage_keeps_finished_results(video, tmp_path, run_cli):
+    # a constant signal has no oscillatory mode: identify must fail, track's outputs must stay
+    flat = _write(tmp_path / "flat.csv", "t_s,y\n" + "".join(f"{i / 50},1.0\n" for i in range(500)))
+    pipe = _write(tmp_path / "p.toml", f'[track]\nvideos = ["{video}"]\n[identify]\nsignals = ["{flat}"]\n')
+    code, out, err = run_cli("run", pipe, "--output-dir", tmp_path / "runs", "--quiet")
+    assert code == 1 and "stage [identify] failed" in err
+    run_dir = Path(out.strip()).parent
+    assert _statuses(run_dir) == {"track": "ran", "identify": "failed"}
+    assert (run_dir / "track" / "tap.csv").exists() and not (run_dir / "identify").exists()
+    assert not list((tmp_path / "runs" / "p" / ".cache" / "identify").glob("*")), "no half-written cache entry"
+    _links_exist(run_dir / "index.html")
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        ("[trak]\nvideos = []\n", "unknown section [trak] (did you mean 'track'?)"),
+        ('[track]\nvideos = ["missing.mp4"]\n', "[track].videos: "),
+        ("[track]\nvidoes = []\n", "did you mean 'videos'"),
+        ("[run]\nworkers = 0\n[track]\n", "[run].workers must be at least 1"),
+        ("[identify]\nmass_kg = 0.5\n", "[identify] needs a [track] section"),
+        ("[run]\n", "declares no stage"),
+        ("[track\n", "is not valid TOML"),
+    ],
+)
+def test_malformed_pipeline_is_rejected_before_anything_runs(tmp_path, run_cli, text, message):
+    pipe = _write(tmp_path / "bad.toml", text)
+    code, _, err = run_cli("run", pipe, "--output-dir", tmp_path / "runs")
+    assert code == 2 and message in err
+    assert not (tmp_path / "runs").exists()
