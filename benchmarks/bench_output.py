@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import os
 import platform
 import sys
 from pathlib import Path
@@ -22,8 +23,10 @@ def _cell(v) -> str:
 
 def write_results(name: str, data: dict, title: str, header: list[str], rows: list[list], notes: str = "") -> None:
     """Save `data` as JSON and `rows` as a Markdown table (with the machine noted) in reports/benchmarks/."""
-    data = {**data, "machine": {"python": platform.python_version(), "cpu": platform.processor() or platform.machine()}}
-    write_text(OUT / f"{name}.json", json.dumps(data, indent=2) + "\n")
+    machine = {"python": platform.python_version(), "cpu": platform.processor() or platform.machine(),
+               "cpus": os.cpu_count(), "load_avg_1min": os.getloadavg()[0]}  # fmt: skip
+    data = {**data, "machine": machine}
+    write_text(OUT / f"{name}.json", json.dumps(data, indent=2, default=float) + "\n")
     lines = [f"# {title}", "", "| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
     lines += ["| " + " | ".join(_cell(c) for c in row) + " |" for row in rows]
     if notes:

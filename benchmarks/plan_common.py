@@ -3,23 +3,14 @@
 from __future__ import annotations
 
 import dataclasses
-import json
+import time
 
 import matplotlib
 
 matplotlib.use("Agg")
-import platform
-import sys
-import time
-from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
-
-from sloshid.atomic import write_text  # noqa: E402
+from bench_output import OUT, ROOT, write_results  # noqa: E402
 from sloshid.scenario import Scenario, load_scenario  # noqa: E402
-
-OUT = ROOT / "reports" / "benchmarks"
 
 
 def scenario(name: str, **solver_changes) -> Scenario:
@@ -47,15 +38,5 @@ def save_figure(fig, name: str) -> None:
 
 
 def write(name: str, data: dict, header: list[str], rows: list[list], notes: list[str]) -> None:
-    """reports/benchmarks/<name>.json (all numbers) and <name>.md (a short table and notes)."""
-    import os
-
-    data = {"machine": {"python": platform.python_version(), "cpus": os.cpu_count(),
-                        "load_avg_1min": os.getloadavg()[0]}, **data}  # fmt: skip
-    write_text(OUT / f"{name}.json", json.dumps(data, indent=2, default=float) + "\n")
-    fmt = lambda v: f"{v:.4g}" if isinstance(v, float) else str(v)  # noqa: E731
-    lines = [f"# {name}", "", "| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
-    lines += ["| " + " | ".join(fmt(v) for v in row) + " |" for row in rows]
-    lines += [""] + [f"- {n}" for n in notes] + [""]
-    write_text(OUT / f"{name}.md", "\n".join(lines))
-    print("\n".join(lines))
+    """reports/benchmarks/<name>.json and .md, with the notes as a bullet list under the table."""
+    write_results(name, data, name, header, rows, "\n".join(f"- {n}" for n in notes))

@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import json
 import math
-import sys
 import tempfile
 import time
 from pathlib import Path
@@ -21,7 +20,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+from bench_output import OUT  # noqa: E402  (puts the repository on sys.path)
 
 from sloshid.atomic import atomic_path, write_text  # noqa: E402
 from sloshid.colors import DEFAULT_FLOAT_COLOR, preset  # noqa: E402
@@ -30,7 +29,6 @@ from sloshid.synth import SynthSettings, render_video  # noqa: E402
 from sloshid.tracker import TrackSettings, track_video  # noqa: E402
 from sloshid.video import FrameReader  # noqa: E402
 
-OUT = Path(__file__).resolve().parents[1] / "reports" / "benchmarks"
 
 CASES = [
     ("640x480 30fps h264 noise5 blur1.0 roll1", "image",

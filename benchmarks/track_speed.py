@@ -13,20 +13,17 @@ from __future__ import annotations
 import json
 import os
 import statistics
-import sys
 import time
 from pathlib import Path
 
 import cv2
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
+from bench_output import OUT, ROOT  # noqa: E402  (puts the repository on sys.path)
 
 from sloshid.atomic import write_text  # noqa: E402
 from sloshid.synth import SynthSettings, render_video  # noqa: E402
 from sloshid.tracker import TrackSettings, track_video  # noqa: E402
 
-OUT = ROOT / "reports" / "benchmarks"
 CACHE = ROOT / "out" / "benchmarks"
 SIZES = [(640, 480), (1280, 720)]
 DURATION_S = 120.0
