@@ -6,15 +6,14 @@ theta the pitch about y0 of design.md; quaternions are scalar-last (qx, qy, qz, 
 
 from __future__ import annotations
 
-import csv
 from dataclasses import dataclass, field, fields
 from pathlib import Path
 
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from .atomic import atomic_path
 from .errors import UserError
+from .tables import read_csv, write_csv
 
 CSV_COLUMNS = (
     "t_s", "x_m", "y_m", "z_m", "vx_m_s", "vy_m_s", "vz_m_s", "ax_m_s2", "ay_m_s2", "az_m_s2",
@@ -94,19 +93,13 @@ class Trajectory:
 
     def to_csv(self, path: str | Path) -> None:
         """Write the robot-ready CSV (columns CSV_COLUMNS) atomically."""
-        with atomic_path(path) as tmp, open(tmp, "w", newline="") as fh:
-            writer = csv.writer(fh)
-            writer.writerow(CSV_COLUMNS)
-            writer.writerows(np.round(self.table(), 9).tolist())
+        write_csv(path, dict(zip(CSV_COLUMNS, self.table().T)))
 
     @classmethod
     def from_csv(cls, path: str | Path, name: str = "") -> "Trajectory":
         """Read a CSV written by `to_csv` (euler rates are recovered from the angular velocity)."""
-        try:
-            data = np.genfromtxt(path, delimiter=",", names=True)
-        except OSError:
-            raise UserError(f"trajectory file {path} does not exist.") from None
-        missing = [c for c in CSV_COLUMNS if c not in (data.dtype.names or ())]
+        data = read_csv(path)
+        missing = [c for c in CSV_COLUMNS if c not in data]
         if missing:
             raise UserError(f"trajectory file {path} lacks columns {', '.join(missing)}.")
         col = lambda *names: np.column_stack([data[n] for n in names])  # noqa: E731

@@ -43,7 +43,7 @@ def test_csv_round_trip(tmp_path):
     header = path.read_text().splitlines()[0].split(",")
     assert tuple(header) == CSV_COLUMNS
     back = Trajectory.from_csv(path)
-    # 9 decimals are written: round-trip error is below 1e-8 (rates go through a 3x3 solve)
+    # 9 significant digits are written: round-trip error is below 1e-8 (rates go through a 3x3 solve)
     for name in ("pos_m", "vel_m_s", "acc_m_s2", "euler_rad", "euler_rate_rad_s"):
         assert getattr(back, name) == pytest.approx(getattr(traj, name), abs=1e-7)
     q = back.quaternion_xyzw
