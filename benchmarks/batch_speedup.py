@@ -15,17 +15,17 @@ from pathlib import Path
 from bench_output import write_results
 from dask.distributed import Client, LocalCluster
 
-from sloshid.batch import run_batch
-from sloshid.stage_settings import BatchConfig, IdentifyOptions, TrackOptions
-from sloshid.synth import SynthSettings, render_video
+from sloshid.workflow.batch import run_batch
+from sloshid.workflow.options import BatchConfig, IdentifyOptions, TrackOptions
+from sloshid.synthetic.render import SynthSettings, render_video
 
 N_VIDEOS = 16
 
 
 def _warm_up() -> None:
     """Import the tracker and identifier on a worker (what its first video would otherwise pay for)."""
-    import sloshid.identify  # noqa: F401
-    import sloshid.tracker  # noqa: F401
+    import sloshid.identification.estimator  # noqa: F401
+    import sloshid.tracking.tracker  # noqa: F401
 
 
 def main() -> None:

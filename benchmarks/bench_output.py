@@ -11,7 +11,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from sloshid.atomic import write_text  # noqa: E402
+from sloshid.core.atomic import write_text  # noqa: E402
 
 OUT = ROOT / "reports" / "benchmarks"
 

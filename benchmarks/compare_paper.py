@@ -11,8 +11,8 @@ import numpy as np
 
 from plan_common import OUT, scenario, write
 
-from sloshid.compare import compare, from_scenario
-from sloshid.compare_report import save_report
+from sloshid.comparison.compare import compare, from_scenario
+from sloshid.comparison.report import save_report
 
 BAND = (0.9, 1.1)
 """Frequency-error band in which the robust variant must stay at or below the residual threshold."""

@@ -12,8 +12,8 @@ from scipy import linalg
 from tqdm import tqdm
 
 from bench_output import write_results
-from sloshid.decay_synth import NOISE_WHITE_SHARE, free_decay_signal
-from sloshid.identify import Z95, Identifier
+from sloshid.synthetic.decays import NOISE_WHITE_SHARE, free_decay_signal
+from sloshid.identification.estimator import Z95, Identifier
 
 N_TRIALS = 100
 NOISE_STD = 0.3

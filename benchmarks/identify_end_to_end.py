@@ -14,10 +14,10 @@ import time
 from pathlib import Path
 
 from bench_output import write_results
-from sloshid.identify import IdentSettings, identify_file
-from sloshid.model import TABLE_I
-from sloshid.synth import SynthSettings, render_video
-from sloshid.tracker import track_video
+from sloshid.identification.estimator import IdentSettings, identify_file
+from sloshid.model.pendulum import TABLE_I
+from sloshid.synthetic.render import SynthSettings, render_video
+from sloshid.tracking.tracker import track_video
 
 CASES = [
     dict(width=640, height=480, fps=30, noise_sigma=5, blur_px=1.0, codec="h264", quality=18),

@@ -16,10 +16,10 @@ import numpy as np  # noqa: E402
 from scipy import signal as sps  # noqa: E402
 
 from bench_output import OUT, ROOT, write_results  # noqa: E402
-from sloshid.atomic import atomic_path  # noqa: E402
-from sloshid.identify import Identifier  # noqa: E402
-from sloshid.signals import load_signal  # noqa: E402
-from sloshid.spectrum import to_uniform  # noqa: E402
+from sloshid.core.atomic import atomic_path  # noqa: E402
+from sloshid.identification.estimator import Identifier  # noqa: E402
+from sloshid.identification.signals import load_signal  # noqa: E402
+from sloshid.core.spectrum import to_uniform  # noqa: E402
 
 F_PHYS = 3.047
 DATA = ROOT.parent / "shared" / "data" / "antisloshing" / "slosh"

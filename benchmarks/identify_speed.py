@@ -10,9 +10,9 @@ import numpy as np
 from scipy import signal as sps
 
 from bench_output import write_results
-from sloshid.decay_synth import free_decay_signal
-from sloshid.identify import Identifier
-from sloshid.signals import make_signal
+from sloshid.synthetic.decays import free_decay_signal
+from sloshid.identification.estimator import Identifier
+from sloshid.identification.signals import make_signal
 
 REPEATS = 5
 

@@ -11,10 +11,10 @@ import numpy as np
 from plan_common import save_figure, scenario, timed, write
 
 from sloshid import ocp
-from sloshid.ocp import bang_bang_time
-from sloshid.plan_report import states_figure
-from sloshid.planner import plan, solve_segment
-from sloshid.simulate import simulate_liquid
+from sloshid.planning.ocp import bang_bang_time
+from sloshid.planning.report import states_figure
+from sloshid.planning.planner import plan, solve_segment
+from sloshid.model.simulate import simulate_liquid
 
 WARM_RUNS = 21
 

@@ -6,8 +6,8 @@ from __future__ import annotations
 from plan_common import save_figure, scenario, timed, write
 
 from sloshid import ocp
-from sloshid.plan_report import path_figure, states_figure
-from sloshid.planner import plan
+from sloshid.planning.report import path_figure, states_figure
+from sloshid.planning.planner import plan
 
 
 def run(parallel: bool) -> dict:

@@ -10,7 +10,7 @@ import matplotlib
 matplotlib.use("Agg")
 
 from bench_output import OUT, ROOT, write_results  # noqa: E402
-from sloshid.scenario import Scenario, load_scenario  # noqa: E402
+from sloshid.planning.scenario import Scenario, load_scenario  # noqa: E402
 
 
 def scenario(name: str, **solver_changes) -> Scenario:
@@ -30,7 +30,7 @@ def save_figure(fig, name: str) -> None:
     """reports/benchmarks/<name>.png, written atomically."""
     import matplotlib.pyplot as plt
 
-    from sloshid.atomic import atomic_path
+    from sloshid.core.atomic import atomic_path
 
     with atomic_path(OUT / f"{name}.png") as tmp:
         fig.savefig(tmp, dpi=100, bbox_inches="tight")

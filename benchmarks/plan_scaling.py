@@ -8,8 +8,8 @@ import dataclasses
 from plan_common import scenario, timed, write
 
 from sloshid import ocp
-from sloshid.planner import solve_segment
-from sloshid.scenario import Obstacle
+from sloshid.planning.planner import solve_segment
+from sloshid.planning.scenario import Obstacle
 
 NS = (50, 100, 200, 400)
 N_OBSTACLES = (0, 1, 2, 4, 8)

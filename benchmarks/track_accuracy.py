@@ -22,12 +22,12 @@ import numpy as np
 
 from bench_output import OUT  # noqa: E402  (puts the repository on sys.path)
 
-from sloshid.atomic import atomic_path, write_text  # noqa: E402
-from sloshid.colors import DEFAULT_FLOAT_COLOR, preset  # noqa: E402
-from sloshid.float_angle import hsv_mask  # noqa: E402
-from sloshid.synth import SynthSettings, render_video  # noqa: E402
-from sloshid.tracker import TrackSettings, track_video  # noqa: E402
-from sloshid.video import FrameReader  # noqa: E402
+from sloshid.core.atomic import atomic_path, write_text  # noqa: E402
+from sloshid.video.colors import DEFAULT_FLOAT_COLOR, preset  # noqa: E402
+from sloshid.tracking.float_angle import hsv_mask  # noqa: E402
+from sloshid.synthetic.render import SynthSettings, render_video  # noqa: E402
+from sloshid.tracking.tracker import TrackSettings, track_video  # noqa: E402
+from sloshid.video.frames import FrameReader  # noqa: E402
 
 
 CASES = [

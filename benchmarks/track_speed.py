@@ -20,9 +20,9 @@ import cv2
 
 from bench_output import OUT, ROOT  # noqa: E402  (puts the repository on sys.path)
 
-from sloshid.atomic import write_text  # noqa: E402
-from sloshid.synth import SynthSettings, render_video  # noqa: E402
-from sloshid.tracker import TrackSettings, track_video  # noqa: E402
+from sloshid.core.atomic import write_text  # noqa: E402
+from sloshid.synthetic.render import SynthSettings, render_video  # noqa: E402
+from sloshid.tracking.tracker import TrackSettings, track_video  # noqa: E402
 
 CACHE = ROOT / "out" / "benchmarks"
 SIZES = [(640, 480), (1280, 720)]

@@ -16,7 +16,7 @@ ANTISLOSHING = ROOT.parent / "shared" / "data" / "antisloshing"
 @pytest.fixture
 def run_cli(capsys):
     """Run `sloshid ARGS...` in-process; returns (exit_code, stdout, stderr)."""
-    from sloshid.cli import main
+    from sloshid.cli.app import main
 
     def _run(*args: str) -> tuple[int, str, str]:
         code = main([str(a) for a in args])

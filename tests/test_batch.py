@@ -8,7 +8,7 @@ import shutil
 
 import pytest
 
-from sloshid.synth import SynthSettings, render_video
+from sloshid.synthetic.render import SynthSettings, render_video
 
 # 4 s at 30 fps, 320x240: a short tap test that still holds > 9 periods of each mode after the tap.
 FREQS_HZ = (2.6, 3.44)

@@ -8,15 +8,15 @@ import math
 import numpy as np
 import pytest
 
-from sloshid.closed_loop import closed_loop_response
-from sloshid.compare import camera_seen_peak
-from sloshid.feedback import FeedbackSettings, run_feedback
-from sloshid.jerk_profile import jerk_limited
-from sloshid.model import G, TABLE_I, SloshParams
-from sloshid.profiles import MoveTask, constant_acceleration
-from sloshid.robustness import Replay, sweep
-from sloshid.shapers import design_shaper, shaped_constant_acceleration
-from sloshid.simulate import simulate_liquid
+from sloshid.comparison.robot_tracking import closed_loop_response
+from sloshid.comparison.compare import camera_seen_peak
+from sloshid.comparison.feedback import FeedbackSettings, run_feedback
+from sloshid.comparison.ruckig_moves import jerk_limited
+from sloshid.model.pendulum import G, TABLE_I, SloshParams
+from sloshid.comparison.profiles import MoveTask, constant_acceleration
+from sloshid.comparison.robustness import Replay, sweep
+from sloshid.comparison.shapers import design_shaper, shaped_constant_acceleration
+from sloshid.model.simulate import simulate_liquid
 
 # a short 0.1 m move along x keeps every simulation below a second: T = 2 sqrt(L / a) = 0.894 s
 SHORT = MoveTask(((0.3, 0.0, 0.2), (0.4, 0.0, 0.2)), (0.5, 0.5, 0.5), (1.7, 1.7, 1.7))

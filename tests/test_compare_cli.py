@@ -7,7 +7,7 @@ import re
 
 import pytest
 
-from sloshid.commands.compare import table_text
+from sloshid.cli.compare_cmd import table_text
 
 SCENARIO = """
 [move]

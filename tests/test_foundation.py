@@ -9,10 +9,10 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from sloshid.atomic import atomic_path
-from sloshid.errors import UserError
-from sloshid.model import G, TABLE_I, SloshParams, cylinder_first_mode_omega, pendulum_rhs_3d, steady_tilt
-from sloshid.settings import from_dict
+from sloshid.core.atomic import atomic_path
+from sloshid.core.errors import UserError
+from sloshid.model.pendulum import G, TABLE_I, SloshParams, cylinder_first_mode_omega, pendulum_rhs_3d, steady_tilt
+from sloshid.core.settings import from_dict
 
 
 def test_table_i_modal_values():

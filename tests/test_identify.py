@@ -9,10 +9,10 @@ import pickle
 import numpy as np
 import pytest
 
-from sloshid.decay_synth import free_decay, free_decay_signal, tracker_noise
-from sloshid.identify import IdentSettings, Identifier, NotFittedError
-from sloshid.model import TABLE_I, SloshParams
-from sloshid.signals import make_signal
+from sloshid.synthetic.decays import free_decay, free_decay_signal, tracker_noise
+from sloshid.identification.estimator import IdentSettings, Identifier, NotFittedError
+from sloshid.model.pendulum import TABLE_I, SloshParams
+from sloshid.identification.signals import make_signal
 
 F_T1, Z_T1 = TABLE_I.f_hz, TABLE_I.zeta  # seed Table I: 3.44 Hz, zeta 0.070
 
@@ -120,7 +120,7 @@ def test_interval_coverage_on_seeded_batch():
 
 
 def test_pure_noise_and_constant_are_refused():
-    from sloshid.errors import UserError
+    from sloshid.core.errors import UserError
 
     t = np.arange(0, 10, 1 / 60)
     noise = make_signal(t, np.random.default_rng(0).normal(size=t.size), "x", "", "noise")
@@ -139,7 +139,7 @@ def _two_modes(f2, z2, a2, seed=4):
 
 def test_two_mode_fit_recovers_the_first_mode_beside_a_strong_second(tmp_path):
     # a 4.1 Hz mode at 2/3 of the 3.0 Hz one's amplitude, the situation of the tilted real runs (3.0 + 3.97 Hz)
-    from sloshid.identify_report import build_report
+    from sloshid.identification.report import build_report
 
     res = Identifier().fit(_two_modes(4.1, 0.015, 4.0)).result
     sm = res.second_mode
@@ -185,9 +185,9 @@ def test_second_component_that_is_no_free_decay_stays_uncertain():
 def test_close_modes_are_not_separated(f2):
     # modes 0.15-0.3 Hz apart in a 10 s window are under 2 Welch bins (0.2 Hz) apart: least squares can trade one
     # for the other, so the rule refuses the two-mode fit (the PSD merges them into one broad peak anyway)
-    from sloshid.pt2fit import WindowData, fit_pt2, fit_two_modes
-    from sloshid.second_mode import separation_problems
-    from sloshid.spectrum import welch_spectrum
+    from sloshid.identification.pt2fit import WindowData, fit_pt2, fit_two_modes
+    from sloshid.identification.second_mode import separation_problems
+    from sloshid.core.spectrum import welch_spectrum
 
     sig = _two_modes(f2, 0.02, 5.0)
     win = [WindowData(sig.t_s, sig.value, 0.0)]
@@ -220,7 +220,7 @@ def test_seed_pendulum_ring_down_after_a_move_gives_table_i():
     # ring down; the end-to-end target is l within 1 % and d within 10 %.
     from scipy.integrate import solve_ivp
 
-    from sloshid.model import pendulum_rhs_1d
+    from sloshid.model.pendulum import pendulum_rhs_1d
 
     def accel(t):
         return 1.0 if 1.0 < t < 1.4 else (-1.0 if 1.4 < t < 1.8 else 0.0)
@@ -237,8 +237,8 @@ def test_seed_pendulum_ring_down_after_a_move_gives_table_i():
 
 def test_settings_from_toml_table_and_paths(tmp_path):
     # the pipeline configures identify from a TOML table: typos are caught with a suggestion, tuples coerced
-    from sloshid.errors import UserError
-    from sloshid.settings import from_dict
+    from sloshid.core.errors import UserError
+    from sloshid.core.settings import from_dict
 
     st = from_dict(IdentSettings, {"mass_kg": 0.5, "f_range_hz": [1, 10]}, "[identify]")
     assert st.f_range_hz == (1.0, 10.0)

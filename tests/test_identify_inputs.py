@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 import scipy.io
 
-from sloshid.decay_synth import free_decay
-from sloshid.signals import load_signal
+from sloshid.synthetic.decays import free_decay
+from sloshid.identification.signals import load_signal
 
 
 def _csv(path, header, t, y, sep=","):
@@ -117,7 +117,7 @@ def test_user_window_is_used_and_reported(tmp_path, decay, run_cli):
 
 
 def test_welch_peak_refined_beyond_its_bin_and_uniform_grid_exact_for_lines():
-    from sloshid.spectrum import to_uniform, welch_spectrum
+    from sloshid.core.spectrum import to_uniform, welch_spectrum
 
     rng = np.random.default_rng(0)
     for _ in range(20):

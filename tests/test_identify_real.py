@@ -8,8 +8,8 @@ import re
 
 import pytest
 
-from sloshid.identify import Identifier, identify_file
-from sloshid.signals import load_signal
+from sloshid.identification.estimator import Identifier, identify_file
+from sloshid.identification.signals import load_signal
 
 F_PHYS = 3.047  # analytic first mode for R = 49 mm, h = 78 mm (data README); a force-torque log shows 3.05 Hz
 

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from sloshid.synth import SynthSettings, render_video
+from sloshid.synthetic.render import SynthSettings, render_video
 
 
 @pytest.fixture(scope="module")

@@ -11,12 +11,12 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from sloshid.model import G, SloshParams, steady_tilt
-from sloshid.ocp import Structure, bang_bang_time, get_solver
-from sloshid.planner import plan
-from sloshid.scenario import Scenario, load_scenario, scenario_from_dict
-from sloshid.simulate import simulate_liquid
-from sloshid.trajectory import RobotLimits, Trajectory, check_limits
+from sloshid.model.pendulum import G, SloshParams, steady_tilt
+from sloshid.planning.ocp import Structure, bang_bang_time, get_solver
+from sloshid.planning.planner import plan
+from sloshid.planning.scenario import Scenario, load_scenario, scenario_from_dict
+from sloshid.model.simulate import simulate_liquid
+from sloshid.model.trajectory import RobotLimits, Trajectory, check_limits
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 
-from sloshid.trajectory import CSV_COLUMNS
+from sloshid.model.trajectory import CSV_COLUMNS
 
 ROOT = Path(__file__).resolve().parents[1]
 PAPER_1D = ROOT / "data" / "scenarios" / "paper_1d.toml"

@@ -7,11 +7,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from sloshid.errors import UserError
-from sloshid.model import TABLE_I
-from sloshid.ocp import bang_bang_time, segment_axis
-from sloshid.scenario import Obstacle, load_scenario, scenario_from_dict
-from sloshid.trajectory import RobotLimits
+from sloshid.core.errors import UserError
+from sloshid.model.pendulum import TABLE_I
+from sloshid.planning.ocp import bang_bang_time, segment_axis
+from sloshid.planning.scenario import Obstacle, load_scenario, scenario_from_dict
+from sloshid.model.trajectory import RobotLimits
 
 ROOT = Path(__file__).resolve().parents[1]
 

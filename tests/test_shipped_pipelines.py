@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from sloshid.settings import load_toml
+from sloshid.core.settings import load_toml
 
 ROOT = Path(__file__).resolve().parents[1]
 PIPELINES = sorted((ROOT / "pipelines").glob("*.toml"))

@@ -7,11 +7,11 @@ import math
 import numpy as np
 import pytest
 
-from sloshid.errors import UserError
-from sloshid.model import G, TABLE_I
-from sloshid.synth import SynthSettings, frame_times, relative_angle_rad, render_video
-from sloshid.tables import read_csv
-from sloshid.video import FrameReader
+from sloshid.core.errors import UserError
+from sloshid.model.pendulum import G, TABLE_I
+from sloshid.synthetic.render import SynthSettings, frame_times, relative_angle_rad, render_video
+from sloshid.core.tables import read_csv
+from sloshid.video.frames import FrameReader
 
 SMALL = dict(width=320, height=240, duration_s=1.0)
 

@@ -8,12 +8,12 @@ import av
 import numpy as np
 import pytest
 
-from sloshid.colors import PRESETS
-from sloshid.smooth import smooth_angle
-from sloshid.synth import SynthSettings, frame_times, relative_angle_rad, render_frames, render_video
-from sloshid.tables import read_csv
-from sloshid.tracker import TRACK_COLUMNS, TrackSettings, track_video
-from sloshid.video import FrameReader, VideoWriter
+from sloshid.video.colors import PRESETS
+from sloshid.tracking.smooth import smooth_angle
+from sloshid.synthetic.render import SynthSettings, frame_times, relative_angle_rad, render_frames, render_video
+from sloshid.core.tables import read_csv
+from sloshid.tracking.tracker import TRACK_COLUMNS, TrackSettings, track_video
+from sloshid.video.frames import FrameReader, VideoWriter
 
 # Small, fast videos: 320x240, 2 s, H.264 CRF 18. The float is 72 px long (0.3 of the height); at this size
 # H.264's half-resolution chroma carries the float's colour on only ~36x6 samples, so tolerances are looser

@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from sloshid.model import G, TABLE_I
-from sloshid.simulate import simulate_liquid
-from sloshid.trajectory import CSV_COLUMNS, RobotLimits, Trajectory, check_limits, euler_rates_to_omega
+from sloshid.model.pendulum import G, TABLE_I
+from sloshid.model.simulate import simulate_liquid
+from sloshid.model.trajectory import CSV_COLUMNS, RobotLimits, Trajectory, check_limits, euler_rates_to_omega
 
 
 def _upright_move(acc_y: np.ndarray, dt: float = 1e-3) -> Trajectory:

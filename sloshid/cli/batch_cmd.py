@@ -1,0 +1,50 @@
+"""Track and identify many videos in parallel with Dask (a local cluster, or an existing scheduler).
+
+Every video gets its own folder under OUT/videos/ (angles.csv, params.json, result.json) written as soon as
+it finishes, so an interrupted batch loses nothing finished and a re-run skips videos whose outputs match
+the video's content hash and the settings. A failing video is listed in OUT/failures.csv and never stops the
+batch. OUT/summary.csv has one row per video (frames, valid share, f, zeta, l, d with 95 % intervals,
+verdict) and OUT/summary.html shows the distribution of identified frequencies. Exit code 1 when any video
+failed. With --scheduler the workers must see the same file paths (shared file system).
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Options of `sloshid batch`."""
+    parser.add_argument("videos", nargs="+", type=Path, metavar="VIDEO", help="video files to process")
+    parser.add_argument("--config", type=Path, metavar="TRACK.toml",
+                        help="TOML with a [track] table (float_color or float_hsv_low/high, roi, reference, overlay) "
+                             "and an [identify] table (mass_kg, f_range_hz, min_fit_percent, ...); default: the "
+                             "`sloshid track`/`identify` defaults")  # fmt: skip
+    parser.add_argument("--out", type=Path, required=True, metavar="DIR", help="output folder (created if needed)")
+    parser.add_argument("--workers", type=int, default=2, metavar="N",
+                        help="local Dask worker processes (one thread each); ignored with --scheduler")
+    parser.add_argument("--scheduler", metavar="ADDRESS",
+                        help="address of a running Dask scheduler, e.g. tcp://10.0.0.5:8786, instead of a local cluster")
+
+
+def run(args: argparse.Namespace) -> int:
+    """Validate everything first, then run the batch and print where the summary is."""
+    from sloshid.workflow.batch import run_batch
+    from sloshid.core.errors import UserError
+    from sloshid.workflow.options import BatchConfig, IdentifyOptions, TrackOptions
+
+    missing = [str(v) for v in args.videos if not v.is_file()]
+    if missing:
+        raise UserError(f"{len(missing)} video(s) do not exist: {', '.join(missing[:5])}.")
+    if args.out.exists() and not args.out.is_dir():
+        raise UserError(f"--out {args.out} exists and is not a folder.")
+    config = BatchConfig.load(args.config) if args.config else BatchConfig(TrackOptions(), IdentifyOptions())
+    result = run_batch(args.videos, config, args.out, workers=args.workers, scheduler=args.scheduler)
+    done = sum(r["status"] in ("ok", "cached") for r in result.rows)
+    cached = sum(r["status"] == "cached" for r in result.rows)
+    print(f"{done} of {len(result.rows)} videos done ({cached} unchanged, skipped), {len(result.failures)} failed.")
+    for row in result.failures:
+        print(f"  failed: {row['file']}: {row['reasons']}")
+    print(f"summary: {result.summary_csv}\nopen: {result.summary_html}")
+    return 1 if result.failures else 0

@@ -1,0 +1,39 @@
+"""Run a declared pipeline: the stages of PIPELINE.toml ([track], [identify], [plan], [compare], [report])
+under the settings of its [run] table (workers, on_error, output_dir).
+
+Everything is validated before anything runs (unknown keys get a "did you mean", paths are checked).
+Each run writes <output_dir>/<pipeline>/<run-id>/ with manifest.json (resolved settings, package version,
+SHA-256 of every input file), each stage's outputs and an index.html that summarises and links them.
+A stage whose settings slice, input files and upstream stages are unchanged is not re-run: its outputs
+are reused from the pipeline's cache. Exit code 1 when a stage failed (finished stages are kept).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Options of `sloshid run`."""
+    parser.add_argument("pipeline", type=Path, metavar="PIPELINE.toml", help="pipeline file (see pipelines/)")
+    parser.add_argument("--output-dir", type=Path, metavar="DIR",
+                        help="write runs under DIR/<pipeline>/ instead of [run].output_dir")
+    parser.add_argument("--quiet", action="store_true", help="print only the path of index.html")
+
+
+def run(args: argparse.Namespace) -> int:
+    """Load and validate the pipeline, run it, print the index path."""
+    from sloshid.workflow.pipeline import Pipeline, run_pipeline
+    from sloshid.workflow.index import write_index
+    from sloshid.workflow.stages import REGISTRY
+
+    pipeline = Pipeline.load(args.pipeline, REGISTRY)
+    log = (lambda msg: None) if args.quiet else (lambda msg: print(msg, file=sys.stderr))
+    result = run_pipeline(pipeline, args.output_dir, lambda d, recs: write_index(d, recs, pipeline.report.title), log=log)
+    for rec in result.stages:
+        if rec.status == "failed":
+            print(f"sloshid: error: stage [{rec.name}] failed: {rec.error}", file=sys.stderr)
+    print(result.index_html)
+    return 0 if result.ok else 1

@@ -1,0 +1,448 @@
+"""Build every method for one move and liquid, score them identically, and draw the verdict from the numbers.
+
+Methods (keys in `METHODS`): the constant-acceleration profile, ZV and ZVD shaped, ruckig jerk-limited upright
+and tilt-compensated, sloshid's plan and its robust variant, and camera feedback on top of the
+constant-acceleration profile and of sloshid's plan. A method that cannot be built for the scenario is a
+'not applicable' row with its reason. Scoring is `simulate_liquid` (nonlinear) for every method.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from tqdm import tqdm
+
+from sloshid.comparison.robot_tracking import ClosedLoopResponse, closed_loop_response
+from sloshid.core.errors import UserError
+from sloshid.comparison.feedback import FeedbackSettings
+from sloshid.comparison.ruckig_moves import jerk_limited
+from sloshid.model.pendulum import SloshParams
+from sloshid.comparison.profiles import MoveTask, NotApplicable, constant_acceleration
+from sloshid.comparison.robustness import Replay, RobustnessResult, sweep
+from sloshid.comparison.shapers import shaped_constant_acceleration
+from sloshid.model.simulate import LiquidResponse, simulate_liquid
+from sloshid.model.trajectory import RobotLimits, Trajectory, check_limits
+
+METHODS: dict[str, str] = {
+    "constant_acc": "constant acceleration",
+    "zv": "ZV shaped",
+    "zvd": "ZVD shaped",
+    "ruckig": "jerk-limited (ruckig)",
+    "ruckig_tilt": "jerk-limited (ruckig) + tilt",
+    "sloshid": "sloshid plan",
+    "sloshid_robust": "sloshid robust plan",
+    "constant_acc_feedback": "constant acceleration + feedback",
+    "sloshid_feedback": "sloshid plan + feedback",
+}
+"""Method key -> label shown in tables and legends."""
+
+
+@dataclass(frozen=True)
+class CompareSettings:
+    """The [compare] table of a scenario: which methods, their tuning, and the studies around them."""
+
+    methods: list[str] = field(default_factory=lambda: list(METHODS))
+    """Method keys to build, in table order (see sloshid.comparison.compare.METHODS)."""
+    jerk_max_m_s3: float | None = None
+    """Jerk limit of the ruckig methods, m/s^3; default acc_max * f (the jerk ramp lasts one slosh period)."""
+    robot_bandwidth_hz: float = 20.0
+    """Bandwidth of the robot's Cartesian tracking in the closed-loop study, Hz."""
+    settle_s: float = 3.0
+    """Time simulated after arrival to measure the residual slosh, s."""
+    residual_ok_deg: float = 0.5
+    """Residual relative angle at or below which a move counts as slosh-free, degrees."""
+    omega_factors: list[float] = field(default_factory=lambda: [0.8, 0.85, 0.9, 0.95, 1.0, 1.05, 1.1, 1.15, 1.2])
+    """True/identified natural-frequency ratios of the robustness sweep."""
+    zeta_factors: list[float] = field(default_factory=lambda: [0.5, 1.0, 2.0])
+    """True/identified damping-ratio ratios of the robustness sweep."""
+    robust_omega_factors: list[float] = field(default_factory=lambda: [0.9, 1.0, 1.1])
+    """Frequency ratios that sloshid's robust plan must all bring to rest."""
+    camera_fps_sweep: list[float] = field(default_factory=lambda: [15.0, 30.0, 60.0, 120.0])
+    """Camera frame rates of the feedback study, frames per second."""
+    camera_omega_factor: float = 0.9
+    """True/identified frequency ratio at which the camera-rate study runs (feedback matters under model error)."""
+    linearity_acc_m_s2: list[float] = field(default_factory=lambda: [0.25, 0.5, 1.0, 2.0, 4.0])
+    """Accelerations of the constant-acceleration move in the linear-vs-nonlinear study, m/s^2."""
+    feedback: FeedbackSettings = field(default_factory=FeedbackSettings)
+    """Camera and LQR of the feedback methods ([compare.feedback])."""
+    workers: int = 2
+    """Processes for the robustness sweep (1: run in this process)."""
+
+    def __post_init__(self) -> None:
+        from sloshid.core.settings import did_you_mean
+
+        for key in self.methods:
+            if key not in METHODS:
+                raise UserError(f"[compare].methods has unknown method '{key}'{did_you_mean(key, METHODS)}.")
+        if not self.methods:
+            raise UserError("[compare].methods is empty; name at least one method.")
+        positive = ("robot_bandwidth_hz", "settle_s", "residual_ok_deg", "camera_omega_factor")
+        for name in positive:
+            if not getattr(self, name) > 0:
+                raise UserError(f"[compare].{name} must be positive, got {getattr(self, name)!r}.")
+        if self.jerk_max_m_s3 is not None and not self.jerk_max_m_s3 > 0:
+            raise UserError(f"[compare].jerk_max_m_s3 must be positive, got {self.jerk_max_m_s3!r}.")
+        if not 1 <= self.workers <= 64:
+            raise UserError(f"[compare].workers must lie between 1 and 64, got {self.workers!r}.")
+        lists = ("omega_factors", "zeta_factors", "robust_omega_factors", "camera_fps_sweep", "linearity_acc_m_s2")
+        for name in lists:
+            if not getattr(self, name) or min(getattr(self, name)) <= 0:
+                raise UserError(f"[compare].{name} must be a non-empty list of positive numbers.")
+
+
+@dataclass
+class Score:
+    """How one method does on the liquid's relative angle (what spills) and on the limits."""
+
+    transfer_time_s: float
+    """From the start of the move to arrival (feedback methods: until settled on the goal)."""
+    peak_during_deg: float
+    """Largest relative angle liquid - container while moving."""
+    residual_deg: float
+    """Largest relative angle after arrival."""
+    peak_tilt_deg: float
+    """Largest tilt of the container from upright."""
+    peak_tilt_rate_deg_s: float
+    """Largest angular speed of the container."""
+    robot_limits_ok: bool
+    """Franka (or [robot]) Cartesian limits hold on every sample."""
+    limits_failed: list[str]
+    """Robot or move limits that do not hold, e.g. 'robot rot_acc_rad_s2 87.4 > 25'."""
+    move_limits_ok: bool
+    """The scenario's own acceleration, velocity, tilt and tilt-rate limits hold."""
+    min_clearance_m: float | None = None
+    """Smallest distance to an inflated obstacle (negative: collides); None without obstacles."""
+
+
+@dataclass
+class MethodResult:
+    """One row of the comparison: the trajectory it built and its score, or why it is not applicable."""
+
+    key: str
+    label: str
+    trajectory: Trajectory | None = None
+    response: LiquidResponse | None = None
+    score: Score | None = None
+    reason: str = ""
+    """Why the method is not applicable (empty when it is)."""
+    build_time_s: float = 0.0
+    """Time to compute the trajectory (planner solve time for sloshid's methods), s."""
+    replay: Replay | None = None
+    """What it executes when the true liquid differs (robustness sweep)."""
+
+    @property
+    def applicable(self) -> bool:
+        """True when the method produced a trajectory."""
+        return self.trajectory is not None
+
+
+@dataclass
+class MoveLimits:
+    """The scenario limits a method is held to (tilt limits only when the scenario has them)."""
+
+    task: MoveTask
+    tilt_max_deg: float = 90.0
+    tilt_rate_max_deg_s: float = math.inf
+    robot: RobotLimits = field(default_factory=RobotLimits)
+    obstacles: list[Any] = field(default_factory=list)
+    """Objects with `clearance(points, inflate_m)` (sloshid.planning.scenario.Obstacle)."""
+    container_radius_m: float = 0.0
+
+
+def tilt_profiles(traj: Trajectory) -> tuple[np.ndarray, np.ndarray]:
+    """Container tilt from upright (deg) and angular speed (deg/s) at every sample."""
+    tilt = np.degrees(np.arccos(np.clip(traj.z_axis[:, 2], -1.0, 1.0)))
+    return tilt, np.degrees(np.linalg.norm(traj.omega_rad_s, axis=1))
+
+
+def score(traj: Trajectory, params: SloshParams, limits: MoveLimits, settle_s: float) -> tuple[Score, LiquidResponse]:
+    """Score a trajectory: nonlinear slosh relative to the container, tilt, robot and move limits, clearance."""
+    resp = simulate_liquid(traj, params, settle_s=settle_s)
+    tilt, rate = tilt_profiles(traj)
+    failed = [f"robot {u.quantity} {u.peak:.3g} > {u.limit:.3g}" for u in check_limits(traj, limits.robot) if not u.ok]
+    robot_ok = not failed
+    slack = 1.001  # sampling round-off, as in LimitUsage.ok
+    checks = {
+        "acc_max": (np.abs(traj.acc_m_s2).max(axis=0), np.asarray(limits.task.acc_max_m_s2)),
+        "vel_max": (np.abs(traj.vel_m_s).max(axis=0), np.asarray(limits.task.vel_max_m_s)),
+        "tilt_max_deg": (np.array([tilt.max()]), np.array([limits.tilt_max_deg])),
+        "tilt_rate_max_deg_s": (np.array([rate.max()]), np.array([limits.tilt_rate_max_deg_s])),
+    }
+    for name, (peak, bound) in checks.items():
+        if (peak > bound * slack).any():
+            i = int(np.argmax(peak / bound))
+            failed.append(f"move {name} {peak[i]:.3g} > {bound[i]:.3g}")
+    clearance = None
+    if limits.obstacles:
+        clearance = float(min(np.min(o.clearance(traj.pos_m, limits.container_radius_m)) for o in limits.obstacles))
+    sc = Score(traj.duration_s, resp.peak_during_deg, resp.residual_deg, float(tilt.max()), float(rate.max()),
+               robot_ok, failed, not any(f.startswith("move") for f in failed), clearance)  # fmt: skip
+    return sc, resp
+
+
+@dataclass
+class CompareInput:
+    """Everything the builders need: the move, the identified liquid, settings, and the scenario for the planner."""
+
+    limits: MoveLimits
+    params: SloshParams
+    settings: CompareSettings
+    scenario: Any = None
+    """sloshid.planning.scenario.Scenario for the planner methods (None: those are not applicable)."""
+
+    @property
+    def jerk_max_m_s3(self) -> float:
+        """Jerk limit of the ruckig methods: configured, or the largest axis acc_max times the slosh frequency."""
+        s = self.settings.jerk_max_m_s3
+        return s if s is not None else max(self.limits.task.acc_max_m_s2) * self.params.f_hz
+
+
+def from_scenario(scenario: Any, params: SloshParams) -> CompareInput:
+    """The comparison's input from a loaded sloshid.planning.scenario.Scenario; the [compare] table is validated here."""
+    from sloshid.core.settings import from_dict
+
+    settings = from_dict(CompareSettings, scenario.compare, "[compare]")
+    lim = scenario.limits
+    task = MoveTask(tuple(tuple(map(float, p)) for p in scenario.waypoints), tuple(lim.acc_max), tuple(lim.vel_max))
+    limits = MoveLimits(task, lim.tilt_max_deg, lim.tilt_rate_max_deg_s, scenario.robot, list(scenario.obstacles),
+                        scenario.container_radius_m)  # fmt: skip
+    return CompareInput(limits, params, settings, scenario)
+
+
+def sloshid_plan(inp: CompareInput, robust: bool) -> tuple[Trajectory, float]:
+    """sloshid's plan (issue 4's planner) for the scenario, nominal or robust; (trajectory, solve time in s)."""
+    if inp.scenario is None:
+        raise NotApplicable("needs a scenario file for the planner.")
+    try:
+        from sloshid.planning.planner import plan
+    except ImportError as exc:
+        raise NotApplicable(f"the planner is not available ({exc}).") from None
+    factors = inp.settings.robust_omega_factors if robust else ()  # () is nominal; None would take [solver]'s
+    try:
+        result = plan(inp.scenario, inp.params, robust_omega_factors=factors)
+    except UserError as exc:
+        raise NotApplicable(f"the planner could not solve this scenario: {exc}") from None
+    return result.trajectory, float(result.solve_time_s)
+
+
+def with_feedback(inp: CompareInput, base: Trajectory, fb: FeedbackSettings | None = None) -> Replay:
+    """Closed-loop replay: the feedback loop around `base`, re-run against the given true liquid."""
+    return Replay(base, inp.params, fb or inp.settings.feedback, inp.settings.robot_bandwidth_hz)
+
+
+def build_method(key: str, inp: CompareInput, built: dict[str, MethodResult]) -> MethodResult:
+    """Build one method (feedback methods reuse their base's trajectory from `built`); never raises NotApplicable."""
+    res = MethodResult(key, METHODS[key])
+    task = inp.limits.task
+    t0 = time.perf_counter()
+    try:
+        if key == "constant_acc":
+            traj = constant_acceleration(task)
+        elif key in ("zv", "zvd"):
+            traj = shaped_constant_acceleration(task, inp.params, key.upper())  # type: ignore[arg-type]
+        elif key in ("ruckig", "ruckig_tilt"):
+            traj = jerk_limited(task, inp.jerk_max_m_s3, tilt=key == "ruckig_tilt")
+        elif key in ("sloshid", "sloshid_robust"):
+            traj, res.build_time_s = sloshid_plan(inp, robust=key == "sloshid_robust")
+        else:
+            base_key = key.removesuffix("_feedback")
+            base = built.get(base_key)
+            if base is None or not base.applicable:
+                base = build_method(base_key, inp, built)
+            if not base.applicable:
+                raise NotApplicable(f"its feedforward '{base.label}' is not applicable.")
+            res.replay = with_feedback(inp, base.trajectory)  # type: ignore[arg-type]
+            traj = res.replay(inp.params)
+    except NotApplicable as exc:
+        res.reason = str(exc)
+        return res
+    if not res.build_time_s:
+        res.build_time_s = time.perf_counter() - t0
+    traj.name = res.label
+    res.trajectory = traj
+    res.replay = res.replay or Replay(traj)
+    res.score, res.response = score(traj, inp.params, inp.limits, inp.settings.settle_s)
+    return res
+
+
+@dataclass
+class CameraPoint:
+    """Feedback at one camera rate, under the camera study's model error."""
+
+    base: str
+    camera_fps: float
+    transfer_time_s: float
+    peak_during_deg: float
+    residual_deg: float
+    seen_peak_deg: float
+    """Seed Remark 1: the feedforward's peak relative angle (nominal liquid, no feedback) as frames at this rate
+    see it, averaged over the frame clock's phase."""
+    true_peak_deg: float
+    """The same peak at 1 kHz (the feedforward's peak_during_deg)."""
+
+
+@dataclass
+class LinearityPoint:
+    """Peak relative angle of the constant-acceleration move, linear (python-control) vs nonlinear pendulum."""
+
+    acc_m_s2: float
+    peak_linear_deg: float
+    peak_nonlinear_deg: float
+    max_gap_deg: float
+
+
+@dataclass
+class Comparison:
+    """All methods scored on one move, with the closed-loop, robustness, camera-rate and linearity studies."""
+
+    params: SloshParams
+    settings: CompareSettings
+    results: list[MethodResult]
+    closed_loop: dict[str, ClosedLoopResponse]
+    robustness: RobustnessResult
+    camera: list[CameraPoint]
+    no_feedback_at_camera_error: dict[str, float]
+    """Residual (deg) of each feedback base without feedback at the camera study's model error."""
+    linearity: list[LinearityPoint]
+    verdict: str = ""
+
+    def result(self, key: str) -> MethodResult | None:
+        """The row of method `key`, if it was requested."""
+        return next((r for r in self.results if r.key == key), None)
+
+    def summary(self) -> dict:
+        """JSON-ready summary (unit-named keys)."""
+        rows = []
+        for r in self.results:
+            row: dict[str, Any] = {"method": r.key, "label": r.label, "applicable": r.applicable}
+            if r.applicable:
+                row.update(vars(r.score))
+                row["build_time_s"] = r.build_time_s
+                band = self.robustness.tolerance_band(r.label, self.settings.residual_ok_deg)
+                row["omega_band_residual_ok"] = list(band) if band else None
+            else:
+                row["reason"] = r.reason
+            rows.append(row)
+        return {
+            "liquid": self.params.to_dict(),
+            "residual_ok_deg": self.settings.residual_ok_deg,
+            "methods": rows,
+            "closed_loop": {
+                k: {"robot_bandwidth_hz": self.settings.robot_bandwidth_hz, "max_linear_nonlinear_gap_deg": c.max_gap_deg,
+                    "peak_linear_deg": float(c.rel_linear_deg.max()), "residual_linear_deg": c.residual_linear_deg}
+                for k, c in self.closed_loop.items()
+            },  # fmt: skip
+            "robustness": self.robustness.to_dict(),
+            "camera": [vars(c) for c in self.camera],
+            "camera_omega_factor": self.settings.camera_omega_factor,
+            "no_feedback_residual_at_camera_error_deg": self.no_feedback_at_camera_error,
+            "linearity": [vars(p) for p in self.linearity],
+            "verdict": self.verdict,
+        }
+
+
+def camera_seen_peak(angle_deg: np.ndarray, dt_s: float, fps: float, phases: int = 16) -> float:
+    """Largest value a camera at `fps` samples from a 1 kHz signal, averaged over `phases` frame-clock offsets."""
+    peaks = []
+    for offset in np.arange(phases) / (phases * fps):
+        frames = np.round(np.arange(offset, len(angle_deg) * dt_s, 1.0 / fps) / dt_s).astype(int)
+        peaks.append(angle_deg[frames[frames < len(angle_deg)]].max())
+    return float(np.mean(peaks))
+
+
+def camera_study(inp: CompareInput, built: dict[str, MethodResult]) -> tuple[list[CameraPoint], dict[str, float]]:
+    """Feedback residual against camera rate at the configured model error, for each applicable feedforward."""
+    s = inp.settings
+    truth = inp.params.scaled(s.camera_omega_factor, 1.0)
+    points, reference = [], {}
+    for base_key in ("constant_acc", "sloshid"):
+        base = built.get(base_key)
+        if base is None or not base.applicable or f"{base_key}_feedback" not in built:
+            continue
+        reference[base.label] = simulate_liquid(base.trajectory, truth, settle_s=s.settle_s).residual_deg
+        dt = base.trajectory.dt_s  # type: ignore[union-attr]
+        rel = base.response.rel_angle_deg[: len(base.trajectory.t_s)]  # type: ignore[union-attr]  # while moving
+        for fps in s.camera_fps_sweep:
+            seen = camera_seen_peak(rel, dt, fps)
+            fb = FeedbackSettings(**{**vars(s.feedback), "camera_fps": fps})
+            traj = with_feedback(inp, base.trajectory, fb)(truth)  # type: ignore[arg-type]
+            resp = simulate_liquid(traj, truth, settle_s=s.settle_s)
+            points.append(CameraPoint(base.label, fps, traj.duration_s, resp.peak_during_deg, resp.residual_deg,
+                                      seen, float(rel.max())))  # fmt: skip
+    return points, reference
+
+
+def linearity_study(inp: CompareInput) -> list[LinearityPoint]:
+    """Where linearisation holds: the constant-acceleration move at growing accelerations, linear vs nonlinear."""
+    task = inp.limits.task
+    points = []
+    for acc in inp.settings.linearity_acc_m_s2:
+        scaled = MoveTask(task.waypoints, (acc, acc, acc), task.vel_max_m_s)
+        cl = closed_loop_response(constant_acceleration(scaled), inp.params, inp.settings.robot_bandwidth_hz, 1.0)
+        points.append(LinearityPoint(acc, float(cl.rel_linear_deg.max()), float(cl.rel_nonlinear_deg.max()), cl.max_gap_deg))
+    return points
+
+
+def compare(inp: CompareInput, progress: bool = False) -> Comparison:
+    """Build and score every requested method, then run the closed-loop, robustness, camera and linearity studies."""
+    s = inp.settings
+    built: dict[str, MethodResult] = {}
+    for key in tqdm(s.methods, desc="methods", disable=not progress, leave=False):
+        built[key] = build_method(key, inp, built)
+    results = [built[k] for k in s.methods]
+    ok = [r for r in results if r.applicable]
+    closed = {r.key: closed_loop_response(r.trajectory, inp.params, s.robot_bandwidth_hz, s.settle_s) for r in ok}  # type: ignore[arg-type]
+    robust = sweep({r.label: r.replay for r in ok}, inp.params, s.omega_factors, s.zeta_factors,  # type: ignore[misc]
+                   progress=progress, workers=s.workers)  # fmt: skip
+    camera, reference = camera_study(inp, built)
+    comp = Comparison(inp.params, s, results, closed, robust, camera, reference, linearity_study(inp))
+    comp.verdict = verdict(comp)
+    return comp
+
+
+def verdict(comp: Comparison) -> str:
+    """A few sentences drawn from the numbers: who is fastest slosh-free, at what cost, and how robust."""
+    limit = comp.settings.residual_ok_deg
+    ok = [r for r in comp.results if r.applicable]
+    collides = [r for r in ok if r.score.min_clearance_m is not None and r.score.min_clearance_m < 0]  # type: ignore[union-attr]
+    free = sorted((r for r in ok if r.score.residual_deg <= limit and r not in collides),  # type: ignore[union-attr]
+                  key=lambda r: r.score.transfer_time_s)  # type: ignore[union-attr]  # fmt: skip
+    parts = []
+    if free:
+        best = free[0]
+        kind = "collision-free move" if any(r.score.min_clearance_m is not None for r in ok) else "move"  # type: ignore[union-attr]
+        line = f"{best.label} is the fastest {kind} that leaves at most {limit:g} deg of residual slosh " \
+               f"({best.score.transfer_time_s:.3g} s, peak {best.score.peak_during_deg:.2g} deg during the move)"  # type: ignore[union-attr]
+        zvd = comp.result("zvd")
+        if zvd is not None and zvd.applicable and zvd is not best:
+            t_best, t_zvd = best.score.transfer_time_s, zvd.score.transfer_time_s  # type: ignore[union-attr]
+            line += (f"; ZVD shaping takes {100 * (t_zvd / t_best - 1):.1f} % longer ({t_zvd:.3g} s), "
+                     f"i.e. it saves {100 * (1 - t_best / t_zvd):.1f} % of ZVD's transfer time")  # fmt: skip
+        parts.append(line + ".")
+    else:
+        parts.append(f"No method keeps the residual slosh at or below {limit:g} deg.")
+    const = comp.result("constant_acc")
+    if const is not None and const.applicable:
+        parts.append(f"The constant-acceleration profile sloshes to {const.score.peak_during_deg:.3g} deg during the "  # type: ignore[union-attr]
+                     f"move and leaves {const.score.residual_deg:.3g} deg behind.")  # type: ignore[union-attr]
+    bands = []
+    for r in ok:
+        band = comp.robustness.tolerance_band(r.label, limit)
+        if band and r.key in ("zv", "zvd", "sloshid", "sloshid_robust"):
+            bands.append(f"{r.label} {100 * (band[0] - 1):+.0f}..{100 * (band[1] - 1):+.0f} %")
+    if bands:
+        parts.append(f"Frequency error tolerated with residual <= {limit:g} deg: " + ", ".join(bands) + ".")
+    nominal, rob = comp.result("sloshid"), comp.result("sloshid_robust")
+    if nominal is not None and rob is not None and nominal.applicable and rob.applicable:
+        cost = rob.score.transfer_time_s / nominal.score.transfer_time_s - 1  # type: ignore[union-attr]
+        parts.append(f"The robust plan costs {100 * cost:.1f} % more transfer time.")
+    if collides:
+        parts.append("Going straight between waypoints collides with an obstacle: " + ", ".join(r.label for r in collides) + ".")
+    broken = [r.label for r in ok if not r.score.robot_limits_ok]  # type: ignore[union-attr]
+    if broken:
+        parts.append("Robot limits fail for: " + ", ".join(broken) + ".")
+    return " ".join(parts)

@@ -1,0 +1,99 @@
+"""The robot's Cartesian tracking in series with the linearised liquid (seed eq. 5), as python-control systems.
+
+Every trajectory is pushed through a second-order tracking loop (bandwidth configurable, default 20 Hz) with
+`control.forced_response`; the linear liquid angle is H(s) of the executed acceleration. Beside it the
+nonlinear pendulum (`simulate_liquid`, solve_ivp) runs on the same executed motion, which shows where the
+linearisation holds.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import control
+import numpy as np
+
+from sloshid.model.pendulum import SloshParams, linear_tf
+from sloshid.model.simulate import simulate_liquid
+from sloshid.model.trajectory import Trajectory
+
+
+def robot_tf(bandwidth_hz: float = 20.0, zeta: float = 1 / math.sqrt(2)) -> control.TransferFunction:
+    """Cartesian tracking as wn^2 / (s^2 + 2 zeta wn s + wn^2); with zeta = 1/sqrt(2) its -3 dB bandwidth is wn."""
+    wn = 2 * math.pi * bandwidth_hz
+    return control.tf([wn * wn], [1.0, 2 * zeta * wn, wn * wn])
+
+
+def hold_after(traj: Trajectory, settle_s: float) -> Trajectory:
+    """The trajectory extended by `settle_s` at rest in its last pose (what the robot commands after arrival)."""
+    n = int(round(settle_s / traj.dt_s))
+    t = np.concatenate([traj.t_s, traj.t_s[-1] + traj.dt_s * np.arange(1, n + 1)])
+    hold = lambda a, keep: np.vstack([a, np.repeat(a[-1:] if keep else 0 * a[-1:], n, axis=0)])  # noqa: E731
+    return Trajectory(t, hold(traj.pos_m, True), hold(traj.vel_m_s, False), hold(traj.acc_m_s2, False),
+                      hold(traj.euler_rad, True), hold(traj.euler_rate_rad_s, False), name=traj.name)  # fmt: skip
+
+
+def filter_columns(sys: control.TransferFunction, t: np.ndarray, data: np.ndarray) -> np.ndarray:
+    """Each column of `data` (N, k) through the SISO system `sys`, starting from its own first value at rest."""
+    out = np.empty_like(data)
+    for k in range(data.shape[1]):
+        base = data[0, k]
+        out[:, k] = base + control.forced_response(sys, T=t, U=data[:, k] - base).outputs
+    return out
+
+
+def executed(traj: Trajectory, robot: control.TransferFunction) -> Trajectory:
+    """What a robot with tracking dynamics `robot` actually does when commanded `traj` (all channels filtered)."""
+    t = traj.t_s
+    f = lambda a: filter_columns(robot, t, a)  # noqa: E731
+    return Trajectory(t, f(traj.pos_m), f(traj.vel_m_s), f(traj.acc_m_s2), f(traj.euler_rad),
+                      f(traj.euler_rate_rad_s), name=traj.name)  # fmt: skip
+
+
+@dataclass
+class ClosedLoopResponse:
+    """Relative liquid angle (roll, pitch) under the executed motion, linear model beside nonlinear pendulum."""
+
+    t_s: np.ndarray
+    rel_linear_rad: np.ndarray
+    """python-control: H(s) of the executed acceleration minus the executed container tilt (N, 2)."""
+    rel_nonlinear_rad: np.ndarray
+    """solve_ivp on the nonlinear pendulums under the same executed motion (N, 2)."""
+    t_arrival_s: float
+    """End of the commanded move."""
+
+    @property
+    def rel_linear_deg(self) -> np.ndarray:
+        """Magnitude of the linear relative angle, degrees."""
+        return np.degrees(np.hypot(*self.rel_linear_rad.T))
+
+    @property
+    def rel_nonlinear_deg(self) -> np.ndarray:
+        """Magnitude of the nonlinear relative angle, degrees."""
+        return np.degrees(np.hypot(*self.rel_nonlinear_rad.T))
+
+    @property
+    def max_gap_deg(self) -> float:
+        """Largest difference between the linear and nonlinear relative angles (either axis)."""
+        return float(np.degrees(np.abs(self.rel_linear_rad - self.rel_nonlinear_rad).max()))
+
+    @property
+    def residual_linear_deg(self) -> float:
+        """Largest linear relative angle after arrival."""
+        return float(self.rel_linear_deg[self.t_s > self.t_arrival_s].max())
+
+
+def closed_loop_response(
+    traj: Trajectory, params: SloshParams, bandwidth_hz: float = 20.0, settle_s: float = 2.0
+) -> ClosedLoopResponse:
+    """Push `traj` through robot tracking and liquid, linear (python-control) and nonlinear (solve_ivp)."""
+    padded = hold_after(traj, settle_s)
+    run = executed(padded, robot_tf(bandwidth_hz))
+    h = linear_tf(params)
+    t = run.t_s
+    theta = control.forced_response(h, T=t, U=run.acc_m_s2[:, 0]).outputs  # pitch tilts toward +ux
+    phi = -control.forced_response(h, T=t, U=run.acc_m_s2[:, 1]).outputs  # roll tilts away from +uy
+    linear = np.column_stack([phi, theta]) - run.euler_rad[:, :2]
+    nonlinear = simulate_liquid(run, params, settle_s=0.0).rel_rad[: len(t)]
+    return ClosedLoopResponse(t, linear, nonlinear, float(traj.t_s[-1]))

@@ -1,0 +1,110 @@
+"""Model-error sweep: each method keeps its nominal plan while the true liquid's frequency and damping change.
+
+Open-loop methods replay the same trajectory; feedback methods re-run their loop against the true liquid.
+Every point is scored by the nonlinear `simulate_liquid`, as in the main comparison.
+"""
+
+from __future__ import annotations
+
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass
+from typing import Sequence
+
+import numpy as np
+from tqdm import tqdm
+
+from sloshid.comparison.feedback import FeedbackSettings, run_feedback
+from sloshid.model.pendulum import SloshParams
+from sloshid.model.simulate import simulate_liquid
+from sloshid.model.trajectory import Trajectory
+
+
+@dataclass
+class Replay:
+    """What a method executes when the true liquid is `truth`: its fixed trajectory, or its feedback loop re-run."""
+
+    trajectory: Trajectory
+    """The open-loop move, or the feedforward under the feedback."""
+    model: SloshParams | None = None
+    """Feedback only: the liquid the filter and LQR are designed for."""
+    feedback: FeedbackSettings | None = None
+    """Feedback only: camera and LQR settings (None: open loop)."""
+    bandwidth_hz: float = 20.0
+    """Feedback only: robot tracking bandwidth in the loop, Hz."""
+
+    def __call__(self, truth: SloshParams) -> Trajectory:
+        """The executed trajectory against the true liquid."""
+        if self.feedback is None or self.model is None:
+            return self.trajectory
+        return run_feedback(self.trajectory, self.model, truth, self.feedback, self.bandwidth_hz).trajectory
+
+
+def residual(job: tuple[Replay, SloshParams, float]) -> float:
+    """Residual slosh (deg) of one replay against one true liquid (a picklable unit of work)."""
+    replay, truth, settle_s = job
+    return simulate_liquid(replay(truth), truth, settle_s=settle_s).residual_deg
+
+
+@dataclass
+class RobustnessResult:
+    """Residual slosh (deg) per method against the true/model frequency ratio and damping ratio."""
+
+    omega_factors: np.ndarray
+    """True natural frequency / identified one (damping nominal)."""
+    zeta_factors: np.ndarray
+    """True damping ratio / identified one (frequency nominal)."""
+    residual_vs_omega_deg: dict[str, np.ndarray]
+    residual_vs_zeta_deg: dict[str, np.ndarray]
+
+    def tolerance_band(self, label: str, limit_deg: float) -> tuple[float, float] | None:
+        """Widest interval of frequency factors around 1 (contiguous sweep points) with residual <= limit_deg."""
+        f, r = self.omega_factors, self.residual_vs_omega_deg[label]
+        i = int(np.argmin(np.abs(f - 1.0)))
+        if r[i] > limit_deg:
+            return None
+        lo = hi = i
+        while lo > 0 and r[lo - 1] <= limit_deg:
+            lo -= 1
+        while hi < len(f) - 1 and r[hi + 1] <= limit_deg:
+            hi += 1
+        return float(f[lo]), float(f[hi])
+
+    def to_dict(self) -> dict:
+        """JSON-ready form (lists)."""
+        return {
+            "omega_factors": self.omega_factors.tolist(),
+            "zeta_factors": self.zeta_factors.tolist(),
+            "residual_vs_omega_deg": {k: v.tolist() for k, v in self.residual_vs_omega_deg.items()},
+            "residual_vs_zeta_deg": {k: v.tolist() for k, v in self.residual_vs_zeta_deg.items()},
+        }
+
+
+def sweep(
+    replays: dict[str, Replay],
+    params: SloshParams,
+    omega_factors: Sequence[float],
+    zeta_factors: Sequence[float],
+    settle_s: float = 1.0,
+    progress: bool = False,
+    workers: int = 1,
+) -> RobustnessResult:
+    """Residual slosh of every method at every (true omega, nominal zeta) and (nominal omega, true zeta) point.
+
+    The residual peaks in the first slosh period after arrival, so `settle_s` = 1 s covers it for f > 1 Hz;
+    `workers` > 1 spreads the points over that many processes.
+    """
+    omega_factors = np.asarray(sorted(set(omega_factors) | {1.0}), float)  # the nominal point is always swept
+    zeta_factors = np.asarray(sorted(set(zeta_factors) | {1.0}), float)
+    truths = [params.scaled(f, 1.0) for f in omega_factors] + [params.scaled(1.0, z) for z in zeta_factors]
+    jobs = [(replay, truth, settle_s) for replay in replays.values() for truth in truths]
+    bar = dict(total=len(jobs), desc="robustness sweep", disable=not progress, leave=False)
+    if workers > 1:
+        with ProcessPoolExecutor(max_workers=workers) as pool:
+            flat = list(tqdm(pool.map(residual, jobs), **bar))
+    else:
+        flat = [residual(job) for job in tqdm(jobs, **bar)]
+    by_omega, by_zeta = {}, {}
+    for i, label in enumerate(replays):
+        row = np.array(flat[i * len(truths) : (i + 1) * len(truths)])
+        by_omega[label], by_zeta[label] = row[: len(omega_factors)], row[len(omega_factors) :]
+    return RobustnessResult(omega_factors, zeta_factors, by_omega, by_zeta)

@@ -1,0 +1,541 @@
+"""Identification estimator: signals in, sloshing frequency, damping, pendulum length and damping constant out,
+each with an honest 95 % interval and a good/uncertain verdict (scikit-learn style: configure, fit, read `result_`)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Sequence
+
+import numpy as np
+from scipy import stats
+
+from sloshid import __version__
+from sloshid.identification.crosschecks import CrossCheck, half_power, hilbert_envelope, log_decrement
+from sloshid.identification.decay_window import DecayWindow, extend_tail, find_decay_window, rough_mode_frequency, user_window
+from sloshid.core.errors import UserError
+from sloshid.model.pendulum import G, SloshParams, cylinder_first_mode_omega, linear_tf, linear_tf_coeffs
+from sloshid.identification.pt2fit import Z95, PT2Fit, WindowData, autocorrelation, fit_pt2
+from sloshid.identification.second_mode import SecondMode, resolve_second_mode, strong_peaks
+from sloshid.identification.signals import Signal, load_signal
+from sloshid.core.spectrum import MIN_PROMINENCE, Spectrum, welch_spectrum
+
+MIN_PERIODS_ERROR = 3.0
+NO_MODE_SNR = 5.0
+"""A window whose PSD shows no clear resonance is still accepted when the fitted decay stands this many standard
+errors out and reaches the minimum fit % (short, strongly damped ring-downs give coarse Welch spectra);
+otherwise there is no mode, only noise."""
+AMPLITUDE_SNR = 3.0
+"""A fitted amplitude less than this many standard errors above zero is barely distinguishable from noise."""
+CROSS_CHECK_MIN_PERIODS = 8.0
+"""A cross-check built on fewer mode periods than this is shown but does not sway the verdict (too coarse)."""
+
+
+class NotFittedError(RuntimeError):
+    """Raised when results are asked of an Identifier before fit() was called."""
+
+
+@dataclass(frozen=True)
+class IdentSettings:
+    """How to identify (all optional; defaults suit tracker traces and wall-height sensors alike)."""
+
+    mass_kg: float | None = None
+    """Liquid mass m; needed for the damping constant d = 2 m omega zeta (seed Table I uses 0.5 kg)."""
+    window_s: tuple[float, float] | None = None
+    """Fit window (t0, t1) in the signals' own seconds; None finds the free decay automatically."""
+    f_range_hz: tuple[float, float] = (0.5, 30.0)
+    """Frequency band searched for the sloshing mode."""
+    drift: bool = False
+    """Also fit a slow linear drift of the signal's zero (e.g. a float creeping across the surface)."""
+    min_fit_percent: float = 15.0
+    """Below this NRMSE fit % the mode does not dominate the window and the verdict is uncertain. Fit % scores
+    the whole waveform: clean tracker angles reach 80-99 %, wall-height sensors with nonlinear crests 35-65 %."""
+    min_periods: float = 4.0
+    """Fewer decay periods than this in a window make the verdict uncertain (fewer than 3 is an error)."""
+    second_mode_ratio: float = 0.25
+    """A non-harmonic PSD peak above this fraction of the dominant one counts as a strong second mode (-6 dB): it is
+    fitted as a second damped mode, and only when the data cannot separate the two is the verdict uncertain."""
+    container_radius_m: float | None = None
+    """Cylinder radius R for the analytic first-mode prior (needs fill_height_m)."""
+    fill_height_m: float | None = None
+    """Liquid fill height h for the prior."""
+
+    def __post_init__(self) -> None:
+        if self.mass_kg is not None and not (math.isfinite(self.mass_kg) and self.mass_kg > 0):
+            raise UserError(f"--mass must be a positive number of kg, got {self.mass_kg!r}.")
+        if self.window_s is not None and not self.window_s[0] < self.window_s[1]:
+            raise UserError(f"--window start {self.window_s[0]:g} s must be before its end {self.window_s[1]:g} s.")
+        lo, hi = self.f_range_hz
+        if not 0 < lo < hi:
+            raise UserError(f"--f-range must be two increasing positive frequencies in Hz, got {lo:g},{hi:g}.")
+        if not 0 <= self.min_fit_percent < 100:
+            raise UserError(f"min_fit_percent must be in [0, 100), got {self.min_fit_percent:g}.")
+        if (self.container_radius_m is None) != (self.fill_height_m is None):
+            raise UserError("the geometric prior needs both --container-radius-m and --fill-height-m.")
+        if self.container_radius_m is not None and not (self.container_radius_m > 0 and self.fill_height_m > 0):
+            raise UserError("container radius and fill height must both be positive (m).")
+
+
+@dataclass(frozen=True)
+class Estimate:
+    """A value with its standard error and 95 % interval."""
+
+    value: float
+    stderr: float
+    ci95: tuple[float, float]
+
+    def to_json_dict(self) -> dict:
+        """{"value", "stderr", "ci95": [lo, hi]}."""
+        return {"value": self.value, "stderr": self.stderr, "ci95": list(self.ci95)}
+
+
+def _estimate(value: float, se: float, floor: float | None = None) -> Estimate:
+    """Normal 95 % interval, clipped at `floor` for quantities that cannot be negative."""
+    lo, hi = value - Z95 * se, value + Z95 * se
+    if floor is not None:
+        lo = max(lo, floor)
+    return Estimate(float(value), float(se), (float(lo), float(hi)))
+
+
+def ljung_box_p(resid: np.ndarray, lags: int) -> float:
+    """Ljung-Box portmanteau p-value for whiteness of residuals over `lags` lags (chi^2 with `lags` dof)."""
+    n = resid.size
+    acf = autocorrelation(resid, lags)[1:]
+    q = n * (n + 2) * np.sum(acf**2 / (n - np.arange(1, lags + 1)))
+    return float(stats.chi2.sf(q, lags))
+
+
+@dataclass
+class IdentResult:
+    """Everything `identify` found: parameters with intervals, the windows and spectra behind them, the verdict."""
+
+    signals: list[Signal]
+    windows: list[DecayWindow]
+    spectra: list[Spectrum]
+    fit: PT2Fit
+    cross_checks: list[list[CrossCheck]]
+    parameters: dict[str, Estimate]
+    quality: str
+    reasons: list[str]
+    notes: list[str]
+    mass_kg: float | None
+    prior: dict[str, float] = field(default_factory=dict)
+    ljung_box: list[float] = field(default_factory=list)
+    lb_lags: list[int] = field(default_factory=list)
+    second_mode: SecondMode | None = None
+    """The two-mode fit tried for a strong second PSD peak (None when no PSD showed one)."""
+
+    @property
+    def params(self) -> SloshParams:
+        """The pendulum model for the planner (mass 1 kg when none was given; the dynamics only need d/m)."""
+        return SloshParams.from_modal(self.fit.omega_rad_s, self.fit.zeta, self.mass_kg or 1.0)
+
+    @property
+    def tf(self):
+        """Seed eq. 5 as a python-control transfer function: surface angle (rad) per container acceleration (m/s^2)."""
+        return linear_tf(self.params)
+
+    def fit_percent(self, i: int) -> float:
+        """NRMSE fit % of signal i's window."""
+        return self.fit.fit_percent(i, self.window_signal(i).value)
+
+    def window_signal(self, i: int) -> Signal:
+        """Signal i restricted to its fit window."""
+        return self.signals[i].between(self.windows[i].t0_s, self.windows[i].t1_s)
+
+    def to_json_dict(self) -> dict[str, Any]:
+        """The `sloshid identify` JSON (schema in README; read back by SloshParams.from_identify_json)."""
+        num, den = linear_tf_coeffs(self.params)
+        params = {k: v.to_json_dict() for k, v in self.parameters.items()}
+        if self.mass_kg is not None:
+            params["m_kg"] = {"value": self.mass_kg}
+        per_signal = []
+        for i, sig in enumerate(self.signals):
+            per_signal.append(
+                {
+                    "source": sig.source,
+                    "label": sig.label,
+                    "unit": sig.unit,
+                    "fit_percent": self.fit_percent(i),
+                    "amplitude": self.fit.amplitude(i),
+                    "amplitude_stderr": self.fit.amplitude_se(i),
+                    "offset": float(self.fit.linear[i][2]),
+                    "drift_per_s": float(self.fit.linear[i][3]) if self.fit.drift else None,
+                    "rms_residual": float(np.sqrt(np.mean(self.fit.residuals[i] ** 2))),
+                    "ljung_box_p": self.ljung_box[i],
+                    "ljung_box_lags": self.lb_lags[i],
+                    "hac_lags": self.fit.hac_lags[i],
+                    "n_samples": int(self.fit.residuals[i].size),
+                    "sampling": sig.sampling(),
+                }
+            )
+        inflation = math.sqrt(self.fit.cov[0, 0] / self.fit.cov_naive[0, 0]) if self.fit.cov_naive[0, 0] > 0 else None
+        return {
+            "sloshid_version": __version__,
+            "sources": [s.source for s in self.signals],
+            "window_s": [[w.t0_s, w.t1_s] for w in self.windows],
+            "window_chosen_by": [w.chosen_by for w in self.windows],
+            "quality": self.quality,
+            "reasons": list(self.reasons),
+            "notes": list(self.notes),
+            "parameters": params,
+            "transfer_function": {
+                "num": num,
+                "den": den,
+                "input": "container acceleration (m/s^2)",
+                "output": "surface angle (rad)",
+            },
+            "psd": {
+                "peak_f_hz": float(np.median([s.peak_f_hz for s in self.spectra])),
+                "per_signal": [s.to_json_dict() for s in self.spectra],
+            },
+            "cross_checks": {
+                "pt2_fit": {"f_hz": self.parameters["f_hz"].value, "zeta": self.parameters["zeta"].value},
+                "per_signal": [[c.to_json_dict() for c in cc] for cc in self.cross_checks],
+            },
+            "second_mode": self.second_mode.to_json_dict() if self.second_mode is not None else None,
+            "fit": {
+                "model": "a exp(-zeta omega t) cos(omega sqrt(1-zeta^2) t + phase) + offset" + (" + drift t" if self.fit.drift else "")
+                + (" + a2 exp(-zeta2 omega2 t) cos(omega2 sqrt(1-zeta2^2) t + phase2)" if self.fit.second else ""),
+                "fit_percent": float(np.mean([self.fit_percent(i) for i in range(len(self.signals))])),
+                "ljung_box_p": float(min(self.ljung_box)),
+                "interval_method": "Newey-West sandwich (VAR(1) prewhitened, Bartlett kernel) on the least-squares "
+                "Jacobian; delta method for derived values; normal 95 % quantile",
+                "stderr_inflation_vs_white": inflation,
+                "n_starts": self.fit.n_starts,
+                "per_signal": per_signal,
+            },
+            "prior": dict(self.prior),
+        }
+
+    def summary(self) -> str:
+        """Readable multi-line summary for stdout."""
+        lines = [f"sloshid identify: {len(self.signals)} signal(s)"]
+        for sig, w in zip(self.signals, self.windows):
+            lines.append(f"  {sig.source}: {sig.label} [{sig.unit or 'no unit'}], window {w.t0_s:.2f}-{w.t1_s:.2f} s ({w.chosen_by})")
+        units = {"f_hz": "Hz", "omega_rad_s": "rad/s", "zeta": "", "l_m": "m", "d_ns_per_m": "N s/m"}
+        for key, est in self.parameters.items():
+            lines.append(
+                f"  {key:<12} = {est.value:.5g} ± {est.stderr:.2g} {units.get(key, '')}  "
+                f"(95 % CI {est.ci95[0]:.5g} .. {est.ci95[1]:.5g})"
+            )
+        if self.mass_kg is not None:
+            lines.append(f"  {'m_kg':<12} = {self.mass_kg:g} kg (given)")
+        if self.prior:
+            lines.append(
+                f"  geometric prior (cylinder): f = {self.prior['f_hz']:.4g} Hz, identified/prior = "
+                f"{self.prior['identified_over_prior']:.3f}"
+            )
+        if self.second_mode is not None:
+            lines.append(f"  {self.second_mode.summary()}")
+        fits = ", ".join(f"{self.fit_percent(i):.1f}" for i in range(len(self.signals)))
+        lines.append(f"  fit % (NRMSE): {fits}")
+        lines.append(f"verdict: {self.quality}")
+        lines += [f"  - {r}" for r in self.reasons]
+        return "\n".join(lines)
+
+    # ---- plots (each takes ax=None and returns the axes it drew on) ----
+
+    def plot_signal(self, i: int = 0, ax=None):
+        """The whole recording with the fit window shaded and the end of the excitation marked."""
+        ax = _axes(ax)
+        sig, w = self.signals[i], self.windows[i]
+        ax.plot(sig.t_s, sig.value, lw=0.7, color="0.2", label=sig.label)
+        ax.axvspan(w.t0_s, w.t1_s, color="tab:green", alpha=0.15, label=f"fit window ({w.chosen_by})")
+        if w.excitation_end_s is not None:
+            ax.axvline(w.excitation_end_s, color="tab:red", ls="--", lw=1, label="end of forced motion")
+        ax.set_xlabel("t (s)")
+        ax.set_ylabel(_ylabel(sig))
+        ax.legend(loc="upper right", fontsize=8)
+        ax.set_title(Path(sig.source).name)
+        return ax
+
+    def plot_psd(self, i: int = 0, ax=None):
+        """Welch PSD of the window, and the same estimator applied to the fitted PT2 response."""
+        ax = _axes(ax)
+        sp, win = self.spectra[i], self.window_signal(i)
+        model = welch_spectrum(win.t_s, self.fit.fitted[i], nperseg=sp.nperseg)
+        ax.semilogy(sp.f_hz, sp.psd, color="0.2", lw=1, label="measured (Welch)")
+        what = "two-mode" if self.fit.second else "PT2"
+        ax.semilogy(model.f_hz, model.psd, color="tab:orange", lw=1.2, label=f"fitted {what} response (same Welch)")
+        if self.fit.second:
+            ax.axvline(self.fit.second.omega_rad_s / (2 * math.pi), color="tab:red", ls=":", label="second mode")
+        ax.axvline(self.parameters["f_hz"].value, color="tab:blue", ls=":", label=f"f = {self.parameters['f_hz'].value:.4g} Hz")
+        for p in sp.secondary:
+            ax.plot(p.f_hz, p.psd, "v", color="tab:purple" if p.harmonic else "tab:red", ms=6)
+        top = sp.peak_psd * 3
+        ax.set_ylim(top * 1e-6, top)
+        ax.set_xlim(0, min(sp.fs_hz / 2, 4 * self.parameters["f_hz"].value))
+        ax.set_xlabel("f (Hz)")
+        ax.set_ylabel(f"PSD ({self.signals[i].unit or 'unit'}²/Hz)")
+        ax.legend(fontsize=8)
+        return ax
+
+    def plot_fit(self, i: int = 0, ax=None):
+        """Window data against the fitted free response, with the residual."""
+        ax = _axes(ax)
+        win = self.window_signal(i)
+        ax.plot(win.t_s, win.value, ".", ms=2, color="0.3", label="measured")
+        what = "two-mode fit" if self.fit.second else "PT2 fit"
+        ax.plot(win.t_s, self.fit.fitted[i], color="tab:orange", lw=1, label=f"{what} ({self.fit_percent(i):.1f} % fit)")
+        ax.plot(win.t_s, self.fit.residuals[i], color="tab:red", lw=0.5, alpha=0.6, label="residual")
+        ax.set_xlabel("t (s)")
+        ax.set_ylabel(_ylabel(self.signals[i]))
+        ax.legend(fontsize=8, loc="upper right")
+        return ax
+
+    def plot_residual_acf(self, i: int = 0, ax=None):
+        """Residual autocorrelation with the 95 % band of white noise."""
+        ax = _axes(ax)
+        r = self.fit.residuals[i]
+        lags = min(r.size - 1, max(3 * self.lb_lags[i], 20))
+        acf = autocorrelation(r, lags)
+        dt = 1 / self.signals[i].rate_hz
+        ax.vlines(np.arange(lags + 1) * dt, 0, acf, color="tab:blue", lw=1)
+        bound = Z95 / math.sqrt(r.size)
+        ax.axhspan(-bound, bound, color="0.8", alpha=0.6, label="white-noise 95 % band")
+        ax.axvline(self.fit.hac_lags[i] * dt, color="tab:green", ls="--", lw=1, label="interval correction reach")
+        ax.set_xlabel("lag (s)")
+        ax.set_ylabel("autocorrelation")
+        ax.legend(fontsize=8)
+        return ax
+
+    def plot_bode(self, axes=None):
+        """Bode magnitude and phase of the identified seed eq. 5 (python-control frequency_response)."""
+        import control
+        import matplotlib.pyplot as plt
+
+        if axes is None:
+            _, axes = plt.subplots(2, 1, sharex=True, figsize=(7, 5))
+        w0 = self.fit.omega_rad_s
+        resp = control.frequency_response(self.tf, np.logspace(np.log10(w0 / 20), np.log10(w0 * 20), 400))
+        f = resp.omega / (2 * math.pi)
+        axes[0].loglog(f, np.abs(resp.magnitude).ravel(), color="tab:blue")
+        axes[0].axvline(w0 / (2 * math.pi), color="0.5", ls=":")
+        axes[0].set_ylabel("|H| (rad per m/s²)")
+        axes[1].semilogx(f, np.degrees(np.asarray(resp.phase).ravel()), color="tab:blue")
+        axes[1].set_ylabel("phase (deg)")
+        axes[1].set_xlabel("f (Hz)")
+        return axes
+
+
+def _axes(ax):
+    """Use the given axes or make a new figure's."""
+    if ax is None:
+        import matplotlib.pyplot as plt
+
+        _, ax = plt.subplots(figsize=(8, 3.2))
+    return ax
+
+
+def _ylabel(sig: Signal) -> str:
+    """Axis label with unit."""
+    return f"{sig.label} ({sig.unit})" if sig.unit else sig.label
+
+
+class Identifier:
+    """Configure with IdentSettings, call fit(signals), read result_ (an IdentResult) and params_ (SloshParams)."""
+
+    def __init__(self, settings: IdentSettings | None = None, **overrides: Any):
+        self.settings = settings if settings is not None else IdentSettings(**overrides)
+
+    def fit(self, signals: Signal | str | Path | Sequence[Signal | str | Path]) -> "Identifier":
+        """Find windows and spectra, fit the PT2 response jointly, derive parameters, judge quality.
+
+        Accepts Signal objects or file paths (read with load_signal's defaults)."""
+        items = [signals] if isinstance(signals, (Signal, str, Path)) else list(signals)
+        sigs = [s if isinstance(s, Signal) else load_signal(s) for s in items]
+        if not sigs:
+            raise UserError("no signal given to identify.")
+        st = self.settings
+        windows, spectra, fullspec = [], [], []
+        for sig in sigs:
+            f_guess = rough_mode_frequency(sig, st.f_range_hz)
+            whole = welch_spectrum(sig.t_s, sig.value, st.f_range_hz)
+            fullspec.append(whole)
+            if st.window_s is not None:
+                win = user_window(sig, *st.window_s, f_guess)
+            else:
+                win = find_decay_window(sig, f_guess, whole.noise_std, st.drift)
+            part = sig.between(win.t0_s, win.t1_s)
+            whole_periods = (sig.t_s[-1] - sig.t_s[0]) * f_guess
+            if whole_periods < MIN_PERIODS_ERROR:
+                raise UserError(
+                    f"{sig.source}: the signal lasts only {whole_periods:.1f} periods of the {f_guess:.3g} Hz mode; "
+                    f"at least {MIN_PERIODS_ERROR:g} are needed."
+                )
+            if win.chosen_by == "auto" and (part.t_s.size < 16 or win.duration_s * f_guess < MIN_PERIODS_ERROR):
+                raise UserError(
+                    f"{sig.source}: no oscillatory mode found; nowhere does a ring-down of {MIN_PERIODS_ERROR:g} "
+                    f"periods ({f_guess:.3g} Hz) stand above the noise."
+                )
+            if part.t_s.size < 16:
+                raise UserError(f"{sig.source}: the window {win.t0_s:g}-{win.t1_s:g} s holds only {part.t_s.size} samples.")
+            spec = welch_spectrum(part.t_s, part.value, st.f_range_hz)
+            periods = win.duration_s * spec.peak_f_hz
+            if spec.prominence >= MIN_PROMINENCE and periods < MIN_PERIODS_ERROR:
+                raise UserError(
+                    f"{sig.source}: the window {win.t0_s:.2f}-{win.t1_s:.2f} s holds only {periods:.1f} periods of "
+                    f"the {spec.peak_f_hz:.3g} Hz mode; at least {MIN_PERIODS_ERROR:g} are needed."
+                )
+            windows.append(win)
+            spectra.append(spec)
+        parts = [s.between(w.t0_s, w.t1_s) for s, w in zip(sigs, windows)]
+        hp0 = [half_power(p.t_s, p.value, sp.peak_f_hz) for p, sp in zip(parts, spectra)]
+        omega_starts = [2 * math.pi * float(np.median([sp.peak_f_hz for sp in spectra]))]
+        omega_starts += [2 * math.pi * h.f_hz for h in hp0]
+        zeta_hints = [h.zeta for h in hp0 if math.isfinite(h.zeta)]
+        wdata = [WindowData(p.t_s, p.value, w.t0_s) for p, w in zip(parts, windows)]
+        fit = fit_pt2(
+            wdata,
+            omega_starts,
+            float(np.median(zeta_hints)) if zeta_hints else None,
+            st.drift,
+        )
+        for i, (sig, spec, part) in enumerate(zip(sigs, spectra, parts)):
+            snr = fit.amplitude(i) / fit.amplitude_se(i)
+            explained = fit.fit_percent(i, part.value)
+            if (spec.prominence < MIN_PROMINENCE or not spec.resonant) and (
+                not snr >= NO_MODE_SNR or explained < st.min_fit_percent
+            ):
+                raise UserError(
+                    f"{sig.source}: no oscillatory mode found; the PSD shows no resonance standing 10 dB above the "
+                    f"noise in {st.f_range_hz[0]:g}-{st.f_range_hz[1]:g} Hz, and a fitted decay explains only "
+                    f"{explained:.0f} % ({snr:.1f} standard errors)."
+                )
+        if st.window_s is None and any(strong_peaks(sp, st.second_mode_ratio) for sp in spectra):
+            # two modes beat, so the first quiet stretch may be a beat's null rather than the fade: now that the decay
+            # rate is known, let the automatic windows take in the ring-down's tail (a single mode's envelope only
+            # falls, so there the first quiet stretch is the fade and the window stays)
+            rate, f_fit = fit.zeta * fit.omega_rad_s, fit.omega_rad_s / (2 * math.pi)
+            longer = [extend_tail(s, w, f_fit, rate, fs.noise_std) for s, w, fs in zip(sigs, windows, fullspec)]
+            if any(a.t1_s > b.t1_s + 1 / f_fit for a, b in zip(longer, windows)):  # at least a period more
+                windows = longer
+                parts = [s.between(w.t0_s, w.t1_s) for s, w in zip(sigs, windows)]
+                spectra = [welch_spectrum(p.t_s, p.value, st.f_range_hz) for p in parts]
+                wdata = [WindowData(p.t_s, p.value, w.t0_s) for p, w in zip(parts, windows)]
+                fit = fit_pt2(wdata, [fit.omega_rad_s, *omega_starts[1:]], fit.zeta or None, st.drift)
+        second = resolve_second_mode(wdata, fit, spectra, st.second_mode_ratio, AMPLITUDE_SNR)
+        if second is not None and second.separated:
+            fit = second.fit
+        self.result_ = self._assemble(sigs, windows, parts, spectra, [s.noise_std for s in fullspec], fit, second)
+        self.params_ = self.result_.params
+        return self
+
+    def _assemble(self, sigs, windows, parts, spectra, noise_std, fit: PT2Fit, second: SecondMode | None) -> IdentResult:
+        """Derived parameters with delta-method errors, cross-checks and the verdict."""
+        st = self.settings
+        omega, zeta = fit.omega_rad_s, fit.zeta
+        se_w, se_z = np.sqrt(np.clip(np.diag(fit.cov), 0, None))
+        params = {
+            "f_hz": _estimate(omega / (2 * math.pi), se_w / (2 * math.pi)),
+            "omega_rad_s": _estimate(omega, se_w),
+            "zeta": _estimate(zeta, se_z, floor=0.0),
+            "l_m": _estimate(G / omega**2, 2 * G / omega**3 * se_w),
+        }
+        if st.mass_kg is not None:
+            grad = np.array([2 * st.mass_kg * zeta, 2 * st.mass_kg * omega])
+            params["d_ns_per_m"] = _estimate(2 * st.mass_kg * omega * zeta, math.sqrt(grad @ fit.cov @ grad), floor=0.0)
+        checks, lb, lb_lags = [], [], []
+        for i, (p, sp) in enumerate(zip(parts, spectra)):
+            base = fit.linear[i][2] + (fit.linear[i][3] * (p.t_s - windows[i].t0_s) if fit.drift else 0.0)
+            if fit.second:  # the cross-checks judge the main mode, so the fitted second mode is taken out first
+                base = base + fit.second_fitted[i]
+            clean = p.value - base
+            noise = noise_std[i]
+            f_fit = omega / (2 * math.pi)
+            checks.append(
+                [
+                    half_power(p.t_s, clean, f_fit),
+                    log_decrement(p.t_s, clean, f_fit, noise),
+                    hilbert_envelope(p.t_s, clean, f_fit, noise),
+                ]
+            )
+            h = int(min(max(10, round(sigs[i].rate_hz / f_fit)), fit.residuals[i].size // 5))
+            lb_lags.append(h)
+            lb.append(ljung_box_p(fit.residuals[i], h))
+        quality, reasons, notes = judge(st, sigs, windows, spectra, fit, params, checks, lb, [
+            fit.fit_percent(i, p.value) for i, p in enumerate(parts)
+        ], second)
+        for s in sigs:
+            notes.extend(s.warnings)
+        prior = {}
+        if st.container_radius_m is not None:
+            w_prior = cylinder_first_mode_omega(st.container_radius_m, st.fill_height_m)
+            prior = {
+                "container_radius_m": st.container_radius_m,
+                "fill_height_m": st.fill_height_m,
+                "omega_rad_s": w_prior,
+                "f_hz": w_prior / (2 * math.pi),
+                "l_m": G / w_prior**2,
+                "identified_over_prior": omega / w_prior,
+            }
+        return IdentResult(
+            sigs, windows, spectra, fit, checks, params, quality, reasons, notes, st.mass_kg, prior, lb, lb_lags, second
+        )
+
+    @property
+    def result(self) -> IdentResult:
+        """The fitted result; raises NotFittedError before fit()."""
+        if not hasattr(self, "result_"):
+            raise NotFittedError("this Identifier is not fitted yet; call fit(signals) first.")
+        return self.result_
+
+
+def judge(st, sigs, windows, spectra, fit, params, checks, lb, fits, second=None) -> tuple[str, list[str], list[str]]:
+    """The verdict: 'good' unless a reason applies to doubt the numbers *beyond their intervals* (model misfit,
+    bound hits, disagreeing methods, a strong second mode the two-mode fit could not separate); a merely wide
+    interval is honest and only noted."""
+    reasons, notes = [], []
+    f2 = fit.second.omega_rad_s / (2 * math.pi) if fit.second else None
+    if second is not None and second.separated:
+        notes.append(
+            f"a second mode at {f2:.4g} Hz (zeta {fit.second.zeta:.2g}) was fitted beside the main one; "
+            f"the main mode's numbers account for it."
+        )
+    f = params["f_hz"].value
+    for i, sig in enumerate(sigs):
+        name = Path(sig.source).name
+        if fits[i] < st.min_fit_percent:
+            reasons.append(f"{name}: fit {fits[i]:.1f} % is below {st.min_fit_percent:g} %.")
+        periods = windows[i].duration_s * f
+        if periods < st.min_periods:
+            reasons.append(f"{name}: only {periods:.1f} periods in the window (fewer than {st.min_periods:g}).")
+        # a peak the fitted second mode accounts for (within one bin) is no longer a doubt; any other one is
+        strong = [p for p in strong_peaks(spectra[i], st.second_mode_ratio)
+                  if f2 is None or abs(p.f_hz - f2) > spectra[i].resolution_hz]
+        if strong:
+            p = strong[0]
+            why = "; ".join(second.problems) if second is not None and not second.separated else ""
+            reasons.append(
+                f"{name}: strong second mode at {p.f_hz:.3g} Hz ({100 * p.relative:.0f} % of the main peak's PSD)"
+                + (f" that a two-mode fit could not separate ({why})." if why else ".")
+            )
+        if lb[i] < 0.01:
+            notes.append(
+                f"{name}: residuals are not white (Ljung-Box p = {lb[i]:.2g}); the intervals are corrected for "
+                f"correlation over {fit.hac_lags[i]} lags."
+            )
+        for c in checks[i]:
+            if c.n_periods >= CROSS_CHECK_MIN_PERIODS and math.isfinite(c.f_hz) and abs(c.f_hz - f) > 0.02 * f:
+                reasons.append(f"{name}: {c.method} gives f = {c.f_hz:.4g} Hz, more than 2 % from the fit's {f:.4g} Hz.")
+        snr = fit.amplitude(i) / fit.amplitude_se(i)
+        if snr < AMPLITUDE_SNR:
+            reasons.append(f"{name}: the fitted amplitude is only {snr:.1f} standard errors above zero.")
+    for name in fit.at_bound:
+        if name == "zeta" and fit.zeta < 0.5:  # the lower bound: no decay, or a growing amplitude, in the window
+            reasons.append("zeta ended on its search bound 0: the oscillation does not decay in the window (no free decay).")
+        else:
+            reasons.append(f"{name} ended on its search bound.")
+    z = params["zeta"]
+    if "zeta" not in fit.at_bound and z.ci95[0] <= 0:  # a wide but valid interval: reported, not a doubt
+        notes.append(
+            f"zeta = {z.value:.2g} ± {z.stderr:.2g} cannot be told from zero: the amplitude barely decays in the window."
+        )
+    return ("uncertain" if reasons else "good"), reasons, notes
+
+
+def identify_file(path: str | Path, settings: IdentSettings | None = None, **load: Any) -> IdentResult:
+    """One file (tracker CSV, CSV or .mat) to an IdentResult; `load` passes time_col/value_col/time_var/value_var."""
+    return Identifier(settings).fit(load_signal(path, **load)).result

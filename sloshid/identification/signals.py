@@ -1,0 +1,247 @@
+"""Signals to identify: a time series with its unit and sampling facts, read from tracker CSV, any CSV or MATLAB .mat."""
+
+from __future__ import annotations
+
+import csv
+import io
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+
+import numpy as np
+
+from sloshid.core.errors import UserError
+
+TRACKER_COLUMNS = ("t_s", "angle_deg", "valid")
+"""Columns that mark a `sloshid track` CSV; its value is `angle_deg` on rows with valid == 1."""
+
+TIME_NAMES = ("t_s", "time_s", "t", "time", "times", "timestamp", "slosh_times")
+"""Column/variable names taken as the time axis (seconds) when none is given."""
+
+MAT_DEFAULTS = {"slosh_times": ("slosh_heights", "mm")}
+"""Known .mat layouts: time variable -> (value variable, unit); the antisloshing runs store wall height in mm."""
+
+UNIT_SUFFIXES = {"_deg": "deg", "_rad": "rad", "_mm": "mm", "_m": "m", "_px": "px", "_n": "N"}
+"""Units read off a column name's suffix (design.md: names carry their unit)."""
+
+MAX_BAD_FRACTION = 0.2
+"""Above this fraction of NaN/inf samples a signal is refused instead of cleaned."""
+
+MIN_SAMPLES = 16
+
+
+@dataclass(frozen=True)
+class Signal:
+    """One measured time series (seconds, any unit) plus where it came from and how it was sampled."""
+
+    t_s: np.ndarray
+    value: np.ndarray
+    label: str
+    unit: str
+    source: str
+    n_dropped: int = 0
+    """Samples dropped on reading (tracker frames with valid == 0, NaN/inf values)."""
+    warnings: tuple[str, ...] = field(default=())
+    """Things the user should know about the input (printed to stderr by the CLI)."""
+
+    @property
+    def rate_hz(self) -> float:
+        """Nominal sampling rate: 1 / median time step."""
+        return float(1.0 / np.median(np.diff(self.t_s)))
+
+    @property
+    def jitter_s(self) -> float:
+        """Timestamp jitter: standard deviation of the time steps that are not gaps."""
+        dt = np.diff(self.t_s)
+        regular = dt[dt < 1.5 * np.median(dt)]
+        return float(np.std(regular)) if regular.size else 0.0
+
+    @property
+    def n_gaps(self) -> int:
+        """Number of time steps longer than 1.5 nominal steps (dropped or missing frames)."""
+        dt = np.diff(self.t_s)
+        return int(np.sum(dt > 1.5 * np.median(dt)))
+
+    def sampling(self) -> dict[str, float | int]:
+        """Sampling facts for reports and JSON."""
+        return {
+            "n_samples": int(self.t_s.size),
+            "duration_s": float(self.t_s[-1] - self.t_s[0]),
+            "rate_hz": self.rate_hz,
+            "timestamp_jitter_s": self.jitter_s,
+            "n_gaps": self.n_gaps,
+            "n_dropped": self.n_dropped,
+        }
+
+    def between(self, t0: float, t1: float) -> "Signal":
+        """The part of the signal with t0 <= t <= t1."""
+        keep = (self.t_s >= t0) & (self.t_s <= t1)
+        return replace(self, t_s=self.t_s[keep], value=self.value[keep])
+
+
+def make_signal(t, y, label: str, unit: str = "", source: str = "array", n_dropped: int = 0) -> Signal:
+    """Validate and clean arrays into a Signal: NaN/inf dropped when few, refused when many; time must increase."""
+    t = np.asarray(t, dtype=float).ravel()
+    y = np.asarray(y, dtype=float).ravel()
+    if t.size != y.size:
+        raise UserError(f"{source}: time and value have different lengths ({t.size} and {y.size}).")
+    bad = ~(np.isfinite(t) & np.isfinite(y))
+    notes: list[str] = []
+    if bad.sum() > MAX_BAD_FRACTION * max(t.size, 1):
+        raise UserError(
+            f"{source}: {bad.sum()} of {t.size} samples of '{label}' are NaN or infinite, too many to identify from."
+        )
+    if bad.any():
+        notes.append(f"{source}: dropped {int(bad.sum())} NaN/inf samples of {t.size}.")
+        t, y = t[~bad], y[~bad]
+    if t.size < MIN_SAMPLES:
+        raise UserError(f"{source}: only {t.size} usable samples of '{label}'; at least {MIN_SAMPLES} are needed.")
+    step = np.diff(t)
+    if np.any(step <= 0):
+        k = int(np.argmax(step <= 0)) + 1
+        raise UserError(f"{source}: time is not strictly increasing at sample {k} (t = {t[k - 1]:g} then {t[k]:g} s).")
+    return Signal(t, y, label, unit, source, n_dropped + int(bad.sum()), tuple(notes))
+
+
+def unit_from_name(name: str) -> str:
+    """The unit a column name carries in its suffix (`angle_deg` -> `deg`), or '' when it names none."""
+    lower = name.lower()
+    for suffix, unit in UNIT_SUFFIXES.items():
+        if lower.endswith(suffix):
+            return unit
+    return ""
+
+
+def load_signal(
+    path: str | Path,
+    time_col: str | None = None,
+    value_col: str | None = None,
+    time_var: str | None = None,
+    value_var: str | None = None,
+) -> Signal:
+    """Read one signal from a tracker CSV, a generic CSV or a MATLAB .mat file (format from suffix and columns)."""
+    p = Path(path)
+    if not p.exists():
+        raise UserError(f"signal file {p} does not exist.")
+    if p.is_dir():
+        raise UserError(f"{p} is a directory, not a signal file.")
+    if p.suffix.lower() == ".mat":
+        return _load_mat(p, time_var, value_var)
+    return _load_csv(p, time_col, value_col)
+
+
+def _load_mat(p: Path, time_var: str | None, value_var: str | None) -> Signal:
+    """Read a MATLAB v4/v5/v7 file with scipy.io.loadmat; default variables slosh_times/slosh_heights."""
+    import scipy.io
+
+    try:
+        data = scipy.io.loadmat(p)
+    except Exception as exc:  # scipy raises several types for non-MAT content
+        raise UserError(f"{p} is not a readable MATLAB .mat file ({type(exc).__name__}).") from None
+    names = sorted(k for k in data if not k.startswith("__"))
+    tname = time_var or next((n for n in TIME_NAMES if n in data), None)
+    unit = ""
+    if value_var is None and tname in MAT_DEFAULTS and MAT_DEFAULTS[tname][0] in data:
+        value_var, unit = MAT_DEFAULTS[tname]
+    for role, name in (("time", tname), ("value", value_var)):
+        if name is None:
+            raise UserError(f"{p}: say which variable holds the {role} with --{role}-var; it has: {', '.join(names)}.")
+        if name not in data:
+            raise UserError(f"{p} has no variable '{name}'; it has: {', '.join(names)}.")
+    arrays = []
+    for name in (tname, value_var):
+        arr = np.asarray(data[name])
+        if arr.dtype.kind not in "iuf" or arr.size != max(arr.shape, default=0):
+            raise UserError(f"{p}: variable '{name}' is not a numeric vector (shape {arr.shape}, type {arr.dtype}).")
+        arrays.append(arr.ravel())
+    return make_signal(arrays[0], arrays[1], value_var, unit or unit_from_name(value_var), str(p))
+
+
+def _read_rows(p: Path) -> tuple[list[str] | None, list[list[str]]]:
+    """CSV rows with the delimiter sniffed; the header is the first row when it is not all numbers."""
+    try:
+        text = p.read_text(encoding="utf-8-sig")
+    except UnicodeDecodeError:
+        raise UserError(f"{p} is not a text CSV file.") from None
+    sample = text[:8192]
+    try:
+        dialect = csv.Sniffer().sniff(sample, delimiters=",;\t ")
+    except csv.Error:
+        dialect = csv.excel
+    rows = [r for r in csv.reader(io.StringIO(text), dialect) if r and any(c.strip() for c in r)]
+    if not rows:
+        raise UserError(f"{p} is empty.")
+    first = [c.strip() for c in rows[0]]
+
+    def numeric(cell: str) -> bool:
+        """True when the cell parses as a number."""
+        try:
+            float(cell)
+            return True
+        except ValueError:
+            return False
+
+    if all(numeric(c) for c in first if c):
+        return None, rows
+    return first, rows[1:]
+
+
+def _column_index(spec: str, header: list[str] | None, ncols: int, p: Path, role: str) -> int:
+    """Resolve a column given by name (needs a header) or by 0-based index."""
+    if header is not None and spec in header:
+        return header.index(spec)
+    if spec.lstrip("-").isdigit() and 0 <= int(spec) < ncols:
+        return int(spec)
+    available = ", ".join(header) if header else f"indices 0..{ncols - 1} (the file has no header)"
+    raise UserError(f"{p} has no {role} column '{spec}'; available: {available}.")
+
+
+def _load_csv(p: Path, time_col: str | None, value_col: str | None) -> Signal:
+    """Read a tracker CSV (angle_deg where valid == 1) or any CSV with chosen time and value columns."""
+    header, rows = _read_rows(p)
+    ncols = max(len(r) for r in rows) if rows else len(header or [])
+    if not rows:
+        raise UserError(f"{p} has a header but no data rows.")
+    is_tracker = header is not None and all(c in header for c in TRACKER_COLUMNS)
+    if time_col is None:
+        found = next((n for n in TIME_NAMES if header and n in header), None)
+        time_col = found if found is not None else "0"
+    if value_col is None:
+        if is_tracker:
+            value_col = "angle_deg"
+        elif ncols == 2:
+            value_col = "1"
+        else:
+            available = ", ".join(header) if header else f"indices 0..{ncols - 1}"
+            raise UserError(f"{p} has {ncols} columns; choose the signal with --value-col (available: {available}).")
+    ti = _column_index(time_col, header, ncols, p, "time")
+    vi = _column_index(value_col, header, ncols, p, "value")
+    use_valid = is_tracker and header[vi] == "angle_deg"
+    gi = header.index("valid") if use_valid else None
+    t, y, dropped = [], [], 0
+    for k, row in enumerate(rows, start=2 if header else 1):
+        cells = [row[i].strip() if i < len(row) else "" for i in (ti, vi)]
+        if gi is not None:
+            flag = row[gi].strip() if gi < len(row) else ""
+            if flag not in ("1", "1.0", "true", "True"):
+                dropped += 1
+                continue
+        vals = []
+        for cell, i in zip(cells, (ti, vi)):
+            if cell == "" or cell.lower() in ("nan", "inf", "-inf"):
+                vals.append(float("nan"))
+                continue
+            try:
+                vals.append(float(cell))
+            except ValueError:
+                name = header[i] if header else f"column {i}"
+                raise UserError(f"{p} line {k}: '{name}' holds '{cell}', which is not a number.") from None
+        t.append(vals[0])
+        y.append(vals[1])
+    if use_valid and not y:
+        raise UserError(f"{p}: no tracker frame is valid (valid == 1), so there is no angle to identify from.")
+    label = header[vi] if header else f"column {vi}"
+    unit = unit_from_name(label)
+    sig = make_signal(t, y, label, unit, str(p), n_dropped=dropped)
+    if dropped:
+        sig = replace(sig, warnings=sig.warnings + (f"{p}: skipped {dropped} tracker frames with valid = 0.",))
+    return sig

@@ -1,0 +1,166 @@
+"""The liquid model of design.md: a damped pendulum per horizontal axis (seed eq. 2, reconstructed eq. 3).
+
+Sign convention (stated once, tested): z is up; theta is the pitch of the liquid surface about +y0 and
+is driven by ux; phi is its roll about +x0 and is driven by uy. Under a steady acceleration the surface
+normal tilts into the acceleration, so theta -> atan(ux/g) and phi -> -atan(uy/g). Vertical acceleration
+uz changes the effective gravity to g + uz. The 1-D model (seed eq. 2) uses one angle `angle` that
+tilts toward +u: angle -> atan(u/g); for a move along y this is -phi, for a move along x it is theta.
+
+The rate functions take `sin`/`cos` so that the same expressions build CasADi graphs and NumPy values.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Any, Callable
+
+import numpy as np
+
+from sloshid.core.errors import UserError
+
+G = 9.81
+"""Gravitational acceleration in m/s^2 (the seed's value)."""
+
+XI_CYLINDER = 1.8412
+"""First root of J1', the first antisymmetric sloshing mode of an upright cylinder."""
+
+
+@dataclass(frozen=True)
+class SloshParams:
+    """Pendulum parameters of one sloshing mode (seed Table I units)."""
+
+    m_kg: float
+    """Liquid mass; only scales d, the dynamics depend on d/m."""
+    l_m: float
+    """Pendulum length l = g / omega^2."""
+    d_ns_per_m: float
+    """Damping constant d = 2 m omega zeta."""
+
+    def __post_init__(self) -> None:
+        for name in ("m_kg", "l_m"):
+            value = getattr(self, name)
+            if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
+                raise UserError(f"{name} must be a positive number, got {value!r}.")
+        if not (math.isfinite(self.d_ns_per_m) and self.d_ns_per_m >= 0):
+            raise UserError(f"d_ns_per_m must be zero or positive, got {self.d_ns_per_m!r}.")
+
+    @property
+    def omega_rad_s(self) -> float:
+        """Natural angular frequency sqrt(g/l)."""
+        return math.sqrt(G / self.l_m)
+
+    @property
+    def f_hz(self) -> float:
+        """Natural frequency in Hz."""
+        return self.omega_rad_s / (2 * math.pi)
+
+    @property
+    def zeta(self) -> float:
+        """Damping ratio d / (2 m omega)."""
+        return self.d_ns_per_m / (2 * self.m_kg * self.omega_rad_s)
+
+    @property
+    def damping_rate_1_s(self) -> float:
+        """d/m, the coefficient of the rate term in seed eq. 2."""
+        return self.d_ns_per_m / self.m_kg
+
+    @classmethod
+    def from_modal(cls, omega_rad_s: float, zeta: float, m_kg: float = 1.0) -> "SloshParams":
+        """Build from natural frequency and damping ratio (seed eq. 6-7); m only scales d."""
+        if not (omega_rad_s > 0):
+            raise UserError(f"omega must be positive, got {omega_rad_s!r}.")
+        return cls(m_kg=m_kg, l_m=G / omega_rad_s**2, d_ns_per_m=2 * m_kg * omega_rad_s * zeta)
+
+    def scaled(self, omega_factor: float = 1.0, zeta_factor: float = 1.0) -> "SloshParams":
+        """The same liquid with its natural frequency and damping ratio multiplied (model-error studies)."""
+        return SloshParams.from_modal(self.omega_rad_s * omega_factor, self.zeta * zeta_factor, self.m_kg)
+
+    def to_dict(self) -> dict[str, float]:
+        """Plain dict with unit-named keys, plus the derived modal values."""
+        return {**asdict(self), "omega_rad_s": self.omega_rad_s, "f_hz": self.f_hz, "zeta": self.zeta}
+
+    @classmethod
+    def from_identify_json(cls, path: str | Path) -> "SloshParams":
+        """Read the parameters written by `sloshid identify` (values of `parameters.{omega_rad_s,zeta,m_kg}`)."""
+        try:
+            data = json.loads(Path(path).read_text(encoding="utf-8"))
+        except FileNotFoundError:
+            raise UserError(f"parameter file {path} does not exist.") from None
+        except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+            raise UserError(f"parameter file {path} is not valid JSON ({exc}).") from None
+        try:
+            p = data["parameters"]
+            omega = float(p["omega_rad_s"]["value"])
+            zeta = float(p["zeta"]["value"])
+            m = float(p.get("m_kg", {}).get("value", 1.0))
+        except (KeyError, TypeError, ValueError, AttributeError):
+            raise UserError(
+                f"parameter file {path} lacks parameters.omega_rad_s.value and parameters.zeta.value; "
+                "write it with `sloshid identify`."
+            ) from None
+        return cls.from_modal(omega, zeta, m)
+
+
+TABLE_I = SloshParams(m_kg=0.5, l_m=0.021, d_ns_per_m=1.51)
+"""The seed paper's identified liquid (Table I): f = 3.44 Hz, zeta = 0.070."""
+
+
+def angle_accel(
+    angle: Any,
+    rate: Any,
+    u: Any,
+    params: SloshParams,
+    g_eff: Any = G,
+    sin: Callable = np.sin,
+    cos: Callable = np.cos,
+) -> Any:
+    """Seed eq. 2: angular acceleration of a surface angle that tilts toward +u under acceleration u."""
+    c = cos(angle)
+    return (u / params.l_m) * c - (g_eff / params.l_m) * sin(angle) - params.damping_rate_1_s * rate * c * c
+
+
+def pendulum_rhs_1d(t: float, y: np.ndarray, u: Callable[[float], float], params: SloshParams) -> list[float]:
+    """Right-hand side for solve_ivp: y = [angle, rate], u(t) the container acceleration along the move."""
+    return [y[1], angle_accel(y[0], y[1], u(t), params)]
+
+
+def pendulum_rhs_3d(
+    o: Any, u: Any, params: SloshParams, sin: Callable = np.sin, cos: Callable = np.cos
+) -> list[Any]:
+    """Reconstructed seed eq. 3: o = [x,y,z,phi,theta,psi, x',y',z',phi',theta',psi'], u = [ux,uy,uz].
+
+    Returns the 12 time derivatives as a list (stack with np.array or casadi.vertcat).
+    """
+    g_eff = G + u[2]
+    tilt_y_dd = angle_accel(-o[3], -o[9], u[1], params, g_eff, sin, cos)  # -phi tilts toward +uy
+    theta_dd = angle_accel(o[4], o[10], u[0], params, g_eff, sin, cos)
+    return [o[6], o[7], o[8], o[9], o[10], 0 * o[11], u[0], u[1], u[2], -tilt_y_dd, theta_dd, 0 * o[11]]
+
+
+def steady_tilt(ux: float, uy: float, uz: float = 0.0) -> tuple[float, float]:
+    """(phi, theta) in rad at which the surface settles under a constant acceleration."""
+    return -math.atan2(uy, G + uz), math.atan2(ux, G + uz)
+
+
+def linear_tf_coeffs(params: SloshParams) -> tuple[list[float], list[float]]:
+    """Seed eq. 5, angle per acceleration: num/den of (1/g) / ((l/g) s^2 + (d l/(g m)) s + 1)."""
+    l, g = params.l_m, G
+    return [1.0 / g], [l / g, params.damping_rate_1_s * l / g, 1.0]
+
+
+def linear_tf(params: SloshParams):
+    """Seed eq. 5 as a python-control transfer function (rad per m/s^2)."""
+    import control
+
+    num, den = linear_tf_coeffs(params)
+    return control.tf(num, den)
+
+
+def cylinder_first_mode_omega(radius_m: float, fill_height_m: float) -> float:
+    """Analytic first sloshing mode of an upright cylinder: omega^2 = (g xi / R) tanh(xi h / R)."""
+    if radius_m <= 0 or fill_height_m <= 0:
+        raise UserError("container radius and fill height must both be positive.")
+    return math.sqrt(G * XI_CYLINDER / radius_m * math.tanh(XI_CYLINDER * fill_height_m / radius_m))

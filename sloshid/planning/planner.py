@@ -1,0 +1,346 @@
+"""Plan a time-optimal slosh-free move for a scenario: check feasibility, solve each segment, export, verify.
+
+Waypoints split the move into rest-to-rest segments, independent problems that are solved (in worker
+processes when there are several) and concatenated into one 1 kHz Trajectory. The result is checked
+against the robot limits and, independently of the optimiser, by simulating the liquid (simulate.py).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass
+from typing import Sequence
+
+import numpy as np
+
+from sloshid.core.errors import UserError
+from sloshid.planning.sampling import sample_segments
+from sloshid.model.pendulum import G, SloshParams
+from sloshid.planning.ocp import SegmentResult, Structure, get_solver, segment_axis, time_lower_bound
+from sloshid.planning.scenario import Obstacle, Scenario
+from sloshid.model.simulate import LiquidResponse, simulate_liquid
+from sloshid.model.trajectory import LimitUsage, Trajectory, check_limits
+
+VERIFY_DURING_DEG = 0.1
+"""Largest relative liquid-container angle allowed while moving (issue 4)."""
+VERIFY_AFTER_DEG = 0.05
+"""Largest relative angle allowed after arrival (issue 4)."""
+GUESS_MARGIN_M = 0.02
+"""Initial-guess points inside an inflated obstacle are pushed this far outside it."""
+CLEARANCE_RETRIES = 3
+"""Re-solves with a grown obstacle margin when a 1 kHz sample dips into an obstacle between constraint points."""
+NEAR_M = 0.1
+"""A segment's problem includes the obstacles that come this close to its straight line (all, if the check fails)."""
+
+
+@dataclass
+class PlanResult:
+    """A solved plan: the 1 kHz trajectory, solver figures, robot-limit usage and the independent verification."""
+
+    trajectory: Trajectory
+    T_s: float
+    status: str
+    solve_time_s: float
+    iterations: int
+    segments: list[SegmentResult]
+    limits: list[LimitUsage]
+    limits_ok: bool
+    verification: LiquidResponse
+    params: SloshParams
+    robust_omega_factors: tuple[float, ...] = ()
+    min_clearance_m: float | None = None
+    """Smallest distance of any 1 kHz sample to an inflated obstacle (None without obstacles)."""
+    wall_time_s: float = 0.0
+    """Everything: construction, solves, export and verification."""
+
+    @property
+    def verification_ok(self) -> bool:
+        """Relative angle < 0.1 deg while moving and < 0.05 deg after arrival."""
+        v = self.verification
+        return v.peak_during_deg < VERIFY_DURING_DEG and v.residual_deg < VERIFY_AFTER_DEG
+
+    @property
+    def max_tilt_deg(self) -> float:
+        """Largest tilt of the container's z-axis from vertical."""
+        return float(np.degrees(np.arccos(np.clip(self.trajectory.z_axis[:, 2], -1, 1))).max())
+
+    @property
+    def max_tilt_rate_deg_s(self) -> float:
+        """Largest angular speed of the container."""
+        return float(np.degrees(np.linalg.norm(self.trajectory.omega_rad_s, axis=1)).max())
+
+    def summary(self) -> dict:
+        """The `--json` content: timing, solver status, tilt, limits, verification, per-segment figures."""
+        v = self.verification
+        return {
+            "T_s": self.T_s,
+            "solve_time_s": self.solve_time_s,
+            "wall_time_s": self.wall_time_s,
+            "iterations": self.iterations,
+            "status": self.status,
+            "formulation": self.segments[0].formulation,
+            "max_tilt_deg": self.max_tilt_deg,
+            "max_tilt_rate_deg_s": self.max_tilt_rate_deg_s,
+            "limits_ok": self.limits_ok,
+            "limits": [
+                {"quantity": u.quantity, "peak": u.peak, "limit": u.limit, "usage": u.usage, "t_peak_s": u.t_peak_s, "ok": u.ok}
+                for u in self.limits
+            ],
+            "verification": {
+                "peak_during_deg": v.peak_during_deg, "residual_deg": v.residual_deg,
+                "during_max_deg": VERIFY_DURING_DEG, "after_max_deg": VERIFY_AFTER_DEG, "ok": self.verification_ok,
+            },  # fmt: skip
+            "min_clearance_m": self.min_clearance_m,
+            "robust_omega_factors": list(self.robust_omega_factors),
+            "liquid": self.params.to_dict(),
+            "samples": len(self.trajectory.t_s),
+            "sample_rate_hz": 1.0 / self.trajectory.dt_s,
+            "segments": [
+                {
+                    "index": s.index, "start_m": list(s.start), "goal_m": list(s.goal), "T_s": s.T_s,
+                    "status": s.status, "iterations": s.iterations, "solve_time_s": s.solve_time_s,
+                    "model": "1-D" if s.axis is not None else "3-D",
+                    "max_tilt_deg": float(np.degrees(np.abs(s.angles).max())),
+                    "max_tilt_rate_deg_s": float(np.degrees(np.abs(s.rates).max())),
+                }  # fmt: skip
+                for s in self.segments
+            ],
+        }
+
+
+def check_feasible(scenario: Scenario) -> None:
+    """Reject requests no solver can meet, naming the constraint at fault (UserError)."""
+    lim = scenario.limits
+    R = scenario.container_radius_m + scenario.solver.clearance_margin_m  # what the hard constraint keeps clear
+    for i, p in enumerate(scenario.waypoints):
+        label = "start" if i == 0 else "goal" if i == len(scenario.waypoints) - 1 else f"waypoint {i}"
+        if not lim.z_range[0] <= p[2] <= lim.z_range[1]:
+            raise UserError(
+                f"the {label} {list(p)} has z = {p[2]:g} m outside [limits].z_range "
+                f"[{lim.z_range[0]:g}, {lim.z_range[1]:g}] m."
+            )
+        for j, obstacle in enumerate(scenario.obstacles):
+            if obstacle.clearance(p, R) < 0:
+                raise UserError(
+                    f"the {label} {list(p)} lies inside obstacle {j + 1} ({obstacle.describe(R)}: container "
+                    "radius plus [solver].clearance_margin_m); move it out or shrink the obstacle."
+                )
+    for i, (a, b) in enumerate(zip(scenario.waypoints[:-1], scenario.waypoints[1:])):
+        t_lb = time_lower_bound(a, b, lim, scenario.solver.kappa_T)
+        if t_lb > lim.t_max_s:
+            raise UserError(
+                f"segment {i + 1} ({list(a)} -> {list(b)}) needs at least {t_lb:.3g} s under [limits].acc_max and "
+                f"vel_max (and [solver].kappa_T), more than [limits].t_max_s = {lim.t_max_s:g} s; raise one of them."
+            )
+
+
+def near_obstacles(scenario: Scenario, start, goal) -> list[Obstacle]:
+    """Obstacles within NEAR_M of the straight segment (the others cannot matter unless the path bulges far)."""
+    line = np.linspace(start, goal, 64)
+    return [o for o in scenario.obstacles if o.clearance(line, scenario.container_radius_m).min() < NEAR_M]
+
+
+def _structure(scenario: Scenario, start, goal, obstacles, n_robust: int, warm: bool) -> Structure:
+    """The NLP shape for one segment; norm constraints only where the per-axis bounds do not imply them."""
+    lim, robot, sv = scenario.limits, scenario.robot, scenario.solver
+    axis = segment_axis(start, goal, len(obstacles))
+    three = axis is None
+    rate = math.radians(lim.tilt_rate_max_deg_s)
+    return Structure(
+        axis=axis, jerk_limited=sv.jerk_limited, N=sv.N, rk4_steps=sv.rk4_steps,
+        clearance_points=sv.clearance_points if obstacles else 0,
+        n_spheres=sum(o.kind == "sphere" for o in obstacles),
+        n_cylinders=sum(o.kind == "cylinder" for o in obstacles),
+        n_robust=n_robust,
+        vel_norm=three and float(np.linalg.norm(lim.vel_max)) > robot.vel_m_s,
+        acc_norm=three and float(np.linalg.norm(lim.acc_max)) > robot.acc_m_s2,
+        rot_vel_norm=three and math.sqrt(2) * rate > robot.rot_vel_rad_s,
+        max_iter=sv.max_iter, tol=sv.tol, warm=warm,
+    )  # fmt: skip
+
+
+def _guess(s: Structure, scenario: Scenario, obstacles, start, goal, T0: float, inflate_m: float) -> np.ndarray:
+    """Initial guess: a minimum-jerk straight line pushed out of obstacles, liquid at its quasi-static tilt."""
+    N = s.N
+    tau = np.linspace(0, 1, N + 1)[:, None]
+    delta = np.subtract(goal, start)[None, :]
+    pos = np.asarray(start)[None, :] + (10 * tau**3 - 15 * tau**4 + 6 * tau**5) * delta
+    vel = (30 * tau**2 - 60 * tau**3 + 30 * tau**4) * delta / T0
+    acc = (60 * tau - 180 * tau**2 + 120 * tau**3) * delta / T0**2
+    jerk = (60 - 360 * tau + 360 * tau**2) * delta / T0**3
+    for o in obstacles:  # bend the line around each obstacle it enters: a smooth sideways bump
+        clear = o.clearance(pos, inflate_m + GUESS_MARGIN_M)
+        if clear.min() >= 0:
+            continue
+        k = int(np.argmin(clear))
+        center = np.array([*o.center[:2], o.center[2] if o.kind == "sphere" else pos[k, 2]])
+        unit = delta[0] / np.linalg.norm(delta[0])
+        side = pos[k] - center
+        side -= side.dot(unit) * unit  # perpendicular to the move
+        if o.kind == "cylinder":
+            side[2] = 0.0
+        if np.linalg.norm(side) < 1e-6:  # straight through the centre: go around horizontally
+            side = np.cross(unit, [0.0, 0.0, 1.0])
+            side = side if np.linalg.norm(side) > 1e-9 else np.array([1.0, 0.0, 0.0])
+        side /= np.linalg.norm(side)
+        need = o.radius + inflate_m + GUESS_MARGIN_M - (pos[k] - center).dot(side)
+        bump = np.sin(np.pi * tau[:, 0]) ** 2
+        pos += np.outer(bump / max(bump[k], 0.3), side) * need
+    ax = [s.axis] if s.axis is not None else [0, 1, 2]
+    tilt = math.radians(scenario.limits.tilt_max_deg) * 0.9
+    if s.axis is not None:
+        ang = np.clip(np.arctan(acc[:, ax] / G), -tilt, tilt)
+    else:
+        ang = np.clip(np.column_stack([-np.arctan(acc[:, 1] / G), np.arctan(acc[:, 0] / G)]), -tilt, tilt)
+    cols = [pos[:, ax], vel[:, ax]] + ([acc[:, ax]] if s.jerk_limited else [])
+    cols += [ang, np.zeros_like(ang)] * (1 + s.n_robust)
+    mid = (jerk[:-1] + jerk[1:]) / 2 if s.jerk_limited else (acc[:-1] + acc[1:]) / 2
+    return get_solver(s).join(T0, np.column_stack(cols), mid[:, ax])
+
+
+def solve_segment(
+    scenario: Scenario,
+    params: SloshParams,
+    index: int,
+    robust: Sequence[float] = (),
+    extra_margin_m: float = 0.0,
+    warm: SegmentResult | None = None,
+    all_obstacles: bool = False,
+) -> SegmentResult:
+    """Solve the rest-to-rest segment from waypoint `index` to `index + 1` (cached solver, optional warm start).
+
+    Only obstacles near the straight segment enter the problem unless `all_obstacles`."""
+    start, goal = scenario.waypoints[index], scenario.waypoints[index + 1]
+    obstacles = scenario.obstacles if all_obstacles else near_obstacles(scenario, start, goal)
+    inflate = scenario.container_radius_m + scenario.solver.clearance_margin_m + extra_margin_m
+    use_warm = warm is not None and bool(warm.warm)
+    s = _structure(scenario, start, goal, obstacles, len(robust), use_warm)
+    if use_warm and len(warm.warm["x"]) != (s.nx + 1) * (s.N + 1) + s.n_pos * s.N:
+        use_warm, s = False, _structure(scenario, start, goal, obstacles, len(robust), False)
+    solver = get_solver(s)
+    t_lb = time_lower_bound(start, goal, scenario.limits, scenario.solver.kappa_T)
+    T_bounds = (t_lb, scenario.limits.t_max_s)
+    guess = warm.warm["x"] if use_warm else _guess(s, scenario, obstacles, start, goal, min(1.15 * t_lb, T_bounds[1]), inflate)
+    status, iters, elapsed, w, warm_out = solver.solve(
+        np.asarray(start), np.asarray(goal), scenario.limits, scenario.robot, scenario.solver, params, robust,
+        obstacles, inflate, T_bounds, guess, warm.warm if use_warm else None,
+    )  # fmt: skip
+    T, X, U = solver.split(w)
+    return SegmentResult(index, tuple(start), tuple(goal), s.axis, s.jerk_limited, T, status, iters, elapsed, X, U, warm_out)
+
+
+def _advice(status: str) -> str:
+    """What to relax for an IPOPT failure status."""
+    if "Infeasible" in status:
+        return ("relax [limits] (acc_max, jerk_max, tilt_max_deg, tilt_rate_max_deg_s, t_max_s, z_range), "
+                "the [robot] limits, or move waypoints away from obstacles")  # fmt: skip
+    if "Maximum_Iterations" in status or "CPUtime" in status:
+        return "raise [solver].max_iter, lower [solver].N or loosen [solver].tol"
+    return "relax [limits] or loosen [solver].tol, or lower [solver].kappa_B"
+
+
+def _solve_all(scenario: Scenario, params: SloshParams, robust: tuple[float, ...], margins: list[float],
+               which: list[int], warm: list[SegmentResult] | None, progress: bool, full: set[int]) -> dict[int, SegmentResult]:  # fmt: skip
+    """Solve the listed segments, in two worker processes when there are at least three and parallel is on."""
+    from tqdm import tqdm
+
+    jobs = [(scenario, params, i, robust, margins[i], warm[i] if warm else None, i in full) for i in which]
+    bar = tqdm(total=len(jobs), desc="segments", unit="seg", disable=not progress)
+    out: dict[int, SegmentResult] = {}
+    if scenario.solver.parallel and len(jobs) >= 3:
+        with ProcessPoolExecutor(max_workers=2) as pool:
+            for seg in pool.map(solve_segment, *zip(*jobs)):
+                out[seg.index] = seg
+                bar.update()
+    else:
+        for job in jobs:
+            seg = solve_segment(*job)
+            out[seg.index] = seg
+            bar.update()
+    bar.close()
+    return out
+
+
+def plan(
+    scenario: Scenario,
+    params: SloshParams,
+    *,
+    robust_omega_factors: Sequence[float] | None = None,
+    progress: bool = False,
+    warm_from: PlanResult | None = None,
+) -> PlanResult:
+    """Solve the scenario's move for liquid `params`; raises UserError for infeasible requests and solver failures.
+
+    robust_omega_factors: natural-frequency factors of extra pendulum copies (same zeta, same acceleration)
+    that must also end at rest and stay within [solver].robust_max_rel_deg of the container (robust variant);
+    None takes [solver].robust_omega_factors. warm_from: a previous result of the same scenario shape to
+    warm-start IPOPT from.
+    """
+    t_wall = time.perf_counter()
+    check_feasible(scenario)
+    factors = scenario.solver.robust_omega_factors if robust_omega_factors is None else robust_omega_factors
+    robust = tuple(float(f) for f in factors if abs(f - 1.0) > 1e-9)
+    if any(not f > 0 for f in robust):
+        raise UserError(f"robust omega factors must be positive, got {list(factors)}.")
+    n_seg = len(scenario.waypoints) - 1
+    margins = [0.0] * n_seg
+    warm = warm_from.segments if warm_from is not None and len(warm_from.segments) == n_seg else None
+    full: set[int] = set()  # segments solved with every obstacle, not only the near ones
+    segs = _solve_all(scenario, params, robust, margins, list(range(n_seg)), warm, progress, full)
+    for attempt in range(CLEARANCE_RETRIES + 1):
+        bad = [s for s in segs.values() if not s.success]
+        if bad:
+            s = bad[0]
+            raise UserError(
+                f"the solver did not converge on segment {s.index + 1} ({list(s.start)} -> {list(s.goal)}): "
+                f"IPOPT status {s.status} after {s.iterations} iterations; {_advice(s.status)}."
+            )
+        ordered = [segs[i] for i in range(n_seg)]
+        traj = sample_segments(ordered, params)
+        clearance, seg_of_sample = _clearance(scenario, ordered, traj)
+        dipped = sorted({int(seg_of_sample[i]) for i in np.nonzero(clearance < 0)[0]})
+        if not dipped:
+            break
+        if attempt == CLEARANCE_RETRIES:
+            raise UserError(
+                f"segment {dipped[0] + 1} still enters an inflated obstacle by {-clearance.min() * 1e3:.2f} mm between "
+                "constraint points; raise [solver].clearance_points or [solver].N."
+            )
+        for i in dipped:
+            if i in full:
+                margins[i] += float(-clearance[seg_of_sample == i].min()) + 1e-3
+            full.add(i)
+        segs.update(_solve_all(scenario, params, robust, margins, dipped, None, progress, full))
+    usages = check_limits(traj, scenario.robot)
+    verification = simulate_liquid(traj, params)
+    return PlanResult(
+        trajectory=traj,
+        T_s=float(sum(s.T_s for s in ordered)),
+        status=ordered[0].status if len({s.status for s in ordered}) == 1 else "; ".join(s.status for s in ordered),
+        solve_time_s=float(sum(s.solve_time_s for s in ordered)),
+        iterations=int(sum(s.iterations for s in ordered)),
+        segments=ordered,
+        limits=usages,
+        limits_ok=all(u.ok for u in usages),
+        verification=verification,
+        params=params,
+        robust_omega_factors=robust,
+        min_clearance_m=float(clearance.min()) if scenario.obstacles else None,
+        wall_time_s=time.perf_counter() - t_wall,
+    )
+
+
+def _clearance(scenario: Scenario, segments: list[SegmentResult], traj: Trajectory) -> tuple[np.ndarray, np.ndarray]:
+    """Smallest clearance (m) of each 1 kHz sample to any inflated obstacle, and the segment of each sample."""
+    n = len(traj.t_s)
+    edges = np.cumsum([int(math.ceil(s.T_s * 1000 - 1e-9)) for s in segments])
+    seg_of = np.searchsorted(edges, np.arange(n), side="left").clip(0, len(segments) - 1)
+    if not scenario.obstacles:
+        return np.full(n, np.inf), seg_of
+    clear = np.min([o.clearance(traj.pos_m, scenario.container_radius_m) for o in scenario.obstacles], axis=0)
+    return clear, seg_of
+
+
+__all__ = ["PlanResult", "plan", "solve_segment", "check_feasible"]

@@ -1,0 +1,124 @@
+"""Robot-ready sampling of an optimal plan: integrate the optimal input exactly onto a 1 kHz grid.
+
+Translation is the closed-form polynomial of the piecewise-constant input (cubic per interval for jerk,
+quadratic for acceleration); the container orientation is the liquid surface, obtained by integrating
+the nonlinear pendulum (model.pendulum_rhs_3d) interval by interval with solve_ivp under that same input,
+never by interpolating the optimiser's nodes. Segments are concatenated with the pendulum state carried on.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Sequence
+
+import numpy as np
+from scipy.integrate import solve_ivp
+
+from sloshid.model.pendulum import SloshParams, pendulum_rhs_3d
+from sloshid.planning.ocp import SegmentResult
+from sloshid.model.trajectory import Trajectory
+
+SAMPLE_RATE_HZ = 1000.0
+"""Rate of the exported trajectory (a Franka Panda's control rate)."""
+
+
+def _input_3d(seg: SegmentResult) -> np.ndarray:
+    """The segment's piecewise-constant input as (N, 3) world-axis values (jerk or acceleration)."""
+    u = np.zeros((len(seg.u), 3))
+    if seg.axis is None:
+        u[:] = seg.u
+    else:
+        u[:, seg.axis] = seg.u[:, 0]
+    return u
+
+
+def _node_states(seg: SegmentResult, u3: np.ndarray, h: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Position, velocity, acceleration at each node, propagated exactly from the start (N+1, 3) each."""
+    n = len(u3)
+    p, v, a = np.zeros((n + 1, 3)), np.zeros((n + 1, 3)), np.zeros((n + 1, 3))
+    p[0] = seg.start
+    for k in range(n):
+        acc0 = a[k] if seg.jerk_limited else u3[k]
+        jerk = u3[k] if seg.jerk_limited else 0.0
+        p[k + 1] = p[k] + v[k] * h + acc0 * h**2 / 2 + jerk * h**3 / 6
+        v[k + 1] = v[k] + acc0 * h + jerk * h**2 / 2
+        a[k + 1] = acc0 + jerk * h if seg.jerk_limited else 0.0
+    return p, v, a
+
+
+def _pendulum_rhs(acc_of_t, params: SloshParams):
+    """solve_ivp right-hand side for y = [phi, theta, phi', theta'] under acceleration acc_of_t(t)."""
+
+    def rhs(t: float, y: np.ndarray) -> list[float]:
+        o = [0.0, 0.0, 0.0, y[0], y[1], 0.0, 0.0, 0.0, 0.0, y[2], y[3], 0.0]
+        d = pendulum_rhs_3d(o, acc_of_t(t), params)
+        return [y[2], y[3], d[9], d[10]]
+
+    return rhs
+
+
+def sample_segment(
+    seg: SegmentResult, params: SloshParams, y0: np.ndarray, dt: float = 1.0 / SAMPLE_RATE_HZ
+) -> tuple[dict[str, np.ndarray], np.ndarray]:
+    """Samples of one segment on t = 0, dt, ... ceil(T/dt) dt (holding the goal after T), and the final pendulum state."""
+    u3 = _input_3d(seg)
+    n = len(u3)
+    h = seg.T_s / n
+    p, v, a = _node_states(seg, u3, h)
+    K = int(math.ceil(seg.T_s / dt - 1e-9))
+    t = np.arange(K + 1) * dt
+    k = np.minimum((t / h).astype(int), n - 1)
+    tau = np.clip(t - k * h, 0.0, h)[:, None]
+    after = t >= seg.T_s
+    if seg.jerk_limited:
+        jerk = u3[k]
+        acc = a[k] + jerk * tau
+        vel = v[k] + a[k] * tau + jerk * tau**2 / 2
+        pos = p[k] + v[k] * tau + a[k] * tau**2 / 2 + jerk * tau**3 / 6
+    else:
+        acc = u3[k].copy()
+        vel = v[k] + acc * tau
+        pos = p[k] + v[k] * tau + acc * tau**2 / 2
+    acc[after], vel[after], pos[after] = 0.0, 0.0, p[-1]
+
+    def acc_in(kk: int):
+        """Acceleration as a function of absolute time inside interval kk (exact polynomial)."""
+        t0 = kk * h
+        if seg.jerk_limited:
+            return lambda tt: a[kk] + u3[kk] * (tt - t0)
+        return lambda tt: u3[kk]
+
+    ang = np.zeros((K + 1, 4))
+    y = np.asarray(y0, dtype=float)
+    edges = [*(kk * h for kk in range(n)), seg.T_s, max(seg.T_s, t[-1])]
+    for kk in range(n + 1):
+        t0, t1 = edges[kk], edges[kk + 1]
+        idx = np.nonzero((t >= t0) & ((t < t1) if kk < n else (t <= t1)))[0]
+        if t1 <= t0:
+            ang[idx] = y
+            continue
+        fun = acc_in(kk) if kk < n else (lambda tt: np.zeros(3))
+        sol = solve_ivp(_pendulum_rhs(fun, params), (t0, t1), y, method="DOP853", rtol=1e-11, atol=1e-13, dense_output=True)
+        if idx.size:
+            ang[idx] = sol.sol(t[idx]).T
+        y = sol.y[:, -1]
+    samples = {"t": t, "pos": pos, "vel": vel, "acc": acc, "ang": ang}
+    return samples, y
+
+
+def sample_segments(segments: Sequence[SegmentResult], params: SloshParams, name: str = "sloshid plan") -> Trajectory:
+    """Concatenate the segments into one 1 kHz Trajectory starting at t = 0 (junction samples not repeated)."""
+    dt = 1.0 / SAMPLE_RATE_HZ
+    y = np.zeros(4)
+    parts: list[dict[str, np.ndarray]] = []
+    for i, seg in enumerate(segments):
+        samples, y = sample_segment(seg, params, y, dt)
+        if i > 0:  # the first sample repeats the previous segment's last one (rest at the waypoint)
+            samples = {key: val[1:] for key, val in samples.items()}
+        parts.append(samples)
+    cat = {key: np.concatenate([p[key] for p in parts]) for key in parts[0]}
+    n = len(cat["pos"])
+    ang = cat["ang"]
+    euler = np.column_stack([ang[:, 0], ang[:, 1], np.zeros(n)])
+    rates = np.column_stack([ang[:, 2], ang[:, 3], np.zeros(n)])
+    return Trajectory(np.arange(n) * dt, cat["pos"], cat["vel"], cat["acc"], euler, rates, name=name)

@@ -1,0 +1,268 @@
+"""The planning scenario (TOML): the move, its limits, obstacles, container, solver, liquid and robot.
+
+Every table is a typed dataclass validated before use: unknown keys are rejected with a "did you mean",
+ranges are checked in `__post_init__`. The `[compare]` table belongs to `sloshid compare` and is kept
+unvalidated as a plain dict on the Scenario.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Literal, Optional
+
+from sloshid.core.errors import UserError
+from sloshid.model.pendulum import SloshParams
+from sloshid.core.settings import did_you_mean, from_dict, load_toml
+from sloshid.model.trajectory import RobotLimits
+
+Vec3 = tuple[float, float, float]
+
+
+@dataclass(frozen=True)
+class Move:
+    """[move]: either `start` and `goal`, or `waypoints` (the container stops at each), positions in m."""
+
+    start: Optional[Vec3] = None
+    """Start position x, y, z (m)."""
+    goal: Optional[Vec3] = None
+    """Goal position x, y, z (m)."""
+    waypoints: Optional[list[Vec3]] = None
+    """Positions start ... goal (m), at least two; the container comes to rest at each."""
+
+    def __post_init__(self) -> None:
+        if self.waypoints is not None and (self.start is not None or self.goal is not None):
+            raise UserError("[move] takes either start and goal, or waypoints, not both.")
+        if self.waypoints is None and (self.start is None or self.goal is None):
+            raise UserError("[move] needs both start and goal (m), or a waypoints list.")
+        if self.waypoints is not None and len(self.waypoints) < 2:
+            raise UserError("[move].waypoints needs at least two positions (start and goal).")
+        points = self.points()
+        for i, (a, b) in enumerate(zip(points[:-1], points[1:])):
+            if math.dist(a, b) < 1e-6:
+                raise UserError(f"[move] positions {i} and {i + 1} coincide at {a}; there is nothing to plan.")
+
+    def points(self) -> list[Vec3]:
+        """Start ... goal as a list."""
+        return list(self.waypoints) if self.waypoints is not None else [self.start, self.goal]  # type: ignore[list-item]
+
+
+@dataclass(frozen=True)
+class Limits:
+    """[limits]: the move's own limits, per axis x, y, z (seed eq. 8d-8f)."""
+
+    acc_max: Vec3 = (0.5, 0.5, 0.5)
+    """Acceleration bound per axis (m/s^2), seed eq. 8d."""
+    vel_max: Vec3 = (1.7, 1.7, 1.7)
+    """Velocity bound per axis (m/s), seed eq. 8f and 8e."""
+    jerk_max: Vec3 = (100.0, 100.0, 100.0)
+    """Jerk bound per axis (m/s^3), used by the jerk-limited formulation."""
+    z_range: tuple[float, float] = (0.05, 0.8)
+    """Allowed height of the container (m), seed eq. 8f."""
+    tilt_max_deg: float = 30.0
+    """Largest roll and pitch of the container (deg)."""
+    tilt_rate_max_deg_s: float = 120.0
+    """Largest roll and pitch rate (deg/s)."""
+    t_max_s: float = 20.0
+    """Longest allowed duration of one segment (s)."""
+
+    def __post_init__(self) -> None:
+        for name in ("acc_max", "vel_max", "jerk_max"):
+            if any(not (v > 0 and math.isfinite(v)) for v in getattr(self, name)):
+                raise UserError(f"[limits].{name} must be three positive numbers, got {getattr(self, name)}.")
+        if not self.z_range[0] < self.z_range[1]:
+            raise UserError(f"[limits].z_range must be [low, high] with low < high (m), got {list(self.z_range)}.")
+        if not 0 < self.tilt_max_deg < 90:
+            raise UserError(f"[limits].tilt_max_deg must lie in (0, 90) deg, got {self.tilt_max_deg}.")
+        if not self.tilt_rate_max_deg_s > 0:
+            raise UserError(f"[limits].tilt_rate_max_deg_s must be positive, got {self.tilt_rate_max_deg_s}.")
+        if not self.t_max_s > 0:
+            raise UserError(f"[limits].t_max_s must be positive, got {self.t_max_s}.")
+
+
+@dataclass(frozen=True)
+class Obstacle:
+    """[[obstacles]]: a sphere (center x, y, z) or a vertical cylinder (center x, y and z_range), radius in m."""
+
+    center: tuple[float, ...]
+    """Sphere: [x, y, z] (m); cylinder: [x, y] of its vertical axis (m)."""
+    radius: float
+    """Radius (m), before inflation by the container radius."""
+    kind: Literal["sphere", "cylinder"] = "sphere"
+    """Shape."""
+    z_range: Optional[tuple[float, float]] = None
+    """Cylinder only: bottom and top height (m)."""
+
+    def __post_init__(self) -> None:
+        if not self.radius > 0:
+            raise UserError(f"obstacle radius must be positive (m), got {self.radius}.")
+        if self.kind == "sphere" and (len(self.center) != 3 or self.z_range is not None):
+            raise UserError("a sphere obstacle needs center = [x, y, z] (m) and no z_range.")
+        if self.kind == "cylinder":
+            if len(self.center) != 2 or self.z_range is None or not self.z_range[0] < self.z_range[1]:
+                raise UserError("a cylinder obstacle needs center = [x, y] (m) and z_range = [bottom, top] (m).")
+
+    def clearance(self, p: Any, inflate_m: float) -> Any:
+        """Exact signed clearance (m) of point(s) p (..., 3) from the obstacle inflated by `inflate_m`; < 0 inside."""
+        import numpy as np
+
+        p = np.asarray(p, dtype=float)
+        r = self.radius + inflate_m
+        if self.kind == "sphere":
+            return np.linalg.norm(p - np.asarray(self.center), axis=-1) - r
+        radial = np.hypot(p[..., 0] - self.center[0], p[..., 1] - self.center[1]) - r
+        lo, hi = self.z_range[0] - inflate_m, self.z_range[1] + inflate_m  # type: ignore[index]
+        vertical = np.maximum(lo - p[..., 2], p[..., 2] - hi)
+        return np.maximum(radial, vertical)
+
+    def describe(self, inflate_m: float) -> str:
+        """One phrase naming the obstacle for error messages."""
+        where = ", ".join(f"{c:g}" for c in self.center)
+        extra = f", z {self.z_range[0]:g}..{self.z_range[1]:g} m" if self.z_range else ""
+        return f"{self.kind} at ({where}) m{extra} with radius {self.radius:g} m inflated by {inflate_m:g} m"
+
+
+@dataclass(frozen=True)
+class Container:
+    """[container]: geometry of the container that the obstacles are inflated by."""
+
+    radius_m: float = 0.04
+    """Container radius (m); every obstacle grows by it."""
+
+    def __post_init__(self) -> None:
+        if not self.radius_m >= 0:
+            raise UserError(f"[container].radius_m must be zero or positive, got {self.radius_m}.")
+
+
+@dataclass(frozen=True)
+class SolverSettings:
+    """[solver]: discretisation and weights of the optimal-control problem (seed eq. 8-10)."""
+
+    N: int = 100
+    """Shooting intervals per segment."""
+    jerk_limited: bool = True
+    """True: jerk is the decision variable, acceleration a state (robot-ready); False: the seed's piecewise-constant acceleration."""
+    kappa_r: float = 1e-3
+    """Weight of the acceleration regulariser kappa_r/2 |u|^2 (seed eq. 8a), s^3/m^2."""
+    kappa_j: float = 1e-7
+    """Weight of the jerk regulariser kappa_j/2 |j|^2 (jerk-limited formulation only), s^5/m^2."""
+    kappa_z: float = 5.0
+    """Extra weight on vertical acceleration kappa_z/2 uz^2 (s^3/m^2): vertical acceleration changes the effective
+    gravity of the liquid, and without a price the optimiser uses it to steer the liquid (bouncing in z)."""
+    kappa_T: float = 1.0
+    """Factor of the lower bound on T from distance / |vel_max| (seed eq. 8e), >= 1."""
+    kappa_B: float = 1e-3
+    """Weight of the obstacle barrier (seed eq. 9-10)."""
+    rk4_steps: int = 2
+    """RK4 steps per shooting interval."""
+    clearance_points: int = 1
+    """Extra points per interval at which the hard obstacle clearance is also imposed."""
+    clearance_margin_m: float = 0.002
+    """Safety margin added to every inflated obstacle by the hard clearance constraint (m)."""
+    robust_omega_factors: list[float] = field(default_factory=list)
+    """Natural-frequency factors of extra pendulum copies that must also end at rest (robust variant), e.g. [0.9, 1.1]."""
+    robust_max_rel_deg: float = 1.0
+    """Largest angle between a robust copy and the container during the move (deg)."""
+    max_iter: int = 1000
+    """IPOPT iteration limit."""
+    tol: float = 1e-6
+    """IPOPT convergence tolerance."""
+    parallel: bool = False
+    """Solve independent waypoint segments in two worker processes (pays off only on an idle machine)."""
+
+    def __post_init__(self) -> None:
+        if not 10 <= self.N <= 5000:
+            raise UserError(f"[solver].N must lie between 10 and 5000, got {self.N}.")
+        if self.kappa_T < 1:
+            raise UserError(f"[solver].kappa_T must be at least 1 (seed eq. 8e), got {self.kappa_T}.")
+        for name in ("kappa_r", "kappa_j", "kappa_z", "kappa_B"):
+            if not getattr(self, name) >= 0:
+                raise UserError(f"[solver].{name} must be zero or positive, got {getattr(self, name)}.")
+        if not 1 <= self.rk4_steps <= 20 or not 0 <= self.clearance_points <= 20:
+            raise UserError("[solver].rk4_steps must lie in 1..20 and clearance_points in 0..20.")
+        if any(not f > 0 for f in self.robust_omega_factors):
+            raise UserError("[solver].robust_omega_factors must be positive numbers.")
+        if not self.clearance_margin_m >= 0:
+            raise UserError(f"[solver].clearance_margin_m must be zero or positive, got {self.clearance_margin_m}.")
+        if not self.robust_max_rel_deg > 0 or not self.tol > 0 or not self.max_iter > 0:
+            raise UserError("[solver].robust_max_rel_deg, tol and max_iter must be positive.")
+
+
+@dataclass(frozen=True)
+class LiquidTable:
+    """[liquid]: the pendulum parameters (seed Table I units); `--params` from `sloshid identify` overrides it."""
+
+    m_kg: float
+    l_m: float
+    d_ns_per_m: float
+
+
+@dataclass
+class Scenario:
+    """A validated planning scenario: waypoints start ... goal and everything the planner needs."""
+
+    waypoints: list[Vec3]
+    limits: Limits
+    obstacles: list[Obstacle]
+    container_radius_m: float
+    solver: SolverSettings
+    liquid: SloshParams | None
+    robot: RobotLimits
+    compare: dict = field(default_factory=dict)
+    source: str = ""
+    """File the scenario came from (for messages)."""
+
+
+_TABLES = ("move", "limits", "obstacles", "container", "solver", "liquid", "robot", "compare")
+
+
+def scenario_from_dict(data: dict[str, Any], source: str = "") -> Scenario:
+    """Validate a parsed scenario table-by-table (UserError with key and reason) and build the Scenario."""
+    for key in data:
+        if key not in _TABLES:
+            raise UserError(f"unknown table '[{key}]'{did_you_mean(key, _TABLES)} in {source or 'the scenario'}.")
+        if key != "obstacles" and not isinstance(data[key], dict):
+            raise UserError(f"'{key}' must be a table [{key}], got {data[key]!r}.")
+    misplaced = [k for k in data.get("solver", {}) if k in Limits.__dataclass_fields__]
+    if misplaced:
+        raise UserError(f"'[solver].{misplaced[0]}' belongs in the [limits] table.")
+    if "move" not in data:
+        raise UserError(f"{source or 'the scenario'} has no [move] table (start and goal, or waypoints).")
+    move = from_dict(Move, data["move"], "[move]")
+    obstacles_raw = data.get("obstacles", [])
+    if not isinstance(obstacles_raw, list):
+        raise UserError("obstacles must be an array of tables [[obstacles]].")
+    obstacles = [from_dict(Obstacle, o, f"[[obstacles]] #{i + 1}") for i, o in enumerate(obstacles_raw)]
+    liquid = None
+    if "liquid" in data:
+        t = from_dict(LiquidTable, data["liquid"], "[liquid]")
+        liquid = SloshParams(t.m_kg, t.l_m, t.d_ns_per_m)
+    return Scenario(
+        waypoints=move.points(),
+        limits=from_dict(Limits, data.get("limits", {}), "[limits]"),
+        obstacles=obstacles,
+        container_radius_m=from_dict(Container, data.get("container", {}), "[container]").radius_m,
+        solver=from_dict(SolverSettings, data.get("solver", {}), "[solver]"),
+        liquid=liquid,
+        robot=from_dict(RobotLimits, data.get("robot", {}), "[robot]"),
+        compare=dict(data.get("compare", {})),
+        source=source,
+    )
+
+
+def load_scenario(path: str | Path) -> Scenario:
+    """Read and validate a scenario TOML file; any problem is a UserError naming the key and the reason."""
+    return scenario_from_dict(load_toml(path), str(path))
+
+
+def resolve_liquid(scenario: Scenario, params_path: str | Path | None) -> SloshParams:
+    """The liquid to plan for: `--params` (identify JSON) if given, else the scenario's [liquid] table."""
+    if params_path is not None:
+        return SloshParams.from_identify_json(params_path)
+    if scenario.liquid is None:
+        raise UserError(
+            f"{scenario.source or 'the scenario'} has no [liquid] table (m_kg, l_m, d_ns_per_m); "
+            "add one or pass --params PARAMS.json from `sloshid identify`."
+        )
+    return scenario.liquid

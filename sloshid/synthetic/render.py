@@ -1,0 +1,422 @@
+"""Synthetic side-view videos of a float on sloshing liquid, with the exact angle trace as ground truth.
+
+The scene is a transparent container with tinted liquid and an elongated float lying on the surface.
+The float's angle relative to the container follows a known pendulum trace (sloshid.model.pendulum, solved with
+solve_ivp): a tap-test free decay, or the response to a constant-acceleration move. Every shape is a
+convex polygon painted with analytic per-pixel coverage (signed distance to each edge, clipped to one
+pixel), so edges sit at their exact sub-pixel position and the truth needs no rasterisation tolerance.
+Camera roll and the container's travel and tilt are transforms of the polygon vertices, so they are
+exact too. Blur, flicker, sensor noise and H.264/MPEG-4 compression then degrade the picture.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Literal
+
+import cv2
+import numpy as np
+from scipy.integrate import solve_ivp
+from tqdm import tqdm
+
+from sloshid.core.atomic import atomic_path
+from sloshid.video.colors import DEFAULT_FLOAT_COLOR, preset
+from sloshid.core.errors import UserError
+from sloshid.model.pendulum import TABLE_I, SloshParams, pendulum_rhs_1d
+from sloshid.core.tables import write_csv
+from sloshid.video.frames import Codec, VideoWriter
+
+TRUTH_COLUMNS = ("frame", "t_s", "rel_angle_deg", "container_angle_deg", "float_angle_deg", "float_x_px",
+                 "float_y_px", "container_x_px", "container_y_px", "accel_m_s2")
+"""Ground-truth CSV columns; angles CCW positive as seen, pixel coordinates with (0,0) the top-left pixel centre."""
+
+LIQUID_BGR = (200, 165, 110)
+"""Pale blue water: saturation below every float preset, so no preset mistakes the liquid for the float."""
+WALL_BGR = (70, 70, 70)
+BACKGROUND_TOP_BGR = np.array([225, 225, 220], np.float32)
+BACKGROUND_BOTTOM_BGR = np.array([165, 170, 175], np.float32)
+
+
+@dataclass
+class SynthSettings:
+    """Everything `sloshid synth` can vary; the defaults give a clean 640x480 30 fps tap test of Table I."""
+
+    width: int = 640
+    """Frame width in pixels."""
+    height: int = 480
+    """Frame height in pixels."""
+    fps: float = 30.0
+    """Nominal frame rate in frames per second."""
+    duration_s: float = 4.0
+    """Length of the video in seconds."""
+    vfr_jitter: float = 0.0
+    """Variable frame rate: each timestamp moves by up to this fraction of a frame interval (0..0.45)."""
+    motion: Literal["decay", "move"] = "decay"
+    """'decay': tap-test free decay; 'move': response to a constant-acceleration move to the image right."""
+    f_hz: float | None = None
+    """Natural frequency (with zeta); None uses l_m/d_ns_per_m/m_kg."""
+    zeta: float | None = None
+    """Damping ratio (with f_hz)."""
+    m_kg: float = TABLE_I.m_kg
+    """Liquid mass (seed Table I by default)."""
+    l_m: float = TABLE_I.l_m
+    """Pendulum length l = g/omega^2."""
+    d_ns_per_m: float = TABLE_I.d_ns_per_m
+    """Damping constant d = 2 m omega zeta."""
+    amplitude_deg: float = 8.0
+    """Decay: first peak of the relative angle after the tap, in degrees (linearised estimate)."""
+    tap_s: float = 0.5
+    """Decay: time of the tap; the liquid is at rest before it."""
+    accel_m_s2: float = 2.0
+    """Move: acceleration magnitude of the accelerate/decelerate profile."""
+    move_start_s: float = 0.5
+    """Move: start time."""
+    move_duration_s: float = 1.0
+    """Move: total time (half accelerating, half decelerating)."""
+    px_per_m: float = 500.0
+    """Move: image scale used to translate the container with the move."""
+    travel_px: float = 0.0
+    """Decay: the container crosses this many pixels to the right over the video (smooth start and stop)."""
+    container_tilt_deg: float = 0.0
+    """Amplitude of a sinusoidal container tilt in the picture, degrees."""
+    container_tilt_hz: float = 0.4
+    """Frequency of that tilt."""
+    camera_roll_deg: float = 0.0
+    """Camera not level: the whole scene appears rotated by this angle (CCW as seen)."""
+    noise_sigma: float = 0.0
+    """Sensor noise: standard deviation in grey levels (0..255 scale), per channel and pixel."""
+    blur_px: float = 0.0
+    """Optical blur: Gaussian sigma in pixels (0 = sharp)."""
+    flicker: float = 0.0
+    """Lighting flicker: relative brightness swing (0.05 = +-5 %), 100 Hz mains beat plus random drift."""
+    codec: Codec = "h264"
+    """Compression: 'h264' (libx264) or 'mpeg4' (MPEG-4 Part 2)."""
+    quality: float | None = None
+    """Codec quality: x264 CRF 0..51 (default 23) or MPEG-4 qscale 1..31 (default 4); lower is better."""
+    float_color: str = DEFAULT_FLOAT_COLOR
+    """Float colour preset name (see sloshid.video.colors.PRESETS)."""
+    float_length_frac: float = 0.2
+    """Float length as a fraction of the frame height."""
+    seed: int = 0
+    """Seed of every random draw (noise, flicker, frame-time jitter)."""
+
+    def __post_init__(self) -> None:
+        checks = [
+            (16 <= self.width <= 7680 and 16 <= self.height <= 4320, "width and height must be 16..7680 x 16..4320 pixels"),
+            (0.5 <= self.fps <= 1000, "fps must be between 0.5 and 1000 frames per second"),
+            (0 < self.duration_s <= 3600, "duration must be between 0 and 3600 s"),
+            (0 <= self.vfr_jitter <= 0.45, "vfr jitter must be between 0 and 0.45 of a frame interval"),
+            (self.motion in ("decay", "move"), "motion must be 'decay' or 'move'"),
+            ((self.f_hz is None) == (self.zeta is None), "give f_hz and zeta together (or neither)"),
+            (self.f_hz is None or self.zeta is None or (self.f_hz > 0 and 0 <= self.zeta < 1),
+             "f_hz must be positive and zeta in [0, 1)"),
+            (abs(self.amplitude_deg) <= 40, "amplitude must be at most 40 degrees"),
+            (self.noise_sigma >= 0 and self.blur_px >= 0, "noise and blur must not be negative"),
+            (0 <= self.flicker < 0.5, "flicker must be in [0, 0.5)"),
+            (abs(self.container_tilt_deg) <= 30 and abs(self.camera_roll_deg) <= 30, "tilt and roll must be within 30 degrees"),
+            (0.05 <= self.float_length_frac <= 0.3, "float length must be 0.05..0.3 of the frame height"),
+            (self.move_duration_s > 0 and self.px_per_m > 0, "move duration and px_per_m must be positive"),
+        ]
+        for ok, message in checks:
+            if not ok:
+                raise UserError(f"{message}.")
+        preset(self.float_color)
+        self.params  # validates m, l, d
+
+    @property
+    def params(self) -> SloshParams:
+        """The liquid's pendulum parameters, from (f_hz, zeta) if given, else (m_kg, l_m, d_ns_per_m)."""
+        if self.f_hz is not None:
+            return SloshParams.from_modal(2 * math.pi * self.f_hz, self.zeta, self.m_kg)
+        return SloshParams(self.m_kg, self.l_m, self.d_ns_per_m)
+
+
+@dataclass
+class Truth:
+    """Ground truth of a rendered video, one entry per frame (columns as in TRUTH_COLUMNS)."""
+
+    columns: dict[str, np.ndarray] = field(default_factory=dict)
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        return self.columns[name]
+
+    def __len__(self) -> int:
+        return len(self.columns["t_s"])
+
+    def to_csv(self, path: str | Path) -> None:
+        """Write the truth table atomically as CSV (full float precision)."""
+        write_csv(path, self.columns)
+
+
+def frame_times(s: SynthSettings) -> np.ndarray:
+    """Presentation times: k/fps, each jittered by up to vfr_jitter of an interval (first frame at 0)."""
+    n = max(1, int(math.floor(s.duration_s * s.fps + 1e-9)))
+    t = np.arange(n) / s.fps
+    if s.vfr_jitter > 0:
+        rng = np.random.default_rng([s.seed, 1])
+        t = t + rng.uniform(-s.vfr_jitter, s.vfr_jitter, n) / s.fps
+        t[0] = 0.0
+    return t
+
+
+def move_accel(s: SynthSettings, t: np.ndarray | float) -> np.ndarray:
+    """Container acceleration of the constant-acceleration move: +a, then -a, zero outside the move."""
+    t = np.asarray(t, float)
+    half = s.move_duration_s / 2
+    rel = t - s.move_start_s
+    return np.where((rel >= 0) & (rel < half), s.accel_m_s2, np.where((rel >= half) & (rel < 2 * half), -s.accel_m_s2, 0.0))
+
+
+def move_position_m(s: SynthSettings, t: np.ndarray) -> np.ndarray:
+    """Container position along the move (m), the exact double integral of move_accel."""
+    half, a = s.move_duration_s / 2, s.accel_m_s2
+    rel = np.clip(t - s.move_start_s, 0, 2 * half)
+    first = 0.5 * a * np.minimum(rel, half) ** 2
+    second_t = np.clip(rel - half, 0, half)
+    return first + a * half * second_t - 0.5 * a * second_t**2
+
+
+def relative_angle_rad(s: SynthSettings, t: np.ndarray) -> np.ndarray:
+    """The float's angle relative to the container (CCW as seen) at times t, from the nonlinear pendulum.
+
+    Decay: at rest until the tap, then an impulse sets the rate so the first peak is about amplitude_deg.
+    Move: the model angle tilts toward the acceleration (design.md); seen with the move going to the
+    image right, the surface then turns clockwise, so the CCW angle is its negative.
+    """
+    p = s.params
+    if s.motion == "decay":
+        start = s.tap_s
+        omega_d = p.omega_rad_s * math.sqrt(max(1 - p.zeta**2, 1e-12))
+        t_peak = math.atan2(omega_d, p.zeta * p.omega_rad_s) / omega_d
+        rate0 = math.radians(s.amplitude_deg) * omega_d / (math.exp(-p.zeta * p.omega_rad_s * t_peak) * math.sin(omega_d * t_peak))
+        y0, u = [0.0, rate0], (lambda _t: 0.0)
+        sign = 1.0
+    else:
+        start, y0, sign = 0.0, [0.0, 0.0], -1.0
+        u = lambda tt: float(move_accel(s, tt))  # noqa: E731
+    out = np.zeros_like(t)
+    after = t >= start
+    if after.any():
+        breaks = [s.move_start_s + s.move_duration_s / 2, s.move_start_s + s.move_duration_s] if s.motion == "move" else []
+        t_end = float(t[after].max())
+        edges = [start] + [b for b in breaks if start < b < t_end] + [t_end]
+        y = np.array(y0, float)
+        for a, b in zip(edges[:-1], edges[1:]):  # integrate piecewise so the steps in u are not smeared
+            mask = after & (t >= a) & (t <= b)
+            sol = solve_ivp(pendulum_rhs_1d, (a, b), y, args=(u, p), dense_output=True, rtol=1e-10, atol=1e-12,
+                            max_step=0.25 / p.f_hz, first_step=1e-4)
+            if mask.any():
+                out[mask] = sol.sol(t[mask])[0]
+            y = sol.y[:, -1]
+    return sign * out
+
+
+def _smoothstep(x: np.ndarray) -> np.ndarray:
+    """0 -> 1 with zero slope at both ends (the container starts and stops crossing the frame smoothly)."""
+    x = np.clip(x, 0, 1)
+    return x * x * (3 - 2 * x)
+
+
+@dataclass
+class _Scene:
+    """Fixed scene geometry in pixels, derived from the frame size."""
+
+    inner_w: float
+    wall: float
+    depth: float  # liquid depth below the float centre
+    head: float  # rim height above the float centre
+    float_l: float
+    float_t: float
+    x0: float
+    y0: float
+
+
+def _scene(s: SynthSettings) -> _Scene:
+    """Scene proportions from the frame height (container, walls, float) and the travel's start."""
+    h = s.height
+    return _Scene(inner_w=0.5 * h, wall=max(3.0, 0.012 * h), depth=0.32 * h, head=0.18 * h,
+                  float_l=s.float_length_frac * h, float_t=max(4.0, 0.035 * h),
+                  x0=s.width / 2 - _total_travel_px(s) / 2, y0=0.55 * h)
+
+
+def _total_travel_px(s: SynthSettings) -> float:
+    """How far the container moves across the picture in total (the scene is centred on the travel)."""
+    if s.motion == "move":
+        return s.px_per_m * s.accel_m_s2 * (s.move_duration_s / 2) ** 2
+    return s.travel_px
+
+
+def _rot(angle: float) -> np.ndarray:
+    """2x2 rotation CCW as seen, acting on (x right, y up) vectors."""
+    c, si = math.cos(angle), math.sin(angle)
+    return np.array([[c, -si], [si, c]])
+
+
+def _rect(x0: float, x1: float, y0: float, y1: float) -> np.ndarray:
+    """Corners of an axis-aligned rectangle, counter-clockwise in (x right, y up) coordinates."""
+    return np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]], float)
+
+
+def _coverage(poly_img: np.ndarray, shape: tuple[int, int]) -> tuple[tuple[slice, slice], np.ndarray] | None:
+    """Analytic pixel coverage of a convex polygon (image coordinates, y down) over its bounding box.
+
+    Coverage is the product over edges of clip(0.5 + signed distance, 0, 1): exact for straight edges
+    (a half-plane's coverage ramp is symmetric about the edge), close at corners.
+    """
+    h, w = shape
+    x0, y0 = np.floor(poly_img.min(axis=0) - 1).astype(int)
+    x1, y1 = np.ceil(poly_img.max(axis=0) + 2).astype(int)
+    x0, y0, x1, y1 = max(x0, 0), max(y0, 0), min(x1, w), min(y1, h)
+    if x1 <= x0 or y1 <= y0:
+        return None
+    xs = np.arange(x0, x1, dtype=np.float32)[None, :]
+    ys = np.arange(y0, y1, dtype=np.float32)[:, None]
+    # orientation-independent inside test: the polygon's centroid is inside
+    centre = poly_img.mean(axis=0)
+    cov = np.ones((y1 - y0, x1 - x0), np.float32)
+    for a, b in zip(poly_img, np.roll(poly_img, -1, axis=0)):
+        edge = b - a
+        n = np.array([-edge[1], edge[0]]) / np.hypot(*edge)
+        if np.dot(centre - a, n) < 0:
+            n = -n
+        d = n[0] * (xs - a[0]) + n[1] * (ys - a[1])
+        cov *= np.clip(0.5 + d, 0, 1)
+    return (slice(y0, y1), slice(x0, x1)), cov
+
+
+def _paint(img: np.ndarray, poly_img: np.ndarray, bgr: tuple[int, int, int], alpha: float = 1.0) -> None:
+    """Alpha-blend a convex polygon of colour `bgr` into the float32 image with its analytic coverage."""
+    res = _coverage(poly_img, img.shape[:2])
+    if res is None:
+        return
+    sl, cov = res
+    a = (alpha * cov)[..., None]
+    img[sl] += a * (np.asarray(bgr, np.float32) - img[sl])
+
+
+def _background(s: SynthSettings) -> np.ndarray:
+    """A static vertical gradient backdrop (rolled with the camera) with a faint shelf line."""
+    ys, xs = np.mgrid[0:s.height, 0:s.width].astype(np.float32)
+    roll = math.radians(s.camera_roll_deg)
+    # distance "down" the rolled world: the world's down vector appears rotated by the roll
+    down = (ys - s.height / 2) * math.cos(roll) + (xs - s.width / 2) * math.sin(roll)
+    frac = np.clip(0.5 + down / s.height, 0, 1)[..., None]
+    return BACKGROUND_TOP_BGR * (1 - frac) + BACKGROUND_BOTTOM_BGR * frac
+
+
+def render_frames(s: SynthSettings):
+    """Yield (truth row dict, BGR uint8 frame) for every frame; the generator behind render_video."""
+    t = frame_times(s)
+    rel = relative_angle_rad(s, t)
+    sc = _scene(s)
+    tilt = np.radians(s.container_tilt_deg) * np.sin(2 * np.pi * s.container_tilt_hz * t)
+    if s.motion == "move":
+        dx = s.px_per_m * move_position_m(s, t)
+        accel = move_accel(s, t)
+    else:
+        dx = s.travel_px * _smoothstep(t / max(s.duration_s, 1e-9))
+        accel = np.zeros_like(t)
+    roll = math.radians(s.camera_roll_deg)
+    R_roll = _rot(roll)
+    centre_img = np.array([s.width / 2, s.height / 2])
+    rng = np.random.default_rng([s.seed, 2])
+    drift = np.cumsum(rng.normal(0, 0.002, len(t)))
+    float_bgr = preset(s.float_color).bgr
+    base = _background(s)
+    noise = _NoisePool(base.shape, s.noise_sigma, rng) if s.noise_sigma > 0 else None
+    half = sc.inner_w / 2
+    shapes_container = {
+        "glass": _rect(-half, half, -sc.depth, sc.head),
+        "left": _rect(-half - sc.wall, -half, -sc.depth - sc.wall, sc.head),
+        "right": _rect(half, half + sc.wall, -sc.depth - sc.wall, sc.head),
+        "bottom": _rect(-half, half, -sc.depth - sc.wall, -sc.depth),
+    }
+    L, T = sc.float_l / 2, sc.float_t / 2
+    float_local = _rect(-L, L, -T, T)
+    for k in range(len(t)):
+        # container frame (x right, y up, origin at the float centre) -> world -> rolled camera -> image
+        pos_world = np.array([sc.x0 + dx[k], s.height - sc.y0])  # y up in world
+        R_c = _rot(tilt[k])
+
+        def to_img(pts: np.ndarray) -> np.ndarray:
+            """Container coordinates (x right, y up) -> image pixels (y down), through tilt, pose and roll."""
+            world = pts @ R_c.T + pos_world
+            cam = (world - np.array([s.width / 2, s.height / 2])) @ R_roll.T
+            return np.column_stack([cam[:, 0] + centre_img[0], centre_img[1] - cam[:, 1]])
+
+        img = base.copy()
+        _paint(img, to_img(shapes_container["glass"]), (235, 240, 240), 0.25)
+        # liquid: the container interior below the surface line through the float centre (a convex polygon)
+        liquid = _liquid_polygon(half, sc.depth, rel[k])
+        _paint(img, to_img(liquid), LIQUID_BGR, 0.8)
+        for part in ("left", "right", "bottom"):
+            _paint(img, to_img(shapes_container[part]), WALL_BGR, 0.92)
+        _paint(img, to_img(float_local @ _rot(rel[k]).T), float_bgr, 1.0)
+        img = _degrade(img, s, t[k], drift[k], noise)
+        centre = to_img(np.zeros((1, 2)))[0]
+        ctr_base = to_img(np.array([[0.0, -sc.depth]]))[0]
+        row = {"frame": k, "t_s": t[k], "rel_angle_deg": math.degrees(rel[k]),
+               "container_angle_deg": math.degrees(tilt[k] + roll),
+               "float_angle_deg": math.degrees(rel[k] + tilt[k] + roll),
+               "float_x_px": centre[0], "float_y_px": centre[1],
+               "container_x_px": ctr_base[0], "container_y_px": ctr_base[1], "accel_m_s2": accel[k]}
+        yield row, img
+
+
+def _liquid_polygon(half: float, depth: float, angle: float) -> np.ndarray:
+    """The container interior below a surface line through the origin at `angle` (CCW), as a convex polygon."""
+    slope = math.tan(angle)
+    yl, yr = -half * slope, half * slope
+    return np.array([[-half, -depth], [half, -depth], [half, yr], [-half, yl]], float)
+
+
+class _NoisePool:
+    """Seeded Gaussian sensor noise, fast: a few pre-drawn noise fields read at random offsets per frame."""
+
+    def __init__(self, shape: tuple[int, ...], sigma: float, rng: np.random.Generator, fields: int = 4) -> None:
+        h, w, c = shape
+        self._pad = 32
+        self._fields = rng.standard_normal((fields, h + self._pad, w + self._pad, c), dtype=np.float32) * np.float32(sigma)
+        self._shape, self._rng = shape, rng
+
+    def draw(self) -> np.ndarray:
+        """A noise field of the frame's shape (a view, do not modify)."""
+        i, dy, dx = self._rng.integers(0, [len(self._fields), self._pad, self._pad])
+        h, w, _ = self._shape
+        return self._fields[i, dy:dy + h, dx:dx + w]
+
+
+def _degrade(img: np.ndarray, s: SynthSettings, t: float, drift: float, noise: _NoisePool | None) -> np.ndarray:
+    """Camera effects in order of the optical path: blur, lighting flicker, sensor noise, 8-bit quantisation."""
+    if s.blur_px > 0:
+        img = cv2.GaussianBlur(img, (0, 0), s.blur_px)
+    if s.flicker > 0:
+        img *= np.float32(1 + s.flicker * (0.6 * math.sin(2 * math.pi * 100 * t) + 0.4 * math.tanh(drift / 0.02)))
+    if noise is not None:
+        img += noise.draw()
+    img += np.float32(0.5)
+    np.clip(img, 0, 255, out=img)
+    return img.astype(np.uint8)
+
+
+def render_video(path: str | Path, settings: SynthSettings, truth_csv: str | Path | None = None,
+                 progress: bool = False) -> Truth:
+    """Render the video to `path` (atomically) and return its ground truth; also write it to `truth_csv`."""
+    s = settings
+    path = Path(path)
+    if path.suffix.lower() not in (".mp4", ".mov", ".m4v"):
+        raise UserError(f"output video {path} must end in .mp4, .mov or .m4v.")
+    rows: list[dict] = []
+    n = len(frame_times(s))
+    with atomic_path(path) as tmp:
+        with VideoWriter(tmp, s.width, s.height, s.fps, s.codec, s.quality) as writer:
+            for row, frame in tqdm(render_frames(s), total=n, desc="render", unit="frame", disable=None if progress else True,
+                                   leave=False):
+                writer.write(frame, row["t_s"])
+                rows.append(row)
+        truth = Truth({c: np.array([r[c] for r in rows]) for c in TRUTH_COLUMNS})
+        if truth_csv is not None:
+            truth.to_csv(truth_csv)
+    return truth

@@ -1,0 +1,218 @@
+"""Find the float by colour and measure its centre and in-plane angle to a small fraction of a pixel/degree.
+
+Detection is a plain OpenCV HSV range (what a user configures). Measurement does not use that binary
+mask: a linear colour model (least squares on the frame's own float pixels vs. the pixels around it)
+turns each pixel's BGR value into a soft float membership that is linear in the pixel's float
+coverage, even where the float meets two different backgrounds (air above, liquid below). A ramp
+centred at half coverage suppresses noise without moving the edges, and the grey-level moments of that
+map give the centre and the principal-axis angle. The next frame is searched near the last position.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from sloshid.video.colors import HsvRange
+
+_KERNEL = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (3, 3))
+MIN_AREA_PX = 12
+"""Blobs smaller than this many pixels are not taken for the float."""
+REFIT_EVERY = 8
+"""The colour model is refitted every this many frames (and after every loss): lighting drifts slowly."""
+
+
+@dataclass
+class FloatMeasurement:
+    """One frame's measurement of the float (image coordinates: x right, y down, pixel centres at integers)."""
+
+    found: bool
+    x_px: float = math.nan
+    y_px: float = math.nan
+    angle_deg: float = math.nan
+    """Principal-axis angle against the image horizontal, CCW positive as seen, in (-90, 90]."""
+    quality: float = 0.0
+    """0..1: colour separation x area consistency x elongation; 0 when not found."""
+    area_px: float = 0.0
+    length_px: float = 0.0
+    """Length of the float's long axis (rectangle equivalent, sqrt(12 * major variance))."""
+    bbox: tuple[int, int, int, int] | None = None
+    """Blob box (x0, y0, x1, y1), exclusive end, in frame coordinates."""
+
+
+def hsv_mask(bgr: np.ndarray, hsv: HsvRange) -> np.ndarray:
+    """Binary 0/255 mask of the pixels inside the HSV box (hue wrapping through 0 handled)."""
+    im = cv2.cvtColor(bgr, cv2.COLOR_BGR2HSV)
+    lo, hi = hsv.low, hsv.high
+    if not hsv.wraps:
+        return cv2.inRange(im, lo, hi)
+    upper = cv2.inRange(im, (lo[0], lo[1], lo[2]), (179, hi[1], hi[2]))
+    lower = cv2.inRange(im, (0, lo[1], lo[2]), (hi[0], hi[1], hi[2]))
+    return cv2.bitwise_or(upper, lower)
+
+
+def fit_colour_model(crop: np.ndarray, blob: np.ndarray) -> tuple[np.ndarray, float] | None:
+    """Least-squares linear colour model w.bgr + c ~ float membership, fitted to this crop's own pixels.
+
+    `blob` (0/255) marks the float roughly: eroded blob pixels are 'float' (1), pixels beyond a dilated
+    blob are 'background' (0), whatever colours they have (air above, liquid below). Returns
+    (coefficients [wb, wg, wr, c], rms fit error) or None when the crop holds no background.
+    """
+    core = cv2.erode(blob, _KERNEL, iterations=2)
+    if cv2.countNonZero(core) < 6:
+        core = blob
+    inside = core.reshape(-1) > 0
+    out = (cv2.dilate(blob, _KERNEL, iterations=3) == 0).reshape(-1)
+    if not out.any():
+        return None
+    pix = crop.reshape(-1, 3)
+    X = np.ones((int(inside.sum() + out.sum()), 4), np.float64)
+    X[:, :3] = np.concatenate([pix[inside], pix[out]])
+    target = np.zeros(len(X))
+    target[: int(inside.sum())] = 1.0
+    try:  # normal equations: 4 unknowns, thousands of rows, well conditioned when float and background differ
+        coef = np.linalg.solve(X.T @ X, X.T @ target)
+    except np.linalg.LinAlgError:
+        return None
+    return coef, float(np.sqrt(np.mean((X @ coef - target) ** 2)))
+
+
+def membership_map(crop: np.ndarray, coef: np.ndarray) -> np.ndarray:
+    """Soft membership 0..1 of every crop pixel: the colour model, linear from 0.1 to 0.9 and clipped.
+
+    The ramp is symmetric about half coverage, so edges stay where they are, while background noise
+    (membership near 0) and the float's interior (near 1) stop adding scatter to the moments.
+    """
+    value = cv2.transform(crop.astype(np.float32), coef[None, :3].astype(np.float32)).reshape(crop.shape[:2])
+    # a slight isotropic blur smooths H.264's 2-pixel chroma staircase; it cannot turn the moments' axes
+    value = cv2.GaussianBlur(value, (3, 3), 0.8) + np.float32(coef[3])
+    return np.clip((value - np.float32(0.1)) * np.float32(1.25), 0, 1)
+
+
+class FloatFinder:
+    """Stateful per-video float finder: searches near the last position, falls back to the whole ROI."""
+
+    def __init__(self, hsv: HsvRange, roi: tuple[int, int, int, int]) -> None:
+        self.hsv = hsv
+        self.roi = roi  # x, y, w, h within the frame
+        self._last: FloatMeasurement | None = None
+        self._ref_area = 0.0
+        self._velocity = (0.0, 0.0)  # px per frame
+        self._model: tuple[np.ndarray, float] | None = None
+        self._frames_since_fit = 0
+
+    def measure(self, frame: np.ndarray) -> FloatMeasurement:
+        """Measure the float in one BGR frame (near the last position first, then the whole ROI)."""
+        if self._last is not None:
+            for box in (self._tight_box(self._last), self._window(self._last)):
+                m = self._measure_in(frame, box, local=True)
+                if m.found:
+                    return self._remember(m)
+        return self._remember(self._measure_in(frame, self._roi_box(), local=False))
+
+    def _roi_box(self) -> tuple[int, int, int, int]:
+        """The ROI as (x0, y0, x1, y1)."""
+        x, y, w, h = self.roi
+        return x, y, x + w, y + h
+
+    def _tight_box(self, last: FloatMeasurement) -> tuple[int, int, int, int]:
+        """The last measurement box moved by the last motion plus a few pixels: the cheap first try."""
+        vx, vy = self._velocity
+        x0, y0, x1, y1 = last.bbox
+        m = 3.0 + 0.05 * last.length_px
+        rx0, ry0, rx1, ry1 = self._roi_box()
+        return (max(rx0, int(x0 + vx - m)), max(ry0, int(y0 + vy - m)),
+                min(rx1, int(x1 + vx + m) + 1), min(ry1, int(y1 + vy + m) + 1))
+
+    def _window(self, last: FloatMeasurement) -> tuple[int, int, int, int]:
+        """Search box around where the float should be now (last position plus last motion), half its
+        length plus a margin in every direction (covers any rotation and a change of speed)."""
+        vx, vy = self._velocity
+        cx, cy = last.x_px + vx, last.y_px + vy
+        r = 0.5 * last.length_px + max(8.0, 0.15 * last.length_px + 0.5 * math.hypot(vx, vy))
+        rx0, ry0, rx1, ry1 = self._roi_box()
+        return (max(rx0, int(cx - r)), max(ry0, int(cy - r)), min(rx1, int(cx + r) + 1), min(ry1, int(cy + r) + 1))
+
+    def _remember(self, m: FloatMeasurement) -> FloatMeasurement:
+        """Keep the measurement, the motion since the last one and the float's typical area for the next frame."""
+        last = self._last
+        self._velocity = (m.x_px - last.x_px, m.y_px - last.y_px) if (m.found and last is not None) else (0.0, 0.0)
+        self._last = m if m.found else None
+        if m.found and m.quality > 0.5:
+            self._ref_area = m.area_px if self._ref_area == 0 else 0.9 * self._ref_area + 0.1 * m.area_px
+        return m
+
+    def _measure_in(self, frame: np.ndarray, box: tuple[int, int, int, int], local: bool) -> FloatMeasurement:
+        """Detect the float blob by HSV inside `box` (near the last one when `local`) and refine it."""
+        x0, y0, x1, y1 = box
+        mask = hsv_mask(frame[y0:y1, x0:x1], self.hsv)
+        if local:
+            # fast path: the window holds one blob of the expected size that the window does not cut
+            area = cv2.countNonZero(mask)
+            bx, by, bw, bh = cv2.boundingRect(mask)
+            if (0.5 * self._ref_area <= area <= 1.5 * self._ref_area and bx > 0 and by > 0
+                    and bx + bw < x1 - x0 and by + bh < y1 - y0 and bw * bh <= 4 * area):
+                return self._refine(frame, mask > 0, (x0, y0), (bx, by, bw, bh))
+        n, labels, stats, cents = cv2.connectedComponentsWithStats(mask, connectivity=8)
+        if n <= 1:
+            return FloatMeasurement(False)
+        areas = stats[1:, cv2.CC_STAT_AREA]
+        if local and self._last is not None:
+            # closest sizeable blob to the last position
+            d = np.hypot(cents[1:, 0] + x0 - self._last.x_px, cents[1:, 1] + y0 - self._last.y_px)
+            d[areas < max(MIN_AREA_PX, 0.3 * self._ref_area)] = np.inf
+            k = int(np.argmin(d))
+            if not np.isfinite(d[k]):
+                return FloatMeasurement(False)
+        else:
+            k = int(np.argmax(areas))
+        if areas[k] < MIN_AREA_PX:
+            return FloatMeasurement(False)
+        bx, by, bw, bh = stats[k + 1, :4]
+        if local and (bx == 0 or by == 0 or bx + bw == x1 - x0 or by + bh == y1 - y0):
+            return FloatMeasurement(False)  # cut by the window: measure on the whole ROI instead
+        return self._refine(frame, labels == k + 1, (x0, y0), (bx, by, bw, bh))
+
+    def _refine(self, frame: np.ndarray, blob_full: np.ndarray, origin: tuple[int, int],
+                stat: tuple[int, int, int, int]) -> FloatMeasurement:
+        """Sub-pixel centre and angle from moments of the soft membership in a padded box around the blob."""
+        h, w = frame.shape[:2]
+        ox, oy = origin
+        bx, by, bw, bh = stat
+        pad = 6
+        X0, Y0 = max(0, ox + bx - pad), max(0, oy + by - pad)
+        X1, Y1 = min(w, ox + bx + bw + pad), min(h, oy + by + bh + pad)
+        blob = np.zeros((Y1 - Y0, X1 - X0), np.uint8)
+        sy0, sx0 = Y0 - oy, X0 - ox
+        src = blob_full[max(0, sy0):Y1 - oy, max(0, sx0):X1 - ox]
+        blob[max(0, -sy0):max(0, -sy0) + src.shape[0], max(0, -sx0):max(0, -sx0) + src.shape[1]] = src.astype(np.uint8) * 255
+        crop = frame[Y0:Y1, X0:X1]
+        self._frames_since_fit += 1
+        if self._model is None or self._frames_since_fit >= REFIT_EVERY or self._last is None:
+            self._model = fit_colour_model(crop, blob)
+            self._frames_since_fit = 0
+        if self._model is None:
+            return FloatMeasurement(False)
+        coef, rms = self._model
+        soft = membership_map(crop, coef)
+        soft *= cv2.dilate(blob, _KERNEL, iterations=pad - 1) > 0  # only this blob, not other things
+        mo = cv2.moments(soft)
+        if mo["m00"] <= 1e-6:
+            return FloatMeasurement(False)
+        cx, cy = mo["m10"] / mo["m00"], mo["m01"] / mo["m00"]
+        a, b, c = mo["mu20"] / mo["m00"], mo["mu11"] / mo["m00"], mo["mu02"] / mo["m00"]
+        spread = math.hypot(a - c, 2 * b)
+        lam1, lam2 = 0.5 * (a + c + spread), 0.5 * (a + c - spread)
+        angle = -0.5 * math.degrees(math.atan2(2 * b, a - c))  # y points down: negate for CCW as seen
+        if angle <= -90:
+            angle += 180
+        elong = 1 - lam2 / lam1 if lam1 > 0 else 0.0
+        area = mo["m00"]
+        q_sep = min(1.0, max(0.0, 1 - 2 * rms))
+        q_area = min(area, self._ref_area) / max(area, self._ref_area) if self._ref_area else 1.0
+        quality = q_sep * q_area * min(1.0, elong / 0.5)
+        return FloatMeasurement(True, X0 + cx, Y0 + cy, angle, quality, area, math.sqrt(12 * max(lam1, 0)),
+                                (X0, Y0, X1, Y1))

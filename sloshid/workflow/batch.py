@@ -1,0 +1,194 @@
+"""Track and identify many videos in parallel on Dask; per-video outputs are written as each finishes.
+
+Each video gets `<out>/videos/<stem>-<hash>/` with angles.csv, params.json and result.json; result.json is
+written last and records the hash of the video and of the settings, so a re-run skips finished videos and
+an interrupted batch loses nothing that had finished. A failing video is recorded, never fatal.
+"""
+
+from __future__ import annotations
+
+import csv
+import dataclasses
+import io
+import json
+import logging
+import traceback
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from sloshid.core.atomic import write_text
+from sloshid.core.errors import UserError
+from sloshid.core.hashing import file_sha256, json_sha256
+from sloshid.report.html import Report
+from sloshid.workflow.options import BatchConfig
+
+SUMMARY_COLUMNS = (
+    "file", "status", "frames", "valid_share", "f_hz", "f_lo_hz", "f_hi_hz", "zeta", "zeta_lo", "zeta_hi",
+    "l_m", "l_lo_m", "l_hi_m", "d_ns_per_m", "d_lo_ns_per_m", "d_hi_ns_per_m", "quality", "reasons", "outputs",
+)  # fmt: skip
+
+
+def config_hash(config: BatchConfig) -> str:
+    """Hash of the settings that change a video's results."""
+    return json_sha256(dataclasses.asdict(config))[:16]
+
+
+def _interval(params: dict[str, Any], key: str) -> list[Any]:
+    """[value, lo, hi] of a parameter from identify's JSON, blanks when absent."""
+    p = params.get(key)
+    return [p["value"], *p["ci95"]] if p else ["", "", ""]
+
+
+def process_video(video: str, config: BatchConfig, out_root: str) -> dict[str, Any]:
+    """Track one video and identify its mode; returns its summary row (status 'failed' with the reason on error).
+
+    Runs on a Dask worker: imports are local.
+    """
+    import cv2
+
+    from sloshid.identification.estimator import Identifier
+    from sloshid.identification.signals import load_signal
+    from sloshid.tracking.tracker import track_video
+
+    cv2.setNumThreads(1)  # the batch is parallel over videos: each video gets one core
+    row: dict[str, Any] = {c: "" for c in SUMMARY_COLUMNS}
+    row["file"] = video
+    try:
+        video_hash = file_sha256(video)
+    except OSError as exc:
+        return {**row, "status": "failed", "reasons": f"cannot read the file ({exc.strerror or exc})."}
+    out = Path(out_root) / "videos" / f"{Path(video).stem}-{video_hash[:10]}"
+    marker = out / "result.json"
+    key = {"video_sha256": video_hash, "config": config_hash(config)}
+    if marker.exists():
+        done = json.loads(marker.read_text())
+        if done.get("key") == key:
+            return {**done["row"], "status": "cached"}
+    out.mkdir(parents=True, exist_ok=True)
+    row["outputs"] = str(out)
+    try:
+        overlay = out / "overlay.mp4" if config.track.overlay else None
+        tracked = track_video(video, config.track.track_settings(), overlay=overlay, multithreaded=False)
+        tracked.to_csv(out / "angles.csv")
+        row.update(frames=len(tracked.t_s), valid_share=round(float(tracked.valid.mean()), 4))
+        result = Identifier(config.identify.ident_settings()).fit(load_signal(out / "angles.csv")).result
+        doc = result.to_json_dict()
+        write_text(out / "params.json", json.dumps(doc, indent=2) + "\n")
+    except UserError as exc:
+        return {**row, "status": "failed", "reasons": str(exc)}
+    except Exception as exc:  # noqa: BLE001 - one bad video must never stop the batch; the reason is kept
+        detail = traceback.format_exception_only(type(exc), exc)[-1].strip()
+        return {**row, "status": "failed", "reasons": f"unexpected error: {detail}"}
+    p = doc["parameters"]
+    row.update(zip(SUMMARY_COLUMNS[4:16], [*_interval(p, "f_hz"), *_interval(p, "zeta"), *_interval(p, "l_m"),
+                                           *_interval(p, "d_ns_per_m")]))  # fmt: skip
+    row.update(status="ok", quality=doc["quality"], reasons="; ".join(doc["reasons"]))
+    write_text(marker, json.dumps({"key": key, "row": row}, indent=2) + "\n")
+    return row
+
+
+@dataclass
+class BatchResult:
+    """Rows of the summary (one per video, in input order) and where they were written."""
+
+    rows: list[dict[str, Any]]
+    summary_csv: Path
+    failures_csv: Path
+    summary_html: Path
+
+    @property
+    def failures(self) -> list[dict[str, Any]]:
+        """Rows of the videos that failed."""
+        return [r for r in self.rows if r["status"] == "failed"]
+
+
+def dask_client(workers: int, scheduler: str | None):
+    """A Dask client: on an existing scheduler, or on a local cluster of single-threaded worker processes."""
+    from dask.distributed import Client
+
+    if scheduler:
+        try:
+            return Client(scheduler, timeout="10s")
+        except (OSError, TimeoutError) as exc:
+            raise UserError(f"could not reach the Dask scheduler at {scheduler} ({exc}).") from None
+    # a client that starts its own local cluster also shuts it down when closed
+    return Client(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
+                  silence_logs=logging.ERROR)  # fmt: skip
+
+
+def _write_csv(path: Path, columns: tuple[str, ...], rows: list[dict[str, Any]]) -> None:
+    """Write rows as CSV atomically."""
+    buf = io.StringIO()
+    writer = csv.DictWriter(buf, fieldnames=columns, extrasaction="ignore")
+    writer.writeheader()
+    writer.writerows(rows)
+    write_text(path, buf.getvalue())
+
+
+def run_batch(
+    videos: list[str | Path],
+    config: BatchConfig,
+    out_dir: str | Path,
+    workers: int = 2,
+    scheduler: str | None = None,
+    progress: bool = True,
+) -> BatchResult:
+    """Process every video on Dask (finished ones skipped), then write summary.csv, failures.csv, summary.html."""
+    from dask.distributed import as_completed
+    from tqdm import tqdm
+
+    if workers < 1:
+        raise UserError(f"--workers must be at least 1, got {workers}.")
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    names = [str(Path(v).resolve()) for v in videos]
+    rows: dict[str, dict[str, Any]] = {}
+    with dask_client(workers, scheduler) as client:
+        futures = {client.submit(process_video, v, config, str(out.resolve()), pure=False): v for v in names}
+        bar = tqdm(total=len(futures), desc="videos", unit="video", disable=None if progress else True)
+        for fut in as_completed(futures):
+            video = futures[fut]
+            try:
+                rows[video] = fut.result()
+            except Exception as exc:  # noqa: BLE001 - a crashed worker fails only its own video
+                rows[video] = {"file": video, "status": "failed", "reasons": f"worker crashed: {exc}"}
+            bar.set_postfix_str(Path(video).name)
+            bar.update()
+        bar.close()
+    ordered = [rows[v] for v in names]
+    result = BatchResult(ordered, out / "summary.csv", out / "failures.csv", out / "summary.html")
+    _write_csv(result.summary_csv, SUMMARY_COLUMNS, ordered)
+    _write_csv(result.failures_csv, ("file", "reasons"), result.failures)
+    write_text(result.summary_html, batch_report(result).to_html())
+    return result
+
+
+def batch_report(result: BatchResult) -> Report:
+    """Summary page: how many videos succeeded, the distribution of identified frequencies, the table."""
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    ok = [r for r in result.rows if r["status"] != "failed" and r["f_hz"] != ""]
+    report = Report("sloshid batch summary")
+    report.add_text(f"{len(result.rows)} videos: {len(ok)} identified, {len(result.failures)} failed "
+                    f"({sum(r.get('quality') == 'good' for r in ok)} with verdict 'good').")
+    if ok:
+        f = np.array([float(r["f_hz"]) for r in ok])
+        lo = np.array([float(r["f_lo_hz"]) for r in ok])
+        hi = np.array([float(r["f_hi_hz"]) for r in ok])
+        fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(11, 3.6))
+        ax1.hist(f, bins=min(20, max(5, len(f) // 2)), color="#36c", alpha=0.8)
+        ax1.set(xlabel="identified sloshing frequency f (Hz)", ylabel="videos", title="distribution of f")
+        order = np.argsort(f)
+        ax2.errorbar(np.arange(len(f)), f[order], yerr=[f[order] - lo[order], hi[order] - f[order]], fmt="o",
+                     color="#36c", ecolor="#999", capsize=2)
+        ax2.set(xlabel="video (sorted by f)", ylabel="f (Hz) with 95 % interval", title="per video")
+        report.add_figure(fig, "Left: how the identified frequencies spread over the batch. Right: each video's "
+                          "estimate with its 95 % interval; an interval far from the rest points at a bad video.")
+    report.add_heading("Per video")
+    report.add_table(["file", "status", "frames", "valid share", "f (Hz)", "zeta", "l (m)", "quality", "reasons"],
+                     [[Path(r["file"]).name, r["status"], r.get("frames", ""), r.get("valid_share", ""),
+                       r.get("f_hz", ""), r.get("zeta", ""), r.get("l_m", ""), r.get("quality", ""),
+                       r.get("reasons", "")] for r in result.rows])  # fmt: skip
+    return report

@@ -1,0 +1,113 @@
+"""The index.html of a pipeline run: one page that summarises every stage and links only files that exist."""
+
+from __future__ import annotations
+
+import html
+from pathlib import Path
+from typing import Any
+
+from sloshid.workflow.pipeline import StageRecord
+from sloshid.report.html import Report
+
+
+def _link(run_dir: Path, rel: str, text: str) -> str:
+    """An <a> to a file of the run, or plain text when the file does not exist."""
+    if (run_dir / rel).exists():
+        return f'<a href="{html.escape(rel)}">{html.escape(text)}</a>'
+    return html.escape(f"{text} (not written)")
+
+
+def _figure(report: Report, run_dir: Path, stage: str, s: dict[str, Any], caption: str) -> None:
+    """Show the stage's summary figure (a PNG beside its outputs) when it exists."""
+    rel = f"{stage}/{s.get('figure')}"
+    if s.get("figure") and (run_dir / rel).exists():
+        report.add_html(f'<figure><img src="{html.escape(rel)}" alt="{html.escape(caption)}">'
+                        f"<figcaption>{html.escape(caption)}</figcaption></figure>")
+
+
+def _track(report: Report, run_dir: Path, s: dict[str, Any]) -> None:
+    """Tracked angle figure and a row per video."""
+    _figure(report, run_dir, "track", s, "Float angle per frame (dots) and Kalman/RTS-smoothed (line).")
+    rows = []
+    for v in s.get("videos", []):
+        links = _link(run_dir, f"track/{v['csv']}", "angles CSV")
+        if v.get("overlay"):
+            links += " · " + _link(run_dir, f"track/{v['overlay']}", "overlay video")
+        rows.append(f"<tr><td>{html.escape(Path(v['video']).name)}</td><td>{v['frames']}</td>"
+                    f"<td>{100 * v['valid_share']:.1f} %</td><td>{links}</td></tr>")
+    report.add_html("<table><tr><th>video</th><th>frames</th><th>valid</th><th>files</th></tr>" + "".join(rows)
+                    + "</table>")
+
+
+def _identify(report: Report, run_dir: Path, s: dict[str, Any]) -> None:
+    """Verdict, parameter table with 95 % intervals, report link."""
+    report.add_text(f"Verdict: {s['quality']}" + (f" ({'; '.join(s['reasons'])})" if s["reasons"] else ""),
+                    css_class=f"verdict-{s['quality']}")
+    rows = [[name, p["value"], p.get("stderr", ""), *(p.get("ci95") or ["", ""])]
+            for name, p in s["parameters"].items()]  # fmt: skip
+    report.add_table(["parameter", "value", "std. error", "95 % low", "95 % high"], rows)
+    report.add_html("<p>" + _link(run_dir, "identify/params.json", "parameters (JSON)") + " · "
+                    + _link(run_dir, "identify/report/index.html", "identification report") + "</p>")
+
+
+def _plan(report: Report, run_dir: Path, s: dict[str, Any]) -> None:
+    """Transfer time, solver, tilt, limits and the independent verification, with the files."""
+    v = s["verification"]
+    _figure(report, run_dir, "plan", s, "Container speed and tilt along the planned move.")
+    report.add_table(
+        ["transfer time T (s)", "segments", "solver status", "solve time (s)", "max tilt (deg)",
+         "max tilt rate (deg/s)", "robot limits", "liquid vs container during / after (deg)"],
+        [[s["T_s"], len(s["segments"]), s["status"], s["solve_time_s"], s["max_tilt_deg"], s["max_tilt_rate_deg_s"],
+          "ok" if s["limits_ok"] else "EXCEEDED", f"{v['peak_during_deg']:.3g} / {v['residual_deg']:.3g}"]],
+    )  # fmt: skip
+    report.add_html("<p>" + _link(run_dir, "plan/trajectory.csv", "1 kHz robot trajectory (CSV)") + " · "
+                    + _link(run_dir, "plan/report/index.html", "plan report") + "</p>")
+
+
+def _compare(report: Report, run_dir: Path, s: dict[str, Any]) -> None:
+    """The verdict sentence and the score table of every method."""
+    report.add_text(s["verdict"])
+    rows = []
+    for m in s["methods"]:
+        if not m["applicable"]:
+            rows.append([m["label"], "not applicable", m["reason"], "", "", ""])
+            continue
+        ok = "ok" if m["robot_limits_ok"] and m["move_limits_ok"] else "exceeded"
+        rows.append([m["label"], m["transfer_time_s"], m["peak_during_deg"], m["residual_deg"], m["peak_tilt_deg"], ok])
+    report.add_table(["method", "transfer time (s)", "peak slosh during (deg)", "residual slosh (deg)",
+                      "peak tilt (deg)", "limits"], rows)  # fmt: skip
+    report.add_html("<p>" + _link(run_dir, "compare/report/index.html", "comparison report") + " · "
+                    + _link(run_dir, "compare/scores.json", "scores (JSON)") + "</p>")
+
+
+def _generic(report: Report, run_dir: Path, name: str, s: dict[str, Any]) -> None:
+    """Scalar summary values as a table plus links to the files the stage listed."""
+    scalars = [[k, v] for k, v in s.items() if isinstance(v, (int, float, str, bool)) and k not in ("report",)]
+    if scalars:
+        report.add_table(["figure", "value"], scalars)
+    for key in ("report", "trajectory", "figure"):
+        if isinstance(s.get(key), str):
+            report.add_html("<p>" + _link(run_dir, f"{name}/{s[key]}", f"{name} {key}") + "</p>")
+
+
+RENDERERS = {"track": _track, "identify": _identify, "plan": _plan, "compare": _compare}
+
+
+def write_index(run_dir: Path, records: list[StageRecord], title: str) -> Path:
+    """Write run_dir/index.html for the stages' records; returns its path."""
+    report = Report(title)
+    status = ", ".join(f"{r.name}: {r.status} ({r.seconds:.1f} s)" for r in records)
+    report.add_text(f"Stages: {status}.")
+    report.add_html("<p>" + _link(run_dir, "manifest.json", "manifest (resolved settings, input hashes, "
+                                  "package version)") + "</p>")
+    for rec in records:
+        report.add_heading(f"{rec.name} — {rec.status}")
+        if rec.status in ("failed", "skipped"):
+            report.add_text(rec.error, css_class="verdict-uncertain")
+            continue
+        render = RENDERERS.get(rec.name)
+        if render is not None:
+            render(report, run_dir, rec.summary)
+        else:
+            _generic(report, run_dir, rec.name, rec.summary)
+    return report.save(run_dir)

@@ -1,0 +1,237 @@
+"""Declarative pipelines: validate a TOML file, run its stages in order, cache each stage by content hash.
+
+A stage's cache key hashes its settings slice, the bytes of every file it reads, the keys of the stages it
+consumes and the package version, so changing one stage re-runs it and everything after it, and an
+unchanged re-run only copies finished outputs. Each run writes `<output>/<pipeline>/<run-id>/`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import os
+import shutil
+import time
+from dataclasses import dataclass, field
+from datetime import datetime, timezone
+from pathlib import Path
+from typing import Any, Callable, Literal
+
+from sloshid import __version__
+from sloshid.core.atomic import atomic_dir, write_text
+from sloshid.core.errors import UserError
+from sloshid.core.hashing import file_sha256, json_sha256
+from sloshid.core.settings import did_you_mean, from_dict, load_toml
+
+
+@dataclass
+class RunSettings:
+    """The [run] table: how the pipeline runs."""
+
+    name: str = ""
+    """Pipeline name used in the output path; default: the pipeline file's name without .toml."""
+    workers: int = 1
+    """Dask workers for stages that process several inputs (tracking several videos)."""
+    on_error: Literal["stop", "continue"] = "stop"
+    """'stop': a failing stage ends the run; 'continue': stages that do not need it still run."""
+    output_dir: str = "reports"
+    """Where runs are written, relative to the current directory: <output_dir>/<name>/<run-id>/."""
+
+    def __post_init__(self) -> None:
+        if self.workers < 1:
+            raise UserError(f"[run].workers must be at least 1, got {self.workers}.")
+
+
+@dataclass
+class ReportSettings:
+    """The [report] table: how the run's index.html looks."""
+
+    title: str = ""
+    """Page title; default 'sloshid run: <pipeline name>'."""
+
+
+@dataclass(frozen=True)
+class StageContext:
+    """What a stage gets besides its settings: where to write, what ran before, how to run."""
+
+    out_dir: Path
+    """Empty directory for this stage's outputs (renamed into place only if the stage succeeds)."""
+    upstream: dict[str, Path]
+    """Output directories of the earlier stages of this run, by stage name."""
+    run: RunSettings
+
+
+@dataclass(frozen=True)
+class Stage:
+    """One kind of stage: its settings type, the files and stages it reads, and the function that runs it."""
+
+    name: str
+    settings_type: type
+    run: Callable[[Any, StageContext], dict[str, Any]]
+    """Writes outputs into ctx.out_dir and returns a JSON-able summary for the index page."""
+    input_files: Callable[[Any], list[Path]] = lambda s: []
+    needs: Callable[[Any, set[str]], list[str]] = lambda s, present: []
+    """Names of earlier stages whose outputs it consumes, given the stages present in the pipeline."""
+
+
+@dataclass
+class StageRecord:
+    """What happened to one stage in one run."""
+
+    name: str
+    key: str
+    status: Literal["ran", "cached", "failed", "skipped"]
+    seconds: float
+    summary: dict[str, Any] = field(default_factory=dict)
+    error: str = ""
+
+
+@dataclass
+class PipelineRun:
+    """The outcome of `run_pipeline`: where the run was written and each stage's record."""
+
+    run_dir: Path
+    index_html: Path
+    stages: list[StageRecord]
+
+    @property
+    def ok(self) -> bool:
+        """True when no stage failed."""
+        return all(s.status in ("ran", "cached") for s in self.stages)
+
+
+def resolve_paths(settings: Any, base: Path, where: str) -> Any:
+    """Make every Path field (or list of Paths) of a settings dataclass absolute against `base`; check existence."""
+    changes = {}
+    for f in dataclasses.fields(settings):
+        value = getattr(settings, f.name)
+        if isinstance(value, Path):
+            changes[f.name] = _existing(base / value, f"{where}.{f.name}")
+        elif isinstance(value, (list, tuple)) and value and all(isinstance(v, Path) for v in value):
+            changes[f.name] = type(value)(_existing(base / v, f"{where}.{f.name}") for v in value)
+    return dataclasses.replace(settings, **changes) if changes else settings
+
+
+def _existing(path: Path, where: str) -> Path:
+    """The resolved path, or a UserError naming the key when it does not exist."""
+    path = path.resolve()
+    if not path.exists():
+        raise UserError(f"{where}: {path} does not exist.")
+    return path
+
+
+@dataclass
+class Pipeline:
+    """A validated pipeline file: run settings and the settings of each stage it declares, in run order."""
+
+    path: Path
+    run: RunSettings
+    report: ReportSettings
+    stages: list[tuple[Stage, Any]]
+
+    @classmethod
+    def load(cls, path: str | Path, registry: dict[str, Stage]) -> "Pipeline":
+        """Read and validate everything before anything runs: keys, types, units, paths."""
+        path = Path(path)
+        raw = load_toml(path)
+        allowed = ["run", "report", *registry]
+        for key in raw:
+            if key not in allowed:
+                raise UserError(f"{path}: unknown section [{key}]{did_you_mean(key, allowed)}.")
+        run = from_dict(RunSettings, raw.get("run", {}), "[run]")
+        if not run.name:
+            run = dataclasses.replace(run, name=path.stem)
+        report = from_dict(ReportSettings, raw.get("report", {}), "[report]")
+        if not report.title:
+            report.title = f"sloshid run: {run.name}"
+        stages = []
+        for name, stage in registry.items():
+            if name in raw:
+                if not isinstance(raw[name], dict):
+                    raise UserError(f"{path}: [{name}] must be a table.")
+                settings = from_dict(stage.settings_type, raw[name], f"[{name}]")
+                stages.append((stage, resolve_paths(settings, path.parent, f"[{name}]")))
+        if not stages:
+            raise UserError(f"{path} declares no stage; add one of {', '.join(f'[{n}]' for n in registry)}.")
+        present = {s.name for s, _ in stages}
+        for stage, settings in stages:
+            for need in stage.needs(settings, present):
+                if need not in present:
+                    raise UserError(f"{path}: [{stage.name}] needs a [{need}] section or its own input files.")
+        return cls(path, run, report, stages)
+
+
+def _settings_json(settings: Any) -> dict[str, Any]:
+    """Settings as plain JSON values (paths as strings)."""
+    return json.loads(json.dumps(dataclasses.asdict(settings), default=str))
+
+
+def _copy_tree(src: Path, dst: Path) -> None:
+    """Copy a finished stage's outputs into a run, hard-linking files where the file system allows."""
+    try:
+        shutil.copytree(src, dst, copy_function=os.link)
+    except OSError:
+        shutil.rmtree(dst, ignore_errors=True)
+        shutil.copytree(src, dst)
+
+
+def run_pipeline(
+    pipeline: Pipeline,
+    output_dir: str | Path | None = None,
+    write_index: Callable[[Path, list[StageRecord]], Path] | None = None,
+    log: Callable[[str], None] = print,
+) -> PipelineRun:
+    """Run every stage (or reuse its cached outputs) and write the run directory with manifest and index."""
+    root = Path(output_dir or pipeline.run.output_dir) / pipeline.run.name
+    run_id = datetime.now(timezone.utc).strftime("%Y%m%d-%H%M%S-%f")
+    run_dir = root / run_id
+    run_dir.mkdir(parents=True)
+    input_hashes: dict[str, str] = {}
+    keys: dict[str, str] = {}
+    records: list[StageRecord] = []
+    failed: set[str] = set()
+    present = {s.name for s, _ in pipeline.stages}
+    for stage, settings in pipeline.stages:
+        needs = stage.needs(settings, present)
+        if failed.intersection(needs) or (failed and pipeline.run.on_error == "stop"):
+            records.append(StageRecord(stage.name, "", "skipped", 0.0, error="an earlier stage failed"))
+            failed.add(stage.name)
+            continue
+        files = {str(p): input_hashes.setdefault(str(p), file_sha256(p)) for p in stage.input_files(settings)}
+        key = json_sha256(
+            {"settings": _settings_json(settings), "files": files, "upstream": {n: keys[n] for n in needs},
+             "version": __version__}
+        )[:16]  # fmt: skip
+        keys[stage.name] = key
+        cache = root / ".cache" / stage.name / key
+        start = time.perf_counter()
+        if (cache / "summary.json").exists():
+            status = "cached"
+            log(f"[{stage.name}] unchanged, reusing {cache}")
+        else:
+            log(f"[{stage.name}] running")
+            try:
+                with atomic_dir(cache) as tmp:
+                    ctx = StageContext(tmp, {n: run_dir / n for n in needs}, pipeline.run)
+                    summary = stage.run(settings, ctx)
+                    write_text(tmp / "summary.json", json.dumps(summary, indent=2, default=str))
+            except UserError as exc:
+                records.append(StageRecord(stage.name, key, "failed", time.perf_counter() - start, error=str(exc)))
+                failed.add(stage.name)
+                log(f"[{stage.name}] failed: {exc}")
+                continue
+            status = "ran"
+        _copy_tree(cache, run_dir / stage.name)
+        summary = json.loads((cache / "summary.json").read_text())
+        records.append(StageRecord(stage.name, key, status, time.perf_counter() - start, summary))
+    manifest = {
+        "pipeline": str(pipeline.path.resolve()),
+        "run_id": run_id,
+        "sloshid_version": __version__,
+        "settings": {"run": _settings_json(pipeline.run), **{s.name: _settings_json(c) for s, c in pipeline.stages}},
+        "input_sha256": input_hashes,
+        "stages": [dataclasses.asdict(r) for r in records],
+    }
+    write_text(run_dir / "manifest.json", json.dumps(manifest, indent=2, default=str))
+    index = write_index(run_dir, records) if write_index else run_dir / "manifest.json"
+    return PipelineRun(run_dir, index, records)
