@@ -15,16 +15,16 @@ from pathlib import Path
 from bench_output import write_results
 from dask.distributed import Client, LocalCluster
 
+from sloshid.synthetic.render import SynthSettings, render_video
 from sloshid.workflow.batch import run_batch
 from sloshid.workflow.options import BatchConfig, IdentifyOptions, TrackOptions
-from sloshid.synthetic.render import SynthSettings, render_video
 
 N_VIDEOS = 16
 
 
 def _warm_up() -> None:
     """Import the tracker and identifier on a worker (what its first video would otherwise pay for)."""
-    import sloshid.identification.estimator  # noqa: F401
+    import sloshid.identification.estimator
     import sloshid.tracking.tracker  # noqa: F401
 
 
@@ -35,17 +35,33 @@ def main() -> None:
         videos = []
         for i in range(N_VIDEOS):
             path = Path(tmp) / f"tap_{i:02d}.mp4"
-            render_video(path, SynthSettings(duration_s=8.0, fps=60, f_hz=2.5 + 0.1 * i, zeta=0.05, noise_sigma=5,
-                                             blur_px=1.0, quality=18, seed=i))  # fmt: skip
+            render_video(
+                path,
+                SynthSettings(
+                    duration_s=8.0,
+                    fps=60,
+                    f_hz=2.5 + 0.1 * i,
+                    zeta=0.05,
+                    noise_sigma=5,
+                    blur_px=1.0,
+                    quality=18,
+                    seed=i,
+                ),
+            )
             videos.append(path)
         warm, cold = {}, {}
         for workers in (1, 2):
-            with LocalCluster(n_workers=workers, threads_per_worker=1, dashboard_address=None,
-                              silence_logs=logging.ERROR) as cluster, Client(cluster) as client:  # fmt: skip
+            with (
+                LocalCluster(
+                    n_workers=workers, threads_per_worker=1, dashboard_address=None, silence_logs=logging.ERROR
+                ) as cluster,
+                Client(cluster) as client,
+            ):
                 client.run(_warm_up)
                 start = time.perf_counter()
-                result = run_batch(videos, config, Path(tmp) / f"warm_{workers}", scheduler=cluster.scheduler_address,
-                                   progress=False)  # fmt: skip
+                result = run_batch(
+                    videos, config, Path(tmp) / f"warm_{workers}", scheduler=cluster.scheduler_address, progress=False
+                )
                 warm[workers] = time.perf_counter() - start
             assert not result.failures, result.failures
             start = time.perf_counter()
@@ -54,15 +70,22 @@ def main() -> None:
     speedup, speedup_cold = warm[1] / warm[2], cold[1] / cold[2]
     write_results(
         "batch_speedup",
-        {"videos": N_VIDEOS, "video": "640x480, 60 fps, 8 s, H.264 CRF 18", "warm_seconds": warm,
-         "cold_seconds": cold, "speedup": speedup, "speedup_cold": speedup_cold, "cpus": os.cpu_count(),
-         "load_avg_1min": os.getloadavg()[0]},
+        {
+            "videos": N_VIDEOS,
+            "video": "640x480, 60 fps, 8 s, H.264 CRF 18",
+            "warm_seconds": warm,
+            "cold_seconds": cold,
+            "speedup": speedup,
+            "speedup_cold": speedup_cold,
+            "cpus": os.cpu_count(),
+            "load_avg_1min": os.getloadavg()[0],
+        },
         f"sloshid batch: {N_VIDEOS} videos, 1 vs 2 Dask workers",
         ["workers", "running cluster (s)", "videos/s", "cold incl. cluster start-up (s)"],
         [[w, f"{warm[w]:.1f}", f"{N_VIDEOS / warm[w]:.2f}", f"{cold[w]:.1f}"] for w in warm],
         f"Speed-up of 2 workers over 1 on a running cluster: {speedup:.2f} (target >= 1.7), on {os.cpu_count()} "
         f"cores; cold, with the local cluster's start-up: {speedup_cold:.2f}.",
-    )  # fmt: skip
+    )
 
 
 if __name__ == "__main__":

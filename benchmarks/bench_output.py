@@ -23,8 +23,12 @@ def _cell(v) -> str:
 
 def write_results(name: str, data: dict, title: str, header: list[str], rows: list[list], notes: str = "") -> None:
     """Save `data` as JSON and `rows` as a Markdown table (with the machine noted) in reports/benchmarks/."""
-    machine = {"python": platform.python_version(), "cpu": platform.processor() or platform.machine(),
-               "cpus": os.cpu_count(), "load_avg_1min": os.getloadavg()[0]}  # fmt: skip
+    machine = {
+        "python": platform.python_version(),
+        "cpu": platform.processor() or platform.machine(),
+        "cpus": os.cpu_count(),
+        "load_avg_1min": os.getloadavg()[0],
+    }
     data = {**data, "machine": machine}
     write_text(OUT / f"{name}.json", json.dumps(data, indent=2, default=float) + "\n")
     lines = [f"# {title}", "", "| " + " | ".join(header) + " |", "|" + "---|" * len(header)]

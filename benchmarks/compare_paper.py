@@ -8,7 +8,6 @@ import dataclasses
 import time
 
 import numpy as np
-
 from plan_common import OUT, scenario, write
 
 from sloshid.comparison.compare import compare, from_scenario
@@ -48,8 +47,17 @@ def rows_of(summary: dict) -> list[list]:
         band_txt = "none" if band is None else f"{100 * (band[0] - 1):+.0f}..{100 * (band[1] - 1):+.0f} %"
         clear = "" if m["min_clearance_m"] is None else f"clearance {m['min_clearance_m']:.3f} m"
         notes = "; ".join([*m["limits_failed"], clear]).strip("; ")
-        rows.append([m["label"], m["transfer_time_s"], m["peak_during_deg"], m["residual_deg"], m["peak_tilt_deg"],
-                     band_txt, notes or "limits ok"])  # fmt: skip
+        rows.append(
+            [
+                m["label"],
+                m["transfer_time_s"],
+                m["peak_during_deg"],
+                m["residual_deg"],
+                m["peak_tilt_deg"],
+                band_txt,
+                notes or "limits ok",
+            ]
+        )
     return rows
 
 
@@ -57,8 +65,13 @@ def targets(summary: dict, comp) -> dict:
     """The issue's 1-D targets from the numbers."""
     by = {m["method"]: m for m in summary["methods"]}
     limit = summary["residual_ok_deg"]
-    free = [m for m in summary["methods"] if m["applicable"] and m["residual_deg"] <= limit
-            and (m["min_clearance_m"] is None or m["min_clearance_m"] >= 0)]  # fmt: skip
+    free = [
+        m
+        for m in summary["methods"]
+        if m["applicable"]
+        and m["residual_deg"] <= limit
+        and (m["min_clearance_m"] is None or m["min_clearance_m"] >= 0)
+    ]
     fastest = min(free, key=lambda m: m["transfer_time_s"])["method"]
     t_plan, t_zvd = by["sloshid"]["transfer_time_s"], by["zvd"]["transfer_time_s"]
     rob = comp.robustness
@@ -67,7 +80,8 @@ def targets(summary: dict, comp) -> dict:
     nominal_res = rob.residual_vs_omega_deg["sloshid plan"][inside]
     return {
         "fastest_slosh_free": fastest,
-        "sloshid_T_s": t_plan, "zvd_T_s": t_zvd,
+        "sloshid_T_s": t_plan,
+        "zvd_T_s": t_zvd,
         "zvd_over_sloshid_time_ratio": t_zvd / t_plan,
         "time_saved_vs_zvd": 1 - t_plan / t_zvd,
         "constant_acc_peak_deg": by["constant_acc"]["peak_during_deg"],
@@ -79,19 +93,31 @@ def targets(summary: dict, comp) -> dict:
         "robust_time_cost": by["sloshid_robust"]["transfer_time_s"] / t_plan - 1,
         "robust_solve_time_s": by["sloshid_robust"]["build_time_s"],
         "nominal_solve_time_s": by["sloshid"]["build_time_s"],
-    }  # fmt: skip
+    }
 
 
 def main() -> None:
     s1, c1 = run("paper_1d", linearity_acc_m_s2=[0.25, 0.5, 1.0, 2.0, 3.0, 4.0, 6.0])
     t = targets(s1, c1)
-    s3, c3 = run("paper_3d", omega_factors=[0.8, 0.9, 1.0, 1.1, 1.2], camera_fps_sweep=[30.0, 60.0],
-                linearity_acc_m_s2=[0.5])  # fmt: skip
+    s3, c3 = run(
+        "paper_3d", omega_factors=[0.8, 0.9, 1.0, 1.1, 1.2], camera_fps_sweep=[30.0, 60.0], linearity_acc_m_s2=[0.5]
+    )
     t3 = targets(s3, c3)
-    header = ["method", "T (s)", "peak during (deg)", "residual (deg)", "peak tilt (deg)",
-              "freq. error with residual <= 0.5 deg", "limits / notes"]  # fmt: skip
-    rows = [["**1-D seed case**", "", "", "", "", "", ""], *rows_of(s1),
-            ["**3-D, 6 waypoints, 2 obstacles**", "", "", "", "", "", ""], *rows_of(s3)]  # fmt: skip
+    header = [
+        "method",
+        "T (s)",
+        "peak during (deg)",
+        "residual (deg)",
+        "peak tilt (deg)",
+        "freq. error with residual <= 0.5 deg",
+        "limits / notes",
+    ]
+    rows = [
+        ["**1-D seed case**", "", "", "", "", "", ""],
+        *rows_of(s1),
+        ["**3-D, 6 waypoints, 2 obstacles**", "", "", "", "", "", ""],
+        *rows_of(s3),
+    ]
     ok = lambda b: "met" if b else "NOT met"  # noqa: E731
     band_max = max(t["robust_residual_in_band_deg"])
     notes = [

@@ -14,6 +14,7 @@ import time
 from pathlib import Path
 
 from bench_output import write_results
+
 from sloshid.identification.estimator import IdentSettings, identify_file
 from sloshid.model.pendulum import TABLE_I
 from sloshid.synthetic.render import SynthSettings, render_video
@@ -47,13 +48,36 @@ def main() -> None:
             p = res.parameters
             l_err = 100 * (p["l_m"].value / TABLE_I.l_m - 1)
             d_err = 100 * (p["d_ns_per_m"].value / TABLE_I.d_ns_per_m - 1)
-            label = (f"{case['width']}x{case['height']} {case['fps']} fps {case['codec']} q{case['quality']} "
-                     f"{mbit_s:.1f} Mbit/s noise {case['noise_sigma']}" + (" (stress)" if i >= len(CASES) else ""))
-            runs.append({"case": case, "stress": i >= len(CASES), "mbit_s": mbit_s, "l_m": p["l_m"].value, "l_ci95": p["l_m"].ci95, "l_err_pct": l_err,
-                         "d_ns_per_m": p["d_ns_per_m"].value, "d_ci95": p["d_ns_per_m"].ci95, "d_err_pct": d_err,
-                         "quality": res.quality, "track_identify_s": seconds})  # fmt: skip
-            rows.append([label, f"{p['l_m'].value * 1000:.3f}", f"{l_err:+.2f}", f"{p['d_ns_per_m'].value:.3f}",
-                         f"{d_err:+.1f}", res.quality, f"{seconds:.1f}"])  # fmt: skip
+            label = (
+                f"{case['width']}x{case['height']} {case['fps']} fps {case['codec']} q{case['quality']} "
+                f"{mbit_s:.1f} Mbit/s noise {case['noise_sigma']}" + (" (stress)" if i >= len(CASES) else "")
+            )
+            runs.append(
+                {
+                    "case": case,
+                    "stress": i >= len(CASES),
+                    "mbit_s": mbit_s,
+                    "l_m": p["l_m"].value,
+                    "l_ci95": p["l_m"].ci95,
+                    "l_err_pct": l_err,
+                    "d_ns_per_m": p["d_ns_per_m"].value,
+                    "d_ci95": p["d_ns_per_m"].ci95,
+                    "d_err_pct": d_err,
+                    "quality": res.quality,
+                    "track_identify_s": seconds,
+                }
+            )
+            rows.append(
+                [
+                    label,
+                    f"{p['l_m'].value * 1000:.3f}",
+                    f"{l_err:+.2f}",
+                    f"{p['d_ns_per_m'].value:.3f}",
+                    f"{d_err:+.1f}",
+                    res.quality,
+                    f"{seconds:.1f}",
+                ]
+            )
     ok = all(abs(r["l_err_pct"]) <= 1 and abs(r["d_err_pct"]) <= 10 for r in runs if not r["stress"])
     write_results(
         "identify_end_to_end",

@@ -11,15 +11,15 @@ from pathlib import Path
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-from scipy import signal as sps  # noqa: E402
+import matplotlib.pyplot as plt
+import numpy as np
+from bench_output import OUT, ROOT, write_results
+from scipy import signal as sps
 
-from bench_output import OUT, ROOT, write_results  # noqa: E402
-from sloshid.core.atomic import atomic_path  # noqa: E402
-from sloshid.identification.estimator import Identifier  # noqa: E402
-from sloshid.identification.signals import load_signal  # noqa: E402
-from sloshid.core.spectrum import to_uniform  # noqa: E402
+from sloshid.core.atomic import atomic_path
+from sloshid.core.spectrum import to_uniform
+from sloshid.identification.estimator import Identifier
+from sloshid.identification.signals import load_signal
 
 F_PHYS = 3.047
 DATA = ROOT.parent / "shared" / "data" / "antisloshing" / "slosh"
@@ -83,20 +83,56 @@ def main() -> None:
         second = "-"
         if sm is not None:
             m = sm.to_json_dict()
-            second = (f"{m['f_hz']['value']:.3f} Hz, zeta {m['zeta']['value']:.4f}, share "
-                      f"{100 * m['amplitude_share'][0]:.0f} %, {'separated' if sm.separated else 'not separated'}")
-        runs.append({"run": Path(sig.source).stem, "quality": res.quality, "reasons": res.reasons, "f_hz": f.value,
-                     "f_stderr": f.stderr, "f_err_pct": err, "zeta": z.value, "zeta_stderr": z.stderr,
-                     "fit_percent": res.fit_percent(0), "window_s": [w.t0_s, w.t1_s], "envelope_growth": growth,
-                     "second_mode": sm.to_json_dict() if sm is not None else None})
-        rows.append([Path(sig.source).stem, res.quality, f"{f.value:.4f} ± {f.stderr:.4f}", f"{err:+.2f}",
-                     f"{z.value:.4f} ± {z.stderr:.4f}", f"{res.fit_percent(0):.1f}", f"{w.t0_s:.1f}-{w.t1_s:.1f}",
-                     f"{growth:.2f}", second, "; ".join(res.reasons) or "-"])
+            second = (
+                f"{m['f_hz']['value']:.3f} Hz, zeta {m['zeta']['value']:.4f}, share "
+                f"{100 * m['amplitude_share'][0]:.0f} %, {'separated' if sm.separated else 'not separated'}"
+            )
+        runs.append(
+            {
+                "run": Path(sig.source).stem,
+                "quality": res.quality,
+                "reasons": res.reasons,
+                "f_hz": f.value,
+                "f_stderr": f.stderr,
+                "f_err_pct": err,
+                "zeta": z.value,
+                "zeta_stderr": z.stderr,
+                "fit_percent": res.fit_percent(0),
+                "window_s": [w.t0_s, w.t1_s],
+                "envelope_growth": growth,
+                "second_mode": sm.to_json_dict() if sm is not None else None,
+            }
+        )
+        rows.append(
+            [
+                Path(sig.source).stem,
+                res.quality,
+                f"{f.value:.4f} ± {f.stderr:.4f}",
+                f"{err:+.2f}",
+                f"{z.value:.4f} ± {z.stderr:.4f}",
+                f"{res.fit_percent(0):.1f}",
+                f"{w.t0_s:.1f}-{w.t1_s:.1f}",
+                f"{growth:.2f}",
+                second,
+                "; ".join(res.reasons) or "-",
+            ]
+        )
     joint = Identifier().fit(sigs).result
     jf = joint.parameters["f_hz"]
-    rows.append(["joint (all 8)", joint.quality, f"{jf.value:.4f} ± {jf.stderr:.4f}", f"{100 * (jf.value / F_PHYS - 1):+.2f}",
-                 f"{joint.parameters['zeta'].value:.4f} ± {joint.parameters['zeta'].stderr:.4f}", "", "", "", "",
-                 "; ".join(joint.reasons) or "-"])
+    rows.append(
+        [
+            "joint (all 8)",
+            joint.quality,
+            f"{jf.value:.4f} ± {jf.stderr:.4f}",
+            f"{100 * (jf.value / F_PHYS - 1):+.2f}",
+            f"{joint.parameters['zeta'].value:.4f} ± {joint.parameters['zeta'].stderr:.4f}",
+            "",
+            "",
+            "",
+            "",
+            "; ".join(joint.reasons) or "-",
+        ]
+    )
     draw(sigs, results)
 
     tilt = next(s for s in sigs if Path(s.source).stem == SECOND_MODE_RUN)
@@ -106,57 +142,113 @@ def main() -> None:
         res = Identifier(window_s=(t0, min(t1, float(tilt.t_s[-1])))).fit(tilt).result
         sm = res.second_mode
         two = sm.fit
-        sweep.append({"t1_s": t1, "single_f_hz": sm.single.omega_rad_s / (2 * math.pi),
-                      "two_mode_f1_hz": two.omega_rad_s / (2 * math.pi), "f2_hz": two.second.omega_rad_s / (2 * math.pi),
-                      "zeta2": two.second.zeta, "second_amplitude_snr": two.amplitude(0, 1) / two.amplitude_se(0, 1),
-                      "separated": sm.separated, "problems": list(sm.problems)})
-    sweep_lines = ["", f"Window-end sweep for {SECOND_MODE_RUN} (start {t0:.2f} s):", "",
-                   "| window end (s) | single-mode f (Hz) | two-mode f1 (Hz) | f2 (Hz) | zeta2 | second amplitude / se | separated |",
-                   "|---|---|---|---|---|---|---|"]
-    sweep_lines += [f"| {s['t1_s']:.2f} | {s['single_f_hz']:.4f} | {s['two_mode_f1_hz']:.4f} | {s['f2_hz']:.3f} | "
-                    f"{s['zeta2']:.4f} | {s['second_amplitude_snr']:.1f} | {'yes' if s['separated'] else 'no: ' + '; '.join(s['problems'])} |"
-                    for s in sweep]
+        sweep.append(
+            {
+                "t1_s": t1,
+                "single_f_hz": sm.single.omega_rad_s / (2 * math.pi),
+                "two_mode_f1_hz": two.omega_rad_s / (2 * math.pi),
+                "f2_hz": two.second.omega_rad_s / (2 * math.pi),
+                "zeta2": two.second.zeta,
+                "second_amplitude_snr": two.amplitude(0, 1) / two.amplitude_se(0, 1),
+                "separated": sm.separated,
+                "problems": list(sm.problems),
+            }
+        )
+    sweep_lines = [
+        "",
+        f"Window-end sweep for {SECOND_MODE_RUN} (start {t0:.2f} s):",
+        "",
+        "| window end (s) | single-mode f (Hz) | two-mode f1 (Hz) | f2 (Hz) | zeta2 | second amplitude / se | separated |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    sweep_lines += [
+        f"| {s['t1_s']:.2f} | {s['single_f_hz']:.4f} | {s['two_mode_f1_hz']:.4f} | {s['f2_hz']:.3f} | "
+        f"{s['zeta2']:.4f} | {s['second_amplitude_snr']:.1f} | {'yes' if s['separated'] else 'no: ' + '; '.join(s['problems'])} |"
+        for s in sweep
+    ]
 
     grow_sig = next(s for s in sigs if Path(s.source).stem == GROWING_RUN)
-    grow_lines = ["", f"Sub-windows of {GROWING_RUN} (does any part of the record decay?):", "",
-                  "| window (s) | f (Hz) | zeta | verdict |", "|---|---|---|---|"]
+    grow_lines = [
+        "",
+        f"Sub-windows of {GROWING_RUN} (does any part of the record decay?):",
+        "",
+        "| window (s) | f (Hz) | zeta | verdict |",
+        "|---|---|---|---|",
+    ]
     grow_sweep = []
     for w in GROWING_WINDOWS_S:
         res = Identifier(window_s=w).fit(grow_sig).result
-        grow_sweep.append({"window_s": list(w), "f_hz": res.parameters["f_hz"].value, "zeta": res.parameters["zeta"].value,
-                           "quality": res.quality, "reasons": res.reasons})
-        grow_lines.append(f"| {w[0]:.2f}-{w[1]:.2f} | {res.parameters['f_hz'].value:.4f} | {res.parameters['zeta'].value:.4f} | "
-                          f"{res.quality} |")
+        grow_sweep.append(
+            {
+                "window_s": list(w),
+                "f_hz": res.parameters["f_hz"].value,
+                "zeta": res.parameters["zeta"].value,
+                "quality": res.quality,
+                "reasons": res.reasons,
+            }
+        )
+        grow_lines.append(
+            f"| {w[0]:.2f}-{w[1]:.2f} | {res.parameters['f_hz'].value:.4f} | {res.parameters['zeta'].value:.4f} | "
+            f"{res.quality} |"
+        )
     good = [r for r in runs if r["quality"] == "good"]
-    summary = {"n_good": len(good), "n_runs": len(runs), "good_within_2pct": all(abs(r["f_err_pct"]) <= 2 for r in good),
-               "all_within_2pct": all(abs(r["f_err_pct"]) <= 2 for r in runs), "joint_f_hz": jf.value}
-    notes = "\n".join([
-        f"{len(good)} of {len(runs)} good (target >= 7); every good run within ±2 %: {summary['good_within_2pct']}; "
-        f"all runs within ±2 %: {summary['all_within_2pct']}.",
-        "",
-        "Envelope growth: mean envelope of the first mode (band 0.85-1.15 f, Hilbert) in the window's last 2 s over its "
-        "first 2 s; a free decay gives clearly less than 1. Figure: identify_real.png (each run's window and envelope).",
-        *sweep_lines,
-        *grow_lines,
-        "",
-        "Reading the hard runs. TRD_2D_0.3m_2.2s_270deg: the window already runs to the end of the recording and the "
-        "first mode's envelope grows over it (growth {:.2f}, see the figure): after the 270 deg yaw the wall amplitude "
-        "keeps rising until the video stops, so the record holds no free decay to identify (energy passing between the "
-        "two degenerate horizontal modes, or a swirl, too slow to resolve as a second peak in 10 s). zeta lands on its "
-        "bound 0 and the run stays uncertain; no sub-window of the record decays either (zeta 0 in each, above). {}: the 3.97 Hz second mode of the "
-        "data README beats with the first, and the first quiet stretch of the ring-down (18.86 s) was a beat's null; "
-        "with two modes in the PSD the window is carried to the end of the ring-down, where the two-mode fit separates "
-        "them (second amplitude just above 3 standard errors: marginal, see the sweep). Its main-mode frequency hardly "
-        "depends on the second mode (single- and two-mode fits agree within 0.003 Hz, under one standard error, at every "
-        "window end) but falls as the "
-        "window grows (3.022 to 3.001 Hz): the large, nonlinear early swings ring faster than the small late ones.".format(
-            next(r for r in runs if r["run"] == "TRD_2D_0.3m_2.2s_270deg")["envelope_growth"], SECOND_MODE_RUN),
-    ])
-    write_results("identify_real", {"f_phys_hz": F_PHYS, "summary": summary, "runs": runs, "window_end_sweep": sweep,
-                   "growing_run_windows": grow_sweep},
-                  "identify: eight measured antisloshing runs",
-                  ["run", "verdict", "f (Hz) ± sigma", "error vs 3.047 Hz (%)", "zeta ± sigma", "fit %", "window (s)",
-                   "envelope growth", "second mode", "reasons"], rows, notes)
+    summary = {
+        "n_good": len(good),
+        "n_runs": len(runs),
+        "good_within_2pct": all(abs(r["f_err_pct"]) <= 2 for r in good),
+        "all_within_2pct": all(abs(r["f_err_pct"]) <= 2 for r in runs),
+        "joint_f_hz": jf.value,
+    }
+    notes = "\n".join(
+        [
+            f"{len(good)} of {len(runs)} good (target >= 7); every good run within ±2 %: {summary['good_within_2pct']}; "
+            f"all runs within ±2 %: {summary['all_within_2pct']}.",
+            "",
+            "Envelope growth: mean envelope of the first mode (band 0.85-1.15 f, Hilbert) in the window's last 2 s over its "
+            "first 2 s; a free decay gives clearly less than 1. Figure: identify_real.png (each run's window and envelope).",
+            *sweep_lines,
+            *grow_lines,
+            "",
+            "Reading the hard runs. TRD_2D_0.3m_2.2s_270deg: the window already runs to the end of the recording and the "
+            "first mode's envelope grows over it (growth {:.2f}, see the figure): after the 270 deg yaw the wall amplitude "
+            "keeps rising until the video stops, so the record holds no free decay to identify (energy passing between the "
+            "two degenerate horizontal modes, or a swirl, too slow to resolve as a second peak in 10 s). zeta lands on its "
+            "bound 0 and the run stays uncertain; no sub-window of the record decays either (zeta 0 in each, above). {}: the 3.97 Hz second mode of the "
+            "data README beats with the first, and the first quiet stretch of the ring-down (18.86 s) was a beat's null; "
+            "with two modes in the PSD the window is carried to the end of the ring-down, where the two-mode fit separates "
+            "them (second amplitude just above 3 standard errors: marginal, see the sweep). Its main-mode frequency hardly "
+            "depends on the second mode (single- and two-mode fits agree within 0.003 Hz, under one standard error, at every "
+            "window end) but falls as the "
+            "window grows (3.022 to 3.001 Hz): the large, nonlinear early swings ring faster than the small late ones.".format(
+                next(r for r in runs if r["run"] == "TRD_2D_0.3m_2.2s_270deg")["envelope_growth"], SECOND_MODE_RUN
+            ),
+        ]
+    )
+    write_results(
+        "identify_real",
+        {
+            "f_phys_hz": F_PHYS,
+            "summary": summary,
+            "runs": runs,
+            "window_end_sweep": sweep,
+            "growing_run_windows": grow_sweep,
+        },
+        "identify: eight measured antisloshing runs",
+        [
+            "run",
+            "verdict",
+            "f (Hz) ± sigma",
+            "error vs 3.047 Hz (%)",
+            "zeta ± sigma",
+            "fit %",
+            "window (s)",
+            "envelope growth",
+            "second mode",
+            "reasons",
+        ],
+        rows,
+        notes,
+    )
 
 
 if __name__ == "__main__":

@@ -7,14 +7,13 @@ from __future__ import annotations
 import statistics
 
 import numpy as np
-
 from plan_common import save_figure, scenario, timed, write
 
 from sloshid import ocp
-from sloshid.planning.ocp import bang_bang_time
-from sloshid.planning.report import states_figure
-from sloshid.planning.planner import plan, solve_segment
 from sloshid.model.simulate import simulate_liquid
+from sloshid.planning.ocp import bang_bang_time
+from sloshid.planning.planner import plan, solve_segment
+from sloshid.planning.report import states_figure
 
 WARM_RUNS = 21
 
@@ -38,16 +37,21 @@ def measure(jerk_limited: bool) -> dict:
     save_figure(states_figure(full), f"plan_1d_states_{'jerk' if jerk_limited else 'acceleration'}")
     return {
         "formulation": "jerk" if jerk_limited else "acceleration",
-        "T_s": seg.T_s, "iterations_cold": seg.iterations, "cold_build_and_solve_s": cold_wall,
-        "cold_cpu_s": cold_cpu, "ipopt_cold_s": seg.solve_time_s,
-        "warm_median_s": statistics.median(warm_s), "warm_max_s": max(warm_s),
+        "T_s": seg.T_s,
+        "iterations_cold": seg.iterations,
+        "cold_build_and_solve_s": cold_wall,
+        "cold_cpu_s": cold_cpu,
+        "ipopt_cold_s": seg.solve_time_s,
+        "warm_median_s": statistics.median(warm_s),
+        "warm_max_s": max(warm_s),
         "warm_median_iterations": statistics.median(warm_it),
-        "plan_wall_s_with_export_and_verification": full_wall, "limits_ok": full.limits_ok,
+        "plan_wall_s_with_export_and_verification": full_wall,
+        "limits_ok": full.limits_ok,
         "failed_limits": [u.quantity for u in full.limits if not u.ok],
         "verification_peak_during_deg": full.verification.peak_during_deg,
         "verification_residual_deg": full.verification.residual_deg,
         "max_tilt_deg": full.max_tilt_deg,
-    }  # fmt: skip
+    }
 
 
 def robust() -> dict:
@@ -57,9 +61,15 @@ def robust() -> dict:
     rob = plan(sc, sc.liquid, robust_omega_factors=(0.9, 1.0, 1.1))
     factors = [0.9, 0.95, 1.0, 1.05, 1.1]
     res = lambda p: [simulate_liquid(p.trajectory, sc.liquid.scaled(f)).residual_deg for f in factors]  # noqa: E731
-    return {"factors": factors, "T_nominal_s": nominal.T_s, "T_robust_s": rob.T_s,
-            "time_cost_pct": 100 * (rob.T_s / nominal.T_s - 1), "residual_nominal_deg": res(nominal),
-            "residual_robust_deg": res(rob), "robust_limits_ok": rob.limits_ok}  # fmt: skip
+    return {
+        "factors": factors,
+        "T_nominal_s": nominal.T_s,
+        "T_robust_s": rob.T_s,
+        "time_cost_pct": 100 * (rob.T_s / nominal.T_s - 1),
+        "residual_nominal_deg": res(nominal),
+        "residual_robust_deg": res(rob),
+        "robust_limits_ok": rob.limits_ok,
+    }
 
 
 def main() -> None:
@@ -67,11 +77,21 @@ def main() -> None:
     results = [measure(True), measure(False)]
     rob = robust()
     rows = [
-        [r["formulation"], r["T_s"], f"{100 * (r['T_s'] / bound - 1):.2f} %", r["cold_build_and_solve_s"],
-         r["warm_median_s"], r["plan_wall_s_with_export_and_verification"], r["iterations_cold"], r["warm_median_iterations"], "yes" if r["limits_ok"] else
-         "no: " + ", ".join(r["failed_limits"]), r["verification_peak_during_deg"], r["verification_residual_deg"]]
+        [
+            r["formulation"],
+            r["T_s"],
+            f"{100 * (r['T_s'] / bound - 1):.2f} %",
+            r["cold_build_and_solve_s"],
+            r["warm_median_s"],
+            r["plan_wall_s_with_export_and_verification"],
+            r["iterations_cold"],
+            r["warm_median_iterations"],
+            "yes" if r["limits_ok"] else "no: " + ", ".join(r["failed_limits"]),
+            r["verification_peak_during_deg"],
+            r["verification_residual_deg"],
+        ]
         for r in results
-    ]  # fmt: skip
+    ]
     notes = [
         f"Bang-bang lower bound (no sloshing, |a| <= 0.5 m/s^2, |v| <= 1.7 m/s): {bound:.4f} s = 2 sqrt(0.54/0.5). "
         "Targets: T <= 2.15 s (seed) and within 2 % of the bound; cold <= 0.5 s incl. construction; warm median <= 60 ms.",
@@ -87,9 +107,20 @@ def main() -> None:
         "Wall-clock times on a shared 2-core machine (load average in the JSON). 'cold' and 'warm' time the "
         "optimisation (bounds, guess, IPOPT); 'plan()' is the whole call with the 1 kHz export, the robot-limit check "
         "and the solve_ivp verification (about 5 s of liquid at 1 kHz), which dominate it.",
-    ]  # fmt: skip
-    header = ["formulation", "T (s)", "over bound", "cold (s)", "warm median (s)", "plan() (s)", "iters cold", "iters warm",
-              "robot limits ok", "rel. angle during (deg)", "residual (deg)"]  # fmt: skip
+    ]
+    header = [
+        "formulation",
+        "T (s)",
+        "over bound",
+        "cold (s)",
+        "warm median (s)",
+        "plan() (s)",
+        "iters cold",
+        "iters warm",
+        "robot limits ok",
+        "rel. angle during (deg)",
+        "residual (deg)",
+    ]
     write("plan_1d", {"bound_s": bound, "results": results, "robust": rob}, header, rows, notes)
 
 

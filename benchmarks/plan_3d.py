@@ -6,8 +6,8 @@ from __future__ import annotations
 from plan_common import save_figure, scenario, timed, write
 
 from sloshid import ocp
-from sloshid.planning.report import path_figure, states_figure
 from sloshid.planning.planner import plan
+from sloshid.planning.report import path_figure, states_figure
 
 
 def run(parallel: bool) -> dict:
@@ -20,18 +20,37 @@ def run(parallel: bool) -> dict:
         save_figure(states_figure(res), "plan_3d_states")
     s = res.summary()
     return {
-        "parallel": parallel, "plan_wall_s": wall, "main_process_cpu_s": cpu, "solve_time_s": res.solve_time_s,
-        "T_s": res.T_s, "iterations": res.iterations, "min_clearance_m": res.min_clearance_m, "limits_ok": res.limits_ok,
-        "verification": s["verification"], "max_tilt_deg": res.max_tilt_deg, "segments": s["segments"],
-    }  # fmt: skip
+        "parallel": parallel,
+        "plan_wall_s": wall,
+        "main_process_cpu_s": cpu,
+        "solve_time_s": res.solve_time_s,
+        "T_s": res.T_s,
+        "iterations": res.iterations,
+        "min_clearance_m": res.min_clearance_m,
+        "limits_ok": res.limits_ok,
+        "verification": s["verification"],
+        "max_tilt_deg": res.max_tilt_deg,
+        "segments": s["segments"],
+    }
 
 
 def main() -> None:
     results = [run(False), run(True)]
-    rows = [[("2 processes" if r["parallel"] else "sequential"), r["plan_wall_s"],
-             r["main_process_cpu_s"] if not r["parallel"] else "n/a", r["solve_time_s"], r["T_s"],
-             r["iterations"], 1e3 * r["min_clearance_m"], "yes" if r["limits_ok"] else "no",
-             r["verification"]["peak_during_deg"], r["verification"]["residual_deg"]] for r in results]  # fmt: skip
+    rows = [
+        [
+            ("2 processes" if r["parallel"] else "sequential"),
+            r["plan_wall_s"],
+            r["main_process_cpu_s"] if not r["parallel"] else "n/a",
+            r["solve_time_s"],
+            r["T_s"],
+            r["iterations"],
+            1e3 * r["min_clearance_m"],
+            "yes" if r["limits_ok"] else "no",
+            r["verification"]["peak_during_deg"],
+            r["verification"]["residual_deg"],
+        ]
+        for r in results
+    ]
     seq, par = results
     notes = [
         "Target: <= 5 s in total for six waypoints and two obstacles (2 cores). 'total wall' is the whole plan(): "
@@ -45,9 +64,19 @@ def main() -> None:
         "jerk-limited formulation, acc_max 0.5 m/s^2, clearance margin 2 mm beyond the container radius (40 mm).",
         "Figures: plan_3d_path.png (the seed's Fig. 9: path, obstacles, container z-axis arrows with tilt x5) and "
         "plan_3d_states.png (Fig. 6 style states over time).",
-    ]  # fmt: skip
-    header = ["segments solved", "total wall (s)", "total CPU (s)", "IPOPT time (s)", "T (s)", "iterations", "min clearance (mm)",
-              "robot limits ok", "rel. angle during (deg)", "residual (deg)"]  # fmt: skip
+    ]
+    header = [
+        "segments solved",
+        "total wall (s)",
+        "total CPU (s)",
+        "IPOPT time (s)",
+        "T (s)",
+        "iterations",
+        "min clearance (mm)",
+        "robot limits ok",
+        "rel. angle during (deg)",
+        "residual (deg)",
+    ]
     write("plan_3d", {"results": results}, header, rows, notes)
 
 

@@ -9,8 +9,9 @@ import matplotlib
 
 matplotlib.use("Agg")
 
-from bench_output import OUT, ROOT, write_results  # noqa: E402
-from sloshid.planning.scenario import Scenario, load_scenario  # noqa: E402
+from bench_output import OUT, ROOT, write_results
+
+from sloshid.planning.scenario import Scenario, load_scenario
 
 
 def scenario(name: str, **solver_changes) -> Scenario:

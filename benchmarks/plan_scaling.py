@@ -19,8 +19,15 @@ def one(sc, index: int) -> dict:
     """Cold solve of one segment: total (construction + IPOPT), IPOPT alone, iterations, T."""
     ocp._CACHE.clear()
     seg, wall, cpu = timed(solve_segment, sc, sc.liquid, index)
-    return {"total_s": wall, "cpu_s": cpu, "ipopt_s": seg.solve_time_s, "build_s": wall - seg.solve_time_s,
-            "iterations": seg.iterations, "T_s": seg.T_s, "status": seg.status}  # fmt: skip
+    return {
+        "total_s": wall,
+        "cpu_s": cpu,
+        "ipopt_s": seg.solve_time_s,
+        "build_s": wall - seg.solve_time_s,
+        "iterations": seg.iterations,
+        "T_s": seg.T_s,
+        "status": seg.status,
+    }
 
 
 def obstacles_beside(start, goal, count: int, radius: float, inflate: float) -> list[Obstacle]:
@@ -39,8 +46,11 @@ def obstacles_beside(start, goal, count: int, radius: float, inflate: float) -> 
 
 def main() -> None:
     rows, data = [], {"vs_N": [], "vs_obstacles": []}
-    for label, name, index, jerk in (("1-D jerk", "paper_1d", 0, True), ("1-D acceleration", "paper_1d", 0, False),
-                                     ("3-D jerk, 1 sphere on the line", "paper_3d", 1, True)):  # fmt: skip
+    for label, name, index, jerk in (
+        ("1-D jerk", "paper_1d", 0, True),
+        ("1-D acceleration", "paper_1d", 0, False),
+        ("3-D jerk, 1 sphere on the line", "paper_3d", 1, True),
+    ):
         for N in NS:
             r = one(scenario(name, N=N, jerk_limited=jerk), index) | {"case": label, "N": N}
             data["vs_N"].append(r)
@@ -60,7 +70,7 @@ def main() -> None:
         "obstacle 1's centre); the obstacle rows put 30 mm spheres 15 mm beside the straight line of waypoint 0 -> 1, "
         "alternating sides, so every one of them enters the problem (its constraints and barrier are evaluated at "
         "every node) without forcing a detour: the rows show the cost per obstacle, not a harder path.",
-    ]  # fmt: skip
+    ]
     header = ["case", "N", "obstacles", "build (s)", "IPOPT (s)", "iterations", "T (s)", "status"]
     write("plan_scaling", data, header, rows, notes)
 

@@ -19,35 +19,111 @@ from pathlib import Path
 
 import cv2
 import numpy as np
+from bench_output import OUT
 
-from bench_output import OUT  # noqa: E402  (puts the repository on sys.path)
-
-from sloshid.core.atomic import atomic_path, write_text  # noqa: E402
-from sloshid.video.colors import DEFAULT_FLOAT_COLOR, preset  # noqa: E402
-from sloshid.tracking.float_angle import hsv_mask  # noqa: E402
-from sloshid.synthetic.render import SynthSettings, render_video  # noqa: E402
-from sloshid.tracking.tracker import TrackSettings, track_video  # noqa: E402
-from sloshid.video.frames import FrameReader  # noqa: E402
-
+from sloshid.core.atomic import atomic_path, write_text
+from sloshid.synthetic.render import SynthSettings, render_video
+from sloshid.tracking.float_angle import hsv_mask
+from sloshid.tracking.tracker import TrackSettings, track_video
+from sloshid.video.colors import DEFAULT_FLOAT_COLOR, preset
+from sloshid.video.frames import FrameReader
 
 CASES = [
-    ("640x480 30fps h264 noise5 blur1.0 roll1", "image",
-     SynthSettings(width=640, height=480, fps=30, duration_s=5, noise_sigma=5, blur_px=1.0, camera_roll_deg=1.0, seed=101)),
-    ("640x480 120fps mpeg4 noise8 blur1.5 flicker", "image",
-     SynthSettings(width=640, height=480, fps=120, duration_s=4, noise_sigma=8, blur_px=1.5, flicker=0.05,
-                   codec="mpeg4", quality=5, f_hz=2.5, zeta=0.03, amplitude_deg=10, seed=102)),
-    ("1280x720 60fps h264 crf26 noise6 blur2.0 move", "image",
-     SynthSettings(width=1280, height=720, fps=60, duration_s=4, noise_sigma=6, blur_px=2.0, codec="h264", quality=26,
-                   motion="move", accel_m_s2=3.0, move_duration_s=1.2, px_per_m=500, seed=103)),
-    ("1280x720 30fps mpeg4 noise7 blur1.2 VFR", "image",
-     SynthSettings(width=1280, height=720, fps=30, duration_s=5, noise_sigma=7, blur_px=1.2, codec="mpeg4",
-                   vfr_jitter=0.3, amplitude_deg=12, seed=104)),
-    ("640x480 60fps h264 noise6 container tilt+-3 crossing", "container",
-     SynthSettings(width=640, height=480, fps=60, duration_s=5, noise_sigma=6, blur_px=1.2, container_tilt_deg=3,
-                   container_tilt_hz=0.3, travel_px=300, camera_roll_deg=1.0, seed=105)),
-    ("1280x720 30fps mpeg4 noise8 container tilt+-3 crossing", "container",
-     SynthSettings(width=1280, height=720, fps=30, duration_s=5, noise_sigma=8, blur_px=1.5, codec="mpeg4",
-                   container_tilt_deg=3, container_tilt_hz=0.25, travel_px=600, seed=106)),
+    (
+        "640x480 30fps h264 noise5 blur1.0 roll1",
+        "image",
+        SynthSettings(
+            width=640, height=480, fps=30, duration_s=5, noise_sigma=5, blur_px=1.0, camera_roll_deg=1.0, seed=101
+        ),
+    ),
+    (
+        "640x480 120fps mpeg4 noise8 blur1.5 flicker",
+        "image",
+        SynthSettings(
+            width=640,
+            height=480,
+            fps=120,
+            duration_s=4,
+            noise_sigma=8,
+            blur_px=1.5,
+            flicker=0.05,
+            codec="mpeg4",
+            quality=5,
+            f_hz=2.5,
+            zeta=0.03,
+            amplitude_deg=10,
+            seed=102,
+        ),
+    ),
+    (
+        "1280x720 60fps h264 crf26 noise6 blur2.0 move",
+        "image",
+        SynthSettings(
+            width=1280,
+            height=720,
+            fps=60,
+            duration_s=4,
+            noise_sigma=6,
+            blur_px=2.0,
+            codec="h264",
+            quality=26,
+            motion="move",
+            accel_m_s2=3.0,
+            move_duration_s=1.2,
+            px_per_m=500,
+            seed=103,
+        ),
+    ),
+    (
+        "1280x720 30fps mpeg4 noise7 blur1.2 VFR",
+        "image",
+        SynthSettings(
+            width=1280,
+            height=720,
+            fps=30,
+            duration_s=5,
+            noise_sigma=7,
+            blur_px=1.2,
+            codec="mpeg4",
+            vfr_jitter=0.3,
+            amplitude_deg=12,
+            seed=104,
+        ),
+    ),
+    (
+        "640x480 60fps h264 noise6 container tilt+-3 crossing",
+        "container",
+        SynthSettings(
+            width=640,
+            height=480,
+            fps=60,
+            duration_s=5,
+            noise_sigma=6,
+            blur_px=1.2,
+            container_tilt_deg=3,
+            container_tilt_hz=0.3,
+            travel_px=300,
+            camera_roll_deg=1.0,
+            seed=105,
+        ),
+    ),
+    (
+        "1280x720 30fps mpeg4 noise8 container tilt+-3 crossing",
+        "container",
+        SynthSettings(
+            width=1280,
+            height=720,
+            fps=30,
+            duration_s=5,
+            noise_sigma=8,
+            blur_px=1.5,
+            codec="mpeg4",
+            container_tilt_deg=3,
+            container_tilt_hz=0.25,
+            travel_px=600,
+            seed=106,
+        ),
+    ),
 ]
 
 
@@ -129,38 +205,69 @@ def main() -> None:
             else:
                 base = base_float = stats(naive_float - want)
             naive_err = (naive_float - truth["container_angle_deg"] if reference == "container" else naive_float) - want
-            traces.append((f"{name} (naive with the true reference)" if reference == "container" else name,
-                           res.t_s, res.angle_deg - want, naive_err))
+            traces.append(
+                (
+                    f"{name} (naive with the true reference)" if reference == "container" else name,
+                    res.t_s,
+                    res.angle_deg - want,
+                    naive_err,
+                )
+            )
             target_rmse = 0.3 if reference == "container" else 0.2
             ok = ours["rmse_deg"] <= target_rmse and (reference == "container" or ours["max_deg"] <= 1.0)
-            rows.append({"case": name, "reference": reference, "frames": len(res.t_s), "valid_share": float(res.valid.mean()),
-                         "sloshid": ours, "sloshid_smoothed": smooth, "naive_baseline": base,
-                         "naive_float_true_reference": base_float,
-                         "target": {"rmse_deg": target_rmse, "max_deg": None if reference == "container" else 1.0},
-                         "meets_target": bool(ok), "track_fps": len(res.t_s) / elapsed})
-            print(f"{name}: rmse {ours['rmse_deg']:.3f} max {ours['max_deg']:.3f} | smoothed {smooth['rmse_deg']:.3f} "
-                  f"| naive {base['rmse_deg']:.3f}/{base['max_deg']:.3f} | {'OK' if ok else 'MISSED'}", flush=True)
+            rows.append(
+                {
+                    "case": name,
+                    "reference": reference,
+                    "frames": len(res.t_s),
+                    "valid_share": float(res.valid.mean()),
+                    "sloshid": ours,
+                    "sloshid_smoothed": smooth,
+                    "naive_baseline": base,
+                    "naive_float_true_reference": base_float,
+                    "target": {"rmse_deg": target_rmse, "max_deg": None if reference == "container" else 1.0},
+                    "meets_target": bool(ok),
+                    "track_fps": len(res.t_s) / elapsed,
+                }
+            )
+            print(
+                f"{name}: rmse {ours['rmse_deg']:.3f} max {ours['max_deg']:.3f} | smoothed {smooth['rmse_deg']:.3f} "
+                f"| naive {base['rmse_deg']:.3f}/{base['max_deg']:.3f} | {'OK' if ok else 'MISSED'}",
+                flush=True,
+            )
     OUT.mkdir(parents=True, exist_ok=True)
     write_text(OUT / "track_accuracy.json", json.dumps({"cases": rows}, indent=2) + "\n")
-    lines = ["# track accuracy (synthetic videos, truth from sloshid synth)", "",
-             "Angle error of `angle_deg` against the rendered truth; naive = binary HSV mask + principal axes "
-             "(+ mean Hough wall angle for the container reference).", "",
-             "| case | reference | frames | RMSE deg | max deg | smoothed RMSE | naive RMSE | naive max | "
-             "naive float, true reference: RMSE | target | met |",
-             "|---|---|---|---|---|---|---|---|---|---|---|"]
+    lines = [
+        "# track accuracy (synthetic videos, truth from sloshid synth)",
+        "",
+        "Angle error of `angle_deg` against the rendered truth; naive = binary HSV mask + principal axes "
+        "(+ mean Hough wall angle for the container reference).",
+        "",
+        "| case | reference | frames | RMSE deg | max deg | smoothed RMSE | naive RMSE | naive max | "
+        "naive float, true reference: RMSE | target | met |",
+        "|---|---|---|---|---|---|---|---|---|---|---|",
+    ]
     for r in rows:
-        tgt = f"RMSE<={r['target']['rmse_deg']}" + (f", max<={r['target']['max_deg']}" if r["target"]["max_deg"] else "")
-        lines.append(f"| {r['case']} | {r['reference']} | {r['frames']} | {r['sloshid']['rmse_deg']:.3f} | "
-                     f"{r['sloshid']['max_deg']:.3f} | {r['sloshid_smoothed']['rmse_deg']:.3f} | "
-                     f"{r['naive_baseline']['rmse_deg']:.3f} | {r['naive_baseline']['max_deg']:.3f} | "
-                     f"{r['naive_float_true_reference']['rmse_deg']:.3f} | {tgt} | "
-                     f"{'yes' if r['meets_target'] else 'NO'} |")
+        tgt = f"RMSE<={r['target']['rmse_deg']}" + (
+            f", max<={r['target']['max_deg']}" if r["target"]["max_deg"] else ""
+        )
+        lines.append(
+            f"| {r['case']} | {r['reference']} | {r['frames']} | {r['sloshid']['rmse_deg']:.3f} | "
+            f"{r['sloshid']['max_deg']:.3f} | {r['sloshid_smoothed']['rmse_deg']:.3f} | "
+            f"{r['naive_baseline']['rmse_deg']:.3f} | {r['naive_baseline']['max_deg']:.3f} | "
+            f"{r['naive_float_true_reference']['rmse_deg']:.3f} | {tgt} | "
+            f"{'yes' if r['meets_target'] else 'NO'} |"
+        )
     plot_errors(traces, OUT / "track_accuracy.png")
-    lines += ["", "![error over time per case](track_accuracy.png)", "",
-              "Error of `angle_deg` over time per case, sloshid (red) and the naive baseline (grey). The largest "
-              "remaining errors come with strong compression (H.264 CRF 26 at 1280x720) and fast motion. For the "
-              "container cases the grey curve uses the true container angle, because the naive Hough wall "
-              "reference alone is off by several degrees."]
+    lines += [
+        "",
+        "![error over time per case](track_accuracy.png)",
+        "",
+        "Error of `angle_deg` over time per case, sloshid (red) and the naive baseline (grey). The largest "
+        "remaining errors come with strong compression (H.264 CRF 26 at 1280x720) and fast motion. For the "
+        "container cases the grey curve uses the true container angle, because the naive Hough wall "
+        "reference alone is off by several degrees.",
+    ]
     write_text(OUT / "track_accuracy.md", "\n".join(lines) + "\n")
 
 

@@ -17,12 +17,11 @@ import time
 from pathlib import Path
 
 import cv2
+from bench_output import OUT, ROOT
 
-from bench_output import OUT, ROOT  # noqa: E402  (puts the repository on sys.path)
-
-from sloshid.core.atomic import write_text  # noqa: E402
-from sloshid.synthetic.render import SynthSettings, render_video  # noqa: E402
-from sloshid.tracking.tracker import TrackSettings, track_video  # noqa: E402
+from sloshid.core.atomic import write_text
+from sloshid.synthetic.render import SynthSettings, render_video
+from sloshid.tracking.tracker import TrackSettings, track_video
 
 CACHE = ROOT / "out" / "benchmarks"
 SIZES = [(640, 480), (1280, 720)]
@@ -63,48 +62,72 @@ def main() -> None:
     for w, h in SIZES:
         path = CACHE / f"speed_{w}x{h}.mp4"
         if not path.exists():
-            render_video(path, SynthSettings(width=w, height=h, fps=30, duration_s=DURATION_S, noise_sigma=5,
-                                             blur_px=1.0, seed=7), progress=True)
+            render_video(
+                path,
+                SynthSettings(width=w, height=h, fps=30, duration_s=DURATION_S, noise_sigma=5, blur_px=1.0, seed=7),
+                progress=True,
+            )
         decode, track, decode_cpu, track_cpu, raw, raw_cpu = [], [], [], [], [], []
         for _ in range(REPEATS):
-            for fn, wall, cpu in ((bare_decode_fps, decode, decode_cpu), (track_fps, track, track_cpu),
-                                  (track_fps_no_smooth, raw, raw_cpu)):
+            for fn, wall, cpu in (
+                (bare_decode_fps, decode, decode_cpu),
+                (track_fps, track, track_cpu),
+                (track_fps_no_smooth, raw, raw_cpu),
+            ):
                 a, b = fn(path)
                 wall.append(a)
                 cpu.append(b)
         ratios = [t / d for t, d in zip(track, decode)]
-        row = {"video": f"{w}x{h}, {DURATION_S:.0f} s, 30 fps, H.264", "frames": int(DURATION_S * 30),
-               "ratio_no_smooth_per_pair": [r / d for r, d in zip(raw, decode)],
-               "decode_fps": decode, "track_fps": track, "ratio_per_pair": ratios,
-               "decode_fps_median": statistics.median(decode), "track_fps_median": statistics.median(track),
-               "ratio": statistics.median(ratios), "ratio_of_medians": statistics.median(track) / statistics.median(decode),
-               "target_ratio": TARGET_RATIO,
-               "decode_fps_per_cpu_s": statistics.median(decode_cpu), "track_fps_per_cpu_s": statistics.median(track_cpu),
-               "cpu_ratio": statistics.median(track_cpu) / statistics.median(decode_cpu),
-               "track_no_smooth_fps_median": statistics.median(raw),
-               "ratio_no_smooth": statistics.median([r / d for r, d in zip(raw, decode)])}
+        row = {
+            "video": f"{w}x{h}, {DURATION_S:.0f} s, 30 fps, H.264",
+            "frames": int(DURATION_S * 30),
+            "ratio_no_smooth_per_pair": [r / d for r, d in zip(raw, decode)],
+            "decode_fps": decode,
+            "track_fps": track,
+            "ratio_per_pair": ratios,
+            "decode_fps_median": statistics.median(decode),
+            "track_fps_median": statistics.median(track),
+            "ratio": statistics.median(ratios),
+            "ratio_of_medians": statistics.median(track) / statistics.median(decode),
+            "target_ratio": TARGET_RATIO,
+            "decode_fps_per_cpu_s": statistics.median(decode_cpu),
+            "track_fps_per_cpu_s": statistics.median(track_cpu),
+            "cpu_ratio": statistics.median(track_cpu) / statistics.median(decode_cpu),
+            "track_no_smooth_fps_median": statistics.median(raw),
+            "ratio_no_smooth": statistics.median([r / d for r, d in zip(raw, decode)]),
+        }
         row["meets_target"] = row["ratio"] >= TARGET_RATIO
         rows.append(row)
-        print(f"{w}x{h}: decode {row['decode_fps_median']:.0f} fps, track {row['track_fps_median']:.0f} fps, "
-              f"ratio {row['ratio']:.2f} (pairs {', '.join(f'{r:.2f}' for r in ratios)}), "
-              f"CPU-time ratio {row['cpu_ratio']:.2f}, without smoothing {row['ratio_no_smooth']:.2f}", flush=True)
+        print(
+            f"{w}x{h}: decode {row['decode_fps_median']:.0f} fps, track {row['track_fps_median']:.0f} fps, "
+            f"ratio {row['ratio']:.2f} (pairs {', '.join(f'{r:.2f}' for r in ratios)}), "
+            f"CPU-time ratio {row['cpu_ratio']:.2f}, without smoothing {row['ratio_no_smooth']:.2f}",
+            flush=True,
+        )
     info = {"cpu_count": os.cpu_count(), "load_average_1min": os.getloadavg()[0], "opencv": cv2.__version__}
     write_text(OUT / "track_speed.json", json.dumps({"machine": info, "cases": rows}, indent=2) + "\n")
-    lines = ["# track speed vs bare OpenCV decode (same file, alternating runs)", "",
-             f"Machine: {info['cpu_count']} cores, 1-min load average {info['load_average_1min']:.1f} at the end "
-             "(shared with other jobs), OpenCV " + info["opencv"] + ".", "",
-             "Wall-clock frame rates are medians over alternating runs; the ratio is the median of the per-pair "
-             "ratios (decode and track back to back), whose spread shows the load noise. "
-             "The CPU-time ratio (frames per CPU-second of this process, track / decode) does not depend on "
-             "other jobs but also does not credit track's decode thread running beside its measurement.", "",
-             "| video | bare decode fps | sloshid track fps | ratio (wall) | per-pair ratios | CPU-time ratio | "
-             "ratio with --no-smooth | target | met |",
-             "|---|---|---|---|---|---|---|---|---|"]
+    lines = [
+        "# track speed vs bare OpenCV decode (same file, alternating runs)",
+        "",
+        f"Machine: {info['cpu_count']} cores, 1-min load average {info['load_average_1min']:.1f} at the end "
+        "(shared with other jobs), OpenCV " + info["opencv"] + ".",
+        "",
+        "Wall-clock frame rates are medians over alternating runs; the ratio is the median of the per-pair "
+        "ratios (decode and track back to back), whose spread shows the load noise. "
+        "The CPU-time ratio (frames per CPU-second of this process, track / decode) does not depend on "
+        "other jobs but also does not credit track's decode thread running beside its measurement.",
+        "",
+        "| video | bare decode fps | sloshid track fps | ratio (wall) | per-pair ratios | CPU-time ratio | "
+        "ratio with --no-smooth | target | met |",
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
     for r in rows:
-        lines.append(f"| {r['video']} | {r['decode_fps_median']:.0f} | {r['track_fps_median']:.0f} | "
-                     f"{r['ratio']:.2f} | {', '.join(f'{x:.2f}' for x in r['ratio_per_pair'])} | {r['cpu_ratio']:.2f} | "
-                     f"{r['ratio_no_smooth']:.2f} | "
-                     f">= {TARGET_RATIO} | {'yes' if r['meets_target'] else 'NO'} |")
+        lines.append(
+            f"| {r['video']} | {r['decode_fps_median']:.0f} | {r['track_fps_median']:.0f} | "
+            f"{r['ratio']:.2f} | {', '.join(f'{x:.2f}' for x in r['ratio_per_pair'])} | {r['cpu_ratio']:.2f} | "
+            f"{r['ratio_no_smooth']:.2f} | "
+            f">= {TARGET_RATIO} | {'yes' if r['meets_target'] else 'NO'} |"
+        )
     write_text(OUT / "track_speed.md", "\n".join(lines) + "\n")
 
 

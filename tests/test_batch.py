@@ -3,8 +3,6 @@
 from __future__ import annotations
 
 import csv
-import json
-import shutil
 
 import pytest
 
@@ -21,8 +19,7 @@ def videos(tmp_path_factory):
     paths = []
     for i, f in enumerate(FREQS_HZ):
         p = root / f"tap_{i}.mp4"
-        render_video(p, SynthSettings(width=320, height=240, duration_s=4.0, f_hz=f, zeta=0.05, noise_sigma=3,
-                                      seed=i))  # fmt: skip
+        render_video(p, SynthSettings(width=320, height=240, duration_s=4.0, f_hz=f, zeta=0.05, noise_sigma=3, seed=i))
         paths.append(p)
     bad = root / "corrupt.mp4"
     bad.write_bytes(b"\x00\x00\x00\x18ftypmp42" + bytes(range(256)) * 40)

@@ -8,14 +8,14 @@ import math
 import numpy as np
 import pytest
 
-from sloshid.comparison.robot_tracking import closed_loop_response
 from sloshid.comparison.compare import camera_seen_peak
 from sloshid.comparison.feedback import FeedbackSettings, run_feedback
-from sloshid.comparison.ruckig_moves import jerk_limited
-from sloshid.model.pendulum import G, TABLE_I, SloshParams
 from sloshid.comparison.profiles import MoveTask, constant_acceleration
+from sloshid.comparison.robot_tracking import closed_loop_response
 from sloshid.comparison.robustness import Replay, sweep
+from sloshid.comparison.ruckig_moves import jerk_limited
 from sloshid.comparison.shapers import design_shaper, shaped_constant_acceleration
+from sloshid.model.pendulum import TABLE_I, G, SloshParams
 from sloshid.model.simulate import simulate_liquid
 
 # a short 0.1 m move along x keeps every simulation below a second: T = 2 sqrt(L / a) = 0.894 s
@@ -46,12 +46,19 @@ def test_shaper_impulses_match_closed_forms_and_cancel_the_mode():
     wd = p.omega_rad_s * math.sqrt(1 - p.zeta**2)
     k = math.exp(-p.zeta * math.pi / math.sqrt(1 - p.zeta**2))
     zv, zvd = design_shaper("ZV", p), design_shaper("ZVD", p)
-    assert zv.times_s == pytest.approx((0, math.pi / wd)) and zvd.times_s == pytest.approx((0, math.pi / wd, 2 * math.pi / wd))
+    assert zv.times_s == pytest.approx((0, math.pi / wd)) and zvd.times_s == pytest.approx(
+        (0, math.pi / wd, 2 * math.pi / wd)
+    )
     assert sum(zv.amplitudes) == pytest.approx(1) and sum(zvd.amplitudes) == pytest.approx(1)
     assert zv.amplitudes[1] / zv.amplitudes[0] == pytest.approx(k)
+
     # residual vibration of an impulse train on a damped mode: sum A_i exp(zeta w t_i) exp(j wd t_i) = 0 (ZV);
     # ZVD also zeroes its derivative with respect to omega (sum A_i t_i ...)
-    v = lambda s, n: sum(a * t**n * cmath.exp((p.zeta * p.omega_rad_s + 1j * wd) * t) for a, t in zip(s.amplitudes, s.times_s))  # noqa: E731
+    def v(s, n):
+        return sum(
+            a * t**n * cmath.exp((p.zeta * p.omega_rad_s + 1j * wd) * t) for a, t in zip(s.amplitudes, s.times_s)
+        )
+
     assert abs(v(zv, 0)) < 1e-12 and abs(v(zvd, 0)) < 1e-12 and abs(v(zvd, 1)) < 1e-12
     assert abs(v(zv, 1)) > 1e-3  # ZV does not: that is why it is fragile
 
@@ -64,7 +71,9 @@ def test_zv_cancels_the_residual_in_the_nonlinear_simulation():
     # linear theory gives zero; the pendulum's sin/cos^2 at a/g = 2.9 deg and the 1 ms acceleration ramps
     # leave ~0.01 deg, two orders below the unshaped residual
     assert shaped.residual_deg < 0.02
-    assert zv.duration_s == pytest.approx(constant_acceleration(SHORT).duration_s + design_shaper("ZV", TABLE_I).duration_s, abs=2e-3)
+    assert zv.duration_s == pytest.approx(
+        constant_acceleration(SHORT).duration_s + design_shaper("ZV", TABLE_I).duration_s, abs=2e-3
+    )
     assert np.abs(zv.acc_m_s2).max() <= 0.5 + 1e-12  # positive amplitudes summing to one keep the limit
 
 

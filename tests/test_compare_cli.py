@@ -52,16 +52,31 @@ def test_report_and_json_carry_every_method_and_the_verdict(tmp_path, run_cli):
     summary = json.loads(out)
     rows = {m["method"]: m for m in summary["methods"]}
     assert list(rows) == ["constant_acc", "zvd", "sloshid", "constant_acc_feedback"]
-    for key in ("transfer_time_s", "peak_during_deg", "residual_deg", "peak_tilt_deg", "peak_tilt_rate_deg_s",
-                "robot_limits_ok", "move_limits_ok"):  # fmt: skip
+    for key in (
+        "transfer_time_s",
+        "peak_during_deg",
+        "residual_deg",
+        "peak_tilt_deg",
+        "peak_tilt_rate_deg_s",
+        "robot_limits_ok",
+        "move_limits_ok",
+    ):
         assert all(key in m for m in rows.values())
     # the physics the report must show: the plan is the fastest slosh-free move, the unshaped one sloshes
     assert rows["sloshid"]["residual_deg"] < 0.05 and rows["constant_acc"]["residual_deg"] > 1.0
     assert rows["sloshid"]["transfer_time_s"] < rows["zvd"]["transfer_time_s"]
     assert summary["verdict"].startswith("sloshid plan is the fastest move")
     html = (report / "index.html").read_text()
-    for text in ("Relative slosh angle over time", "Scores", "Closed loop", "Robustness to model error",
-                 "camera rate", "ZVD shaped", "constant acceleration + feedback", summary["verdict"][:40]):  # fmt: skip
+    for text in (
+        "Relative slosh angle over time",
+        "Scores",
+        "Closed loop",
+        "Robustness to model error",
+        "camera rate",
+        "ZVD shaped",
+        "constant acceleration + feedback",
+        summary["verdict"][:40],
+    ):
         assert text in html
     assert len(re.findall(r"<img ", html)) == 5  # Fig. 7, closed loop, linearity, robustness, camera
 

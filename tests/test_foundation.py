@@ -11,8 +11,8 @@ from scipy.integrate import solve_ivp
 
 from sloshid.core.atomic import atomic_path
 from sloshid.core.errors import UserError
-from sloshid.model.pendulum import G, TABLE_I, SloshParams, cylinder_first_mode_omega, pendulum_rhs_3d, steady_tilt
 from sloshid.core.settings import from_dict
+from sloshid.model.pendulum import TABLE_I, SloshParams, cylinder_first_mode_omega, pendulum_rhs_3d, steady_tilt
 
 
 def test_table_i_modal_values():
@@ -63,10 +63,9 @@ def test_settings_reject_unknown_key_with_suggestion():
 def test_atomic_path_keeps_old_file_on_failure(tmp_path):
     target = tmp_path / "out.csv"
     target.write_text("good")
-    with pytest.raises(RuntimeError):
-        with atomic_path(target) as tmp:
-            tmp.write_text("half")
-            raise RuntimeError("boom")
+    with pytest.raises(RuntimeError), atomic_path(target) as tmp:
+        tmp.write_text("half")
+        raise RuntimeError("boom")
     assert target.read_text() == "good"
     assert list(tmp_path.iterdir()) == [target]
 

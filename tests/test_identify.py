@@ -9,10 +9,10 @@ import pickle
 import numpy as np
 import pytest
 
-from sloshid.synthetic.decays import free_decay, free_decay_signal, tracker_noise
-from sloshid.identification.estimator import IdentSettings, Identifier, NotFittedError
-from sloshid.model.pendulum import TABLE_I, SloshParams
+from sloshid.identification.estimator import Identifier, IdentSettings, NotFittedError
 from sloshid.identification.signals import make_signal
+from sloshid.model.pendulum import TABLE_I, SloshParams
+from sloshid.synthetic.decays import free_decay, free_decay_signal, tracker_noise
 
 F_T1, Z_T1 = TABLE_I.f_hz, TABLE_I.zeta  # seed Table I: 3.44 Hz, zeta 0.070
 
@@ -185,9 +185,9 @@ def test_second_component_that_is_no_free_decay_stays_uncertain():
 def test_close_modes_are_not_separated(f2):
     # modes 0.15-0.3 Hz apart in a 10 s window are under 2 Welch bins (0.2 Hz) apart: least squares can trade one
     # for the other, so the rule refuses the two-mode fit (the PSD merges them into one broad peak anyway)
+    from sloshid.core.spectrum import welch_spectrum
     from sloshid.identification.pt2fit import WindowData, fit_pt2, fit_two_modes
     from sloshid.identification.second_mode import separation_problems
-    from sloshid.core.spectrum import welch_spectrum
 
     sig = _two_modes(f2, 0.02, 5.0)
     win = [WindowData(sig.t_s, sig.value, 0.0)]
@@ -200,7 +200,7 @@ def test_close_modes_are_not_separated(f2):
 def test_estimator_api_unfitted_pickle_and_planner_contract(tmp_path):
     ident = Identifier(IdentSettings(mass_kg=0.5))
     with pytest.raises(NotFittedError, match="not fitted"):
-        ident.result
+        _ = ident.result
     ident.fit(free_decay_signal(F_T1, Z_T1, 90, seed=8))
     back = pickle.loads(pickle.dumps(ident))
     assert back.result_.parameters["f_hz"].value == ident.result_.parameters["f_hz"].value

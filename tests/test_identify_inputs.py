@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 import scipy.io
 
-from sloshid.synthetic.decays import free_decay
 from sloshid.identification.signals import load_signal
+from sloshid.synthetic.decays import free_decay
 
 
 def _csv(path, header, t, y, sep=","):
@@ -64,7 +64,13 @@ def _bad_cases(tmp_path, decay):
     p.write_text(p.read_text().replace("\n", ",1\n").replace("a,b,1", "a,b", 1))
     cases.append(("unknown column", [p, "--value-col", "angle"], "no value column 'angle'; available: t_s, a, b"))
     scipy.io.savemat(tmp_path / "v.mat", {"slosh_times": t, "slosh_heights": y})
-    cases.append(("unknown variable", [tmp_path / "v.mat", "--value-var", "h"], "no variable 'h'; it has: slosh_heights, slosh_times"))
+    cases.append(
+        (
+            "unknown variable",
+            [tmp_path / "v.mat", "--value-var", "h"],
+            "no variable 'h'; it has: slosh_heights, slosh_times",
+        )
+    )
     p = _csv(tmp_path / "text.csv", ["t_s", "angle_deg"], t, y)
     lines = p.read_text().splitlines()
     lines[20] = f"{t[19]:.6f},abc"
@@ -75,9 +81,21 @@ def _bad_cases(tmp_path, decay):
     cases.append(("mostly inf", [_csv(tmp_path / "inf.csv", ["t_s", "angle_deg"], t, yy)], "too many to identify from"))
     tt = t.copy()
     tt[100] = tt[99]
-    cases.append(("time repeats", [_csv(tmp_path / "rep.csv", ["t_s", "angle_deg"], tt, y)], "not strictly increasing at sample 100"))
+    cases.append(
+        (
+            "time repeats",
+            [_csv(tmp_path / "rep.csv", ["t_s", "angle_deg"], tt, y)],
+            "not strictly increasing at sample 100",
+        )
+    )
     short = slice(0, 45)  # 0.75 s at 60 fps: 2.2 periods of 3 Hz
-    cases.append(("short", [_csv(tmp_path / "short.csv", ["t_s", "angle_deg"], t[short], y[short])], "periods of the 3.17 Hz mode; at least 3 are needed"))  # coarse guess from 0.75 s
+    cases.append(
+        (
+            "short",
+            [_csv(tmp_path / "short.csv", ["t_s", "angle_deg"], t[short], y[short])],
+            "periods of the 3.17 Hz mode; at least 3 are needed",
+        )
+    )  # coarse guess from 0.75 s
     ok = _csv(tmp_path / "ok.csv", ["t_s", "angle_deg"], t, y)
     cases.append(("window outside", [ok, "--window", "2,30"], "lies outside the data"))
     cases.append(("window reversed", [ok, "--window", "5,2"], "must be before its end"))
@@ -85,7 +103,13 @@ def _bad_cases(tmp_path, decay):
     cases.append(("negative mass", [ok, "--mass", "-0.5"], "--mass must be a positive number"))
     cases.append(("constant", [_csv(tmp_path / "flat.csv", ["t_s", "angle_deg"], t, np.ones_like(y))], "is constant"))
     rng = np.random.default_rng(0)
-    cases.append(("noise", [_csv(tmp_path / "noise.csv", ["t_s", "angle_deg"], t, rng.normal(size=t.size))], "no oscillatory mode found"))
+    cases.append(
+        (
+            "noise",
+            [_csv(tmp_path / "noise.csv", ["t_s", "angle_deg"], t, rng.normal(size=t.size))],
+            "no oscillatory mode found",
+        )
+    )
     cases.append(("half prior", [ok, "--container-radius-m", "0.05"], "needs both"))
     return cases
 
@@ -94,7 +118,7 @@ def test_every_bad_input_fails_cleanly(tmp_path, decay, run_cli):
     for name, tail, message in _bad_cases(tmp_path, decay):
         out = tmp_path / f"{name}.json"
         report = tmp_path / f"{name}_report"
-        code, stdout, err = run_cli("identify", *tail, "-o", out, "--report", report)
+        code, _stdout, err = run_cli("identify", *tail, "-o", out, "--report", report)
         assert code == 2, (name, err)
         assert message in err, (name, err)
         assert err.count("\n") == 1 and "Traceback" not in err, (name, err)

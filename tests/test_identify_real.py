@@ -44,8 +44,18 @@ def test_report_has_every_figure_and_table(antisloshing_dir, tmp_path, run_cli):
     src = antisloshing_dir / "slosh" / "Tilt_RD_2D_0.3m_7s_30deg.mat"
     out, rep = tmp_path / "p.json", tmp_path / "rep"
     code, stdout, err = run_cli(
-        "identify", src, "-o", out, "--mass", "0.59", "--report", rep,
-        "--container-radius-m", "0.049", "--fill-height-m", "0.078",
+        "identify",
+        src,
+        "-o",
+        out,
+        "--mass",
+        "0.59",
+        "--report",
+        rep,
+        "--container-radius-m",
+        "0.049",
+        "--fill-height-m",
+        "0.078",
     )
     assert code == 0, err
     page = (rep / "index.html").read_text()
@@ -53,12 +63,30 @@ def test_report_has_every_figure_and_table(antisloshing_dir, tmp_path, run_cli):
     for caption in ("free-decay window", "Welch PSD", "Time-domain fit", "Residual autocorrelation", "Bode plot"):
         assert caption in page
     assert page.count("<table>") == 4  # sampling, parameters, cross-checks, geometric prior
-    for text in ("timestamp jitter", "95 % low", "Hilbert envelope", "logarithmic decrement", "half-power",
-                 "identified/prior", "verdict-good"):
+    for text in (
+        "timestamp jitter",
+        "95 % low",
+        "Hilbert envelope",
+        "logarithmic decrement",
+        "half-power",
+        "identified/prior",
+        "verdict-good",
+    ):
         assert text in page
     data = json.loads(out.read_text())
-    assert set(data) >= {"sloshid_version", "sources", "window_s", "quality", "reasons", "parameters",
-                         "transfer_function", "psd", "cross_checks", "fit", "prior"}
+    assert set(data) >= {
+        "sloshid_version",
+        "sources",
+        "window_s",
+        "quality",
+        "reasons",
+        "parameters",
+        "transfer_function",
+        "psd",
+        "cross_checks",
+        "fit",
+        "prior",
+    }
     assert set(data["parameters"]) == {"f_hz", "omega_rad_s", "zeta", "l_m", "d_ns_per_m", "m_kg"}
     assert data["prior"]["f_hz"] == pytest.approx(F_PHYS, abs=0.001)
     assert "f_hz" in stdout and "95 % CI" in stdout and "verdict: good" in stdout

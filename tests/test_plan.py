@@ -12,11 +12,11 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from sloshid.model.pendulum import G, SloshParams, steady_tilt
+from sloshid.model.simulate import simulate_liquid
+from sloshid.model.trajectory import RobotLimits, Trajectory, check_limits
 from sloshid.planning.ocp import Structure, bang_bang_time, get_solver
 from sloshid.planning.planner import plan
 from sloshid.planning.scenario import Scenario, load_scenario, scenario_from_dict
-from sloshid.model.simulate import simulate_liquid
-from sloshid.model.trajectory import RobotLimits, Trajectory, check_limits
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -39,14 +39,16 @@ def plan_1d(paper_1d):
 
 def _small_3d(obstacles: list[dict], waypoints=None, N: int = 30) -> Scenario:
     """A short 3-D scenario, coarse grid, Table I liquid: quick to solve in tests."""
-    return scenario_from_dict({
-        "move": {"waypoints": waypoints or [[0.4, -0.15, 0.3], [0.4, 0.15, 0.3]]},
-        "limits": {"acc_max": [0.5, 0.5, 0.5]},
-        "obstacles": obstacles,
-        "container": {"radius_m": 0.03},
-        "solver": {"N": N},
-        "liquid": {"m_kg": 0.5, "l_m": 0.021, "d_ns_per_m": 1.51},
-    })  # fmt: skip
+    return scenario_from_dict(
+        {
+            "move": {"waypoints": waypoints or [[0.4, -0.15, 0.3], [0.4, 0.15, 0.3]]},
+            "limits": {"acc_max": [0.5, 0.5, 0.5]},
+            "obstacles": obstacles,
+            "container": {"radius_m": 0.03},
+            "solver": {"N": N},
+            "liquid": {"m_kg": 0.5, "l_m": 0.021, "d_ns_per_m": 1.51},
+        }
+    )
 
 
 @pytest.mark.parametrize("u", [(0.8, 0.0, 0.0), (0.0, 0.8, 0.0), (-0.5, 1.2, 1.0)])
@@ -54,12 +56,25 @@ def test_planner_model_settles_at_steady_tilt(u):
     # The NLP's own right-hand side (3-D, acceleration input) under a constant acceleration settles at
     # theta = atan(ux/(g+uz)), phi = -atan(uy/(g+uz)); heavy damping (zeta 0.5) settles within 6 s.
     liquid = SloshParams.from_modal(2 * math.pi * 3.0, 0.5)
-    s = Structure(axis=None, jerk_limited=False, N=10, rk4_steps=1, clearance_points=0, n_spheres=0,
-                  n_cylinders=0, n_robust=0, vel_norm=False, acc_norm=False, rot_vel_norm=False)  # fmt: skip
+    s = Structure(
+        axis=None,
+        jerk_limited=False,
+        N=10,
+        rk4_steps=1,
+        clearance_points=0,
+        n_spheres=0,
+        n_cylinders=0,
+        n_robust=0,
+        vel_norm=False,
+        acc_norm=False,
+        rot_vel_norm=False,
+    )
     solver = get_solver(s)
     sc = load_scenario(ROOT / "data" / "scenarios" / "paper_1d.toml")
     p = solver.parameters(RobotLimits(), sc.solver, liquid, (), (), 0.0)
-    sol = solve_ivp(lambda t, x: np.asarray(solver.rhs(x, u, p)).ravel(), (0, 6), np.zeros(s.nx), rtol=1e-10, atol=1e-12)
+    sol = solve_ivp(
+        lambda t, x: np.asarray(solver.rhs(x, u, p)).ravel(), (0, 6), np.zeros(s.nx), rtol=1e-10, atol=1e-12
+    )
     phi, theta = sol.y[6, -1], sol.y[7, -1]  # layout: pos(3), vel(3), phi, theta, rates
     assert (phi, theta) == pytest.approx(steady_tilt(*u), abs=1e-6)
 
@@ -144,7 +159,7 @@ def test_waypoints_concatenate_continuously():
     res = plan(sc, sc.liquid)
     tr = res.trajectory
     assert len(res.segments) == 2 and np.allclose(np.diff(tr.t_s), 1e-3)
-    junction = int(math.ceil(res.segments[0].T_s * 1000 - 1e-9))
+    junction = math.ceil(res.segments[0].T_s * 1000 - 1e-9)
     assert tr.pos_m[junction] == pytest.approx(sc.waypoints[1], abs=1e-6)
     assert np.abs(tr.vel_m_s[junction]).max() < 1e-6
     # no jumps anywhere: per-sample steps bounded by the largest speed / tilt rate times dt (plus 1 % slack)
@@ -168,9 +183,10 @@ def test_robust_variant_keeps_residual_small_over_frequency_band(paper_1d):
     for factor in (0.9, 0.95, 1.1):
         true_liquid = paper_1d.liquid.scaled(omega_factor=factor)
         assert simulate_liquid(robust.trajectory, true_liquid).residual_deg <= 0.5
-    assert simulate_liquid(nominal.trajectory, paper_1d.liquid.scaled(0.9)).residual_deg > simulate_liquid(
-        robust.trajectory, paper_1d.liquid.scaled(0.9)
-    ).residual_deg
+    assert (
+        simulate_liquid(nominal.trajectory, paper_1d.liquid.scaled(0.9)).residual_deg
+        > simulate_liquid(robust.trajectory, paper_1d.liquid.scaled(0.9)).residual_deg
+    )
 
 
 def test_warm_start_reuses_the_solution(paper_1d, plan_1d):

@@ -61,36 +61,65 @@ def test_plan_warns_when_robot_limits_are_exceeded(run_cli, tmp_path):
 
 
 BAD = [
-    ("goal inside obstacle", BASE + "[[obstacles]]\ncenter = [0.4, 0.17, 0.3]\nradius = 0.05\n",
-     r"the goal \[0.4, 0.15, 0.3\] lies inside obstacle 1 \(sphere"),
-    ("waypoint inside obstacle",
-     BASE.replace("start = [0.4, -0.15, 0.3]\ngoal = [0.4, 0.15, 0.3]",
-                  "waypoints = [[0.4, -0.15, 0.3], [0.5, 0.0, 0.3], [0.4, 0.15, 0.3]]")
-     + "[[obstacles]]\nkind = 'cylinder'\ncenter = [0.52, 0.0]\nradius = 0.02\nz_range = [0.0, 0.4]\n",
-     r"waypoint 1 \[0.5, 0.0, 0.3\] lies inside obstacle 1 \(cylinder"),
-    ("z outside range", BASE.replace("goal = [0.4, 0.15, 0.3]", "goal = [0.4, 0.15, 0.9]"),
-     r"z = 0.9 m outside \[limits\].z_range \[0.05, 0.8\] m"),
-    ("too little time", BASE.replace("acc_max = [0.5, 0.5, 0.5]", "acc_max = [0.5, 0.5, 0.5]\nt_max_s = 0.5"),
-     r"needs at least 1.55 s under \[limits\].acc_max and vel_max .* more than \[limits\].t_max_s = 0.5 s"),
-    ("solver does not converge", BASE.replace("N = 30", "N = 30\nmax_iter = 2"),
-     r"did not converge on segment 1 .*IPOPT status Maximum_Iterations_Exceeded .*raise \[solver\].max_iter"),
-    ("infeasible tilt", BASE.replace("acc_max = [0.5, 0.5, 0.5]", "acc_max = [0.5, 0.5, 0.5]\ntilt_max_deg = 0.01\nt_max_s = 2"),
-     r"did not converge on segment 1 .*IPOPT status .*relax \[limits\]"),
-    ("unknown key", BASE.replace("N = 30", "N = 30\nkapa_r = 0.1"),
-     r"unknown key '\[solver\].kapa_r' \(did you mean 'kappa_r'\?\)"),
-    ("unknown table", BASE + "[limts]\nacc_max = [1, 1, 1]\n", r"unknown table '\[limts\]' \(did you mean 'limits'\?\)"),
+    (
+        "goal inside obstacle",
+        BASE + "[[obstacles]]\ncenter = [0.4, 0.17, 0.3]\nradius = 0.05\n",
+        r"the goal \[0.4, 0.15, 0.3\] lies inside obstacle 1 \(sphere",
+    ),
+    (
+        "waypoint inside obstacle",
+        BASE.replace(
+            "start = [0.4, -0.15, 0.3]\ngoal = [0.4, 0.15, 0.3]",
+            "waypoints = [[0.4, -0.15, 0.3], [0.5, 0.0, 0.3], [0.4, 0.15, 0.3]]",
+        )
+        + "[[obstacles]]\nkind = 'cylinder'\ncenter = [0.52, 0.0]\nradius = 0.02\nz_range = [0.0, 0.4]\n",
+        r"waypoint 1 \[0.5, 0.0, 0.3\] lies inside obstacle 1 \(cylinder",
+    ),
+    (
+        "z outside range",
+        BASE.replace("goal = [0.4, 0.15, 0.3]", "goal = [0.4, 0.15, 0.9]"),
+        r"z = 0.9 m outside \[limits\].z_range \[0.05, 0.8\] m",
+    ),
+    (
+        "too little time",
+        BASE.replace("acc_max = [0.5, 0.5, 0.5]", "acc_max = [0.5, 0.5, 0.5]\nt_max_s = 0.5"),
+        r"needs at least 1.55 s under \[limits\].acc_max and vel_max .* more than \[limits\].t_max_s = 0.5 s",
+    ),
+    (
+        "solver does not converge",
+        BASE.replace("N = 30", "N = 30\nmax_iter = 2"),
+        r"did not converge on segment 1 .*IPOPT status Maximum_Iterations_Exceeded .*raise \[solver\].max_iter",
+    ),
+    (
+        "infeasible tilt",
+        BASE.replace("acc_max = [0.5, 0.5, 0.5]", "acc_max = [0.5, 0.5, 0.5]\ntilt_max_deg = 0.01\nt_max_s = 2"),
+        r"did not converge on segment 1 .*IPOPT status .*relax \[limits\]",
+    ),
+    (
+        "unknown key",
+        BASE.replace("N = 30", "N = 30\nkapa_r = 0.1"),
+        r"unknown key '\[solver\].kapa_r' \(did you mean 'kappa_r'\?\)",
+    ),
+    (
+        "unknown table",
+        BASE + "[limts]\nacc_max = [1, 1, 1]\n",
+        r"unknown table '\[limts\]' \(did you mean 'limits'\?\)",
+    ),
     ("wrong type", BASE.replace("radius_m = 0.03", "radius_m = 'big'"), r"\[container\].radius_m must be a number"),
     ("malformed toml", "[move\nstart = 1", r"is not valid TOML"),
-    ("start and waypoints", BASE.replace("goal = [0.4, 0.15, 0.3]", "goal = [0.4, 0.15, 0.3]\nwaypoints = [[0, 0, 0.3]]"),
-     r"\[move\] takes either start and goal, or waypoints, not both"),
+    (
+        "start and waypoints",
+        BASE.replace("goal = [0.4, 0.15, 0.3]", "goal = [0.4, 0.15, 0.3]\nwaypoints = [[0, 0, 0.3]]"),
+        r"\[move\] takes either start and goal, or waypoints, not both",
+    ),
     ("no liquid", BASE.split("[liquid]")[0], r"has no \[liquid\] table .* pass --params"),
-]  # fmt: skip
+]
 
 
 @pytest.mark.parametrize("name, text, message", BAD, ids=[b[0] for b in BAD])
 def test_bad_scenarios_fail_cleanly(run_cli, tmp_path, name, text, message):
     out = tmp_path / "traj.csv"
-    code, stdout, stderr = run_cli("plan", _scenario(tmp_path, text), "-o", out, "--report", tmp_path / "rep")
+    code, _stdout, stderr = run_cli("plan", _scenario(tmp_path, text), "-o", out, "--report", tmp_path / "rep")
     assert code == 2
     assert stderr.startswith("sloshid: error: ") and stderr.count("\n") == 1
     assert re.search(message, stderr), stderr
@@ -102,10 +131,16 @@ def test_bad_scenarios_fail_cleanly(run_cli, tmp_path, name, text, message):
     "content, message",
     [
         ("{not json", r"is not valid JSON"),
-        (json.dumps({"parameters": {"omega_rad_s": {"value": 21.6}}}), r"lacks parameters.omega_rad_s.value and parameters.zeta.value"),
-        (json.dumps({"parameters": {"omega_rad_s": {"value": -3}, "zeta": {"value": 0.07}}}), r"omega must be positive"),
+        (
+            json.dumps({"parameters": {"omega_rad_s": {"value": 21.6}}}),
+            r"lacks parameters.omega_rad_s.value and parameters.zeta.value",
+        ),
+        (
+            json.dumps({"parameters": {"omega_rad_s": {"value": -3}, "zeta": {"value": 0.07}}}),
+            r"omega must be positive",
+        ),
     ],
-)  # fmt: skip
+)
 def test_bad_params_file_fails_cleanly(run_cli, tmp_path, content, message):
     params = tmp_path / "params.json"
     params.write_text(content)
@@ -118,8 +153,17 @@ def test_bad_params_file_fails_cleanly(run_cli, tmp_path, content, message):
 def test_params_json_from_identify_overrides_the_scenario_liquid(run_cli, tmp_path):
     # a 2 Hz liquid instead of Table I's 3.44 Hz: slower sloshing costs a longer move
     params = tmp_path / "params.json"
-    params.write_text(json.dumps({"parameters": {"omega_rad_s": {"value": 2 * 3.14159 * 2.0}, "zeta": {"value": 0.05},
-                                                 "m_kg": {"value": 0.4}}}))  # fmt: skip
+    params.write_text(
+        json.dumps(
+            {
+                "parameters": {
+                    "omega_rad_s": {"value": 2 * 3.14159 * 2.0},
+                    "zeta": {"value": 0.05},
+                    "m_kg": {"value": 0.4},
+                }
+            }
+        )
+    )
     code, stdout, stderr = run_cli("plan", PAPER_1D, "--params", params, "-o", tmp_path / "t.csv", "--json")
     assert code == 0, stderr
     summary = json.loads(stdout)

@@ -9,9 +9,9 @@ import pytest
 
 from sloshid.core.errors import UserError
 from sloshid.model.pendulum import TABLE_I
+from sloshid.model.trajectory import RobotLimits
 from sloshid.planning.ocp import bang_bang_time, segment_axis
 from sloshid.planning.scenario import Obstacle, load_scenario, scenario_from_dict
-from sloshid.model.trajectory import RobotLimits
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -25,11 +25,13 @@ def test_bundled_scenarios_load():
 
 
 def test_compare_table_is_kept_unvalidated_and_robot_overrides_apply():
-    sc = scenario_from_dict({
-        "move": {"start": [0, 0, 0.3], "goal": [0.1, 0, 0.3]},
-        "compare": {"anything": [1, 2], "bandwidth_hz": 20},
-        "robot": {"rot_acc_rad_s2": 10.0},
-    })  # fmt: skip
+    sc = scenario_from_dict(
+        {
+            "move": {"start": [0, 0, 0.3], "goal": [0.1, 0, 0.3]},
+            "compare": {"anything": [1, 2], "bandwidth_hz": 20},
+            "robot": {"rot_acc_rad_s2": 10.0},
+        }
+    )
     assert sc.compare == {"anything": [1, 2], "bandwidth_hz": 20}
     assert sc.robot.rot_acc_rad_s2 == 10.0 and sc.robot.vel_m_s == 1.7 and sc.liquid is None
 
@@ -37,18 +39,27 @@ def test_compare_table_is_kept_unvalidated_and_robot_overrides_apply():
 @pytest.mark.parametrize(
     "data, message",
     [
-        ({"move": {"start": [0, 0, 0.3], "goal": [0.1, 0, 0.3]}, "obstacles": [{"center": [0, 0, 0], "radus": 1}]},
-         r"unknown key '\[\[obstacles\]\] #1.radus' \(did you mean 'radius'\?\)"),
-        ({"move": {"start": [0, 0, 0.3], "goal": [0.1, 0, 0.3]}, "obstacles": [{"center": [0, 0], "radius": 0.1}]},
-         r"a sphere obstacle needs center = \[x, y, z\]"),
+        (
+            {"move": {"start": [0, 0, 0.3], "goal": [0.1, 0, 0.3]}, "obstacles": [{"center": [0, 0, 0], "radus": 1}]},
+            r"unknown key '\[\[obstacles\]\] #1.radus' \(did you mean 'radius'\?\)",
+        ),
+        (
+            {"move": {"start": [0, 0, 0.3], "goal": [0.1, 0, 0.3]}, "obstacles": [{"center": [0, 0], "radius": 0.1}]},
+            r"a sphere obstacle needs center = \[x, y, z\]",
+        ),
         ({"move": {"start": [0, 0, 0.3], "goal": [0, 0, 0.3]}}, r"positions 0 and 1 coincide"),
         ({"move": {"start": [0, 0, 0.3], "goal": [0.1, 0, 0.3]}, "limits": {"z_range": [0.5, 0.1]}}, r"low < high"),
-        ({"move": {"start": [0, 0, 0.3], "goal": [0.1, 0, 0.3]}, "robot": {"vel_m_s": -1}}, r"vel_m_s must be positive"),
+        (
+            {"move": {"start": [0, 0, 0.3], "goal": [0.1, 0, 0.3]}, "robot": {"vel_m_s": -1}},
+            r"vel_m_s must be positive",
+        ),
         ({"limits": {}}, r"has no \[move\] table"),
-        ({"move": {"start": [0, 0, 0.3], "goal": [0.1, 0, 0.3]}, "solver": {"jerk_max": [9, 9, 9]}},
-         r"'\[solver\].jerk_max' belongs in the \[limits\] table"),
+        (
+            {"move": {"start": [0, 0, 0.3], "goal": [0.1, 0, 0.3]}, "solver": {"jerk_max": [9, 9, 9]}},
+            r"'\[solver\].jerk_max' belongs in the \[limits\] table",
+        ),
     ],
-)  # fmt: skip
+)
 def test_scenario_errors_name_the_key(data, message):
     with pytest.raises(UserError, match=message):
         scenario_from_dict(data)

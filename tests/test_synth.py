@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 
 from sloshid.core.errors import UserError
-from sloshid.model.pendulum import G, TABLE_I
-from sloshid.synthetic.render import SynthSettings, frame_times, relative_angle_rad, render_video
 from sloshid.core.tables import read_csv
+from sloshid.model.pendulum import TABLE_I, G
+from sloshid.synthetic.render import SynthSettings, frame_times, relative_angle_rad, render_video
 from sloshid.video.frames import FrameReader
 
 SMALL = dict(width=320, height=240, duration_s=1.0)
@@ -76,8 +76,22 @@ def test_both_codecs_decode_with_all_frames(tmp_path, codec):
 
 def test_cli_writes_video_and_truth(run_cli, tmp_path):
     out = tmp_path / "v.mp4"
-    code, stdout, _ = run_cli("synth", out, "--width", "160", "--height", "120", "--duration", "0.5",
-                              "--l-m", "0.021", "--d-ns-per-m", "1.51", "--m-kg", "0.5")
+    code, stdout, _ = run_cli(
+        "synth",
+        out,
+        "--width",
+        "160",
+        "--height",
+        "120",
+        "--duration",
+        "0.5",
+        "--l-m",
+        "0.021",
+        "--d-ns-per-m",
+        "1.51",
+        "--m-kg",
+        "0.5",
+    )
     assert code == 0
     assert "f = 3.440 Hz" in stdout
     truth = read_csv(tmp_path / "v_truth.csv")
@@ -85,11 +99,14 @@ def test_cli_writes_video_and_truth(run_cli, tmp_path):
     assert len(truth["t_s"]) == 15
 
 
-@pytest.mark.parametrize("args, message", [
-    (["--vfr-jitter", "0.6"], "vfr jitter"),
-    (["--f-hz", "3"], "give f_hz and zeta together"),
-    (["--noise", "-1"], "noise and blur"),
-])
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (["--vfr-jitter", "0.6"], "vfr jitter"),
+        (["--f-hz", "3"], "give f_hz and zeta together"),
+        (["--noise", "-1"], "noise and blur"),
+    ],
+)
 def test_cli_rejects_bad_settings_without_output(run_cli, tmp_path, args, message):
     out = tmp_path / "bad.mp4"
     code, _, err = run_cli("synth", out, *args)

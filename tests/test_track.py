@@ -8,18 +8,27 @@ import av
 import numpy as np
 import pytest
 
-from sloshid.video.colors import PRESETS
-from sloshid.tracking.smooth import smooth_angle
-from sloshid.synthetic.render import SynthSettings, frame_times, relative_angle_rad, render_frames, render_video
 from sloshid.core.tables import read_csv
+from sloshid.synthetic.render import SynthSettings, frame_times, relative_angle_rad, render_frames, render_video
+from sloshid.tracking.smooth import smooth_angle
 from sloshid.tracking.tracker import TRACK_COLUMNS, TrackSettings, track_video
+from sloshid.video.colors import PRESETS
 from sloshid.video.frames import FrameReader, VideoWriter
 
 # Small, fast videos: 320x240, 2 s, H.264 CRF 18. The float is 72 px long (0.3 of the height); at this size
 # H.264's half-resolution chroma carries the float's colour on only ~36x6 samples, so tolerances are looser
 # than the benchmark targets (which use 640x480 and 1280x720).
-SMALL = dict(width=320, height=240, fps=30.0, duration_s=2.0, noise_sigma=3.0, blur_px=1.0, quality=18,
-             float_length_frac=0.3, seed=11)
+SMALL = dict(
+    width=320,
+    height=240,
+    fps=30.0,
+    duration_s=2.0,
+    noise_sigma=3.0,
+    blur_px=1.0,
+    quality=18,
+    float_length_frac=0.3,
+    seed=11,
+)
 
 
 def _rmse(e: np.ndarray) -> float:
@@ -87,7 +96,9 @@ def test_vfr_timestamps_reach_the_csv(tmp_path, run_cli):
 def _video_with_gap(path, settings, gap, display_rotation_deg=0):
     """Render `settings` but replace frames in `gap` (a slice) with an empty grey picture."""
     rows = []
-    with VideoWriter(path, settings.width, settings.height, settings.fps, display_rotation_deg=display_rotation_deg) as w:
+    with VideoWriter(
+        path, settings.width, settings.height, settings.fps, display_rotation_deg=display_rotation_deg
+    ) as w:
         for row, frame in render_frames(settings):
             if gap.start <= row["frame"] < gap.stop:
                 frame[:] = 128
@@ -155,7 +166,7 @@ def test_overlay_is_written_frame_for_frame(decay_video, tmp_path, run_cli):
     # the drawn float axis is green (BGR ~ (60, 220, 60)) near the float centre
     _, _, img = frames[len(frames) // 2]
     x, y = int(truth["float_x_px"][len(frames) // 2]), int(truth["float_y_px"][len(frames) // 2])
-    patch = img[y - 3:y + 4, x - 3:x + 4].reshape(-1, 3).astype(int)
+    patch = img[y - 3 : y + 4, x - 3 : x + 4].reshape(-1, 3).astype(int)
     assert np.any((patch[:, 1] > 170) & (patch[:, 2] < 120))
 
 
@@ -181,7 +192,7 @@ def test_every_preset_finds_the_float_synth_paints(tmp_path, colour):
 
 
 def test_roi_restricts_the_search(decay_video, tmp_path, run_cli):
-    path, truth = decay_video
+    path, _truth = decay_video
     code, _, _ = run_cli("track", path, "-o", tmp_path / "r.csv", "--roi", "100,80,140,100")
     assert code == 0
     assert read_csv(tmp_path / "r.csv")["valid"].all()
@@ -205,17 +216,20 @@ def bad_files(tmp_path_factory):
     return d
 
 
-@pytest.mark.parametrize("name, extra, message", [
-    ("missing.mp4", [], "does not exist"),
-    ("text.mp4", [], "is not a video"),
-    ("empty.mp4", [], "contains no video frames"),
-    ("full.mp4", ["--float-color", "yellow"], "no float found in any of the 60 frames"),
-    ("full.mp4", ["--roi", "300,200,50,50"], "lies outside the 320x240 frame"),
-    ("full.mp4", ["--float-hsv-low", "10,20", "--float-hsv-high", "30,255,255"], "three whole numbers"),
-    ("full.mp4", ["--float-hsv-low", "0,x,0", "--float-hsv-high", "30,255,255"], "three whole numbers"),
-    ("full.mp4", ["--float-hsv-low", "200,50,50", "--float-hsv-high", "30,255,255"], "outside H 0..179"),
-    ("full.mp4", ["--float-hsv-low", "10,50,50"], "together"),
-])
+@pytest.mark.parametrize(
+    "name, extra, message",
+    [
+        ("missing.mp4", [], "does not exist"),
+        ("text.mp4", [], "is not a video"),
+        ("empty.mp4", [], "contains no video frames"),
+        ("full.mp4", ["--float-color", "yellow"], "no float found in any of the 60 frames"),
+        ("full.mp4", ["--roi", "300,200,50,50"], "lies outside the 320x240 frame"),
+        ("full.mp4", ["--float-hsv-low", "10,20", "--float-hsv-high", "30,255,255"], "three whole numbers"),
+        ("full.mp4", ["--float-hsv-low", "0,x,0", "--float-hsv-high", "30,255,255"], "three whole numbers"),
+        ("full.mp4", ["--float-hsv-low", "200,50,50", "--float-hsv-high", "30,255,255"], "outside H 0..179"),
+        ("full.mp4", ["--float-hsv-low", "10,50,50"], "together"),
+    ],
+)
 def test_bad_input_is_one_sentence_and_leaves_nothing(bad_files, tmp_path, run_cli, name, extra, message):
     out = tmp_path / "angles.csv"
     code, _, err = run_cli("track", bad_files / name, "-o", out, *extra)
@@ -233,8 +247,16 @@ def test_never_found_names_the_range_and_suggests_overlay(bad_files, tmp_path, r
 
 
 def test_never_found_still_writes_the_overlay_as_diagnosis(bad_files, tmp_path, run_cli):
-    code, _, err = run_cli("track", bad_files / "full.mp4", "-o", tmp_path / "a.csv", "--float-color", "yellow",
-                           "--overlay", tmp_path / "o.mp4")
+    code, _, err = run_cli(
+        "track",
+        bad_files / "full.mp4",
+        "-o",
+        tmp_path / "a.csv",
+        "--float-color",
+        "yellow",
+        "--overlay",
+        tmp_path / "o.mp4",
+    )
     assert code == 2 and f"see the overlay {tmp_path / 'o.mp4'}" in err
     assert not (tmp_path / "a.csv").exists()
     assert len(list(FrameReader(tmp_path / "o.mp4"))) == 60
@@ -244,8 +266,16 @@ def test_container_reference_without_walls_says_so(tmp_path, run_cli):
     # a float with no container walls in view (the ROI cuts them off): the float is found, the walls are not
     truth = render_video(tmp_path / "v.mp4", SynthSettings(**{**SMALL, "duration_s": 0.5}))
     x, y = int(truth["float_x_px"][0]), int(truth["float_y_px"][0])
-    code, _, err = run_cli("track", tmp_path / "v.mp4", "-o", tmp_path / "a.csv", "--reference", "container",
-                           "--roi", f"{x - 45},{y - 30},90,60")
+    code, _, err = run_cli(
+        "track",
+        tmp_path / "v.mp4",
+        "-o",
+        tmp_path / "a.csv",
+        "--reference",
+        "container",
+        "--roi",
+        f"{x - 45},{y - 30},90,60",
+    )
     assert code == 2 and "side walls in none of them" in err and "--reference image" in err
     assert not (tmp_path / "a.csv").exists()
 

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from sloshid.model.pendulum import G, TABLE_I
+from sloshid.model.pendulum import TABLE_I, G
 from sloshid.model.simulate import simulate_liquid
 from sloshid.model.trajectory import CSV_COLUMNS, RobotLimits, Trajectory, check_limits, euler_rates_to_omega
 

@@ -17,21 +17,33 @@ from pathlib import Path
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of `sloshid batch`."""
     parser.add_argument("videos", nargs="+", type=Path, metavar="VIDEO", help="video files to process")
-    parser.add_argument("--config", type=Path, metavar="TRACK.toml",
-                        help="TOML with a [track] table (float_color or float_hsv_low/high, roi, reference, overlay) "
-                             "and an [identify] table (mass_kg, f_range_hz, min_fit_percent, ...); default: the "
-                             "`sloshid track`/`identify` defaults")  # fmt: skip
+    parser.add_argument(
+        "--config",
+        type=Path,
+        metavar="TRACK.toml",
+        help="TOML with a [track] table (float_color or float_hsv_low/high, roi, reference, overlay) "
+        "and an [identify] table (mass_kg, f_range_hz, min_fit_percent, ...); default: the "
+        "`sloshid track`/`identify` defaults",
+    )
     parser.add_argument("--out", type=Path, required=True, metavar="DIR", help="output folder (created if needed)")
-    parser.add_argument("--workers", type=int, default=2, metavar="N",
-                        help="local Dask worker processes (one thread each); ignored with --scheduler")
-    parser.add_argument("--scheduler", metavar="ADDRESS",
-                        help="address of a running Dask scheduler, e.g. tcp://10.0.0.5:8786, instead of a local cluster")
+    parser.add_argument(
+        "--workers",
+        type=int,
+        default=2,
+        metavar="N",
+        help="local Dask worker processes (one thread each); ignored with --scheduler",
+    )
+    parser.add_argument(
+        "--scheduler",
+        metavar="ADDRESS",
+        help="address of a running Dask scheduler, e.g. tcp://10.0.0.5:8786, instead of a local cluster",
+    )
 
 
 def run(args: argparse.Namespace) -> int:
     """Validate everything first, then run the batch and print where the summary is."""
-    from sloshid.workflow.batch import run_batch
     from sloshid.core.errors import UserError
+    from sloshid.workflow.batch import run_batch
     from sloshid.workflow.options import BatchConfig, IdentifyOptions, TrackOptions
 
     missing = [str(v) for v in args.videos if not v.is_file()]

@@ -20,14 +20,25 @@ from sloshid.core.errors import UserError
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of `sloshid compare`."""
-    parser.add_argument("scenario", metavar="SCENARIO.toml",
-                        help="scenario file as for `sloshid plan` (move, limits in m, m/s, m/s^2, deg; optional [compare])")  # fmt: skip
-    parser.add_argument("--params", metavar="PARAMS.json", default=None,
-                        help="liquid parameters from `sloshid identify` (omega in rad/s, zeta); default: the scenario's [liquid]")  # fmt: skip
-    parser.add_argument("--report", metavar="DIR", default=None,
-                        help="write the HTML report to DIR/index.html (figures embedded)")  # fmt: skip
-    parser.add_argument("--json", action="store_true",
-                        help="print the full summary as JSON (times in s, angles in deg) instead of the table")  # fmt: skip
+    parser.add_argument(
+        "scenario",
+        metavar="SCENARIO.toml",
+        help="scenario file as for `sloshid plan` (move, limits in m, m/s, m/s^2, deg; optional [compare])",
+    )
+    parser.add_argument(
+        "--params",
+        metavar="PARAMS.json",
+        default=None,
+        help="liquid parameters from `sloshid identify` (omega in rad/s, zeta); default: the scenario's [liquid]",
+    )
+    parser.add_argument(
+        "--report", metavar="DIR", default=None, help="write the HTML report to DIR/index.html (figures embedded)"
+    )
+    parser.add_argument(
+        "--json",
+        action="store_true",
+        help="print the full summary as JSON (times in s, angles in deg) instead of the table",
+    )
 
 
 def table_text(summary: dict) -> str:
@@ -39,9 +50,11 @@ def table_text(summary: dict) -> str:
             lines.append(f"{m['label']:34s} not applicable: {m['reason']}")
             continue
         ok = "ok" if m["robot_limits_ok"] and m["move_limits_ok"] else "FAIL"
-        lines.append(f"{m['label']:34s} {m['transfer_time_s']:7.3f} {m['peak_during_deg']:9.3f} "
-                     f"{m['residual_deg']:9.3f} {m['peak_tilt_deg']:8.2f} {ok:>7s}")  # fmt: skip
-    return "\n".join(lines + ["", summary["verdict"]])
+        lines.append(
+            f"{m['label']:34s} {m['transfer_time_s']:7.3f} {m['peak_during_deg']:9.3f} "
+            f"{m['residual_deg']:9.3f} {m['peak_tilt_deg']:8.2f} {ok:>7s}"
+        )
+    return "\n".join([*lines, "", summary["verdict"]])
 
 
 def run(args: argparse.Namespace) -> int:

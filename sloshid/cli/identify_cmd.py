@@ -24,20 +24,36 @@ def _pair(text: str) -> tuple[float, float]:
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of `sloshid identify`."""
-    parser.add_argument("signals", nargs="+", metavar="SIGNAL",
-                        help="signal files: a `sloshid track` CSV (angle_deg of frames with valid = 1), any CSV with "
-                        "a time column in seconds, or a MATLAB .mat file")
+    parser.add_argument(
+        "signals",
+        nargs="+",
+        metavar="SIGNAL",
+        help="signal files: a `sloshid track` CSV (angle_deg of frames with valid = 1), any CSV with "
+        "a time column in seconds, or a MATLAB .mat file",
+    )
     parser.add_argument("-o", "--output", required=True, metavar="PARAMS.json", help="parameter JSON to write")
     parser.add_argument("--mass", type=float, metavar="KG", help="liquid mass in kg; needed for the damping constant d")
     parser.add_argument("--report", metavar="DIR", help="write a self-contained HTML report to DIR/index.html")
-    parser.add_argument("--window", type=_pair, metavar="T0,T1",
-                        help="fit window in seconds of the signals' own time axis; without it the free decay is found "
-                        "automatically")
-    parser.add_argument("--f-range", type=_pair, metavar="LO,HI",
-                        help="frequency band in Hz searched for the sloshing mode (0.5,30 when not given)")
+    parser.add_argument(
+        "--window",
+        type=_pair,
+        metavar="T0,T1",
+        help="fit window in seconds of the signals' own time axis; without it the free decay is found automatically",
+    )
+    parser.add_argument(
+        "--f-range",
+        type=_pair,
+        metavar="LO,HI",
+        help="frequency band in Hz searched for the sloshing mode (0.5,30 when not given)",
+    )
     parser.add_argument("--drift", action="store_true", help="also fit a slow linear drift of the signal's zero")
-    parser.add_argument("--min-fit", type=float, default=15.0, metavar="PERCENT",
-                        help="NRMSE fit %% below which the verdict is 'uncertain'")
+    parser.add_argument(
+        "--min-fit",
+        type=float,
+        default=15.0,
+        metavar="PERCENT",
+        help="NRMSE fit %% below which the verdict is 'uncertain'",
+    )
     parser.add_argument("--time-col", metavar="NAME|INDEX", help="CSV time column in seconds (name or 0-based index)")
     parser.add_argument("--value-col", metavar="NAME|INDEX", help="CSV signal column (name or 0-based index)")
     parser.add_argument("--time-var", metavar="NAME", help=".mat variable holding the time in seconds")
@@ -61,7 +77,9 @@ def run(args: argparse.Namespace) -> int:
         fill_height_m=args.fill_height_m,
     )
     signals = [
-        load_signal(p, time_col=args.time_col, value_col=args.value_col, time_var=args.time_var, value_var=args.value_var)
+        load_signal(
+            p, time_col=args.time_col, value_col=args.value_col, time_var=args.time_var, value_var=args.value_var
+        )
         for p in args.signals
     ]
     for sig in signals:

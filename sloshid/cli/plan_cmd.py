@@ -14,19 +14,38 @@ from sloshid.core.errors import UserError
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of `sloshid plan`."""
-    parser.add_argument("scenario", help="scenario TOML: [move] start/goal (m) or waypoints, [limits], "
-                        "[[obstacles]], [container], [solver], [liquid], [robot] (see README)")  # fmt: skip
-    parser.add_argument("--params", metavar="PARAMS.json", default=None,
-                        help="liquid parameters written by `sloshid identify` (omega in rad/s, zeta, m in kg); "
-                        "overrides the scenario's [liquid] table")  # fmt: skip
-    parser.add_argument("-o", "--output", metavar="TRAJ.csv", required=True,
-                        help="robot trajectory at 1 kHz: time (s), position (m), velocity (m/s), acceleration "
-                        "(m/s^2), Euler angles (rad), angular velocity (rad/s), quaternion")  # fmt: skip
-    parser.add_argument("--report", metavar="DIR", default=None,
-                        help="write an HTML report (states over time, 3-D path, limit usage, verification) to DIR")
-    parser.add_argument("--json", action="store_true",
-                        help="print a JSON summary (T_s in s, solve_time_s in s, iterations, status, max_tilt_deg, "
-                        "max_tilt_rate_deg_s, limits_ok, verification, per-segment figures) on stdout")  # fmt: skip
+    parser.add_argument(
+        "scenario",
+        help="scenario TOML: [move] start/goal (m) or waypoints, [limits], "
+        "[[obstacles]], [container], [solver], [liquid], [robot] (see README)",
+    )
+    parser.add_argument(
+        "--params",
+        metavar="PARAMS.json",
+        default=None,
+        help="liquid parameters written by `sloshid identify` (omega in rad/s, zeta, m in kg); "
+        "overrides the scenario's [liquid] table",
+    )
+    parser.add_argument(
+        "-o",
+        "--output",
+        metavar="TRAJ.csv",
+        required=True,
+        help="robot trajectory at 1 kHz: time (s), position (m), velocity (m/s), acceleration "
+        "(m/s^2), Euler angles (rad), angular velocity (rad/s), quaternion",
+    )
+    parser.add_argument(
+        "--report",
+        metavar="DIR",
+        default=None,
+        help="write an HTML report (states over time, 3-D path, limit usage, verification) to DIR",
+    )
+    parser.add_argument(
+        "--json",
+        action="store_true",
+        help="print a JSON summary (T_s in s, solve_time_s in s, iterations, status, max_tilt_deg, "
+        "max_tilt_rate_deg_s, limits_ok, verification, per-segment figures) on stdout",
+    )
 
 
 def run(args: argparse.Namespace) -> int:
@@ -49,18 +68,25 @@ def run(args: argparse.Namespace) -> int:
         report.save(args.report)
     for usage in result.limits:
         if not usage.ok:
-            print(f"sloshid: warning: robot limit {usage.quantity} exceeded: peak {usage.peak:.4g} > {usage.limit:.4g} "
-                  f"at t = {usage.t_peak_s:.3f} s.", file=sys.stderr)  # fmt: skip
+            print(
+                f"sloshid: warning: robot limit {usage.quantity} exceeded: peak {usage.peak:.4g} > {usage.limit:.4g} "
+                f"at t = {usage.t_peak_s:.3f} s.",
+                file=sys.stderr,
+            )
     v = result.verification
     if not result.verification_ok:
-        print(f"sloshid: warning: verification failed: liquid-container angle {v.peak_during_deg:.3g} deg during the "
-              f"move (limit {VERIFY_DURING_DEG}) and {v.residual_deg:.3g} deg after (limit {VERIFY_AFTER_DEG}).",
-              file=sys.stderr)  # fmt: skip
+        print(
+            f"sloshid: warning: verification failed: liquid-container angle {v.peak_during_deg:.3g} deg during the "
+            f"move (limit {VERIFY_DURING_DEG}) and {v.residual_deg:.3g} deg after (limit {VERIFY_AFTER_DEG}).",
+            file=sys.stderr,
+        )
     if args.json:
         print(json.dumps(result.summary(), indent=2))
     else:
-        print(f"planned {len(result.segments)} segment(s): T = {result.T_s:.4f} s, solved in {result.solve_time_s:.3f} s "
-              f"({result.status}); max tilt {result.max_tilt_deg:.2f} deg; robot limits "
-              f"{'ok' if result.limits_ok else 'EXCEEDED'}; liquid-container angle {v.peak_during_deg:.4f} deg "
-              f"during, {v.residual_deg:.4f} deg after; wrote {args.output}")  # fmt: skip
+        print(
+            f"planned {len(result.segments)} segment(s): T = {result.T_s:.4f} s, solved in {result.solve_time_s:.3f} s "
+            f"({result.status}); max tilt {result.max_tilt_deg:.2f} deg; robot limits "
+            f"{'ok' if result.limits_ok else 'EXCEEDED'}; liquid-container angle {v.peak_during_deg:.4f} deg "
+            f"during, {v.residual_deg:.4f} deg after; wrote {args.output}"
+        )
     return 0

@@ -18,20 +18,23 @@ from pathlib import Path
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of `sloshid run`."""
     parser.add_argument("pipeline", type=Path, metavar="PIPELINE.toml", help="pipeline file (see pipelines/)")
-    parser.add_argument("--output-dir", type=Path, metavar="DIR",
-                        help="write runs under DIR/<pipeline>/ instead of [run].output_dir")
+    parser.add_argument(
+        "--output-dir", type=Path, metavar="DIR", help="write runs under DIR/<pipeline>/ instead of [run].output_dir"
+    )
     parser.add_argument("--quiet", action="store_true", help="print only the path of index.html")
 
 
 def run(args: argparse.Namespace) -> int:
     """Load and validate the pipeline, run it, print the index path."""
-    from sloshid.workflow.pipeline import Pipeline, run_pipeline
     from sloshid.workflow.index import write_index
+    from sloshid.workflow.pipeline import Pipeline, run_pipeline
     from sloshid.workflow.stages import REGISTRY
 
     pipeline = Pipeline.load(args.pipeline, REGISTRY)
     log = (lambda msg: None) if args.quiet else (lambda msg: print(msg, file=sys.stderr))
-    result = run_pipeline(pipeline, args.output_dir, lambda d, recs: write_index(d, recs, pipeline.report.title), log=log)
+    result = run_pipeline(
+        pipeline, args.output_dir, lambda d, recs: write_index(d, recs, pipeline.report.title), log=log
+    )
     for rec in result.stages:
         if rec.status == "failed":
             print(f"sloshid: error: stage [{rec.name}] failed: {rec.error}", file=sys.stderr)

@@ -13,9 +13,9 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from sloshid.video.colors import PRESETS
 from sloshid.model.pendulum import TABLE_I
 from sloshid.synthetic.render import SynthSettings, render_video
+from sloshid.video.colors import PRESETS
 
 _DEFAULTS = SynthSettings()
 
@@ -30,47 +30,107 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     g.add_argument("--height", type=int, default=d.height, help="frame height, pixels")
     g.add_argument("--fps", type=float, default=d.fps, help="nominal frame rate, frames/s")
     g.add_argument("--duration", type=float, default=d.duration_s, help="video length, s")
-    g.add_argument("--vfr-jitter", type=float, default=d.vfr_jitter,
-                   help="variable frame rate: jitter each timestamp by up to this fraction of a frame interval (0..0.45)")
+    g.add_argument(
+        "--vfr-jitter",
+        type=float,
+        default=d.vfr_jitter,
+        help="variable frame rate: jitter each timestamp by up to this fraction of a frame interval (0..0.45)",
+    )
     g = parser.add_argument_group("liquid motion")
-    g.add_argument("--motion", choices=("decay", "move"), default=d.motion,
-                   help="decay: tap-test free decay; move: constant-acceleration move to the image right")
+    g.add_argument(
+        "--motion",
+        choices=("decay", "move"),
+        default=d.motion,
+        help="decay: tap-test free decay; move: constant-acceleration move to the image right",
+    )
     g.add_argument("--f-hz", type=float, help="natural frequency, Hz (give with --zeta; overrides --l-m/--d-ns-per-m)")
     g.add_argument("--zeta", type=float, help="damping ratio, dimensionless (give with --f-hz)")
     g.add_argument("--m-kg", type=float, default=d.m_kg, help=f"liquid mass, kg (Table I: {TABLE_I.m_kg})")
     g.add_argument("--l-m", type=float, default=d.l_m, help=f"pendulum length, m (Table I: {TABLE_I.l_m})")
-    g.add_argument("--d-ns-per-m", type=float, default=d.d_ns_per_m, help=f"damping constant, N s/m (Table I: {TABLE_I.d_ns_per_m})")
+    g.add_argument(
+        "--d-ns-per-m",
+        type=float,
+        default=d.d_ns_per_m,
+        help=f"damping constant, N s/m (Table I: {TABLE_I.d_ns_per_m})",
+    )
     g.add_argument("--amplitude", type=float, default=d.amplitude_deg, help="decay: first peak after the tap, degrees")
     g.add_argument("--tap", type=float, default=d.tap_s, help="decay: time of the tap, s (at rest before)")
     g.add_argument("--accel", type=float, default=d.accel_m_s2, help="move: acceleration magnitude, m/s^2")
     g.add_argument("--move-start", type=float, default=d.move_start_s, help="move: start time, s")
-    g.add_argument("--move-duration", type=float, default=d.move_duration_s, help="move: total duration (half accelerating, half braking), s")
-    g.add_argument("--px-per-m", type=float, default=d.px_per_m, help="move: image scale of the container's travel, pixels/m")
+    g.add_argument(
+        "--move-duration",
+        type=float,
+        default=d.move_duration_s,
+        help="move: total duration (half accelerating, half braking), s",
+    )
+    g.add_argument(
+        "--px-per-m", type=float, default=d.px_per_m, help="move: image scale of the container's travel, pixels/m"
+    )
     g = parser.add_argument_group("scene and camera")
-    g.add_argument("--travel", type=float, default=d.travel_px, help="decay: container crosses this distance to the right, pixels")
-    g.add_argument("--tilt", type=float, default=d.container_tilt_deg, help="container tilt amplitude in the picture, degrees")
+    g.add_argument(
+        "--travel", type=float, default=d.travel_px, help="decay: container crosses this distance to the right, pixels"
+    )
+    g.add_argument(
+        "--tilt", type=float, default=d.container_tilt_deg, help="container tilt amplitude in the picture, degrees"
+    )
     g.add_argument("--tilt-hz", type=float, default=d.container_tilt_hz, help="container tilt frequency, Hz")
-    g.add_argument("--roll", type=float, default=d.camera_roll_deg, help="camera not level: scene rotated by this angle, degrees CCW")
+    g.add_argument(
+        "--roll",
+        type=float,
+        default=d.camera_roll_deg,
+        help="camera not level: scene rotated by this angle, degrees CCW",
+    )
     g.add_argument("--float-color", choices=sorted(PRESETS), default=d.float_color, help="float colour")
-    g.add_argument("--float-length", type=float, default=d.float_length_frac, help="float length, fraction of the frame height")
-    g.add_argument("--noise", type=float, default=d.noise_sigma, help="sensor noise standard deviation, grey levels (0..255)")
+    g.add_argument(
+        "--float-length", type=float, default=d.float_length_frac, help="float length, fraction of the frame height"
+    )
+    g.add_argument(
+        "--noise", type=float, default=d.noise_sigma, help="sensor noise standard deviation, grey levels (0..255)"
+    )
     g.add_argument("--blur", type=float, default=d.blur_px, help="optical blur, Gaussian sigma in pixels")
-    g.add_argument("--flicker", type=float, default=d.flicker, help="lighting flicker, relative brightness swing (0.05 = 5 %%)")
+    g.add_argument(
+        "--flicker", type=float, default=d.flicker, help="lighting flicker, relative brightness swing (0.05 = 5 %%)"
+    )
     g.add_argument("--codec", choices=("h264", "mpeg4"), default=d.codec, help="compression codec")
-    g.add_argument("--quality", type=float, help="codec quality: H.264 CRF 0..51 (default 23), MPEG-4 qscale 1..31 (default 4); lower is better")
+    g.add_argument(
+        "--quality",
+        type=float,
+        help="codec quality: H.264 CRF 0..51 (default 23), MPEG-4 qscale 1..31 (default 4); lower is better",
+    )
     g.add_argument("--seed", type=int, default=d.seed, help="seed of all random draws (noise, flicker, jitter)")
 
 
 def settings_from_args(args: argparse.Namespace) -> SynthSettings:
     """The SynthSettings the command line describes (validated by the dataclass)."""
     return SynthSettings(
-        width=args.width, height=args.height, fps=args.fps, duration_s=args.duration, vfr_jitter=args.vfr_jitter,
-        motion=args.motion, f_hz=args.f_hz, zeta=args.zeta, m_kg=args.m_kg, l_m=args.l_m,
-        d_ns_per_m=args.d_ns_per_m, amplitude_deg=args.amplitude, tap_s=args.tap, accel_m_s2=args.accel,
-        move_start_s=args.move_start, move_duration_s=args.move_duration, px_per_m=args.px_per_m,
-        travel_px=args.travel, container_tilt_deg=args.tilt, container_tilt_hz=args.tilt_hz,
-        camera_roll_deg=args.roll, float_color=args.float_color, float_length_frac=args.float_length,
-        noise_sigma=args.noise, blur_px=args.blur, flicker=args.flicker, codec=args.codec, quality=args.quality,
+        width=args.width,
+        height=args.height,
+        fps=args.fps,
+        duration_s=args.duration,
+        vfr_jitter=args.vfr_jitter,
+        motion=args.motion,
+        f_hz=args.f_hz,
+        zeta=args.zeta,
+        m_kg=args.m_kg,
+        l_m=args.l_m,
+        d_ns_per_m=args.d_ns_per_m,
+        amplitude_deg=args.amplitude,
+        tap_s=args.tap,
+        accel_m_s2=args.accel,
+        move_start_s=args.move_start,
+        move_duration_s=args.move_duration,
+        px_per_m=args.px_per_m,
+        travel_px=args.travel,
+        container_tilt_deg=args.tilt,
+        container_tilt_hz=args.tilt_hz,
+        camera_roll_deg=args.roll,
+        float_color=args.float_color,
+        float_length_frac=args.float_length,
+        noise_sigma=args.noise,
+        blur_px=args.blur,
+        flicker=args.flicker,
+        codec=args.codec,
+        quality=args.quality,
         seed=args.seed,
     )
 
@@ -81,6 +141,8 @@ def run(args: argparse.Namespace) -> int:
     truth_path = args.truth or args.output.with_name(args.output.stem + "_truth.csv")
     truth = render_video(args.output, settings, truth_path, progress=True)
     p = settings.params
-    print(f"wrote {args.output} ({len(truth)} frames, {settings.width}x{settings.height}, {settings.codec}) "
-          f"and {truth_path}; liquid f = {p.f_hz:.3f} Hz, zeta = {p.zeta:.4f}")
+    print(
+        f"wrote {args.output} ({len(truth)} frames, {settings.width}x{settings.height}, {settings.codec}) "
+        f"and {truth_path}; liquid f = {p.f_hz:.3f} Hz, zeta = {p.zeta:.4f}"
+    )
     return 0

@@ -15,9 +15,9 @@ import argparse
 import sys
 from pathlib import Path
 
-from sloshid.video.colors import DEFAULT_FLOAT_COLOR, PRESETS, HsvRange, format_hsv, parse_hsv, preset
 from sloshid.core.errors import UserError
 from sloshid.tracking.tracker import TrackSettings, track_video
+from sloshid.video.colors import DEFAULT_FLOAT_COLOR, PRESETS, HsvRange, format_hsv, parse_hsv, preset
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -25,19 +25,36 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("video", type=Path, metavar="VIDEO", help="video file any OpenCV/FFmpeg build can decode")
     parser.add_argument("-o", "--output", type=Path, required=True, metavar="ANGLES.csv", help="CSV file to write")
     presets = ", ".join(f"{n} ({format_hsv(p.hsv.low)} .. {format_hsv(p.hsv.high)})" for n, p in PRESETS.items())
-    parser.add_argument("--float-color", default=DEFAULT_FLOAT_COLOR, metavar="NAME",
-                        help=f"named float colour preset (OpenCV HSV low .. high): {presets}")
-    parser.add_argument("--float-hsv-low", metavar="H,S,V",
-                        help="lower corner of the float colour in OpenCV HSV (H 0..179 hue, S and V 0..255); "
-                             "overrides --float-color; give with --float-hsv-high; H low > H high wraps through red")
+    parser.add_argument(
+        "--float-color",
+        default=DEFAULT_FLOAT_COLOR,
+        metavar="NAME",
+        help=f"named float colour preset (OpenCV HSV low .. high): {presets}",
+    )
+    parser.add_argument(
+        "--float-hsv-low",
+        metavar="H,S,V",
+        help="lower corner of the float colour in OpenCV HSV (H 0..179 hue, S and V 0..255); "
+        "overrides --float-color; give with --float-hsv-high; H low > H high wraps through red",
+    )
     parser.add_argument("--float-hsv-high", metavar="H,S,V", help="upper corner of the float colour in OpenCV HSV")
-    parser.add_argument("--roi", metavar="X,Y,W,H",
-                        help="search only this region: left x, top y, width, height in pixels (default: whole frame)")
-    parser.add_argument("--reference", choices=("image", "container"), default="image",
-                        help="angle against the image horizontal, or against the container's side walls measured "
-                             "in every frame")
-    parser.add_argument("--overlay", type=Path, metavar="OUT.mp4",
-                        help="also write the video with the detected float, the reference and the angle drawn on it")
+    parser.add_argument(
+        "--roi",
+        metavar="X,Y,W,H",
+        help="search only this region: left x, top y, width, height in pixels (default: whole frame)",
+    )
+    parser.add_argument(
+        "--reference",
+        choices=("image", "container"),
+        default="image",
+        help="angle against the image horizontal, or against the container's side walls measured in every frame",
+    )
+    parser.add_argument(
+        "--overlay",
+        type=Path,
+        metavar="OUT.mp4",
+        help="also write the video with the detected float, the reference and the angle drawn on it",
+    )
     parser.add_argument("--no-smooth", action="store_true", help="skip the Kalman/RTS angle_smoothed_deg column (NaN)")
 
 
@@ -46,7 +63,9 @@ def _hsv_from_args(args: argparse.Namespace) -> HsvRange:
     if (args.float_hsv_low is None) != (args.float_hsv_high is None):
         raise UserError("give --float-hsv-low and --float-hsv-high together.")
     if args.float_hsv_low is not None:
-        return HsvRange(parse_hsv(args.float_hsv_low, "--float-hsv-low"), parse_hsv(args.float_hsv_high, "--float-hsv-high"))
+        return HsvRange(
+            parse_hsv(args.float_hsv_low, "--float-hsv-low"), parse_hsv(args.float_hsv_high, "--float-hsv-high")
+        )
     return preset(args.float_color).hsv
 
 
@@ -65,8 +84,9 @@ def _roi_from_args(text: str | None) -> tuple[int, int, int, int] | None:
 
 def run(args: argparse.Namespace) -> int:
     """Track, write the CSV (and overlay), report warnings; exit 1 when the video was truncated."""
-    settings = TrackSettings(hsv=_hsv_from_args(args), roi=_roi_from_args(args.roi), reference=args.reference,
-                             smooth=not args.no_smooth)
+    settings = TrackSettings(
+        hsv=_hsv_from_args(args), roi=_roi_from_args(args.roi), reference=args.reference, smooth=not args.no_smooth
+    )
     if args.output.suffix.lower() != ".csv":
         raise UserError(f"output {args.output} must end in .csv.")
     result = track_video(args.video, settings, overlay=args.overlay, progress=True)
@@ -74,6 +94,8 @@ def run(args: argparse.Namespace) -> int:
     for warning in result.warnings:
         print(f"sloshid: warning: {warning}", file=sys.stderr)
     valid = int(result.valid.sum())
-    print(f"wrote {args.output}: {len(result.t_s)} frames, {valid} valid, "
-          f"{result.t_s[-1] - result.t_s[0]:.2f} s" + (f"; overlay {args.overlay}" if args.overlay else ""))
+    print(
+        f"wrote {args.output}: {len(result.t_s)} frames, {valid} valid, "
+        f"{result.t_s[-1] - result.t_s[0]:.2f} s" + (f"; overlay {args.overlay}" if args.overlay else "")
+    )
     return 1 if result.lost_share > 0.005 else 0

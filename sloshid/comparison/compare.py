@@ -16,14 +16,14 @@ from typing import Any
 import numpy as np
 from tqdm import tqdm
 
-from sloshid.comparison.robot_tracking import ClosedLoopResponse, closed_loop_response
-from sloshid.core.errors import UserError
 from sloshid.comparison.feedback import FeedbackSettings
-from sloshid.comparison.ruckig_moves import jerk_limited
-from sloshid.model.pendulum import SloshParams
 from sloshid.comparison.profiles import MoveTask, NotApplicable, constant_acceleration
+from sloshid.comparison.robot_tracking import ClosedLoopResponse, closed_loop_response
 from sloshid.comparison.robustness import Replay, RobustnessResult, sweep
+from sloshid.comparison.ruckig_moves import jerk_limited
 from sloshid.comparison.shapers import shaped_constant_acceleration
+from sloshid.core.errors import UserError
+from sloshid.model.pendulum import SloshParams
 from sloshid.model.simulate import LiquidResponse, simulate_liquid
 from sloshid.model.trajectory import RobotLimits, Trajectory, check_limits
 
@@ -179,8 +179,17 @@ def score(traj: Trajectory, params: SloshParams, limits: MoveLimits, settle_s: f
     clearance = None
     if limits.obstacles:
         clearance = float(min(np.min(o.clearance(traj.pos_m, limits.container_radius_m)) for o in limits.obstacles))
-    sc = Score(traj.duration_s, resp.peak_during_deg, resp.residual_deg, float(tilt.max()), float(rate.max()),
-               robot_ok, failed, not any(f.startswith("move") for f in failed), clearance)  # fmt: skip
+    sc = Score(
+        traj.duration_s,
+        resp.peak_during_deg,
+        resp.residual_deg,
+        float(tilt.max()),
+        float(rate.max()),
+        robot_ok,
+        failed,
+        not any(f.startswith("move") for f in failed),
+        clearance,
+    )
     return sc, resp
 
 
@@ -208,8 +217,14 @@ def from_scenario(scenario: Any, params: SloshParams) -> CompareInput:
     settings = from_dict(CompareSettings, scenario.compare, "[compare]")
     lim = scenario.limits
     task = MoveTask(tuple(tuple(map(float, p)) for p in scenario.waypoints), tuple(lim.acc_max), tuple(lim.vel_max))
-    limits = MoveLimits(task, lim.tilt_max_deg, lim.tilt_rate_max_deg_s, scenario.robot, list(scenario.obstacles),
-                        scenario.container_radius_m)  # fmt: skip
+    limits = MoveLimits(
+        task,
+        lim.tilt_max_deg,
+        lim.tilt_rate_max_deg_s,
+        scenario.robot,
+        list(scenario.obstacles),
+        scenario.container_radius_m,
+    )
     return CompareInput(limits, params, settings, scenario)
 
 
@@ -332,10 +347,14 @@ class Comparison:
             "residual_ok_deg": self.settings.residual_ok_deg,
             "methods": rows,
             "closed_loop": {
-                k: {"robot_bandwidth_hz": self.settings.robot_bandwidth_hz, "max_linear_nonlinear_gap_deg": c.max_gap_deg,
-                    "peak_linear_deg": float(c.rel_linear_deg.max()), "residual_linear_deg": c.residual_linear_deg}
+                k: {
+                    "robot_bandwidth_hz": self.settings.robot_bandwidth_hz,
+                    "max_linear_nonlinear_gap_deg": c.max_gap_deg,
+                    "peak_linear_deg": float(c.rel_linear_deg.max()),
+                    "residual_linear_deg": c.residual_linear_deg,
+                }
                 for k, c in self.closed_loop.items()
-            },  # fmt: skip
+            },
             "robustness": self.robustness.to_dict(),
             "camera": [vars(c) for c in self.camera],
             "camera_omega_factor": self.settings.camera_omega_factor,
@@ -371,8 +390,11 @@ def camera_study(inp: CompareInput, built: dict[str, MethodResult]) -> tuple[lis
             fb = FeedbackSettings(**{**vars(s.feedback), "camera_fps": fps})
             traj = with_feedback(inp, base.trajectory, fb)(truth)  # type: ignore[arg-type]
             resp = simulate_liquid(traj, truth, settle_s=s.settle_s)
-            points.append(CameraPoint(base.label, fps, traj.duration_s, resp.peak_during_deg, resp.residual_deg,
-                                      seen, float(rel.max())))  # fmt: skip
+            points.append(
+                CameraPoint(
+                    base.label, fps, traj.duration_s, resp.peak_during_deg, resp.residual_deg, seen, float(rel.max())
+                )
+            )
     return points, reference
 
 
@@ -383,7 +405,9 @@ def linearity_study(inp: CompareInput) -> list[LinearityPoint]:
     for acc in inp.settings.linearity_acc_m_s2:
         scaled = MoveTask(task.waypoints, (acc, acc, acc), task.vel_max_m_s)
         cl = closed_loop_response(constant_acceleration(scaled), inp.params, inp.settings.robot_bandwidth_hz, 1.0)
-        points.append(LinearityPoint(acc, float(cl.rel_linear_deg.max()), float(cl.rel_nonlinear_deg.max()), cl.max_gap_deg))
+        points.append(
+            LinearityPoint(acc, float(cl.rel_linear_deg.max()), float(cl.rel_nonlinear_deg.max()), cl.max_gap_deg)
+        )
     return points
 
 
@@ -396,8 +420,14 @@ def compare(inp: CompareInput, progress: bool = False) -> Comparison:
     results = [built[k] for k in s.methods]
     ok = [r for r in results if r.applicable]
     closed = {r.key: closed_loop_response(r.trajectory, inp.params, s.robot_bandwidth_hz, s.settle_s) for r in ok}  # type: ignore[arg-type]
-    robust = sweep({r.label: r.replay for r in ok}, inp.params, s.omega_factors, s.zeta_factors,  # type: ignore[misc]
-                   progress=progress, workers=s.workers)  # fmt: skip
+    robust = sweep(
+        {r.label: r.replay for r in ok},
+        inp.params,
+        s.omega_factors,
+        s.zeta_factors,  # type: ignore[misc]
+        progress=progress,
+        workers=s.workers,
+    )
     camera, reference = camera_study(inp, built)
     comp = Comparison(inp.params, s, results, closed, robust, camera, reference, linearity_study(inp))
     comp.verdict = verdict(comp)
@@ -409,26 +439,34 @@ def verdict(comp: Comparison) -> str:
     limit = comp.settings.residual_ok_deg
     ok = [r for r in comp.results if r.applicable]
     collides = [r for r in ok if r.score.min_clearance_m is not None and r.score.min_clearance_m < 0]  # type: ignore[union-attr]
-    free = sorted((r for r in ok if r.score.residual_deg <= limit and r not in collides),  # type: ignore[union-attr]
-                  key=lambda r: r.score.transfer_time_s)  # type: ignore[union-attr]  # fmt: skip
+    free = sorted(
+        (r for r in ok if r.score.residual_deg <= limit and r not in collides),  # type: ignore[union-attr]
+        key=lambda r: r.score.transfer_time_s,
+    )  # type: ignore[union-attr]
     parts = []
     if free:
         best = free[0]
         kind = "collision-free move" if any(r.score.min_clearance_m is not None for r in ok) else "move"  # type: ignore[union-attr]
-        line = f"{best.label} is the fastest {kind} that leaves at most {limit:g} deg of residual slosh " \
-               f"({best.score.transfer_time_s:.3g} s, peak {best.score.peak_during_deg:.2g} deg during the move)"  # type: ignore[union-attr]
+        line = (
+            f"{best.label} is the fastest {kind} that leaves at most {limit:g} deg of residual slosh "
+            f"({best.score.transfer_time_s:.3g} s, peak {best.score.peak_during_deg:.2g} deg during the move)"
+        )  # type: ignore[union-attr]
         zvd = comp.result("zvd")
         if zvd is not None and zvd.applicable and zvd is not best:
             t_best, t_zvd = best.score.transfer_time_s, zvd.score.transfer_time_s  # type: ignore[union-attr]
-            line += (f"; ZVD shaping takes {100 * (t_zvd / t_best - 1):.1f} % longer ({t_zvd:.3g} s), "
-                     f"i.e. it saves {100 * (1 - t_best / t_zvd):.1f} % of ZVD's transfer time")  # fmt: skip
+            line += (
+                f"; ZVD shaping takes {100 * (t_zvd / t_best - 1):.1f} % longer ({t_zvd:.3g} s), "
+                f"i.e. it saves {100 * (1 - t_best / t_zvd):.1f} % of ZVD's transfer time"
+            )
         parts.append(line + ".")
     else:
         parts.append(f"No method keeps the residual slosh at or below {limit:g} deg.")
     const = comp.result("constant_acc")
     if const is not None and const.applicable:
-        parts.append(f"The constant-acceleration profile sloshes to {const.score.peak_during_deg:.3g} deg during the "  # type: ignore[union-attr]
-                     f"move and leaves {const.score.residual_deg:.3g} deg behind.")  # type: ignore[union-attr]
+        parts.append(
+            f"The constant-acceleration profile sloshes to {const.score.peak_during_deg:.3g} deg during the "  # type: ignore[union-attr]
+            f"move and leaves {const.score.residual_deg:.3g} deg behind."
+        )  # type: ignore[union-attr]
     bands = []
     for r in ok:
         band = comp.robustness.tolerance_band(r.label, limit)
@@ -441,7 +479,9 @@ def verdict(comp: Comparison) -> str:
         cost = rob.score.transfer_time_s / nominal.score.transfer_time_s - 1  # type: ignore[union-attr]
         parts.append(f"The robust plan costs {100 * cost:.1f} % more transfer time.")
     if collides:
-        parts.append("Going straight between waypoints collides with an obstacle: " + ", ".join(r.label for r in collides) + ".")
+        parts.append(
+            "Going straight between waypoints collides with an obstacle: " + ", ".join(r.label for r in collides) + "."
+        )
     broken = [r.label for r in ok if not r.score.robot_limits_ok]  # type: ignore[union-attr]
     if broken:
         parts.append("Robot limits fail for: " + ", ".join(broken) + ".")

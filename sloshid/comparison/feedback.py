@@ -56,7 +56,15 @@ class FeedbackSettings:
     """The move counts as arrived once the estimated slosh amplitude stays below this (and the position is back), deg."""
 
     def __post_init__(self) -> None:
-        for name in ("camera_fps", "noise_deg", "pos_tol_m", "vel_tol_m_s", "angle_tol_deg", "acc_tol_m_s2", "calm_deg"):
+        for name in (
+            "camera_fps",
+            "noise_deg",
+            "pos_tol_m",
+            "vel_tol_m_s",
+            "angle_tol_deg",
+            "acc_tol_m_s2",
+            "calm_deg",
+        ):
             if not getattr(self, name) > 0:
                 raise UserError(f"[compare.feedback] {name} must be positive, got {getattr(self, name)!r}.")
         if not (0 <= self.latency_s < 1.0 and 0 < self.settle_s <= 30):
@@ -111,7 +119,7 @@ def run_feedback(
     filters = [slosh_filter(model, dt, s) for _ in AXES]
     rng = np.random.default_rng(s.seed)
     frame_step = 1.0 / (s.camera_fps * dt)
-    lag = int(round(s.latency_s / dt))
+    lag = round(s.latency_s / dt)
     x_plant = np.zeros((len(AXES), pa.shape[0]))
     dev = np.zeros((len(AXES), 2))  # dp, dv per axis
     u_fb = np.zeros((n, len(AXES)))
@@ -158,14 +166,25 @@ def run_feedback(
         vel[:, col] += dev_hist[:, k, 1]
         acc[:, col] += u_fb[:, k]
     cut = slice(0, end)
-    run = Trajectory(t[cut], pos[cut], vel[cut], acc[cut], padded.euler_rad[cut], padded.euler_rate_rad_s[cut],
-                     name=f"{traj.name} + feedback ({s.camera_fps:g} fps)")  # fmt: skip
+    run = Trajectory(
+        t[cut],
+        pos[cut],
+        vel[cut],
+        acc[cut],
+        padded.euler_rad[cut],
+        padded.euler_rate_rad_s[cut],
+        name=f"{traj.name} + feedback ({s.camera_fps:g} fps)",
+    )
     rms = float(np.degrees(np.sqrt(np.mean((q_est[cut] - q_true[cut]) ** 2))))
     return FeedbackRun(run, rms, frames)
 
 
 def arrival_index(
-    dev_hist: np.ndarray, amp_est: np.ndarray, n_ff: int, calm_rad: float, pos_tol_m: float = 1e-3,
+    dev_hist: np.ndarray,
+    amp_est: np.ndarray,
+    n_ff: int,
+    calm_rad: float,
+    pos_tol_m: float = 1e-3,
     vel_tol_m_s: float = 5e-3,
 ) -> int:
     """Samples until the container is back on the goal (1 mm, 5 mm/s) and the estimated slosh calm, for good."""

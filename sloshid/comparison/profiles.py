@@ -7,8 +7,8 @@ them into a 1 kHz container `Trajectory`, upright or tilted quasi-statically to 
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import Callable, Sequence
 
 import numpy as np
 
@@ -116,7 +116,7 @@ def sample_move(
     chunks = []
     t0 = 0.0
     for (start, direction, _length), prof in zip(legs, profiles):
-        n = int(math.ceil(prof.duration_s / dt_s - 1e-9))
+        n = math.ceil(prof.duration_s / dt_s - 1e-9)
         t = np.arange(n + 1) * dt_s
         s, sd, sdd = prof.evaluate(t)
         if chunks:  # the first sample repeats the previous leg's last one

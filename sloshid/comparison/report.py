@@ -7,17 +7,25 @@ from pathlib import Path
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
+import matplotlib.pyplot as plt
+import numpy as np
 
-from sloshid.comparison.compare import Comparison  # noqa: E402
-from sloshid.report.html import Report  # noqa: E402
+from sloshid.comparison.compare import Comparison
+from sloshid.report.html import Report
 
 SCORE_HEADER = (
-    "method", "transfer time (s)", "peak relative angle during move (deg)", "residual after arrival (deg)",
-    "peak tilt (deg)", "peak tilt rate (deg/s)", "robot limits", "move limits", "min obstacle clearance (m)",
-    "build time (s)", "notes",
-)  # fmt: skip
+    "method",
+    "transfer time (s)",
+    "peak relative angle during move (deg)",
+    "residual after arrival (deg)",
+    "peak tilt (deg)",
+    "peak tilt rate (deg/s)",
+    "robot limits",
+    "move limits",
+    "min obstacle clearance (m)",
+    "build time (s)",
+    "notes",
+)
 
 
 def score_rows(comp: Comparison) -> list[list]:
@@ -29,11 +37,25 @@ def score_rows(comp: Comparison) -> list[list]:
             continue
         s = r.score
         clearance = "-" if s.min_clearance_m is None else s.min_clearance_m
-        notes = "; ".join(s.limits_failed + (["collides with an obstacle"] if s.min_clearance_m is not None
-                                             and s.min_clearance_m < 0 else []))  # fmt: skip
-        rows.append([r.label, s.transfer_time_s, s.peak_during_deg, s.residual_deg, s.peak_tilt_deg,
-                     s.peak_tilt_rate_deg_s, "ok" if s.robot_limits_ok else "FAIL",
-                     "ok" if s.move_limits_ok else "FAIL", clearance, r.build_time_s, notes])  # fmt: skip
+        notes = "; ".join(
+            s.limits_failed
+            + (["collides with an obstacle"] if s.min_clearance_m is not None and s.min_clearance_m < 0 else [])
+        )
+        rows.append(
+            [
+                r.label,
+                s.transfer_time_s,
+                s.peak_during_deg,
+                s.residual_deg,
+                s.peak_tilt_deg,
+                s.peak_tilt_rate_deg_s,
+                "ok" if s.robot_limits_ok else "FAIL",
+                "ok" if s.move_limits_ok else "FAIL",
+                clearance,
+                r.build_time_s,
+                notes,
+            ]
+        )
     return rows
 
 
@@ -72,7 +94,7 @@ def closed_loop_figure(comp: Comparison):
         ax.set_title(f"{comp.result(key).label}: gap {cl.max_gap_deg:.2g} deg", fontsize=9)
         ax.set_xlabel("t (s)")
         ax.set_ylabel("deg")
-    for ax in list(axes.flat)[len(keys):]:
+    for ax in list(axes.flat)[len(keys) :]:
         ax.axis("off")
     axes.flat[0].legend(fontsize=7)
     fig.tight_layout()
@@ -139,45 +161,89 @@ def build_report(comp: Comparison, title: str = "sloshid compare") -> Report:
     p = comp.params
     rep = Report(title)
     rep.add_text(comp.verdict, "verdict-good")
-    rep.add_text(f"Liquid: f = {p.f_hz:.3g} Hz, zeta = {p.zeta:.3g} (l = {p.l_m:.4g} m, d = {p.d_ns_per_m:.3g} Ns/m). "
-                 "Every method is scored by the same nonlinear pendulum simulation (solve_ivp): the relative angle "
-                 "between liquid surface and container is what spills liquid.")  # fmt: skip
+    rep.add_text(
+        f"Liquid: f = {p.f_hz:.3g} Hz, zeta = {p.zeta:.3g} (l = {p.l_m:.4g} m, d = {p.d_ns_per_m:.3g} Ns/m). "
+        "Every method is scored by the same nonlinear pendulum simulation (solve_ivp): the relative angle "
+        "between liquid surface and container is what spills liquid."
+    )
     rep.add_heading("Relative slosh angle over time (the seed's Fig. 7, all methods)")
-    rep.add_figure(fig7(comp), "Relative angle liquid minus container; dots mark each method's arrival. Lower panel: "
-                   f"log scale, dashed line = {s.residual_ok_deg:g} deg (slosh-free threshold).")  # fmt: skip
+    rep.add_figure(
+        fig7(comp),
+        "Relative angle liquid minus container; dots mark each method's arrival. Lower panel: "
+        f"log scale, dashed line = {s.residual_ok_deg:g} deg (slosh-free threshold).",
+    )
     rep.add_heading("Scores")
-    rep.add_table(SCORE_HEADER, score_rows(comp), "Robot limits: Franka Panda Cartesian limits (or [robot]); "
-                  "move limits: the scenario's acc_max, vel_max, tilt_max_deg, tilt_rate_max_deg_s.")  # fmt: skip
+    rep.add_table(
+        SCORE_HEADER,
+        score_rows(comp),
+        "Robot limits: Franka Panda Cartesian limits (or [robot]); "
+        "move limits: the scenario's acc_max, vel_max, tilt_max_deg, tilt_rate_max_deg_s.",
+    )
     rep.add_heading("Closed loop: robot tracking and liquid in python-control")
-    rep.add_figure(closed_loop_figure(comp), f"Each trajectory through a {s.robot_bandwidth_hz:g} Hz second-order "
-                   "tracking loop in series with the linearised liquid (seed eq. 5, python-control forced_response), "
-                   "beside the nonlinear pendulum under the same executed motion; grey line = arrival.")  # fmt: skip
-    rep.add_figure(linearity_figure(comp), "Where linearisation holds: the constant-acceleration move at growing "
-                   "accelerations; the curves part where the small-angle model stops being valid.")  # fmt: skip
-    rep.add_table(("acceleration (m/s^2)", "peak linear (deg)", "peak nonlinear (deg)", "largest gap (deg)"),
-                  [[q.acc_m_s2, q.peak_linear_deg, q.peak_nonlinear_deg, q.max_gap_deg] for q in comp.linearity])
+    rep.add_figure(
+        closed_loop_figure(comp),
+        f"Each trajectory through a {s.robot_bandwidth_hz:g} Hz second-order "
+        "tracking loop in series with the linearised liquid (seed eq. 5, python-control forced_response), "
+        "beside the nonlinear pendulum under the same executed motion; grey line = arrival.",
+    )
+    rep.add_figure(
+        linearity_figure(comp),
+        "Where linearisation holds: the constant-acceleration move at growing "
+        "accelerations; the curves part where the small-angle model stops being valid.",
+    )
+    rep.add_table(
+        ("acceleration (m/s^2)", "peak linear (deg)", "peak nonlinear (deg)", "largest gap (deg)"),
+        [[q.acc_m_s2, q.peak_linear_deg, q.peak_nonlinear_deg, q.max_gap_deg] for q in comp.linearity],
+    )
     rep.add_heading("Robustness to model error")
-    rep.add_figure(robustness_figure(comp), "Every method keeps its nominal plan while the true liquid differs "
-                   "(feedback methods re-run their loop). Below the dashed line the move is slosh-free.")  # fmt: skip
+    rep.add_figure(
+        robustness_figure(comp),
+        "Every method keeps its nominal plan while the true liquid differs "
+        "(feedback methods re-run their loop). Below the dashed line the move is slosh-free.",
+    )
     bands = []
     for r in comp.results:
         if r.applicable:
             band = comp.robustness.tolerance_band(r.label, s.residual_ok_deg)
-            bands.append([r.label, "none" if band is None else f"{100 * (band[0] - 1):+.0f} % .. {100 * (band[1] - 1):+.0f} %"])
+            bands.append(
+                [r.label, "none" if band is None else f"{100 * (band[0] - 1):+.0f} % .. {100 * (band[1] - 1):+.0f} %"]
+            )
     rep.add_table(("method", f"frequency error with residual <= {s.residual_ok_deg:g} deg"), bands)
     if comp.camera:
         f = s.feedback
         rep.add_heading("Feedback and camera rate (seed Remark 1)")
-        rep.add_figure(camera_figure(comp), f"Kalman filter + LQR on a camera measurement of the float angle "
-                       f"(noise {f.noise_deg:g} deg, latency {1000 * f.latency_s:g} ms) with the true frequency "
-                       f"{100 * (s.camera_omega_factor - 1):+.0f} % off the model; dashed = the same feedforward "
-                       "without feedback. Right: the feedforward's peak relative angle (nominal liquid, no feedback) "
-                       "as frames at that rate sample it, against the true peak: a slow camera misses fast peaks "
-                       "(the seed's Remark 1).")  # fmt: skip
-        rep.add_table(("feedforward", "camera (fps)", "transfer time (s)", "peak during (deg)", "residual (deg)",
-                       "peak seen by camera (deg)", "true peak (deg)"),
-                      [[c.base, c.camera_fps, c.transfer_time_s, c.peak_during_deg, c.residual_deg, c.seen_peak_deg,
-                        c.true_peak_deg] for c in comp.camera])  # fmt: skip
+        rep.add_figure(
+            camera_figure(comp),
+            f"Kalman filter + LQR on a camera measurement of the float angle "
+            f"(noise {f.noise_deg:g} deg, latency {1000 * f.latency_s:g} ms) with the true frequency "
+            f"{100 * (s.camera_omega_factor - 1):+.0f} % off the model; dashed = the same feedforward "
+            "without feedback. Right: the feedforward's peak relative angle (nominal liquid, no feedback) "
+            "as frames at that rate sample it, against the true peak: a slow camera misses fast peaks "
+            "(the seed's Remark 1).",
+        )
+        rep.add_table(
+            (
+                "feedforward",
+                "camera (fps)",
+                "transfer time (s)",
+                "peak during (deg)",
+                "residual (deg)",
+                "peak seen by camera (deg)",
+                "true peak (deg)",
+            ),
+            [
+                [
+                    c.base,
+                    c.camera_fps,
+                    c.transfer_time_s,
+                    c.peak_during_deg,
+                    c.residual_deg,
+                    c.seen_peak_deg,
+                    c.true_peak_deg,
+                ]
+                for c in comp.camera
+            ],
+        )
     return rep
 
 

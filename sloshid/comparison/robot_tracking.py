@@ -27,11 +27,18 @@ def robot_tf(bandwidth_hz: float = 20.0, zeta: float = 1 / math.sqrt(2)) -> cont
 
 def hold_after(traj: Trajectory, settle_s: float) -> Trajectory:
     """The trajectory extended by `settle_s` at rest in its last pose (what the robot commands after arrival)."""
-    n = int(round(settle_s / traj.dt_s))
+    n = round(settle_s / traj.dt_s)
     t = np.concatenate([traj.t_s, traj.t_s[-1] + traj.dt_s * np.arange(1, n + 1)])
     hold = lambda a, keep: np.vstack([a, np.repeat(a[-1:] if keep else 0 * a[-1:], n, axis=0)])  # noqa: E731
-    return Trajectory(t, hold(traj.pos_m, True), hold(traj.vel_m_s, False), hold(traj.acc_m_s2, False),
-                      hold(traj.euler_rad, True), hold(traj.euler_rate_rad_s, False), name=traj.name)  # fmt: skip
+    return Trajectory(
+        t,
+        hold(traj.pos_m, True),
+        hold(traj.vel_m_s, False),
+        hold(traj.acc_m_s2, False),
+        hold(traj.euler_rad, True),
+        hold(traj.euler_rate_rad_s, False),
+        name=traj.name,
+    )
 
 
 def filter_columns(sys: control.TransferFunction, t: np.ndarray, data: np.ndarray) -> np.ndarray:
@@ -47,8 +54,9 @@ def executed(traj: Trajectory, robot: control.TransferFunction) -> Trajectory:
     """What a robot with tracking dynamics `robot` actually does when commanded `traj` (all channels filtered)."""
     t = traj.t_s
     f = lambda a: filter_columns(robot, t, a)  # noqa: E731
-    return Trajectory(t, f(traj.pos_m), f(traj.vel_m_s), f(traj.acc_m_s2), f(traj.euler_rad),
-                      f(traj.euler_rate_rad_s), name=traj.name)  # fmt: skip
+    return Trajectory(
+        t, f(traj.pos_m), f(traj.vel_m_s), f(traj.acc_m_s2), f(traj.euler_rad), f(traj.euler_rate_rad_s), name=traj.name
+    )
 
 
 @dataclass

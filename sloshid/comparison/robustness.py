@@ -6,9 +6,9 @@ Every point is scored by the nonlinear `simulate_liquid`, as in the main compari
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
-from typing import Sequence
 
 import numpy as np
 from tqdm import tqdm

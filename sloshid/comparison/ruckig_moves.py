@@ -39,11 +39,11 @@ def jerk_limited(move: MoveTask, jerk_max_m_s3: float, tilt: bool = False, dt_s:
     """Methods 3 and 4: ruckig's time-optimal jerk-limited move through the waypoints (stop at each)."""
     t_parts, pos_parts, vel_parts, acc_parts = [], [], [], []
     t0 = 0.0
-    for k, (start, goal) in enumerate(zip(move.waypoints[:-1], move.waypoints[1:])):
+    for _k, (start, goal) in enumerate(zip(move.waypoints[:-1], move.waypoints[1:])):
         if np.allclose(start, goal):
             continue
         leg = ruckig_leg(start, goal, move, jerk_max_m_s3)
-        n = int(math.ceil(leg.duration / dt_s - 1e-9))
+        n = math.ceil(leg.duration / dt_s - 1e-9)
         times = np.arange(0 if not t_parts else 1, n + 1) * dt_s
         samples = [leg.at_time(min(t, leg.duration)) for t in times]
         t_parts.append(t0 + times)

@@ -13,8 +13,8 @@ from typing import Literal
 
 import numpy as np
 
-from sloshid.model.pendulum import SloshParams
 from sloshid.comparison.profiles import MoveTask, PathProfile, sample_move, trapezoid
+from sloshid.model.pendulum import SloshParams
 from sloshid.model.trajectory import Trajectory
 
 
@@ -60,7 +60,10 @@ def shaped_constant_acceleration(move: MoveTask, params: SloshParams, kind: Lite
     """Method 2: the constant-acceleration move of every leg shaped with a ZV or ZVD shaper, container upright."""
     shaper = design_shaper(kind, params)
     profiles = [
-        shape(trapezoid(length, MoveTask.path_limit(move.acc_max_m_s2, e), MoveTask.path_limit(move.vel_max_m_s, e)), shaper)
+        shape(
+            trapezoid(length, MoveTask.path_limit(move.acc_max_m_s2, e), MoveTask.path_limit(move.vel_max_m_s, e)),
+            shaper,
+        )
         for _, e, length in move.segments()
     ]
     return sample_move(move, profiles, f"{kind} shaped")

@@ -121,8 +121,21 @@ def welch_spectrum(
     low, high = band & (f < f[k]), band & (f > f[k])
     resonant = bool(low.any() and high.any() and p[low].min() < 0.5 * p[k] and p[high].min() < 0.5 * p[k])
     return Spectrum(
-        f, p, u.fs_hz, seg, nfft, n_avg, resolution, u.note, peak_f, float(f[k]), float(p[k]), prominence, noise_std,
-        _secondary_peaks(f, p, k, peak_f, resolution), resonant,
+        f,
+        p,
+        u.fs_hz,
+        seg,
+        nfft,
+        n_avg,
+        resolution,
+        u.note,
+        peak_f,
+        float(f[k]),
+        float(p[k]),
+        prominence,
+        noise_std,
+        _secondary_peaks(f, p, k, peak_f, resolution),
+        resonant,
     )
 
 
@@ -140,12 +153,12 @@ def _refine_peak(f: np.ndarray, p: np.ndarray, k: int, resolution: float) -> flo
 
 def _secondary_peaks(f: np.ndarray, p: np.ndarray, k: int, f0: float, resolution: float) -> tuple[SpectralPeak, ...]:
     """Other local maxima at least 2 resolutions from the dominant one, strongest first, marked when harmonic."""
-    idx, _ = sps.find_peaks(p, distance=max(1, int(round(resolution / (f[1] - f[0])))))
+    idx, _ = sps.find_peaks(p, distance=max(1, round(resolution / (f[1] - f[0]))))
     out = []
     for i in idx:
         if abs(f[i] - f[k]) < 2 * resolution or f[i] < 1.5 * resolution or p[i] < SECONDARY_MIN_RATIO * p[k]:
             continue
-        order = int(round(f[i] / f0))
+        order = round(f[i] / f0)
         harmonic = order if order >= 2 and abs(f[i] - order * f0) <= resolution else 0
         out.append(SpectralPeak(float(f[i]), float(p[i]), float(p[i] / p[k]), harmonic))
     out.sort(key=lambda s: -s.psd)

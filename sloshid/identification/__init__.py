@@ -1,1 +1,5 @@
-"""identification"""
+"""Stage 2, the identification: load signals, find the free decay, Welch PSD, least-squares PT2
+fit with intervals, cross-checks, second mode, verdict, and the identification report.
+
+May import: sloshid.core, sloshid.model, sloshid.report.
+"""

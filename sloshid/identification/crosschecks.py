@@ -75,7 +75,9 @@ def log_decrement(t: np.ndarray, y: np.ndarray, f0_hz: float, noise_std: float) 
     idx, _ = sps.find_peaks(x, distance=max(1, int(0.7 * u.fs_hz / f0_hz)), height=PEAK_SNR * noise_std)
     idx = idx[(idx > 0) & (idx < x.size - 1)]
     if idx.size < 4:
-        return CrossCheck("logarithmic decrement", float("nan"), float("nan"), float(idx.size), "fewer than 4 peaks above noise")
+        return CrossCheck(
+            "logarithmic decrement", float("nan"), float("nan"), float(idx.size), "fewer than 4 peaks above noise"
+        )
     a, b, c = x[idx - 1], x[idx], x[idx + 1]  # parabolic refinement of each maximum
     den = np.where(a - 2 * b + c != 0, a - 2 * b + c, -1.0)
     shift = 0.5 * (a - c) / den
@@ -85,7 +87,9 @@ def log_decrement(t: np.ndarray, y: np.ndarray, f0_hz: float, noise_std: float) 
     cycles = np.round((tt - tt[0]) * f0_hz)  # a maximum lost in noise must not shorten the period
     period = np.polyfit(cycles, tt, 1)[0]
     f, zeta = _modal(-slope, 2 * math.pi / period)
-    return CrossCheck("logarithmic decrement", f, zeta, float(cycles[-1]), f"{tt.size} maxima above {PEAK_SNR:g} noise sd")
+    return CrossCheck(
+        "logarithmic decrement", f, zeta, float(cycles[-1]), f"{tt.size} maxima above {PEAK_SNR:g} noise sd"
+    )
 
 
 def hilbert_envelope(t: np.ndarray, y: np.ndarray, f0_hz: float, noise_std: float) -> CrossCheck:
@@ -97,7 +101,7 @@ def hilbert_envelope(t: np.ndarray, y: np.ndarray, f0_hz: float, noise_std: floa
     x = sps.sosfiltfilt(sos, u.value - u.value.mean(), padlen=min(3 * (2 * len(sos) + 1), u.value.size - 1))
     z = sps.hilbert(x)
     env, phase = np.abs(z), np.unwrap(np.angle(z))
-    edge = int(round(u.fs_hz / f0_hz))
+    edge = round(u.fs_hz / f0_hz)
     keep = np.zeros(x.size, bool)
     keep[edge : x.size - edge] = True
     keep &= env > PEAK_SNR * noise_std

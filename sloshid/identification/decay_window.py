@@ -9,8 +9,8 @@ from scipy import ndimage
 from scipy import signal as sps
 
 from sloshid.core.errors import UserError
-from sloshid.identification.signals import Signal
 from sloshid.core.spectrum import to_uniform
+from sloshid.identification.signals import Signal
 
 SEGMENT_S = 4.0
 """Length of the segments scanned for the rough mode frequency (several periods of any lab sloshing mode)."""
@@ -67,8 +67,8 @@ def rough_mode_frequency(sig: Signal, f_range_hz: tuple[float, float]) -> float:
     u = to_uniform(sig.t_s, sig.value)
     if np.ptp(u.value) == 0:
         raise UserError(f"{sig.source}: '{sig.label}' is constant, so there is no oscillation to identify.")
-    n_seg = min(u.value.size, int(round(SEGMENT_S * u.fs_hz)))
-    step = max(1, int(round(u.fs_hz)))
+    n_seg = min(u.value.size, round(SEGMENT_S * u.fs_hz))
+    step = max(1, round(u.fs_hz))
     starts = list(range(0, u.value.size - n_seg + 1, step)) or [0]
     stds = np.array([np.std(sps.detrend(u.value[s : s + n_seg])) for s in starts])
     active = np.flatnonzero(stds >= 3 * stds.min()) if stds.min() > 0 else np.arange(len(starts))
@@ -101,7 +101,7 @@ def find_decay_window(sig: Signal, f_guess_hz: float, noise_std: float, drift: b
     the final resting level by more than half the ringing amplitude and by more than the noise.
     """
     u = to_uniform(sig.t_s, sig.value)
-    n = max(3, int(round(u.fs_hz / f_guess_hz)))
+    n = max(3, round(u.fs_hz / f_guess_hz))
     slow = period_mean(u.t_s, u.value, 1.0 / f_guess_hz)
     amp = _swing(u.value, n)
     if drift:  # a zero that creeps steadily is not forcing: measure departures from its straight line
@@ -140,7 +140,7 @@ def extend_tail(sig: Signal, win: DecayWindow, f_hz: float, decay_rate_1_s: floa
     """The automatic window carried TAIL_TIME_CONSTANTS decay time constants past its fade, stopping early before the
     signal swings well above the fade level again (a later disturbance) and at the end of the data."""
     u = to_uniform(sig.t_s, sig.value)
-    n = max(3, int(round(u.fs_hz / f_hz)))
+    n = max(3, round(u.fs_hz / f_hz))
     amp = _swing(u.value, n)
     i1 = int(np.searchsorted(u.t_s, win.t1_s))
     rise = np.flatnonzero(amp[i1:] > RISE_FACTOR * END_NOISE_FACTOR * noise_std)

@@ -4,22 +4,29 @@ each with an honest 95 % interval and a good/uncertain verdict (scikit-learn sty
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any
 
 import numpy as np
 from scipy import stats
 
 from sloshid import __version__
-from sloshid.identification.crosschecks import CrossCheck, half_power, hilbert_envelope, log_decrement
-from sloshid.identification.decay_window import DecayWindow, extend_tail, find_decay_window, rough_mode_frequency, user_window
 from sloshid.core.errors import UserError
-from sloshid.model.pendulum import G, SloshParams, cylinder_first_mode_omega, linear_tf, linear_tf_coeffs
+from sloshid.core.spectrum import MIN_PROMINENCE, Spectrum, welch_spectrum
+from sloshid.identification.crosschecks import CrossCheck, half_power, hilbert_envelope, log_decrement
+from sloshid.identification.decay_window import (
+    DecayWindow,
+    extend_tail,
+    find_decay_window,
+    rough_mode_frequency,
+    user_window,
+)
 from sloshid.identification.pt2fit import Z95, PT2Fit, WindowData, autocorrelation, fit_pt2
 from sloshid.identification.second_mode import SecondMode, resolve_second_mode, strong_peaks
 from sloshid.identification.signals import Signal, load_signal
-from sloshid.core.spectrum import MIN_PROMINENCE, Spectrum, welch_spectrum
+from sloshid.model.pendulum import G, SloshParams, cylinder_first_mode_omega, linear_tf, linear_tf_coeffs
 
 MIN_PERIODS_ERROR = 3.0
 NO_MODE_SNR = 5.0
@@ -196,7 +203,8 @@ class IdentResult:
             },
             "second_mode": self.second_mode.to_json_dict() if self.second_mode is not None else None,
             "fit": {
-                "model": "a exp(-zeta omega t) cos(omega sqrt(1-zeta^2) t + phase) + offset" + (" + drift t" if self.fit.drift else "")
+                "model": "a exp(-zeta omega t) cos(omega sqrt(1-zeta^2) t + phase) + offset"
+                + (" + drift t" if self.fit.drift else "")
                 + (" + a2 exp(-zeta2 omega2 t) cos(omega2 sqrt(1-zeta2^2) t + phase2)" if self.fit.second else ""),
                 "fit_percent": float(np.mean([self.fit_percent(i) for i in range(len(self.signals))])),
                 "ljung_box_p": float(min(self.ljung_box)),
@@ -213,7 +221,9 @@ class IdentResult:
         """Readable multi-line summary for stdout."""
         lines = [f"sloshid identify: {len(self.signals)} signal(s)"]
         for sig, w in zip(self.signals, self.windows):
-            lines.append(f"  {sig.source}: {sig.label} [{sig.unit or 'no unit'}], window {w.t0_s:.2f}-{w.t1_s:.2f} s ({w.chosen_by})")
+            lines.append(
+                f"  {sig.source}: {sig.label} [{sig.unit or 'no unit'}], window {w.t0_s:.2f}-{w.t1_s:.2f} s ({w.chosen_by})"
+            )
         units = {"f_hz": "Hz", "omega_rad_s": "rad/s", "zeta": "", "l_m": "m", "d_ns_per_m": "N s/m"}
         for key, est in self.parameters.items():
             lines.append(
@@ -261,7 +271,9 @@ class IdentResult:
         ax.semilogy(model.f_hz, model.psd, color="tab:orange", lw=1.2, label=f"fitted {what} response (same Welch)")
         if self.fit.second:
             ax.axvline(self.fit.second.omega_rad_s / (2 * math.pi), color="tab:red", ls=":", label="second mode")
-        ax.axvline(self.parameters["f_hz"].value, color="tab:blue", ls=":", label=f"f = {self.parameters['f_hz'].value:.4g} Hz")
+        ax.axvline(
+            self.parameters["f_hz"].value, color="tab:blue", ls=":", label=f"f = {self.parameters['f_hz'].value:.4g} Hz"
+        )
         for p in sp.secondary:
             ax.plot(p.f_hz, p.psd, "v", color="tab:purple" if p.harmonic else "tab:red", ms=6)
         top = sp.peak_psd * 3
@@ -278,7 +290,9 @@ class IdentResult:
         win = self.window_signal(i)
         ax.plot(win.t_s, win.value, ".", ms=2, color="0.3", label="measured")
         what = "two-mode fit" if self.fit.second else "PT2 fit"
-        ax.plot(win.t_s, self.fit.fitted[i], color="tab:orange", lw=1, label=f"{what} ({self.fit_percent(i):.1f} % fit)")
+        ax.plot(
+            win.t_s, self.fit.fitted[i], color="tab:orange", lw=1, label=f"{what} ({self.fit_percent(i):.1f} % fit)"
+        )
         ax.plot(win.t_s, self.fit.residuals[i], color="tab:red", lw=0.5, alpha=0.6, label="residual")
         ax.set_xlabel("t (s)")
         ax.set_ylabel(_ylabel(self.signals[i]))
@@ -340,7 +354,7 @@ class Identifier:
     def __init__(self, settings: IdentSettings | None = None, **overrides: Any):
         self.settings = settings if settings is not None else IdentSettings(**overrides)
 
-    def fit(self, signals: Signal | str | Path | Sequence[Signal | str | Path]) -> "Identifier":
+    def fit(self, signals: Signal | str | Path | Sequence[Signal | str | Path]) -> Identifier:
         """Find windows and spectra, fit the PT2 response jointly, derive parameters, judge quality.
 
         Accepts Signal objects or file paths (read with load_signal's defaults)."""
@@ -371,7 +385,9 @@ class Identifier:
                     f"periods ({f_guess:.3g} Hz) stand above the noise."
                 )
             if part.t_s.size < 16:
-                raise UserError(f"{sig.source}: the window {win.t0_s:g}-{win.t1_s:g} s holds only {part.t_s.size} samples.")
+                raise UserError(
+                    f"{sig.source}: the window {win.t0_s:g}-{win.t1_s:g} s holds only {part.t_s.size} samples."
+                )
             spec = welch_spectrum(part.t_s, part.value, st.f_range_hz)
             periods = win.duration_s * spec.peak_f_hz
             if spec.prominence >= MIN_PROMINENCE and periods < MIN_PERIODS_ERROR:
@@ -423,7 +439,9 @@ class Identifier:
         self.params_ = self.result_.params
         return self
 
-    def _assemble(self, sigs, windows, parts, spectra, noise_std, fit: PT2Fit, second: SecondMode | None) -> IdentResult:
+    def _assemble(
+        self, sigs, windows, parts, spectra, noise_std, fit: PT2Fit, second: SecondMode | None
+    ) -> IdentResult:
         """Derived parameters with delta-method errors, cross-checks and the verdict."""
         st = self.settings
         omega, zeta = fit.omega_rad_s, fit.zeta
@@ -438,7 +456,7 @@ class Identifier:
             grad = np.array([2 * st.mass_kg * zeta, 2 * st.mass_kg * omega])
             params["d_ns_per_m"] = _estimate(2 * st.mass_kg * omega * zeta, math.sqrt(grad @ fit.cov @ grad), floor=0.0)
         checks, lb, lb_lags = [], [], []
-        for i, (p, sp) in enumerate(zip(parts, spectra)):
+        for i, (p, _sp) in enumerate(zip(parts, spectra)):
             base = fit.linear[i][2] + (fit.linear[i][3] * (p.t_s - windows[i].t0_s) if fit.drift else 0.0)
             if fit.second:  # the cross-checks judge the main mode, so the fitted second mode is taken out first
                 base = base + fit.second_fitted[i]
@@ -455,9 +473,18 @@ class Identifier:
             h = int(min(max(10, round(sigs[i].rate_hz / f_fit)), fit.residuals[i].size // 5))
             lb_lags.append(h)
             lb.append(ljung_box_p(fit.residuals[i], h))
-        quality, reasons, notes = judge(st, sigs, windows, spectra, fit, params, checks, lb, [
-            fit.fit_percent(i, p.value) for i, p in enumerate(parts)
-        ], second)
+        quality, reasons, notes = judge(
+            st,
+            sigs,
+            windows,
+            spectra,
+            fit,
+            params,
+            checks,
+            lb,
+            [fit.fit_percent(i, p.value) for i, p in enumerate(parts)],
+            second,
+        )
         for s in sigs:
             notes.extend(s.warnings)
         prior = {}
@@ -503,8 +530,11 @@ def judge(st, sigs, windows, spectra, fit, params, checks, lb, fits, second=None
         if periods < st.min_periods:
             reasons.append(f"{name}: only {periods:.1f} periods in the window (fewer than {st.min_periods:g}).")
         # a peak the fitted second mode accounts for (within one bin) is no longer a doubt; any other one is
-        strong = [p for p in strong_peaks(spectra[i], st.second_mode_ratio)
-                  if f2 is None or abs(p.f_hz - f2) > spectra[i].resolution_hz]
+        strong = [
+            p
+            for p in strong_peaks(spectra[i], st.second_mode_ratio)
+            if f2 is None or abs(p.f_hz - f2) > spectra[i].resolution_hz
+        ]
         if strong:
             p = strong[0]
             why = "; ".join(second.problems) if second is not None and not second.separated else ""
@@ -519,13 +549,17 @@ def judge(st, sigs, windows, spectra, fit, params, checks, lb, fits, second=None
             )
         for c in checks[i]:
             if c.n_periods >= CROSS_CHECK_MIN_PERIODS and math.isfinite(c.f_hz) and abs(c.f_hz - f) > 0.02 * f:
-                reasons.append(f"{name}: {c.method} gives f = {c.f_hz:.4g} Hz, more than 2 % from the fit's {f:.4g} Hz.")
+                reasons.append(
+                    f"{name}: {c.method} gives f = {c.f_hz:.4g} Hz, more than 2 % from the fit's {f:.4g} Hz."
+                )
         snr = fit.amplitude(i) / fit.amplitude_se(i)
         if snr < AMPLITUDE_SNR:
             reasons.append(f"{name}: the fitted amplitude is only {snr:.1f} standard errors above zero.")
     for name in fit.at_bound:
         if name == "zeta" and fit.zeta < 0.5:  # the lower bound: no decay, or a growing amplitude, in the window
-            reasons.append("zeta ended on its search bound 0: the oscillation does not decay in the window (no free decay).")
+            reasons.append(
+                "zeta ended on its search bound 0: the oscillation does not decay in the window (no free decay)."
+            )
         else:
             reasons.append(f"{name} ended on its search bound.")
     z = params["zeta"]

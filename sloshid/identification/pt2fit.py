@@ -9,6 +9,7 @@ serially correlated (video tracking noise, unmodelled harmonics).
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import dataclass
 
 import numpy as np
@@ -124,7 +125,7 @@ class _JointModel:
         self.nl = (4 if drift else 3) + 2 * (n_modes - 1)
         self.drift = drift
         ends = np.cumsum([0] + [t.size for t in self.t])
-        self.blocks = [slice(a, b) for a, b in zip(ends[:-1], ends[1:])]
+        self.blocks = [slice(a, b) for a, b in itertools.pairwise(ends)]
         """Rows of each window in the stacked residual vector."""
 
     def modes(self, x: np.ndarray) -> np.ndarray:
@@ -255,20 +256,30 @@ def _solve(model: _JointModel, starts: list[tuple[float, ...]], lower_q, upper_q
     for q in screened:
         x0 = model.linear_start(tuple(np.clip(q, lower_q, upper_q)))
         res = optimize.least_squares(
-            model.residuals, x0, jac=model.jacobian, bounds=(lower, upper), x_scale="jac", method="trf", tr_solver="lsmr",
-            xtol=1e-12, ftol=1e-12, gtol=1e-12, max_nfev=200,
+            model.residuals,
+            x0,
+            jac=model.jacobian,
+            bounds=(lower, upper),
+            x_scale="jac",
+            method="trf",
+            tr_solver="lsmr",
+            xtol=1e-12,
+            ftol=1e-12,
+            gtol=1e-12,
+            max_nfev=200,
         )
         if best is None or res.cost < best.cost:
             best = res
     x = best.x
     resid = model.residuals(x)
     jac = model.jacobian(x)
-    periods = [max(2, int(round(2 * np.pi / x[0] / np.median(np.diff(t))))) for t in model.t]
+    periods = [max(2, round(2 * np.pi / x[0] / np.median(np.diff(t)))) for t in model.t]
     cov, naive, lags = hac_covariance(jac, resid, model.blocks, periods)
     se = np.sqrt(np.clip(np.diag(cov), 0, None))
     names = ("omega", "zeta", "omega2", "zeta2")
     at_bound = [
-        names[i] for i in range(model.nq)
+        names[i]
+        for i in range(model.nq)
         if x[i] - lower[i] < 1e-6 * (upper[i] - lower[i]) or upper[i] - x[i] < 1e-6 * (upper[i] - lower[i])
     ]
     lins = model.split(x)
@@ -280,9 +291,20 @@ def _solve(model: _JointModel, starts: list[tuple[float, ...]], lower_q, upper_q
             np.column_stack(_damped(t, x[2], x[3])) @ lin[_mode_cols(1, model.nl)] for t, lin in zip(model.t, lins)
         )
     return PT2Fit(
-        float(x[0]), float(x[1]), cov[:2, :2], naive[:2, :2], tuple(lins), tuple(model.split(se)), tuple(fitted),
-        tuple(y - f for y, f in zip(model.y, fitted)), tuple(lags), model.drift, tuple(at_bound), len(screened),
-        second, second_fitted,
+        float(x[0]),
+        float(x[1]),
+        cov[:2, :2],
+        naive[:2, :2],
+        tuple(lins),
+        tuple(model.split(se)),
+        tuple(fitted),
+        tuple(y - f for y, f in zip(model.y, fitted)),
+        tuple(lags),
+        model.drift,
+        tuple(at_bound),
+        len(screened),
+        second,
+        second_fitted,
     )
 
 

@@ -29,10 +29,23 @@ def build_report(res: IdentResult) -> Report:
     rows = []
     for sig in res.signals:
         s = sig.sampling()
-        rows.append([Path(sig.source).name, f"{sig.label} ({sig.unit or '-'})", s["n_samples"], s["duration_s"],
-                     s["rate_hz"], 1000 * s["timestamp_jitter_s"], s["n_gaps"], s["n_dropped"]])
-    rep.add_table(["file", "signal", "samples", "duration (s)", "rate (Hz)", "timestamp jitter (ms)",
-                   "gaps", "dropped samples"], rows, "Gaps are time steps longer than 1.5 nominal steps.")
+        rows.append(
+            [
+                Path(sig.source).name,
+                f"{sig.label} ({sig.unit or '-'})",
+                s["n_samples"],
+                s["duration_s"],
+                s["rate_hz"],
+                1000 * s["timestamp_jitter_s"],
+                s["n_gaps"],
+                s["n_dropped"],
+            ]
+        )
+    rep.add_table(
+        ["file", "signal", "samples", "duration (s)", "rate (Hz)", "timestamp jitter (ms)", "gaps", "dropped samples"],
+        rows,
+        "Gaps are time steps longer than 1.5 nominal steps.",
+    )
     for note in res.notes:
         rep.add_text(note, "meta")
 
@@ -55,8 +68,11 @@ def build_report(res: IdentResult) -> Report:
         )
         fig, ax = plt.subplots(figsize=(9, 3.2))
         res.plot_fit(i, ax)
-        rep.add_figure(fig, f"Time-domain fit: {res.fit_percent(i):.1f} % fit (NRMSE; 100 % = perfect, 0 % = no "
-                       "better than the mean). The residual (red) should look like noise.")
+        rep.add_figure(
+            fig,
+            f"Time-domain fit: {res.fit_percent(i):.1f} % fit (NRMSE; 100 % = perfect, 0 % = no "
+            "better than the mean). The residual (red) should look like noise.",
+        )
         fig, ax = plt.subplots(figsize=(9, 2.8))
         res.plot_residual_acf(i, ax)
         rep.add_figure(
@@ -71,32 +87,47 @@ def build_report(res: IdentResult) -> Report:
     rows = [[k, units[k], e.value, e.stderr, e.ci95[0], e.ci95[1]] for k, e in res.parameters.items()]
     if res.mass_kg is not None:
         rows.append(["m_kg", "kg", res.mass_kg, "given", "", ""])
-    rep.add_table(["parameter", "unit", "value", "sigma", "95 % low", "95 % high"], rows,
-                  "Standard errors from a Newey-West sandwich covariance that allows correlated residuals; derived "
-                  "values by the delta method.")
+    rep.add_table(
+        ["parameter", "unit", "value", "sigma", "95 % low", "95 % high"],
+        rows,
+        "Standard errors from a Newey-West sandwich covariance that allows correlated residuals; derived "
+        "values by the delta method.",
+    )
     if res.mass_kg is None:
         rep.add_text("No --mass given, so the damping constant d is not reported (it scales with the liquid mass).")
 
     if res.second_mode is not None:
         sm, m = res.second_mode, res.second_mode.to_json_dict()
         rep.add_heading("Second mode")
-        rows = [["second mode f2 (Hz)", m["f_hz"]["value"], m["f_hz"]["stderr"]],
-                ["second mode zeta2", m["zeta"]["value"], m["zeta"]["stderr"]],
-                ["main mode f without the second mode (Hz)", m["single_mode_f_hz"], ""]]
-        rows += [[f"amplitude share A2/(A1+A2), {Path(res.signals[i].source).name}", share, ""]
-                 for i, share in enumerate(m["amplitude_share"])]
-        rep.add_table(["", "value", "sigma"], rows,
-                      f"The PSD of {Path(res.signals[sm.signal].source).name} showed a non-harmonic peak at "
-                      f"{sm.peak.f_hz:.4g} Hz ({100 * sm.peak.relative:.0f} % of the main peak), so two damped modes "
-                      "were fitted together.")
+        rows = [
+            ["second mode f2 (Hz)", m["f_hz"]["value"], m["f_hz"]["stderr"]],
+            ["second mode zeta2", m["zeta"]["value"], m["zeta"]["stderr"]],
+            ["main mode f without the second mode (Hz)", m["single_mode_f_hz"], ""],
+        ]
+        rows += [
+            [f"amplitude share A2/(A1+A2), {Path(res.signals[i].source).name}", share, ""]
+            for i, share in enumerate(m["amplitude_share"])
+        ]
+        rep.add_table(
+            ["", "value", "sigma"],
+            rows,
+            f"The PSD of {Path(res.signals[sm.signal].source).name} showed a non-harmonic peak at "
+            f"{sm.peak.f_hz:.4g} Hz ({100 * sm.peak.relative:.0f} % of the main peak), so two damped modes "
+            "were fitted together.",
+        )
         rep.add_text(
             "The modes count as separated, and the main mode's numbers above come from the two-mode fit, when both "
             "modes stay off their search bounds, lie at least two Welch resolution bins apart, the second mode's "
             "amplitude stands three standard errors out, the two frequency intervals do not overlap and the main "
             "mode's intervals widen no more than two-fold. "
-            + ("Here they are separated." if sm.separated else
-               "Here they are not (" + "; ".join(sm.problems) + "), so the numbers above come from the single-mode "
-               "fit and the verdict is uncertain.")
+            + (
+                "Here they are separated."
+                if sm.separated
+                else "Here they are not ("
+                + "; ".join(sm.problems)
+                + "), so the numbers above come from the single-mode "
+                "fit and the verdict is uncertain."
+            )
         )
 
     rep.add_heading("Cross-checks")
@@ -104,22 +135,36 @@ def build_report(res: IdentResult) -> Report:
     for i, checks in enumerate(res.cross_checks):
         for c in checks:
             rows.append([f"{c.method} ({Path(res.signals[i].source).name})", c.f_hz, c.zeta, c.n_periods, c.note])
-    rep.add_table(["method", "f (Hz)", "zeta", "periods used", "note"], rows,
-                  "Independent estimates; nan means the method could not tell (see note). The frequencies should agree "
-                  "within about 2 %; a method that could use fewer than 8 periods is too coarse to overrule the fit.")
+    rep.add_table(
+        ["method", "f (Hz)", "zeta", "periods used", "note"],
+        rows,
+        "Independent estimates; nan means the method could not tell (see note). The frequencies should agree "
+        "within about 2 %; a method that could use fewer than 8 periods is too coarse to overrule the fit.",
+    )
 
     rep.add_heading("Identified model (seed eq. 5)")
     axes = res.plot_bode()
-    rep.add_figure(axes[0].figure, "Bode plot of H(s) = (1/g) / ((l/g) s^2 + (d l/(g m)) s + 1): surface angle (rad) "
-                   "per container acceleration (m/s^2), from python-control.")
+    rep.add_figure(
+        axes[0].figure,
+        "Bode plot of H(s) = (1/g) / ((l/g) s^2 + (d l/(g m)) s + 1): surface angle (rad) "
+        "per container acceleration (m/s^2), from python-control.",
+    )
     if res.prior:
         p = res.prior
         rep.add_heading("Geometric prior")
-        rep.add_table(["", "f (Hz)", "l (m)"],
-                      [["cylinder, R = %g m, h = %g m" % (p["container_radius_m"], p["fill_height_m"]), p["f_hz"], p["l_m"]],
-                       ["identified", res.parameters["f_hz"].value, res.parameters["l_m"].value]],
-                      f"Analytic first mode omega^2 = (g xi/R) tanh(xi h/R), xi = 1.8412; identified/prior = "
-                      f"{p['identified_over_prior']:.3f}.")
+        rep.add_table(
+            ["", "f (Hz)", "l (m)"],
+            [
+                [
+                    "cylinder, R = {:g} m, h = {:g} m".format(p["container_radius_m"], p["fill_height_m"]),
+                    p["f_hz"],
+                    p["l_m"],
+                ],
+                ["identified", res.parameters["f_hz"].value, res.parameters["l_m"].value],
+            ],
+            f"Analytic first mode omega^2 = (g xi/R) tanh(xi h/R), xi = 1.8412; identified/prior = "
+            f"{p['identified_over_prior']:.3f}.",
+        )
     if not math.isfinite(res.parameters["f_hz"].stderr):
         rep.add_text("The frequency's standard error is not finite: the fit is degenerate.")
     return rep

@@ -8,8 +8,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from sloshid.identification.pt2fit import Z95, PT2Fit, WindowData, fit_two_modes
 from sloshid.core.spectrum import SpectralPeak, Spectrum
+from sloshid.identification.pt2fit import Z95, PT2Fit, WindowData, fit_two_modes
 
 MIN_SEPARATION_BINS = 2.0
 """The fitted modes must lie at least this many Welch resolution bins apart (about four beats in the window):
@@ -54,7 +54,11 @@ class SecondMode:
             "separated": self.separated,
             "problems": list(self.problems),
             "f_hz": {"value": f, "stderr": float(sf), "ci95": [f - Z95 * sf, f + Z95 * sf]},
-            "zeta": {"value": m.zeta, "stderr": float(se_z), "ci95": [max(0.0, m.zeta - Z95 * se_z), m.zeta + Z95 * se_z]},
+            "zeta": {
+                "value": m.zeta,
+                "stderr": float(se_z),
+                "ci95": [max(0.0, m.zeta - Z95 * se_z), m.zeta + Z95 * se_z],
+            },
             "amplitude_share": [self.amplitude_share(i) for i in range(len(self.fit.linear))],
             "single_mode_f_hz": self.single.omega_rad_s / (2 * math.pi),
             "single_mode_zeta": self.single.zeta,
@@ -65,9 +69,15 @@ class SecondMode:
         m = self.fit.second
         se_f = math.sqrt(max(m.cov[0, 0], 0)) / (2 * math.pi)
         share = ", ".join(f"{100 * self.amplitude_share(i):.0f} %" for i in range(len(self.fit.linear)))
-        head = (f"second mode: f2 = {m.omega_rad_s / (2 * math.pi):.4g} ± {se_f:.2g} Hz, zeta2 = {m.zeta:.3g}, "
-                f"amplitude share {share}")
-        return head + (" (fitted beside the main mode)" if self.separated else " (not separated, main mode from the single-mode fit)")
+        head = (
+            f"second mode: f2 = {m.omega_rad_s / (2 * math.pi):.4g} ± {se_f:.2g} Hz, zeta2 = {m.zeta:.3g}, "
+            f"amplitude share {share}"
+        )
+        return head + (
+            " (fitted beside the main mode)"
+            if self.separated
+            else " (not separated, main mode from the single-mode fit)"
+        )
 
 
 def strong_peaks(spectrum: Spectrum, ratio: float) -> list[SpectralPeak]:

@@ -72,7 +72,7 @@ class Signal:
             "n_dropped": self.n_dropped,
         }
 
-    def between(self, t0: float, t1: float) -> "Signal":
+    def between(self, t0: float, t1: float) -> Signal:
         """The part of the signal with t0 <= t <= t1."""
         keep = (self.t_s >= t0) & (self.t_s <= t1)
         return replace(self, t_s=self.t_s[keep], value=self.value[keep])
@@ -243,5 +243,5 @@ def _load_csv(p: Path, time_col: str | None, value_col: str | None) -> Signal:
     unit = unit_from_name(label)
     sig = make_signal(t, y, label, unit, str(p), n_dropped=dropped)
     if dropped:
-        sig = replace(sig, warnings=sig.warnings + (f"{p}: skipped {dropped} tracker frames with valid = 0.",))
+        sig = replace(sig, warnings=(*sig.warnings, f"{p}: skipped {dropped} tracker frames with valid = 0."))
     return sig

@@ -13,9 +13,10 @@ from __future__ import annotations
 
 import json
 import math
+from collections.abc import Callable
 from dataclasses import asdict, dataclass
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any
 
 import numpy as np
 
@@ -68,13 +69,13 @@ class SloshParams:
         return self.d_ns_per_m / self.m_kg
 
     @classmethod
-    def from_modal(cls, omega_rad_s: float, zeta: float, m_kg: float = 1.0) -> "SloshParams":
+    def from_modal(cls, omega_rad_s: float, zeta: float, m_kg: float = 1.0) -> SloshParams:
         """Build from natural frequency and damping ratio (seed eq. 6-7); m only scales d."""
         if not (omega_rad_s > 0):
             raise UserError(f"omega must be positive, got {omega_rad_s!r}.")
         return cls(m_kg=m_kg, l_m=G / omega_rad_s**2, d_ns_per_m=2 * m_kg * omega_rad_s * zeta)
 
-    def scaled(self, omega_factor: float = 1.0, zeta_factor: float = 1.0) -> "SloshParams":
+    def scaled(self, omega_factor: float = 1.0, zeta_factor: float = 1.0) -> SloshParams:
         """The same liquid with its natural frequency and damping ratio multiplied (model-error studies)."""
         return SloshParams.from_modal(self.omega_rad_s * omega_factor, self.zeta * zeta_factor, self.m_kg)
 
@@ -83,7 +84,7 @@ class SloshParams:
         return {**asdict(self), "omega_rad_s": self.omega_rad_s, "f_hz": self.f_hz, "zeta": self.zeta}
 
     @classmethod
-    def from_identify_json(cls, path: str | Path) -> "SloshParams":
+    def from_identify_json(cls, path: str | Path) -> SloshParams:
         """Read the parameters written by `sloshid identify` (values of `parameters.{omega_rad_s,zeta,m_kg}`)."""
         try:
             data = json.loads(Path(path).read_text(encoding="utf-8"))
@@ -127,9 +128,7 @@ def pendulum_rhs_1d(t: float, y: np.ndarray, u: Callable[[float], float], params
     return [y[1], angle_accel(y[0], y[1], u(t), params)]
 
 
-def pendulum_rhs_3d(
-    o: Any, u: Any, params: SloshParams, sin: Callable = np.sin, cos: Callable = np.cos
-) -> list[Any]:
+def pendulum_rhs_3d(o: Any, u: Any, params: SloshParams, sin: Callable = np.sin, cos: Callable = np.cos) -> list[Any]:
     """Reconstructed seed eq. 3: o = [x,y,z,phi,theta,psi, x',y',z',phi',theta',psi'], u = [ux,uy,uz].
 
     Returns the 12 time derivatives as a list (stack with np.array or casadi.vertcat).

@@ -15,7 +15,6 @@ from scipy.integrate import solve_ivp
 from sloshid.model.pendulum import G, SloshParams, angle_accel
 from sloshid.model.trajectory import Trajectory
 
-
 MAX_STEP_S = 5e-3
 """Largest integrator step: far below any move's duration, so no acceleration phase can be stepped over."""
 
@@ -84,8 +83,16 @@ def simulate_liquid(
 
     # max_step only keeps the integrator from stepping over a move that starts after an idle lead-in;
     # accuracy comes from rtol/atol (5 ms steps agree with 2 ms steps to 1e-6 deg on the bundled moves)
-    sol = solve_ivp(rhs, (t_all[0], t_all[-1]), np.zeros(4), method="DOP853", t_eval=t_all,
-                    rtol=rtol, atol=atol, max_step=max(2 * dt, MAX_STEP_S))  # fmt: skip
+    sol = solve_ivp(
+        rhs,
+        (t_all[0], t_all[-1]),
+        np.zeros(4),
+        method="DOP853",
+        t_eval=t_all,
+        rtol=rtol,
+        atol=atol,
+        max_step=max(2 * dt, MAX_STEP_S),
+    )
     if not sol.success:  # pragma: no cover - DOP853 on this smooth problem does not fail
         raise RuntimeError(f"liquid simulation failed: {sol.message}")
     liquid = sol.y[:2].T

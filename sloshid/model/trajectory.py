@@ -16,14 +16,32 @@ from sloshid.core.errors import UserError
 from sloshid.core.tables import read_csv, write_csv
 
 CSV_COLUMNS = (
-    "t_s", "x_m", "y_m", "z_m", "vx_m_s", "vy_m_s", "vz_m_s", "ax_m_s2", "ay_m_s2", "az_m_s2",
-    "phi_rad", "theta_rad", "psi_rad", "wx_rad_s", "wy_rad_s", "wz_rad_s", "qx", "qy", "qz", "qw",
-)  # fmt: skip
+    "t_s",
+    "x_m",
+    "y_m",
+    "z_m",
+    "vx_m_s",
+    "vy_m_s",
+    "vz_m_s",
+    "ax_m_s2",
+    "ay_m_s2",
+    "az_m_s2",
+    "phi_rad",
+    "theta_rad",
+    "psi_rad",
+    "wx_rad_s",
+    "wy_rad_s",
+    "wz_rad_s",
+    "qx",
+    "qy",
+    "qz",
+    "qw",
+)
 
 
 def euler_rates_to_omega(euler_rad: np.ndarray, rates_rad_s: np.ndarray) -> np.ndarray:
     """World-frame angular velocity of R = Rz(psi) Ry(theta) Rx(phi) from (phi, theta, psi) and their rates."""
-    phi, theta, psi = np.moveaxis(np.atleast_2d(euler_rad), -1, 0)
+    _phi, theta, psi = np.moveaxis(np.atleast_2d(euler_rad), -1, 0)
     dphi, dtheta, dpsi = np.moveaxis(np.atleast_2d(rates_rad_s), -1, 0)
     cps, sps, cth, sth = np.cos(psi), np.sin(psi), np.cos(theta), np.sin(theta)
     wx = -sps * dtheta + cps * cth * dphi
@@ -96,7 +114,7 @@ class Trajectory:
         write_csv(path, dict(zip(CSV_COLUMNS, self.table().T)))
 
     @classmethod
-    def from_csv(cls, path: str | Path, name: str = "") -> "Trajectory":
+    def from_csv(cls, path: str | Path, name: str = "") -> Trajectory:
         """Read a CSV written by `to_csv` (euler rates are recovered from the angular velocity)."""
         data = read_csv(path)
         missing = [c for c in CSV_COLUMNS if c not in data]
@@ -107,9 +125,14 @@ class Trajectory:
         omega = col("wx_rad_s", "wy_rad_s", "wz_rad_s")
         rates = np.linalg.solve(_omega_matrix(euler), omega[..., None])[..., 0]
         return cls(
-            data["t_s"], col("x_m", "y_m", "z_m"), col("vx_m_s", "vy_m_s", "vz_m_s"),
-            col("ax_m_s2", "ay_m_s2", "az_m_s2"), euler, rates, name=name or Path(path).stem,
-        )  # fmt: skip
+            data["t_s"],
+            col("x_m", "y_m", "z_m"),
+            col("vx_m_s", "vy_m_s", "vz_m_s"),
+            col("ax_m_s2", "ay_m_s2", "az_m_s2"),
+            euler,
+            rates,
+            name=name or Path(path).stem,
+        )
 
 
 def _omega_matrix(euler_rad: np.ndarray) -> np.ndarray:

@@ -12,16 +12,16 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from types import SimpleNamespace
-from typing import Sequence
 
 import casadi as ca
 import numpy as np
 
 from sloshid.model.pendulum import G, SloshParams, angle_accel, pendulum_rhs_3d
-from sloshid.planning.scenario import Limits, Obstacle, SolverSettings
 from sloshid.model.trajectory import RobotLimits
+from sloshid.planning.scenario import Limits, Obstacle, SolverSettings
 
 OK_STATUSES = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
 ROBOT_MARGIN = 0.9
@@ -217,7 +217,9 @@ class SegmentSolver:
         P = ca.vertcat(l_p, c_p, k_r, k_j, k_b, k_z, rl, factors, sph, cyl)
         # a robust copy with omega*f and the same zeta has l/f^2 and damping rate c*f
         liquids = [SimpleNamespace(l_m=l_p, damping_rate_1_s=c_p)]
-        liquids += [SimpleNamespace(l_m=l_p / factors[i] ** 2, damping_rate_1_s=c_p * factors[i]) for i in range(s.n_robust)]
+        liquids += [
+            SimpleNamespace(l_m=l_p / factors[i] ** 2, damping_rate_1_s=c_p * factors[i]) for i in range(s.n_robust)
+        ]
 
         # one shooting interval, built once in SX and mapped over the grid (fast construction and evaluation)
         x, u, h = ca.SX.sym("x", nx), ca.SX.sym("u", nu), ca.SX.sym("h")
@@ -238,7 +240,7 @@ class SegmentSolver:
             run += k_z / 2 * acc[2] ** 2
         sub, sub_kinds = [], []
         if spheres or cylinders:
-            hard, soft = _obstacle_terms(x[lay.pos], spheres, cylinders)
+            _hard, soft = _obstacle_terms(x[lay.pos], spheres, cylinders)
             run += k_b * sum(_smooth_barrier(v) for v in soft)
             for i in range(1, s.clearance_points + 1):  # exact positions between the nodes
                 tau = h * i / (s.clearance_points + 1)
@@ -294,12 +296,25 @@ class SegmentSolver:
             kinds += sub_kinds * N
         w = ca.vertcat(ca.vec(X), ca.vec(U))
         opts = {
-            "ipopt.print_level": 0, "print_time": False, "ipopt.sb": "yes",
-            "ipopt.max_iter": s.max_iter, "ipopt.tol": s.tol, "ipopt.mu_strategy": "monotone", "ipopt.mu_init": 1e-3,
-        }  # fmt: skip
+            "ipopt.print_level": 0,
+            "print_time": False,
+            "ipopt.sb": "yes",
+            "ipopt.max_iter": s.max_iter,
+            "ipopt.tol": s.tol,
+            "ipopt.mu_strategy": "monotone",
+            "ipopt.mu_init": 1e-3,
+        }
         if s.warm:  # re-solves: expand to SX (slower to build once, about twice as fast per iteration)
-            opts.update({"expand": True, "ipopt.warm_start_init_point": "yes", "ipopt.mu_init": 1e-5, "ipopt.mu_strategy": "adaptive",
-                         "ipopt.warm_start_bound_push": 1e-6, "ipopt.warm_start_mult_bound_push": 1e-6})  # fmt: skip
+            opts.update(
+                {
+                    "expand": True,
+                    "ipopt.warm_start_init_point": "yes",
+                    "ipopt.mu_init": 1e-5,
+                    "ipopt.mu_strategy": "adaptive",
+                    "ipopt.warm_start_bound_push": 1e-6,
+                    "ipopt.warm_start_mult_bound_push": 1e-6,
+                }
+            )
         nlp = {"x": w, "f": N * X[nx, 0] + ca.sum2(cost_k), "g": ca.vertcat(*g), "p": Pm}
         self.nlp = ca.nlpsol("segment", "ipopt", nlp, opts)
         self.kinds = np.array(kinds)
@@ -318,12 +333,32 @@ class SegmentSolver:
         return np.concatenate([Xa.ravel(), U.ravel()])
 
     @staticmethod
-    def parameters(robot: RobotLimits, solver: SolverSettings, liquid: SloshParams, robust: Sequence[float],
-                   obstacles: Sequence[Obstacle], inflate_m: float) -> list[float]:  # fmt: skip
+    def parameters(
+        robot: RobotLimits,
+        solver: SolverSettings,
+        liquid: SloshParams,
+        robust: Sequence[float],
+        obstacles: Sequence[Obstacle],
+        inflate_m: float,
+    ) -> list[float]:
         """The NLP parameter vector p: liquid, weights, robot limits, robust factors, inflated obstacles."""
-        robot_p = [robot.vel_m_s, robot.acc_m_s2, robot.rot_vel_rad_s * ROBOT_MARGIN,
-                   robot.rot_acc_rad_s2 * ROBOT_MARGIN, robot.rot_jerk_rad_s3 * ROBOT_MARGIN]  # fmt: skip
-        params = [liquid.l_m, liquid.damping_rate_1_s, solver.kappa_r, solver.kappa_j, solver.kappa_B, solver.kappa_z, *robot_p, *robust]
+        robot_p = [
+            robot.vel_m_s,
+            robot.acc_m_s2,
+            robot.rot_vel_rad_s * ROBOT_MARGIN,
+            robot.rot_acc_rad_s2 * ROBOT_MARGIN,
+            robot.rot_jerk_rad_s3 * ROBOT_MARGIN,
+        ]
+        params = [
+            liquid.l_m,
+            liquid.damping_rate_1_s,
+            solver.kappa_r,
+            solver.kappa_j,
+            solver.kappa_B,
+            solver.kappa_z,
+            *robot_p,
+            *robust,
+        ]
         for o in obstacles:
             if o.kind == "sphere":
                 params += [*o.center, o.radius + inflate_m]
@@ -374,7 +409,13 @@ class SegmentSolver:
         lbx = self.join(T_bounds[0], lo, np.tile(-ulim, (s.N, 1)))
         ubx = self.join(T_bounds[1], hi, np.tile(ulim, (s.N, 1)))
         ubg_of = {"eq": 0.0, "clear": inf, "unit": 1.0, "norm": 1.0, "robust": math.radians(solver.robust_max_rel_deg)}
-        lbg_of = {"eq": 0.0, "clear": 0.0, "unit": -1.0, "norm": -inf, "robust": -math.radians(solver.robust_max_rel_deg)}
+        lbg_of = {
+            "eq": 0.0,
+            "clear": 0.0,
+            "unit": -1.0,
+            "norm": -inf,
+            "robust": -math.radians(solver.robust_max_rel_deg),
+        }
         ubg = np.array([ubg_of[k] for k in self.kinds])
         lbg = np.array([lbg_of[k] for k in self.kinds])
         params = self.parameters(robot, solver, liquid, robust, obstacles, inflate_m)

@@ -9,19 +9,19 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Sequence
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
-from typing import Sequence
 
 import numpy as np
 
 from sloshid.core.errors import UserError
-from sloshid.planning.sampling import sample_segments
 from sloshid.model.pendulum import G, SloshParams
-from sloshid.planning.ocp import SegmentResult, Structure, get_solver, segment_axis, time_lower_bound
-from sloshid.planning.scenario import Obstacle, Scenario
 from sloshid.model.simulate import LiquidResponse, simulate_liquid
 from sloshid.model.trajectory import LimitUsage, Trajectory, check_limits
+from sloshid.planning.ocp import SegmentResult, Structure, get_solver, segment_axis, time_lower_bound
+from sloshid.planning.sampling import sample_segments
+from sloshid.planning.scenario import Obstacle, Scenario
 
 VERIFY_DURING_DEG = 0.1
 """Largest relative liquid-container angle allowed while moving (issue 4)."""
@@ -85,13 +85,23 @@ class PlanResult:
             "max_tilt_rate_deg_s": self.max_tilt_rate_deg_s,
             "limits_ok": self.limits_ok,
             "limits": [
-                {"quantity": u.quantity, "peak": u.peak, "limit": u.limit, "usage": u.usage, "t_peak_s": u.t_peak_s, "ok": u.ok}
+                {
+                    "quantity": u.quantity,
+                    "peak": u.peak,
+                    "limit": u.limit,
+                    "usage": u.usage,
+                    "t_peak_s": u.t_peak_s,
+                    "ok": u.ok,
+                }
                 for u in self.limits
             ],
             "verification": {
-                "peak_during_deg": v.peak_during_deg, "residual_deg": v.residual_deg,
-                "during_max_deg": VERIFY_DURING_DEG, "after_max_deg": VERIFY_AFTER_DEG, "ok": self.verification_ok,
-            },  # fmt: skip
+                "peak_during_deg": v.peak_during_deg,
+                "residual_deg": v.residual_deg,
+                "during_max_deg": VERIFY_DURING_DEG,
+                "after_max_deg": VERIFY_AFTER_DEG,
+                "ok": self.verification_ok,
+            },
             "min_clearance_m": self.min_clearance_m,
             "robust_omega_factors": list(self.robust_omega_factors),
             "liquid": self.params.to_dict(),
@@ -99,12 +109,17 @@ class PlanResult:
             "sample_rate_hz": 1.0 / self.trajectory.dt_s,
             "segments": [
                 {
-                    "index": s.index, "start_m": list(s.start), "goal_m": list(s.goal), "T_s": s.T_s,
-                    "status": s.status, "iterations": s.iterations, "solve_time_s": s.solve_time_s,
+                    "index": s.index,
+                    "start_m": list(s.start),
+                    "goal_m": list(s.goal),
+                    "T_s": s.T_s,
+                    "status": s.status,
+                    "iterations": s.iterations,
+                    "solve_time_s": s.solve_time_s,
                     "model": "1-D" if s.axis is not None else "3-D",
                     "max_tilt_deg": float(np.degrees(np.abs(s.angles).max())),
                     "max_tilt_rate_deg_s": float(np.degrees(np.abs(s.rates).max())),
-                }  # fmt: skip
+                }
                 for s in self.segments
             ],
         }
@@ -149,7 +164,10 @@ def _structure(scenario: Scenario, start, goal, obstacles, n_robust: int, warm: 
     three = axis is None
     rate = math.radians(lim.tilt_rate_max_deg_s)
     return Structure(
-        axis=axis, jerk_limited=sv.jerk_limited, N=sv.N, rk4_steps=sv.rk4_steps,
+        axis=axis,
+        jerk_limited=sv.jerk_limited,
+        N=sv.N,
+        rk4_steps=sv.rk4_steps,
         clearance_points=sv.clearance_points if obstacles else 0,
         n_spheres=sum(o.kind == "sphere" for o in obstacles),
         n_cylinders=sum(o.kind == "cylinder" for o in obstacles),
@@ -157,8 +175,10 @@ def _structure(scenario: Scenario, start, goal, obstacles, n_robust: int, warm: 
         vel_norm=three and float(np.linalg.norm(lim.vel_max)) > robot.vel_m_s,
         acc_norm=three and float(np.linalg.norm(lim.acc_max)) > robot.acc_m_s2,
         rot_vel_norm=three and math.sqrt(2) * rate > robot.rot_vel_rad_s,
-        max_iter=sv.max_iter, tol=sv.tol, warm=warm,
-    )  # fmt: skip
+        max_iter=sv.max_iter,
+        tol=sv.tol,
+        warm=warm,
+    )
 
 
 def _guess(s: Structure, scenario: Scenario, obstacles, start, goal, T0: float, inflate_m: float) -> np.ndarray:
@@ -222,27 +242,53 @@ def solve_segment(
     solver = get_solver(s)
     t_lb = time_lower_bound(start, goal, scenario.limits, scenario.solver.kappa_T)
     T_bounds = (t_lb, scenario.limits.t_max_s)
-    guess = warm.warm["x"] if use_warm else _guess(s, scenario, obstacles, start, goal, min(1.15 * t_lb, T_bounds[1]), inflate)
+    guess = (
+        warm.warm["x"]
+        if use_warm
+        else _guess(s, scenario, obstacles, start, goal, min(1.15 * t_lb, T_bounds[1]), inflate)
+    )
     status, iters, elapsed, w, warm_out = solver.solve(
-        np.asarray(start), np.asarray(goal), scenario.limits, scenario.robot, scenario.solver, params, robust,
-        obstacles, inflate, T_bounds, guess, warm.warm if use_warm else None,
-    )  # fmt: skip
+        np.asarray(start),
+        np.asarray(goal),
+        scenario.limits,
+        scenario.robot,
+        scenario.solver,
+        params,
+        robust,
+        obstacles,
+        inflate,
+        T_bounds,
+        guess,
+        warm.warm if use_warm else None,
+    )
     T, X, U = solver.split(w)
-    return SegmentResult(index, tuple(start), tuple(goal), s.axis, s.jerk_limited, T, status, iters, elapsed, X, U, warm_out)
+    return SegmentResult(
+        index, tuple(start), tuple(goal), s.axis, s.jerk_limited, T, status, iters, elapsed, X, U, warm_out
+    )
 
 
 def _advice(status: str) -> str:
     """What to relax for an IPOPT failure status."""
     if "Infeasible" in status:
-        return ("relax [limits] (acc_max, jerk_max, tilt_max_deg, tilt_rate_max_deg_s, t_max_s, z_range), "
-                "the [robot] limits, or move waypoints away from obstacles")  # fmt: skip
+        return (
+            "relax [limits] (acc_max, jerk_max, tilt_max_deg, tilt_rate_max_deg_s, t_max_s, z_range), "
+            "the [robot] limits, or move waypoints away from obstacles"
+        )
     if "Maximum_Iterations" in status or "CPUtime" in status:
         return "raise [solver].max_iter, lower [solver].N or loosen [solver].tol"
     return "relax [limits] or loosen [solver].tol, or lower [solver].kappa_B"
 
 
-def _solve_all(scenario: Scenario, params: SloshParams, robust: tuple[float, ...], margins: list[float],
-               which: list[int], warm: list[SegmentResult] | None, progress: bool, full: set[int]) -> dict[int, SegmentResult]:  # fmt: skip
+def _solve_all(
+    scenario: Scenario,
+    params: SloshParams,
+    robust: tuple[float, ...],
+    margins: list[float],
+    which: list[int],
+    warm: list[SegmentResult] | None,
+    progress: bool,
+    full: set[int],
+) -> dict[int, SegmentResult]:
     """Solve the listed segments, in two worker processes when there are at least three and parallel is on."""
     from tqdm import tqdm
 
@@ -335,7 +381,7 @@ def plan(
 def _clearance(scenario: Scenario, segments: list[SegmentResult], traj: Trajectory) -> tuple[np.ndarray, np.ndarray]:
     """Smallest clearance (m) of each 1 kHz sample to any inflated obstacle, and the segment of each sample."""
     n = len(traj.t_s)
-    edges = np.cumsum([int(math.ceil(s.T_s * 1000 - 1e-9)) for s in segments])
+    edges = np.cumsum([math.ceil(s.T_s * 1000 - 1e-9) for s in segments])
     seg_of = np.searchsorted(edges, np.arange(n), side="left").clip(0, len(segments) - 1)
     if not scenario.obstacles:
         return np.full(n, np.inf), seg_of
@@ -343,4 +389,4 @@ def _clearance(scenario: Scenario, segments: list[SegmentResult], traj: Trajecto
     return clear, seg_of
 
 
-__all__ = ["PlanResult", "plan", "solve_segment", "check_feasible"]
+__all__ = ["PlanResult", "check_feasible", "plan", "solve_segment"]

@@ -5,10 +5,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from sloshid.planning.planner import VERIFY_AFTER_DEG, VERIFY_DURING_DEG, PlanResult
-from sloshid.report.html import Report
-from sloshid.planning.scenario import Scenario
 from sloshid.model.trajectory import limit_profiles
+from sloshid.planning.planner import VERIFY_AFTER_DEG, VERIFY_DURING_DEG, PlanResult
+from sloshid.planning.scenario import Scenario
+from sloshid.report.html import Report
 
 ARROW_TILT_GAIN = 5.0
 """Fig. 9 arrows show the container tilt exaggerated by this factor (real tilts are a few degrees)."""
@@ -48,8 +48,14 @@ def states_figure(result: PlanResult):
 def _sphere(ax, center, radius, color) -> None:
     """Wireframe sphere."""
     u, v = np.mgrid[0 : 2 * np.pi : 24j, 0 : np.pi : 12j]
-    ax.plot_wireframe(center[0] + radius * np.cos(u) * np.sin(v), center[1] + radius * np.sin(u) * np.sin(v),
-                      center[2] + radius * np.cos(v), color=color, lw=0.5, alpha=0.6)  # fmt: skip
+    ax.plot_wireframe(
+        center[0] + radius * np.cos(u) * np.sin(v),
+        center[1] + radius * np.sin(u) * np.sin(v),
+        center[2] + radius * np.cos(v),
+        color=color,
+        lw=0.5,
+        alpha=0.6,
+    )
 
 
 def _cylinder(ax, center, radius, z_range, color) -> None:
@@ -78,12 +84,14 @@ def path_figure(result: PlanResult, scenario: Scenario):
         else:
             _cylinder(ax, o.center, o.radius, o.z_range, "C3")
             _cylinder(ax, o.center, o.radius + R, (o.z_range[0] - R, o.z_range[1] + R), "0.75")
-    step = max(1, int(round(0.08 / tr.dt_s)))
+    step = max(1, round(0.08 / tr.dt_s))
     idx = np.arange(0, len(tr.t_s), step)
     z = tr.z_axis[idx]
     z = np.column_stack([z[:, :2] * ARROW_TILT_GAIN, z[:, 2]])
     z /= np.linalg.norm(z, axis=1, keepdims=True)
-    ax.quiver(*tr.pos_m[idx].T, *z.T, length=0.05, color="C2", lw=0.8, label=f"container z-axis (tilt x{ARROW_TILT_GAIN:g})")
+    ax.quiver(
+        *tr.pos_m[idx].T, *z.T, length=0.05, color="C2", lw=0.8, label=f"container z-axis (tilt x{ARROW_TILT_GAIN:g})"
+    )
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
     ax.set_zlabel("z (m)")
@@ -144,27 +152,64 @@ def plan_report(result: PlanResult, scenario: Scenario) -> Report:
         f"moving and {s['verification']['residual_deg']:.2g} deg after arrival.",
         "verdict-good" if result.limits_ok and result.verification_ok else "verdict-uncertain",
     )
-    rep.add_table(["segment", "start (m)", "goal (m)", "T (s)", "model", "iterations", "solve (s)", "max tilt (deg)", "status"],
-                  [[g["index"] + 1, str(g["start_m"]), str(g["goal_m"]), g["T_s"], g["model"], g["iterations"],
-                    g["solve_time_s"], g["max_tilt_deg"], g["status"]] for g in s["segments"]],
-                  "Each segment is an independent rest-to-rest problem (the container stops at every waypoint).")  # fmt: skip
+    rep.add_table(
+        ["segment", "start (m)", "goal (m)", "T (s)", "model", "iterations", "solve (s)", "max tilt (deg)", "status"],
+        [
+            [
+                g["index"] + 1,
+                str(g["start_m"]),
+                str(g["goal_m"]),
+                g["T_s"],
+                g["model"],
+                g["iterations"],
+                g["solve_time_s"],
+                g["max_tilt_deg"],
+                g["status"],
+            ]
+            for g in s["segments"]
+        ],
+        "Each segment is an independent rest-to-rest problem (the container stops at every waypoint).",
+    )
     rep.add_heading("Optimal states (seed Fig. 6)")
-    rep.add_figure(states_figure(result), "Container position, velocity, acceleration, and tilt (= liquid surface) "
-                   "over time; dotted lines are waypoint stops. The container tilts into the acceleration.")  # fmt: skip
+    rep.add_figure(
+        states_figure(result),
+        "Container position, velocity, acceleration, and tilt (= liquid surface) "
+        "over time; dotted lines are waypoint stops. The container tilts into the acceleration.",
+    )
     rep.add_heading("Path (seed Fig. 9)")
-    rep.add_figure(path_figure(result, scenario), "3-D path with obstacles (red) and their inflation by the container "
-                   f"radius (grey); green arrows show the container's z-axis every 80 ms, tilt exaggerated "
-                   f"x{ARROW_TILT_GAIN:g}. Minimum clearance to an inflated obstacle: "
-                   + (f"{result.min_clearance_m * 1e3:.1f} mm." if result.min_clearance_m is not None else "no obstacles."))  # fmt: skip
+    rep.add_figure(
+        path_figure(result, scenario),
+        "3-D path with obstacles (red) and their inflation by the container "
+        f"radius (grey); green arrows show the container's z-axis every 80 ms, tilt exaggerated "
+        f"x{ARROW_TILT_GAIN:g}. Minimum clearance to an inflated obstacle: "
+        + (f"{result.min_clearance_m * 1e3:.1f} mm." if result.min_clearance_m is not None else "no obstacles."),
+    )
     rep.add_heading("Robot limits")
-    rep.add_figure(limits_figure(result, scenario), "Each limited quantity as a share of the robot's limit over time "
-                   "(derivatives by forward differences at 1 kHz, as the robot controller sees them). Above the red "
-                   "line the robot would refuse or deviate.")  # fmt: skip
-    rep.add_table(["quantity", "peak", "limit", "usage", "t at peak (s)", "ok"],
-                  [[u["quantity"], u["peak"], u["limit"], f"{100 * u['usage']:.1f} %", u["t_peak_s"], "yes" if u["ok"] else "NO"]
-                   for u in s["limits"]])  # fmt: skip
+    rep.add_figure(
+        limits_figure(result, scenario),
+        "Each limited quantity as a share of the robot's limit over time "
+        "(derivatives by forward differences at 1 kHz, as the robot controller sees them). Above the red "
+        "line the robot would refuse or deviate.",
+    )
+    rep.add_table(
+        ["quantity", "peak", "limit", "usage", "t at peak (s)", "ok"],
+        [
+            [
+                u["quantity"],
+                u["peak"],
+                u["limit"],
+                f"{100 * u['usage']:.1f} %",
+                u["t_peak_s"],
+                "yes" if u["ok"] else "NO",
+            ]
+            for u in s["limits"]
+        ],
+    )
     rep.add_heading("Independent verification")
-    rep.add_figure(verification_figure(result), "The nonlinear pendulum integrated by solve_ivp under the exported "
-                   "accelerations, compared with the exported container orientation. Below the dashed line during the "
-                   "move and the dotted line after arrival (black) means no relative sloshing.")  # fmt: skip
+    rep.add_figure(
+        verification_figure(result),
+        "The nonlinear pendulum integrated by solve_ivp under the exported "
+        "accelerations, compared with the exported container orientation. Below the dashed line during the "
+        "move and the dotted line after arrival (black) means no relative sloshing.",
+    )
     return rep

@@ -9,14 +9,14 @@ never by interpolating the optimiser's nodes. Segments are concatenated with the
 from __future__ import annotations
 
 import math
-from typing import Sequence
+from collections.abc import Sequence
 
 import numpy as np
 from scipy.integrate import solve_ivp
 
 from sloshid.model.pendulum import SloshParams, pendulum_rhs_3d
-from sloshid.planning.ocp import SegmentResult
 from sloshid.model.trajectory import Trajectory
+from sloshid.planning.ocp import SegmentResult
 
 SAMPLE_RATE_HZ = 1000.0
 """Rate of the exported trajectory (a Franka Panda's control rate)."""
@@ -65,7 +65,7 @@ def sample_segment(
     n = len(u3)
     h = seg.T_s / n
     p, v, a = _node_states(seg, u3, h)
-    K = int(math.ceil(seg.T_s / dt - 1e-9))
+    K = math.ceil(seg.T_s / dt - 1e-9)
     t = np.arange(K + 1) * dt
     k = np.minimum((t / h).astype(int), n - 1)
     tau = np.clip(t - k * h, 0.0, h)[:, None]
@@ -98,7 +98,9 @@ def sample_segment(
             ang[idx] = y
             continue
         fun = acc_in(kk) if kk < n else (lambda tt: np.zeros(3))
-        sol = solve_ivp(_pendulum_rhs(fun, params), (t0, t1), y, method="DOP853", rtol=1e-11, atol=1e-13, dense_output=True)
+        sol = solve_ivp(
+            _pendulum_rhs(fun, params), (t0, t1), y, method="DOP853", rtol=1e-11, atol=1e-13, dense_output=True
+        )
         if idx.size:
             ang[idx] = sol.sol(t[idx]).T
         y = sol.y[:, -1]

@@ -7,14 +7,15 @@ unvalidated as a plain dict on the Scenario.
 
 from __future__ import annotations
 
+import itertools
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Literal, Optional
+from typing import Any, Literal
 
 from sloshid.core.errors import UserError
-from sloshid.model.pendulum import SloshParams
 from sloshid.core.settings import did_you_mean, from_dict, load_toml
+from sloshid.model.pendulum import SloshParams
 from sloshid.model.trajectory import RobotLimits
 
 Vec3 = tuple[float, float, float]
@@ -24,11 +25,11 @@ Vec3 = tuple[float, float, float]
 class Move:
     """[move]: either `start` and `goal`, or `waypoints` (the container stops at each), positions in m."""
 
-    start: Optional[Vec3] = None
+    start: Vec3 | None = None
     """Start position x, y, z (m)."""
-    goal: Optional[Vec3] = None
+    goal: Vec3 | None = None
     """Goal position x, y, z (m)."""
-    waypoints: Optional[list[Vec3]] = None
+    waypoints: list[Vec3] | None = None
     """Positions start ... goal (m), at least two; the container comes to rest at each."""
 
     def __post_init__(self) -> None:
@@ -39,7 +40,7 @@ class Move:
         if self.waypoints is not None and len(self.waypoints) < 2:
             raise UserError("[move].waypoints needs at least two positions (start and goal).")
         points = self.points()
-        for i, (a, b) in enumerate(zip(points[:-1], points[1:])):
+        for i, (a, b) in enumerate(itertools.pairwise(points)):
             if math.dist(a, b) < 1e-6:
                 raise UserError(f"[move] positions {i} and {i + 1} coincide at {a}; there is nothing to plan.")
 
@@ -91,7 +92,7 @@ class Obstacle:
     """Radius (m), before inflation by the container radius."""
     kind: Literal["sphere", "cylinder"] = "sphere"
     """Shape."""
-    z_range: Optional[tuple[float, float]] = None
+    z_range: tuple[float, float] | None = None
     """Cylinder only: bottom and top height (m)."""
 
     def __post_init__(self) -> None:
@@ -99,9 +100,10 @@ class Obstacle:
             raise UserError(f"obstacle radius must be positive (m), got {self.radius}.")
         if self.kind == "sphere" and (len(self.center) != 3 or self.z_range is not None):
             raise UserError("a sphere obstacle needs center = [x, y, z] (m) and no z_range.")
-        if self.kind == "cylinder":
-            if len(self.center) != 2 or self.z_range is None or not self.z_range[0] < self.z_range[1]:
-                raise UserError("a cylinder obstacle needs center = [x, y] (m) and z_range = [bottom, top] (m).")
+        if self.kind == "cylinder" and (
+            len(self.center) != 2 or self.z_range is None or not self.z_range[0] < self.z_range[1]
+        ):
+            raise UserError("a cylinder obstacle needs center = [x, y] (m) and z_range = [bottom, top] (m).")
 
     def clearance(self, p: Any, inflate_m: float) -> Any:
         """Exact signed clearance (m) of point(s) p (..., 3) from the obstacle inflated by `inflate_m`; < 0 inside."""

@@ -5,10 +5,11 @@ from __future__ import annotations
 import base64
 import html
 import io
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from datetime import datetime, timezone
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any
 
 from sloshid import __version__
 from sloshid.core.atomic import write_text
@@ -66,7 +67,9 @@ class Report:
         """Embed a matplotlib figure as PNG, with a caption saying what to look at."""
         data = figure_to_png_base64(fig)
         cap = f"<figcaption>{html.escape(caption)}</figcaption>" if caption else ""
-        self.items.append(f'<figure><img alt="{html.escape(caption)}" src="data:image/png;base64,{data}">{cap}</figure>')
+        self.items.append(
+            f'<figure><img alt="{html.escape(caption)}" src="data:image/png;base64,{data}">{cap}</figure>'
+        )
 
     def add_table(self, header: Sequence[str], rows: Sequence[Sequence[Any]], caption: str = "") -> None:
         """A table; floats are shown with 4 significant digits."""

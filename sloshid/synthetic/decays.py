@@ -7,12 +7,13 @@ from scipy import signal as sps
 
 from sloshid.identification.signals import Signal, make_signal
 
-
 NOISE_WHITE_SHARE = 0.5
 """Default variance fraction of the white part of tracker-like noise (the rest is AR(1))."""
 
 
-def tracker_noise(rng: np.random.Generator, n: int, std: float, rho: float, share: float = 1 - NOISE_WHITE_SHARE) -> np.ndarray:
+def tracker_noise(
+    rng: np.random.Generator, n: int, std: float, rho: float, share: float = 1 - NOISE_WHITE_SHARE
+) -> np.ndarray:
     """Tracker-like measurement noise of total standard deviation `std`: white per-frame error plus an AR(1) part
     (per-frame correlation `rho`, variance fraction `share`) as compression and blur leave it."""
     white = rng.normal(size=n)
@@ -39,13 +40,15 @@ def free_decay(
     `jitter` is the timestamp jitter as a fraction of the frame period (variable-frame-rate cameras);
     `drop_fraction` of frames are removed at random (lost frames)."""
     rng = np.random.default_rng(seed)
-    n = int(round((lead_in_s + duration_s) * fps))
+    n = round((lead_in_s + duration_s) * fps)
     t = np.arange(n) / fps + rng.uniform(-jitter, jitter, n) / fps
     t = np.sort(t)
     omega = 2 * np.pi * f_hz
     ph = rng.uniform(0, 2 * np.pi) if phase is None else phase
     tr = np.clip(t - lead_in_s, 0, None)
-    y = np.where(t >= lead_in_s, amplitude * np.exp(-zeta * omega * tr) * np.cos(omega * np.sqrt(1 - zeta**2) * tr + ph), 0.0)
+    y = np.where(
+        t >= lead_in_s, amplitude * np.exp(-zeta * omega * tr) * np.cos(omega * np.sqrt(1 - zeta**2) * tr + ph), 0.0
+    )
     y = y + tracker_noise(rng, n, noise_std, rho)
     keep = rng.uniform(size=n) >= drop_fraction
     return t[keep], y[keep]

@@ -11,6 +11,7 @@ exact too. Blur, flicker, sensor noise and H.264/MPEG-4 compression then degrade
 
 from __future__ import annotations
 
+import itertools
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -22,14 +23,24 @@ from scipy.integrate import solve_ivp
 from tqdm import tqdm
 
 from sloshid.core.atomic import atomic_path
-from sloshid.video.colors import DEFAULT_FLOAT_COLOR, preset
 from sloshid.core.errors import UserError
-from sloshid.model.pendulum import TABLE_I, SloshParams, pendulum_rhs_1d
 from sloshid.core.tables import write_csv
+from sloshid.model.pendulum import TABLE_I, SloshParams, pendulum_rhs_1d
+from sloshid.video.colors import DEFAULT_FLOAT_COLOR, preset
 from sloshid.video.frames import Codec, VideoWriter
 
-TRUTH_COLUMNS = ("frame", "t_s", "rel_angle_deg", "container_angle_deg", "float_angle_deg", "float_x_px",
-                 "float_y_px", "container_x_px", "container_y_px", "accel_m_s2")
+TRUTH_COLUMNS = (
+    "frame",
+    "t_s",
+    "rel_angle_deg",
+    "container_angle_deg",
+    "float_angle_deg",
+    "float_x_px",
+    "float_y_px",
+    "container_x_px",
+    "container_y_px",
+    "accel_m_s2",
+)
 """Ground-truth CSV columns; angles CCW positive as seen, pixel coordinates with (0,0) the top-left pixel centre."""
 
 LIQUID_BGR = (200, 165, 110)
@@ -104,18 +115,26 @@ class SynthSettings:
 
     def __post_init__(self) -> None:
         checks = [
-            (16 <= self.width <= 7680 and 16 <= self.height <= 4320, "width and height must be 16..7680 x 16..4320 pixels"),
+            (
+                16 <= self.width <= 7680 and 16 <= self.height <= 4320,
+                "width and height must be 16..7680 x 16..4320 pixels",
+            ),
             (0.5 <= self.fps <= 1000, "fps must be between 0.5 and 1000 frames per second"),
             (0 < self.duration_s <= 3600, "duration must be between 0 and 3600 s"),
             (0 <= self.vfr_jitter <= 0.45, "vfr jitter must be between 0 and 0.45 of a frame interval"),
             (self.motion in ("decay", "move"), "motion must be 'decay' or 'move'"),
             ((self.f_hz is None) == (self.zeta is None), "give f_hz and zeta together (or neither)"),
-            (self.f_hz is None or self.zeta is None or (self.f_hz > 0 and 0 <= self.zeta < 1),
-             "f_hz must be positive and zeta in [0, 1)"),
+            (
+                self.f_hz is None or self.zeta is None or (self.f_hz > 0 and 0 <= self.zeta < 1),
+                "f_hz must be positive and zeta in [0, 1)",
+            ),
             (abs(self.amplitude_deg) <= 40, "amplitude must be at most 40 degrees"),
             (self.noise_sigma >= 0 and self.blur_px >= 0, "noise and blur must not be negative"),
             (0 <= self.flicker < 0.5, "flicker must be in [0, 0.5)"),
-            (abs(self.container_tilt_deg) <= 30 and abs(self.camera_roll_deg) <= 30, "tilt and roll must be within 30 degrees"),
+            (
+                abs(self.container_tilt_deg) <= 30 and abs(self.camera_roll_deg) <= 30,
+                "tilt and roll must be within 30 degrees",
+            ),
             (0.05 <= self.float_length_frac <= 0.3, "float length must be 0.05..0.3 of the frame height"),
             (self.move_duration_s > 0 and self.px_per_m > 0, "move duration and px_per_m must be positive"),
         ]
@@ -123,7 +142,7 @@ class SynthSettings:
             if not ok:
                 raise UserError(f"{message}.")
         preset(self.float_color)
-        self.params  # validates m, l, d
+        _ = self.params  # validates m, l, d
 
     @property
     def params(self) -> SloshParams:
@@ -152,7 +171,7 @@ class Truth:
 
 def frame_times(s: SynthSettings) -> np.ndarray:
     """Presentation times: k/fps, each jittered by up to vfr_jitter of an interval (first frame at 0)."""
-    n = max(1, int(math.floor(s.duration_s * s.fps + 1e-9)))
+    n = max(1, math.floor(s.duration_s * s.fps + 1e-9))
     t = np.arange(n) / s.fps
     if s.vfr_jitter > 0:
         rng = np.random.default_rng([s.seed, 1])
@@ -166,7 +185,9 @@ def move_accel(s: SynthSettings, t: np.ndarray | float) -> np.ndarray:
     t = np.asarray(t, float)
     half = s.move_duration_s / 2
     rel = t - s.move_start_s
-    return np.where((rel >= 0) & (rel < half), s.accel_m_s2, np.where((rel >= half) & (rel < 2 * half), -s.accel_m_s2, 0.0))
+    return np.where(
+        (rel >= 0) & (rel < half), s.accel_m_s2, np.where((rel >= half) & (rel < 2 * half), -s.accel_m_s2, 0.0)
+    )
 
 
 def move_position_m(s: SynthSettings, t: np.ndarray) -> np.ndarray:
@@ -190,7 +211,11 @@ def relative_angle_rad(s: SynthSettings, t: np.ndarray) -> np.ndarray:
         start = s.tap_s
         omega_d = p.omega_rad_s * math.sqrt(max(1 - p.zeta**2, 1e-12))
         t_peak = math.atan2(omega_d, p.zeta * p.omega_rad_s) / omega_d
-        rate0 = math.radians(s.amplitude_deg) * omega_d / (math.exp(-p.zeta * p.omega_rad_s * t_peak) * math.sin(omega_d * t_peak))
+        rate0 = (
+            math.radians(s.amplitude_deg)
+            * omega_d
+            / (math.exp(-p.zeta * p.omega_rad_s * t_peak) * math.sin(omega_d * t_peak))
+        )
         y0, u = [0.0, rate0], (lambda _t: 0.0)
         sign = 1.0
     else:
@@ -199,14 +224,25 @@ def relative_angle_rad(s: SynthSettings, t: np.ndarray) -> np.ndarray:
     out = np.zeros_like(t)
     after = t >= start
     if after.any():
-        breaks = [s.move_start_s + s.move_duration_s / 2, s.move_start_s + s.move_duration_s] if s.motion == "move" else []
+        breaks = (
+            [s.move_start_s + s.move_duration_s / 2, s.move_start_s + s.move_duration_s] if s.motion == "move" else []
+        )
         t_end = float(t[after].max())
         edges = [start] + [b for b in breaks if start < b < t_end] + [t_end]
         y = np.array(y0, float)
-        for a, b in zip(edges[:-1], edges[1:]):  # integrate piecewise so the steps in u are not smeared
+        for a, b in itertools.pairwise(edges):  # integrate piecewise so the steps in u are not smeared
             mask = after & (t >= a) & (t <= b)
-            sol = solve_ivp(pendulum_rhs_1d, (a, b), y, args=(u, p), dense_output=True, rtol=1e-10, atol=1e-12,
-                            max_step=0.25 / p.f_hz, first_step=1e-4)
+            sol = solve_ivp(
+                pendulum_rhs_1d,
+                (a, b),
+                y,
+                args=(u, p),
+                dense_output=True,
+                rtol=1e-10,
+                atol=1e-12,
+                max_step=0.25 / p.f_hz,
+                first_step=1e-4,
+            )
             if mask.any():
                 out[mask] = sol.sol(t[mask])[0]
             y = sol.y[:, -1]
@@ -236,9 +272,16 @@ class _Scene:
 def _scene(s: SynthSettings) -> _Scene:
     """Scene proportions from the frame height (container, walls, float) and the travel's start."""
     h = s.height
-    return _Scene(inner_w=0.5 * h, wall=max(3.0, 0.012 * h), depth=0.32 * h, head=0.18 * h,
-                  float_l=s.float_length_frac * h, float_t=max(4.0, 0.035 * h),
-                  x0=s.width / 2 - _total_travel_px(s) / 2, y0=0.55 * h)
+    return _Scene(
+        inner_w=0.5 * h,
+        wall=max(3.0, 0.012 * h),
+        depth=0.32 * h,
+        head=0.18 * h,
+        float_l=s.float_length_frac * h,
+        float_t=max(4.0, 0.035 * h),
+        x0=s.width / 2 - _total_travel_px(s) / 2,
+        y0=0.55 * h,
+    )
 
 
 def _total_travel_px(s: SynthSettings) -> float:
@@ -298,7 +341,7 @@ def _paint(img: np.ndarray, poly_img: np.ndarray, bgr: tuple[int, int, int], alp
 
 def _background(s: SynthSettings) -> np.ndarray:
     """A static vertical gradient backdrop (rolled with the camera) with a faint shelf line."""
-    ys, xs = np.mgrid[0:s.height, 0:s.width].astype(np.float32)
+    ys, xs = np.mgrid[0 : s.height, 0 : s.width].astype(np.float32)
     roll = math.radians(s.camera_roll_deg)
     # distance "down" the rolled world: the world's down vector appears rotated by the roll
     down = (ys - s.height / 2) * math.cos(roll) + (xs - s.width / 2) * math.sin(roll)
@@ -340,7 +383,7 @@ def render_frames(s: SynthSettings):
         pos_world = np.array([sc.x0 + dx[k], s.height - sc.y0])  # y up in world
         R_c = _rot(tilt[k])
 
-        def to_img(pts: np.ndarray) -> np.ndarray:
+        def to_img(pts: np.ndarray, R_c: np.ndarray = R_c, pos_world: np.ndarray = pos_world) -> np.ndarray:
             """Container coordinates (x right, y up) -> image pixels (y down), through tilt, pose and roll."""
             world = pts @ R_c.T + pos_world
             cam = (world - np.array([s.width / 2, s.height / 2])) @ R_roll.T
@@ -357,11 +400,18 @@ def render_frames(s: SynthSettings):
         img = _degrade(img, s, t[k], drift[k], noise)
         centre = to_img(np.zeros((1, 2)))[0]
         ctr_base = to_img(np.array([[0.0, -sc.depth]]))[0]
-        row = {"frame": k, "t_s": t[k], "rel_angle_deg": math.degrees(rel[k]),
-               "container_angle_deg": math.degrees(tilt[k] + roll),
-               "float_angle_deg": math.degrees(rel[k] + tilt[k] + roll),
-               "float_x_px": centre[0], "float_y_px": centre[1],
-               "container_x_px": ctr_base[0], "container_y_px": ctr_base[1], "accel_m_s2": accel[k]}
+        row = {
+            "frame": k,
+            "t_s": t[k],
+            "rel_angle_deg": math.degrees(rel[k]),
+            "container_angle_deg": math.degrees(tilt[k] + roll),
+            "float_angle_deg": math.degrees(rel[k] + tilt[k] + roll),
+            "float_x_px": centre[0],
+            "float_y_px": centre[1],
+            "container_x_px": ctr_base[0],
+            "container_y_px": ctr_base[1],
+            "accel_m_s2": accel[k],
+        }
         yield row, img
 
 
@@ -378,14 +428,16 @@ class _NoisePool:
     def __init__(self, shape: tuple[int, ...], sigma: float, rng: np.random.Generator, fields: int = 4) -> None:
         h, w, c = shape
         self._pad = 32
-        self._fields = rng.standard_normal((fields, h + self._pad, w + self._pad, c), dtype=np.float32) * np.float32(sigma)
+        self._fields = rng.standard_normal((fields, h + self._pad, w + self._pad, c), dtype=np.float32) * np.float32(
+            sigma
+        )
         self._shape, self._rng = shape, rng
 
     def draw(self) -> np.ndarray:
         """A noise field of the frame's shape (a view, do not modify)."""
         i, dy, dx = self._rng.integers(0, [len(self._fields), self._pad, self._pad])
         h, w, _ = self._shape
-        return self._fields[i, dy:dy + h, dx:dx + w]
+        return self._fields[i, dy : dy + h, dx : dx + w]
 
 
 def _degrade(img: np.ndarray, s: SynthSettings, t: float, drift: float, noise: _NoisePool | None) -> np.ndarray:
@@ -401,8 +453,9 @@ def _degrade(img: np.ndarray, s: SynthSettings, t: float, drift: float, noise: _
     return img.astype(np.uint8)
 
 
-def render_video(path: str | Path, settings: SynthSettings, truth_csv: str | Path | None = None,
-                 progress: bool = False) -> Truth:
+def render_video(
+    path: str | Path, settings: SynthSettings, truth_csv: str | Path | None = None, progress: bool = False
+) -> Truth:
     """Render the video to `path` (atomically) and return its ground truth; also write it to `truth_csv`."""
     s = settings
     path = Path(path)
@@ -412,8 +465,9 @@ def render_video(path: str | Path, settings: SynthSettings, truth_csv: str | Pat
     n = len(frame_times(s))
     with atomic_path(path) as tmp:
         with VideoWriter(tmp, s.width, s.height, s.fps, s.codec, s.quality) as writer:
-            for row, frame in tqdm(render_frames(s), total=n, desc="render", unit="frame", disable=None if progress else True,
-                                   leave=False):
+            for row, frame in tqdm(
+                render_frames(s), total=n, desc="render", unit="frame", disable=None if progress else True, leave=False
+            ):
                 writer.write(frame, row["t_s"])
                 rows.append(row)
         truth = Truth({c: np.array([r[c] for r in rows]) for c in TRUTH_COLUMNS})

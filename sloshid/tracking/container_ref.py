@@ -97,11 +97,12 @@ def _fit_edge(gray: np.ndarray, predicted: EdgeLine, polarity: int) -> EdgeLine 
     return EdgeLine(float(a), float(b), int(y[keep].min()), int(y[keep].max()) + 1, rms, int(keep.sum()))
 
 
-def detect_walls(frame: np.ndarray, float_x: float, float_y: float, float_len: float,
-                 roi: tuple[int, int, int, int]) -> list[EdgeLine]:
+def detect_walls(
+    frame: np.ndarray, float_x: float, float_y: float, float_len: float, roi: tuple[int, int, int, int]
+) -> list[EdgeLine]:
     """First frame: the nearest long near-vertical Hough lines left and right of the float, as coarse edges."""
     x, y, w, h = roi
-    gray = cv2.GaussianBlur(cv2.cvtColor(frame[y:y + h, x:x + w], cv2.COLOR_BGR2GRAY), (0, 0), 1.0)
+    gray = cv2.GaussianBlur(cv2.cvtColor(frame[y : y + h, x : x + w], cv2.COLOR_BGR2GRAY), (0, 0), 1.0)
     edges = cv2.Canny(gray, 30, 90)
     min_len = max(20, int(0.6 * float_len))
     lines = cv2.HoughLines(edges, 1, np.pi / 720, min_len, min_theta=0, max_theta=np.pi)
@@ -161,7 +162,9 @@ class ContainerTracker:
         new_walls: list[EdgeLine] = []
         for wall in self._walls:
             pred = EdgeLine(wall.a, wall.b + self._shift, rows[0], rows[1], wall.rms_px, wall.rows)
-            fits = [f for f in (_fit_edge(gray, pred, +1), _fit_edge(gray, pred, -1)) if f is not None and f.rms_px < 1.0]
+            fits = [
+                f for f in (_fit_edge(gray, pred, +1), _fit_edge(gray, pred, -1)) if f is not None and f.rms_px < 1.0
+            ]
             if not fits:
                 continue
             fitted.extend(fits)

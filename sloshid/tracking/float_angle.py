@@ -124,8 +124,12 @@ class FloatFinder:
         x0, y0, x1, y1 = last.bbox
         m = 3.0 + 0.05 * last.length_px
         rx0, ry0, rx1, ry1 = self._roi_box()
-        return (max(rx0, int(x0 + vx - m)), max(ry0, int(y0 + vy - m)),
-                min(rx1, int(x1 + vx + m) + 1), min(ry1, int(y1 + vy + m) + 1))
+        return (
+            max(rx0, int(x0 + vx - m)),
+            max(ry0, int(y0 + vy - m)),
+            min(rx1, int(x1 + vx + m) + 1),
+            min(ry1, int(y1 + vy + m) + 1),
+        )
 
     def _window(self, last: FloatMeasurement) -> tuple[int, int, int, int]:
         """Search box around where the float should be now (last position plus last motion), half its
@@ -153,8 +157,14 @@ class FloatFinder:
             # fast path: the window holds one blob of the expected size that the window does not cut
             area = cv2.countNonZero(mask)
             bx, by, bw, bh = cv2.boundingRect(mask)
-            if (0.5 * self._ref_area <= area <= 1.5 * self._ref_area and bx > 0 and by > 0
-                    and bx + bw < x1 - x0 and by + bh < y1 - y0 and bw * bh <= 4 * area):
+            if (
+                0.5 * self._ref_area <= area <= 1.5 * self._ref_area
+                and bx > 0
+                and by > 0
+                and bx + bw < x1 - x0
+                and by + bh < y1 - y0
+                and bw * bh <= 4 * area
+            ):
                 return self._refine(frame, mask > 0, (x0, y0), (bx, by, bw, bh))
         n, labels, stats, cents = cv2.connectedComponentsWithStats(mask, connectivity=8)
         if n <= 1:
@@ -176,8 +186,9 @@ class FloatFinder:
             return FloatMeasurement(False)  # cut by the window: measure on the whole ROI instead
         return self._refine(frame, labels == k + 1, (x0, y0), (bx, by, bw, bh))
 
-    def _refine(self, frame: np.ndarray, blob_full: np.ndarray, origin: tuple[int, int],
-                stat: tuple[int, int, int, int]) -> FloatMeasurement:
+    def _refine(
+        self, frame: np.ndarray, blob_full: np.ndarray, origin: tuple[int, int], stat: tuple[int, int, int, int]
+    ) -> FloatMeasurement:
         """Sub-pixel centre and angle from moments of the soft membership in a padded box around the blob."""
         h, w = frame.shape[:2]
         ox, oy = origin
@@ -187,8 +198,10 @@ class FloatFinder:
         X1, Y1 = min(w, ox + bx + bw + pad), min(h, oy + by + bh + pad)
         blob = np.zeros((Y1 - Y0, X1 - X0), np.uint8)
         sy0, sx0 = Y0 - oy, X0 - ox
-        src = blob_full[max(0, sy0):Y1 - oy, max(0, sx0):X1 - ox]
-        blob[max(0, -sy0):max(0, -sy0) + src.shape[0], max(0, -sx0):max(0, -sx0) + src.shape[1]] = src.astype(np.uint8) * 255
+        src = blob_full[max(0, sy0) : Y1 - oy, max(0, sx0) : X1 - ox]
+        blob[max(0, -sy0) : max(0, -sy0) + src.shape[0], max(0, -sx0) : max(0, -sx0) + src.shape[1]] = (
+            src.astype(np.uint8) * 255
+        )
         crop = frame[Y0:Y1, X0:X1]
         self._frames_since_fit += 1
         if self._model is None or self._frames_since_fit >= REFIT_EVERY or self._last is None:
@@ -214,5 +227,6 @@ class FloatFinder:
         q_sep = min(1.0, max(0.0, 1 - 2 * rms))
         q_area = min(area, self._ref_area) / max(area, self._ref_area) if self._ref_area else 1.0
         quality = q_sep * q_area * min(1.0, elong / 0.5)
-        return FloatMeasurement(True, X0 + cx, Y0 + cy, angle, quality, area, math.sqrt(12 * max(lam1, 0)),
-                                (X0, Y0, X1, Y1))
+        return FloatMeasurement(
+            True, X0 + cx, Y0 + cy, angle, quality, area, math.sqrt(12 * max(lam1, 0)), (X0, Y0, X1, Y1)
+        )

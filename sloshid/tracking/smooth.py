@@ -57,12 +57,17 @@ def _model(omega: float | None, spread: float, period: float) -> tuple[np.ndarra
         a = np.array([[0.0, 1.0], [0.0, 0.0]])
         qc = np.diag([0.0, (spread / period**1.5) ** 2 * 10])
         return a, qc, np.array([[1.0, 0.0]])
-    a = np.array([[0.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, -omega**2, -2 * ASSUMED_ZETA * omega]])
+    a = np.array([[0.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, -(omega**2), -2 * ASSUMED_ZETA * omega]])
     # per period, the baseline (a robot move's quasi-static tilt) may move by half the trace's spread and
     # the oscillation change by its spread: stiffer settings lag behind moves and taps (measured on
     # synthetic traces), looser ones bridge gaps less faithfully
-    qc = np.diag([(BASELINE_CHANGE_PER_PERIOD * spread) ** 2 / period, 0.0,
-                  (OSCILLATION_CHANGE_PER_PERIOD * spread * omega) ** 2 / period])
+    qc = np.diag(
+        [
+            (BASELINE_CHANGE_PER_PERIOD * spread) ** 2 / period,
+            0.0,
+            (OSCILLATION_CHANGE_PER_PERIOD * spread * omega) ** 2 / period,
+        ]
+    )
     return a, qc, np.array([[1.0, 1.0, 0.0]])
 
 

@@ -19,17 +19,27 @@ import numpy as np
 from tqdm import tqdm
 
 from sloshid.core.atomic import atomic_path
-from sloshid.video.colors import DEFAULT_FLOAT_COLOR, HsvRange, preset
-from sloshid.tracking.container_ref import ContainerMeasurement, ContainerTracker
 from sloshid.core.errors import UserError
+from sloshid.core.tables import write_csv
+from sloshid.tracking.container_ref import ContainerMeasurement, ContainerTracker
 from sloshid.tracking.float_angle import FloatFinder
 from sloshid.tracking.overlay import draw_overlay
 from sloshid.tracking.smooth import smooth_angle
-from sloshid.core.tables import write_csv
+from sloshid.video.colors import DEFAULT_FLOAT_COLOR, HsvRange, preset
 from sloshid.video.frames import FrameReader, VideoWriter
 
-TRACK_COLUMNS = ("frame", "t_s", "angle_deg", "float_angle_deg", "container_angle_deg", "x_px", "y_px",
-                 "quality", "valid", "angle_smoothed_deg")
+TRACK_COLUMNS = (
+    "frame",
+    "t_s",
+    "angle_deg",
+    "float_angle_deg",
+    "container_angle_deg",
+    "x_px",
+    "y_px",
+    "quality",
+    "valid",
+    "angle_smoothed_deg",
+)
 """Output columns of `sloshid track` (the contract with identify/batch/pipeline)."""
 
 VALID_QUALITY = 0.5
@@ -108,8 +118,13 @@ def _unwrap(angle: float, previous: float) -> float:
     return angle - 180.0 * round((angle - previous) / 180.0)
 
 
-def track_video(path: str | Path, settings: TrackSettings | None = None, overlay: str | Path | None = None,
-                progress: bool = False, multithreaded: bool = True) -> TrackResult:
+def track_video(
+    path: str | Path,
+    settings: TrackSettings | None = None,
+    overlay: str | Path | None = None,
+    progress: bool = False,
+    multithreaded: bool = True,
+) -> TrackResult:
     """Track the float in every decoded frame of `path`; optionally write an overlay video.
 
     Raises UserError for unreadable videos, a bad ROI, and a float (or, with the container reference,
@@ -131,8 +146,14 @@ def track_video(path: str | Path, settings: TrackSettings | None = None, overlay
         if overlay is not None:
             tmp = stack.enter_context(atomic_path(overlay))
             writer = stack.enter_context(VideoWriter(tmp, width, height, reader.info.fps or 30.0, "h264", 20))
-        frames = tqdm(reader, total=reader.info.frame_count or None, desc="track", unit="frame",
-                      disable=None if progress else True, leave=False)
+        frames = tqdm(
+            reader,
+            total=reader.info.frame_count or None,
+            desc="track",
+            unit="frame",
+            disable=None if progress else True,
+            leave=False,
+        )
         for index, t, frame in frames:
             fm = finder.measure(frame)
             floats_found += fm.found
@@ -143,18 +164,33 @@ def track_video(path: str | Path, settings: TrackSettings | None = None, overlay
             ok = fm.found and cm.found and fm.quality >= VALID_QUALITY
             if ok:
                 last_angle = float_angle
-            rows.append((index, t, float_angle - cm.angle_deg, float_angle, cm.angle_deg, fm.x_px, fm.y_px,
-                         fm.quality if cm.found else 0.0, int(ok)))
+            rows.append(
+                (
+                    index,
+                    t,
+                    float_angle - cm.angle_deg,
+                    float_angle,
+                    cm.angle_deg,
+                    fm.x_px,
+                    fm.y_px,
+                    fm.quality if cm.found else 0.0,
+                    int(ok),
+                )
+            )
             if writer is not None:
                 writer.write(draw_overlay(frame, fm, cm, float_angle - cm.angle_deg, ok, roi), t)
     # raised after the overlay is finished: when nothing is found, the overlay is the user's diagnosis
     if not any(r[-1] for r in rows):
-        hint = (f"see the overlay {overlay}" if overlay else "write --overlay OUT.mp4 to see what was searched")
+        hint = f"see the overlay {overlay}" if overlay else "write --overlay OUT.mp4 to see what was searched"
         if walls is not None and floats_found:
-            raise UserError(f"the float was found in {floats_found} of {len(rows)} frames of {path} but the container's "
-                            f"side walls in none of them; {hint}, or use --reference image.")
-        raise UserError(f"no float found in any of the {len(rows)} frames of {path} with HSV range "
-                        f"{settings.hsv.describe()}; {hint} and adjust --float-hsv-low/--float-hsv-high or --float-color.")
+            raise UserError(
+                f"the float was found in {floats_found} of {len(rows)} frames of {path} but the container's "
+                f"side walls in none of them; {hint}, or use --reference image."
+            )
+        raise UserError(
+            f"no float found in any of the {len(rows)} frames of {path} with HSV range "
+            f"{settings.hsv.describe()}; {hint} and adjust --float-hsv-low/--float-hsv-high or --float-color."
+        )
     return _result(Path(path), rows, reader.lost_share, reader.info.frame_count, settings.smooth)
 
 
@@ -165,13 +201,29 @@ def _result(video: Path, rows: list[tuple], lost_share: float, declared: int, sm
     frame, t, angle, fang, cang, x, y, q, valid = arr
     frame, valid = frame.astype(int), valid.astype(int)
     smoothed = smooth_angle(t, angle, valid.astype(bool), q) if smooth else np.full(len(t), np.nan)
-    res = TrackResult(video, frame, t.astype(float), angle.astype(float), fang.astype(float), cang.astype(float),
-                      x.astype(float), y.astype(float), q.astype(float), valid, smoothed, lost_share)
+    res = TrackResult(
+        video,
+        frame,
+        t.astype(float),
+        angle.astype(float),
+        fang.astype(float),
+        cang.astype(float),
+        x.astype(float),
+        y.astype(float),
+        q.astype(float),
+        valid,
+        smoothed,
+        lost_share,
+    )
     if lost_share > 0.005:
-        res.warnings.append(f"{video} looks truncated: only {len(rows)} of {declared} frames decoded "
-                            f"({100 * lost_share:.1f} % lost); tracked what decoded.")
+        res.warnings.append(
+            f"{video} looks truncated: only {len(rows)} of {declared} frames decoded "
+            f"({100 * lost_share:.1f} % lost); tracked what decoded."
+        )
     if res.invalid_share > 0:
-        res.warnings.append(f"float not measured in {int(np.sum(valid == 0))} of {len(valid)} frames "
-                            f"({100 * res.invalid_share:.1f} %); those rows have valid = 0 and are bridged "
-                            "in angle_smoothed_deg.")
+        res.warnings.append(
+            f"float not measured in {int(np.sum(valid == 0))} of {len(valid)} frames "
+            f"({100 * res.invalid_share:.1f} %); those rows have valid = 0 and are bridged "
+            "in angle_smoothed_deg."
+        )
     return res

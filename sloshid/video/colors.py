@@ -30,8 +30,7 @@ class HsvRange:
 
     def describe(self) -> str:
         """Human-readable form used in messages, e.g. 'H 170..10, S 100..255, V 60..255'."""
-        return (f"H {self.low[0]}..{self.high[0]}, S {self.low[1]}..{self.high[1]}, "
-                f"V {self.low[2]}..{self.high[2]}")
+        return f"H {self.low[0]}..{self.high[0]}, S {self.low[1]}..{self.high[1]}, V {self.low[2]}..{self.high[2]}"
 
 
 @dataclass(frozen=True)
@@ -61,8 +60,9 @@ def preset(name: str) -> ColorPreset:
     try:
         return PRESETS[name]
     except KeyError:
-        raise UserError(f"unknown colour '{name}'{did_you_mean(name, PRESETS)}; choose one of "
-                        f"{', '.join(PRESETS)}.") from None
+        raise UserError(
+            f"unknown colour '{name}'{did_you_mean(name, PRESETS)}; choose one of {', '.join(PRESETS)}."
+        ) from None
 
 
 def parse_hsv(text: str, what: str) -> tuple[int, int, int]:

@@ -12,10 +12,11 @@ import contextlib
 import math
 import queue
 import threading
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from fractions import Fraction
 from pathlib import Path
-from typing import Iterator, Literal
+from typing import Literal
 
 import av
 import cv2
@@ -41,7 +42,9 @@ class VideoInfo:
     """Frames the container declares (0 when unknown)."""
 
 
-cv2.utils.logging.setLogLevel(cv2.utils.logging.LOG_LEVEL_ERROR)  # OpenCV errors only: failures reach the user as one UserError sentence, not log noise
+cv2.utils.logging.setLogLevel(
+    cv2.utils.logging.LOG_LEVEL_ERROR
+)  # OpenCV errors only: failures reach the user as one UserError sentence, not log noise
 
 
 def _why_unreadable(path: Path) -> str:
@@ -163,8 +166,16 @@ class VideoWriter:
     orientation metadata, not applied to the pixels. Use as a context manager.
     """
 
-    def __init__(self, path: str | Path, width: int, height: int, fps: float, codec: Codec = "h264",
-                 quality: float | None = None, display_rotation_deg: int = 0) -> None:
+    def __init__(
+        self,
+        path: str | Path,
+        width: int,
+        height: int,
+        fps: float,
+        codec: Codec = "h264",
+        quality: float | None = None,
+        display_rotation_deg: int = 0,
+    ) -> None:
         if codec not in _ENCODERS:
             raise UserError(f"codec must be one of {', '.join(_ENCODERS)}, got {codec!r}.")
         self._out = av.open(str(path), "w", format="mp4", options={"movflags": "faststart"})
@@ -175,7 +186,7 @@ class VideoWriter:
             stream.options = {"crf": f"{crf:g}", "preset": "veryfast"}
         else:
             qscale = 4 if quality is None else quality
-            stream.codec_context.qmin = stream.codec_context.qmax = int(round(qscale))  # fixed quantiser
+            stream.codec_context.qmin = stream.codec_context.qmax = round(qscale)  # fixed quantiser
         if display_rotation_deg:  # orientation metadata, as phones write it: players turn the picture
             stream.set_display_rotation(display_rotation_deg)
         self._time_base = _TIME_BASES[codec]
@@ -187,9 +198,11 @@ class VideoWriter:
         """Encode one frame shown at presentation time t_s (must increase by at least one time-base tick)."""
         h, w = self._stream.height, self._stream.width
         frame = av.VideoFrame.from_ndarray(np.ascontiguousarray(frame_bgr[:h, :w]), format="bgr24")
-        pts = int(round(t_s / self._time_base))
+        pts = round(t_s / self._time_base)
         if pts <= self._last_pts:
-            raise ValueError(f"presentation times must increase, got {t_s} s after {float(self._last_pts * self._time_base)} s")
+            raise ValueError(
+                f"presentation times must increase, got {t_s} s after {float(self._last_pts * self._time_base)} s"
+            )
         frame.pts, frame.time_base = pts, self._time_base
         self._last_pts = pts
         for packet in self._stream.encode(frame):
@@ -201,7 +214,7 @@ class VideoWriter:
             self._out.mux(packet)
         self._out.close()
 
-    def __enter__(self) -> "VideoWriter":
+    def __enter__(self) -> VideoWriter:
         return self
 
     def __exit__(self, exc_type, exc, tb) -> None:

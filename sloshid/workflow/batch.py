@@ -24,9 +24,26 @@ from sloshid.report.html import Report
 from sloshid.workflow.options import BatchConfig
 
 SUMMARY_COLUMNS = (
-    "file", "status", "frames", "valid_share", "f_hz", "f_lo_hz", "f_hi_hz", "zeta", "zeta_lo", "zeta_hi",
-    "l_m", "l_lo_m", "l_hi_m", "d_ns_per_m", "d_lo_ns_per_m", "d_hi_ns_per_m", "quality", "reasons", "outputs",
-)  # fmt: skip
+    "file",
+    "status",
+    "frames",
+    "valid_share",
+    "f_hz",
+    "f_lo_hz",
+    "f_hi_hz",
+    "zeta",
+    "zeta_lo",
+    "zeta_hi",
+    "l_m",
+    "l_lo_m",
+    "l_hi_m",
+    "d_ns_per_m",
+    "d_lo_ns_per_m",
+    "d_hi_ns_per_m",
+    "quality",
+    "reasons",
+    "outputs",
+)
 
 
 def config_hash(config: BatchConfig) -> str:
@@ -77,12 +94,16 @@ def process_video(video: str, config: BatchConfig, out_root: str) -> dict[str, A
         write_text(out / "params.json", json.dumps(doc, indent=2) + "\n")
     except UserError as exc:
         return {**row, "status": "failed", "reasons": str(exc)}
-    except Exception as exc:  # noqa: BLE001 - one bad video must never stop the batch; the reason is kept
+    except Exception as exc:
         detail = traceback.format_exception_only(type(exc), exc)[-1].strip()
         return {**row, "status": "failed", "reasons": f"unexpected error: {detail}"}
     p = doc["parameters"]
-    row.update(zip(SUMMARY_COLUMNS[4:16], [*_interval(p, "f_hz"), *_interval(p, "zeta"), *_interval(p, "l_m"),
-                                           *_interval(p, "d_ns_per_m")]))  # fmt: skip
+    row.update(
+        zip(
+            SUMMARY_COLUMNS[4:16],
+            [*_interval(p, "f_hz"), *_interval(p, "zeta"), *_interval(p, "l_m"), *_interval(p, "d_ns_per_m")],
+        )
+    )
     row.update(status="ok", quality=doc["quality"], reasons="; ".join(doc["reasons"]))
     write_text(marker, json.dumps({"key": key, "row": row}, indent=2) + "\n")
     return row
@@ -113,8 +134,9 @@ def dask_client(workers: int, scheduler: str | None):
         except (OSError, TimeoutError) as exc:
             raise UserError(f"could not reach the Dask scheduler at {scheduler} ({exc}).") from None
     # a client that starts its own local cluster also shuts it down when closed
-    return Client(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
-                  silence_logs=logging.ERROR)  # fmt: skip
+    return Client(
+        n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None, silence_logs=logging.ERROR
+    )
 
 
 def _write_csv(path: Path, columns: tuple[str, ...], rows: list[dict[str, Any]]) -> None:
@@ -151,7 +173,7 @@ def run_batch(
             video = futures[fut]
             try:
                 rows[video] = fut.result()
-            except Exception as exc:  # noqa: BLE001 - a crashed worker fails only its own video
+            except Exception as exc:
                 rows[video] = {"file": video, "status": "failed", "reasons": f"worker crashed: {exc}"}
             bar.set_postfix_str(Path(video).name)
             bar.update()
@@ -171,8 +193,10 @@ def batch_report(result: BatchResult) -> Report:
 
     ok = [r for r in result.rows if r["status"] != "failed" and r["f_hz"] != ""]
     report = Report("sloshid batch summary")
-    report.add_text(f"{len(result.rows)} videos: {len(ok)} identified, {len(result.failures)} failed "
-                    f"({sum(r.get('quality') == 'good' for r in ok)} with verdict 'good').")
+    report.add_text(
+        f"{len(result.rows)} videos: {len(ok)} identified, {len(result.failures)} failed "
+        f"({sum(r.get('quality') == 'good' for r in ok)} with verdict 'good')."
+    )
     if ok:
         f = np.array([float(r["f_hz"]) for r in ok])
         lo = np.array([float(r["f_lo_hz"]) for r in ok])
@@ -181,14 +205,37 @@ def batch_report(result: BatchResult) -> Report:
         ax1.hist(f, bins=min(20, max(5, len(f) // 2)), color="#36c", alpha=0.8)
         ax1.set(xlabel="identified sloshing frequency f (Hz)", ylabel="videos", title="distribution of f")
         order = np.argsort(f)
-        ax2.errorbar(np.arange(len(f)), f[order], yerr=[f[order] - lo[order], hi[order] - f[order]], fmt="o",
-                     color="#36c", ecolor="#999", capsize=2)
+        ax2.errorbar(
+            np.arange(len(f)),
+            f[order],
+            yerr=[f[order] - lo[order], hi[order] - f[order]],
+            fmt="o",
+            color="#36c",
+            ecolor="#999",
+            capsize=2,
+        )
         ax2.set(xlabel="video (sorted by f)", ylabel="f (Hz) with 95 % interval", title="per video")
-        report.add_figure(fig, "Left: how the identified frequencies spread over the batch. Right: each video's "
-                          "estimate with its 95 % interval; an interval far from the rest points at a bad video.")
+        report.add_figure(
+            fig,
+            "Left: how the identified frequencies spread over the batch. Right: each video's "
+            "estimate with its 95 % interval; an interval far from the rest points at a bad video.",
+        )
     report.add_heading("Per video")
-    report.add_table(["file", "status", "frames", "valid share", "f (Hz)", "zeta", "l (m)", "quality", "reasons"],
-                     [[Path(r["file"]).name, r["status"], r.get("frames", ""), r.get("valid_share", ""),
-                       r.get("f_hz", ""), r.get("zeta", ""), r.get("l_m", ""), r.get("quality", ""),
-                       r.get("reasons", "")] for r in result.rows])  # fmt: skip
+    report.add_table(
+        ["file", "status", "frames", "valid share", "f (Hz)", "zeta", "l (m)", "quality", "reasons"],
+        [
+            [
+                Path(r["file"]).name,
+                r["status"],
+                r.get("frames", ""),
+                r.get("valid_share", ""),
+                r.get("f_hz", ""),
+                r.get("zeta", ""),
+                r.get("l_m", ""),
+                r.get("quality", ""),
+                r.get("reasons", ""),
+            ]
+            for r in result.rows
+        ],
+    )
     return report

@@ -6,8 +6,8 @@ import html
 from pathlib import Path
 from typing import Any
 
-from sloshid.workflow.pipeline import StageRecord
 from sloshid.report.html import Report
+from sloshid.workflow.pipeline import StageRecord
 
 
 def _link(run_dir: Path, rel: str, text: str) -> str:
@@ -21,8 +21,10 @@ def _figure(report: Report, run_dir: Path, stage: str, s: dict[str, Any], captio
     """Show the stage's summary figure (a PNG beside its outputs) when it exists."""
     rel = f"{stage}/{s.get('figure')}"
     if s.get("figure") and (run_dir / rel).exists():
-        report.add_html(f'<figure><img src="{html.escape(rel)}" alt="{html.escape(caption)}">'
-                        f"<figcaption>{html.escape(caption)}</figcaption></figure>")
+        report.add_html(
+            f'<figure><img src="{html.escape(rel)}" alt="{html.escape(caption)}">'
+            f"<figcaption>{html.escape(caption)}</figcaption></figure>"
+        )
 
 
 def _track(report: Report, run_dir: Path, s: dict[str, Any]) -> None:
@@ -33,21 +35,32 @@ def _track(report: Report, run_dir: Path, s: dict[str, Any]) -> None:
         links = _link(run_dir, f"track/{v['csv']}", "angles CSV")
         if v.get("overlay"):
             links += " · " + _link(run_dir, f"track/{v['overlay']}", "overlay video")
-        rows.append(f"<tr><td>{html.escape(Path(v['video']).name)}</td><td>{v['frames']}</td>"
-                    f"<td>{100 * v['valid_share']:.1f} %</td><td>{links}</td></tr>")
-    report.add_html("<table><tr><th>video</th><th>frames</th><th>valid</th><th>files</th></tr>" + "".join(rows)
-                    + "</table>")
+        rows.append(
+            f"<tr><td>{html.escape(Path(v['video']).name)}</td><td>{v['frames']}</td>"
+            f"<td>{100 * v['valid_share']:.1f} %</td><td>{links}</td></tr>"
+        )
+    report.add_html(
+        "<table><tr><th>video</th><th>frames</th><th>valid</th><th>files</th></tr>" + "".join(rows) + "</table>"
+    )
 
 
 def _identify(report: Report, run_dir: Path, s: dict[str, Any]) -> None:
     """Verdict, parameter table with 95 % intervals, report link."""
-    report.add_text(f"Verdict: {s['quality']}" + (f" ({'; '.join(s['reasons'])})" if s["reasons"] else ""),
-                    css_class=f"verdict-{s['quality']}")
-    rows = [[name, p["value"], p.get("stderr", ""), *(p.get("ci95") or ["", ""])]
-            for name, p in s["parameters"].items()]  # fmt: skip
+    report.add_text(
+        f"Verdict: {s['quality']}" + (f" ({'; '.join(s['reasons'])})" if s["reasons"] else ""),
+        css_class=f"verdict-{s['quality']}",
+    )
+    rows = [
+        [name, p["value"], p.get("stderr", ""), *(p.get("ci95") or ["", ""])] for name, p in s["parameters"].items()
+    ]
     report.add_table(["parameter", "value", "std. error", "95 % low", "95 % high"], rows)
-    report.add_html("<p>" + _link(run_dir, "identify/params.json", "parameters (JSON)") + " · "
-                    + _link(run_dir, "identify/report/index.html", "identification report") + "</p>")
+    report.add_html(
+        "<p>"
+        + _link(run_dir, "identify/params.json", "parameters (JSON)")
+        + " · "
+        + _link(run_dir, "identify/report/index.html", "identification report")
+        + "</p>"
+    )
 
 
 def _plan(report: Report, run_dir: Path, s: dict[str, Any]) -> None:
@@ -55,13 +68,36 @@ def _plan(report: Report, run_dir: Path, s: dict[str, Any]) -> None:
     v = s["verification"]
     _figure(report, run_dir, "plan", s, "Container speed and tilt along the planned move.")
     report.add_table(
-        ["transfer time T (s)", "segments", "solver status", "solve time (s)", "max tilt (deg)",
-         "max tilt rate (deg/s)", "robot limits", "liquid vs container during / after (deg)"],
-        [[s["T_s"], len(s["segments"]), s["status"], s["solve_time_s"], s["max_tilt_deg"], s["max_tilt_rate_deg_s"],
-          "ok" if s["limits_ok"] else "EXCEEDED", f"{v['peak_during_deg']:.3g} / {v['residual_deg']:.3g}"]],
-    )  # fmt: skip
-    report.add_html("<p>" + _link(run_dir, "plan/trajectory.csv", "1 kHz robot trajectory (CSV)") + " · "
-                    + _link(run_dir, "plan/report/index.html", "plan report") + "</p>")
+        [
+            "transfer time T (s)",
+            "segments",
+            "solver status",
+            "solve time (s)",
+            "max tilt (deg)",
+            "max tilt rate (deg/s)",
+            "robot limits",
+            "liquid vs container during / after (deg)",
+        ],
+        [
+            [
+                s["T_s"],
+                len(s["segments"]),
+                s["status"],
+                s["solve_time_s"],
+                s["max_tilt_deg"],
+                s["max_tilt_rate_deg_s"],
+                "ok" if s["limits_ok"] else "EXCEEDED",
+                f"{v['peak_during_deg']:.3g} / {v['residual_deg']:.3g}",
+            ]
+        ],
+    )
+    report.add_html(
+        "<p>"
+        + _link(run_dir, "plan/trajectory.csv", "1 kHz robot trajectory (CSV)")
+        + " · "
+        + _link(run_dir, "plan/report/index.html", "plan report")
+        + "</p>"
+    )
 
 
 def _compare(report: Report, run_dir: Path, s: dict[str, Any]) -> None:
@@ -74,10 +110,17 @@ def _compare(report: Report, run_dir: Path, s: dict[str, Any]) -> None:
             continue
         ok = "ok" if m["robot_limits_ok"] and m["move_limits_ok"] else "exceeded"
         rows.append([m["label"], m["transfer_time_s"], m["peak_during_deg"], m["residual_deg"], m["peak_tilt_deg"], ok])
-    report.add_table(["method", "transfer time (s)", "peak slosh during (deg)", "residual slosh (deg)",
-                      "peak tilt (deg)", "limits"], rows)  # fmt: skip
-    report.add_html("<p>" + _link(run_dir, "compare/report/index.html", "comparison report") + " · "
-                    + _link(run_dir, "compare/scores.json", "scores (JSON)") + "</p>")
+    report.add_table(
+        ["method", "transfer time (s)", "peak slosh during (deg)", "residual slosh (deg)", "peak tilt (deg)", "limits"],
+        rows,
+    )
+    report.add_html(
+        "<p>"
+        + _link(run_dir, "compare/report/index.html", "comparison report")
+        + " · "
+        + _link(run_dir, "compare/scores.json", "scores (JSON)")
+        + "</p>"
+    )
 
 
 def _generic(report: Report, run_dir: Path, name: str, s: dict[str, Any]) -> None:
@@ -98,8 +141,9 @@ def write_index(run_dir: Path, records: list[StageRecord], title: str) -> Path:
     report = Report(title)
     status = ", ".join(f"{r.name}: {r.status} ({r.seconds:.1f} s)" for r in records)
     report.add_text(f"Stages: {status}.")
-    report.add_html("<p>" + _link(run_dir, "manifest.json", "manifest (resolved settings, input hashes, "
-                                  "package version)") + "</p>")
+    report.add_html(
+        "<p>" + _link(run_dir, "manifest.json", "manifest (resolved settings, input hashes, package version)") + "</p>"
+    )
     for rec in records:
         report.add_heading(f"{rec.name} — {rec.status}")
         if rec.status in ("failed", "skipped"):

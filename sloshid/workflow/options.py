@@ -7,11 +7,11 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
 
-from sloshid.video.colors import DEFAULT_FLOAT_COLOR, HsvRange, preset
 from sloshid.core.errors import UserError
-from sloshid.identification.estimator import IdentSettings
 from sloshid.core.settings import from_dict, load_toml
+from sloshid.identification.estimator import IdentSettings
 from sloshid.tracking.tracker import TrackSettings
+from sloshid.video.colors import DEFAULT_FLOAT_COLOR, HsvRange, preset
 
 
 @dataclass(frozen=True)
@@ -42,8 +42,11 @@ class TrackOptions:
 
     def track_settings(self) -> TrackSettings:
         """The tracker's own settings object."""
-        hsv = (HsvRange(self.float_hsv_low, self.float_hsv_high) if self.float_hsv_low is not None
-               else preset(self.float_color).hsv)  # fmt: skip
+        hsv = (
+            HsvRange(self.float_hsv_low, self.float_hsv_high)
+            if self.float_hsv_low is not None
+            else preset(self.float_color).hsv
+        )
         return TrackSettings(hsv=hsv, roi=self.roi, reference=self.reference, smooth=self.smooth)
 
 
@@ -79,7 +82,7 @@ class BatchConfig:
     identify: IdentifyOptions
 
     @classmethod
-    def load(cls, path: str | Path) -> "BatchConfig":
+    def load(cls, path: str | Path) -> BatchConfig:
         """Read and validate; videos come from the command line, so `videos`/`signals` are refused here."""
         raw = load_toml(path)
         for key in raw:
@@ -88,6 +91,7 @@ class BatchConfig:
         track = from_dict(TrackOptions, raw.get("track", {}), "[track]")
         ident = from_dict(IdentifyOptions, raw.get("identify", {}), "[identify]")
         if track.videos or ident.signals:
-            raise UserError(f"{path}: a batch takes its videos from the command line; remove [track].videos "
-                            "and [identify].signals.")
+            raise UserError(
+                f"{path}: a batch takes its videos from the command line; remove [track].videos and [identify].signals."
+            )
         return cls(track, ident)

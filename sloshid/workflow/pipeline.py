@@ -12,10 +12,11 @@ import json
 import os
 import shutil
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from datetime import datetime, timezone
 from pathlib import Path
-from typing import Any, Callable, Literal
+from typing import Any, Literal
 
 from sloshid import __version__
 from sloshid.core.atomic import atomic_dir, write_text
@@ -130,7 +131,7 @@ class Pipeline:
     stages: list[tuple[Stage, Any]]
 
     @classmethod
-    def load(cls, path: str | Path, registry: dict[str, Stage]) -> "Pipeline":
+    def load(cls, path: str | Path, registry: dict[str, Stage]) -> Pipeline:
         """Read and validate everything before anything runs: keys, types, units, paths."""
         path = Path(path)
         raw = load_toml(path)
@@ -199,9 +200,13 @@ def run_pipeline(
             continue
         files = {str(p): input_hashes.setdefault(str(p), file_sha256(p)) for p in stage.input_files(settings)}
         key = json_sha256(
-            {"settings": _settings_json(settings), "files": files, "upstream": {n: keys[n] for n in needs},
-             "version": __version__}
-        )[:16]  # fmt: skip
+            {
+                "settings": _settings_json(settings),
+                "files": files,
+                "upstream": {n: keys[n] for n in needs},
+                "version": __version__,
+            }
+        )[:16]
         keys[stage.name] = key
         cache = root / ".cache" / stage.name / key
         start = time.perf_counter()

@@ -9,8 +9,8 @@ from typing import Any
 
 from sloshid.core.atomic import write_text
 from sloshid.core.errors import UserError
-from sloshid.workflow.pipeline import Stage, StageContext
 from sloshid.workflow.options import IdentifyOptions, TrackOptions
+from sloshid.workflow.pipeline import Stage, StageContext
 
 
 def _save_figure(fig: Any, path: Path) -> str:
@@ -28,12 +28,16 @@ def track_one(video: Path, opts: TrackOptions, out_dir: Path, one_core: bool = F
     from sloshid.tracking.tracker import track_video
 
     overlay = out_dir / f"{video.stem}_overlay.mp4" if opts.overlay else None
-    res = track_video(video, opts.track_settings(), overlay=overlay, progress=not one_core,
-                      multithreaded=not one_core)  # fmt: skip
+    res = track_video(video, opts.track_settings(), overlay=overlay, progress=not one_core, multithreaded=not one_core)
     res.to_csv(out_dir / f"{video.stem}.csv")
-    return {"video": str(video), "csv": f"{video.stem}.csv", "frames": len(res.t_s),
-            "valid_share": float(res.valid.mean()), "warnings": res.warnings,
-            "overlay": overlay.name if overlay else None}  # fmt: skip
+    return {
+        "video": str(video),
+        "csv": f"{video.stem}.csv",
+        "frames": len(res.t_s),
+        "valid_share": float(res.valid.mean()),
+        "warnings": res.warnings,
+        "overlay": overlay.name if overlay else None,
+    }
 
 
 def run_track(opts: TrackOptions, ctx: StageContext) -> dict[str, Any]:
@@ -77,8 +81,14 @@ def run_identify(opts: IdentifyOptions, ctx: StageContext) -> dict[str, Any]:
     write_text(ctx.out_dir / "params.json", json.dumps(doc, indent=2, allow_nan=False) + "\n")
     (ctx.out_dir / "report").mkdir()
     build_report(result).save(ctx.out_dir / "report")
-    return {"params": "params.json", "report": "report/index.html", "quality": doc["quality"],
-            "reasons": doc["reasons"], "parameters": doc["parameters"], "n_signals": len(signals)}  # fmt: skip
+    return {
+        "params": "params.json",
+        "report": "report/index.html",
+        "quality": doc["quality"],
+        "reasons": doc["reasons"],
+        "parameters": doc["parameters"],
+        "n_signals": len(signals),
+    }
 
 
 def _identify_needs(opts: IdentifyOptions, present: set[str]) -> list[str]:
@@ -116,8 +126,8 @@ def _liquid_needs(opts: Any, present: set[str]) -> list[str]:
 
 def run_plan(opts: PlanOptions, ctx: StageContext) -> dict[str, Any]:
     """Solve the scenario, write the 1 kHz trajectory CSV and the plan report."""
-    from sloshid.planning.report import plan_report
     from sloshid.planning.planner import plan
+    from sloshid.planning.report import plan_report
     from sloshid.planning.scenario import load_scenario
 
     scenario = load_scenario(opts.scenario)
@@ -161,13 +171,18 @@ def run_compare(opts: CompareOptions, ctx: StageContext) -> dict[str, Any]:
     summary = comp.summary()
     write_text(ctx.out_dir / "scores.json", json.dumps(summary, indent=2, default=float) + "\n")
     save_report(comp, ctx.out_dir / "report")
-    return {"scores": "scores.json", "report": "report/index.html", "verdict": summary["verdict"],
-            "methods": summary["methods"]}  # fmt: skip
+    return {
+        "scores": "scores.json",
+        "report": "report/index.html",
+        "verdict": summary["verdict"],
+        "methods": summary["methods"],
+    }
 
 
 TRACK = Stage("track", TrackOptions, run_track, input_files=lambda o: list(o.videos))
-IDENTIFY = Stage("identify", IdentifyOptions, run_identify, input_files=lambda o: list(o.signals),
-                 needs=_identify_needs)  # fmt: skip
+IDENTIFY = Stage(
+    "identify", IdentifyOptions, run_identify, input_files=lambda o: list(o.signals), needs=_identify_needs
+)
 
 PLAN = Stage("plan", PlanOptions, run_plan, input_files=lambda o: [o.scenario], needs=_liquid_needs)
 
