@@ -23,7 +23,7 @@ def run(name: str, **compare_changes) -> tuple[dict, object]:
     sc = dataclasses.replace(sc, compare={**sc.compare, **compare_changes})
     t0 = time.perf_counter()
     comp = compare(from_scenario(sc, sc.liquid), progress=True)
-    summary = comp.summary()
+    summary = comp.to_dict()
     summary["wall_s"] = time.perf_counter() - t0
     save_report(comp, OUT / f"compare_paper_{name.split('_')[-1]}")
     return summary, comp

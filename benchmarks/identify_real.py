@@ -82,7 +82,7 @@ def main() -> None:
         sm = res.second_mode
         second = "-"
         if sm is not None:
-            m = sm.to_json_dict()
+            m = sm.to_dict()
             second = (
                 f"{m['f_hz']['value']:.3f} Hz, zeta {m['zeta']['value']:.4f}, share "
                 f"{100 * m['amplitude_share'][0]:.0f} %, {'separated' if sm.separated else 'not separated'}"
@@ -100,7 +100,7 @@ def main() -> None:
                 "fit_percent": res.fit_percent(0),
                 "window_s": [w.t0_s, w.t1_s],
                 "envelope_growth": growth,
-                "second_mode": sm.to_json_dict() if sm is not None else None,
+                "second_mode": sm.to_dict() if sm is not None else None,
             }
         )
         rows.append(

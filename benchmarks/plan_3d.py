@@ -18,7 +18,7 @@ def run(parallel: bool) -> dict:
     if not parallel:
         save_figure(path_figure(res, sc), "plan_3d_path")
         save_figure(states_figure(res), "plan_3d_states")
-    s = res.summary()
+    s = res.to_dict()
     return {
         "parallel": parallel,
         "plan_wall_s": wall,

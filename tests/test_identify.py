@@ -93,7 +93,7 @@ def test_joint_fit_shares_frequency_and_damping():
     sigma = joint.fit.zeta * joint.fit.omega_rad_s  # amplitudes are at each window start: back to t = 0
     at_zero = [joint.fit.amplitude(i) * math.exp(sigma * joint.windows[i].t0_s) for i in range(3)]
     assert at_zero == pytest.approx([6, 9, 4], rel=0.05)  # 0.3 deg noise on 4-9 deg amplitudes
-    assert len(joint.to_json_dict()["window_s"]) == 3
+    assert len(joint.to_dict()["window_s"]) == 3
 
 
 def test_interval_coverage_on_seeded_batch():
@@ -155,7 +155,7 @@ def test_two_mode_fit_recovers_the_first_mode_beside_a_strong_second(tmp_path):
     # the single-mode model, blind to the second mode, is pulled off the true frequency by more than the two-mode one
     assert abs(sm.single.omega_rad_s / (2 * math.pi) - 3.0) > 2 * abs(f.value - 3.0)
     assert res.quality == "good", res.reasons
-    js = res.to_json_dict()
+    js = res.to_dict()
     assert js["second_mode"]["separated"] and js["second_mode"]["f_hz"]["value"] == pytest.approx(4.1, rel=0.002)
     assert "a2 exp(-zeta2" in js["fit"]["model"] and "second mode: f2 = 4.1" in res.summary()
     page = build_report(res).save(tmp_path).read_text()  # the HTML report shows the second mode and the rule's outcome
@@ -165,7 +165,7 @@ def test_two_mode_fit_recovers_the_first_mode_beside_a_strong_second(tmp_path):
 def test_single_mode_signal_uses_the_single_mode_model():
     res = Identifier().fit(free_decay_signal(3.0, 0.03, 60, amplitude=8, rho=0.3, seed=6)).result
     assert res.second_mode is None and res.fit.second is None
-    js = res.to_json_dict()
+    js = res.to_dict()
     assert js["second_mode"] is None and "zeta2" not in js["fit"]["model"]
 
 
@@ -206,13 +206,13 @@ def test_estimator_api_unfitted_pickle_and_planner_contract(tmp_path):
     assert back.result_.parameters["f_hz"].value == ident.result_.parameters["f_hz"].value
     assert isinstance(ident.params_, SloshParams)
     path = tmp_path / "p.json"
-    path.write_text(json.dumps(ident.result_.to_json_dict()))
+    path.write_text(json.dumps(ident.result_.to_dict()))
     read = SloshParams.from_identify_json(path)  # the planner's reader
     assert read.l_m == pytest.approx(ident.params_.l_m, rel=1e-12)
     assert read.d_ns_per_m == pytest.approx(ident.params_.d_ns_per_m, rel=1e-12)
     tf = ident.result_.tf  # seed eq. 5: DC gain 1/g rad per m/s^2
     assert float(np.real(tf.dcgain())) == pytest.approx(1 / 9.81, rel=1e-9)
-    assert math.isclose(ident.result_.to_json_dict()["transfer_function"]["num"][0], 1 / 9.81)
+    assert math.isclose(ident.result_.to_dict()["transfer_function"]["num"][0], 1 / 9.81)
 
 
 def test_seed_pendulum_ring_down_after_a_move_gives_table_i():
@@ -259,7 +259,7 @@ def test_drift_option_recovers_a_creeping_zero():
     assert res.fit.linear[0][3] == pytest.approx(0.4, abs=0.03)  # 0.3 deg noise over 10 s: slope sd ~0.005 deg/s
     assert res.parameters["f_hz"].value == pytest.approx(3.0, rel=0.002)
     assert res.parameters["zeta"].value == pytest.approx(0.02, rel=0.1)
-    assert res.to_json_dict()["fit"]["per_signal"][0]["drift_per_s"] == pytest.approx(0.4, abs=0.03)
+    assert res.to_dict()["fit"]["per_signal"][0]["drift_per_s"] == pytest.approx(0.4, abs=0.03)
 
 
 @pytest.mark.parametrize("f0,z0", [(2.5, 0.02), (3.0, 0.05)])

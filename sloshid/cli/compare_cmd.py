@@ -68,7 +68,7 @@ def run(args: argparse.Namespace) -> int:
     if args.report is not None and (args.report.endswith((".html", ".htm")) or Path(args.report).is_file()):
         raise UserError(f"--report takes a directory (index.html is written inside it), got {args.report}.")
     comp = compare(inp, progress=sys.stderr.isatty())
-    summary = comp.summary()
+    summary = comp.to_dict()
     if args.report is not None:
         from sloshid.comparison.report import save_report
 

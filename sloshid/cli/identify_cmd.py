@@ -92,7 +92,7 @@ def run(args: argparse.Namespace) -> int:
 
         report = build_report(result)
     try:
-        text = json.dumps(result.to_json_dict(), indent=2, allow_nan=False)
+        text = json.dumps(result.to_dict(), indent=2, allow_nan=False)
     except ValueError:
         raise UserError("the fit produced non-finite numbers; no parameters were written.") from None
     if report is not None:

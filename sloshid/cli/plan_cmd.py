@@ -81,7 +81,7 @@ def run(args: argparse.Namespace) -> int:
             file=sys.stderr,
         )
     if args.json:
-        print(json.dumps(result.summary(), indent=2))
+        print(json.dumps(result.to_dict(), indent=2))
     else:
         print(
             f"planned {len(result.segments)} segment(s): T = {result.T_s:.4f} s, solved in {result.solve_time_s:.3f} s "

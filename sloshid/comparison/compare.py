@@ -329,7 +329,7 @@ class Comparison:
         """The row of method `key`, if it was requested."""
         return next((r for r in self.results if r.key == key), None)
 
-    def summary(self) -> dict:
+    def to_dict(self) -> dict:
         """JSON-ready summary (unit-named keys)."""
         rows = []
         for r in self.results:

@@ -77,7 +77,7 @@ class Spectrum:
     """The dominant peak is a true resonance: inside the search band the PSD falls below half of it on both
     sides (red noise or drift only rises toward the band's lower edge)."""
 
-    def to_json_dict(self) -> dict:
+    def to_dict(self) -> dict:
         """The summary numbers (not the arrays) with unit-named keys."""
         return {
             "method": "scipy.signal.welch, Hann window, 50 % overlap, density scaling",

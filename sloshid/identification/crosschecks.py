@@ -26,7 +26,7 @@ class CrossCheck:
     """How many mode periods of data the method could use (its weight in the verdict)."""
     note: str = ""
 
-    def to_json_dict(self) -> dict:
+    def to_dict(self) -> dict:
         """Plain dict; NaN becomes null."""
         return {k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in asdict(self).items()}
 

@@ -92,7 +92,7 @@ class Estimate:
     stderr: float
     ci95: tuple[float, float]
 
-    def to_json_dict(self) -> dict:
+    def to_dict(self) -> dict:
         """{"value", "stderr", "ci95": [lo, hi]}."""
         return {"value": self.value, "stderr": self.stderr, "ci95": list(self.ci95)}
 
@@ -151,10 +151,10 @@ class IdentResult:
         """Signal i restricted to its fit window."""
         return self.signals[i].between(self.windows[i].t0_s, self.windows[i].t1_s)
 
-    def to_json_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> dict[str, Any]:
         """The `sloshid identify` JSON (schema in README; read back by SloshParams.from_identify_json)."""
         num, den = linear_tf_coeffs(self.params)
-        params = {k: v.to_json_dict() for k, v in self.parameters.items()}
+        params = {k: v.to_dict() for k, v in self.parameters.items()}
         if self.mass_kg is not None:
             params["m_kg"] = {"value": self.mass_kg}
         per_signal = []
@@ -195,13 +195,13 @@ class IdentResult:
             },
             "psd": {
                 "peak_f_hz": float(np.median([s.peak_f_hz for s in self.spectra])),
-                "per_signal": [s.to_json_dict() for s in self.spectra],
+                "per_signal": [s.to_dict() for s in self.spectra],
             },
             "cross_checks": {
                 "pt2_fit": {"f_hz": self.parameters["f_hz"].value, "zeta": self.parameters["zeta"].value},
-                "per_signal": [[c.to_json_dict() for c in cc] for cc in self.cross_checks],
+                "per_signal": [[c.to_dict() for c in cc] for cc in self.cross_checks],
             },
-            "second_mode": self.second_mode.to_json_dict() if self.second_mode is not None else None,
+            "second_mode": self.second_mode.to_dict() if self.second_mode is not None else None,
             "fit": {
                 "model": "a exp(-zeta omega t) cos(omega sqrt(1-zeta^2) t + phase) + offset"
                 + (" + drift t" if self.fit.drift else "")

@@ -97,7 +97,7 @@ def build_report(res: IdentResult) -> Report:
         rep.add_text("No --mass given, so the damping constant d is not reported (it scales with the liquid mass).")
 
     if res.second_mode is not None:
-        sm, m = res.second_mode, res.second_mode.to_json_dict()
+        sm, m = res.second_mode, res.second_mode.to_dict()
         rep.add_heading("Second mode")
         rows = [
             ["second mode f2 (Hz)", m["f_hz"]["value"], m["f_hz"]["stderr"]],

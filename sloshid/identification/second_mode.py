@@ -43,7 +43,7 @@ class SecondMode:
         a1, a2 = self.fit.amplitude(i, 0), self.fit.amplitude(i, 1)
         return a2 / (a1 + a2) if a1 + a2 > 0 else float("nan")
 
-    def to_json_dict(self) -> dict:
+    def to_dict(self) -> dict:
         """f_hz and zeta of the second mode with errors, per-signal amplitude share, the verdict on separation."""
         m = self.fit.second
         se_w, se_z = np.sqrt(np.clip(np.diag(m.cov), 0, None))

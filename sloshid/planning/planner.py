@@ -71,7 +71,7 @@ class PlanResult:
         """Largest angular speed of the container."""
         return float(np.degrees(np.linalg.norm(self.trajectory.omega_rad_s, axis=1)).max())
 
-    def summary(self) -> dict:
+    def to_dict(self) -> dict:
         """The `--json` content: timing, solver status, tilt, limits, verification, per-segment figures."""
         v = self.verification
         return {

@@ -141,7 +141,7 @@ def verification_figure(result: PlanResult):
 
 def plan_report(result: PlanResult, scenario: Scenario) -> Report:
     """Assemble the report (nothing is written until `.save(dir)`)."""
-    s = result.summary()
+    s = result.to_dict()
     rep = Report(f"sloshid plan: {scenario.source or 'scenario'}")
     verdict = "verified" if result.verification_ok else "NOT verified"
     rep.add_text(

@@ -90,7 +90,7 @@ def process_video(video: str, config: BatchConfig, out_root: str) -> dict[str, A
         tracked.to_csv(out / "angles.csv")
         row.update(frames=len(tracked.t_s), valid_share=round(float(tracked.valid.mean()), 4))
         result = Identifier(config.identify.ident_settings()).fit(load_signal(out / "angles.csv")).result
-        doc = result.to_json_dict()
+        doc = result.to_dict()
         write_text(out / "params.json", json.dumps(doc, indent=2) + "\n")
     except UserError as exc:
         return {**row, "status": "failed", "reasons": str(exc)}

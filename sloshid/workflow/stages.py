@@ -77,7 +77,7 @@ def run_identify(opts: IdentifyOptions, ctx: StageContext) -> dict[str, Any]:
     files = sorted((ctx.upstream["track"]).glob("*.csv")) if "track" in ctx.upstream else []
     signals = [load_signal(p) for p in files] + [load_signal(p, **opts.load_options()) for p in opts.signals]
     result = Identifier(opts.ident_settings()).fit(signals).result
-    doc = result.to_json_dict()
+    doc = result.to_dict()
     write_text(ctx.out_dir / "params.json", json.dumps(doc, indent=2, allow_nan=False) + "\n")
     (ctx.out_dir / "report").mkdir()
     build_report(result).save(ctx.out_dir / "report")
@@ -147,7 +147,7 @@ def run_plan(opts: PlanOptions, ctx: StageContext) -> dict[str, Any]:
     ax2.set(xlabel="time t (s)", ylabel="tilt (deg)", title="container tilt = liquid surface")
     ax2.legend(fontsize=8)
     figure = _save_figure(fig, ctx.out_dir / "plan.png")
-    return {"trajectory": "trajectory.csv", "report": "report/index.html", "figure": figure, **result.summary()}
+    return {"trajectory": "trajectory.csv", "report": "report/index.html", "figure": figure, **result.to_dict()}
 
 
 @dataclass(frozen=True)
@@ -168,7 +168,7 @@ def run_compare(opts: CompareOptions, ctx: StageContext) -> dict[str, Any]:
 
     scenario = load_scenario(opts.scenario)
     comp = compare(from_scenario(scenario, _liquid(opts, ctx, scenario)), progress=True)
-    summary = comp.summary()
+    summary = comp.to_dict()
     write_text(ctx.out_dir / "scores.json", json.dumps(summary, indent=2, default=float) + "\n")
     save_report(comp, ctx.out_dir / "report")
     return {
