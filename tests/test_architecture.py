@@ -16,7 +16,7 @@ ALLOWED: dict[str, set[str]] = {
     "model": {"core"},
     "video": {"core"},
     "report": {"core"},
-    "tracking": {"core", "video"},
+    "tracking": {"core", "video", "report"},
     "identification": {"core", "model", "report"},
     "planning": {"core", "model", "report"},
     "comparison": {"core", "model", "report", "planning"},

@@ -185,7 +185,7 @@ def test_every_preset_finds_the_float_synth_paints(tmp_path, colour):
     # each preset's HSV range must catch the float painted in that colour and nothing else in the scene
     s = SynthSettings(**{**SMALL, "duration_s": 0.5}, float_color=colour)
     truth = render_video(tmp_path / "p.mp4", s)
-    res = track_video(tmp_path / "p.mp4", TrackSettings(hsv=PRESETS[colour].hsv))
+    res = track_video(tmp_path / "p.mp4", TrackSettings(float_color=colour))
     assert res.valid.all()
     assert np.abs(res.x_px - truth["float_x_px"]).max() < 1.0  # the float, not the liquid
     assert _rmse(res.angle_deg - truth["float_angle_deg"]) < 0.3

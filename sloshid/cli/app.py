@@ -1,14 +1,17 @@
-"""The `sloshid` command line: one module per command under sloshid/commands, errors as one sentence."""
+"""The `sloshid` command line: one module per command (`sloshid/cli/<name>_cmd.py`), errors as one sentence."""
 
 from __future__ import annotations
 
 import argparse
+import errno
 import importlib
+import os
+import signal
 import sys
 from collections.abc import Sequence
 
 from sloshid import __version__
-from sloshid.core.errors import UserError
+from sloshid.core.errors import SettingError, UserError
 
 COMMANDS: dict[str, str] = {
     "synth": "render a synthetic float video with exact ground truth (for testing the tracker)",
@@ -21,8 +24,20 @@ COMMANDS: dict[str, str] = {
 }
 
 
-class _Formatter(argparse.ArgumentDefaultsHelpFormatter, argparse.RawDescriptionHelpFormatter):
-    """Show defaults and keep the description's line breaks."""
+class Terminated(BaseException):
+    """SIGTERM as an exception, so that every `finally` runs and no half-written temporary file is left."""
+
+
+class _Formatter(argparse.RawDescriptionHelpFormatter):
+    """Keep the description's line breaks; show a default only where there is one worth showing."""
+
+    def _get_help_string(self, action: argparse.Action) -> str:
+        text = action.help or ""
+        if "%(default)" in text or action.default in (None, False, argparse.SUPPRESS) or action.required:
+            return text
+        if "default" in text:  # the help already says what happens by default
+            return text
+        return f"{text} (default: %(default)s)"
 
 
 def build_parser(only: str | None = None) -> argparse.ArgumentParser:
@@ -42,27 +57,54 @@ def build_parser(only: str | None = None) -> argparse.ArgumentParser:
         module = importlib.import_module(f"sloshid.cli.{name}_cmd")
         p = sub.add_parser(name, help=help_text, description=module.__doc__, formatter_class=_Formatter)
         module.add_arguments(p)
-        p.set_defaults(_run=module.run)
+        p.set_defaults(_run=module.run, _flags=getattr(module, "FLAGS", {}))
     return parser
 
 
+def flag_for(setting: str, flags: dict[str, str]) -> str:
+    """The command-line name of a library setting: the command's own mapping, else --setting-with-hyphens."""
+    return flags.get(setting, "--" + setting.replace("_", "-"))
+
+
+def _on_sigterm(signum: int, frame: object) -> None:
+    raise Terminated
+
+
+def _fail(message: str) -> int:
+    """Print one sentence on stderr; exit code 2."""
+    print(f"sloshid: error: {message}", file=sys.stderr)
+    return 2
+
+
 def main(argv: Sequence[str] | None = None) -> int:
-    """Entry point: parse, dispatch, and turn UserError into one line on stderr with exit code 2."""
+    """Entry point: parse, dispatch, and turn a UserError into one line on stderr with exit code 2."""
     argv = list(sys.argv[1:] if argv is None else argv)
     wanted = next((a for a in argv if a in COMMANDS), None)
+    args = None
+    previous = signal.signal(signal.SIGTERM, _on_sigterm)
     try:
         parser = build_parser(only=wanted)
         args = parser.parse_args(argv)
         if not getattr(args, "command", None):
             parser.print_help()
             return 2
-        return int(args._run(args) or 0)
+        code = int(args._run(args) or 0)
+        sys.stdout.flush()
+        return code
+    except SettingError as exc:
+        return _fail(str(exc.named(flag_for(exc.setting, getattr(args, "_flags", {})))))
     except UserError as exc:
-        print(f"sloshid: error: {exc}", file=sys.stderr)
-        return 2
-    except KeyboardInterrupt:
+        return _fail(str(exc))
+    except OSError as exc:
+        if exc.errno in (errno.ENOSPC, errno.EPIPE, errno.EIO) and exc.filename is None:  # standard output failed
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())  # so the exit-time flush cannot fail
+            return _fail(f"could not write to standard output ({exc.strerror}).")
+        raise
+    except (KeyboardInterrupt, Terminated):
         print("sloshid: interrupted; finished outputs are kept, nothing half-written was left.", file=sys.stderr)
-        return 130
+        return 130 if not isinstance(sys.exc_info()[1], Terminated) else 143
+    finally:
+        signal.signal(signal.SIGTERM, previous)
 
 
 if __name__ == "__main__":  # pragma: no cover

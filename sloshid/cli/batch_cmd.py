@@ -43,9 +43,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     """Validate everything first, then run the batch and print where the summary is."""
     from sloshid.core.errors import UserError
+    from sloshid.core.parallel import check_workers
     from sloshid.workflow.batch import run_batch
     from sloshid.workflow.options import BatchConfig, IdentifyOptions, TrackOptions
 
+    if args.scheduler is None:
+        check_workers(args.workers)
     missing = [str(v) for v in args.videos if not v.is_file()]
     if missing:
         raise UserError(f"{len(missing)} video(s) do not exist: {', '.join(missing[:5])}.")

@@ -13,9 +13,8 @@ from __future__ import annotations
 import argparse
 import json
 import sys
-from pathlib import Path
 
-from sloshid.core.errors import UserError
+from sloshid.core.outputs import Outputs
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -41,38 +40,17 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
 
 
-def table_text(summary: dict) -> str:
-    """The score table as aligned plain text."""
-    head = f"{'method':34s} {'T_s':>7s} {'peak_deg':>9s} {'resid_deg':>9s} {'tilt_deg':>8s} {'limits':>7s}"
-    lines = [head]
-    for m in summary["methods"]:
-        if not m["applicable"]:
-            lines.append(f"{m['label']:34s} not applicable: {m['reason']}")
-            continue
-        ok = "ok" if m["robot_limits_ok"] and m["move_limits_ok"] else "FAIL"
-        lines.append(
-            f"{m['label']:34s} {m['transfer_time_s']:7.3f} {m['peak_during_deg']:9.3f} "
-            f"{m['residual_deg']:9.3f} {m['peak_tilt_deg']:8.2f} {ok:>7s}"
-        )
-    return "\n".join([*lines, "", summary["verdict"]])
-
-
 def run(args: argparse.Namespace) -> int:
     """Load and validate everything first (nothing is written on bad input), compare, then write outputs."""
-    from sloshid.comparison.compare import compare, from_scenario
+    from sloshid.comparison.compare import compare_scenario
     from sloshid.planning.scenario import load_scenario, resolve_liquid
 
+    outputs = Outputs([p for p in (args.scenario, args.params) if p])
+    report_dir = outputs.report_dir(args.report) if args.report is not None else None
     scenario = load_scenario(args.scenario)
     params = resolve_liquid(scenario, args.params)
-    inp = from_scenario(scenario, params)
-    if args.report is not None and (args.report.endswith((".html", ".htm")) or Path(args.report).is_file()):
-        raise UserError(f"--report takes a directory (index.html is written inside it), got {args.report}.")
-    comp = compare(inp, progress=sys.stderr.isatty())
-    summary = comp.to_dict()
-    if args.report is not None:
-        from sloshid.comparison.report import save_report
-
-        path = save_report(comp, args.report)
-        print(f"report written to {path}", file=sys.stderr)
-    print(json.dumps(summary, indent=2) if args.json else table_text(summary))
+    comp = compare_scenario(scenario, params, progress=sys.stderr.isatty())
+    if report_dir is not None:
+        print(f"report written to {comp.report(report_dir)}", file=sys.stderr)
+    print(json.dumps(comp.to_dict(), indent=2) if args.json else comp.summary())
     return 0

@@ -6,11 +6,10 @@ Several signals give one joint estimate (shared frequency and damping, own ampli
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 
-from sloshid.core.atomic import atomic_dir, write_text
-from sloshid.core.errors import UserError
+FLAGS = {"mass_kg": "--mass", "window_s": "--window", "f_range_hz": "--f-range", "min_fit_percent": "--min-fit"}
+"""Library setting -> option name, where they differ (errors name the option the user typed)."""
 
 
 def _pair(text: str) -> tuple[float, float]:
@@ -63,9 +62,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Load, identify, print the summary, write JSON (and report) atomically."""
-    from sloshid.identification.estimator import Identifier, IdentSettings
-    from sloshid.identification.signals import load_signal
+    """Check the outputs, identify, print the summary, write JSON (and report) atomically."""
+    from sloshid.core.atomic import write_json
+    from sloshid.core.outputs import Outputs
+    from sloshid.identification.estimator import IdentSettings
+    from sloshid.identification.stage import SignalColumns, identify_sources
 
     settings = IdentSettings(
         mass_kg=args.mass,
@@ -76,29 +77,17 @@ def run(args: argparse.Namespace) -> int:
         container_radius_m=args.container_radius_m,
         fill_height_m=args.fill_height_m,
     )
-    signals = [
-        load_signal(
-            p, time_col=args.time_col, value_col=args.value_col, time_var=args.time_var, value_var=args.value_var
-        )
-        for p in args.signals
-    ]
-    for sig in signals:
-        for w in sig.warnings:
-            print(f"sloshid: warning: {w}", file=sys.stderr)
-    result = Identifier(settings).fit(signals).result
-    report = None
-    if args.report:
-        from sloshid.identification.report import build_report
-
-        report = build_report(result)
-    try:
-        text = json.dumps(result.to_dict(), indent=2, allow_nan=False)
-    except ValueError:
-        raise UserError("the fit produced non-finite numbers; no parameters were written.") from None
-    if report is not None:
-        with atomic_dir(args.report) as tmp:
-            report.save(tmp)
-    write_text(args.output, text + "\n")
+    outputs = Outputs(args.signals)
+    output = outputs.file(args.output, "-o", (".json",))
+    report_dir = outputs.report_dir(args.report) if args.report else None
+    columns = SignalColumns(args.time_col, args.value_col, args.time_var, args.value_var)
+    result = identify_sources(
+        args.signals, settings, columns, warn=lambda w: print(f"sloshid: warning: {w}", file=sys.stderr)
+    )
+    doc = result.to_dict()
+    if report_dir is not None:
+        result.report(report_dir)
+    write_json(output, doc)
     print(result.summary())
-    print(f"wrote {args.output}" + (f" and {args.report}/index.html" if args.report else ""))
+    print(f"wrote {output}" + (f" and {report_dir / 'index.html'}" if report_dir else ""))
     return 0

@@ -9,7 +9,7 @@ import argparse
 import json
 import sys
 
-from sloshid.core.errors import UserError
+from sloshid.core.outputs import Outputs
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -49,23 +49,19 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Load, plan, then write the CSV (and report) only after everything succeeded."""
+    """Check every output, load, plan, then write the CSV (and report) only after everything succeeded."""
     from sloshid.planning.planner import VERIFY_AFTER_DEG, VERIFY_DURING_DEG, plan
     from sloshid.planning.scenario import load_scenario, resolve_liquid
 
-    if not str(args.output).lower().endswith(".csv"):
-        raise UserError(f"the output {args.output} must be a .csv file.")
+    outputs = Outputs([p for p in (args.scenario, args.params) if p])
+    output = outputs.file(args.output, "-o", (".csv",))
+    report_dir = outputs.report_dir(args.report) if args.report else None
     scenario = load_scenario(args.scenario)
     params = resolve_liquid(scenario, args.params)
     result = plan(scenario, params, progress=sys.stderr.isatty())
-    report = None
-    if args.report:
-        from sloshid.planning.report import plan_report
-
-        report = plan_report(result, scenario)
-    result.trajectory.to_csv(args.output)
-    if report is not None:
-        report.save(args.report)
+    result.trajectory.to_csv(output)
+    if report_dir is not None:
+        result.report(report_dir)
     for usage in result.limits:
         if not usage.ok:
             print(
@@ -80,13 +76,5 @@ def run(args: argparse.Namespace) -> int:
             f"move (limit {VERIFY_DURING_DEG}) and {v.residual_deg:.3g} deg after (limit {VERIFY_AFTER_DEG}).",
             file=sys.stderr,
         )
-    if args.json:
-        print(json.dumps(result.to_dict(), indent=2))
-    else:
-        print(
-            f"planned {len(result.segments)} segment(s): T = {result.T_s:.4f} s, solved in {result.solve_time_s:.3f} s "
-            f"({result.status}); max tilt {result.max_tilt_deg:.2f} deg; robot limits "
-            f"{'ok' if result.limits_ok else 'EXCEEDED'}; liquid-container angle {v.peak_during_deg:.4f} deg "
-            f"during, {v.residual_deg:.4f} deg after; wrote {args.output}"
-        )
+    print(json.dumps(result.to_dict(), indent=2) if args.json else f"{result.summary()}; wrote {output}")
     return 0

@@ -137,9 +137,14 @@ def settings_from_args(args: argparse.Namespace) -> SynthSettings:
 
 def run(args: argparse.Namespace) -> int:
     """Render the video and its truth CSV; print where they went and the liquid's modal values."""
+    from sloshid.core.outputs import Outputs
+    from sloshid.video.frames import VIDEO_SUFFIXES
+
     settings = settings_from_args(args)
-    truth_path = args.truth or args.output.with_name(args.output.stem + "_truth.csv")
-    truth = render_video(args.output, settings, truth_path, progress=True)
+    outputs = Outputs()
+    video = outputs.file(args.output, "the video", VIDEO_SUFFIXES)
+    truth_path = outputs.file(args.truth or video.with_name(video.stem + "_truth.csv"), "--truth", (".csv",))
+    truth = render_video(video, settings, truth_path, progress=True)
     p = settings.params
     print(
         f"wrote {args.output} ({len(truth)} frames, {settings.width}x{settings.height}, {settings.codec}) "

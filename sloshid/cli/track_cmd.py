@@ -16,8 +16,10 @@ import sys
 from pathlib import Path
 
 from sloshid.core.errors import UserError
+from sloshid.core.outputs import Outputs
 from sloshid.tracking.tracker import TrackSettings, track_video
-from sloshid.video.colors import DEFAULT_FLOAT_COLOR, PRESETS, HsvRange, format_hsv, parse_hsv, preset
+from sloshid.video.colors import DEFAULT_FLOAT_COLOR, PRESETS, format_hsv, parse_hsv
+from sloshid.video.frames import VIDEO_SUFFIXES
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -58,18 +60,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--no-smooth", action="store_true", help="skip the Kalman/RTS angle_smoothed_deg column (NaN)")
 
 
-def _hsv_from_args(args: argparse.Namespace) -> HsvRange:
-    """The HSV range: explicit --float-hsv-low/high if given (both), else the preset."""
-    if (args.float_hsv_low is None) != (args.float_hsv_high is None):
-        raise UserError("give --float-hsv-low and --float-hsv-high together.")
-    if args.float_hsv_low is not None:
-        return HsvRange(
-            parse_hsv(args.float_hsv_low, "--float-hsv-low"), parse_hsv(args.float_hsv_high, "--float-hsv-high")
-        )
-    return preset(args.float_color).hsv
-
-
-def _roi_from_args(text: str | None) -> tuple[int, int, int, int] | None:
+def _roi_from_args(text: str | None) -> tuple[int, ...] | None:
     """Parse X,Y,W,H (four whole numbers) or None."""
     if text is None:
         return None
@@ -79,23 +70,25 @@ def _roi_from_args(text: str | None) -> tuple[int, int, int, int] | None:
         values = ()
     if len(values) != 4:
         raise UserError(f"--roi must be four whole numbers X,Y,W,H in pixels, got '{text}'.")
-    return values  # type: ignore[return-value]
+    return values
 
 
 def run(args: argparse.Namespace) -> int:
-    """Track, write the CSV (and overlay), report warnings; exit 1 when the video was truncated."""
+    """Check the outputs, track, write the CSV (and overlay), report warnings; exit 1 when the video was truncated."""
     settings = TrackSettings(
-        hsv=_hsv_from_args(args), roi=_roi_from_args(args.roi), reference=args.reference, smooth=not args.no_smooth
+        float_color=args.float_color,
+        float_hsv_low=parse_hsv(args.float_hsv_low, "--float-hsv-low") if args.float_hsv_low else None,
+        float_hsv_high=parse_hsv(args.float_hsv_high, "--float-hsv-high") if args.float_hsv_high else None,
+        roi=_roi_from_args(args.roi),
+        reference=args.reference,
+        smooth=not args.no_smooth,
     )
-    if args.output.suffix.lower() != ".csv":
-        raise UserError(f"output {args.output} must end in .csv.")
-    result = track_video(args.video, settings, overlay=args.overlay, progress=True)
-    result.to_csv(args.output)
+    outputs = Outputs([args.video])
+    output = outputs.file(args.output, "-o", (".csv",))
+    overlay = outputs.file(args.overlay, "--overlay", VIDEO_SUFFIXES) if args.overlay else None
+    result = track_video(args.video, settings, overlay=overlay, progress=True)
+    result.to_csv(output)
     for warning in result.warnings:
         print(f"sloshid: warning: {warning}", file=sys.stderr)
-    valid = int(result.valid.sum())
-    print(
-        f"wrote {args.output}: {len(result.t_s)} frames, {valid} valid, "
-        f"{result.t_s[-1] - result.t_s[0]:.2f} s" + (f"; overlay {args.overlay}" if args.overlay else "")
-    )
+    print(result.summary() + f"; wrote {output}" + (f" and {overlay}" if overlay else ""))
     return 1 if result.lost_share > 0.005 else 0

@@ -10,7 +10,8 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -23,6 +24,7 @@ from sloshid.comparison.robustness import Replay, RobustnessResult, sweep
 from sloshid.comparison.ruckig_moves import jerk_limited
 from sloshid.comparison.shapers import shaped_constant_acceleration
 from sloshid.core.errors import UserError
+from sloshid.core.tables import to_pandas
 from sloshid.model.pendulum import SloshParams
 from sloshid.model.simulate import LiquidResponse, simulate_liquid
 from sloshid.model.trajectory import RobotLimits, Trajectory, check_limits
@@ -202,12 +204,22 @@ class CompareInput:
     settings: CompareSettings
     scenario: Any = None
     """sloshid.planning.scenario.Scenario for the planner methods (None: those are not applicable)."""
+    plan: Any = None
+    """An existing nominal PlanResult of this scenario and liquid, reused instead of solving again."""
 
     @property
     def jerk_max_m_s3(self) -> float:
         """Jerk limit of the ruckig methods: configured, or the largest axis acc_max times the slosh frequency."""
         s = self.settings.jerk_max_m_s3
         return s if s is not None else max(self.limits.task.acc_max_m_s2) * self.params.f_hz
+
+
+def compare_scenario(scenario: Any, params: SloshParams, plan: Any = None, progress: bool = False) -> Comparison:
+    """The comparison stage in one call (CLI, pipeline and `sloshid.compare`): every method of the scenario's
+    [compare] table for this liquid, reusing `plan` (a PlanResult of the same scenario and liquid) when given."""
+    if plan is not None and plan.params != params:
+        raise UserError("the plan given to compare was made for another liquid; plan again or drop it.")
+    return compare(replace(from_scenario(scenario, params), plan=plan), progress=progress)
 
 
 def from_scenario(scenario: Any, params: SloshParams) -> CompareInput:
@@ -236,6 +248,8 @@ def sloshid_plan(inp: CompareInput, robust: bool) -> tuple[Trajectory, float]:
         from sloshid.planning.planner import plan
     except ImportError as exc:
         raise NotApplicable(f"the planner is not available ({exc}).") from None
+    if not robust and inp.plan is not None:
+        return inp.plan.trajectory, float(inp.plan.solve_time_s)
     factors = inp.settings.robust_omega_factors if robust else ()  # () is nominal; None would take [solver]'s
     try:
         result = plan(inp.scenario, inp.params, robust_omega_factors=factors)
@@ -328,6 +342,49 @@ class Comparison:
     def result(self, key: str) -> MethodResult | None:
         """The row of method `key`, if it was requested."""
         return next((r for r in self.results if r.key == key), None)
+
+    def summary(self) -> str:
+        """The score table as aligned plain text, then the verdict (what `sloshid compare` prints)."""
+        head = f"{'method':34s} {'T_s':>7s} {'peak_deg':>9s} {'resid_deg':>9s} {'tilt_deg':>8s} {'limits':>7s}"
+        lines = [head]
+        for r in self.results:
+            if not r.applicable:
+                lines.append(f"{r.label:34s} not applicable: {r.reason}")
+                continue
+            sc = r.score
+            ok = "ok" if sc.robot_limits_ok and sc.move_limits_ok else "FAIL"
+            lines.append(
+                f"{r.label:34s} {sc.transfer_time_s:7.3f} {sc.peak_during_deg:9.3f} "
+                f"{sc.residual_deg:9.3f} {sc.peak_tilt_deg:8.2f} {ok:>7s}"
+            )
+        return "\n".join([*lines, "", self.verdict])
+
+    def to_pandas(self):
+        """One row per applicable method with its scores (the table of `summary()`, all columns)."""
+        rows = [{"method": r.key, "label": r.label, **vars(r.score)} for r in self.results if r.applicable]
+        return to_pandas({key: [row.get(key) for row in rows] for key in (rows[0] if rows else {})})
+
+    def plot(self, ax=None):
+        """Relative angle liquid - container over time for every method (dots mark arrival); returns the figure."""
+        import matplotlib.pyplot as plt
+
+        if ax is None:
+            _, ax = plt.subplots(figsize=(10, 3.6))
+        for r in self.results:
+            if r.applicable:
+                resp = r.response
+                (line,) = ax.plot(resp.t_s, resp.rel_angle_deg, lw=1.2, label=r.label)
+                i = int(np.searchsorted(resp.t_s, resp.t_arrival_s))
+                ax.plot(resp.t_s[i], resp.rel_angle_deg[i], "o", color=line.get_color(), ms=5)
+        ax.set(xlabel="time from start of move (s)", ylabel="liquid - container angle (deg)")
+        ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1))
+        return ax.figure
+
+    def report(self, directory: str | Path) -> Path:
+        """Write the comparison report to directory/index.html; returns its path."""
+        from sloshid.comparison.report import save_report
+
+        return save_report(self, directory)
 
     def to_dict(self) -> dict:
         """JSON-ready summary (unit-named keys)."""

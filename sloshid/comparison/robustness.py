@@ -7,13 +7,12 @@ Every point is scored by the nonlinear `simulate_liquid`, as in the main compari
 from __future__ import annotations
 
 from collections.abc import Sequence
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
-from tqdm import tqdm
 
 from sloshid.comparison.feedback import FeedbackSettings, run_feedback
+from sloshid.core.parallel import parallel_map
 from sloshid.model.pendulum import SloshParams
 from sloshid.model.simulate import simulate_liquid
 from sloshid.model.trajectory import Trajectory
@@ -97,12 +96,7 @@ def sweep(
     zeta_factors = np.asarray(sorted(set(zeta_factors) | {1.0}), float)
     truths = [params.scaled(f, 1.0) for f in omega_factors] + [params.scaled(1.0, z) for z in zeta_factors]
     jobs = [(replay, truth, settle_s) for replay in replays.values() for truth in truths]
-    bar = dict(total=len(jobs), desc="robustness sweep", disable=not progress, leave=False)
-    if workers > 1:
-        with ProcessPoolExecutor(max_workers=workers) as pool:
-            flat = list(tqdm(pool.map(residual, jobs), **bar))
-    else:
-        flat = [residual(job) for job in tqdm(jobs, **bar)]
+    flat = parallel_map(residual, [(job,) for job in jobs], workers, progress=progress, desc="robustness sweep")
     by_omega, by_zeta = {}, {}
     for i, label in enumerate(replays):
         row = np.array(flat[i * len(truths) : (i + 1) * len(truths)])

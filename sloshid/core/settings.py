@@ -10,7 +10,7 @@ import typing
 from pathlib import Path
 from typing import Any, TypeVar
 
-from sloshid.core.errors import UserError
+from sloshid.core.errors import SettingError, UserError
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -117,4 +117,7 @@ def from_dict(cls: type[T], data: dict[str, Any], where: str = "") -> T:
             kwargs[name] = _check(data[name], hints[name], f"{prefix}{name}")
         elif field.default is dataclasses.MISSING and field.default_factory is dataclasses.MISSING:
             raise UserError(f"missing required key '{prefix}{name}'.")
-    return cls(**kwargs)
+    try:
+        return cls(**kwargs)
+    except SettingError as exc:  # the library names its setting; here it is a key of this table
+        raise UserError(str(exc.named(f"{prefix}{exc.setting}"))) from None

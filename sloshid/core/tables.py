@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import csv
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -40,3 +41,12 @@ def read_csv(path: str | Path) -> dict[str, np.ndarray]:
     except ValueError:
         raise UserError(f"{path} is not a numeric CSV table.") from None
     return {name: data[:, i] for i, name in enumerate(rows[0])}
+
+
+def to_pandas(columns: dict[str, Any]):
+    """A pandas DataFrame of equal-length columns (pandas is optional: `pip install sloshid[pandas]`)."""
+    try:
+        import pandas as pd
+    except ImportError:
+        raise UserError("to_pandas() needs pandas; install it with `pip install pandas`.") from None
+    return pd.DataFrame(columns)

@@ -13,8 +13,9 @@ import numpy as np
 from scipy import stats
 
 from sloshid import __version__
-from sloshid.core.errors import UserError
+from sloshid.core.errors import SettingError, UserError
 from sloshid.core.spectrum import MIN_PROMINENCE, Spectrum, welch_spectrum
+from sloshid.core.tables import to_pandas
 from sloshid.identification.crosschecks import CrossCheck, half_power, hilbert_envelope, log_decrement
 from sloshid.identification.decay_window import (
     DecayWindow,
@@ -70,18 +71,25 @@ class IdentSettings:
 
     def __post_init__(self) -> None:
         if self.mass_kg is not None and not (math.isfinite(self.mass_kg) and self.mass_kg > 0):
-            raise UserError(f"--mass must be a positive number of kg, got {self.mass_kg!r}.")
+            raise SettingError("mass_kg", f"{{name}} must be a positive number of kg, got {self.mass_kg!r}.")
         if self.window_s is not None and not self.window_s[0] < self.window_s[1]:
-            raise UserError(f"--window start {self.window_s[0]:g} s must be before its end {self.window_s[1]:g} s.")
+            w0, w1 = self.window_s
+            raise SettingError("window_s", f"{{name}} start {w0:g} s must be before its end {w1:g} s.")
         lo, hi = self.f_range_hz
         if not 0 < lo < hi:
-            raise UserError(f"--f-range must be two increasing positive frequencies in Hz, got {lo:g},{hi:g}.")
+            raise SettingError(
+                "f_range_hz", f"{{name}} must be two increasing positive frequencies in Hz, got {lo:g},{hi:g}."
+            )
         if not 0 <= self.min_fit_percent < 100:
-            raise UserError(f"min_fit_percent must be in [0, 100), got {self.min_fit_percent:g}.")
+            raise SettingError("min_fit_percent", f"{{name}} must be in [0, 100), got {self.min_fit_percent:g}.")
         if (self.container_radius_m is None) != (self.fill_height_m is None):
-            raise UserError("the geometric prior needs both --container-radius-m and --fill-height-m.")
+            missing = "fill_height_m" if self.fill_height_m is None else "container_radius_m"
+            raise SettingError(
+                missing, "the geometric prior needs both the container radius and the fill height; give {name} too."
+            )
         if self.container_radius_m is not None and not (self.container_radius_m > 0 and self.fill_height_m > 0):
-            raise UserError("container radius and fill height must both be positive (m).")
+            bad = "container_radius_m" if not self.container_radius_m > 0 else "fill_height_m"
+            raise SettingError(bad, f"{{name}} must be positive (m), got {getattr(self, bad):g}.")
 
 
 @dataclass(frozen=True)
@@ -244,6 +252,28 @@ class IdentResult:
         lines.append(f"verdict: {self.quality}")
         lines += [f"  - {r}" for r in self.reasons]
         return "\n".join(lines)
+
+    def plot(self, ax=None):
+        """The fit over the measured window of the first signal (ax=None: a new figure); returns the figure."""
+        return self.plot_fit(0, ax).figure
+
+    def report(self, directory: str | Path) -> Path:
+        """Write the HTML report to directory/index.html; returns its path."""
+        from sloshid.identification.report import build_report
+
+        return build_report(self).save(directory)
+
+    def to_pandas(self):
+        """The parameters as a table: one row each with value, standard error and 95 % interval."""
+        return to_pandas(
+            {
+                "parameter": list(self.parameters),
+                "value": [e.value for e in self.parameters.values()],
+                "stderr": [e.stderr for e in self.parameters.values()],
+                "ci95_lo": [e.ci95[0] for e in self.parameters.values()],
+                "ci95_hi": [e.ci95[1] for e in self.parameters.values()],
+            }
+        )
 
     # ---- plots (each takes ax=None and returns the axes it drew on) ----
 

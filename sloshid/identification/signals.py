@@ -6,10 +6,11 @@ import csv
 import io
 from dataclasses import dataclass, field, replace
 from pathlib import Path
+from typing import Protocol
 
 import numpy as np
 
-from sloshid.core.errors import UserError
+from sloshid.core.errors import SettingError, UserError
 
 TRACKER_COLUMNS = ("t_s", "angle_deg", "valid")
 """Columns that mark a `sloshid track` CSV; its value is `angle_deg` on rows with valid == 1."""
@@ -102,6 +103,25 @@ def make_signal(t, y, label: str, unit: str = "", source: str = "array", n_dropp
     return Signal(t, y, label, unit, source, n_dropped + int(bad.sum()), tuple(notes))
 
 
+class TracedAngles(Protocol):
+    """What identification needs of a tracker result (sloshid.tracking's TrackResult has it)."""
+
+    video: Path
+    t_s: np.ndarray
+    angle_deg: np.ndarray
+    valid: np.ndarray
+
+
+def signal_from_track(track: TracedAngles) -> Signal:
+    """The tracked angle of the valid frames, as the tracker CSV would give it (no file round trip)."""
+    ok = np.asarray(track.valid).astype(bool)
+    dropped = int((~ok).sum())
+    sig = make_signal(track.t_s[ok], track.angle_deg[ok], "angle_deg", "deg", str(track.video), n_dropped=dropped)
+    if dropped:
+        sig = replace(sig, warnings=(*sig.warnings, f"{track.video}: skipped {dropped} tracker frames with valid = 0."))
+    return sig
+
+
 def unit_from_name(name: str) -> str:
     """The unit a column name carries in its suffix (`angle_deg` -> `deg`), or '' when it names none."""
     lower = name.lower()
@@ -144,7 +164,9 @@ def _load_mat(p: Path, time_var: str | None, value_var: str | None) -> Signal:
         value_var, unit = MAT_DEFAULTS[tname]
     for role, name in (("time", tname), ("value", value_var)):
         if name is None:
-            raise UserError(f"{p}: say which variable holds the {role} with --{role}-var; it has: {', '.join(names)}.")
+            raise SettingError(
+                f"{role}_var", f"{p}: say which variable holds the {role} with {{name}}; it has: {', '.join(names)}."
+            )
         if name not in data:
             raise UserError(f"{p} has no variable '{name}'; it has: {', '.join(names)}.")
     arrays = []
@@ -212,7 +234,9 @@ def _load_csv(p: Path, time_col: str | None, value_col: str | None) -> Signal:
             value_col = "1"
         else:
             available = ", ".join(header) if header else f"indices 0..{ncols - 1}"
-            raise UserError(f"{p} has {ncols} columns; choose the signal with --value-col (available: {available}).")
+            raise SettingError(
+                "value_col", f"{p} has {ncols} columns; choose the signal with {{name}} (available: {available})."
+            )
     ti = _column_index(time_col, header, ncols, p, "time")
     vi = _column_index(value_col, header, ncols, p, "value")
     use_valid = is_tracker and header[vi] == "angle_deg"

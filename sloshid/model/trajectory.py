@@ -6,7 +6,7 @@ theta the pitch about y0 of design.md; quaternions are scalar-last (qx, qy, qz, 
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, fields
 from pathlib import Path
 
 import numpy as np
@@ -68,8 +68,6 @@ class Trajectory:
     """Time derivatives of phi, theta, psi (N, 3)."""
     name: str = ""
     """Which method produced it (shown in tables and legends)."""
-    notes: list[str] = field(default_factory=list)
-    """Anything a reader should know (e.g. limits that still fail)."""
 
     def __post_init__(self) -> None:
         n = len(self.t_s)
@@ -109,9 +107,13 @@ class Trajectory:
             [self.t_s, self.pos_m, self.vel_m_s, self.acc_m_s2, self.euler_rad, self.omega_rad_s, self.quaternion_xyzw]
         )
 
+    def columns(self) -> dict[str, np.ndarray]:
+        """The robot-ready table keyed by CSV_COLUMNS."""
+        return dict(zip(CSV_COLUMNS, self.table().T))
+
     def to_csv(self, path: str | Path) -> None:
         """Write the robot-ready CSV (columns CSV_COLUMNS) atomically."""
-        write_csv(path, dict(zip(CSV_COLUMNS, self.table().T)))
+        write_csv(path, self.columns())
 
     @classmethod
     def from_csv(cls, path: str | Path, name: str = "") -> Trajectory:

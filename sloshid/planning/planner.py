@@ -10,12 +10,14 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Sequence
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
 from sloshid.core.errors import UserError
+from sloshid.core.parallel import parallel_map
+from sloshid.core.tables import to_pandas
 from sloshid.model.pendulum import G, SloshParams
 from sloshid.model.simulate import LiquidResponse, simulate_liquid
 from sloshid.model.trajectory import LimitUsage, Trajectory, check_limits
@@ -54,6 +56,8 @@ class PlanResult:
     """Smallest distance of any 1 kHz sample to an inflated obstacle (None without obstacles)."""
     wall_time_s: float = 0.0
     """Everything: construction, solves, export and verification."""
+    scenario: Scenario | None = None
+    """The scenario that was planned (its report shows the obstacles and limits)."""
 
     @property
     def verification_ok(self) -> bool:
@@ -123,6 +127,44 @@ class PlanResult:
                 for s in self.segments
             ],
         }
+
+    def summary(self) -> str:
+        """One line: segments, transfer time, solver, tilt, limits and verification (what `sloshid plan` prints)."""
+        v = self.verification
+        return (
+            f"planned {len(self.segments)} segment(s): T = {self.T_s:.4f} s, solved in {self.solve_time_s:.3f} s "
+            f"({self.status}); max tilt {self.max_tilt_deg:.2f} deg; robot limits "
+            f"{'ok' if self.limits_ok else 'EXCEEDED'}; liquid-container angle {v.peak_during_deg:.4f} deg "
+            f"during, {v.residual_deg:.4f} deg after"
+        )
+
+    def to_pandas(self):
+        """The 1 kHz trajectory as a table (the trajectory CSV's columns)."""
+        return to_pandas(self.trajectory.columns())
+
+    def plot(self, ax=None):
+        """Container speed and tilt over time (the tilt is the liquid surface's); returns the figure."""
+        import matplotlib.pyplot as plt
+
+        if ax is None:
+            _, ax = plt.subplots(figsize=(9, 3.2))
+        traj = self.trajectory
+        ax.plot(traj.t_s, np.linalg.norm(traj.vel_m_s, axis=1), color="#36c", label="speed (m/s)")
+        ax.set(xlabel="time t (s)", ylabel="container speed (m/s)", title=f"planned move, T = {self.T_s:.3f} s")
+        tilt = ax.twinx()
+        tilt.plot(traj.t_s, np.degrees(traj.euler_rad[:, 0]), color="tab:orange", lw=1, label="roll phi (deg)")
+        tilt.plot(traj.t_s, np.degrees(traj.euler_rad[:, 1]), color="tab:green", lw=1, label="pitch theta (deg)")
+        tilt.set_ylabel("container tilt = liquid surface (deg)")
+        ax.figure.legend(loc="upper left", bbox_to_anchor=(1.0, 0.95), fontsize=8)
+        return ax.figure
+
+    def report(self, directory: str | Path) -> Path:
+        """Write the plan report (states, 3-D path, limits, verification) to directory/index.html."""
+        from sloshid.planning.report import plan_report
+
+        if self.scenario is None:
+            raise UserError("this plan does not know its scenario, so no report can be drawn.")
+        return plan_report(self, self.scenario).save(directory)
 
 
 def check_feasible(scenario: Scenario) -> None:
@@ -290,23 +332,10 @@ def _solve_all(
     full: set[int],
 ) -> dict[int, SegmentResult]:
     """Solve the listed segments, in two worker processes when there are at least three and parallel is on."""
-    from tqdm import tqdm
-
     jobs = [(scenario, params, i, robust, margins[i], warm[i] if warm else None, i in full) for i in which]
-    bar = tqdm(total=len(jobs), desc="segments", unit="seg", disable=not progress)
-    out: dict[int, SegmentResult] = {}
-    if scenario.solver.parallel and len(jobs) >= 3:
-        with ProcessPoolExecutor(max_workers=2) as pool:
-            for seg in pool.map(solve_segment, *zip(*jobs)):
-                out[seg.index] = seg
-                bar.update()
-    else:
-        for job in jobs:
-            seg = solve_segment(*job)
-            out[seg.index] = seg
-            bar.update()
-    bar.close()
-    return out
+    workers = 2 if scenario.solver.parallel and len(jobs) >= 3 else 1
+    solved = parallel_map(solve_segment, jobs, workers, progress=progress, desc="segments")
+    return {seg.index: seg for seg in solved}
 
 
 def plan(
@@ -375,6 +404,7 @@ def plan(
         robust_omega_factors=robust,
         min_clearance_m=float(clearance.min()) if scenario.obstacles else None,
         wall_time_s=time.perf_counter() - t_wall,
+        scenario=scenario,
     )
 
 

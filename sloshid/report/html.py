@@ -13,6 +13,7 @@ from typing import Any
 
 from sloshid import __version__
 from sloshid.core.atomic import write_text
+from sloshid.core.outputs import REPORT_MARK
 
 _CSS = """
 body{font-family:system-ui,-apple-system,Segoe UI,Roboto,sans-serif;max-width:1100px;margin:2em auto;
@@ -78,15 +79,11 @@ class Report:
         cap = f"<caption>{html.escape(caption)}</caption>" if caption else ""
         self.items.append(f"<table>{cap}<thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>")
 
-    def add_link(self, href: str, text: str) -> None:
-        """A link to a file beside the report (relative path)."""
-        self.items.append(f'<p><a href="{html.escape(href)}">{html.escape(text)}</a></p>')
-
     def to_html(self) -> str:
         """The whole page as a string."""
         stamp = datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
         return (
-            "<!DOCTYPE html><html><head><meta charset='utf-8'>"
+            f"<!DOCTYPE html><html><head><meta charset='utf-8'>{REPORT_MARK}"
             f"<title>{html.escape(self.title)}</title><style>{_CSS}</style></head><body>"
             f"<h1>{html.escape(self.title)}</h1>"
             f"<p class='meta'>sloshid {html.escape(__version__)}, written {stamp}</p>"

@@ -19,8 +19,8 @@ import numpy as np
 from tqdm import tqdm
 
 from sloshid.core.atomic import atomic_path
-from sloshid.core.errors import UserError
-from sloshid.core.tables import write_csv
+from sloshid.core.errors import SettingError, UserError
+from sloshid.core.tables import to_pandas, write_csv
 from sloshid.tracking.container_ref import ContainerMeasurement, ContainerTracker
 from sloshid.tracking.float_angle import FloatFinder
 from sloshid.tracking.overlay import draw_overlay
@@ -46,12 +46,18 @@ VALID_QUALITY = 0.5
 """Frames whose quality is below this are marked valid = 0 (not used by the smoother)."""
 
 
-@dataclass
+@dataclass(frozen=True)
 class TrackSettings:
-    """How to find the float and what to measure its angle against."""
+    """How to find the float and what to measure its angle against: the one settings object of the tracker, which
+    `sloshid track` options, the pipeline's and batch's [track] table and `sloshid.track(...)` keywords all fill."""
 
-    hsv: HsvRange = field(default_factory=lambda: preset(DEFAULT_FLOAT_COLOR).hsv)
-    """OpenCV HSV box of the float colour (H 0..179, S and V 0..255; hue low > high wraps through red)."""
+    float_color: str = DEFAULT_FLOAT_COLOR
+    """Named float colour preset (red, orange, yellow, green, blue, magenta)."""
+    float_hsv_low: tuple[int, int, int] | None = None
+    """Lower OpenCV HSV corner (H 0..179, S and V 0..255); overrides float_color, needs float_hsv_high. A hue
+    low above the hue high wraps through red."""
+    float_hsv_high: tuple[int, int, int] | None = None
+    """Upper OpenCV HSV corner."""
     roi: tuple[int, int, int, int] | None = None
     """Region of interest x, y, width, height in pixels; None = whole frame."""
     reference: Literal["image", "container"] = "image"
@@ -61,11 +67,24 @@ class TrackSettings:
 
     def __post_init__(self) -> None:
         if self.reference not in ("image", "container"):
-            raise UserError(f"reference must be 'image' or 'container', got {self.reference!r}.")
+            raise SettingError("reference", f"{{name}} must be 'image' or 'container', got {self.reference!r}.")
+        if (self.float_hsv_low is None) != (self.float_hsv_high is None):
+            missing = "float_hsv_high" if self.float_hsv_high is None else "float_hsv_low"
+            raise SettingError(missing, "the float's HSV range needs both corners given together; add {name}.")
         if self.roi is not None:
             x, y, w, h = self.roi
             if w <= 0 or h <= 0 or x < 0 or y < 0:
-                raise UserError(f"ROI {x},{y},{w},{h} must have x, y >= 0 and a positive width and height.")
+                raise SettingError(
+                    "roi", f"{{name}} {x},{y},{w},{h} must have x, y >= 0 and a positive width and height."
+                )
+        _ = self.hsv  # validates the colour name or the HSV corners now, before any frame is read
+
+    @property
+    def hsv(self) -> HsvRange:
+        """The OpenCV HSV box searched for the float: the explicit corners, else the named preset's."""
+        if self.float_hsv_low is not None:
+            return HsvRange(tuple(self.float_hsv_low), tuple(self.float_hsv_high))
+        return preset(self.float_color).hsv
 
 
 @dataclass
@@ -99,6 +118,51 @@ class TrackResult:
     def to_csv(self, path: str | Path) -> None:
         """Write the table atomically as CSV."""
         write_csv(path, self.columns())
+
+    def summary(self) -> str:
+        """One line: frames, valid frames, duration (what `sloshid track` prints)."""
+        duration = self.t_s[-1] - self.t_s[0] if len(self.t_s) else 0.0
+        return f"{self.video}: {len(self.t_s)} frames, {int(self.valid.sum())} valid, {duration:.2f} s"
+
+    def to_dict(self) -> dict:
+        """JSON-safe summary of the run (the per-frame table is `to_csv`/`to_pandas`)."""
+        return {
+            "video": str(self.video),
+            "frames": len(self.t_s),
+            "valid_frames": int(self.valid.sum()),
+            "invalid_share": self.invalid_share,
+            "lost_share": self.lost_share,
+            "duration_s": float(self.t_s[-1] - self.t_s[0]) if len(self.t_s) else 0.0,
+            "warnings": list(self.warnings),
+        }
+
+    def to_pandas(self):
+        """The per-frame table as a pandas DataFrame (columns as in the CSV)."""
+        return to_pandas(self.columns())
+
+    def plot(self, ax=None):
+        """Measured angle of the valid frames (dots) and the smoothed trace over time; returns the figure."""
+        import matplotlib.pyplot as plt
+
+        if ax is None:
+            _, ax = plt.subplots(figsize=(9, 3.2))
+        ok = self.valid == 1
+        ax.plot(self.t_s[ok], self.angle_deg[ok], ".", ms=2, color="0.4", label="measured (valid frames)")
+        ax.plot(self.t_s, self.angle_smoothed_deg, lw=1, color="tab:blue", label="Kalman/RTS smoothed")
+        ax.set(xlabel="time t (s)", ylabel="float angle (deg)", title=f"tracked float angle: {self.video.name}")
+        ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1), fontsize=8)
+        return ax.figure
+
+    def report(self, directory: str | Path) -> Path:
+        """Write a one-page HTML report (the angle plot and the run's figures) to directory/index.html."""
+        from sloshid.report.html import Report
+
+        page = Report(f"sloshid track: {self.video.name}")
+        page.add_table(["quantity", "value"], [[k, v] for k, v in self.to_dict().items() if k != "warnings"])
+        for warning in self.warnings:
+            page.add_text(f"warning: {warning}")
+        page.add_figure(self.plot(), "Measured angle of every valid frame and the smoothed trace that bridges gaps.")
+        return page.save(directory)
 
 
 def _roi_box(settings: TrackSettings, width: int, height: int) -> tuple[int, int, int, int]:

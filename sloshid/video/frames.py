@@ -30,6 +30,10 @@ _TIME_BASES = {"h264": Fraction(1, 90000), "mpeg4": Fraction(1, 60000)}
 """Time base of written files: the MPEG 90 kHz clock; MPEG-4 Part 2 allows at most 65535 ticks per second."""
 
 
+VIDEO_SUFFIXES = (".mp4", ".mov", ".m4v")
+"""Names of the MP4-family container VideoWriter produces; other suffixes would mislabel the file."""
+
+
 @dataclass
 class VideoInfo:
     """What the container claims about a video before decoding (frame count and fps may be estimates)."""

@@ -11,15 +11,15 @@ import csv
 import dataclasses
 import io
 import json
-import logging
 import traceback
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from sloshid.core.atomic import write_text
+from sloshid.core.atomic import write_json, write_text
 from sloshid.core.errors import UserError
 from sloshid.core.hashing import file_sha256, json_sha256
+from sloshid.core.parallel import dask_client
 from sloshid.report.html import Report
 from sloshid.workflow.options import BatchConfig
 
@@ -64,8 +64,7 @@ def process_video(video: str, config: BatchConfig, out_root: str) -> dict[str, A
     """
     import cv2
 
-    from sloshid.identification.estimator import Identifier
-    from sloshid.identification.signals import load_signal
+    from sloshid.identification.stage import identify_sources
     from sloshid.tracking.tracker import track_video
 
     cv2.setNumThreads(1)  # the batch is parallel over videos: each video gets one core
@@ -89,9 +88,8 @@ def process_video(video: str, config: BatchConfig, out_root: str) -> dict[str, A
         tracked = track_video(video, config.track.track_settings(), overlay=overlay, multithreaded=False)
         tracked.to_csv(out / "angles.csv")
         row.update(frames=len(tracked.t_s), valid_share=round(float(tracked.valid.mean()), 4))
-        result = Identifier(config.identify.ident_settings()).fit(load_signal(out / "angles.csv")).result
-        doc = result.to_dict()
-        write_text(out / "params.json", json.dumps(doc, indent=2) + "\n")
+        doc = identify_sources([tracked], config.identify.ident_settings()).to_dict()
+        write_json(out / "params.json", doc)
     except UserError as exc:
         return {**row, "status": "failed", "reasons": str(exc)}
     except Exception as exc:
@@ -124,21 +122,6 @@ class BatchResult:
         return [r for r in self.rows if r["status"] == "failed"]
 
 
-def dask_client(workers: int, scheduler: str | None):
-    """A Dask client: on an existing scheduler, or on a local cluster of single-threaded worker processes."""
-    from dask.distributed import Client
-
-    if scheduler:
-        try:
-            return Client(scheduler, timeout="10s")
-        except (OSError, TimeoutError) as exc:
-            raise UserError(f"could not reach the Dask scheduler at {scheduler} ({exc}).") from None
-    # a client that starts its own local cluster also shuts it down when closed
-    return Client(
-        n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None, silence_logs=logging.ERROR
-    )
-
-
 def _write_csv(path: Path, columns: tuple[str, ...], rows: list[dict[str, Any]]) -> None:
     """Write rows as CSV atomically."""
     buf = io.StringIO()
@@ -160,11 +143,12 @@ def run_batch(
     from dask.distributed import as_completed
     from tqdm import tqdm
 
-    if workers < 1:
-        raise UserError(f"--workers must be at least 1, got {workers}.")
+    names = [str(Path(v).resolve()) for v in videos]
+    twice = sorted({n for n in names if names.count(n) > 1})
+    if twice:
+        raise UserError(f"{twice[0]} is listed more than once; each video is processed once.")
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    names = [str(Path(v).resolve()) for v in videos]
     rows: dict[str, dict[str, Any]] = {}
     with dask_client(workers, scheduler) as client:
         futures = {client.submit(process_video, v, config, str(out.resolve()), pure=False): v for v in names}

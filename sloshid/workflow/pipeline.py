@@ -22,6 +22,7 @@ from sloshid import __version__
 from sloshid.core.atomic import atomic_dir, write_text
 from sloshid.core.errors import UserError
 from sloshid.core.hashing import file_sha256, json_sha256
+from sloshid.core.parallel import check_workers
 from sloshid.core.settings import did_you_mean, from_dict, load_toml
 
 
@@ -39,8 +40,11 @@ class RunSettings:
     """Where runs are written, relative to the current directory: <output_dir>/<name>/<run-id>/."""
 
     def __post_init__(self) -> None:
-        if self.workers < 1:
-            raise UserError(f"[run].workers must be at least 1, got {self.workers}.")
+        check_workers(self.workers)
+        if self.name and (Path(self.name).name != self.name or self.name.startswith(".")):
+            raise UserError(
+                f"[run].name must be a plain folder name (no '/', not starting with '.'), got {self.name!r}."
+            )
 
 
 @dataclass
@@ -220,10 +224,11 @@ def run_pipeline(
                     ctx = StageContext(tmp, {n: run_dir / n for n in needs}, pipeline.run)
                     summary = stage.run(settings, ctx)
                     write_text(tmp / "summary.json", json.dumps(summary, indent=2, default=str))
-            except UserError as exc:
-                records.append(StageRecord(stage.name, key, "failed", time.perf_counter() - start, error=str(exc)))
+            except Exception as exc:  # recorded, so the run still gets its manifest and index
+                error = str(exc) if isinstance(exc, UserError) else f"unexpected error: {type(exc).__name__}: {exc}"
+                records.append(StageRecord(stage.name, key, "failed", time.perf_counter() - start, error=error))
                 failed.add(stage.name)
-                log(f"[{stage.name}] failed: {exc}")
+                log(f"[{stage.name}] failed: {error}")
                 continue
             status = "ran"
         _copy_tree(cache, run_dir / stage.name)

@@ -1,23 +1,32 @@
-"""The stages a pipeline can declare, each a thin wrapper over the library call the matching command makes."""
+"""The stages a pipeline can declare, each a thin wrapper over the same library call the matching command makes."""
 
 from __future__ import annotations
 
-import json
+import pickle
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from sloshid.core.atomic import write_text
+from sloshid.comparison.compare import compare_scenario
+from sloshid.core.atomic import atomic_path, write_json
 from sloshid.core.errors import UserError
+from sloshid.core.parallel import parallel_map
+from sloshid.identification.stage import identify_sources, to_signal
+from sloshid.planning.planner import plan
+from sloshid.planning.scenario import load_scenario, resolve_liquid
+from sloshid.tracking.tracker import track_video
 from sloshid.workflow.options import IdentifyOptions, TrackOptions
 from sloshid.workflow.pipeline import Stage, StageContext
 
+PLAN_PICKLE = "plan.pickle"
+"""The [plan] stage's solution with the scenario it solved, kept so that [compare] does not solve it again."""
+
 
 def _save_figure(fig: Any, path: Path) -> str:
-    """Write a matplotlib figure as PNG and close it; returns the file name for the index page."""
+    """Write a matplotlib figure as PNG (2x resolution) and close it; returns the file name for the index page."""
     import matplotlib.pyplot as plt
 
-    fig.savefig(path, dpi=100, bbox_inches="tight")
+    fig.savefig(path, dpi=200, bbox_inches="tight")
     plt.close(fig)
     return path.name
 
@@ -25,23 +34,19 @@ def _save_figure(fig: Any, path: Path) -> str:
 def track_one(video: Path, opts: TrackOptions, out_dir: Path, one_core: bool = False) -> dict[str, Any]:
     """Track one video into out_dir/<stem>.csv (and overlay); returns its summary. On Dask workers one_core
     keeps each video to one core, since the workers already run videos side by side."""
-    from sloshid.tracking.tracker import track_video
-
     overlay = out_dir / f"{video.stem}_overlay.mp4" if opts.overlay else None
     res = track_video(video, opts.track_settings(), overlay=overlay, progress=not one_core, multithreaded=not one_core)
     res.to_csv(out_dir / f"{video.stem}.csv")
     return {
-        "video": str(video),
+        **res.to_dict(),
         "csv": f"{video.stem}.csv",
-        "frames": len(res.t_s),
         "valid_share": float(res.valid.mean()),
-        "warnings": res.warnings,
         "overlay": overlay.name if overlay else None,
     }
 
 
 def run_track(opts: TrackOptions, ctx: StageContext) -> dict[str, Any]:
-    """Track every video (on a local Dask cluster when [run].workers > 1); one angles CSV per video."""
+    """Track every video (in parallel when [run].workers > 1); one angles CSV per video."""
     import matplotlib.pyplot as plt
 
     from sloshid.core.tables import read_csv
@@ -51,10 +56,8 @@ def run_track(opts: TrackOptions, ctx: StageContext) -> dict[str, Any]:
     if len({v.stem for v in opts.videos}) < len(opts.videos):
         raise UserError("[track].videos has two files with the same name; their CSVs would collide.")
     if ctx.run.workers > 1 and len(opts.videos) > 1:
-        from sloshid.workflow.batch import dask_client
-
-        with dask_client(ctx.run.workers, None) as client:
-            summaries = client.gather(client.map(track_one, opts.videos, opts=opts, out_dir=ctx.out_dir, one_core=True))
+        jobs = [(video, opts, ctx.out_dir, True) for video in opts.videos]
+        summaries = parallel_map(track_one, jobs, ctx.run.workers)
     else:
         summaries = [track_one(v, opts, ctx.out_dir) for v in opts.videos]
     fig, ax = plt.subplots(figsize=(10, 3.2))
@@ -64,23 +67,18 @@ def run_track(opts: TrackOptions, ctx: StageContext) -> dict[str, Any]:
         ax.plot(table["t_s"][ok], table["angle_deg"][ok], ".", ms=2, alpha=0.5)
         ax.plot(table["t_s"], table["angle_smoothed_deg"], lw=1, label=f"{Path(summary['video']).name} (smoothed)")
     ax.set(xlabel="time t (s)", ylabel="float angle (deg)", title="tracked float angle (dots: measured frames)")
-    ax.legend(fontsize=8)
+    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1))
     return {"figure": _save_figure(fig, ctx.out_dir / "angle.png"), "videos": summaries}
 
 
 def run_identify(opts: IdentifyOptions, ctx: StageContext) -> dict[str, Any]:
     """Joint identification of the tracked angles and the listed signal files; JSON and HTML report."""
-    from sloshid.identification.estimator import Identifier
-    from sloshid.identification.report import build_report
-    from sloshid.identification.signals import load_signal
-
-    files = sorted((ctx.upstream["track"]).glob("*.csv")) if "track" in ctx.upstream else []
-    signals = [load_signal(p) for p in files] + [load_signal(p, **opts.load_options()) for p in opts.signals]
-    result = Identifier(opts.ident_settings()).fit(signals).result
+    tracked = sorted((ctx.upstream["track"]).glob("*.csv")) if "track" in ctx.upstream else []
+    signals = [to_signal(p) for p in tracked] + [to_signal(p, opts.columns()) for p in opts.signals]
+    result = identify_sources(signals, opts.ident_settings())
     doc = result.to_dict()
-    write_text(ctx.out_dir / "params.json", json.dumps(doc, indent=2, allow_nan=False) + "\n")
-    (ctx.out_dir / "report").mkdir()
-    build_report(result).save(ctx.out_dir / "report")
+    write_json(ctx.out_dir / "params.json", doc)
+    result.report(ctx.out_dir / "report")
     return {
         "params": "params.json",
         "report": "report/index.html",
@@ -109,14 +107,10 @@ class PlanOptions:
     scenario's [liquid] table."""
 
 
-def _liquid(opts: Any, ctx: StageContext, scenario: Any) -> Any:
+def _liquid(ctx: StageContext, scenario: Any) -> Any:
     """The identified liquid when the stage consumes [identify], else the scenario's own [liquid]."""
-    from sloshid.model.pendulum import SloshParams
-    from sloshid.planning.scenario import resolve_liquid
-
-    if "identify" in ctx.upstream:
-        return SloshParams.from_identify_json(ctx.upstream["identify"] / "params.json")
-    return resolve_liquid(scenario, None)
+    params = ctx.upstream["identify"] / "params.json" if "identify" in ctx.upstream else None
+    return resolve_liquid(scenario, params)
 
 
 def _liquid_needs(opts: Any, present: set[str]) -> list[str]:
@@ -125,28 +119,14 @@ def _liquid_needs(opts: Any, present: set[str]) -> list[str]:
 
 
 def run_plan(opts: PlanOptions, ctx: StageContext) -> dict[str, Any]:
-    """Solve the scenario, write the 1 kHz trajectory CSV and the plan report."""
-    from sloshid.planning.planner import plan
-    from sloshid.planning.report import plan_report
-    from sloshid.planning.scenario import load_scenario
-
+    """Solve the scenario, write the 1 kHz trajectory CSV, the plan (for compare to reuse) and the plan report."""
     scenario = load_scenario(opts.scenario)
-    result = plan(scenario, _liquid(opts, ctx, scenario), progress=True)
-    traj = result.trajectory
-    traj.to_csv(ctx.out_dir / "trajectory.csv")
-    (ctx.out_dir / "report").mkdir()
-    plan_report(result, scenario).save(ctx.out_dir / "report")
-    import matplotlib.pyplot as plt
-    import numpy as np
-
-    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(10, 3))
-    ax1.plot(traj.t_s, np.linalg.norm(traj.vel_m_s, axis=1), color="#36c")
-    ax1.set(xlabel="time t (s)", ylabel="speed (m/s)", title="container speed")
-    ax2.plot(traj.t_s, np.degrees(traj.euler_rad[:, 0]), label="roll phi")
-    ax2.plot(traj.t_s, np.degrees(traj.euler_rad[:, 1]), label="pitch theta")
-    ax2.set(xlabel="time t (s)", ylabel="tilt (deg)", title="container tilt = liquid surface")
-    ax2.legend(fontsize=8)
-    figure = _save_figure(fig, ctx.out_dir / "plan.png")
+    result = plan(scenario, _liquid(ctx, scenario), progress=True)
+    result.trajectory.to_csv(ctx.out_dir / "trajectory.csv")
+    with atomic_path(ctx.out_dir / PLAN_PICKLE) as tmp:
+        tmp.write_bytes(pickle.dumps({"scenario": str(opts.scenario), "result": result}))
+    result.report(ctx.out_dir / "report")
+    figure = _save_figure(result.plot(), ctx.out_dir / "plan.png")
     return {"trajectory": "trajectory.csv", "report": "report/index.html", "figure": figure, **result.to_dict()}
 
 
@@ -160,17 +140,28 @@ class CompareOptions:
     """Compare for the liquid identified by this pipeline's [identify] stage; false uses the scenario's [liquid]."""
 
 
-def run_compare(opts: CompareOptions, ctx: StageContext) -> dict[str, Any]:
-    """Build and score every method, write scores.json and the comparison report."""
-    from sloshid.comparison.compare import compare, from_scenario
-    from sloshid.comparison.report import save_report
-    from sloshid.planning.scenario import load_scenario
+def _compare_needs(opts: CompareOptions, present: set[str]) -> list[str]:
+    """Compare consumes [identify] like plan does, and [plan]'s solution when it planned the same scenario."""
+    return _liquid_needs(opts, present) + (["plan"] if "plan" in present else [])
 
+
+def _upstream_plan(ctx: StageContext, scenario_path: Path, params: Any) -> Any:
+    """The [plan] stage's solution when it solved this very scenario for this very liquid, else None."""
+    if "plan" not in ctx.upstream or not (ctx.upstream["plan"] / PLAN_PICKLE).exists():
+        return None
+    planned = pickle.loads((ctx.upstream["plan"] / PLAN_PICKLE).read_bytes())
+    same = planned["scenario"] == str(scenario_path) and planned["result"].params == params
+    return planned["result"] if same else None
+
+
+def run_compare(opts: CompareOptions, ctx: StageContext) -> dict[str, Any]:
+    """Build and score every method (reusing the plan stage's solution), write scores.json and the report."""
     scenario = load_scenario(opts.scenario)
-    comp = compare(from_scenario(scenario, _liquid(opts, ctx, scenario)), progress=True)
+    params = _liquid(ctx, scenario)
+    comp = compare_scenario(scenario, params, plan=_upstream_plan(ctx, opts.scenario, params), progress=True)
     summary = comp.to_dict()
-    write_text(ctx.out_dir / "scores.json", json.dumps(summary, indent=2, default=float) + "\n")
-    save_report(comp, ctx.out_dir / "report")
+    write_json(ctx.out_dir / "scores.json", summary)
+    comp.report(ctx.out_dir / "report")
     return {
         "scores": "scores.json",
         "report": "report/index.html",
@@ -186,7 +177,7 @@ IDENTIFY = Stage(
 
 PLAN = Stage("plan", PlanOptions, run_plan, input_files=lambda o: [o.scenario], needs=_liquid_needs)
 
-COMPARE = Stage("compare", CompareOptions, run_compare, input_files=lambda o: [o.scenario], needs=_liquid_needs)
+COMPARE = Stage("compare", CompareOptions, run_compare, input_files=lambda o: [o.scenario], needs=_compare_needs)
 
 REGISTRY: dict[str, Stage] = {"track": TRACK, "identify": IDENTIFY, "plan": PLAN, "compare": COMPARE}
 """Stages in the order they run."""

@@ -1,0 +1,81 @@
+"""Check every output of a command before any work starts, so that no output replaces an input or another output
+of the same run, a report folder only ever gets sloshid's own index.html, and an unwritable path fails at once
+with one sentence instead of after minutes of work."""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Iterable
+from pathlib import Path
+
+from sloshid.core.errors import UserError
+
+REPORT_MARK = "<meta name='generator' content='sloshid'>"
+"""Written into every sloshid HTML page: an index.html without it is a user's file and is never replaced."""
+
+
+def _writable_folder(folder: Path, role: str, path: Path) -> None:
+    """The folder exists and is writable, or can be created under a writable existing ancestor."""
+    probe = folder
+    while not probe.exists():
+        if probe.parent == probe:
+            break
+        probe = probe.parent
+    if not probe.is_dir():
+        raise UserError(f"cannot write {role} {path}: {probe} is a file, not a folder.")
+    if not os.access(probe, os.W_OK | os.X_OK):
+        raise UserError(f"cannot write {role} {path}: the folder {probe} is not writable.")
+
+
+def is_sloshid_page(path: Path) -> bool:
+    """Whether an existing HTML file was written by sloshid (its generator mark is in the first kilobytes)."""
+    try:
+        with open(path, encoding="utf-8", errors="replace") as fh:
+            head = fh.read(4096)
+    except OSError:
+        return False
+    return REPORT_MARK in head or "<p class='meta'>sloshid " in head  # the mark, or a page of sloshid 0.1
+
+
+class Outputs:
+    """The outputs of one run, checked as they are declared: each against the inputs and the earlier outputs."""
+
+    def __init__(self, inputs: Iterable[str | os.PathLike] = ()) -> None:
+        self.inputs = {Path(p).resolve(): Path(p) for p in inputs}
+        self.claimed: dict[Path, str] = {}
+
+    def _claim(self, path: Path, role: str) -> Path:
+        """Refuse a path that is an input or already another output of this run."""
+        real = path.resolve()
+        if real in self.inputs:
+            raise UserError(f"{role} {path} is also an input of this run; refusing to overwrite it.")
+        if real in self.claimed:
+            raise UserError(f"{role} and {self.claimed[real]} both name {path}; give them different files.")
+        self.claimed[real] = role
+        return path
+
+    def file(self, path: str | os.PathLike, role: str, suffixes: tuple[str, ...] = ()) -> Path:
+        """A file output: right suffix, not a folder, not an input or another output, in a writable folder."""
+        p = Path(path)
+        if suffixes and p.suffix.lower() not in suffixes:
+            raise UserError(f"{role} {p} must end in {' or '.join(suffixes)}.")
+        if p.is_dir():
+            raise UserError(f"{role} {p} is a folder; give a file name.")
+        if p.exists() and not os.access(p, os.W_OK):
+            raise UserError(f"cannot write {role} {p}: the file is read-only.")
+        _writable_folder(p.parent, role, p)
+        return self._claim(p, role)
+
+    def report_dir(self, path: str | os.PathLike, role: str = "--report") -> Path:
+        """A report folder: sloshid writes only its index.html there, and never over a page it did not write."""
+        p = Path(path)
+        if p.exists() and not p.is_dir():
+            raise UserError(f"{role} takes a folder (index.html is written inside it), but {p} is a file.")
+        index = p / "index.html"
+        if index.exists() and not is_sloshid_page(index):
+            raise UserError(
+                f"{role} {p} already holds an index.html that sloshid did not write; choose another folder."
+            )
+        _writable_folder(p, role, index)
+        self._claim(index, role)
+        return p

@@ -1,0 +1,65 @@
+"""The identification stage as one call: sources in (signal files, arrays as Signals, tracker results), an
+IdentResult out. The CLI, the pipeline, the batch and `sloshid.identify` all call `identify_sources`."""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+from sloshid.core.errors import UserError
+from sloshid.identification.estimator import Identifier, IdentResult, IdentSettings
+from sloshid.identification.signals import Signal, TracedAngles, load_signal, signal_from_track
+
+Source = str | Path | Signal | TracedAngles
+"""Anything identification reads: a signal file, a Signal, or a tracker result."""
+
+
+@dataclass(frozen=True)
+class SignalColumns:
+    """Which columns (CSV) or variables (.mat) of a signal file hold the time in seconds and the signal."""
+
+    time_col: str | None = None
+    """CSV time column, by name or 0-based index; default: a column named like a time (t_s, time, ...)."""
+    value_col: str | None = None
+    """CSV signal column, by name or index; default: angle_deg of a tracker CSV, or the second of two columns."""
+    time_var: str | None = None
+    """.mat variable holding the time in seconds."""
+    value_var: str | None = None
+    """.mat variable holding the signal."""
+
+
+def to_signal(source: Source, columns: SignalColumns | None = None) -> Signal:
+    """One source as a Signal: files are read, tracker results converted without a file round trip."""
+    if isinstance(source, Signal):
+        return source
+    if isinstance(source, (str, Path)):
+        c = columns or SignalColumns()
+        return load_signal(source, c.time_col, c.value_col, c.time_var, c.value_var)
+    if all(hasattr(source, name) for name in ("t_s", "angle_deg", "valid")):
+        return signal_from_track(source)
+    raise TypeError(f"cannot identify from a {type(source).__name__}; give a file path, a Signal or a TrackResult.")
+
+
+def identify_sources(
+    sources: Sequence[Source],
+    settings: IdentSettings | None = None,
+    columns: SignalColumns | None = None,
+    warn: Callable[[str], None] | None = None,
+) -> IdentResult:
+    """Identify the sloshing mode jointly over every source (shared frequency and damping, own amplitude each).
+
+    The same file named twice is refused: it would count its evidence twice and narrow every interval by sqrt(2).
+    `warn` receives what the user should know about the inputs (dropped frames, uneven timestamps)."""
+    files = [Path(s).resolve() for s in sources if isinstance(s, (str, Path))]
+    twice = sorted({str(f) for f in files if files.count(f) > 1})
+    if twice:
+        raise UserError(f"{twice[0]} is given more than once; each recording may count only once.")
+    if not sources:
+        raise UserError("nothing to identify: give at least one signal.")
+    signals = [to_signal(s, columns) for s in sources]
+    if warn is not None:
+        for sig in signals:
+            for w in sig.warnings:
+                warn(w)
+    return Identifier(settings or IdentSettings()).fit(signals).result
