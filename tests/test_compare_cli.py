@@ -7,7 +7,6 @@ import re
 
 import pytest
 
-
 SCENARIO = """
 [move]
 start = [0.3, 0.0, 0.2]
