@@ -1,8 +1,75 @@
-"""sloshid: measure liquid sloshing from video, identify its pendulum model, plan slosh-free moves."""
+"""sloshid: measure liquid sloshing from video, identify its pendulum model, plan slosh-free moves.
 
+The chain in a notebook::
+
+    import sloshid
+    tracked = sloshid.track("data/sample_tap.mp4")
+    ident = sloshid.identify(tracked, mass_kg=0.5)
+    result = sloshid.plan("data/scenarios/paper_1d.toml", ident)
+
+Everything is imported lazily: `import sloshid` loads no numerics, OpenCV, CasADi, matplotlib or Dask, and changes
+no global state of any of them.
+"""
+
+from __future__ import annotations
+
+from importlib import import_module
 from importlib.metadata import PackageNotFoundError, version
+from typing import TYPE_CHECKING, Any
 
 try:
     __version__ = version("sloshid")
 except PackageNotFoundError:  # running from a source tree that was never installed
     __version__ = "0.0.0+unknown"
+
+_LAZY = {
+    "track": "sloshid.api",
+    "identify": "sloshid.api",
+    "load_scenario": "sloshid.api",
+    "plan": "sloshid.api",
+    "compare": "sloshid.api",
+    "SloshParams": "sloshid.model.pendulum",
+    "TrackResult": "sloshid.tracking.tracker",
+    "IdentResult": "sloshid.identification.estimator",
+    "PlanResult": "sloshid.planning.planner",
+    "Comparison": "sloshid.comparison.compare",
+    "Scenario": "sloshid.planning.scenario",
+    "UserError": "sloshid.core.errors",
+}
+__all__ = [
+    "Comparison",
+    "IdentResult",
+    "PlanResult",
+    "Scenario",
+    "SloshParams",
+    "TrackResult",
+    "UserError",
+    "compare",
+    "identify",
+    "load_scenario",
+    "plan",
+    "track",
+]
+
+if TYPE_CHECKING:
+    from sloshid.api import compare, identify, load_scenario, plan, track
+    from sloshid.comparison.compare import Comparison
+    from sloshid.core.errors import UserError
+    from sloshid.identification.estimator import IdentResult
+    from sloshid.model.pendulum import SloshParams
+    from sloshid.planning.planner import PlanResult
+    from sloshid.planning.scenario import Scenario
+    from sloshid.tracking.tracker import TrackResult
+
+
+def __getattr__(name: str) -> Any:
+    """Import a public name on first use (PEP 562)."""
+    if name in _LAZY:
+        value = getattr(import_module(_LAZY[name]), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module 'sloshid' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted([*globals(), *_LAZY])

@@ -1,0 +1,92 @@
+"""The public Python API: one function per stage, each calling the same library function as the CLI, the pipeline
+and the batch. Keywords are the settings dataclasses' fields (`sloshid.track(video, reference="container")`);
+an unknown keyword is refused with a "did you mean"."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from sloshid.core.settings import from_dict
+
+if TYPE_CHECKING:
+    from sloshid.comparison.compare import Comparison
+    from sloshid.identification.estimator import IdentResult
+    from sloshid.identification.stage import Source
+    from sloshid.model.pendulum import SloshParams
+    from sloshid.planning.planner import PlanResult
+    from sloshid.planning.scenario import Scenario
+    from sloshid.tracking.tracker import TrackResult
+
+
+def track(
+    video: str | Path, *, overlay: str | Path | None = None, progress: bool = False, **settings: Any
+) -> TrackResult:
+    """Track the float in every frame of `video`; keywords are TrackSettings fields (float_color, float_hsv_low,
+    float_hsv_high, roi, reference, smooth). `overlay` also writes the annotated video."""
+    from sloshid.tracking.tracker import TrackSettings, track_video
+
+    return track_video(video, from_dict(TrackSettings, settings), overlay=overlay, progress=progress)
+
+
+def identify(*sources: Source, **settings: Any) -> IdentResult:
+    """Identify the sloshing mode jointly from signal files, Signals or TrackResults; keywords are IdentSettings
+    fields (mass_kg, window_s, f_range_hz, drift, min_fit_percent, container_radius_m, fill_height_m, ...) and
+    the SignalColumns fields for files (time_col, value_col, time_var, value_var)."""
+    from sloshid.identification.estimator import IdentSettings
+    from sloshid.identification.stage import SignalColumns, identify_sources
+
+    column_keys = {"time_col", "value_col", "time_var", "value_var"}
+    columns = from_dict(SignalColumns, {k: v for k, v in settings.items() if k in column_keys})
+    ident = from_dict(IdentSettings, {k: v for k, v in settings.items() if k not in column_keys})
+    return identify_sources(sources, ident, columns)
+
+
+def load_scenario(path: str | Path) -> Scenario:
+    """Read and validate a scenario TOML ([move], [limits], [[obstacles]], [container], [solver], [liquid], ...)."""
+    from sloshid.planning.scenario import load_scenario as load
+
+    return load(path)
+
+
+def _scenario_and_liquid(scenario: Scenario | str | Path, params: Any) -> tuple[Scenario, SloshParams]:
+    """The scenario (loaded if a path) and the liquid: SloshParams, an IdentResult, an identify JSON path, or None
+    for the scenario's own [liquid] table."""
+    from sloshid.model.pendulum import SloshParams
+    from sloshid.planning.scenario import resolve_liquid
+
+    if isinstance(scenario, (str, Path)):
+        scenario = load_scenario(scenario)
+    if isinstance(params, SloshParams):
+        return scenario, params
+    if hasattr(params, "params") and isinstance(params.params, SloshParams):  # an IdentResult
+        return scenario, params.params
+    return scenario, resolve_liquid(scenario, params)
+
+
+def plan(scenario: Scenario | str | Path, params: Any = None, *, progress: bool = False) -> PlanResult:
+    """Plan the scenario's time-optimal slosh-free move for the liquid `params` (SloshParams, an IdentResult, an
+    identify JSON path, or None for the scenario's [liquid])."""
+    from sloshid.planning.planner import plan as solve
+
+    scenario, liquid = _scenario_and_liquid(scenario, params)
+    return solve(scenario, liquid, progress=progress)
+
+
+def compare(
+    scenario: Scenario | str | Path,
+    params: Any = None,
+    plan: PlanResult | None = None,
+    *,
+    progress: bool = False,
+    **settings: Any,
+) -> Comparison:
+    """Score every method of the scenario's [compare] table for the liquid `params`; a `plan` of the same scenario
+    and liquid is reused instead of solved again. Keywords override keys of the [compare] table (methods, ...)."""
+    from sloshid.comparison.compare import compare_scenario
+
+    scenario, liquid = _scenario_and_liquid(scenario, params)
+    if settings:
+        scenario = replace(scenario, compare={**scenario.compare, **settings})
+    return compare_scenario(scenario, liquid, plan=plan, progress=progress)
