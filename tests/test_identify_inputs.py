@@ -93,7 +93,7 @@ def _bad_cases(tmp_path, decay):
         (
             "short",
             [_csv(tmp_path / "short.csv", ["t_s", "angle_deg"], t[short], y[short])],
-            "periods of the 3.17 Hz mode; at least 3 are needed",
+            "periods of the 2.95 Hz mode; at least 3 are needed",
         )
     )  # coarse guess from 0.75 s
     ok = _csv(tmp_path / "ok.csv", ["t_s", "angle_deg"], t, y)

@@ -14,10 +14,10 @@ import numpy as np
 
 from sloshid.core.errors import UserError
 from sloshid.model.pendulum import steady_tilt
-from sloshid.model.trajectory import Trajectory
+from sloshid.model.trajectory import EXPORT_RATE_HZ, Trajectory
 
-DT_S = 1e-3
-"""Sample period of every trajectory the comparison builds (robot controllers run at 1 kHz)."""
+DT_S = 1.0 / EXPORT_RATE_HZ
+"""Sample period of every profile: the robot's control rate."""
 
 
 class NotApplicable(Exception):

@@ -98,9 +98,15 @@ class Spectrum:
 
 
 def welch_spectrum(
-    t: np.ndarray, y: np.ndarray, f_range_hz: tuple[float, float] = (0.0, np.inf), nperseg: int | None = None
+    t: np.ndarray,
+    y: np.ndarray,
+    f_range_hz: tuple[float, float] = (0.0, np.inf),
+    nperseg: int | None = None,
+    per_octave: bool = False,
 ) -> Spectrum:
-    """Welch PSD of a window (three 50 %-overlapping Hann segments by default) and its dominant peak in f_range_hz."""
+    """Welch PSD of a window (three 50 %-overlapping Hann segments by default) and its dominant peak in f_range_hz:
+    the one dominant-frequency estimate of the package. `per_octave` picks the peak on f * PSD (power per octave),
+    so that a slow drift of the resting level cannot win over the mode."""
     u = to_uniform(t, y)
     x = u.value - np.mean(u.value)
     n = x.size
@@ -113,7 +119,7 @@ def welch_spectrum(
     band = (f >= max(f_range_hz[0], 1.5 * resolution)) & (f <= f_range_hz[1])
     if not band.any():
         band = f > 0
-    k = int(np.flatnonzero(band)[np.argmax(p[band])])
+    k = int(np.flatnonzero(band)[np.argmax((f * p if per_octave else p)[band])])
     peak_f = _refine_peak(f, p, k, resolution)
     floor = float(np.median(p[f > 0]))
     prominence = float(p[k] / floor) if floor > 0 else np.inf

@@ -9,7 +9,7 @@ from scipy import ndimage
 from scipy import signal as sps
 
 from sloshid.core.errors import UserError
-from sloshid.core.spectrum import to_uniform
+from sloshid.core.spectrum import to_uniform, welch_spectrum
 from sloshid.identification.signals import Signal
 
 SEGMENT_S = 4.0
@@ -76,11 +76,10 @@ def rough_mode_frequency(sig: Signal, f_range_hz: tuple[float, float]) -> float:
         active = np.arange(len(starts))
     freqs = []
     for k in active[-3:]:
-        seg = sps.detrend(u.value[starts[k] : starts[k] + n_seg])
-        f, p = sps.periodogram(seg, fs=u.fs_hz, window="hann", nfft=8 * n_seg)
-        band = (f >= f_range_hz[0]) & (f <= f_range_hz[1])
-        if band.any():
-            freqs.append(f[band][np.argmax((f * p)[band])])
+        if f_range_hz[0] < u.fs_hz / 2:  # the band has frequencies below Nyquist
+            part = slice(starts[k], starts[k] + n_seg)
+            spec = welch_spectrum(u.t_s[part], u.value[part], f_range_hz, nperseg=n_seg, per_octave=True)
+            freqs.append(spec.peak_f_hz)
     if not freqs:
         raise UserError(f"{sig.source}: no frequency in the search range {f_range_hz[0]:g}-{f_range_hz[1]:g} Hz.")
     return float(np.median(freqs))

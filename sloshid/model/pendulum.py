@@ -123,11 +123,6 @@ def angle_accel(
     return (u / params.l_m) * c - (g_eff / params.l_m) * sin(angle) - params.damping_rate_1_s * rate * c * c
 
 
-def pendulum_rhs_1d(t: float, y: np.ndarray, u: Callable[[float], float], params: SloshParams) -> list[float]:
-    """Right-hand side for solve_ivp: y = [angle, rate], u(t) the container acceleration along the move."""
-    return [y[1], angle_accel(y[0], y[1], u(t), params)]
-
-
 def pendulum_rhs_3d(o: Any, u: Any, params: SloshParams, sin: Callable = np.sin, cos: Callable = np.cos) -> list[Any]:
     """Reconstructed seed eq. 3: o = [x,y,z,phi,theta,psi, x',y',z',phi',theta',psi'], u = [ux,uy,uz].
 

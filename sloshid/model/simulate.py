@@ -1,4 +1,5 @@
-"""Nonlinear liquid response to a container trajectory (solve_ivp), and the slosh figures that score a move.
+"""The one pendulum integrator (solve_ivp) used by simulation, plan sampling and synthetic videos, the nonlinear
+liquid response to a container trajectory, and the slosh figures that score a move.
 
 The liquid is the pendulum pair of `sloshid.model.pendulum.pendulum_rhs_3d`; what spills liquid is its angle
 *relative to the container*, i.e. the liquid surface's (phi, theta) minus the container's.
@@ -7,6 +8,7 @@ The liquid is the pendulum pair of `sloshid.model.pendulum.pendulum_rhs_3d`; wha
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -49,6 +51,55 @@ class LiquidResponse:
         return float(self.rel_angle_deg[after].max()) if after.any() else 0.0
 
 
+Accel = Callable[[float], Sequence[float]]
+"""Container acceleration (ux, uy, uz) in m/s^2 at time t."""
+
+
+def integrate_pendulums(
+    pieces: Sequence[tuple[float, float, Accel]],
+    t_eval: np.ndarray,
+    params: SloshParams,
+    y0: Sequence[float] = (0.0, 0.0, 0.0, 0.0),
+    rtol: float = 1e-10,
+    atol: float = 1e-12,
+    max_step: float = np.inf,
+) -> np.ndarray:
+    """The one pendulum integrator: surface state [phi, theta, phi', theta'] (rad, rad/s) at the sorted times
+    `t_eval` under the container acceleration given piece by piece, `pieces` = [(t0, t1, accel), ...] back to back.
+
+    The nonlinear pair of the reconstructed seed eq. 3 (vertical acceleration changes gravity to g + uz; -phi tilts
+    toward +uy, theta toward +ux) is integrated with solve_ivp (DOP853) one piece at a time, restarting at every
+    piece boundary so that a jump or kink of the input is never smeared. Samples before the first piece hold y0;
+    samples after the last hold nothing (the caller's pieces must cover them)."""
+    out = np.zeros((len(t_eval), 4))
+    out[t_eval < pieces[0][0]] = y0
+    y = np.asarray(y0, dtype=float)
+    for k, (t0, t1, accel) in enumerate(pieces):
+        last = k == len(pieces) - 1
+        idx = np.flatnonzero((t_eval >= t0) & ((t_eval <= t1) if last else (t_eval < t1)))
+        if t1 <= t0:
+            out[idx] = y
+            continue
+
+        def rhs(t: float, q: np.ndarray, accel: Accel = accel) -> list[float]:
+            # plain floats: this runs ~10^5 times per second of motion, so it avoids NumPy scalar overhead
+            ux, uy, uz = accel(t)
+            g_eff = G + uz
+            tilt_y_dd = angle_accel(-q[0], -q[2], uy, params, g_eff, math.sin, math.cos)  # -phi tilts toward +uy
+            theta_dd = angle_accel(q[1], q[3], ux, params, g_eff, math.sin, math.cos)
+            return [q[2], q[3], -tilt_y_dd, theta_dd]
+
+        times = t_eval[idx]
+        if not (times.size and times[-1] == t1):
+            times = np.append(times, t1)  # the end too: the next piece's start state
+        sol = solve_ivp(rhs, (t0, t1), y, method="DOP853", t_eval=times, rtol=rtol, atol=atol, max_step=max_step)
+        if not sol.success:  # pragma: no cover - DOP853 on this smooth problem does not fail
+            raise RuntimeError(f"liquid simulation failed: {sol.message}")
+        out[idx] = sol.y[:, : idx.size].T
+        y = sol.y[:, -1]
+    return out
+
+
 def simulate_liquid(
     traj: Trajectory, params: SloshParams, settle_s: float = 3.0, rtol: float = 1e-9, atol: float = 1e-12
 ) -> LiquidResponse:
@@ -58,43 +109,23 @@ def simulate_liquid(
     """
     t = traj.t_s
     dt = traj.dt_s
-    acc = traj.acc_m_s2
     n_after = int(np.ceil(settle_s / dt))
     t_all = np.concatenate([t, t[-1] + dt * np.arange(1, n_after + 1)])
-
     t0, t_end, n = float(t[0]), float(t[-1]), len(t)
-    rows = acc.tolist()
+    rows = traj.acc_m_s2.tolist()
 
-    def rhs(time: float, y: np.ndarray) -> list[float]:
-        # acceleration linear between samples, zero after arrival (as np.interp(..., right=0)), in plain
-        # floats: this function runs ~10^5 times per second of motion, so it avoids NumPy scalar overhead
-        if time > t_end:
-            ux = uy = uz = 0.0
-        else:
-            s = (time - t0) / dt
-            i = min(max(int(s), 0), n - 2)
-            f = s - i
-            a, b = rows[i], rows[i + 1]
-            ux, uy, uz = (a[0] + f * (b[0] - a[0]), a[1] + f * (b[1] - a[1]), a[2] + f * (b[2] - a[2]))
-        g_eff = G + uz
-        tilt_y_dd = angle_accel(-y[0], -y[2], uy, params, g_eff, math.sin, math.cos)  # -phi tilts toward +uy
-        theta_dd = angle_accel(y[1], y[3], ux, params, g_eff, math.sin, math.cos)
-        return [y[2], y[3], -tilt_y_dd, theta_dd]
+    def moving(time: float) -> tuple[float, float, float]:
+        # linear between samples (as np.interp), in plain floats for speed
+        s = (time - t0) / dt
+        i = min(max(int(s), 0), n - 2)
+        f = s - i
+        a, b = rows[i], rows[i + 1]
+        return a[0] + f * (b[0] - a[0]), a[1] + f * (b[1] - a[1]), a[2] + f * (b[2] - a[2])
 
     # max_step only keeps the integrator from stepping over a move that starts after an idle lead-in;
     # accuracy comes from rtol/atol (5 ms steps agree with 2 ms steps to 1e-6 deg on the bundled moves)
-    sol = solve_ivp(
-        rhs,
-        (t_all[0], t_all[-1]),
-        np.zeros(4),
-        method="DOP853",
-        t_eval=t_all,
-        rtol=rtol,
-        atol=atol,
-        max_step=max(2 * dt, MAX_STEP_S),
-    )
-    if not sol.success:  # pragma: no cover - DOP853 on this smooth problem does not fail
-        raise RuntimeError(f"liquid simulation failed: {sol.message}")
-    liquid = sol.y[:2].T
+    pieces = [(t0, t_end, moving), (t_end, float(t_all[-1]), lambda _t: (0.0, 0.0, 0.0))]
+    state = integrate_pendulums(pieces, t_all, params, rtol=rtol, atol=atol, max_step=max(2 * dt, MAX_STEP_S))
+    liquid = state[:, :2]
     container = np.vstack([traj.euler_rad[:, :2], np.repeat(traj.euler_rad[-1:, :2], n_after, axis=0)])
     return LiquidResponse(t_all, liquid, liquid - container, float(t[-1]))

@@ -15,6 +15,9 @@ from scipy.spatial.transform import Rotation
 from sloshid.core.errors import UserError
 from sloshid.core.tables import read_csv, write_csv
 
+EXPORT_RATE_HZ = 1000.0
+"""Rate of every trajectory sloshid writes or compares: a Franka Panda's 1 kHz control rate."""
+
 CSV_COLUMNS = (
     "t_s",
     "x_m",

@@ -20,7 +20,7 @@ from sloshid.core.parallel import parallel_map
 from sloshid.core.tables import to_pandas
 from sloshid.model.pendulum import G, SloshParams
 from sloshid.model.simulate import LiquidResponse, simulate_liquid
-from sloshid.model.trajectory import LimitUsage, Trajectory, check_limits
+from sloshid.model.trajectory import EXPORT_RATE_HZ, LimitUsage, Trajectory, check_limits
 from sloshid.planning.ocp import SegmentResult, Structure, get_solver, segment_axis, time_lower_bound
 from sloshid.planning.sampling import sample_segments
 from sloshid.planning.scenario import Obstacle, Scenario
@@ -411,7 +411,7 @@ def plan(
 def _clearance(scenario: Scenario, segments: list[SegmentResult], traj: Trajectory) -> tuple[np.ndarray, np.ndarray]:
     """Smallest clearance (m) of each 1 kHz sample to any inflated obstacle, and the segment of each sample."""
     n = len(traj.t_s)
-    edges = np.cumsum([math.ceil(s.T_s * 1000 - 1e-9) for s in segments])
+    edges = np.cumsum([math.ceil(s.T_s * EXPORT_RATE_HZ - 1e-9) for s in segments])
     seg_of = np.searchsorted(edges, np.arange(n), side="left").clip(0, len(segments) - 1)
     if not scenario.obstacles:
         return np.full(n, np.inf), seg_of

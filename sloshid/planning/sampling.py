@@ -2,7 +2,7 @@
 
 Translation is the closed-form polynomial of the piecewise-constant input (cubic per interval for jerk,
 quadratic for acceleration); the container orientation is the liquid surface, obtained by integrating
-the nonlinear pendulum (model.pendulum_rhs_3d) interval by interval with solve_ivp under that same input,
+the nonlinear pendulum (model.simulate.integrate_pendulums) interval by interval under that same input,
 never by interpolating the optimiser's nodes. Segments are concatenated with the pendulum state carried on.
 """
 
@@ -12,14 +12,11 @@ import math
 from collections.abc import Sequence
 
 import numpy as np
-from scipy.integrate import solve_ivp
 
-from sloshid.model.pendulum import SloshParams, pendulum_rhs_3d
-from sloshid.model.trajectory import Trajectory
+from sloshid.model.pendulum import SloshParams
+from sloshid.model.simulate import integrate_pendulums
+from sloshid.model.trajectory import EXPORT_RATE_HZ, Trajectory
 from sloshid.planning.ocp import SegmentResult
-
-SAMPLE_RATE_HZ = 1000.0
-"""Rate of the exported trajectory (a Franka Panda's control rate)."""
 
 
 def _input_3d(seg: SegmentResult) -> np.ndarray:
@@ -46,19 +43,8 @@ def _node_states(seg: SegmentResult, u3: np.ndarray, h: float) -> tuple[np.ndarr
     return p, v, a
 
 
-def _pendulum_rhs(acc_of_t, params: SloshParams):
-    """solve_ivp right-hand side for y = [phi, theta, phi', theta'] under acceleration acc_of_t(t)."""
-
-    def rhs(t: float, y: np.ndarray) -> list[float]:
-        o = [0.0, 0.0, 0.0, y[0], y[1], 0.0, 0.0, 0.0, 0.0, y[2], y[3], 0.0]
-        d = pendulum_rhs_3d(o, acc_of_t(t), params)
-        return [y[2], y[3], d[9], d[10]]
-
-    return rhs
-
-
 def sample_segment(
-    seg: SegmentResult, params: SloshParams, y0: np.ndarray, dt: float = 1.0 / SAMPLE_RATE_HZ
+    seg: SegmentResult, params: SloshParams, y0: np.ndarray, dt: float = 1.0 / EXPORT_RATE_HZ
 ) -> tuple[dict[str, np.ndarray], np.ndarray]:
     """Samples of one segment on t = 0, dt, ... ceil(T/dt) dt (holding the goal after T), and the final pendulum state."""
     u3 = _input_3d(seg)
@@ -85,32 +71,20 @@ def sample_segment(
         """Acceleration as a function of absolute time inside interval kk (exact polynomial)."""
         t0 = kk * h
         if seg.jerk_limited:
-            return lambda tt: a[kk] + u3[kk] * (tt - t0)
-        return lambda tt: u3[kk]
+            return lambda tt: (a[kk] + u3[kk] * (tt - t0)).tolist()
+        return lambda tt: u3[kk].tolist()
 
-    ang = np.zeros((K + 1, 4))
-    y = np.asarray(y0, dtype=float)
-    edges = [*(kk * h for kk in range(n)), seg.T_s, max(seg.T_s, t[-1])]
-    for kk in range(n + 1):
-        t0, t1 = edges[kk], edges[kk + 1]
-        idx = np.nonzero((t >= t0) & ((t < t1) if kk < n else (t <= t1)))[0]
-        if t1 <= t0:
-            ang[idx] = y
-            continue
-        fun = acc_in(kk) if kk < n else (lambda tt: np.zeros(3))
-        sol = solve_ivp(
-            _pendulum_rhs(fun, params), (t0, t1), y, method="DOP853", rtol=1e-11, atol=1e-13, dense_output=True
-        )
-        if idx.size:
-            ang[idx] = sol.sol(t[idx]).T
-        y = sol.y[:, -1]
+    pieces = [(kk * h, (kk + 1) * h if kk < n - 1 else seg.T_s, acc_in(kk)) for kk in range(n)]
+    pieces.append((seg.T_s, max(seg.T_s, float(t[-1])), lambda tt: (0.0, 0.0, 0.0)))
+    ang = integrate_pendulums(pieces, t, params, y0, rtol=1e-11, atol=1e-13)
+    y = ang[-1]  # the state at the last sample, where the next segment starts
     samples = {"t": t, "pos": pos, "vel": vel, "acc": acc, "ang": ang}
     return samples, y
 
 
 def sample_segments(segments: Sequence[SegmentResult], params: SloshParams, name: str = "sloshid plan") -> Trajectory:
     """Concatenate the segments into one 1 kHz Trajectory starting at t = 0 (junction samples not repeated)."""
-    dt = 1.0 / SAMPLE_RATE_HZ
+    dt = 1.0 / EXPORT_RATE_HZ
     y = np.zeros(4)
     parts: list[dict[str, np.ndarray]] = []
     for i, seg in enumerate(segments):

@@ -19,13 +19,13 @@ from typing import Literal
 
 import cv2
 import numpy as np
-from scipy.integrate import solve_ivp
 from tqdm import tqdm
 
 from sloshid.core.atomic import atomic_path
 from sloshid.core.errors import UserError
 from sloshid.core.tables import write_csv
-from sloshid.model.pendulum import TABLE_I, SloshParams, pendulum_rhs_1d
+from sloshid.model.pendulum import TABLE_I, SloshParams
+from sloshid.model.simulate import integrate_pendulums
 from sloshid.video.colors import DEFAULT_FLOAT_COLOR, preset
 from sloshid.video.frames import Codec, VideoWriter
 
@@ -229,23 +229,10 @@ def relative_angle_rad(s: SynthSettings, t: np.ndarray) -> np.ndarray:
         )
         t_end = float(t[after].max())
         edges = [start] + [b for b in breaks if start < b < t_end] + [t_end]
-        y = np.array(y0, float)
-        for a, b in itertools.pairwise(edges):  # integrate piecewise so the steps in u are not smeared
-            mask = after & (t >= a) & (t <= b)
-            sol = solve_ivp(
-                pendulum_rhs_1d,
-                (a, b),
-                y,
-                args=(u, p),
-                dense_output=True,
-                rtol=1e-10,
-                atol=1e-12,
-                max_step=0.25 / p.f_hz,
-                first_step=1e-4,
-            )
-            if mask.any():
-                out[mask] = sol.sol(t[mask])[0]
-            y = sol.y[:, -1]
+        # the 1-D move is the model's pitch theta under ux; pieces restart at the steps of u so they are not smeared
+        pieces = [(a, b, lambda tt: (u(tt), 0.0, 0.0)) for a, b in itertools.pairwise(edges)]
+        state = integrate_pendulums(pieces, t[after], p, (0.0, y0[0], 0.0, y0[1]), max_step=0.25 / p.f_hz)
+        out[after] = state[:, 1]
     return sign * out
 
 

@@ -16,7 +16,8 @@ from filterpy.kalman import predict as kf_predict
 from filterpy.kalman import rts_smoother
 from filterpy.kalman import update as kf_update
 from scipy.linalg import expm
-from scipy.signal import welch
+
+from sloshid.core.spectrum import welch_spectrum
 
 MEASUREMENT_SIGMA_DEG = 0.05
 """Standard deviation of a quality-1 angle measurement, degrees (tracker accuracy on synthetic video)."""
@@ -33,12 +34,8 @@ def dominant_omega(t: np.ndarray, z: np.ndarray) -> float | None:
     """Angular frequency (rad/s) of the strongest spectral peak of valid samples, or None if too short."""
     if len(t) < 32 or t[-1] - t[0] <= 0:
         return None
-    dt = float(np.median(np.diff(t)))
-    grid = np.arange(t[0], t[-1], dt)
-    zi = np.interp(grid, t, z)
-    f, p = welch(zi - zi.mean(), fs=1 / dt, nperseg=min(len(zi), 256), detrend="linear")
-    k = int(np.argmax(p[1:])) + 1
-    return 2 * math.pi * float(f[k]) if f[k] > 0 else None
+    f = welch_spectrum(t, z, nperseg=min(len(t), 256)).peak_f_hz
+    return 2 * math.pi * f if f > 0 else None
 
 
 def _discretise(a: np.ndarray, qc: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
