@@ -226,6 +226,7 @@ def test_seed_pendulum_ring_down_after_a_move_gives_table_i():
         return 1.0 if 1.0 < t < 1.4 else (-1.0 if 1.4 < t < 1.8 else 0.0)
 
     t = np.arange(0, 10, 1 / 60)
+
     def seed_eq2(t, y):  # written out here, independent of the package's integrator
         return [y[1], angle_accel(y[0], y[1], accel(t), TABLE_I)]
 
