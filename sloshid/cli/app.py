@@ -6,6 +6,7 @@ import argparse
 import errno
 import importlib
 import os
+import re
 import signal
 import sys
 from collections.abc import Sequence
@@ -66,6 +67,34 @@ def flag_for(setting: str, flags: dict[str, str]) -> str:
     return flags.get(setting, "--" + setting.replace("_", "-"))
 
 
+def _subparser(parser: argparse.ArgumentParser, name: str | None) -> argparse.ArgumentParser | None:
+    """The parser of command `name`, if one was named."""
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction) and name in action.choices:
+            return action.choices[name]
+    return None
+
+
+def _join_negative_values(argv: list[str], sub: argparse.ArgumentParser | None) -> list[str]:
+    """`--roi -5,0,10,10` as `--roi=-5,0,10,10`: argparse would take a value that starts with '-' for an option."""
+    if sub is None:
+        return argv
+    takes_value = {o for a in sub._actions if a.nargs is None and a.option_strings for o in a.option_strings}
+    out: list[str] = []
+    skip = False
+    for i, word in enumerate(argv):
+        if skip:
+            skip = False
+            continue
+        nxt = argv[i + 1] if i + 1 < len(argv) else ""
+        if word in takes_value and re.match(r"-[\d.]", nxt):
+            out.append(f"{word}={nxt}")
+            skip = True
+        else:
+            out.append(word)
+    return out
+
+
 def _on_sigterm(signum: int, frame: object) -> None:
     raise Terminated
 
@@ -84,7 +113,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     previous = signal.signal(signal.SIGTERM, _on_sigterm)
     try:
         parser = build_parser(only=wanted)
-        args = parser.parse_args(argv)
+        sub = _subparser(parser, wanted)
+        argv = _join_negative_values(argv, sub)
+        args, extra = parser.parse_known_args(argv)
+        if extra:  # reported by the command's own parser, so the usage shown is the command's
+            (sub or parser).error(f"unrecognized arguments: {' '.join(extra)}")
         if not getattr(args, "command", None):
             parser.print_help()
             return 2

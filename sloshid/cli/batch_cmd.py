@@ -22,8 +22,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         type=Path,
         metavar="TRACK.toml",
         help="TOML with a [track] table (float_color or float_hsv_low/high, roi, reference, overlay) "
-        "and an [identify] table (mass_kg, f_range_hz, min_fit_percent, ...); default: the "
-        "`sloshid track`/`identify` defaults",
+        "and an [identify] table (mass_kg, f_range_hz, min_fit_percent, ...); without it, the settings "
+        "`sloshid track` and `sloshid identify` use by themselves",
     )
     parser.add_argument("--out", type=Path, required=True, metavar="DIR", help="output folder (created if needed)")
     parser.add_argument(
@@ -43,6 +43,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     """Validate everything first, then run the batch and print where the summary is."""
     from sloshid.core.errors import UserError
+    from sloshid.core.outputs import Outputs
     from sloshid.core.parallel import check_workers
     from sloshid.workflow.batch import run_batch
     from sloshid.workflow.options import BatchConfig, IdentifyOptions, TrackOptions
@@ -54,6 +55,9 @@ def run(args: argparse.Namespace) -> int:
         raise UserError(f"{len(missing)} video(s) do not exist: {', '.join(missing[:5])}.")
     if args.out.exists() and not args.out.is_dir():
         raise UserError(f"--out {args.out} exists and is not a folder.")
+    outputs = Outputs(args.videos)
+    for name in ("summary.csv", "failures.csv", "summary.html"):
+        outputs.file(args.out / name, "--out")
     config = BatchConfig.load(args.config) if args.config else BatchConfig(TrackOptions(), IdentifyOptions())
     result = run_batch(args.videos, config, args.out, workers=args.workers, scheduler=args.scheduler)
     done = sum(r["status"] in ("ok", "cached") for r in result.rows)

@@ -28,6 +28,7 @@ from sloshid.core.tables import to_pandas
 from sloshid.model.pendulum import SloshParams
 from sloshid.model.simulate import LiquidResponse, simulate_liquid
 from sloshid.model.trajectory import RobotLimits, Trajectory, check_limits
+from sloshid.planning.planner import check_feasible
 
 METHODS: dict[str, str] = {
     "constant_acc": "constant acceleration",
@@ -82,6 +83,9 @@ class CompareSettings:
                 raise UserError(f"[compare].methods has unknown method '{key}'{did_you_mean(key, METHODS)}.")
         if not self.methods:
             raise UserError("[compare].methods is empty; name at least one method.")
+        twice = sorted({m for m in self.methods if self.methods.count(m) > 1})
+        if twice:
+            raise UserError(f"[compare].methods names '{twice[0]}' more than once; each method is scored once.")
         positive = ("robot_bandwidth_hz", "settle_s", "residual_ok_deg", "camera_omega_factor")
         for name in positive:
             if not getattr(self, name) > 0:
@@ -219,6 +223,7 @@ def compare_scenario(scenario: Any, params: SloshParams, plan: Any = None, progr
     [compare] table for this liquid, reusing `plan` (a PlanResult of the same scenario and liquid) when given."""
     if plan is not None and plan.params != params:
         raise UserError("the plan given to compare was made for another liquid; plan again or drop it.")
+    check_feasible(scenario)  # the same refusals as `plan` (start inside an obstacle, ...) before any work
     return compare(replace(from_scenario(scenario, params), plan=plan), progress=progress)
 
 

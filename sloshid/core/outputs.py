@@ -14,7 +14,7 @@ REPORT_MARK = "<meta name='generator' content='sloshid'>"
 """Written into every sloshid HTML page: an index.html without it is a user's file and is never replaced."""
 
 
-def _writable_folder(folder: Path, role: str, path: Path) -> None:
+def writable_folder(folder: Path, role: str, path: Path) -> None:
     """The folder exists and is writable, or can be created under a writable existing ancestor."""
     probe = folder
     while not probe.exists():
@@ -63,7 +63,7 @@ class Outputs:
             raise UserError(f"{role} {p} is a folder; give a file name.")
         if p.exists() and not os.access(p, os.W_OK):
             raise UserError(f"cannot write {role} {p}: the file is read-only.")
-        _writable_folder(p.parent, role, p)
+        writable_folder(p.parent, role, p)
         return self._claim(p, role)
 
     def report_dir(self, path: str | os.PathLike, role: str = "--report") -> Path:
@@ -76,6 +76,6 @@ class Outputs:
             raise UserError(
                 f"{role} {p} already holds an index.html that sloshid did not write; choose another folder."
             )
-        _writable_folder(p, role, index)
+        writable_folder(p, role, index)
         self._claim(index, role)
         return p

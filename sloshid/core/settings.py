@@ -24,7 +24,8 @@ def load_toml(path: str | Path) -> dict[str, Any]:
     """Read a TOML file, turning a missing or malformed file into a one-sentence UserError."""
     try:
         with open(path, "rb") as fh:
-            return tomllib.load(fh)
+            raw = fh.read()
+        return tomllib.loads(raw.decode("utf-8-sig"))  # a UTF-8 byte-order mark (Windows editors) is accepted
     except FileNotFoundError:
         raise UserError(f"{path} does not exist.") from None
     except IsADirectoryError:

@@ -24,6 +24,9 @@ MAT_DEFAULTS = {"slosh_times": ("slosh_heights", "mm")}
 UNIT_SUFFIXES = {"_deg": "deg", "_rad": "rad", "_mm": "mm", "_m": "m", "_px": "px", "_n": "N"}
 """Units read off a column name's suffix (design.md: names carry their unit)."""
 
+VIDEO_LIKE = (".mp4", ".mov", ".m4v", ".avi", ".mkv", ".webm")
+"""Suffixes that mark a video given where a signal was expected."""
+
 MAX_BAD_FRACTION = 0.2
 """Above this fraction of NaN/inf samples a signal is refused instead of cleaned."""
 
@@ -155,6 +158,11 @@ def _load_mat(p: Path, time_var: str | None, value_var: str | None) -> Signal:
 
     try:
         data = scipy.io.loadmat(p)
+    except NotImplementedError:  # scipy's answer to a v7.3 file, which is HDF5 inside
+        raise UserError(
+            f"{p} is a MATLAB v7.3 (HDF5) file, which sloshid cannot read; re-save it in MATLAB with "
+            "save(name, '-v7') or export the time and signal as a CSV."
+        ) from None
     except Exception as exc:  # scipy raises several types for non-MAT content
         raise UserError(f"{p} is not a readable MATLAB .mat file ({type(exc).__name__}).") from None
     names = sorted(k for k in data if not k.startswith("__"))
@@ -180,10 +188,15 @@ def _load_mat(p: Path, time_var: str | None, value_var: str | None) -> Signal:
 
 def _read_rows(p: Path) -> tuple[list[str] | None, list[list[str]]]:
     """CSV rows with the delimiter sniffed; the header is the first row when it is not all numbers."""
+    if p.suffix.lower() in VIDEO_LIKE:
+        raise UserError(f"{p} is a video; run `sloshid track` on it first and identify the CSV it writes.")
     try:
         text = p.read_text(encoding="utf-8-sig")
-    except UnicodeDecodeError:
-        raise UserError(f"{p} is not a text CSV file.") from None
+    except UnicodeDecodeError as exc:
+        raise UserError(
+            f"{p} is not UTF-8 text (byte 0x{exc.object[exc.start]:02X} at position {exc.start}); if it is a "
+            "CSV saved in another encoding (e.g. Latin-1), re-save it as UTF-8."
+        ) from None
     sample = text[:8192]
     try:
         dialect = csv.Sniffer().sniff(sample, delimiters=",;\t ")
@@ -232,6 +245,8 @@ def _load_csv(p: Path, time_col: str | None, value_col: str | None) -> Signal:
             value_col = "angle_deg"
         elif ncols == 2:
             value_col = "1"
+        elif ncols == 1:
+            raise UserError(f"{p} has only one column; identify needs a time column in seconds and a signal column.")
         else:
             available = ", ".join(header) if header else f"indices 0..{ncols - 1}"
             raise SettingError(

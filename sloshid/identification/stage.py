@@ -41,6 +41,19 @@ def to_signal(source: Source, columns: SignalColumns | None = None) -> Signal:
     raise TypeError(f"cannot identify from a {type(source).__name__}; give a file path, a Signal or a TrackResult.")
 
 
+MIN_SAMPLES_PER_PERIOD = 4.0
+"""Samples per period of the slowest searched frequency below which no mode can be resolved (Nyquist is 2)."""
+
+
+def check_sampling(sig: Signal, f_range_hz: tuple[float, float]) -> None:
+    """Refuse a signal sampled too slowly for the searched band, the usual sign of a time column not in seconds."""
+    if sig.rate_hz < MIN_SAMPLES_PER_PERIOD * f_range_hz[0]:
+        raise UserError(
+            f"{sig.source}: the samples are {1 / sig.rate_hz:.4g} time units apart, too coarse for a mode in "
+            f"{f_range_hz[0]:g}-{f_range_hz[1]:g} Hz; the time column must be in seconds (is it in milliseconds?)."
+        )
+
+
 def identify_sources(
     sources: Sequence[Source],
     settings: IdentSettings | None = None,
@@ -58,8 +71,11 @@ def identify_sources(
     if not sources:
         raise UserError("nothing to identify: give at least one signal.")
     signals = [to_signal(s, columns) for s in sources]
+    settings = settings or IdentSettings()
+    for sig in signals:
+        check_sampling(sig, settings.f_range_hz)
     if warn is not None:
         for sig in signals:
             for w in sig.warnings:
                 warn(w)
-    return Identifier(settings or IdentSettings()).fit(signals).result
+    return Identifier(settings).fit(signals).result

@@ -245,15 +245,17 @@ def track_video(
                 writer.write(draw_overlay(frame, fm, cm, float_angle - cm.angle_deg, ok, roi), t)
     # raised after the overlay is finished: when nothing is found, the overlay is the user's diagnosis
     if not any(r[-1] for r in rows):
-        hint = f"see the overlay {overlay}" if overlay else "write --overlay OUT.mp4 to see what was searched"
+        hint = f"see the overlay {overlay}" if overlay else "write an overlay video to see what was searched"
         if walls is not None and floats_found:
-            raise UserError(
+            raise SettingError(
+                "reference",
                 f"the float was found in {floats_found} of {len(rows)} frames of {path} but the container's "
-                f"side walls in none of them; {hint}, or use --reference image."
+                f"side walls in none of them; {hint}, or use {{name}} image.",
             )
-        raise UserError(
+        raise SettingError(
+            "float_color",
             f"no float found in any of the {len(rows)} frames of {path} with HSV range "
-            f"{settings.hsv.describe()}; {hint} and adjust --float-hsv-low/--float-hsv-high or --float-color."
+            f"{settings.hsv.describe()}; {hint} and adjust {{name}} or the float's HSV range.",
         )
     return _result(Path(path), rows, reader.lost_share, reader.info.frame_count, settings.smooth)
 

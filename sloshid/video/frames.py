@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import contextlib
 import math
+import os
 import queue
 import threading
 from collections.abc import Iterator
@@ -46,9 +47,21 @@ class VideoInfo:
     """Frames the container declares (0 when unknown)."""
 
 
-cv2.utils.logging.setLogLevel(
-    cv2.utils.logging.LOG_LEVEL_ERROR
-)  # OpenCV errors only: failures reach the user as one UserError sentence, not log noise
+FFMPEG_QUIET = "-8"
+"""AV_LOG_QUIET: FFmpeg's own decoder complaints would print before sloshid's one sentence about the file."""
+
+
+@contextlib.contextmanager
+def _quiet_decoding() -> Iterator[None]:
+    """Silence OpenCV's log while sloshid opens a video and restore the caller's level afterwards; FFmpeg inside
+    OpenCV reads its level once, at the first capture, so it is quiet unless the user chose a level."""
+    os.environ.setdefault("OPENCV_FFMPEG_LOGLEVEL", FFMPEG_QUIET)
+    previous = cv2.utils.logging.getLogLevel()
+    cv2.utils.logging.setLogLevel(cv2.utils.logging.LOG_LEVEL_SILENT)
+    try:
+        yield
+    finally:
+        cv2.utils.logging.setLogLevel(previous)
 
 
 def _why_unreadable(path: Path) -> str:
@@ -83,7 +96,8 @@ class FrameReader:
         if not self.path.is_file():
             raise UserError(f"video {self.path} is not a file.")
         params = [] if self.multithreaded else [cv2.CAP_PROP_N_THREADS, 1]
-        cap = cv2.VideoCapture(str(self.path), cv2.CAP_FFMPEG, params)
+        with _quiet_decoding():
+            cap = cv2.VideoCapture(str(self.path), cv2.CAP_FFMPEG, params)
         if not cap.isOpened():
             raise UserError(_why_unreadable(self.path))
         cap.set(cv2.CAP_PROP_ORIENTATION_AUTO, 1)

@@ -17,7 +17,7 @@ from pathlib import Path
 from typing import Any
 
 from sloshid.core.atomic import write_json, write_text
-from sloshid.core.errors import UserError
+from sloshid.core.errors import SettingError, UserError
 from sloshid.core.hashing import file_sha256, json_sha256
 from sloshid.core.parallel import dask_client
 from sloshid.report.html import Report
@@ -83,13 +83,17 @@ def process_video(video: str, config: BatchConfig, out_root: str) -> dict[str, A
             return {**done["row"], "status": "cached"}
     out.mkdir(parents=True, exist_ok=True)
     row["outputs"] = str(out)
+    table = "[track]"
     try:
         overlay = out / "overlay.mp4" if config.track.overlay else None
         tracked = track_video(video, config.track.track_settings(), overlay=overlay, multithreaded=False)
         tracked.to_csv(out / "angles.csv")
         row.update(frames=len(tracked.t_s), valid_share=round(float(tracked.valid.mean()), 4))
+        table = "[identify]"
         doc = identify_sources([tracked], config.identify.ident_settings()).to_dict()
         write_json(out / "params.json", doc)
+    except SettingError as exc:  # named as the config file's key, the place the user can change it
+        return {**row, "status": "failed", "reasons": str(exc.named(f"{table}.{exc.setting}"))}
     except UserError as exc:
         return {**row, "status": "failed", "reasons": str(exc)}
     except Exception as exc:

@@ -20,8 +20,9 @@ from typing import Any, Literal
 
 from sloshid import __version__
 from sloshid.core.atomic import atomic_dir, write_text
-from sloshid.core.errors import UserError
+from sloshid.core.errors import SettingError, UserError
 from sloshid.core.hashing import file_sha256, json_sha256
+from sloshid.core.outputs import writable_folder
 from sloshid.core.parallel import check_workers
 from sloshid.core.settings import did_you_mean, from_dict, load_toml
 
@@ -77,6 +78,8 @@ class Stage:
     input_files: Callable[[Any], list[Path]] = lambda s: []
     needs: Callable[[Any, set[str]], list[str]] = lambda s, present: []
     """Names of earlier stages whose outputs it consumes, given the stages present in the pipeline."""
+    check: Callable[[Any], None] = lambda s: None
+    """Validation that needs more than the settings' own types (files that must parse), run before any stage."""
 
 
 @dataclass
@@ -155,7 +158,9 @@ class Pipeline:
                 if not isinstance(raw[name], dict):
                     raise UserError(f"{path}: [{name}] must be a table.")
                 settings = from_dict(stage.settings_type, raw[name], f"[{name}]")
-                stages.append((stage, resolve_paths(settings, path.parent, f"[{name}]")))
+                settings = resolve_paths(settings, path.parent, f"[{name}]")
+                stage.check(settings)
+                stages.append((stage, settings))
         if not stages:
             raise UserError(f"{path} declares no stage; add one of {', '.join(f'[{n}]' for n in registry)}.")
         present = {s.name for s, _ in stages}
@@ -180,6 +185,13 @@ def _copy_tree(src: Path, dst: Path) -> None:
         shutil.copytree(src, dst)
 
 
+def _stage_error(exc: Exception, stage: str) -> str:
+    """One sentence for a failed stage: a setting named as the pipeline's key, any other error as it reads."""
+    if isinstance(exc, SettingError):
+        return str(exc.named(f"[{stage}].{exc.setting}"))
+    return str(exc) if isinstance(exc, UserError) else f"unexpected error: {type(exc).__name__}: {exc}"
+
+
 def run_pipeline(
     pipeline: Pipeline,
     output_dir: str | Path | None = None,
@@ -190,7 +202,11 @@ def run_pipeline(
     root = Path(output_dir or pipeline.run.output_dir) / pipeline.run.name
     run_id = datetime.now(timezone.utc).strftime("%Y%m%d-%H%M%S-%f")
     run_dir = root / run_id
-    run_dir.mkdir(parents=True)
+    writable_folder(run_dir, "the run folder", run_dir)
+    try:
+        run_dir.mkdir(parents=True)
+    except OSError as exc:
+        raise UserError(f"could not create the run folder {run_dir}: {exc.strerror or exc}.") from None
     input_hashes: dict[str, str] = {}
     keys: dict[str, str] = {}
     records: list[StageRecord] = []
@@ -225,7 +241,7 @@ def run_pipeline(
                     summary = stage.run(settings, ctx)
                     write_text(tmp / "summary.json", json.dumps(summary, indent=2, default=str))
             except Exception as exc:  # recorded, so the run still gets its manifest and index
-                error = str(exc) if isinstance(exc, UserError) else f"unexpected error: {type(exc).__name__}: {exc}"
+                error = _stage_error(exc, stage.name)
                 records.append(StageRecord(stage.name, key, "failed", time.perf_counter() - start, error=error))
                 failed.add(stage.name)
                 log(f"[{stage.name}] failed: {error}")

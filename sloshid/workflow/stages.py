@@ -51,10 +51,6 @@ def run_track(opts: TrackOptions, ctx: StageContext) -> dict[str, Any]:
 
     from sloshid.core.tables import read_csv
 
-    if not opts.videos:
-        raise UserError("[track].videos is empty; list at least one video.")
-    if len({v.stem for v in opts.videos}) < len(opts.videos):
-        raise UserError("[track].videos has two files with the same name; their CSVs would collide.")
     if ctx.run.workers > 1 and len(opts.videos) > 1:
         jobs = [(video, opts, ctx.out_dir, True) for video in opts.videos]
         summaries = parallel_map(track_one, jobs, ctx.run.workers)
@@ -69,6 +65,19 @@ def run_track(opts: TrackOptions, ctx: StageContext) -> dict[str, Any]:
     ax.set(xlabel="time t (s)", ylabel="float angle (deg)", title="tracked float angle (dots: measured frames)")
     ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1))
     return {"figure": _save_figure(fig, ctx.out_dir / "angle.png"), "videos": summaries}
+
+
+def _check_track(opts: TrackOptions) -> None:
+    """At least one video, and no two with the same name (their CSVs would collide)."""
+    if not opts.videos:
+        raise UserError("[track].videos is empty; list at least one video.")
+    if len({v.stem for v in opts.videos}) < len(opts.videos):
+        raise UserError("[track].videos has two files with the same name; their CSVs would collide.")
+
+
+def _check_scenario(opts: PlanOptions | CompareOptions) -> None:
+    """The scenario file is a valid scenario (loading it validates every table)."""
+    load_scenario(opts.scenario)
 
 
 def run_identify(opts: IdentifyOptions, ctx: StageContext) -> dict[str, Any]:
@@ -170,14 +179,23 @@ def run_compare(opts: CompareOptions, ctx: StageContext) -> dict[str, Any]:
     }
 
 
-TRACK = Stage("track", TrackOptions, run_track, input_files=lambda o: list(o.videos))
+TRACK = Stage("track", TrackOptions, run_track, input_files=lambda o: list(o.videos), check=_check_track)
 IDENTIFY = Stage(
     "identify", IdentifyOptions, run_identify, input_files=lambda o: list(o.signals), needs=_identify_needs
 )
 
-PLAN = Stage("plan", PlanOptions, run_plan, input_files=lambda o: [o.scenario], needs=_liquid_needs)
+PLAN = Stage(
+    "plan", PlanOptions, run_plan, input_files=lambda o: [o.scenario], needs=_liquid_needs, check=_check_scenario
+)
 
-COMPARE = Stage("compare", CompareOptions, run_compare, input_files=lambda o: [o.scenario], needs=_compare_needs)
+COMPARE = Stage(
+    "compare",
+    CompareOptions,
+    run_compare,
+    input_files=lambda o: [o.scenario],
+    needs=_compare_needs,
+    check=_check_scenario,
+)
 
 REGISTRY: dict[str, Stage] = {"track": TRACK, "identify": IDENTIFY, "plan": PLAN, "compare": COMPARE}
 """Stages in the order they run."""

@@ -1,0 +1,339 @@
+"""Never lose a user's file, and every mistake is one sentence (issue 10, parts 1 and 2): each case is run through
+the real command line and checks that the victim file is still there byte for byte and nothing half-written is
+left behind."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+SAMPLE = ROOT / "data" / "sample_tap.mp4"
+DEMO = ROOT / "data" / "scenarios" / "demo_move.toml"
+
+
+@pytest.fixture
+def decay_csv(tmp_path) -> Path:
+    """A clean 3 Hz free decay as a two-column CSV (identifies in well under a second)."""
+    t = np.arange(0, 8, 1 / 60)
+    y = 5 * np.exp(-0.4 * t) * np.sin(2 * np.pi * 3 * t)
+    path = tmp_path / "sig.csv"
+    np.savetxt(path, np.column_stack([t, y]), delimiter=",", header="t_s,angle_deg", comments="")
+    return path
+
+
+def _leftovers(folder: Path) -> list[str]:
+    """Hidden temporary files sloshid would leave if a write were interrupted."""
+    return sorted(p.name for p in folder.rglob(".*") if ".part" in p.name)
+
+
+def _one_sentence(code: int, err: str) -> None:
+    assert code == 2, err
+    assert err.startswith("sloshid: error: ") and err.count("\n") == 1, err
+
+
+# ---- 1. never destroy or lose a file ----
+
+
+def test_identify_report_keeps_the_users_files(tmp_path, run_cli, decay_csv):
+    folder = tmp_path / "mine"
+    folder.mkdir()
+    (folder / "notes.txt").write_text("my notes")
+    code, _, err = run_cli("identify", decay_csv, "-o", tmp_path / "p.json", "--report", folder)
+    assert code == 0, err
+    assert (folder / "notes.txt").read_text() == "my notes" and (folder / "index.html").exists()
+    code, _, err = run_cli("identify", decay_csv, "-o", tmp_path / "p.json", "--report", folder)  # again: replaced
+    assert code == 0, err
+
+
+def test_a_report_folder_whose_index_is_not_sloshids_is_refused(tmp_path, run_cli, decay_csv):
+    folder = tmp_path / "site"
+    folder.mkdir()
+    (folder / "index.html").write_text("<html>my page</html>")
+    code, _, err = run_cli("identify", decay_csv, "-o", tmp_path / "p.json", "--report", folder)
+    _one_sentence(code, err)
+    assert "did not write" in err and (folder / "index.html").read_text() == "<html>my page</html>"
+    assert not (tmp_path / "p.json").exists()
+
+
+def test_report_on_an_existing_file_or_the_working_folder(tmp_path, run_cli, decay_csv, monkeypatch):
+    victim = tmp_path / "existing.csv"
+    victim.write_text("a,b\n1,2\n")
+    code, _, err = run_cli("identify", decay_csv, "-o", tmp_path / "p.json", "--report", victim)
+    _one_sentence(code, err)
+    assert victim.read_text() == "a,b\n1,2\n" and not list(tmp_path.glob(".existing*"))
+    monkeypatch.chdir(tmp_path)  # `--report .` writes index.html beside the user's files, deleting none
+    code, _, err = run_cli("identify", "sig.csv", "-o", "p.json", "--report", ".")
+    assert code == 0, err
+    assert decay_csv.exists() and victim.exists() and (tmp_path / "index.html").exists()
+
+
+@pytest.mark.parametrize(
+    "args, victim",
+    [
+        (["identify", "{sig}", "-o", "{sig}"], "{sig}"),
+        (["track", "{video}", "-o", "{out}/a.csv", "--overlay", "{video}"], "{video}"),
+        (["synth", "{out}/s.mp4", "--truth", "{video}"], "{video}"),
+        (["synth", "{out}/s.mp4", "--truth", "{out}/s.mp4", "--duration", "1"], None),
+        (["plan", "{scenario}", "-o", "{scenario}"], "{scenario}"),
+    ],
+)
+def test_an_output_that_names_an_input_or_another_output_is_refused(tmp_path, run_cli, decay_csv, args, victim):
+    video = tmp_path / "x.mp4"
+    video.write_bytes(SAMPLE.read_bytes())
+    scenario = tmp_path / "s.toml"
+    scenario.write_text(DEMO.read_text())
+    names = {"sig": decay_csv, "video": video, "out": tmp_path, "scenario": scenario}
+    before = {p: p.read_bytes() for p in (decay_csv, video, scenario)}
+    code, _, err = run_cli(*[a.format(**names) for a in args])
+    _one_sentence(code, err)
+    assert all(p.read_bytes() == data for p, data in before.items())
+    assert not (tmp_path / "a.csv").exists() and not (tmp_path / "s.mp4").exists() and not _leftovers(tmp_path)
+
+
+def test_plan_checks_every_output_before_writing_any(tmp_path, run_cli):
+    existing = tmp_path / "existing_file"
+    existing.write_text("keep me")
+    code, _, err = run_cli("plan", DEMO, "-o", tmp_path / "traj.csv", "--report", existing)
+    _one_sentence(code, err)
+    assert not (tmp_path / "traj.csv").exists() and existing.read_text() == "keep me"
+
+
+@pytest.mark.parametrize("case", ["folder", "parent_is_file"])
+def test_unwritable_outputs_fail_before_the_work(tmp_path, run_cli, decay_csv, case):
+    if case == "folder":
+        target = tmp_path / "out.json"
+        target.mkdir()
+    else:
+        (tmp_path / "plain").write_text("x")
+        target = tmp_path / "plain" / "out.json"
+    code, _, err = run_cli("identify", decay_csv, "-o", target)
+    _one_sentence(code, err)
+    assert str(target.name) in err or "plain" in err
+
+
+def test_a_full_disk_is_one_sentence_and_leaves_nothing(tmp_path, monkeypatch):
+    import errno
+
+    from sloshid.core.atomic import write_text
+    from sloshid.core.errors import UserError
+
+    def full(self, *args, **kwargs):
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(Path, "write_text", full)
+    with pytest.raises(UserError, match=r"could not write .*out\.json: No space left on device"):
+        write_text(tmp_path / "out.json", "{}")
+    assert not list(tmp_path.iterdir())
+
+
+def test_standard_output_that_cannot_be_written_is_one_sentence(decay_csv, tmp_path):
+    with open("/dev/full", "w") as full:
+        proc = subprocess.run(
+            [sys.executable, "-m", "sloshid", "identify", decay_csv, "-o", tmp_path / "p.json"],
+            stdout=full,
+            stderr=subprocess.PIPE,
+            text=True,
+            timeout=120,
+        )
+    assert proc.returncode == 2 and proc.stderr.count("\n") == 1, proc.stderr
+    assert "could not write to standard output" in proc.stderr
+
+
+def test_sigterm_during_an_overlay_leaves_no_half_written_file(tmp_path):
+    out = tmp_path / "out"
+    out.mkdir()
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "sloshid", "track", SAMPLE, "-o", out / "a.csv", "--overlay", out / "o.mp4"],
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    deadline = time.monotonic() + 60
+    while not _leftovers(out) and time.monotonic() < deadline and proc.poll() is None:
+        time.sleep(0.01)  # the overlay's temporary file appears when tracking starts
+    if proc.poll() is not None:
+        pytest.skip("tracking finished before it could be interrupted")
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 143, err
+    assert not _leftovers(out) and not (out / "o.mp4").exists() and not (out / "a.csv").exists()
+
+
+def test_folders_sloshid_creates_get_the_users_normal_permissions(tmp_path):
+    from sloshid.core.atomic import atomic_dir
+
+    umask = os.umask(0o022)
+    try:
+        with atomic_dir(tmp_path / "run") as tmp:
+            (tmp / "f.txt").write_text("x")
+    finally:
+        os.umask(umask)
+    assert (tmp_path / "run").stat().st_mode & 0o777 == 0o755
+
+
+# ---- 2. no tracebacks, no silent acceptance ----
+
+
+def test_a_time_column_in_milliseconds_is_named(tmp_path, run_cli):
+    t = np.arange(0, 8, 1 / 60)
+    path = tmp_path / "ms.csv"
+    np.savetxt(path, np.column_stack([1000 * t, np.sin(6 * np.pi * t)]), delimiter=",", header="t,v", comments="")
+    code, _, err = run_cli("identify", path, "-o", tmp_path / "p.json")
+    _one_sentence(code, err)
+    assert "milliseconds" in err
+
+
+@pytest.mark.parametrize(
+    "content, message",
+    [
+        (b"t_s,angle_deg\n0,1\n0.1,\xe9\n", "not UTF-8 text (byte 0xE9"),
+        (b"angle_deg\n1\n2\n3\n", "only one column; identify needs a time column"),
+    ],
+)
+def test_files_that_are_not_what_identify_reads(tmp_path, run_cli, content, message):
+    path = tmp_path / "bad.csv"
+    path.write_bytes(content)
+    code, _, err = run_cli("identify", path, "-o", tmp_path / "p.json")
+    _one_sentence(code, err)
+    assert message in err
+
+
+def test_a_video_given_to_identify_points_to_track(tmp_path, run_cli):
+    code, _, err = run_cli("identify", SAMPLE, "-o", tmp_path / "p.json")
+    _one_sentence(code, err)
+    assert "run `sloshid track` on it first" in err
+
+
+def test_a_matlab_73_file_says_hdf5_and_how_to_resave(tmp_path, run_cli):
+    header = b"MATLAB 7.3 MAT-file, Platform: GLNXA64, Created on: Mon Nov 23 2026 HDF5 schema 1.00 ."
+    path = tmp_path / "run.mat"
+    path.write_bytes(header.ljust(116, b" ") + bytes(8) + b"\x00\x02" + b"IM" + bytes(400))
+    code, _, err = run_cli("identify", path, "-o", tmp_path / "p.json")
+    _one_sentence(code, err)
+    assert "v7.3 (HDF5)" in err and "-v7" in err
+
+
+def test_the_same_file_twice_is_refused(tmp_path, run_cli, decay_csv):
+    code, _, err = run_cli("identify", decay_csv, decay_csv, "-o", tmp_path / "p.json")
+    _one_sentence(code, err)
+    assert "more than once" in err
+
+
+def test_settings_errors_name_what_the_user_typed(tmp_path, run_cli, decay_csv):
+    code, _, err = run_cli("identify", decay_csv, "-o", tmp_path / "p.json", "--min-fit", "150")
+    _one_sentence(code, err)
+    assert "--min-fit must be in [0, 100)" in err and "min_fit_percent" not in err
+    pipe = tmp_path / "p.toml"
+    pipe.write_text(f'[identify]\nsignals = ["{decay_csv}"]\nmass_kg = -1\n')
+    code, _, err = run_cli("run", pipe, "--output-dir", tmp_path / "runs")
+    _one_sentence(code, err)
+    assert "[identify].mass_kg must be a positive number" in err and "--mass" not in err
+
+
+def test_a_toml_with_a_byte_order_mark_is_read(tmp_path):
+    from sloshid.core.settings import load_toml
+
+    path = tmp_path / "bom.toml"
+    path.write_bytes("\ufeff[run]\nworkers = 1\n".encode())
+    assert load_toml(path) == {"run": {"workers": 1}}
+
+
+@pytest.mark.parametrize(
+    "text, message",
+    [
+        ("[track]\nvideos = []\n", "[track].videos is empty"),
+        ('[track]\nvideos = ["a/v.mp4", "b/v.mp4"]\n', "two files with the same name"),
+        ('[plan]\nscenario = "s.toml"\n', "no [move] table"),
+        ('[run]\nname = "../../escape"\n[track]\nvideos = ["a/v.mp4"]\n', "[run].name must be a plain folder name"),
+    ],
+)
+def test_pipelines_are_validated_before_anything_runs(tmp_path, run_cli, text, message):
+    for sub in ("a", "b"):
+        (tmp_path / sub).mkdir()
+        (tmp_path / sub / "v.mp4").write_bytes(SAMPLE.read_bytes())
+    (tmp_path / "s.toml").write_text("[liquid]\nm_kg = 0.5\n")
+    pipe = tmp_path / "p.toml"
+    pipe.write_text(text)
+    code, _, err = run_cli("run", pipe, "--output-dir", tmp_path / "runs")
+    _one_sentence(code, err)
+    assert message in err and not (tmp_path / "runs").exists()
+
+
+@pytest.mark.parametrize(
+    "extra, message",
+    [
+        (["--scheduler", "notanaddress"], "could not reach the Dask scheduler at notanaddress"),
+        (["--workers", "100000"], "--workers 100000 is more than this machine can run"),
+    ],
+)
+def test_batch_bad_cluster_options(tmp_path, run_cli, extra, message):
+    code, _, err = run_cli("batch", SAMPLE, "--out", tmp_path / "b", *extra)
+    _one_sentence(code, err)
+    assert message in err
+
+
+def test_batch_refuses_the_same_video_twice(tmp_path):
+    from sloshid.core.errors import UserError
+    from sloshid.workflow.batch import run_batch
+    from sloshid.workflow.options import BatchConfig, IdentifyOptions, TrackOptions
+
+    config = BatchConfig(TrackOptions(), IdentifyOptions())
+    with pytest.raises(UserError, match="listed more than once"):
+        run_batch([SAMPLE, SAMPLE, SAMPLE], config, tmp_path / "b", workers=1)
+    assert not (tmp_path / "b").exists()
+
+
+def test_compare_refuses_a_start_inside_an_obstacle_and_duplicate_methods(tmp_path, run_cli):
+    base = DEMO.read_text().split("[compare]")[0]
+    inside = tmp_path / "inside.toml"
+    inside.write_text(base + "[[obstacles]]\ncenter = [0.3, -0.27, 0.2]\nradius = 0.05\n")
+    code, _, err = run_cli("compare", inside)
+    _one_sentence(code, err)
+    assert "the start [0.3, -0.27, 0.2] lies inside obstacle 1" in err
+    twice = tmp_path / "twice.toml"
+    twice.write_text(base + '[compare]\nmethods = ["zvd", "zvd"]\n')
+    code, _, err = run_cli("compare", twice)
+    _one_sentence(code, err)
+    assert "'zvd' more than once" in err
+
+
+def test_cli_parsing_negative_values_unknown_options_and_help(tmp_path, run_cli):
+    code, _, err = run_cli("track", SAMPLE, "-o", tmp_path / "a.csv", "--roi", "-5,0,10,10")
+    _one_sentence(code, err)
+    assert "--roi -5,0,10,10 must have x, y >= 0" in err
+    with pytest.raises(SystemExit):
+        run_cli("track", SAMPLE, "-o", tmp_path / "a.csv", "--bogus")
+    from sloshid.cli.app import _Formatter, _subparser, build_parser
+
+    for command in ("track", "identify", "plan", "compare", "batch", "run", "synth"):
+        sub = _subparser(build_parser(only=command), command)
+        formatter = _Formatter(command)
+        for action in sub._actions:
+            text = formatter._get_help_string(action) % {"default": action.default}
+            assert "(default: None)" not in text, (command, text)
+            # no default shown twice: a help that already names its default gets no "(default: ...)" appended
+            assert not ("(default:" in text and "default" in (action.help or "").lower()), (command, text)
+
+
+def test_a_corrupt_video_prints_no_ffmpeg_lines(tmp_path):
+    data = bytearray(SAMPLE.read_bytes())
+    for i in range(5000, len(data), 997):
+        data[i] = 0
+    bad = tmp_path / "corrupt.mp4"
+    bad.write_bytes(bytes(data))
+    env = {k: v for k, v in os.environ.items() if k != "OPENCV_FFMPEG_LOGLEVEL"}
+    proc = subprocess.run(
+        [sys.executable, "-m", "sloshid", "track", bad, "-o", tmp_path / "a.csv"],
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=120,
+    )
+    assert not [line for line in proc.stderr.splitlines() if line.startswith("[h264")], proc.stderr
