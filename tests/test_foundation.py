@@ -12,7 +12,8 @@ from scipy.integrate import solve_ivp
 from sloshid.core.atomic import atomic_path
 from sloshid.core.errors import UserError
 from sloshid.core.settings import from_dict
-from sloshid.model.pendulum import TABLE_I, SloshParams, cylinder_first_mode_omega, pendulum_rhs_3d, steady_tilt
+from sloshid.model.conventions import steady_tilt
+from sloshid.model.pendulum import TABLE_I, SloshParams, cylinder_first_mode_omega, pendulum_rhs_3d
 
 
 def test_table_i_modal_values():

@@ -11,7 +11,8 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from sloshid.model.pendulum import G, SloshParams, steady_tilt
+from sloshid.model.conventions import G, steady_tilt
+from sloshid.model.pendulum import SloshParams
 from sloshid.model.simulate import simulate_liquid
 from sloshid.model.trajectory import RobotLimits, Trajectory, check_limits
 from sloshid.planning.ocp import Structure, bang_bang_time, get_solver

@@ -23,11 +23,9 @@ from filterpy.kalman import KalmanFilter
 
 from sloshid.comparison.robot_tracking import filter_columns, hold_after, robot_tf
 from sloshid.core.errors import UserError
-from sloshid.model.pendulum import G, SloshParams, linear_tf
+from sloshid.model.conventions import TILT_AXES, G
+from sloshid.model.pendulum import SloshParams, linear_tf
 from sloshid.model.trajectory import Trajectory
-
-AXES = ((0, 1, 1.0), (1, 0, -1.0))
-"""(acceleration column, euler column, sign) per horizontal axis: the angle sign*euler tilts toward +u."""
 
 
 @dataclass(frozen=True)
@@ -110,30 +108,30 @@ def run_feedback(
     padded = hold_after(traj, s.settle_s)
     t, dt, n = padded.t_s, padded.dt_s, len(padded.t_s)
     robot = robot_tf(bandwidth_hz)
-    tilt_cmd = np.column_stack([sign * padded.euler_rad[:, e] for _, e, sign in AXES])
-    tilt_rate = np.column_stack([sign * padded.euler_rate_rad_s[:, e] for _, e, sign in AXES])
+    tilt_cmd = np.column_stack([sign * padded.euler_rad[:, e] for _, e, sign in TILT_AXES])
+    tilt_rate = np.column_stack([sign * padded.euler_rate_rad_s[:, e] for _, e, sign in TILT_AXES])
     tilt_exec = filter_columns(robot, t, tilt_cmd)
     plant = control.c2d(control.ss(control.series(robot, linear_tf(truth))), dt)
     pa, pb, pc = (np.asarray(m) for m in (plant.A, plant.B, plant.C))
     gain = lqr_gain(model, s)
-    filters = [slosh_filter(model, dt, s) for _ in AXES]
+    filters = [slosh_filter(model, dt, s) for _ in TILT_AXES]
     rng = np.random.default_rng(s.seed)
     frame_step = 1.0 / (s.camera_fps * dt)
     lag = round(s.latency_s / dt)
-    x_plant = np.zeros((len(AXES), pa.shape[0]))
-    dev = np.zeros((len(AXES), 2))  # dp, dv per axis
-    u_fb = np.zeros((n, len(AXES)))
-    dev_hist = np.zeros((n, len(AXES), 2))
-    q_true = np.zeros((n, len(AXES)))
-    q_est = np.zeros((n, len(AXES)))
-    amp_est = np.zeros((n, len(AXES)))  # estimated slosh amplitude relative to the commanded tilt
-    history: list[list[tuple[np.ndarray, np.ndarray]]] = [[] for _ in AXES]
+    x_plant = np.zeros((len(TILT_AXES), pa.shape[0]))
+    dev = np.zeros((len(TILT_AXES), 2))  # dp, dv per axis
+    u_fb = np.zeros((n, len(TILT_AXES)))
+    dev_hist = np.zeros((n, len(TILT_AXES), 2))
+    q_true = np.zeros((n, len(TILT_AXES)))
+    q_est = np.zeros((n, len(TILT_AXES)))
+    amp_est = np.zeros((n, len(TILT_AXES)))  # estimated slosh amplitude relative to the commanded tilt
+    history: list[list[tuple[np.ndarray, np.ndarray]]] = [[] for _ in TILT_AXES]
     pending: list[tuple[int, int, np.ndarray]] = []  # (arrival step, frame step, measurement per axis)
     next_frame, frames = 0.0, 0
     for j in range(n):
         q_true[j] = (pc @ x_plant[:, :, None])[:, 0, 0]
         if j >= next_frame:
-            meas = q_true[j] - tilt_exec[j] + rng.normal(0.0, math.radians(s.noise_deg), len(AXES))
+            meas = q_true[j] - tilt_exec[j] + rng.normal(0.0, math.radians(s.noise_deg), len(TILT_AXES))
             pending.append((j + lag, j, meas))
             next_frame += frame_step
         for k, kf in enumerate(filters):
@@ -146,7 +144,7 @@ def run_feedback(
                 kf.update(np.array([[meas[k] + tilt_cmd[j0, k]]]))
                 for i in range(j0, j):
                     history[k][i] = (kf.x.copy(), kf.P.copy())
-                    kf.predict(u=np.array([[padded.acc_m_s2[i, AXES[k][0]] + u_fb[i, k]]]))
+                    kf.predict(u=np.array([[padded.acc_m_s2[i, TILT_AXES[k][0]] + u_fb[i, k]]]))
                 history[k][j] = (kf.x.copy(), kf.P.copy())
         for k, kf in enumerate(filters):
             q_est[j, k] = kf.x[0, 0]
@@ -154,14 +152,14 @@ def run_feedback(
             amp_est[j, k] = math.hypot(err[2], err[3] / model.omega_rad_s)
             u_fb[j, k] = float(np.clip(-gain @ err, -s.acc_tol_m_s2, s.acc_tol_m_s2))
         dev_hist[j] = dev
-        a_cmd = padded.acc_m_s2[j, [a for a, _, _ in AXES]] + u_fb[j]
+        a_cmd = padded.acc_m_s2[j, [a for a, _, _ in TILT_AXES]] + u_fb[j]
         for k, kf in enumerate(filters):
             kf.predict(u=np.array([[a_cmd[k]]]))
         x_plant = (pa @ x_plant[:, :, None])[:, :, 0] + pb[:, 0] * a_cmd[:, None]
         dev = np.column_stack([dev[:, 0] + dev[:, 1] * dt + 0.5 * u_fb[j] * dt * dt, dev[:, 1] + u_fb[j] * dt])
     end = arrival_index(dev_hist, amp_est, len(traj.t_s), math.radians(s.calm_deg))
     pos, vel, acc = padded.pos_m.copy(), padded.vel_m_s.copy(), padded.acc_m_s2.copy()
-    for k, (col, _, _) in enumerate(AXES):
+    for k, (col, _, _) in enumerate(TILT_AXES):
         pos[:, col] += dev_hist[:, k, 0]
         vel[:, col] += dev_hist[:, k, 1]
         acc[:, col] += u_fb[:, k]

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from sloshid.core.errors import UserError
-from sloshid.model.pendulum import steady_tilt
+from sloshid.model.conventions import steady_tilt
 from sloshid.model.trajectory import EXPORT_RATE_HZ, Trajectory
 
 DT_S = 1.0 / EXPORT_RATE_HZ

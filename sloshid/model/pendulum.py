@@ -1,12 +1,7 @@
 """The liquid model of design.md: a damped pendulum per horizontal axis (seed eq. 2, reconstructed eq. 3).
 
-Sign convention (stated once, tested): z is up; theta is the pitch of the liquid surface about +y0 and
-is driven by ux; phi is its roll about +x0 and is driven by uy. Under a steady acceleration the surface
-normal tilts into the acceleration, so theta -> atan(ux/g) and phi -> -atan(uy/g). Vertical acceleration
-uz changes the effective gravity to g + uz. The 1-D model (seed eq. 2) uses one angle `angle` that
-tilts toward +u: angle -> atan(u/g); for a move along y this is -phi, for a move along x it is theta.
-
-The rate functions take `sin`/`cos` so that the same expressions build CasADi graphs and NumPy values.
+Signs follow `sloshid.model.conventions` (stated there once). The rate functions take `sin`/`cos` so that the
+same expressions build CasADi graphs and NumPy values.
 """
 
 from __future__ import annotations
@@ -21,9 +16,7 @@ from typing import Any
 import numpy as np
 
 from sloshid.core.errors import UserError
-
-G = 9.81
-"""Gravitational acceleration in m/s^2 (the seed's value)."""
+from sloshid.model.conventions import G
 
 XI_CYLINDER = 1.8412
 """First root of J1', the first antisymmetric sloshing mode of an upright cylinder."""
@@ -132,11 +125,6 @@ def pendulum_rhs_3d(o: Any, u: Any, params: SloshParams, sin: Callable = np.sin,
     tilt_y_dd = angle_accel(-o[3], -o[9], u[1], params, g_eff, sin, cos)  # -phi tilts toward +uy
     theta_dd = angle_accel(o[4], o[10], u[0], params, g_eff, sin, cos)
     return [o[6], o[7], o[8], o[9], o[10], 0 * o[11], u[0], u[1], u[2], -tilt_y_dd, theta_dd, 0 * o[11]]
-
-
-def steady_tilt(ux: float, uy: float, uz: float = 0.0) -> tuple[float, float]:
-    """(phi, theta) in rad at which the surface settles under a constant acceleration."""
-    return -math.atan2(uy, G + uz), math.atan2(ux, G + uz)
 
 
 def linear_tf_coeffs(params: SloshParams) -> tuple[list[float], list[float]]:

@@ -24,6 +24,7 @@ from tqdm import tqdm
 from sloshid.core.atomic import atomic_path
 from sloshid.core.errors import UserError
 from sloshid.core.tables import write_csv
+from sloshid.model.conventions import SEEN_SIGN
 from sloshid.model.pendulum import TABLE_I, SloshParams
 from sloshid.model.simulate import integrate_pendulums
 from sloshid.video.colors import DEFAULT_FLOAT_COLOR, preset
@@ -219,7 +220,7 @@ def relative_angle_rad(s: SynthSettings, t: np.ndarray) -> np.ndarray:
         y0, u = [0.0, rate0], (lambda _t: 0.0)
         sign = 1.0
     else:
-        start, y0, sign = 0.0, [0.0, 0.0], -1.0
+        start, y0, sign = 0.0, [0.0, 0.0], SEEN_SIGN
         u = lambda tt: float(move_accel(s, tt))  # noqa: E731
     out = np.zeros_like(t)
     after = t >= start
