@@ -139,13 +139,7 @@ def run_feedback(
         while pending and pending[0][0] <= j:
             _, j0, meas = pending.pop(0)
             frames += 1
-            for k, kf in enumerate(filters):
-                kf.x, kf.P = (a.copy() for a in history[k][j0])
-                kf.update(np.array([[meas[k] + tilt_cmd[j0, k]]]))
-                for i in range(j0, j):
-                    history[k][i] = (kf.x.copy(), kf.P.copy())
-                    kf.predict(u=np.array([[padded.acc_m_s2[i, TILT_AXES[k][0]] + u_fb[i, k]]]))
-                history[k][j] = (kf.x.copy(), kf.P.copy())
+            _late_update(filters, history, j0, j, meas + tilt_cmd[j0], padded.acc_m_s2, u_fb)
         for k, kf in enumerate(filters):
             q_est[j, k] = kf.x[0, 0]
             err = np.array([dev[k, 0], dev[k, 1], kf.x[0, 0] - tilt_cmd[j, k], kf.x[1, 0] - tilt_rate[j, k]])
@@ -158,23 +152,34 @@ def run_feedback(
         x_plant = (pa @ x_plant[:, :, None])[:, :, 0] + pb[:, 0] * a_cmd[:, None]
         dev = np.column_stack([dev[:, 0] + dev[:, 1] * dt + 0.5 * u_fb[j] * dt * dt, dev[:, 1] + u_fb[j] * dt])
     end = arrival_index(dev_hist, amp_est, len(traj.t_s), math.radians(s.calm_deg))
+    run = _executed(padded, dev_hist, u_fb, end, f"{traj.name} + feedback ({s.camera_fps:g} fps)")
+    rms = float(np.degrees(np.sqrt(np.mean((q_est[:end] - q_true[:end]) ** 2))))
+    return FeedbackRun(run, rms, frames)
+
+
+def _late_update(filters, history, j0: int, j: int, measured: np.ndarray, acc: np.ndarray, u_fb: np.ndarray) -> None:
+    """A camera frame taken at step j0 arrives at step j (latency): rewind each filter to j0, update with the
+    measured surface angle, and predict forward again with the inputs applied since."""
+    for k, kf in enumerate(filters):
+        kf.x, kf.P = (a.copy() for a in history[k][j0])
+        kf.update(np.array([[measured[k]]]))
+        for i in range(j0, j):
+            history[k][i] = (kf.x.copy(), kf.P.copy())
+            kf.predict(u=np.array([[acc[i, TILT_AXES[k][0]] + u_fb[i, k]]]))
+        history[k][j] = (kf.x.copy(), kf.P.copy())
+
+
+def _executed(padded: Trajectory, dev_hist: np.ndarray, u_fb: np.ndarray, end: int, name: str) -> Trajectory:
+    """The feedforward plus the feedback's corrections (position, velocity, acceleration), cut at arrival."""
     pos, vel, acc = padded.pos_m.copy(), padded.vel_m_s.copy(), padded.acc_m_s2.copy()
     for k, (col, _, _) in enumerate(TILT_AXES):
         pos[:, col] += dev_hist[:, k, 0]
         vel[:, col] += dev_hist[:, k, 1]
         acc[:, col] += u_fb[:, k]
     cut = slice(0, end)
-    run = Trajectory(
-        t[cut],
-        pos[cut],
-        vel[cut],
-        acc[cut],
-        padded.euler_rad[cut],
-        padded.euler_rate_rad_s[cut],
-        name=f"{traj.name} + feedback ({s.camera_fps:g} fps)",
+    return Trajectory(
+        padded.t_s[cut], pos[cut], vel[cut], acc[cut], padded.euler_rad[cut], padded.euler_rate_rad_s[cut], name=name
     )
-    rms = float(np.degrees(np.sqrt(np.mean((q_est[cut] - q_true[cut]) ** 2))))
-    return FeedbackRun(run, rms, frames)
 
 
 def arrival_index(

@@ -13,7 +13,7 @@ import os
 import shutil
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any, Literal
@@ -192,13 +192,8 @@ def _stage_error(exc: Exception, stage: str) -> str:
     return str(exc) if isinstance(exc, UserError) else f"unexpected error: {type(exc).__name__}: {exc}"
 
 
-def run_pipeline(
-    pipeline: Pipeline,
-    output_dir: str | Path | None = None,
-    write_index: Callable[[Path, list[StageRecord]], Path] | None = None,
-    log: Callable[[str], None] = print,
-) -> PipelineRun:
-    """Run every stage (or reuse its cached outputs) and write the run directory with manifest and index."""
+def _new_run_dir(pipeline: Pipeline, output_dir: str | Path | None) -> tuple[Path, Path, str]:
+    """(pipeline root, this run's folder, run id); the run folder is created, after checking it can be."""
     root = Path(output_dir or pipeline.run.output_dir) / pipeline.run.name
     run_id = datetime.now(timezone.utc).strftime("%Y%m%d-%H%M%S-%f")
     run_dir = root / run_id
@@ -207,6 +202,39 @@ def run_pipeline(
         run_dir.mkdir(parents=True)
     except OSError as exc:
         raise UserError(f"could not create the run folder {run_dir}: {exc.strerror or exc}.") from None
+    return root, run_dir, run_id
+
+
+def _run_stage(stage: Stage, settings: Any, key: str, cache: Path, ctx: StageContext, log) -> StageRecord:
+    """Run one stage into its cache folder (or reuse it) and record what happened; a failure is recorded."""
+    start = time.perf_counter()
+    if (cache / "summary.json").exists():
+        log(f"[{stage.name}] unchanged, reusing {cache}")
+        status = "cached"
+    else:
+        log(f"[{stage.name}] running")
+        try:
+            with atomic_dir(cache) as tmp:
+                summary = stage.run(settings, replace(ctx, out_dir=tmp))
+                write_text(tmp / "summary.json", json.dumps(summary, indent=2, default=str))
+        except Exception as exc:  # recorded, so the run still gets its manifest and index
+            error = _stage_error(exc, stage.name)
+            log(f"[{stage.name}] failed: {error}")
+            return StageRecord(stage.name, key, "failed", time.perf_counter() - start, error=error)
+        status = "ran"
+    _copy_tree(cache, ctx.out_dir)
+    summary = json.loads((cache / "summary.json").read_text())
+    return StageRecord(stage.name, key, status, time.perf_counter() - start, summary)
+
+
+def run_pipeline(
+    pipeline: Pipeline,
+    output_dir: str | Path | None = None,
+    write_index: Callable[[Path, list[StageRecord]], Path] | None = None,
+    log: Callable[[str], None] = print,
+) -> PipelineRun:
+    """Run every stage (or reuse its cached outputs) and write the run directory with manifest and index."""
+    root, run_dir, run_id = _new_run_dir(pipeline, output_dir)
     input_hashes: dict[str, str] = {}
     keys: dict[str, str] = {}
     records: list[StageRecord] = []
@@ -219,37 +247,15 @@ def run_pipeline(
             failed.add(stage.name)
             continue
         files = {str(p): input_hashes.setdefault(str(p), file_sha256(p)) for p in stage.input_files(settings)}
+        upstream = {n: keys[n] for n in needs}
         key = json_sha256(
-            {
-                "settings": _settings_json(settings),
-                "files": files,
-                "upstream": {n: keys[n] for n in needs},
-                "version": __version__,
-            }
+            {"settings": _settings_json(settings), "files": files, "upstream": upstream, "version": __version__}
         )[:16]
         keys[stage.name] = key
-        cache = root / ".cache" / stage.name / key
-        start = time.perf_counter()
-        if (cache / "summary.json").exists():
-            status = "cached"
-            log(f"[{stage.name}] unchanged, reusing {cache}")
-        else:
-            log(f"[{stage.name}] running")
-            try:
-                with atomic_dir(cache) as tmp:
-                    ctx = StageContext(tmp, {n: run_dir / n for n in needs}, pipeline.run)
-                    summary = stage.run(settings, ctx)
-                    write_text(tmp / "summary.json", json.dumps(summary, indent=2, default=str))
-            except Exception as exc:  # recorded, so the run still gets its manifest and index
-                error = _stage_error(exc, stage.name)
-                records.append(StageRecord(stage.name, key, "failed", time.perf_counter() - start, error=error))
-                failed.add(stage.name)
-                log(f"[{stage.name}] failed: {error}")
-                continue
-            status = "ran"
-        _copy_tree(cache, run_dir / stage.name)
-        summary = json.loads((cache / "summary.json").read_text())
-        records.append(StageRecord(stage.name, key, status, time.perf_counter() - start, summary))
+        ctx = StageContext(run_dir / stage.name, {n: run_dir / n for n in needs}, pipeline.run)
+        records.append(_run_stage(stage, settings, key, root / ".cache" / stage.name / key, ctx, log))
+        if records[-1].status == "failed":
+            failed.add(stage.name)
     manifest = {
         "pipeline": str(pipeline.path.resolve()),
         "run_id": run_id,
