@@ -3,14 +3,17 @@ and every `sloshid` command line in a bash block is a valid invocation of that c
 
 from __future__ import annotations
 
+import json
 import os
 import re
 import shlex
 from pathlib import Path
 
+import matplotlib.figure
 import pytest
 
 from sloshid.cli.app import COMMANDS, build_parser
+from sloshid.core.outputs import REPORT_MARK
 
 ROOT = Path(__file__).resolve().parents[1]
 README = (ROOT / "README.md").read_text(encoding="utf-8")
@@ -64,3 +67,12 @@ def test_python_blocks_run_in_order(tmp_path, monkeypatch):
     reused = namespace["comparison"].result("sloshid")
     assert reused.build_time_s == namespace["plan"].solve_time_s
     assert reused.score.transfer_time_s == pytest.approx(namespace["plan"].T_s, abs=1e-3)
+    # every result behaves alike: text, JSON-safe dict, a figure, an HTML page, a table
+    for name in ("tracked", "ident", "plan", "comparison"):
+        result = namespace[name]
+        assert result.summary().strip(), name
+        json.dumps(result.to_dict(), allow_nan=False)
+        assert isinstance(result.plot(), matplotlib.figure.Figure), name
+        page = result.report(tmp_path / f"{name}_report")
+        assert REPORT_MARK in page.read_text(encoding="utf-8"), name
+        assert len(result.to_pandas()) > 0, name
