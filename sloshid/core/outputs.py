@@ -70,7 +70,7 @@ class Outputs:
         """A report folder: sloshid writes only its index.html there, and never over a page it did not write."""
         p = Path(path)
         if (p.exists() and not p.is_dir()) or p.suffix.lower() in (".html", ".htm"):
-            raise UserError(f"{role} takes a folder (index.html is written inside it), but {p} names a file.")
+            raise UserError(f"{role} takes a directory (index.html is written inside it), but {p} names a file.")
         index = p / "index.html"
         if index.exists() and not is_sloshid_page(index):
             raise UserError(
