@@ -15,7 +15,8 @@ from pathlib import Path
 
 from bench_output import write_results
 
-from sloshid.identification.estimator import IdentSettings, identify_file
+from sloshid.identification.estimator import IdentSettings
+from sloshid.identification.stage import identify_sources
 from sloshid.model.pendulum import TABLE_I
 from sloshid.synthetic.render import SynthSettings, render_video
 from sloshid.tracking.tracker import track_video
@@ -43,7 +44,7 @@ def main() -> None:
             mbit_s = video.stat().st_size * 8 / 10.0 / 1e6
             start = time.perf_counter()
             track_video(video).to_csv(csv)
-            res = identify_file(csv, IdentSettings(mass_kg=TABLE_I.m_kg))
+            res = identify_sources([csv], IdentSettings(mass_kg=TABLE_I.m_kg))
             seconds = time.perf_counter() - start
             p = res.parameters
             l_err = 100 * (p["l_m"].value / TABLE_I.l_m - 1)

@@ -598,8 +598,3 @@ def judge(st, sigs, windows, spectra, fit, params, checks, lb, fits, second=None
             f"zeta = {z.value:.2g} ± {z.stderr:.2g} cannot be told from zero: the amplitude barely decays in the window."
         )
     return ("uncertain" if reasons else "good"), reasons, notes
-
-
-def identify_file(path: str | Path, settings: IdentSettings | None = None, **load: Any) -> IdentResult:
-    """One file (tracker CSV, CSV or .mat) to an IdentResult; `load` passes time_col/value_col/time_var/value_var."""
-    return Identifier(settings).fit(load_signal(path, **load)).result
