@@ -108,6 +108,7 @@ def _fail(message: str) -> int:
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point: parse, dispatch, and turn a UserError into one line on stderr with exit code 2."""
     argv = list(sys.argv[1:] if argv is None else argv)
+    os.environ.setdefault("MPLBACKEND", "Agg")  # a command draws figures into files, never into windows
     wanted = next((a for a in argv if a in COMMANDS), None)
     args = None
     previous = signal.signal(signal.SIGTERM, _on_sigterm)
