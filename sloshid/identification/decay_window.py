@@ -8,7 +8,7 @@ import numpy as np
 from scipy import ndimage
 from scipy import signal as sps
 
-from sloshid.core.errors import UserError
+from sloshid.core.errors import SettingError, UserError
 from sloshid.core.spectrum import to_uniform, welch_spectrum
 from sloshid.identification.signals import Signal
 
@@ -152,7 +152,9 @@ def user_window(sig: Signal, t0: float, t1: float, f_guess_hz: float) -> DecayWi
     """A window given by the user, checked to lie inside the data."""
     lo, hi = float(sig.t_s[0]), float(sig.t_s[-1])
     if not t0 < t1:
-        raise UserError(f"--window start {t0:g} s must be before its end {t1:g} s.")
+        raise SettingError("window_s", f"{{name}} start {t0:g} s must be before its end {t1:g} s.")
     if t0 < lo - 1e-9 or t1 > hi + 1e-9:
-        raise UserError(f"--window {t0:g},{t1:g} s lies outside the data of {sig.source} ({lo:g} to {hi:g} s).")
+        raise SettingError(
+            "window_s", f"{{name}} {t0:g},{t1:g} s lies outside the data of {sig.source} ({lo:g} to {hi:g} s)."
+        )
     return DecayWindow(float(t0), float(t1), "user", None, f_guess_hz)

@@ -265,6 +265,6 @@ def resolve_liquid(scenario: Scenario, params_path: str | Path | None) -> SloshP
     if scenario.liquid is None:
         raise UserError(
             f"{scenario.source or 'the scenario'} has no [liquid] table (m_kg, l_m, d_ns_per_m); "
-            "add one or pass --params PARAMS.json from `sloshid identify`."
+            "add one, or plan for a liquid identified by `sloshid identify` (its parameter JSON)."
         )
     return scenario.liquid
