@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
 
-from sloshid.core.errors import UserError
+from sloshid.core.errors import SettingError, UserError
 from sloshid.core.settings import did_you_mean, from_dict, load_toml
 from sloshid.model.pendulum import SloshParams
 from sloshid.model.trajectory import RobotLimits
@@ -263,8 +263,9 @@ def resolve_liquid(scenario: Scenario, params_path: str | Path | None) -> SloshP
     if params_path is not None:
         return SloshParams.from_identify_json(params_path)
     if scenario.liquid is None:
-        raise UserError(
+        raise SettingError(
+            "params",
             f"{scenario.source or 'the scenario'} has no [liquid] table (m_kg, l_m, d_ns_per_m); "
-            "add one, or plan for a liquid identified by `sloshid identify` (its parameter JSON)."
+            "add one or pass {name} PARAMS.json from `sloshid identify`.",
         )
     return scenario.liquid
