@@ -230,6 +230,23 @@ def _column_index(spec: str, header: list[str] | None, ncols: int, p: Path, role
     raise UserError(f"{p} has no {role} column '{spec}'; available: {available}.")
 
 
+def _column_floats(rows: list[list[str]], i: int, keep: np.ndarray, p: Path, header: list[str] | None) -> np.ndarray:
+    """Column i of the kept rows as floats (blank, nan and inf cells as NaN), converted by NumPy in one go; a cell
+    that is not a number is named with its line."""
+    cells = [row[i].strip() if i < len(row) else "" for row, k in zip(rows, keep) if k]
+    try:
+        return np.array([c if c else "nan" for c in cells], dtype=str).astype(float)
+    except ValueError:
+        lines = [k for k, kept in enumerate(keep, start=2 if header else 1) if kept]
+        for line, cell in zip(lines, cells):
+            try:
+                float(cell or "nan")
+            except ValueError:
+                name = header[i] if header else f"column {i}"
+                raise UserError(f"{p} line {line}: '{name}' holds '{cell}', which is not a number.") from None
+        raise
+
+
 def _load_csv(p: Path, time_col: str | None, value_col: str | None) -> Signal:
     """Read a tracker CSV (angle_deg where valid == 1) or any CSV with chosen time and value columns."""
     header, rows = _read_rows(p)
@@ -256,27 +273,12 @@ def _load_csv(p: Path, time_col: str | None, value_col: str | None) -> Signal:
     vi = _column_index(value_col, header, ncols, p, "value")
     use_valid = is_tracker and header[vi] == "angle_deg"
     gi = header.index("valid") if use_valid else None
-    t, y, dropped = [], [], 0
-    for k, row in enumerate(rows, start=2 if header else 1):
-        cells = [row[i].strip() if i < len(row) else "" for i in (ti, vi)]
-        if gi is not None:
-            flag = row[gi].strip() if gi < len(row) else ""
-            if flag not in ("1", "1.0", "true", "True"):
-                dropped += 1
-                continue
-        vals = []
-        for cell, i in zip(cells, (ti, vi)):
-            if cell == "" or cell.lower() in ("nan", "inf", "-inf"):
-                vals.append(float("nan"))
-                continue
-            try:
-                vals.append(float(cell))
-            except ValueError:
-                name = header[i] if header else f"column {i}"
-                raise UserError(f"{p} line {k}: '{name}' holds '{cell}', which is not a number.") from None
-        t.append(vals[0])
-        y.append(vals[1])
-    if use_valid and not y:
+    keep = np.ones(len(rows), bool)
+    if gi is not None:
+        keep = np.array([gi < len(r) and r[gi].strip() in ("1", "1.0", "true", "True") for r in rows])
+    dropped = int((~keep).sum())
+    t, y = (_column_floats(rows, i, keep, p, header) for i in (ti, vi))
+    if use_valid and not y.size:
         raise UserError(f"{p}: no tracker frame is valid (valid == 1), so there is no angle to identify from.")
     label = header[vi] if header else f"column {vi}"
     unit = unit_from_name(label)
