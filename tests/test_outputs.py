@@ -338,3 +338,12 @@ def test_a_corrupt_video_prints_no_ffmpeg_lines(tmp_path):
         timeout=120,
     )
     assert not [line for line in proc.stderr.splitlines() if line.startswith("[h264")], proc.stderr
+
+
+def test_a_setting_error_is_reworded_per_front_end_and_keeps_braces_in_paths():
+    from sloshid.core.errors import SettingError
+
+    err = SettingError("mass_kg", "{name} must be positive in /data/{run}/a.csv; see {overlay}", "overlay")
+    assert str(err) == "mass_kg must be positive in /data/{run}/a.csv; see overlay"
+    assert str(err.named(lambda s: f"[identify].{s}")).startswith("[identify].mass_kg must")
+    assert str(err.named(lambda s: "--" + s.replace("_", "-"))).endswith("see --overlay")

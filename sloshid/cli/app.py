@@ -126,7 +126,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         sys.stdout.flush()
         return code
     except SettingError as exc:
-        return _fail(str(exc.named(flag_for(exc.setting, getattr(args, "_flags", {})))))
+        flags = getattr(args, "_flags", {})
+        return _fail(str(exc.named(lambda setting: flag_for(setting, flags))))
     except UserError as exc:
         return _fail(str(exc))
     except OSError as exc:

@@ -2,23 +2,35 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 
 class UserError(Exception):
     """A bad file, option or request: reported as one sentence on stderr, exit code 2, no traceback."""
 
 
 class SettingError(UserError):
-    """A bad value of one named setting. The message names the setting as the library knows it (`mass_kg`); each
-    front-end re-words it with its own name for that setting (`--mass` on the command line, `[identify] mass_kg`
-    in a pipeline) through `named()`."""
+    """A bad value of a named setting. The message names settings as the library knows them (`mass_kg`); each
+    front-end re-words them with its own names (`--mass` on the command line, `[identify].mass_kg` in a pipeline)
+    through `named()`. The template writes the setting at fault as {name} and any other setting it mentions as
+    {that_setting}."""
 
-    def __init__(self, setting: str, template: str) -> None:
+    def __init__(self, setting: str, template: str, *others: str) -> None:
         self.setting = setting
+        self.others = others
         self.template = template
-        super().__init__(template.format(name=setting))
+        super().__init__(self._render(lambda s: s))
 
-    def named(self, name: str) -> SettingError:
-        """The same error, with the setting called `name`."""
-        err = SettingError(self.setting, self.template)
-        err.args = (self.template.format(name=name),)
+    def _render(self, rename: Callable[[str], str]) -> str:
+        # plain replacement, not str.format: the message may quote paths and values that hold braces
+        text = self.template.replace("{name}", rename(self.setting))
+        for other in self.others:
+            text = text.replace("{" + other + "}", rename(other))
+        return text
+
+    def named(self, rename: str | Callable[[str], str]) -> SettingError:
+        """The same error with every setting renamed (a string renames the one at fault only)."""
+        err = SettingError(self.setting, self.template, *self.others)
+        fn = (lambda s: rename if s == self.setting else s) if isinstance(rename, str) else rename
+        err.args = (self._render(fn),)
         return err

@@ -121,4 +121,4 @@ def from_dict(cls: type[T], data: dict[str, Any], where: str = "") -> T:
     try:
         return cls(**kwargs)
     except SettingError as exc:  # the library names its setting; here it is a key of this table
-        raise UserError(str(exc.named(f"{prefix}{exc.setting}"))) from None
+        raise UserError(str(exc.named(lambda setting: f"{prefix}{setting}"))) from None

@@ -245,17 +245,23 @@ def track_video(
                 writer.write(draw_overlay(frame, fm, cm, float_angle - cm.angle_deg, ok, roi), t)
     # raised after the overlay is finished: when nothing is found, the overlay is the user's diagnosis
     if not any(r[-1] for r in rows):
-        hint = f"see the overlay {overlay}" if overlay else "write an overlay video to see what was searched"
+        hint = (
+            f"see the overlay {overlay}" if overlay else "write an overlay video ({overlay}) to see what was searched"
+        )
         if walls is not None and floats_found:
             raise SettingError(
                 "reference",
                 f"the float was found in {floats_found} of {len(rows)} frames of {path} but the container's "
                 f"side walls in none of them; {hint}, or use {{name}} image.",
+                "overlay",
             )
         raise SettingError(
             "float_color",
             f"no float found in any of the {len(rows)} frames of {path} with HSV range "
-            f"{settings.hsv.describe()}; {hint} and adjust {{name}} or the float's HSV range.",
+            f"{settings.hsv.describe()}; {hint} and adjust {{float_hsv_low}}/{{float_hsv_high}} or {{name}}.",
+            "overlay",
+            "float_hsv_low",
+            "float_hsv_high",
         )
     return _result(Path(path), rows, reader.lost_share, reader.info.frame_count, settings.smooth)
 

@@ -93,7 +93,7 @@ def process_video(video: str, config: BatchConfig, out_root: str) -> dict[str, A
         doc = identify_sources([tracked], config.identify.ident_settings()).to_dict()
         write_json(out / "params.json", doc)
     except SettingError as exc:  # named as the config file's key, the place the user can change it
-        return {**row, "status": "failed", "reasons": str(exc.named(f"{table}.{exc.setting}"))}
+        return {**row, "status": "failed", "reasons": str(exc.named(lambda setting: f"{table}.{setting}"))}
     except UserError as exc:
         return {**row, "status": "failed", "reasons": str(exc)}
     except Exception as exc:

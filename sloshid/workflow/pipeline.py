@@ -188,7 +188,7 @@ def _copy_tree(src: Path, dst: Path) -> None:
 def _stage_error(exc: Exception, stage: str) -> str:
     """One sentence for a failed stage: a setting named as the pipeline's key, any other error as it reads."""
     if isinstance(exc, SettingError):
-        return str(exc.named(f"[{stage}].{exc.setting}"))
+        return str(exc.named(lambda setting: f"[{stage}].{setting}"))
     return str(exc) if isinstance(exc, UserError) else f"unexpected error: {type(exc).__name__}: {exc}"
 
 
