@@ -26,17 +26,21 @@ from sloshid.identification.decay_window import (
 from sloshid.identification.pt2fit import Z95, PT2Fit, WindowData, autocorrelation, fit_pt2
 from sloshid.identification.second_mode import SecondMode, resolve_second_mode, strong_peaks
 from sloshid.identification.signals import Signal, load_signal
-from sloshid.model.pendulum import G, SloshParams, cylinder_first_mode_omega, linear_tf, linear_tf_coeffs
+from sloshid.identification.verdict import AMPLITUDE_SNR, GROUPS, GroupVerdict, VerdictInput, judge
+from sloshid.model.pendulum import (
+    XI_CYLINDER_SECOND,
+    G,
+    SloshParams,
+    cylinder_first_mode_omega,
+    linear_tf,
+    linear_tf_coeffs,
+)
 
 MIN_PERIODS_ERROR = 3.0
 NO_MODE_SNR = 5.0
 """A window whose PSD shows no clear resonance is still accepted when the fitted decay stands this many standard
 errors out and reaches the minimum fit % (short, strongly damped ring-downs give coarse Welch spectra);
 otherwise there is no mode, only noise."""
-AMPLITUDE_SNR = 3.0
-"""A fitted amplitude less than this many standard errors above zero is barely distinguishable from noise."""
-CROSS_CHECK_MIN_PERIODS = 8.0
-"""A cross-check built on fewer mode periods than this is shown but does not sway the verdict (too coarse)."""
 
 
 class NotFittedError(RuntimeError):
@@ -132,6 +136,13 @@ class IdentResult:
     lb_lags: list[int] = field(default_factory=list)
     second_mode: SecondMode | None = None
     """The two-mode fit tried for a strong second PSD peak (None when no PSD showed one)."""
+    groups: dict[str, GroupVerdict] = field(default_factory=dict)
+    """Verdict per parameter group: 'frequency' (f, omega, l) and 'damping' (zeta, d); `quality` is the worst."""
+
+    def parameter_verdict(self, name: str) -> GroupVerdict | None:
+        """The verdict of the group parameter `name` belongs to (None for given values such as the mass)."""
+        group = next((g for g, names in GROUPS.items() if name in names), None)
+        return self.groups.get(group) if group else None
 
     @property
     def params(self) -> SloshParams:
@@ -154,7 +165,12 @@ class IdentResult:
     def to_dict(self) -> dict[str, Any]:
         """The `sloshid identify` JSON (schema in README; read back by SloshParams.from_identify_json)."""
         num, den = linear_tf_coeffs(self.params)
-        params = {k: v.to_dict() for k, v in self.parameters.items()}
+        params = {}
+        for k, v in self.parameters.items():
+            params[k] = v.to_dict()
+            group = self.parameter_verdict(k)
+            if group is not None:
+                params[k].update(quality=group.quality, reasons=list(group.reasons))
         if self.mass_kg is not None:
             params["m_kg"] = {"value": self.mass_kg}
         per_signal = []
@@ -242,7 +258,12 @@ class IdentResult:
         fits = ", ".join(f"{self.fit_percent(i):.1f}" for i in range(len(self.signals)))
         lines.append(f"  fit % (NRMSE): {fits}")
         lines.append(f"verdict: {self.quality}")
-        lines += [f"  - {r}" for r in self.reasons]
+        for group, names in GROUPS.items():
+            if group in self.groups:
+                g = self.groups[group]
+                shown = ", ".join(n.split("_")[0] for n in names if n in self.parameters)
+                lines.append(f"  {group} ({shown}): {g.quality}")
+                lines += [f"    - {r}" for r in g.reasons]
         return "\n".join(lines)
 
     # ---- plots (each takes ax=None and returns the axes it drew on) ----
@@ -363,10 +384,19 @@ class Identifier:
         if not sigs:
             raise UserError("no signal given to identify.")
         st = self.settings
+        prior = geometric_prior(st)
+        f_range = st.f_range_hz
+        if prior:  # the prior picks the first mode: search only where it is nearer than the second azimuthal one
+            f_range = (max(f_range[0], prior["band_hz"][0]), min(f_range[1], prior["band_hz"][1]))
+            if not f_range[0] < f_range[1]:
+                raise UserError(
+                    f"the frequency range {st.f_range_hz[0]:g}-{st.f_range_hz[1]:g} Hz misses the container's first "
+                    f"mode band {prior['band_hz'][0]:.3g}-{prior['band_hz'][1]:.3g} Hz."
+                )
         windows, spectra, fullspec = [], [], []
         for sig in sigs:
-            f_guess = rough_mode_frequency(sig, st.f_range_hz)
-            whole = welch_spectrum(sig.t_s, sig.value, st.f_range_hz)
+            f_guess = rough_mode_frequency(sig, f_range)
+            whole = welch_spectrum(sig.t_s, sig.value, f_range)
             fullspec.append(whole)
             if st.window_s is not None:
                 win = user_window(sig, *st.window_s, f_guess)
@@ -388,7 +418,7 @@ class Identifier:
                 raise UserError(
                     f"{sig.source}: the window {win.t0_s:g}-{win.t1_s:g} s holds only {part.t_s.size} samples."
                 )
-            spec = welch_spectrum(part.t_s, part.value, st.f_range_hz)
+            spec = welch_spectrum(part.t_s, part.value, f_range)
             periods = win.duration_s * spec.peak_f_hz
             if spec.prominence >= MIN_PROMINENCE and periods < MIN_PERIODS_ERROR:
                 raise UserError(
@@ -417,7 +447,7 @@ class Identifier:
             ):
                 raise UserError(
                     f"{sig.source}: no oscillatory mode found; the PSD shows no resonance standing 10 dB above the "
-                    f"noise in {st.f_range_hz[0]:g}-{st.f_range_hz[1]:g} Hz, and a fitted decay explains only "
+                    f"noise in {f_range[0]:g}-{f_range[1]:g} Hz, and a fitted decay explains only "
                     f"{explained:.0f} % ({snr:.1f} standard errors)."
                 )
         if st.window_s is None and any(strong_peaks(sp, st.second_mode_ratio) for sp in spectra):
@@ -429,18 +459,20 @@ class Identifier:
             if any(a.t1_s > b.t1_s + 1 / f_fit for a, b in zip(longer, windows)):  # at least a period more
                 windows = longer
                 parts = [s.between(w.t0_s, w.t1_s) for s, w in zip(sigs, windows)]
-                spectra = [welch_spectrum(p.t_s, p.value, st.f_range_hz) for p in parts]
+                spectra = [welch_spectrum(p.t_s, p.value, f_range) for p in parts]
                 wdata = [WindowData(p.t_s, p.value, w.t0_s) for p, w in zip(parts, windows)]
                 fit = fit_pt2(wdata, [fit.omega_rad_s, *omega_starts[1:]], fit.zeta or None, st.drift)
         second = resolve_second_mode(wdata, fit, spectra, st.second_mode_ratio, AMPLITUDE_SNR)
         if second is not None and second.separated:
             fit = second.fit
-        self.result_ = self._assemble(sigs, windows, parts, spectra, [s.noise_std for s in fullspec], fit, second)
+        self.result_ = self._assemble(
+            sigs, windows, parts, spectra, [s.noise_std for s in fullspec], fit, second, prior
+        )
         self.params_ = self.result_.params
         return self
 
     def _assemble(
-        self, sigs, windows, parts, spectra, noise_std, fit: PT2Fit, second: SecondMode | None
+        self, sigs, windows, parts, spectra, noise_std, fit: PT2Fit, second: SecondMode | None, prior: dict
     ) -> IdentResult:
         """Derived parameters with delta-method errors, cross-checks and the verdict."""
         st = self.settings
@@ -473,33 +505,43 @@ class Identifier:
             h = int(min(max(10, round(sigs[i].rate_hz / f_fit)), fit.residuals[i].size // 5))
             lb_lags.append(h)
             lb.append(ljung_box_p(fit.residuals[i], h))
-        quality, reasons, notes = judge(
-            st,
+        fits = [fit.fit_percent(i, p.value) for i, p in enumerate(parts)]
+        if prior:
+            prior["identified_over_prior"] = omega / prior["omega_rad_s"]
+        verdict = judge(
+            VerdictInput(
+                sigs,
+                windows,
+                spectra,
+                fit,
+                params,
+                checks,
+                lb,
+                fits,
+                st.min_fit_percent,
+                st.min_periods,
+                st.second_mode_ratio,
+                second,
+                prior,
+            )
+        )
+        notes = verdict.notes + [w for s in sigs for w in s.warnings]
+        return IdentResult(
             sigs,
             windows,
             spectra,
             fit,
-            params,
             checks,
+            params,
+            verdict.quality,
+            verdict.reasons,
+            notes,
+            st.mass_kg,
+            prior,
             lb,
-            [fit.fit_percent(i, p.value) for i, p in enumerate(parts)],
+            lb_lags,
             second,
-        )
-        for s in sigs:
-            notes.extend(s.warnings)
-        prior = {}
-        if st.container_radius_m is not None:
-            w_prior = cylinder_first_mode_omega(st.container_radius_m, st.fill_height_m)
-            prior = {
-                "container_radius_m": st.container_radius_m,
-                "fill_height_m": st.fill_height_m,
-                "omega_rad_s": w_prior,
-                "f_hz": w_prior / (2 * math.pi),
-                "l_m": G / w_prior**2,
-                "identified_over_prior": omega / w_prior,
-            }
-        return IdentResult(
-            sigs, windows, spectra, fit, checks, params, quality, reasons, notes, st.mass_kg, prior, lb, lb_lags, second
+            verdict.groups,
         )
 
     @property
@@ -510,64 +552,23 @@ class Identifier:
         return self.result_
 
 
-def judge(st, sigs, windows, spectra, fit, params, checks, lb, fits, second=None) -> tuple[str, list[str], list[str]]:
-    """The verdict: 'good' unless a reason applies to doubt the numbers *beyond their intervals* (model misfit,
-    bound hits, disagreeing methods, a strong second mode the two-mode fit could not separate); a merely wide
-    interval is honest and only noted."""
-    reasons, notes = [], []
-    f2 = fit.second.omega_rad_s / (2 * math.pi) if fit.second else None
-    if second is not None and second.separated:
-        notes.append(
-            f"a second mode at {f2:.4g} Hz (zeta {fit.second.zeta:.2g}) was fitted beside the main one; "
-            f"the main mode's numbers account for it."
-        )
-    f = params["f_hz"].value
-    for i, sig in enumerate(sigs):
-        name = Path(sig.source).name
-        if fits[i] < st.min_fit_percent:
-            reasons.append(f"{name}: fit {fits[i]:.1f} % is below {st.min_fit_percent:g} %.")
-        periods = windows[i].duration_s * f
-        if periods < st.min_periods:
-            reasons.append(f"{name}: only {periods:.1f} periods in the window (fewer than {st.min_periods:g}).")
-        # a peak the fitted second mode accounts for (within one bin) is no longer a doubt; any other one is
-        strong = [
-            p
-            for p in strong_peaks(spectra[i], st.second_mode_ratio)
-            if f2 is None or abs(p.f_hz - f2) > spectra[i].resolution_hz
-        ]
-        if strong:
-            p = strong[0]
-            why = "; ".join(second.problems) if second is not None and not second.separated else ""
-            reasons.append(
-                f"{name}: strong second mode at {p.f_hz:.3g} Hz ({100 * p.relative:.0f} % of the main peak's PSD)"
-                + (f" that a two-mode fit could not separate ({why})." if why else ".")
-            )
-        if lb[i] < 0.01:
-            notes.append(
-                f"{name}: residuals are not white (Ljung-Box p = {lb[i]:.2g}); the intervals are corrected for "
-                f"correlation over {fit.hac_lags[i]} lags."
-            )
-        for c in checks[i]:
-            if c.n_periods >= CROSS_CHECK_MIN_PERIODS and math.isfinite(c.f_hz) and abs(c.f_hz - f) > 0.02 * f:
-                reasons.append(
-                    f"{name}: {c.method} gives f = {c.f_hz:.4g} Hz, more than 2 % from the fit's {f:.4g} Hz."
-                )
-        snr = fit.amplitude(i) / fit.amplitude_se(i)
-        if snr < AMPLITUDE_SNR:
-            reasons.append(f"{name}: the fitted amplitude is only {snr:.1f} standard errors above zero.")
-    for name in fit.at_bound:
-        if name == "zeta" and fit.zeta < 0.5:  # the lower bound: no decay, or a growing amplitude, in the window
-            reasons.append(
-                "zeta ended on its search bound 0: the oscillation does not decay in the window (no free decay)."
-            )
-        else:
-            reasons.append(f"{name} ended on its search bound.")
-    z = params["zeta"]
-    if "zeta" not in fit.at_bound and z.ci95[0] <= 0:  # a wide but valid interval: reported, not a doubt
-        notes.append(
-            f"zeta = {z.value:.2g} ± {z.stderr:.2g} cannot be told from zero: the amplitude barely decays in the window."
-        )
-    return ("uncertain" if reasons else "good"), reasons, notes
+def geometric_prior(st: IdentSettings) -> dict[str, Any]:
+    """The cylinder's analytic first mode and the band where it, not the second azimuthal mode, is the nearer one
+    (split at their geometric mean), or {} without geometry."""
+    if st.container_radius_m is None:
+        return {}
+    w1 = cylinder_first_mode_omega(st.container_radius_m, st.fill_height_m)
+    w2 = cylinder_first_mode_omega(st.container_radius_m, st.fill_height_m, XI_CYLINDER_SECOND)
+    half = math.sqrt(w2 / w1)
+    return {
+        "container_radius_m": st.container_radius_m,
+        "fill_height_m": st.fill_height_m,
+        "omega_rad_s": w1,
+        "f_hz": w1 / (2 * math.pi),
+        "l_m": G / w1**2,
+        "second_azimuthal_f_hz": w2 / (2 * math.pi),
+        "band_hz": [w1 / half / (2 * math.pi), w1 * half / (2 * math.pi)],
+    }
 
 
 def identify_file(path: str | Path, settings: IdentSettings | None = None, **load: Any) -> IdentResult:

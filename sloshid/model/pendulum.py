@@ -27,6 +27,8 @@ G = 9.81
 
 XI_CYLINDER = 1.8412
 """First root of J1', the first antisymmetric sloshing mode of an upright cylinder."""
+XI_CYLINDER_SECOND = 3.0542
+"""First root of J2', the cylinder's second azimuthal mode (the 3.9 Hz peak of the tilted measured runs)."""
 
 
 @dataclass(frozen=True)
@@ -158,8 +160,9 @@ def linear_tf(params: SloshParams):
     return control.tf(num, den)
 
 
-def cylinder_first_mode_omega(radius_m: float, fill_height_m: float) -> float:
-    """Analytic first sloshing mode of an upright cylinder: omega^2 = (g xi / R) tanh(xi h / R)."""
+def cylinder_first_mode_omega(radius_m: float, fill_height_m: float, xi: float = XI_CYLINDER) -> float:
+    """Analytic sloshing mode of an upright cylinder: omega^2 = (g xi / R) tanh(xi h / R); the first mode by default,
+    another with its Bessel root xi (XI_CYLINDER_SECOND: the second azimuthal mode)."""
     if radius_m <= 0 or fill_height_m <= 0:
         raise UserError("container radius and fill height must both be positive.")
-    return math.sqrt(G * XI_CYLINDER / radius_m * math.tanh(XI_CYLINDER * fill_height_m / radius_m))
+    return math.sqrt(G * xi / radius_m * math.tanh(xi * fill_height_m / radius_m))

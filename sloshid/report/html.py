@@ -5,6 +5,7 @@ from __future__ import annotations
 import base64
 import html
 import io
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from datetime import datetime, timezone
@@ -22,6 +23,7 @@ table{border-collapse:collapse;margin:.8em 0} th,td{border:1px solid #ccc;paddin
 th{background:#eef2f8} td:first-child,th:first-child{text-align:left}
 figure{margin:1em 0} figcaption{color:#555;font-size:.92em} img{max-width:100%}
 .verdict-good{color:#070;font-weight:bold} .verdict-uncertain{color:#b50;font-weight:bold}
+.verdict-unreliable{color:#c00;font-weight:bold}
 .meta{color:#666;font-size:.9em} code{background:#f4f4f4;padding:0 .2em}
 """
 
@@ -37,7 +39,9 @@ def figure_to_png_base64(fig: Any, dpi: int = 110) -> str:
 
 
 def _fmt(value: Any) -> str:
-    """Table cell text: floats with 4 significant digits, everything else as str, escaped."""
+    """Table cell text: floats with 4 significant digits, '-' for a missing or non-finite number, escaped."""
+    if value is None or (isinstance(value, float) and not math.isfinite(value)):
+        return "-"
     if isinstance(value, float):
         return html.escape(f"{value:.4g}")
     return html.escape(str(value))
