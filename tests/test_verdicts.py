@@ -86,3 +86,19 @@ def test_per_parameter_verdicts_in_json_summary_and_report(tmp_path):
     page = build_report(res).save(tmp_path).read_text()
     verdict_block = page[page.index("Verdict:") : page.index("Source and sampling")]
     assert "lies below the reported" in verdict_block and 'class="meta"' not in verdict_block
+
+
+def test_pipeline_index_opens_with_an_overall_verdict():
+    from sloshid.workflow.index import overall_verdict
+    from sloshid.workflow.pipeline import StageRecord
+
+    ident = StageRecord(
+        "identify", "k", "ran", 1.0, {"quality": "uncertain", "parameters": {"f_hz": {"quality": "good"}}}
+    )
+    plan = StageRecord("plan", "k", "ran", 1.0, {"limits_ok": True, "verification": {"ok": True}})
+    rec = {"method": "sloshid_robust", "label": "sloshid robust plan", "risk": "good"}
+    compare = StageRecord("compare", "k", "ran", 1.0, {"recommendation": rec})
+    text, quality = overall_verdict([ident, plan, compare])
+    assert quality == "good" and "liquid frequency good" in text and "recommended: sloshid robust plan" in text
+    text, quality = overall_verdict([ident, StageRecord("plan", "k", "failed", 1.0, {}, "boom")])
+    assert quality == "unreliable" and "plan failed" in text

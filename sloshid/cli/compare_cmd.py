@@ -60,11 +60,13 @@ def table_text(summary: dict) -> str:
 def run(args: argparse.Namespace) -> int:
     """Load and validate everything first (nothing is written on bad input), compare, then write outputs."""
     from sloshid.comparison.compare import compare, from_scenario
+    from sloshid.model.pendulum import IdentifiedFrequency
     from sloshid.planning.scenario import load_scenario, resolve_liquid
 
     scenario = load_scenario(args.scenario)
     params = resolve_liquid(scenario, args.params)
-    inp = from_scenario(scenario, params)
+    interval = IdentifiedFrequency.from_identify_json(args.params).ci95_hz if args.params else None
+    inp = from_scenario(scenario, params, interval)
     if args.report is not None and (args.report.endswith((".html", ".htm")) or Path(args.report).is_file()):
         raise UserError(f"--report takes a directory (index.html is written inside it), got {args.report}.")
     comp = compare(inp, progress=sys.stderr.isatty())

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 
 from sloshid.core.errors import UserError
@@ -50,6 +51,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Load, plan, then write the CSV (and report) only after everything succeeded."""
+    from sloshid.model.pendulum import IdentifiedFrequency
     from sloshid.planning.planner import VERIFY_AFTER_DEG, VERIFY_DURING_DEG, plan
     from sloshid.planning.scenario import load_scenario, resolve_liquid
 
@@ -57,12 +59,19 @@ def run(args: argparse.Namespace) -> int:
         raise UserError(f"the output {args.output} must be a .csv file.")
     scenario = load_scenario(args.scenario)
     params = resolve_liquid(scenario, args.params)
+    if args.params:
+        freq = IdentifiedFrequency.from_identify_json(args.params)
+        if freq.quality not in (None, "good"):
+            why = f": {freq.reasons[0]}" if freq.reasons else ""
+            print(f"sloshid: warning: the identified frequency is {freq.quality}{why}", file=sys.stderr)
     result = plan(scenario, params, progress=sys.stderr.isatty())
     report = None
     if args.report:
         from sloshid.planning.report import plan_report
 
-        report = plan_report(result, scenario)
+        source = f"identify's {args.params}" if args.params else f"the [liquid] table of {args.scenario}"
+        csv = os.path.relpath(os.path.abspath(args.output), os.path.abspath(args.report))
+        report = plan_report(result, scenario, source, {"trajectory CSV": csv})
     result.trajectory.to_csv(args.output)
     if report is not None:
         report.save(args.report)

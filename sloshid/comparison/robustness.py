@@ -39,10 +39,36 @@ class Replay:
         return run_feedback(self.trajectory, self.model, truth, self.feedback, self.bandwidth_hz).trajectory
 
 
+def peak_and_residual(job: tuple[Replay, SloshParams, float]) -> tuple[float, float]:
+    """Peak relative angle during the move and residual after it (deg) of one replay against one true liquid
+    (a picklable unit of work)."""
+    replay, truth, settle_s = job
+    resp = simulate_liquid(replay(truth), truth, settle_s=settle_s)
+    return resp.peak_during_deg, resp.residual_deg
+
+
 def residual(job: tuple[Replay, SloshParams, float]) -> float:
     """Residual slosh (deg) of one replay against one true liquid (a picklable unit of work)."""
-    replay, truth, settle_s = job
-    return simulate_liquid(replay(truth), truth, settle_s=settle_s).residual_deg
+    return peak_and_residual(job)[1]
+
+
+def _run(fn, jobs: list, desc: str, progress: bool, workers: int) -> list:
+    """fn over jobs, in `workers` processes when more than one, with a progress bar."""
+    bar = dict(total=len(jobs), desc=desc, disable=not progress, leave=False)
+    if workers > 1:
+        with ProcessPoolExecutor(max_workers=workers) as pool:
+            return list(tqdm(pool.map(fn, jobs), **bar))
+    return [fn(job) for job in tqdm(jobs, **bar)]
+
+
+def band_responses(
+    replays: dict[str, Replay], truths: Sequence[SloshParams], settle_s: float, progress: bool = False, workers: int = 1
+) -> dict[str, np.ndarray]:
+    """Per method: (peak during, residual) in deg against each true liquid, shape (len(truths), 2)."""
+    jobs = [(replay, truth, settle_s) for replay in replays.values() for truth in truths]
+    flat = _run(peak_and_residual, jobs, "frequency band", progress, workers)
+    n = len(truths)
+    return {label: np.array(flat[i * n : (i + 1) * n]) for i, label in enumerate(replays)}
 
 
 @dataclass
@@ -97,12 +123,7 @@ def sweep(
     zeta_factors = np.asarray(sorted(set(zeta_factors) | {1.0}), float)
     truths = [params.scaled(f, 1.0) for f in omega_factors] + [params.scaled(1.0, z) for z in zeta_factors]
     jobs = [(replay, truth, settle_s) for replay in replays.values() for truth in truths]
-    bar = dict(total=len(jobs), desc="robustness sweep", disable=not progress, leave=False)
-    if workers > 1:
-        with ProcessPoolExecutor(max_workers=workers) as pool:
-            flat = list(tqdm(pool.map(residual, jobs), **bar))
-    else:
-        flat = [residual(job) for job in tqdm(jobs, **bar)]
+    flat = _run(residual, jobs, "robustness sweep", progress, workers)
     by_omega, by_zeta = {}, {}
     for i, label in enumerate(replays):
         row = np.array(flat[i * len(truths) : (i + 1) * len(truths)])

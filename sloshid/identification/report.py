@@ -10,21 +10,17 @@ import matplotlib.pyplot as plt
 from tqdm import tqdm
 
 from sloshid.identification.estimator import IdentResult
+from sloshid.identification.verdict import PARAMETER_LABELS
 from sloshid.report.html import Report
 
 GROUP_LABELS = {"frequency": "Frequency (f, omega, l)", "damping": "Damping (zeta, d)"}
-PARAMETER_LABELS = {
-    "f_hz": ("natural frequency f", "Hz"),
-    "omega_rad_s": ("angular frequency omega", "rad/s"),
-    "zeta": ("damping ratio zeta", "-"),
-    "l_m": ("pendulum length l", "m"),
-    "d_ns_per_m": ("damping constant d", "N s/m"),
-}
 
 
-def build_report(res: IdentResult) -> Report:
-    """Assemble every figure and table of one identification into a Report (save it with .save(dir))."""
+def build_report(res: IdentResult, links: dict[str, str] | None = None) -> Report:
+    """Assemble every figure and table of one identification into a Report (save it with .save(dir)); `links`
+    (text -> relative href) point back to a pipeline's index and to the stage's files."""
     rep = Report("Sloshing mode identification")
+    rep.add_links(links or {})
     _verdict_section(rep, res)
     _sampling_section(rep, res)
     for i in tqdm(range(len(res.signals)), desc="report figures", unit="signal", disable=None):

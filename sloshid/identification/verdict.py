@@ -23,6 +23,15 @@ LEVELS = ("good", "uncertain", "unreliable")
 """Verdicts from best to worst; a group takes the worst of its reasons, the overall verdict the worst group's."""
 GROUPS = {"frequency": ("f_hz", "omega_rad_s", "l_m"), "damping": ("zeta", "d_ns_per_m")}
 """Which parameters each group's verdict applies to."""
+PARAMETER_LABELS = {
+    "f_hz": ("natural frequency f", "Hz"),
+    "omega_rad_s": ("angular frequency omega", "rad/s"),
+    "zeta": ("damping ratio zeta", "-"),
+    "l_m": ("pendulum length l", "m"),
+    "d_ns_per_m": ("damping constant d", "N s/m"),
+    "m_kg": ("liquid mass m", "kg"),
+}
+"""Human label and unit of each parameter key, for tables."""
 AMPLITUDE_SNR = 3.0
 """A fitted amplitude less than this many standard errors above zero is barely distinguishable from noise."""
 CROSS_CHECK_MIN_PERIODS = 8.0

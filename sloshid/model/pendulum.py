@@ -107,6 +107,24 @@ class SloshParams:
         return cls.from_modal(omega, zeta, m)
 
 
+@dataclass(frozen=True)
+class IdentifiedFrequency:
+    """What an identify JSON says of its natural frequency beyond the value: the 95 % interval and the verdict
+    (None where a file written before per-parameter verdicts lacks them)."""
+
+    ci95_hz: tuple[float, float] | None
+    quality: str | None
+    reasons: tuple[str, ...] = ()
+
+    @classmethod
+    def from_identify_json(cls, path: str | Path) -> IdentifiedFrequency:
+        """Read parameters.f_hz.{ci95, quality, reasons} (the file is checked by SloshParams.from_identify_json)."""
+        f = json.loads(Path(path).read_text(encoding="utf-8")).get("parameters", {}).get("f_hz", {})
+        ci = f.get("ci95")
+        interval = (float(ci[0]), float(ci[1])) if isinstance(ci, list) and len(ci) == 2 else None
+        return cls(interval, f.get("quality"), tuple(f.get("reasons") or ()))
+
+
 TABLE_I = SloshParams(m_kg=0.5, l_m=0.021, d_ns_per_m=1.51)
 """The seed paper's identified liquid (Table I): f = 3.44 Hz, zeta = 0.070."""
 

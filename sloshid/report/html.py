@@ -28,8 +28,8 @@ figure{margin:1em 0} figcaption{color:#555;font-size:.92em} img{max-width:100%}
 """
 
 
-def figure_to_png_base64(fig: Any, dpi: int = 110) -> str:
-    """Render a matplotlib figure to base64 PNG text and close it."""
+def figure_to_png_base64(fig: Any, dpi: int = 200) -> str:
+    """Render a matplotlib figure to base64 PNG text and close it (about twice screen resolution, for sharp zoom)."""
     import matplotlib.pyplot as plt
 
     buf = io.BytesIO()
@@ -85,6 +85,15 @@ class Report:
     def add_link(self, href: str, text: str) -> None:
         """A link to a file beside the report (relative path)."""
         self.items.append(f'<p><a href="{html.escape(href)}">{html.escape(text)}</a></p>')
+
+    def add_links(self, links: dict[str, str]) -> None:
+        """One line of links (text -> relative href), e.g. back to the pipeline index and to the stage's files."""
+        if links:
+            self.items.append(
+                "<p>"
+                + " · ".join(f'<a href="{html.escape(h)}">{html.escape(t)}</a>' for t, h in links.items())
+                + "</p>"
+            )
 
     def to_html(self) -> str:
         """The whole page as a string."""

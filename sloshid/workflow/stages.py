@@ -17,7 +17,7 @@ def _save_figure(fig: Any, path: Path) -> str:
     """Write a matplotlib figure as PNG and close it; returns the file name for the index page."""
     import matplotlib.pyplot as plt
 
-    fig.savefig(path, dpi=100, bbox_inches="tight")
+    fig.savefig(path, dpi=200, bbox_inches="tight")  # twice screen resolution
     plt.close(fig)
     return path.name
 
@@ -80,7 +80,9 @@ def run_identify(opts: IdentifyOptions, ctx: StageContext) -> dict[str, Any]:
     doc = result.to_dict()
     write_text(ctx.out_dir / "params.json", json.dumps(doc, indent=2, allow_nan=False) + "\n")
     (ctx.out_dir / "report").mkdir()
-    build_report(result).save(ctx.out_dir / "report")
+    build_report(result, {"pipeline index": "../../index.html", "parameters JSON": "../params.json"}).save(
+        ctx.out_dir / "report"
+    )
     return {
         "params": "params.json",
         "report": "report/index.html",
@@ -135,7 +137,9 @@ def run_plan(opts: PlanOptions, ctx: StageContext) -> dict[str, Any]:
     traj = result.trajectory
     traj.to_csv(ctx.out_dir / "trajectory.csv")
     (ctx.out_dir / "report").mkdir()
-    plan_report(result, scenario).save(ctx.out_dir / "report")
+    source = "the pipeline's identify stage" if "identify" in ctx.upstream else "the scenario's [liquid] table"
+    links = {"pipeline index": "../../index.html", "trajectory CSV": "../trajectory.csv"}
+    plan_report(result, scenario, source, links).save(ctx.out_dir / "report")
     import matplotlib.pyplot as plt
     import numpy as np
 
@@ -164,17 +168,22 @@ def run_compare(opts: CompareOptions, ctx: StageContext) -> dict[str, Any]:
     """Build and score every method, write scores.json and the comparison report."""
     from sloshid.comparison.compare import compare, from_scenario
     from sloshid.comparison.report import save_report
+    from sloshid.model.pendulum import IdentifiedFrequency
     from sloshid.planning.scenario import load_scenario
 
     scenario = load_scenario(opts.scenario)
-    comp = compare(from_scenario(scenario, _liquid(opts, ctx, scenario)), progress=True)
+    interval = None
+    if "identify" in ctx.upstream:
+        interval = IdentifiedFrequency.from_identify_json(ctx.upstream["identify"] / "params.json").ci95_hz
+    comp = compare(from_scenario(scenario, _liquid(opts, ctx, scenario), interval), progress=True)
     summary = comp.to_dict()
     write_text(ctx.out_dir / "scores.json", json.dumps(summary, indent=2, default=float) + "\n")
-    save_report(comp, ctx.out_dir / "report")
+    save_report(comp, ctx.out_dir / "report", {"pipeline index": "../../index.html", "scores JSON": "../scores.json"})
     return {
         "scores": "scores.json",
         "report": "report/index.html",
         "verdict": summary["verdict"],
+        "recommendation": summary["recommendation"],
         "methods": summary["methods"],
     }
 
