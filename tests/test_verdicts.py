@@ -102,3 +102,21 @@ def test_pipeline_index_opens_with_an_overall_verdict():
     assert quality == "good" and "liquid frequency good" in text and "recommended: sloshid robust plan" in text
     text, quality = overall_verdict([ident, StageRecord("plan", "k", "failed", 1.0, {}, "boom")])
     assert quality == "unreliable" and "plan failed" in text
+
+
+def test_misfit_that_fades_with_the_mode_doubts_the_damping_only():
+    # nonlinear crests: a second harmonic that decays twice as fast as the mode. The PT2 model cannot describe it,
+    # so the residual is not white *and* shrinks with the oscillation: the damping (read off the envelope) is
+    # doubted, the frequency is not. Stationary coloured noise alone (test_identify's AR(1) cases) stays good.
+    from sloshid.synthetic.decays import tracker_noise
+
+    t = np.arange(0, 10, 1 / 60)
+    w, sigma = 2 * np.pi * 3.0, 0.02 * 2 * np.pi * 3.0
+    y = 8 * np.exp(-sigma * t) * np.cos(w * t) + 2 * np.exp(-2 * sigma * t) * np.cos(2 * w * t + 0.5)
+    y += tracker_noise(np.random.default_rng(0), t.size, 0.1, 0.3)
+    res = Identifier().fit(make_signal(t, y, "height_mm", "mm", "crests")).result
+    assert res.groups["frequency"].quality == "good", res.reasons
+    assert res.groups["damping"].quality == "uncertain" and res.quality == "uncertain"
+    assert any("fades with the oscillation" in r for r in res.groups["damping"].reasons)
+    coloured = Identifier().fit(free_decay_signal(3.0, 0.02, 60, amplitude=8, rho=0.6, seed=2)).result
+    assert coloured.quality == "good", coloured.reasons

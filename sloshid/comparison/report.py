@@ -205,6 +205,16 @@ def build_report(comp: Comparison, title: str = "sloshid compare", links: dict[s
         "Robot limits: Franka Panda Cartesian limits (or [robot]); "
         "move limits: the scenario's acc_max, vel_max, tilt_max_deg, tilt_rate_max_deg_s.",
     )
+    _closed_loop_section(rep, comp)
+    _robustness_section(rep, comp)
+    if comp.camera:
+        _camera_section(rep, comp)
+    return rep
+
+
+def _closed_loop_section(rep: Report, comp: Comparison) -> None:
+    """Each trajectory through the robot's tracking and the linearised liquid, and where linearisation holds."""
+    s = comp.settings
     rep.add_heading("Closed loop: robot tracking and liquid in python-control")
     rep.add_figure(
         closed_loop_figure(comp),
@@ -222,6 +232,11 @@ def build_report(comp: Comparison, title: str = "sloshid compare", links: dict[s
         ("acceleration (m/s^2)", "peak linear (deg)", "peak nonlinear (deg)", "largest gap (deg)"),
         [[q.acc_m_s2, q.peak_linear_deg, q.peak_nonlinear_deg, q.max_gap_deg] for q in comp.linearity],
     )
+
+
+def _robustness_section(rep: Report, comp: Comparison) -> None:
+    """Residual slosh against frequency and damping error, and each method's tolerated frequency error."""
+    s = comp.settings
     rep.add_heading("Robustness to model error")
     rep.add_figure(
         robustness_figure(comp),
@@ -236,42 +251,45 @@ def build_report(comp: Comparison, title: str = "sloshid compare", links: dict[s
                 [r.label, "none" if band is None else f"{100 * (band[0] - 1):+.0f} % .. {100 * (band[1] - 1):+.0f} %"]
             )
     rep.add_table(("method", f"frequency error with residual <= {s.residual_ok_deg:g} deg"), bands)
-    if comp.camera:
-        f = s.feedback
-        rep.add_heading("Feedback and camera rate (seed Remark 1)")
-        rep.add_figure(
-            camera_figure(comp),
-            f"Kalman filter + LQR on a camera measurement of the float angle "
-            f"(noise {f.noise_deg:g} deg, latency {1000 * f.latency_s:g} ms) with the true frequency "
-            f"{100 * (s.camera_omega_factor - 1):+.0f} % off the model; dashed = the same feedforward "
-            "without feedback. Right: the feedforward's peak relative angle (nominal liquid, no feedback) "
-            "as frames at that rate sample it, against the true peak: a slow camera misses fast peaks "
-            "(the seed's Remark 1).",
-        )
-        rep.add_table(
-            (
-                "feedforward",
-                "camera (fps)",
-                "transfer time (s)",
-                "peak during (deg)",
-                "residual (deg)",
-                "peak seen by camera (deg)",
-                "true peak (deg)",
-            ),
+
+
+def _camera_section(rep: Report, comp: Comparison) -> None:
+    """Feedback residual against camera rate, and what a slow camera misses (seed Remark 1)."""
+    s = comp.settings
+    f = s.feedback
+    rep.add_heading("Feedback and camera rate (seed Remark 1)")
+    rep.add_figure(
+        camera_figure(comp),
+        f"Kalman filter + LQR on a camera measurement of the float angle "
+        f"(noise {f.noise_deg:g} deg, latency {1000 * f.latency_s:g} ms) with the true frequency "
+        f"{100 * (s.camera_omega_factor - 1):+.0f} % off the model; dashed = the same feedforward "
+        "without feedback. Right: the feedforward's peak relative angle (nominal liquid, no feedback) "
+        "as frames at that rate sample it, against the true peak: a slow camera misses fast peaks "
+        "(the seed's Remark 1).",
+    )
+    rep.add_table(
+        (
+            "feedforward",
+            "camera (fps)",
+            "transfer time (s)",
+            "peak during (deg)",
+            "residual (deg)",
+            "peak seen by camera (deg)",
+            "true peak (deg)",
+        ),
+        [
             [
-                [
-                    c.base,
-                    c.camera_fps,
-                    c.transfer_time_s,
-                    c.peak_during_deg,
-                    c.residual_deg,
-                    c.seen_peak_deg,
-                    c.true_peak_deg,
-                ]
-                for c in comp.camera
-            ],
-        )
-    return rep
+                c.base,
+                c.camera_fps,
+                c.transfer_time_s,
+                c.peak_during_deg,
+                c.residual_deg,
+                c.seen_peak_deg,
+                c.true_peak_deg,
+            ]
+            for c in comp.camera
+        ],
+    )
 
 
 def save_report(comp: Comparison, directory: str | Path, links: dict[str, str] | None = None) -> Path:

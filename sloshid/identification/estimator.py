@@ -385,48 +385,13 @@ class Identifier:
             raise UserError("no signal given to identify.")
         st = self.settings
         prior = geometric_prior(st)
-        f_range = st.f_range_hz
-        if prior:  # the prior picks the first mode: search only where it is nearer than the second azimuthal one
-            f_range = (max(f_range[0], prior["band_hz"][0]), min(f_range[1], prior["band_hz"][1]))
-            if not f_range[0] < f_range[1]:
-                raise UserError(
-                    f"the frequency range {st.f_range_hz[0]:g}-{st.f_range_hz[1]:g} Hz misses the container's first "
-                    f"mode band {prior['band_hz'][0]:.3g}-{prior['band_hz'][1]:.3g} Hz."
-                )
+        f_range = search_band(st, prior)
         windows, spectra, fullspec = [], [], []
         for sig in sigs:
-            f_guess = rough_mode_frequency(sig, f_range)
-            whole = welch_spectrum(sig.t_s, sig.value, f_range)
-            fullspec.append(whole)
-            if st.window_s is not None:
-                win = user_window(sig, *st.window_s, f_guess)
-            else:
-                win = find_decay_window(sig, f_guess, whole.noise_std, st.drift)
-            part = sig.between(win.t0_s, win.t1_s)
-            whole_periods = (sig.t_s[-1] - sig.t_s[0]) * f_guess
-            if whole_periods < MIN_PERIODS_ERROR:
-                raise UserError(
-                    f"{sig.source}: the signal lasts only {whole_periods:.1f} periods of the {f_guess:.3g} Hz mode; "
-                    f"at least {MIN_PERIODS_ERROR:g} are needed."
-                )
-            if win.chosen_by == "auto" and (part.t_s.size < 16 or win.duration_s * f_guess < MIN_PERIODS_ERROR):
-                raise UserError(
-                    f"{sig.source}: no oscillatory mode found; nowhere does a ring-down of {MIN_PERIODS_ERROR:g} "
-                    f"periods ({f_guess:.3g} Hz) stand above the noise."
-                )
-            if part.t_s.size < 16:
-                raise UserError(
-                    f"{sig.source}: the window {win.t0_s:g}-{win.t1_s:g} s holds only {part.t_s.size} samples."
-                )
-            spec = welch_spectrum(part.t_s, part.value, f_range)
-            periods = win.duration_s * spec.peak_f_hz
-            if spec.prominence >= MIN_PROMINENCE and periods < MIN_PERIODS_ERROR:
-                raise UserError(
-                    f"{sig.source}: the window {win.t0_s:.2f}-{win.t1_s:.2f} s holds only {periods:.1f} periods of "
-                    f"the {spec.peak_f_hz:.3g} Hz mode; at least {MIN_PERIODS_ERROR:g} are needed."
-                )
+            win, spec, whole = self._window(sig, f_range)
             windows.append(win)
             spectra.append(spec)
+            fullspec.append(whole)
         parts = [s.between(w.t0_s, w.t1_s) for s, w in zip(sigs, windows)]
         hp0 = [half_power(p.t_s, p.value, sp.peak_f_hz) for p, sp in zip(parts, spectra)]
         omega_starts = [2 * math.pi * float(np.median([sp.peak_f_hz for sp in spectra]))]
@@ -471,6 +436,39 @@ class Identifier:
         self.params_ = self.result_.params
         return self
 
+    def _window(self, sig: Signal, f_range: tuple[float, float]) -> tuple[DecayWindow, Spectrum, Spectrum]:
+        """The free-decay window of one signal, its Welch spectrum and that of the whole record; refuses a signal
+        without a ring-down of MIN_PERIODS_ERROR periods."""
+        st = self.settings
+        f_guess = rough_mode_frequency(sig, f_range)
+        whole = welch_spectrum(sig.t_s, sig.value, f_range)
+        if st.window_s is not None:
+            win = user_window(sig, *st.window_s, f_guess)
+        else:
+            win = find_decay_window(sig, f_guess, whole.noise_std, st.drift)
+        part = sig.between(win.t0_s, win.t1_s)
+        whole_periods = (sig.t_s[-1] - sig.t_s[0]) * f_guess
+        if whole_periods < MIN_PERIODS_ERROR:
+            raise UserError(
+                f"{sig.source}: the signal lasts only {whole_periods:.1f} periods of the {f_guess:.3g} Hz mode; "
+                f"at least {MIN_PERIODS_ERROR:g} are needed."
+            )
+        if win.chosen_by == "auto" and (part.t_s.size < 16 or win.duration_s * f_guess < MIN_PERIODS_ERROR):
+            raise UserError(
+                f"{sig.source}: no oscillatory mode found; nowhere does a ring-down of {MIN_PERIODS_ERROR:g} "
+                f"periods ({f_guess:.3g} Hz) stand above the noise."
+            )
+        if part.t_s.size < 16:
+            raise UserError(f"{sig.source}: the window {win.t0_s:g}-{win.t1_s:g} s holds only {part.t_s.size} samples.")
+        spec = welch_spectrum(part.t_s, part.value, f_range)
+        periods = win.duration_s * spec.peak_f_hz
+        if spec.prominence >= MIN_PROMINENCE and periods < MIN_PERIODS_ERROR:
+            raise UserError(
+                f"{sig.source}: the window {win.t0_s:.2f}-{win.t1_s:.2f} s holds only {periods:.1f} periods of "
+                f"the {spec.peak_f_hz:.3g} Hz mode; at least {MIN_PERIODS_ERROR:g} are needed."
+            )
+        return win, spec, whole
+
     def _assemble(
         self, sigs, windows, parts, spectra, noise_std, fit: PT2Fit, second: SecondMode | None, prior: dict
     ) -> IdentResult:
@@ -487,24 +485,7 @@ class Identifier:
         if st.mass_kg is not None:
             grad = np.array([2 * st.mass_kg * zeta, 2 * st.mass_kg * omega])
             params["d_ns_per_m"] = _estimate(2 * st.mass_kg * omega * zeta, math.sqrt(grad @ fit.cov @ grad), floor=0.0)
-        checks, lb, lb_lags = [], [], []
-        for i, (p, _sp) in enumerate(zip(parts, spectra)):
-            base = fit.linear[i][2] + (fit.linear[i][3] * (p.t_s - windows[i].t0_s) if fit.drift else 0.0)
-            if fit.second:  # the cross-checks judge the main mode, so the fitted second mode is taken out first
-                base = base + fit.second_fitted[i]
-            clean = p.value - base
-            noise = noise_std[i]
-            f_fit = omega / (2 * math.pi)
-            checks.append(
-                [
-                    half_power(p.t_s, clean, f_fit),
-                    log_decrement(p.t_s, clean, f_fit, noise),
-                    hilbert_envelope(p.t_s, clean, f_fit, noise),
-                ]
-            )
-            h = int(min(max(10, round(sigs[i].rate_hz / f_fit)), fit.residuals[i].size // 5))
-            lb_lags.append(h)
-            lb.append(ljung_box_p(fit.residuals[i], h))
+        checks, lb, lb_lags = _cross_checks(sigs, windows, parts, noise_std, fit)
         fits = [fit.fit_percent(i, p.value) for i, p in enumerate(parts)]
         if prior:
             prior["identified_over_prior"] = omega / prior["omega_rad_s"]
@@ -550,6 +531,45 @@ class Identifier:
         if not hasattr(self, "result_"):
             raise NotFittedError("this Identifier is not fitted yet; call fit(signals) first.")
         return self.result_
+
+
+def _cross_checks(sigs, windows, parts, noise_std, fit: PT2Fit) -> tuple[list, list[float], list[int]]:
+    """Per signal: the independent estimates (on the window minus offset, drift and any fitted second mode) and
+    the Ljung-Box whiteness test of the residual with its lag count."""
+    omega = fit.omega_rad_s
+    checks, lb, lb_lags = [], [], []
+    for i, p in enumerate(parts):
+        base = fit.linear[i][2] + (fit.linear[i][3] * (p.t_s - windows[i].t0_s) if fit.drift else 0.0)
+        if fit.second:  # the cross-checks judge the main mode, so the fitted second mode is taken out first
+            base = base + fit.second_fitted[i]
+        clean = p.value - base
+        noise = noise_std[i]
+        f_fit = omega / (2 * math.pi)
+        checks.append(
+            [
+                half_power(p.t_s, clean, f_fit),
+                log_decrement(p.t_s, clean, f_fit, noise),
+                hilbert_envelope(p.t_s, clean, f_fit, noise),
+            ]
+        )
+        h = int(min(max(10, round(sigs[i].rate_hz / f_fit)), fit.residuals[i].size // 5))
+        lb_lags.append(h)
+        lb.append(ljung_box_p(fit.residuals[i], h))
+    return checks, lb, lb_lags
+
+
+def search_band(st: IdentSettings, prior: dict[str, Any]) -> tuple[float, float]:
+    """The band searched for the mode: --f-range, narrowed by the geometric prior to where the first mode is nearer
+    than the second azimuthal one (the prior picks the first mode)."""
+    if not prior:
+        return st.f_range_hz
+    lo, hi = max(st.f_range_hz[0], prior["band_hz"][0]), min(st.f_range_hz[1], prior["band_hz"][1])
+    if not lo < hi:
+        raise UserError(
+            f"the frequency range {st.f_range_hz[0]:g}-{st.f_range_hz[1]:g} Hz misses the container's first "
+            f"mode band {prior['band_hz'][0]:.3g}-{prior['band_hz'][1]:.3g} Hz."
+        )
+    return lo, hi
 
 
 def geometric_prior(st: IdentSettings) -> dict[str, Any]:

@@ -234,6 +234,20 @@ def plan_report(
         f"x{ARROW_TILT_GAIN:g}. Minimum clearance to an inflated obstacle: "
         + (f"{result.min_clearance_m * 1e3:.1f} mm." if result.min_clearance_m is not None else "no obstacles."),
     )
+    _limits_section(rep, result, scenario)
+    rep.add_heading("Independent verification")
+    rep.add_figure(
+        verification_figure(result),
+        "The nonlinear pendulum integrated by solve_ivp under the exported "
+        "accelerations, compared with the exported container orientation. Below the dashed line during the "
+        "move and the dotted line after arrival (black) means no relative sloshing.",
+    )
+    return rep
+
+
+def _limits_section(rep: Report, result: PlanResult, scenario: Scenario) -> None:
+    """Robot-limit usage over time and the table of peaks, limits and shares."""
+    s = result.to_dict()
     rep.add_heading("Robot limits")
     rep.add_figure(
         limits_figure(result, scenario),
@@ -255,11 +269,3 @@ def plan_report(
             for u in s["limits"]
         ],
     )
-    rep.add_heading("Independent verification")
-    rep.add_figure(
-        verification_figure(result),
-        "The nonlinear pendulum integrated by solve_ivp under the exported "
-        "accelerations, compared with the exported container orientation. Below the dashed line during the "
-        "move and the dotted line after arrival (black) means no relative sloshing.",
-    )
-    return rep
