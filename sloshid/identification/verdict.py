@@ -99,10 +99,12 @@ class _Doubts:
         self.items: dict[str, list[tuple[str, str]]] = {g: [] for g in GROUPS}
 
     def add(self, groups: tuple[str, ...], level: str, reason: str) -> None:
+        """Count one reason, at one level, against each of the named groups."""
         for g in groups:
             self.items[g].append((level, reason))
 
     def verdict(self, notes: list[str]) -> Verdict:
+        """Each group takes the worst level among its reasons (good without any)."""
         out = {}
         for g, found in self.items.items():
             worst = max((lvl for lvl, _ in found), key=LEVELS.index, default="good")
