@@ -1,5 +1,7 @@
-"""`identify` on the eight measured antisloshing runs (physical first mode 3.047 Hz): verdict, frequency and its
-error, per run and jointly. Target (issue 3): at least 7 of 8 good, every good one within +-2 % of 3.047 Hz.
+"""`identify` on the eight measured antisloshing runs (physical first mode 3.047 Hz): per-parameter verdicts, frequency
+and its error, per run and jointly, with the container geometry given (R = 49 mm, h = 78 mm: the prior picks the
+first mode) and without it. Target (issue 10): at least 85 % of the runs get a `good` frequency, and every `good`
+frequency lies within 2 % of the first mode.
 Also looks into the runs that were hard: the mode's envelope over each window (does it decay at all?) and, for the
 run with a second mode, how the two-mode separation depends on where the window ends; draws all eight windows."""
 
@@ -22,6 +24,9 @@ from sloshid.identification.estimator import Identifier
 from sloshid.identification.signals import load_signal
 
 F_PHYS = 3.047
+GEOMETRY = {"container_radius_m": 0.049, "fill_height_m": 0.078}
+"""The shared setup's cylinder (data README)."""
+TARGET_GOOD_SHARE = 0.85
 DATA = ROOT.parent / "shared" / "data" / "antisloshing" / "slosh"
 SECOND_MODE_RUN = "Tilt_TRD_2D_0.3m_3s_30deg"
 WINDOW_ENDS_S = (18.86, 20.0, 21.0, 22.0, 23.0, 24.6)
@@ -59,7 +64,7 @@ def draw(sigs, results) -> None:
         ax.plot(t[t > w.t0_s - 4], env[t > w.t0_s - 4], color="tab:blue", lw=1.2, label=f"envelope near {f:.2f} Hz")
         ax.axvspan(w.t0_s, w.t1_s, color="tab:green", alpha=0.15, label="fit window")
         ax.set_ylim(-6, 8)
-        ax.set_title(f"{Path(sig.source).stem}: {res.quality}", fontsize=9)
+        ax.set_title(f"{Path(sig.source).stem}: frequency {res.groups['frequency'].quality}", fontsize=9)
         ax.set_xlabel("t (s)")
         ax.set_ylabel("height (mm)")
         ax.legend(fontsize=7, loc="upper right")
@@ -74,7 +79,8 @@ def main() -> None:
     sigs = [load_signal(p) for p in sorted(DATA.glob("*.mat"))]
     runs, rows, results = [], [], []
     for sig in sigs:
-        res = Identifier().fit(sig).result
+        res = Identifier(**GEOMETRY).fit(sig).result
+        bare = Identifier().fit(sig).result
         results.append(res)
         f, z, w = res.parameters["f_hz"], res.parameters["zeta"], res.windows[0]
         err = 100 * (f.value / F_PHYS - 1)
@@ -91,7 +97,15 @@ def main() -> None:
             {
                 "run": Path(sig.source).stem,
                 "quality": res.quality,
+                "frequency_quality": res.groups["frequency"].quality,
+                "damping_quality": res.groups["damping"].quality,
                 "reasons": res.reasons,
+                "without_geometry": {
+                    "f_hz": bare.parameters["f_hz"].value,
+                    "frequency_quality": bare.groups["frequency"].quality,
+                    "damping_quality": bare.groups["damping"].quality,
+                    "reasons": bare.reasons,
+                },
                 "f_hz": f.value,
                 "f_stderr": f.stderr,
                 "f_err_pct": err,
@@ -106,7 +120,8 @@ def main() -> None:
         rows.append(
             [
                 Path(sig.source).stem,
-                res.quality,
+                f"{res.groups['frequency'].quality} / {res.groups['damping'].quality}",
+                f"{bare.groups['frequency'].quality}, {bare.parameters['f_hz'].value:.4f}",
                 f"{f.value:.4f} ± {f.stderr:.4f}",
                 f"{err:+.2f}",
                 f"{z.value:.4f} ± {z.stderr:.4f}",
@@ -117,12 +132,13 @@ def main() -> None:
                 "; ".join(res.reasons) or "-",
             ]
         )
-    joint = Identifier().fit(sigs).result
+    joint = Identifier(**GEOMETRY).fit(sigs).result
     jf = joint.parameters["f_hz"]
     rows.append(
         [
             "joint (all 8)",
-            joint.quality,
+            f"{joint.groups['frequency'].quality} / {joint.groups['damping'].quality}",
+            "",
             f"{jf.value:.4f} ± {jf.stderr:.4f}",
             f"{100 * (jf.value / F_PHYS - 1):+.2f}",
             f"{joint.parameters['zeta'].value:.4f} ± {joint.parameters['zeta'].stderr:.4f}",
@@ -191,18 +207,30 @@ def main() -> None:
             f"| {w[0]:.2f}-{w[1]:.2f} | {res.parameters['f_hz'].value:.4f} | {res.parameters['zeta'].value:.4f} | "
             f"{res.quality} |"
         )
-    good = [r for r in runs if r["quality"] == "good"]
+    good = [r for r in runs if r["frequency_quality"] == "good"]
+    good_bare = [r for r in runs if r["without_geometry"]["frequency_quality"] == "good"]
     summary = {
-        "n_good": len(good),
         "n_runs": len(runs),
+        "n_good_frequency": len(good),
+        "good_frequency_share": len(good) / len(runs),
         "good_within_2pct": all(abs(r["f_err_pct"]) <= 2 for r in good),
         "all_within_2pct": all(abs(r["f_err_pct"]) <= 2 for r in runs),
+        "n_good_frequency_without_geometry": len(good_bare),
+        "good_within_2pct_without_geometry": all(
+            abs(r["without_geometry"]["f_hz"] / F_PHYS - 1) <= 0.02 for r in good_bare
+        ),
+        "n_good_damping": sum(r["damping_quality"] == "good" for r in runs),
+        "target_met": len(good) >= TARGET_GOOD_SHARE * len(runs) and all(abs(r["f_err_pct"]) <= 2 for r in good),
         "joint_f_hz": jf.value,
     }
     notes = "\n".join(
         [
-            f"{len(good)} of {len(runs)} good (target >= 7); every good run within ±2 %: {summary['good_within_2pct']}; "
-            f"all runs within ±2 %: {summary['all_within_2pct']}.",
+            f"With the geometry: {len(good)} of {len(runs)} runs get a good frequency (target >= "
+            f"{100 * TARGET_GOOD_SHARE:.0f} %); every good frequency within ±2 % of 3.047 Hz: "
+            f"{summary['good_within_2pct']}; all runs within ±2 %: {summary['all_within_2pct']}. Without the geometry: "
+            f"{len(good_bare)} of {len(runs)} good, all within ±2 %: {summary['good_within_2pct_without_geometry']}. "
+            f"Damping good in {summary['n_good_damping']} of {len(runs)}: on these nonlinear wall-height records the "
+            "log decrement and the fit disagree on zeta by more than a factor 1.5, or the residual fades with the mode.",
             "",
             "Envelope growth: mean envelope of the first mode (band 0.85-1.15 f, Hilbert) in the window's last 2 s over its "
             "first 2 s; a free decay gives clearly less than 1. Figure: identify_real.png (each run's window and envelope).",
@@ -236,7 +264,8 @@ def main() -> None:
         "identify: eight measured antisloshing runs",
         [
             "run",
-            "verdict",
+            "verdict frequency / damping (geometry given)",
+            "without geometry: frequency verdict, f (Hz)",
             "f (Hz) ± sigma",
             "error vs 3.047 Hz (%)",
             "zeta ± sigma",

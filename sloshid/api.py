@@ -50,19 +50,20 @@ def load_scenario(path: str | Path) -> Scenario:
     return load(path)
 
 
-def _scenario_and_liquid(scenario: Scenario | str | Path, params: Any) -> tuple[Scenario, SloshParams]:
-    """The scenario (loaded if a path) and the liquid: SloshParams, an IdentResult, an identify JSON path, or None
-    for the scenario's own [liquid] table."""
-    from sloshid.model.pendulum import SloshParams
+def _scenario_and_liquid(scenario: Scenario | str | Path, params: Any) -> tuple[Scenario, SloshParams, Any]:
+    """The scenario (loaded if a path), the liquid and the identified 95 % interval of f (None when unknown).
+    `params` is SloshParams, an IdentResult, an identify JSON path, or None for the scenario's own [liquid]."""
+    from sloshid.model.pendulum import IdentifiedFrequency, SloshParams
     from sloshid.planning.scenario import resolve_liquid
 
     if isinstance(scenario, (str, Path)):
         scenario = load_scenario(scenario)
     if isinstance(params, SloshParams):
-        return scenario, params
+        return scenario, params, None
     if hasattr(params, "params") and isinstance(params.params, SloshParams):  # an IdentResult
-        return scenario, params.params
-    return scenario, resolve_liquid(scenario, params)
+        return scenario, params.params, params.parameters["f_hz"].ci95
+    interval = IdentifiedFrequency.from_identify_json(params).ci95_hz if params is not None else None
+    return scenario, resolve_liquid(scenario, params), interval
 
 
 def plan(scenario: Scenario | str | Path, params: Any = None, *, progress: bool = False) -> PlanResult:
@@ -70,7 +71,7 @@ def plan(scenario: Scenario | str | Path, params: Any = None, *, progress: bool 
     identify JSON path, or None for the scenario's [liquid])."""
     from sloshid.planning.planner import plan as solve
 
-    scenario, liquid = _scenario_and_liquid(scenario, params)
+    scenario, liquid, _ = _scenario_and_liquid(scenario, params)
     return solve(scenario, liquid, progress=progress)
 
 
@@ -86,7 +87,7 @@ def compare(
     and liquid is reused instead of solved again. Keywords override keys of the [compare] table (methods, ...)."""
     from sloshid.comparison.compare import compare_scenario
 
-    scenario, liquid = _scenario_and_liquid(scenario, params)
+    scenario, liquid, interval = _scenario_and_liquid(scenario, params)
     if settings:
         scenario = replace(scenario, compare={**scenario.compare, **settings})
-    return compare_scenario(scenario, liquid, plan=plan, progress=progress)
+    return compare_scenario(scenario, liquid, plan=plan, f_interval_hz=interval, progress=progress)

@@ -23,11 +23,18 @@ def test_real_runs_frequency_and_verdicts(antisloshing_dir):
         f = res.parameters["f_hz"].value
         # every run, good or not, must land within the +-2 % the issue allows (nonlinear, 20-50 mm crests)
         assert abs(f / F_PHYS - 1) < 0.02, (name, f)
-    good = [n for n, r in results.items() if r.quality == "good"]
-    # measured: 7 of 8 good (the issue's target); the eighth's wall amplitude grows until the recording stops
+    good = [n for n, r in results.items() if r.groups["frequency"].quality == "good"]
+    # measured: 7 of 8 good frequencies (the issue's target is 85 %); the eighth's wall amplitude grows until the
+    # recording stops
     assert len(good) >= 7, {n: r.reasons for n, r in results.items()}
     grow = results["TRD_2D_0.3m_2.2s_270deg"]
-    assert grow.quality == "uncertain" and "zeta" in grow.fit.at_bound
+    assert grow.groups["damping"].quality == "unreliable" and "zeta" in grow.fit.at_bound
+    # the run with a 62.8 % fit whose log decrement (0.004) lies far outside the fit's zeta interval (0.0011-0.0021):
+    # its frequency stands, its damping does not
+    tilt_rd = results["Tilt_RD_2D_0.3m_7s_30deg"]
+    assert tilt_rd.groups["frequency"].quality == "good" and tilt_rd.groups["damping"].quality == "uncertain"
+    assert tilt_rd.quality == "uncertain"
+    assert any("logarithmic decrement" in r for r in tilt_rd.groups["damping"].reasons)
     # the tilted run with the 3.97 Hz second mode (data README): fitted as a second mode, separated from the first
     tilt = results["Tilt_TRD_2D_0.3m_3s_30deg"]
     assert tilt.second_mode is not None and tilt.second_mode.separated, tilt.second_mode.problems
@@ -71,7 +78,8 @@ def test_report_has_every_figure_and_table(antisloshing_dir, tmp_path, run_cli):
         "logarithmic decrement",
         "half-power",
         "identified/prior",
-        "verdict-good",
+        "verdict-uncertain",
+        "Damping (zeta, d)",
     ):
         assert text in page
     data = json.loads(out.read_text())
@@ -90,4 +98,4 @@ def test_report_has_every_figure_and_table(antisloshing_dir, tmp_path, run_cli):
     }
     assert set(data["parameters"]) == {"f_hz", "omega_rad_s", "zeta", "l_m", "d_ns_per_m", "m_kg"}
     assert data["prior"]["f_hz"] == pytest.approx(F_PHYS, abs=0.001)
-    assert "f_hz" in stdout and "95 % CI" in stdout and "verdict: good" in stdout
+    assert "f_hz" in stdout and "95 % CI" in stdout and "frequency (f, omega, l): good" in stdout

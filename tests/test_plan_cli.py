@@ -50,6 +50,13 @@ def test_plan_writes_csv_report_and_json(run_cli, tmp_path):
     html = (tmp_path / "rep" / "index.html").read_text()
     assert "seed Fig. 6" in html and "seed Fig. 9" in html and "Robot limits" in html
     assert "warning" not in stderr
+    # the report says which liquid it planned for and where it came from, and links the trajectory it describes
+    assert "Planned for the liquid f = 3.44 Hz, zeta = 0.0699" in html and "[liquid] table of" in html
+    assert 'href="../traj.csv"' in html
+    # every robot limit used above 90 % is named in the verdict (the 1-D plan runs at its jerk limit)
+    for u in summary["limits"]:
+        if 0.9 < u["usage"] <= 1.001:
+            assert "reaches" in html, u
 
 
 def test_plan_warns_when_robot_limits_are_exceeded(run_cli, tmp_path):

@@ -43,13 +43,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     """Load and validate everything first (nothing is written on bad input), compare, then write outputs."""
     from sloshid.comparison.compare import compare_scenario
+    from sloshid.model.pendulum import IdentifiedFrequency
     from sloshid.planning.scenario import load_scenario, resolve_liquid
 
     outputs = Outputs([p for p in (args.scenario, args.params) if p])
     report_dir = outputs.report_dir(args.report) if args.report is not None else None
     scenario = load_scenario(args.scenario)
     params = resolve_liquid(scenario, args.params)
-    comp = compare_scenario(scenario, params, progress=sys.stderr.isatty())
+    interval = IdentifiedFrequency.from_identify_json(args.params).ci95_hz if args.params else None
+    comp = compare_scenario(scenario, params, f_interval_hz=interval, progress=sys.stderr.isatty())
     if report_dir is not None:
         print(f"report written to {comp.report(report_dir)}", file=sys.stderr)
     print(json.dumps(comp.to_dict(), indent=2) if args.json else comp.summary())

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 
 from sloshid.core.outputs import Outputs
@@ -50,6 +51,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Check every output, load, plan, then write the CSV (and report) only after everything succeeded."""
+    from sloshid.model.pendulum import IdentifiedFrequency
     from sloshid.planning.planner import VERIFY_AFTER_DEG, VERIFY_DURING_DEG, plan
     from sloshid.planning.scenario import load_scenario, resolve_liquid
 
@@ -58,10 +60,17 @@ def run(args: argparse.Namespace) -> int:
     report_dir = outputs.report_dir(args.report) if args.report else None
     scenario = load_scenario(args.scenario)
     params = resolve_liquid(scenario, args.params)
+    if args.params:
+        freq = IdentifiedFrequency.from_identify_json(args.params)
+        if freq.quality not in (None, "good"):
+            why = f": {freq.reasons[0]}" if freq.reasons else ""
+            print(f"sloshid: warning: the identified frequency is {freq.quality}{why}", file=sys.stderr)
     result = plan(scenario, params, progress=sys.stderr.isatty())
     result.trajectory.to_csv(output)
     if report_dir is not None:
-        result.report(report_dir)
+        source = f"identify's {args.params}" if args.params else f"the [liquid] table of {args.scenario}"
+        csv = os.path.relpath(os.path.abspath(output), os.path.abspath(report_dir))
+        result.report(report_dir, {"trajectory CSV": csv}, liquid_source=source)
     for usage in result.limits:
         if not usage.ok:
             print(

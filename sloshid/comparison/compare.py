@@ -19,6 +19,7 @@ from tqdm import tqdm
 
 from sloshid.comparison.feedback import FeedbackSettings
 from sloshid.comparison.profiles import MoveTask, NotApplicable, constant_acceleration
+from sloshid.comparison.recommend import Recommendation, recommend
 from sloshid.comparison.robot_tracking import ClosedLoopResponse, closed_loop_response
 from sloshid.comparison.robustness import Replay, RobustnessResult, sweep
 from sloshid.comparison.ruckig_moves import jerk_limited
@@ -58,6 +59,14 @@ class CompareSettings:
     """Time simulated after arrival to measure the residual slosh, s."""
     residual_ok_deg: float = 0.5
     """Residual relative angle at or below which a move counts as slosh-free, degrees."""
+    peak_ok_deg: float = 1.0
+    """Peak relative angle during the move at or below which it counts as slosh-free, degrees. One degree tilts the
+    surface against the wall by R tan(1 deg), under 1 mm in a 40 mm container, so nothing spills at any practical
+    freeboard; it still excludes moves that only postpone the slosh (unshaped and input-shaped moves tilt the surface
+    by about a/g, 3 deg at 0.5 m/s^2)."""
+    frequency_margin: float = 0.05
+    """Relative margin added on both sides of the identified 95 % frequency interval (or of the nominal frequency
+    when none is known) to form the band the recommendation must hold over."""
     omega_factors: list[float] = field(default_factory=lambda: [0.8, 0.85, 0.9, 0.95, 1.0, 1.05, 1.1, 1.15, 1.2])
     """True/identified natural-frequency ratios of the robustness sweep."""
     zeta_factors: list[float] = field(default_factory=lambda: [0.5, 1.0, 2.0])
@@ -86,10 +95,12 @@ class CompareSettings:
         twice = sorted({m for m in self.methods if self.methods.count(m) > 1})
         if twice:
             raise UserError(f"[compare].methods names '{twice[0]}' more than once; each method is scored once.")
-        positive = ("robot_bandwidth_hz", "settle_s", "residual_ok_deg", "camera_omega_factor")
+        positive = ("robot_bandwidth_hz", "settle_s", "residual_ok_deg", "peak_ok_deg", "camera_omega_factor")
         for name in positive:
             if not getattr(self, name) > 0:
                 raise UserError(f"[compare].{name} must be positive, got {getattr(self, name)!r}.")
+        if not 0 <= self.frequency_margin < 1:
+            raise UserError(f"[compare].frequency_margin must lie in [0, 1), got {self.frequency_margin!r}.")
         if self.jerk_max_m_s3 is not None and not self.jerk_max_m_s3 > 0:
             raise UserError(f"[compare].jerk_max_m_s3 must be positive, got {self.jerk_max_m_s3!r}.")
         if not 1 <= self.workers <= 64:
@@ -208,6 +219,8 @@ class CompareInput:
     settings: CompareSettings
     scenario: Any = None
     """sloshid.planning.scenario.Scenario for the planner methods (None: those are not applicable)."""
+    f_interval_hz: tuple[float, float] | None = None
+    """The identified 95 % interval of the natural frequency (None: only the nominal value is known)."""
     plan: Any = None
     """An existing nominal PlanResult of this scenario and liquid, reused instead of solving again."""
 
@@ -218,17 +231,25 @@ class CompareInput:
         return s if s is not None else max(self.limits.task.acc_max_m_s2) * self.params.f_hz
 
 
-def compare_scenario(scenario: Any, params: SloshParams, plan: Any = None, progress: bool = False) -> Comparison:
+def compare_scenario(
+    scenario: Any,
+    params: SloshParams,
+    plan: Any = None,
+    f_interval_hz: tuple[float, float] | None = None,
+    progress: bool = False,
+) -> Comparison:
     """The comparison stage in one call (CLI, pipeline and `sloshid.compare`): every method of the scenario's
-    [compare] table for this liquid, reusing `plan` (a PlanResult of the same scenario and liquid) when given."""
+    [compare] table for this liquid, reusing `plan` (a PlanResult of the same scenario and liquid) when given;
+    `f_interval_hz`, the identified 95 % interval of f, sets the band the recommendation must hold over."""
     if plan is not None and plan.params != params:
         raise UserError("the plan given to compare was made for another liquid; plan again or drop it.")
     check_feasible(scenario)  # the same refusals as `plan` (start inside an obstacle, ...) before any work
-    return compare(replace(from_scenario(scenario, params), plan=plan), progress=progress)
+    return compare(replace(from_scenario(scenario, params, f_interval_hz), plan=plan), progress=progress)
 
 
-def from_scenario(scenario: Any, params: SloshParams) -> CompareInput:
-    """The comparison's input from a loaded sloshid.planning.scenario.Scenario; the [compare] table is validated here."""
+def from_scenario(scenario: Any, params: SloshParams, f_interval_hz: tuple[float, float] | None = None) -> CompareInput:
+    """The comparison's input from a loaded sloshid.planning.scenario.Scenario (and the identified frequency
+    interval when the liquid was identified); the [compare] table is validated here."""
     from sloshid.core.settings import from_dict
 
     settings = from_dict(CompareSettings, scenario.compare, "[compare]")
@@ -242,7 +263,7 @@ def from_scenario(scenario: Any, params: SloshParams) -> CompareInput:
         list(scenario.obstacles),
         scenario.container_radius_m,
     )
-    return CompareInput(limits, params, settings, scenario)
+    return CompareInput(limits, params, settings, scenario, f_interval_hz)
 
 
 def sloshid_plan(inp: CompareInput, robust: bool) -> tuple[Trajectory, float]:
@@ -342,6 +363,8 @@ class Comparison:
     no_feedback_at_camera_error: dict[str, float]
     """Residual (deg) of each feedback base without feedback at the camera study's model error."""
     linearity: list[LinearityPoint]
+    recommendation: Recommendation | None = None
+    """The fastest method slosh-free over the known frequency band (the headline)."""
     verdict: str = ""
 
     def result(self, key: str) -> MethodResult | None:
@@ -385,11 +408,11 @@ class Comparison:
         ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1))
         return ax.figure
 
-    def report(self, directory: str | Path) -> Path:
-        """Write the comparison report to directory/index.html; returns its path."""
+    def report(self, directory: str | Path, links: dict[str, str] | None = None) -> Path:
+        """Write the comparison report to directory/index.html (`links`: text -> relative href shown at the top)."""
         from sloshid.comparison.report import save_report
 
-        return save_report(self, directory)
+        return save_report(self, directory, links)
 
     def to_dict(self) -> dict:
         """JSON-ready summary (unit-named keys)."""
@@ -422,6 +445,7 @@ class Comparison:
             "camera_omega_factor": self.settings.camera_omega_factor,
             "no_feedback_residual_at_camera_error_deg": self.no_feedback_at_camera_error,
             "linearity": [vars(p) for p in self.linearity],
+            "recommendation": self.recommendation.to_dict() if self.recommendation else None,
             "verdict": self.verdict,
         }
 
@@ -492,37 +516,18 @@ def compare(inp: CompareInput, progress: bool = False) -> Comparison:
     )
     camera, reference = camera_study(inp, built)
     comp = Comparison(inp.params, s, results, closed, robust, camera, reference, linearity_study(inp))
+    comp.recommendation = recommend(results, inp.params, s, inp.f_interval_hz, progress)
     comp.verdict = verdict(comp)
     return comp
 
 
 def verdict(comp: Comparison) -> str:
-    """A few sentences drawn from the numbers: who is fastest slosh-free, at what cost, and how robust."""
+    """A few sentences drawn from the numbers: the recommendation and why the faster methods lose, then what the
+    alternatives cost and how robust they are."""
     limit = comp.settings.residual_ok_deg
     ok = [r for r in comp.results if r.applicable]
     collides = [r for r in ok if r.score.min_clearance_m is not None and r.score.min_clearance_m < 0]  # type: ignore[union-attr]
-    free = sorted(
-        (r for r in ok if r.score.residual_deg <= limit and r not in collides),  # type: ignore[union-attr]
-        key=lambda r: r.score.transfer_time_s,
-    )  # type: ignore[union-attr]
-    parts = []
-    if free:
-        best = free[0]
-        kind = "collision-free move" if any(r.score.min_clearance_m is not None for r in ok) else "move"  # type: ignore[union-attr]
-        line = (
-            f"{best.label} is the fastest {kind} that leaves at most {limit:g} deg of residual slosh "
-            f"({best.score.transfer_time_s:.3g} s, peak {best.score.peak_during_deg:.2g} deg during the move)"
-        )  # type: ignore[union-attr]
-        zvd = comp.result("zvd")
-        if zvd is not None and zvd.applicable and zvd is not best:
-            t_best, t_zvd = best.score.transfer_time_s, zvd.score.transfer_time_s  # type: ignore[union-attr]
-            line += (
-                f"; ZVD shaping takes {100 * (t_zvd / t_best - 1):.1f} % longer ({t_zvd:.3g} s), "
-                f"i.e. it saves {100 * (1 - t_best / t_zvd):.1f} % of ZVD's transfer time"
-            )
-        parts.append(line + ".")
-    else:
-        parts.append(f"No method keeps the residual slosh at or below {limit:g} deg.")
+    parts = [comp.recommendation.reason] if comp.recommendation is not None else []
     const = comp.result("constant_acc")
     if const is not None and const.applicable:
         parts.append(

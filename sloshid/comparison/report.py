@@ -73,7 +73,7 @@ def fig7(comp: Comparison):
     axes[1].axhline(comp.settings.residual_ok_deg, color="k", ls="--", lw=0.8)
     axes[1].set_ylabel("same, log scale (deg)")
     axes[1].set_xlabel("time from start of move (s)")
-    axes[0].legend(fontsize=8, ncol=2)
+    axes[0].legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1))
     return fig
 
 
@@ -110,7 +110,7 @@ def linearity_figure(comp: Comparison):
     gap = ax.twinx()
     gap.plot(acc, [p.max_gap_deg for p in comp.linearity], "^:", color="grey", label="largest gap (right axis)")
     gap.set_ylabel("largest linear - nonlinear gap over time (deg)", color="grey")
-    ax.legend(handles=ax.get_lines() + gap.get_lines(), fontsize=8)
+    ax.legend(handles=ax.get_lines() + gap.get_lines(), fontsize=8, loc="upper left", bbox_to_anchor=(1.15, 1))
     return fig
 
 
@@ -128,7 +128,7 @@ def robustness_figure(comp: Comparison):
     axes[0].set_xlabel("true natural frequency error (%)")
     axes[1].set_xlabel("true damping ratio / identified")
     axes[0].set_ylabel("residual relative angle after arrival (deg)")
-    axes[0].legend(fontsize=7)
+    axes[1].legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1))
     return fig
 
 
@@ -142,22 +142,48 @@ def camera_figure(comp: Comparison):
         ax.axhline(ref, color=line.get_color(), ls="--", lw=0.8, label=f"{base}, no feedback")
         seen.plot(fps, [c.seen_peak_deg for c in pts], "o-", color=line.get_color(), label=f"{base}: seen by camera")
         seen.axhline(pts[0].true_peak_deg, color=line.get_color(), ls="--", lw=0.8, label=f"{base}: true peak")
+    fps_ticks = sorted({c.camera_fps for c in comp.camera})
     for a in (ax, seen):
         a.set_xscale("log")
+        a.set_xticks(fps_ticks, [f"{f:g}" for f in fps_ticks])  # plain frame rates, not powers of ten
+        a.minorticks_off()
         a.set_xlabel("camera frame rate (fps)")
-        a.legend(fontsize=8)
+    ax.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.18))
+    seen.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1))
     ax.set_yscale("log")
     ax.set_ylabel("residual relative angle (deg)")
     seen.set_ylabel("peak relative angle during the move (deg)")
     return fig
 
 
-def build_report(comp: Comparison, title: str = "sloshid compare") -> Report:
-    """Assemble the page; every figure says what to look at."""
+def _recommendation_table(rep: Report, comp: Comparison) -> None:
+    """The band check behind the recommendation: each method tried, fastest first, at the band's ends and middle."""
+    rec = comp.recommendation
+    labels = {r.key: r.label for r in comp.results}
+    rows = []
+    for key, c in rec.checks.items():
+        cells = [f"{p:.2g} / {r:.2g}" for p, r in zip(c.peak_during_deg, c.residual_deg)]
+        rows.append([labels[key], *cells, c.loses_because or "slosh-free over the band"])
+    f = next(iter(rec.checks.values())).f_hz if rec.checks else (rec.band_hz[0], comp.params.f_hz, rec.band_hz[1])
+    rep.add_table(
+        ["method", *(f"at {x:.3g} Hz: peak / residual (deg)" for x in f), "outcome"],
+        rows,
+        f"Band {rec.band_hz[0]:.3g}-{rec.band_hz[1]:.3g} Hz: {rec.band_source}. Methods that break a limit or collide "
+        "are not simulated over the band; slower methods than the recommended one are not tried.",
+    )
+
+
+def build_report(comp: Comparison, title: str = "sloshid compare", links: dict[str, str] | None = None) -> Report:
+    """Assemble the page; every figure says what to look at; `links` (text -> relative href) point back to a
+    pipeline's index and to the stage's files."""
     s = comp.settings
     p = comp.params
     rep = Report(title)
-    rep.add_text(comp.verdict, "verdict-good")
+    rep.add_links(links or {})
+    rec = comp.recommendation
+    rep.add_text(comp.verdict, f"verdict-{rec.risk if rec else 'uncertain'}")
+    if rec is not None:
+        _recommendation_table(rep, comp)
     rep.add_text(
         f"Liquid: f = {p.f_hz:.3g} Hz, zeta = {p.zeta:.3g} (l = {p.l_m:.4g} m, d = {p.d_ns_per_m:.3g} Ns/m). "
         "Every method is scored by the same nonlinear pendulum simulation (solve_ivp): the relative angle "
@@ -176,6 +202,16 @@ def build_report(comp: Comparison, title: str = "sloshid compare") -> Report:
         "Robot limits: Franka Panda Cartesian limits (or [robot]); "
         "move limits: the scenario's acc_max, vel_max, tilt_max_deg, tilt_rate_max_deg_s.",
     )
+    _closed_loop_section(rep, comp)
+    _robustness_section(rep, comp)
+    if comp.camera:
+        _camera_section(rep, comp)
+    return rep
+
+
+def _closed_loop_section(rep: Report, comp: Comparison) -> None:
+    """Each trajectory through the robot's tracking and the linearised liquid, and where linearisation holds."""
+    s = comp.settings
     rep.add_heading("Closed loop: robot tracking and liquid in python-control")
     rep.add_figure(
         closed_loop_figure(comp),
@@ -183,15 +219,21 @@ def build_report(comp: Comparison, title: str = "sloshid compare") -> Report:
         "tracking loop in series with the linearised liquid (seed eq. 5, python-control forced_response), "
         "beside the nonlinear pendulum under the same executed motion; grey line = arrival.",
     )
-    rep.add_figure(
-        linearity_figure(comp),
-        "Where linearisation holds: the constant-acceleration move at growing "
-        "accelerations; the curves part where the small-angle model stops being valid.",
-    )
+    if len(comp.linearity) >= 3:  # two points make no curve: the table below says it all
+        rep.add_figure(
+            linearity_figure(comp),
+            "Where linearisation holds: the constant-acceleration move at growing "
+            "accelerations; the curves part where the small-angle model stops being valid.",
+        )
     rep.add_table(
         ("acceleration (m/s^2)", "peak linear (deg)", "peak nonlinear (deg)", "largest gap (deg)"),
         [[q.acc_m_s2, q.peak_linear_deg, q.peak_nonlinear_deg, q.max_gap_deg] for q in comp.linearity],
     )
+
+
+def _robustness_section(rep: Report, comp: Comparison) -> None:
+    """Residual slosh against frequency and damping error, and each method's tolerated frequency error."""
+    s = comp.settings
     rep.add_heading("Robustness to model error")
     rep.add_figure(
         robustness_figure(comp),
@@ -206,44 +248,47 @@ def build_report(comp: Comparison, title: str = "sloshid compare") -> Report:
                 [r.label, "none" if band is None else f"{100 * (band[0] - 1):+.0f} % .. {100 * (band[1] - 1):+.0f} %"]
             )
     rep.add_table(("method", f"frequency error with residual <= {s.residual_ok_deg:g} deg"), bands)
-    if comp.camera:
-        f = s.feedback
-        rep.add_heading("Feedback and camera rate (seed Remark 1)")
-        rep.add_figure(
-            camera_figure(comp),
-            f"Kalman filter + LQR on a camera measurement of the float angle "
-            f"(noise {f.noise_deg:g} deg, latency {1000 * f.latency_s:g} ms) with the true frequency "
-            f"{100 * (s.camera_omega_factor - 1):+.0f} % off the model; dashed = the same feedforward "
-            "without feedback. Right: the feedforward's peak relative angle (nominal liquid, no feedback) "
-            "as frames at that rate sample it, against the true peak: a slow camera misses fast peaks "
-            "(the seed's Remark 1).",
-        )
-        rep.add_table(
-            (
-                "feedforward",
-                "camera (fps)",
-                "transfer time (s)",
-                "peak during (deg)",
-                "residual (deg)",
-                "peak seen by camera (deg)",
-                "true peak (deg)",
-            ),
+
+
+def _camera_section(rep: Report, comp: Comparison) -> None:
+    """Feedback residual against camera rate, and what a slow camera misses (seed Remark 1)."""
+    s = comp.settings
+    f = s.feedback
+    rep.add_heading("Feedback and camera rate (seed Remark 1)")
+    rep.add_figure(
+        camera_figure(comp),
+        f"Kalman filter + LQR on a camera measurement of the float angle "
+        f"(noise {f.noise_deg:g} deg, latency {1000 * f.latency_s:g} ms) with the true frequency "
+        f"{100 * (s.camera_omega_factor - 1):+.0f} % off the model; dashed = the same feedforward "
+        "without feedback. Right: the feedforward's peak relative angle (nominal liquid, no feedback) "
+        "as frames at that rate sample it, against the true peak: a slow camera misses fast peaks "
+        "(the seed's Remark 1).",
+    )
+    rep.add_table(
+        (
+            "feedforward",
+            "camera (fps)",
+            "transfer time (s)",
+            "peak during (deg)",
+            "residual (deg)",
+            "peak seen by camera (deg)",
+            "true peak (deg)",
+        ),
+        [
             [
-                [
-                    c.base,
-                    c.camera_fps,
-                    c.transfer_time_s,
-                    c.peak_during_deg,
-                    c.residual_deg,
-                    c.seen_peak_deg,
-                    c.true_peak_deg,
-                ]
-                for c in comp.camera
-            ],
-        )
-    return rep
+                c.base,
+                c.camera_fps,
+                c.transfer_time_s,
+                c.peak_during_deg,
+                c.residual_deg,
+                c.seen_peak_deg,
+                c.true_peak_deg,
+            ]
+            for c in comp.camera
+        ],
+    )
 
 
-def save_report(comp: Comparison, directory: str | Path) -> Path:
+def save_report(comp: Comparison, directory: str | Path, links: dict[str, str] | None = None) -> Path:
     """Write the comparison report to `directory/index.html`."""
-    return build_report(comp).save(directory)
+    return build_report(comp, links=links).save(directory)

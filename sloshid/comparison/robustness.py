@@ -38,10 +38,27 @@ class Replay:
         return run_feedback(self.trajectory, self.model, truth, self.feedback, self.bandwidth_hz).trajectory
 
 
+def peak_and_residual(job: tuple[Replay, SloshParams, float]) -> tuple[float, float]:
+    """Peak relative angle during the move and residual after it (deg) of one replay against one true liquid
+    (a picklable unit of work)."""
+    replay, truth, settle_s = job
+    resp = simulate_liquid(replay(truth), truth, settle_s=settle_s)
+    return resp.peak_during_deg, resp.residual_deg
+
+
 def residual(job: tuple[Replay, SloshParams, float]) -> float:
     """Residual slosh (deg) of one replay against one true liquid (a picklable unit of work)."""
-    replay, truth, settle_s = job
-    return simulate_liquid(replay(truth), truth, settle_s=settle_s).residual_deg
+    return peak_and_residual(job)[1]
+
+
+def band_responses(
+    replays: dict[str, Replay], truths: Sequence[SloshParams], settle_s: float, progress: bool = False, workers: int = 1
+) -> dict[str, np.ndarray]:
+    """Per method: (peak during, residual) in deg against each true liquid, shape (len(truths), 2)."""
+    jobs = [(replay, truth, settle_s) for replay in replays.values() for truth in truths]
+    flat = parallel_map(peak_and_residual, [(job,) for job in jobs], workers, progress=progress, desc="frequency band")
+    n = len(truths)
+    return {label: np.array(flat[i * n : (i + 1) * n]) for i, label in enumerate(replays)}
 
 
 @dataclass

@@ -119,13 +119,17 @@ def welch_spectrum(
     band = (f >= max(f_range_hz[0], 1.5 * resolution)) & (f <= f_range_hz[1])
     if not band.any():
         band = f > 0
-    k = int(np.flatnonzero(band)[np.argmax((f * p if per_octave else p)[band])])
+    weighted = f * p if per_octave else p
+    k = int(np.flatnonzero(band)[np.argmax(weighted[band])])
     peak_f = _refine_peak(f, p, k, resolution)
     floor = float(np.median(p[f > 0]))
     prominence = float(p[k] / floor) if floor > 0 else np.inf
     noise_std = float(np.sqrt(floor * u.fs_hz / 2))
     low, high = band & (f < f[k]), band & (f > f[k])
-    resonant = bool(low.any() and high.any() and p[low].min() < 0.5 * p[k] and p[high].min() < 0.5 * p[k])
+    # a resonance falls below half of itself on both sides inside the band; a drift (or the staircase a tracker
+    # leaves holding its value in a quiet tail) only rises toward the band's edge
+    peak = weighted[k]
+    resonant = bool(low.any() and high.any() and weighted[low].min() < 0.5 * peak and weighted[high].min() < 0.5 * peak)
     return Spectrum(
         f,
         p,

@@ -83,7 +83,7 @@ def log_decrement(t: np.ndarray, y: np.ndarray, f0_hz: float, noise_std: float) 
     shift = 0.5 * (a - c) / den
     tt = u.t_s[idx] + shift / u.fs_hz
     hh = b - 0.25 * (a - c) * shift
-    slope = np.polyfit(tt, np.log(hh), 1)[0]
+    slope = np.polyfit(tt, np.log(hh), 1, w=hh)[0]  # weights hh: log-peak noise ~ noise / peak (as in the envelope)
     cycles = np.round((tt - tt[0]) * f0_hz)  # a maximum lost in noise must not shorten the period
     period = np.polyfit(cycles, tt, 1)[0]
     f, zeta = _modal(-slope, 2 * math.pi / period)
@@ -96,7 +96,7 @@ def hilbert_envelope(t: np.ndarray, y: np.ndarray, f0_hz: float, noise_std: floa
     """Band-pass around the mode, analytic signal (scipy.signal.hilbert): log envelope slope and phase slope."""
     u = to_uniform(t, y)
     nyq = u.fs_hz / 2
-    band = [0.6 * f0_hz / nyq, min(1.4 * f0_hz / nyq, 0.95)]
+    band = [f0_hz / 1.5 / nyq, min(1.5 * f0_hz / nyq, 0.95)]  # centred on f0 in log: the pass-band tilts no line
     sos = sps.butter(4, band, btype="bandpass", output="sos")
     x = sps.sosfiltfilt(sos, u.value - u.value.mean(), padlen=min(3 * (2 * len(sos) + 1), u.value.size - 1))
     z = sps.hilbert(x)
@@ -105,10 +105,20 @@ def hilbert_envelope(t: np.ndarray, y: np.ndarray, f0_hz: float, noise_std: floa
     keep = np.zeros(x.size, bool)
     keep[edge : x.size - edge] = True
     keep &= env > PEAK_SNR * noise_std
-    periods = float(keep.sum() / u.fs_hz * f0_hz)
     if keep.sum() < 2 * edge:
-        return CrossCheck("Hilbert envelope", float("nan"), float("nan"), periods, "envelope too short above noise")
-    slope = np.polyfit(u.t_s[keep], np.log(env[keep]), 1)[0]
-    omega_d = np.polyfit(u.t_s[keep], phase[keep], 1)[0]
+        return CrossCheck("Hilbert envelope", float("nan"), float("nan"), 0.0, "envelope too short above noise")
+    # polyfit's weights multiply the residuals, so w = envelope weighs each sample by envelope^2: the inverse variance
+    # of both the log envelope and the phase under additive noise. Without it the faint tail, where the phase is
+    # mostly noise or round-off, outvotes the ring-down (a noise-free decay read 2.2 Hz against 3.45 Hz).
+    w = env[keep]
+    slope = np.polyfit(u.t_s[keep], np.log(w), 1, w=w)[0]
+    omega_d = np.polyfit(u.t_s[keep], phase[keep], 1, w=w)[0]
     f, zeta = _modal(-slope, abs(omega_d))
-    return CrossCheck("Hilbert envelope", f, zeta, periods, "band-pass 0.6-1.4 f0, one period cut at each end")
+    effective = float(np.sum(w**2) ** 2 / np.sum(w**4))  # Kish effective sample count of the envelope^2 weights
+    return CrossCheck(
+        "Hilbert envelope",
+        f,
+        zeta,
+        effective / u.fs_hz * f0_hz,
+        "band-pass f0/1.5-1.5 f0, one period cut at each end, samples weighted by envelope^2",
+    )

@@ -15,6 +15,10 @@ from sloshid.identification.signals import Signal
 SEGMENT_S = 4.0
 """Length of the segments scanned for the rough mode frequency (several periods of any lab sloshing mode)."""
 
+ACTIVE_FLOOR = 0.01
+"""A segment counts as active only above this fraction of the strongest segment's spread (-40 dB): below it lie
+quantisation steps and tracker hold-levels, not a mode a fit could use (a ring-down is fitted to 3 noise sd)."""
+
 FORCED_RATIO = 0.5
 """A one-period mean that moves by more than this fraction of the oscillation amplitude means forced motion."""
 
@@ -71,15 +75,19 @@ def rough_mode_frequency(sig: Signal, f_range_hz: tuple[float, float]) -> float:
     step = max(1, round(u.fs_hz))
     starts = list(range(0, u.value.size - n_seg + 1, step)) or [0]
     stds = np.array([np.std(sps.detrend(u.value[s : s + n_seg])) for s in starts])
-    active = np.flatnonzero(stds >= 3 * stds.min()) if stds.min() > 0 else np.arange(len(starts))
+    # active: 3x the quietest segment (noise), and at least ACTIVE_FLOOR of the strongest (a tracker holding its
+    # value in a quiet tail leaves steps of a thousandth of the swing that beat a near-zero noise floor)
+    active = np.flatnonzero(stds >= max(3 * stds.min(), ACTIVE_FLOOR * stds.max()))
     if active.size == 0:
         active = np.arange(len(starts))
-    freqs = []
-    for k in active[-3:]:
+    peaks = []  # (frequency, is a resonance) of each active segment, last first
+    for k in active[::-1]:
         if f_range_hz[0] < u.fs_hz / 2:  # the band has frequencies below Nyquist
             part = slice(starts[k], starts[k] + n_seg)
             spec = welch_spectrum(u.t_s[part], u.value[part], f_range_hz, nperseg=n_seg, per_octave=True)
-            freqs.append(spec.peak_f_hz)
+            peaks.append((spec.peak_f_hz, spec.resonant))
+    # the last segments whose peak is a resonance; without any (pure noise), the last ones as they are
+    freqs = [f for f, resonant in peaks if resonant][:3] or [f for f, _ in peaks[:3]]
     if not freqs:
         raise UserError(f"{sig.source}: no frequency in the search range {f_range_hz[0]:g}-{f_range_hz[1]:g} Hz.")
     return float(np.median(freqs))

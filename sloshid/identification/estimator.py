@@ -27,17 +27,21 @@ from sloshid.identification.decay_window import (
 from sloshid.identification.pt2fit import Z95, PT2Fit, WindowData, autocorrelation, fit_pt2
 from sloshid.identification.second_mode import SecondMode, resolve_second_mode, strong_peaks
 from sloshid.identification.signals import Signal, load_signal
-from sloshid.model.pendulum import G, SloshParams, cylinder_first_mode_omega, linear_tf, linear_tf_coeffs
+from sloshid.identification.verdict import AMPLITUDE_SNR, GROUPS, GroupVerdict, VerdictInput, judge
+from sloshid.model.pendulum import (
+    XI_CYLINDER_SECOND,
+    G,
+    SloshParams,
+    cylinder_first_mode_omega,
+    linear_tf,
+    linear_tf_coeffs,
+)
 
 MIN_PERIODS_ERROR = 3.0
 NO_MODE_SNR = 5.0
 """A window whose PSD shows no clear resonance is still accepted when the fitted decay stands this many standard
 errors out and reaches the minimum fit % (short, strongly damped ring-downs give coarse Welch spectra);
 otherwise there is no mode, only noise."""
-AMPLITUDE_SNR = 3.0
-"""A fitted amplitude less than this many standard errors above zero is barely distinguishable from noise."""
-CROSS_CHECK_MIN_PERIODS = 8.0
-"""A cross-check built on fewer mode periods than this is shown but does not sway the verdict (too coarse)."""
 
 
 class NotFittedError(RuntimeError):
@@ -140,6 +144,13 @@ class IdentResult:
     lb_lags: list[int] = field(default_factory=list)
     second_mode: SecondMode | None = None
     """The two-mode fit tried for a strong second PSD peak (None when no PSD showed one)."""
+    groups: dict[str, GroupVerdict] = field(default_factory=dict)
+    """Verdict per parameter group: 'frequency' (f, omega, l) and 'damping' (zeta, d); `quality` is the worst."""
+
+    def parameter_verdict(self, name: str) -> GroupVerdict | None:
+        """The verdict of the group parameter `name` belongs to (None for given values such as the mass)."""
+        group = next((g for g, names in GROUPS.items() if name in names), None)
+        return self.groups.get(group) if group else None
 
     @property
     def params(self) -> SloshParams:
@@ -162,7 +173,12 @@ class IdentResult:
     def to_dict(self) -> dict[str, Any]:
         """The `sloshid identify` JSON (schema in README; read back by SloshParams.from_identify_json)."""
         num, den = linear_tf_coeffs(self.params)
-        params = {k: v.to_dict() for k, v in self.parameters.items()}
+        params = {}
+        for k, v in self.parameters.items():
+            params[k] = v.to_dict()
+            group = self.parameter_verdict(k)
+            if group is not None:
+                params[k].update(quality=group.quality, reasons=list(group.reasons))
         if self.mass_kg is not None:
             params["m_kg"] = {"value": self.mass_kg}
         per_signal = []
@@ -250,18 +266,23 @@ class IdentResult:
         fits = ", ".join(f"{self.fit_percent(i):.1f}" for i in range(len(self.signals)))
         lines.append(f"  fit % (NRMSE): {fits}")
         lines.append(f"verdict: {self.quality}")
-        lines += [f"  - {r}" for r in self.reasons]
+        for group, names in GROUPS.items():
+            if group in self.groups:
+                g = self.groups[group]
+                shown = ", ".join(n.split("_")[0] for n in names if n in self.parameters)
+                lines.append(f"  {group} ({shown}): {g.quality}")
+                lines += [f"    - {r}" for r in g.reasons]
         return "\n".join(lines)
 
     def plot(self, ax=None):
         """The fit over the measured window of the first signal (ax=None: a new figure); returns the figure."""
         return self.plot_fit(0, ax).figure
 
-    def report(self, directory: str | Path) -> Path:
-        """Write the HTML report to directory/index.html; returns its path."""
+    def report(self, directory: str | Path, links: dict[str, str] | None = None) -> Path:
+        """Write the HTML report to directory/index.html (`links`: text -> relative href shown at the top)."""
         from sloshid.identification.report import build_report
 
-        return build_report(self).save(directory)
+        return build_report(self, links).save(directory)
 
     def to_pandas(self):
         """The parameters as a table: one row each with value, standard error and 95 % interval."""
@@ -393,40 +414,14 @@ class Identifier:
         if not sigs:
             raise UserError("no signal given to identify.")
         st = self.settings
+        prior = geometric_prior(st)
+        f_range = search_band(st, prior)
         windows, spectra, fullspec = [], [], []
         for sig in sigs:
-            f_guess = rough_mode_frequency(sig, st.f_range_hz)
-            whole = welch_spectrum(sig.t_s, sig.value, st.f_range_hz)
-            fullspec.append(whole)
-            if st.window_s is not None:
-                win = user_window(sig, *st.window_s, f_guess)
-            else:
-                win = find_decay_window(sig, f_guess, whole.noise_std, st.drift)
-            part = sig.between(win.t0_s, win.t1_s)
-            whole_periods = (sig.t_s[-1] - sig.t_s[0]) * f_guess
-            if whole_periods < MIN_PERIODS_ERROR:
-                raise UserError(
-                    f"{sig.source}: the signal lasts only {whole_periods:.1f} periods of the {f_guess:.3g} Hz mode; "
-                    f"at least {MIN_PERIODS_ERROR:g} are needed."
-                )
-            if win.chosen_by == "auto" and (part.t_s.size < 16 or win.duration_s * f_guess < MIN_PERIODS_ERROR):
-                raise UserError(
-                    f"{sig.source}: no oscillatory mode found; nowhere does a ring-down of {MIN_PERIODS_ERROR:g} "
-                    f"periods ({f_guess:.3g} Hz) stand above the noise."
-                )
-            if part.t_s.size < 16:
-                raise UserError(
-                    f"{sig.source}: the window {win.t0_s:g}-{win.t1_s:g} s holds only {part.t_s.size} samples."
-                )
-            spec = welch_spectrum(part.t_s, part.value, st.f_range_hz)
-            periods = win.duration_s * spec.peak_f_hz
-            if spec.prominence >= MIN_PROMINENCE and periods < MIN_PERIODS_ERROR:
-                raise UserError(
-                    f"{sig.source}: the window {win.t0_s:.2f}-{win.t1_s:.2f} s holds only {periods:.1f} periods of "
-                    f"the {spec.peak_f_hz:.3g} Hz mode; at least {MIN_PERIODS_ERROR:g} are needed."
-                )
+            win, spec, whole = self._window(sig, f_range)
             windows.append(win)
             spectra.append(spec)
+            fullspec.append(whole)
         parts = [s.between(w.t0_s, w.t1_s) for s, w in zip(sigs, windows)]
         hp0 = [half_power(p.t_s, p.value, sp.peak_f_hz) for p, sp in zip(parts, spectra)]
         omega_starts = [2 * math.pi * float(np.median([sp.peak_f_hz for sp in spectra]))]
@@ -447,7 +442,7 @@ class Identifier:
             ):
                 raise UserError(
                     f"{sig.source}: no oscillatory mode found; the PSD shows no resonance standing 10 dB above the "
-                    f"noise in {st.f_range_hz[0]:g}-{st.f_range_hz[1]:g} Hz, and a fitted decay explains only "
+                    f"noise in {f_range[0]:g}-{f_range[1]:g} Hz, and a fitted decay explains only "
                     f"{explained:.0f} % ({snr:.1f} standard errors)."
                 )
         if st.window_s is None and any(strong_peaks(sp, st.second_mode_ratio) for sp in spectra):
@@ -459,18 +454,53 @@ class Identifier:
             if any(a.t1_s > b.t1_s + 1 / f_fit for a, b in zip(longer, windows)):  # at least a period more
                 windows = longer
                 parts = [s.between(w.t0_s, w.t1_s) for s, w in zip(sigs, windows)]
-                spectra = [welch_spectrum(p.t_s, p.value, st.f_range_hz) for p in parts]
+                spectra = [welch_spectrum(p.t_s, p.value, f_range) for p in parts]
                 wdata = [WindowData(p.t_s, p.value, w.t0_s) for p, w in zip(parts, windows)]
                 fit = fit_pt2(wdata, [fit.omega_rad_s, *omega_starts[1:]], fit.zeta or None, st.drift)
         second = resolve_second_mode(wdata, fit, spectra, st.second_mode_ratio, AMPLITUDE_SNR)
         if second is not None and second.separated:
             fit = second.fit
-        self.result_ = self._assemble(sigs, windows, parts, spectra, [s.noise_std for s in fullspec], fit, second)
+        self.result_ = self._assemble(
+            sigs, windows, parts, spectra, [s.noise_std for s in fullspec], fit, second, prior
+        )
         self.params_ = self.result_.params
         return self
 
+    def _window(self, sig: Signal, f_range: tuple[float, float]) -> tuple[DecayWindow, Spectrum, Spectrum]:
+        """The free-decay window of one signal, its Welch spectrum and that of the whole record; refuses a signal
+        without a ring-down of MIN_PERIODS_ERROR periods."""
+        st = self.settings
+        f_guess = rough_mode_frequency(sig, f_range)
+        whole = welch_spectrum(sig.t_s, sig.value, f_range)
+        if st.window_s is not None:
+            win = user_window(sig, *st.window_s, f_guess)
+        else:
+            win = find_decay_window(sig, f_guess, whole.noise_std, st.drift)
+        part = sig.between(win.t0_s, win.t1_s)
+        whole_periods = (sig.t_s[-1] - sig.t_s[0]) * f_guess
+        if whole_periods < MIN_PERIODS_ERROR:
+            raise UserError(
+                f"{sig.source}: the signal lasts only {whole_periods:.1f} periods of the {f_guess:.3g} Hz mode; "
+                f"at least {MIN_PERIODS_ERROR:g} are needed."
+            )
+        if win.chosen_by == "auto" and (part.t_s.size < 16 or win.duration_s * f_guess < MIN_PERIODS_ERROR):
+            raise UserError(
+                f"{sig.source}: no oscillatory mode found; nowhere does a ring-down of {MIN_PERIODS_ERROR:g} "
+                f"periods ({f_guess:.3g} Hz) stand above the noise."
+            )
+        if part.t_s.size < 16:
+            raise UserError(f"{sig.source}: the window {win.t0_s:g}-{win.t1_s:g} s holds only {part.t_s.size} samples.")
+        spec = welch_spectrum(part.t_s, part.value, f_range)
+        periods = win.duration_s * spec.peak_f_hz
+        if spec.prominence >= MIN_PROMINENCE and periods < MIN_PERIODS_ERROR:
+            raise UserError(
+                f"{sig.source}: the window {win.t0_s:.2f}-{win.t1_s:.2f} s holds only {periods:.1f} periods of "
+                f"the {spec.peak_f_hz:.3g} Hz mode; at least {MIN_PERIODS_ERROR:g} are needed."
+            )
+        return win, spec, whole
+
     def _assemble(
-        self, sigs, windows, parts, spectra, noise_std, fit: PT2Fit, second: SecondMode | None
+        self, sigs, windows, parts, spectra, noise_std, fit: PT2Fit, second: SecondMode | None, prior: dict
     ) -> IdentResult:
         """Derived parameters with delta-method errors, cross-checks and the verdict."""
         st = self.settings
@@ -485,51 +515,44 @@ class Identifier:
         if st.mass_kg is not None:
             grad = np.array([2 * st.mass_kg * zeta, 2 * st.mass_kg * omega])
             params["d_ns_per_m"] = _estimate(2 * st.mass_kg * omega * zeta, math.sqrt(grad @ fit.cov @ grad), floor=0.0)
-        checks, lb, lb_lags = [], [], []
-        for i, (p, _sp) in enumerate(zip(parts, spectra)):
-            base = fit.linear[i][2] + (fit.linear[i][3] * (p.t_s - windows[i].t0_s) if fit.drift else 0.0)
-            if fit.second:  # the cross-checks judge the main mode, so the fitted second mode is taken out first
-                base = base + fit.second_fitted[i]
-            clean = p.value - base
-            noise = noise_std[i]
-            f_fit = omega / (2 * math.pi)
-            checks.append(
-                [
-                    half_power(p.t_s, clean, f_fit),
-                    log_decrement(p.t_s, clean, f_fit, noise),
-                    hilbert_envelope(p.t_s, clean, f_fit, noise),
-                ]
+        checks, lb, lb_lags = _cross_checks(sigs, windows, parts, noise_std, fit)
+        fits = [fit.fit_percent(i, p.value) for i, p in enumerate(parts)]
+        if prior:
+            prior["identified_over_prior"] = omega / prior["omega_rad_s"]
+        verdict = judge(
+            VerdictInput(
+                sigs,
+                windows,
+                spectra,
+                fit,
+                params,
+                checks,
+                lb,
+                fits,
+                st.min_fit_percent,
+                st.min_periods,
+                st.second_mode_ratio,
+                second,
+                prior,
             )
-            h = int(min(max(10, round(sigs[i].rate_hz / f_fit)), fit.residuals[i].size // 5))
-            lb_lags.append(h)
-            lb.append(ljung_box_p(fit.residuals[i], h))
-        quality, reasons, notes = judge(
-            st,
+        )
+        notes = verdict.notes + [w for s in sigs for w in s.warnings]
+        return IdentResult(
             sigs,
             windows,
             spectra,
             fit,
-            params,
             checks,
+            params,
+            verdict.quality,
+            verdict.reasons,
+            notes,
+            st.mass_kg,
+            prior,
             lb,
-            [fit.fit_percent(i, p.value) for i, p in enumerate(parts)],
+            lb_lags,
             second,
-        )
-        for s in sigs:
-            notes.extend(s.warnings)
-        prior = {}
-        if st.container_radius_m is not None:
-            w_prior = cylinder_first_mode_omega(st.container_radius_m, st.fill_height_m)
-            prior = {
-                "container_radius_m": st.container_radius_m,
-                "fill_height_m": st.fill_height_m,
-                "omega_rad_s": w_prior,
-                "f_hz": w_prior / (2 * math.pi),
-                "l_m": G / w_prior**2,
-                "identified_over_prior": omega / w_prior,
-            }
-        return IdentResult(
-            sigs, windows, spectra, fit, checks, params, quality, reasons, notes, st.mass_kg, prior, lb, lb_lags, second
+            verdict.groups,
         )
 
     @property
@@ -540,61 +563,59 @@ class Identifier:
         return self.result_
 
 
-def judge(st, sigs, windows, spectra, fit, params, checks, lb, fits, second=None) -> tuple[str, list[str], list[str]]:
-    """The verdict: 'good' unless a reason applies to doubt the numbers *beyond their intervals* (model misfit,
-    bound hits, disagreeing methods, a strong second mode the two-mode fit could not separate); a merely wide
-    interval is honest and only noted."""
-    reasons, notes = [], []
-    f2 = fit.second.omega_rad_s / (2 * math.pi) if fit.second else None
-    if second is not None and second.separated:
-        notes.append(
-            f"a second mode at {f2:.4g} Hz (zeta {fit.second.zeta:.2g}) was fitted beside the main one; "
-            f"the main mode's numbers account for it."
+def _cross_checks(sigs, windows, parts, noise_std, fit: PT2Fit) -> tuple[list, list[float], list[int]]:
+    """Per signal: the independent estimates (on the window minus offset, drift and any fitted second mode) and
+    the Ljung-Box whiteness test of the residual with its lag count."""
+    omega = fit.omega_rad_s
+    checks, lb, lb_lags = [], [], []
+    for i, p in enumerate(parts):
+        base = fit.linear[i][2] + (fit.linear[i][3] * (p.t_s - windows[i].t0_s) if fit.drift else 0.0)
+        if fit.second:  # the cross-checks judge the main mode, so the fitted second mode is taken out first
+            base = base + fit.second_fitted[i]
+        clean = p.value - base
+        noise = noise_std[i]
+        f_fit = omega / (2 * math.pi)
+        checks.append(
+            [
+                half_power(p.t_s, clean, f_fit),
+                log_decrement(p.t_s, clean, f_fit, noise),
+                hilbert_envelope(p.t_s, clean, f_fit, noise),
+            ]
         )
-    f = params["f_hz"].value
-    for i, sig in enumerate(sigs):
-        name = Path(sig.source).name
-        if fits[i] < st.min_fit_percent:
-            reasons.append(f"{name}: fit {fits[i]:.1f} % is below {st.min_fit_percent:g} %.")
-        periods = windows[i].duration_s * f
-        if periods < st.min_periods:
-            reasons.append(f"{name}: only {periods:.1f} periods in the window (fewer than {st.min_periods:g}).")
-        # a peak the fitted second mode accounts for (within one bin) is no longer a doubt; any other one is
-        strong = [
-            p
-            for p in strong_peaks(spectra[i], st.second_mode_ratio)
-            if f2 is None or abs(p.f_hz - f2) > spectra[i].resolution_hz
-        ]
-        if strong:
-            p = strong[0]
-            why = "; ".join(second.problems) if second is not None and not second.separated else ""
-            reasons.append(
-                f"{name}: strong second mode at {p.f_hz:.3g} Hz ({100 * p.relative:.0f} % of the main peak's PSD)"
-                + (f" that a two-mode fit could not separate ({why})." if why else ".")
-            )
-        if lb[i] < 0.01:
-            notes.append(
-                f"{name}: residuals are not white (Ljung-Box p = {lb[i]:.2g}); the intervals are corrected for "
-                f"correlation over {fit.hac_lags[i]} lags."
-            )
-        for c in checks[i]:
-            if c.n_periods >= CROSS_CHECK_MIN_PERIODS and math.isfinite(c.f_hz) and abs(c.f_hz - f) > 0.02 * f:
-                reasons.append(
-                    f"{name}: {c.method} gives f = {c.f_hz:.4g} Hz, more than 2 % from the fit's {f:.4g} Hz."
-                )
-        snr = fit.amplitude(i) / fit.amplitude_se(i)
-        if snr < AMPLITUDE_SNR:
-            reasons.append(f"{name}: the fitted amplitude is only {snr:.1f} standard errors above zero.")
-    for name in fit.at_bound:
-        if name == "zeta" and fit.zeta < 0.5:  # the lower bound: no decay, or a growing amplitude, in the window
-            reasons.append(
-                "zeta ended on its search bound 0: the oscillation does not decay in the window (no free decay)."
-            )
-        else:
-            reasons.append(f"{name} ended on its search bound.")
-    z = params["zeta"]
-    if "zeta" not in fit.at_bound and z.ci95[0] <= 0:  # a wide but valid interval: reported, not a doubt
-        notes.append(
-            f"zeta = {z.value:.2g} ± {z.stderr:.2g} cannot be told from zero: the amplitude barely decays in the window."
+        h = int(min(max(10, round(sigs[i].rate_hz / f_fit)), fit.residuals[i].size // 5))
+        lb_lags.append(h)
+        lb.append(ljung_box_p(fit.residuals[i], h))
+    return checks, lb, lb_lags
+
+
+def search_band(st: IdentSettings, prior: dict[str, Any]) -> tuple[float, float]:
+    """The band searched for the mode: --f-range, narrowed by the geometric prior to where the first mode is nearer
+    than the second azimuthal one (the prior picks the first mode)."""
+    if not prior:
+        return st.f_range_hz
+    lo, hi = max(st.f_range_hz[0], prior["band_hz"][0]), min(st.f_range_hz[1], prior["band_hz"][1])
+    if not lo < hi:
+        raise UserError(
+            f"the frequency range {st.f_range_hz[0]:g}-{st.f_range_hz[1]:g} Hz misses the container's first "
+            f"mode band {prior['band_hz'][0]:.3g}-{prior['band_hz'][1]:.3g} Hz."
         )
-    return ("uncertain" if reasons else "good"), reasons, notes
+    return lo, hi
+
+
+def geometric_prior(st: IdentSettings) -> dict[str, Any]:
+    """The cylinder's analytic first mode and the band where it, not the second azimuthal mode, is the nearer one
+    (split at their geometric mean), or {} without geometry."""
+    if st.container_radius_m is None:
+        return {}
+    w1 = cylinder_first_mode_omega(st.container_radius_m, st.fill_height_m)
+    w2 = cylinder_first_mode_omega(st.container_radius_m, st.fill_height_m, XI_CYLINDER_SECOND)
+    half = math.sqrt(w2 / w1)
+    return {
+        "container_radius_m": st.container_radius_m,
+        "fill_height_m": st.fill_height_m,
+        "omega_rad_s": w1,
+        "f_hz": w1 / (2 * math.pi),
+        "l_m": G / w1**2,
+        "second_azimuthal_f_hz": w2 / (2 * math.pi),
+        "band_hz": [w1 / half / (2 * math.pi), w1 * half / (2 * math.pi)],
+    }

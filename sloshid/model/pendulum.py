@@ -20,6 +20,8 @@ from sloshid.model.conventions import G
 
 XI_CYLINDER = 1.8412
 """First root of J1', the first antisymmetric sloshing mode of an upright cylinder."""
+XI_CYLINDER_SECOND = 3.0542
+"""First root of J2', the cylinder's second azimuthal mode (the 3.9 Hz peak of the tilted measured runs)."""
 
 
 @dataclass(frozen=True)
@@ -98,6 +100,24 @@ class SloshParams:
         return cls.from_modal(omega, zeta, m)
 
 
+@dataclass(frozen=True)
+class IdentifiedFrequency:
+    """What an identify JSON says of its natural frequency beyond the value: the 95 % interval and the verdict
+    (None where a file written before per-parameter verdicts lacks them)."""
+
+    ci95_hz: tuple[float, float] | None
+    quality: str | None
+    reasons: tuple[str, ...] = ()
+
+    @classmethod
+    def from_identify_json(cls, path: str | Path) -> IdentifiedFrequency:
+        """Read parameters.f_hz.{ci95, quality, reasons} (the file is checked by SloshParams.from_identify_json)."""
+        f = json.loads(Path(path).read_text(encoding="utf-8")).get("parameters", {}).get("f_hz", {})
+        ci = f.get("ci95")
+        interval = (float(ci[0]), float(ci[1])) if isinstance(ci, list) and len(ci) == 2 else None
+        return cls(interval, f.get("quality"), tuple(f.get("reasons") or ()))
+
+
 TABLE_I = SloshParams(m_kg=0.5, l_m=0.021, d_ns_per_m=1.51)
 """The seed paper's identified liquid (Table I): f = 3.44 Hz, zeta = 0.070."""
 
@@ -141,8 +161,9 @@ def linear_tf(params: SloshParams):
     return control.tf(num, den)
 
 
-def cylinder_first_mode_omega(radius_m: float, fill_height_m: float) -> float:
-    """Analytic first sloshing mode of an upright cylinder: omega^2 = (g xi / R) tanh(xi h / R)."""
+def cylinder_first_mode_omega(radius_m: float, fill_height_m: float, xi: float = XI_CYLINDER) -> float:
+    """Analytic sloshing mode of an upright cylinder: omega^2 = (g xi / R) tanh(xi h / R); the first mode by default,
+    another with its Bessel root xi (XI_CYLINDER_SECOND: the second azimuthal mode)."""
     if radius_m <= 0 or fill_height_m <= 0:
         raise UserError("container radius and fill height must both be positive.")
-    return math.sqrt(G * XI_CYLINDER / radius_m * math.tanh(XI_CYLINDER * fill_height_m / radius_m))
+    return math.sqrt(G * xi / radius_m * math.tanh(xi * fill_height_m / radius_m))

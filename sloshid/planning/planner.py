@@ -158,13 +158,14 @@ class PlanResult:
         ax.figure.legend(loc="upper left", bbox_to_anchor=(1.0, 0.95), fontsize=8)
         return ax.figure
 
-    def report(self, directory: str | Path) -> Path:
-        """Write the plan report (states, 3-D path, limits, verification) to directory/index.html."""
+    def report(self, directory: str | Path, links: dict[str, str] | None = None, liquid_source: str = "") -> Path:
+        """Write the plan report (states, 3-D path, limits, verification) to directory/index.html; `links` (text ->
+        relative href) are shown at the top, `liquid_source` says where the liquid's parameters came from."""
         from sloshid.planning.report import plan_report
 
         if self.scenario is None:
             raise UserError("this plan does not know its scenario, so no report can be drawn.")
-        return plan_report(self, self.scenario).save(directory)
+        return plan_report(self, self.scenario, liquid_source, links).save(directory)
 
 
 def check_feasible(scenario: Scenario) -> None:

@@ -10,6 +10,19 @@ from sloshid.planning.planner import VERIFY_AFTER_DEG, VERIFY_DURING_DEG, PlanRe
 from sloshid.planning.scenario import Scenario
 from sloshid.report.html import Report
 
+LIMIT_LABELS = {
+    "vel_m_s": "speed (m/s)",
+    "acc_m_s2": "acceleration (m/s²)",
+    "jerk_m_s3": "jerk (m/s³)",
+    "rot_vel_rad_s": "angular speed (rad/s)",
+    "rot_acc_rad_s2": "angular acceleration (rad/s²)",
+    "rot_jerk_rad_s3": "angular jerk (rad/s³)",
+}
+"""Human labels of the robot-limit quantities."""
+LIMIT_WARN_SHARE = 0.9
+"""A robot limit used above this share is flagged in the verdict: tracking errors or a heavier payload can push it
+over."""
+
 ARROW_TILT_GAIN = 5.0
 """Fig. 9 arrows show the container tilt exaggerated by this factor (real tilts are a few degrees)."""
 
@@ -37,7 +50,7 @@ def states_figure(result: PlanResult):
         for k, name in enumerate(names):
             ax.plot(tr.t_s, data[:, k], label=name)
         ax.set_ylabel(label)
-        ax.legend(loc="upper right", fontsize=8, ncol=3)
+        ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1))
         ax.grid(alpha=0.3)
         _segment_lines(ax, result)
     axes[-1].set_xlabel("time (s)")
@@ -109,13 +122,17 @@ def limits_figure(result: PlanResult, scenario: Scenario):
 
     tr = result.trajectory
     fig, ax = plt.subplots(figsize=(9, 4))
+    top = 100.0
     for key, profile in limit_profiles(tr).items():
-        ax.plot(tr.t_s, 100 * profile / getattr(scenario.robot, key), label=key, lw=1)
-    ax.axhline(100, color="r", ls="--", lw=1)
+        share = 100 * profile / getattr(scenario.robot, key)
+        top = max(top, float(share.max()))
+        ax.plot(tr.t_s, share, label=LIMIT_LABELS.get(key, key), lw=1)
+    ax.axhline(100, color="r", ls="--", lw=1, label="limit (100 %)")
+    ax.set_ylim(0, 1.1 * top)  # the 100 % line always in view
     _segment_lines(ax, result)
     ax.set_xlabel("time (s)")
     ax.set_ylabel("share of robot limit (%)")
-    ax.legend(fontsize=8, ncol=3)
+    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1))
     ax.grid(alpha=0.3)
     fig.tight_layout()
     return fig
@@ -133,24 +150,57 @@ def verification_figure(result: PlanResult):
     ax.axvline(v.t_arrival_s, color="k", lw=0.8)
     ax.set_xlabel("time (s)")
     ax.set_ylabel("relative angle (deg)")
-    ax.legend(fontsize=8)
+    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1))
     ax.grid(alpha=0.3, which="both")
     fig.tight_layout()
     return fig
 
 
-def plan_report(result: PlanResult, scenario: Scenario) -> Report:
-    """Assemble the report (nothing is written until `.save(dir)`)."""
+def plan_verdict(result: PlanResult) -> tuple[str, str]:
+    """(sentence, css class): solver, limits with their margins, clearance and the independent verification."""
     s = result.to_dict()
-    rep = Report(f"sloshid plan: {scenario.source or 'scenario'}")
-    verdict = "verified" if result.verification_ok else "NOT verified"
-    rep.add_text(
+    verified = "verified" if result.verification_ok else "NOT verified"
+    close = [u for u in result.limits if u.ok and u.peak > LIMIT_WARN_SHARE * u.limit]
+    limits = "hold" if result.limits_ok else "are EXCEEDED (see the table)"
+    if close:
+        limits += " but " + ", ".join(
+            f"{LIMIT_LABELS.get(u.quantity, u.quantity)} reaches {100 * u.peak / u.limit:.0f} %" for u in close
+        )
+    clearance = (
+        f" The container stays {1e3 * result.min_clearance_m:.1f} mm clear of the inflated obstacles."
+        if result.min_clearance_m is not None
+        else ""
+    )
+    text = (
         f"{len(result.segments)} segment(s), T = {result.T_s:.4f} s, {s['formulation']} formulation, solved in "
         f"{result.solve_time_s:.3f} s ({result.iterations} IPOPT iterations, {result.status}). Robot limits "
-        f"{'hold' if result.limits_ok else 'are EXCEEDED (see the table)'}; slosh-free motion {verdict}: "
-        f"the simulated liquid stays within {s['verification']['peak_during_deg']:.2g} deg of the container while "
-        f"moving and {s['verification']['residual_deg']:.2g} deg after arrival.",
-        "verdict-good" if result.limits_ok and result.verification_ok else "verdict-uncertain",
+        f"{limits}.{clearance} Slosh-free motion {verified}: the simulated liquid stays within "
+        f"{s['verification']['peak_during_deg']:.2g} deg of the container while moving and "
+        f"{s['verification']['residual_deg']:.2g} deg after arrival."
+    )
+    good = result.limits_ok and result.verification_ok and not close
+    good = good and (result.min_clearance_m is None or result.min_clearance_m >= 0)
+    return text, "verdict-good" if good else "verdict-uncertain"
+
+
+def plan_report(
+    result: PlanResult, scenario: Scenario, liquid_source: str = "", links: dict[str, str] | None = None
+) -> Report:
+    """Assemble the report (nothing is written until `.save(dir)`); `liquid_source` says where the liquid came
+    from, `links` (text -> relative href) point to the trajectory CSV and, in a pipeline, back to its index."""
+    s = result.to_dict()
+    rep = Report(f"sloshid plan: {scenario.source or 'scenario'}")
+    rep.add_links(links or {})
+    rep.add_text(*plan_verdict(result))
+    p = result.params
+    rep.add_text(
+        f"Planned for the liquid f = {p.f_hz:.4g} Hz, zeta = {p.zeta:.3g}, l = {p.l_m:.4g} m, "
+        f"d = {p.d_ns_per_m:.3g} N s/m (m = {p.m_kg:g} kg), from {liquid_source or 'the scenario'}"
+        + (
+            f"; robust over omega x {', '.join(f'{f:g}' for f in result.robust_omega_factors)}."
+            if result.robust_omega_factors
+            else "."
+        )
     )
     rep.add_table(
         ["segment", "start (m)", "goal (m)", "T (s)", "model", "iterations", "solve (s)", "max tilt (deg)", "status"],
@@ -184,6 +234,20 @@ def plan_report(result: PlanResult, scenario: Scenario) -> Report:
         f"x{ARROW_TILT_GAIN:g}. Minimum clearance to an inflated obstacle: "
         + (f"{result.min_clearance_m * 1e3:.1f} mm." if result.min_clearance_m is not None else "no obstacles."),
     )
+    _limits_section(rep, result, scenario)
+    rep.add_heading("Independent verification")
+    rep.add_figure(
+        verification_figure(result),
+        "The nonlinear pendulum integrated by solve_ivp under the exported "
+        "accelerations, compared with the exported container orientation. Below the dashed line during the "
+        "move and the dotted line after arrival (black) means no relative sloshing.",
+    )
+    return rep
+
+
+def _limits_section(rep: Report, result: PlanResult, scenario: Scenario) -> None:
+    """Robot-limit usage over time and the table of peaks, limits and shares."""
+    s = result.to_dict()
     rep.add_heading("Robot limits")
     rep.add_figure(
         limits_figure(result, scenario),
@@ -205,11 +269,3 @@ def plan_report(result: PlanResult, scenario: Scenario) -> Report:
             for u in s["limits"]
         ],
     )
-    rep.add_heading("Independent verification")
-    rep.add_figure(
-        verification_figure(result),
-        "The nonlinear pendulum integrated by solve_ivp under the exported "
-        "accelerations, compared with the exported container orientation. Below the dashed line during the "
-        "move and the dotted line after arrival (black) means no relative sloshing.",
-    )
-    return rep

@@ -5,6 +5,7 @@ from __future__ import annotations
 import base64
 import html
 import io
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from datetime import datetime, timezone
@@ -23,12 +24,13 @@ table{border-collapse:collapse;margin:.8em 0} th,td{border:1px solid #ccc;paddin
 th{background:#eef2f8} td:first-child,th:first-child{text-align:left}
 figure{margin:1em 0} figcaption{color:#555;font-size:.92em} img{max-width:100%}
 .verdict-good{color:#070;font-weight:bold} .verdict-uncertain{color:#b50;font-weight:bold}
+.verdict-unreliable{color:#c00;font-weight:bold}
 .meta{color:#666;font-size:.9em} code{background:#f4f4f4;padding:0 .2em}
 """
 
 
-def figure_to_png_base64(fig: Any, dpi: int = 110) -> str:
-    """Render a matplotlib figure to base64 PNG text and close it."""
+def figure_to_png_base64(fig: Any, dpi: int = 200) -> str:
+    """Render a matplotlib figure to base64 PNG text and close it (about twice screen resolution, for sharp zoom)."""
     import matplotlib.pyplot as plt
 
     buf = io.BytesIO()
@@ -38,7 +40,9 @@ def figure_to_png_base64(fig: Any, dpi: int = 110) -> str:
 
 
 def _fmt(value: Any) -> str:
-    """Table cell text: floats with 4 significant digits, everything else as str, escaped."""
+    """Table cell text: floats with 4 significant digits, '-' for a missing or non-finite number, escaped."""
+    if value is None or (isinstance(value, float) and not math.isfinite(value)):
+        return "-"
     if isinstance(value, float):
         return html.escape(f"{value:.4g}")
     return html.escape(str(value))
@@ -78,6 +82,15 @@ class Report:
         body = "".join("<tr>" + "".join(f"<td>{_fmt(c)}</td>" for c in row) + "</tr>" for row in rows)
         cap = f"<caption>{html.escape(caption)}</caption>" if caption else ""
         self.items.append(f"<table>{cap}<thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>")
+
+    def add_links(self, links: dict[str, str]) -> None:
+        """One line of links (text -> relative href), e.g. back to the pipeline index and to the stage's files."""
+        if links:
+            self.items.append(
+                "<p>"
+                + " · ".join(f'<a href="{html.escape(h)}">{html.escape(t)}</a>' for t, h in links.items())
+                + "</p>"
+            )
 
     def to_html(self) -> str:
         """The whole page as a string."""

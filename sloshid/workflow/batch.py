@@ -174,10 +174,18 @@ def run_batch(
     return result
 
 
+def _with_interval(row: dict[str, Any], key: str, lo: str, hi: str) -> str:
+    """'value [lo, hi]' with 4 significant digits, or '-' when the video has no estimate."""
+    if row.get(key, "") == "":
+        return "-"
+    return f"{float(row[key]):.4g} [{float(row[lo]):.4g}, {float(row[hi]):.4g}]"
+
+
 def batch_report(result: BatchResult) -> Report:
     """Summary page: how many videos succeeded, the distribution of identified frequencies, the table."""
     import matplotlib.pyplot as plt
     import numpy as np
+    from matplotlib.ticker import MaxNLocator
 
     ok = [r for r in result.rows if r["status"] != "failed" and r["f_hz"] != ""]
     report = Report("sloshid batch summary")
@@ -192,6 +200,7 @@ def batch_report(result: BatchResult) -> Report:
         fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(11, 3.6))
         ax1.hist(f, bins=min(20, max(5, len(f) // 2)), color="#36c", alpha=0.8)
         ax1.set(xlabel="identified sloshing frequency f (Hz)", ylabel="videos", title="distribution of f")
+        ax1.yaxis.set_major_locator(MaxNLocator(integer=True))  # a count of videos
         order = np.argsort(f)
         ax2.errorbar(
             np.arange(len(f)),
@@ -203,6 +212,7 @@ def batch_report(result: BatchResult) -> Report:
             capsize=2,
         )
         ax2.set(xlabel="video (sorted by f)", ylabel="f (Hz) with 95 % interval", title="per video")
+        ax2.set_xticks(np.arange(len(f)), [Path(ok[i]["file"]).name for i in order], rotation=60, ha="right")
         report.add_figure(
             fig,
             "Left: how the identified frequencies spread over the batch. Right: each video's "
@@ -210,16 +220,26 @@ def batch_report(result: BatchResult) -> Report:
         )
     report.add_heading("Per video")
     report.add_table(
-        ["file", "status", "frames", "valid share", "f (Hz)", "zeta", "l (m)", "quality", "reasons"],
+        [
+            "file",
+            "status",
+            "frames",
+            "valid share",
+            "f (Hz) [95 %]",
+            "zeta [95 %]",
+            "l (m) [95 %]",
+            "quality",
+            "reasons",
+        ],
         [
             [
                 Path(r["file"]).name,
                 r["status"],
                 r.get("frames", ""),
                 r.get("valid_share", ""),
-                r.get("f_hz", ""),
-                r.get("zeta", ""),
-                r.get("l_m", ""),
+                _with_interval(r, "f_hz", "f_lo_hz", "f_hi_hz"),
+                _with_interval(r, "zeta", "zeta_lo", "zeta_hi"),
+                _with_interval(r, "l_m", "l_lo_m", "l_hi_m"),
                 r.get("quality", ""),
                 r.get("reasons", ""),
             ]

@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
+import base64
 import html
 from pathlib import Path
 from typing import Any
 
+from sloshid.identification.verdict import PARAMETER_LABELS
 from sloshid.report.html import Report
 from sloshid.workflow.pipeline import StageRecord
 
@@ -18,12 +20,13 @@ def _link(run_dir: Path, rel: str, text: str) -> str:
 
 
 def _figure(report: Report, run_dir: Path, stage: str, s: dict[str, Any], caption: str) -> None:
-    """Show the stage's summary figure (a PNG beside its outputs) when it exists."""
+    """Embed the stage's summary figure (a PNG beside its outputs) when it exists, so the page stands alone."""
     rel = f"{stage}/{s.get('figure')}"
     if s.get("figure") and (run_dir / rel).exists():
+        data = base64.b64encode((run_dir / rel).read_bytes()).decode("ascii")
         report.add_html(
-            f'<figure><img src="{html.escape(rel)}" alt="{html.escape(caption)}">'
-            f"<figcaption>{html.escape(caption)}</figcaption></figure>"
+            f'<figure><img src="data:image/png;base64,{data}" alt="{html.escape(caption)}">'
+            f"<figcaption>{html.escape(caption)} ({_link(run_dir, rel, 'PNG')})</figcaption></figure>"
         )
 
 
@@ -45,15 +48,18 @@ def _track(report: Report, run_dir: Path, s: dict[str, Any]) -> None:
 
 
 def _identify(report: Report, run_dir: Path, s: dict[str, Any]) -> None:
-    """Verdict, parameter table with 95 % intervals, report link."""
+    """Verdict, parameter table with 95 % intervals and per-parameter verdicts, report link."""
     report.add_text(
         f"Verdict: {s['quality']}" + (f" ({'; '.join(s['reasons'])})" if s["reasons"] else ""),
         css_class=f"verdict-{s['quality']}",
     )
-    rows = [
-        [name, p["value"], p.get("stderr", ""), *(p.get("ci95") or ["", ""])] for name, p in s["parameters"].items()
-    ]
-    report.add_table(["parameter", "value", "std. error", "95 % low", "95 % high"], rows)
+    rows = []
+    for name, p in s["parameters"].items():
+        label, unit = PARAMETER_LABELS.get(name, (name, ""))
+        rows.append(
+            [label, unit, p["value"], p.get("stderr"), *(p.get("ci95") or [None, None]), p.get("quality", "given")]
+        )
+    report.add_table(["parameter", "unit", "value", "std. error", "95 % low", "95 % high", "verdict"], rows)
     report.add_html(
         "<p>"
         + _link(run_dir, "identify/params.json", "parameters (JSON)")
@@ -101,8 +107,9 @@ def _plan(report: Report, run_dir: Path, s: dict[str, Any]) -> None:
 
 
 def _compare(report: Report, run_dir: Path, s: dict[str, Any]) -> None:
-    """The verdict sentence and the score table of every method."""
-    report.add_text(s["verdict"])
+    """The verdict sentence (coloured by the recommendation's risk) and the score table of every method."""
+    rec = s.get("recommendation") or {}
+    report.add_text(s["verdict"], css_class=f"verdict-{rec.get('risk', 'uncertain')}")
     rows = []
     for m in s["methods"]:
         if not m["applicable"]:
@@ -136,9 +143,39 @@ def _generic(report: Report, run_dir: Path, name: str, s: dict[str, Any]) -> Non
 RENDERERS = {"track": _track, "identify": _identify, "plan": _plan, "compare": _compare}
 
 
+def overall_verdict(records: list[StageRecord]) -> tuple[str, str]:
+    """(sentence, quality) over the stages: the liquid's frequency verdict, the plan's verification and limits,
+    the comparison's recommendation; the worst of them (a failed stage is unreliable)."""
+    levels = ("good", "uncertain", "unreliable")
+    parts, worst = [], "good"
+    for rec in records:
+        s = rec.summary or {}
+        if rec.status in ("failed", "skipped"):
+            parts.append(f"{rec.name} {rec.status}")
+            level = "unreliable"
+        elif rec.name == "identify":
+            freq = s.get("parameters", {}).get("f_hz", {})
+            level = freq.get("quality", s.get("quality", "good"))
+            parts.append(f"liquid frequency {level} (overall {s.get('quality')})")
+        elif rec.name == "plan":
+            ok = s.get("limits_ok", True) and s.get("verification", {}).get("ok", True)
+            level = "good" if ok else "uncertain"
+            parts.append("plan verified within the robot limits" if ok else "plan NOT verified or over a limit")
+        elif rec.name == "compare" and s.get("recommendation"):
+            r = s["recommendation"]
+            level = r["risk"]
+            parts.append(f"recommended: {r['label']}" if r["method"] else "no method recommended")
+        else:
+            continue
+        worst = max(worst, level, key=levels.index)
+    return "Overall: " + ("; ".join(parts) or "no stage ran") + ".", worst
+
+
 def write_index(run_dir: Path, records: list[StageRecord], title: str) -> Path:
     """Write run_dir/index.html for the stages' records; returns its path."""
     report = Report(title)
+    sentence, quality = overall_verdict(records)
+    report.add_text(sentence, css_class=f"verdict-{quality}")
     status = ", ".join(f"{r.name}: {r.status} ({r.seconds:.1f} s)" for r in records)
     report.add_text(f"Stages: {status}.")
     report.add_html(

@@ -12,6 +12,7 @@ from sloshid.core.atomic import atomic_path, write_json
 from sloshid.core.errors import UserError
 from sloshid.core.parallel import parallel_map
 from sloshid.identification.stage import identify_sources, to_signal
+from sloshid.model.pendulum import IdentifiedFrequency
 from sloshid.planning.planner import plan
 from sloshid.planning.scenario import load_scenario, resolve_liquid
 from sloshid.tracking.tracker import track_video
@@ -26,7 +27,7 @@ def _save_figure(fig: Any, path: Path) -> str:
     """Write a matplotlib figure as PNG (2x resolution) and close it; returns the file name for the index page."""
     import matplotlib.pyplot as plt
 
-    fig.savefig(path, dpi=200, bbox_inches="tight")
+    fig.savefig(path, dpi=200, bbox_inches="tight")  # twice screen resolution
     plt.close(fig)
     return path.name
 
@@ -87,7 +88,7 @@ def run_identify(opts: IdentifyOptions, ctx: StageContext) -> dict[str, Any]:
     result = identify_sources(signals, opts.ident_settings())
     doc = result.to_dict()
     write_json(ctx.out_dir / "params.json", doc)
-    result.report(ctx.out_dir / "report")
+    result.report(ctx.out_dir / "report", {"pipeline index": "../../index.html", "parameters JSON": "../params.json"})
     return {
         "params": "params.json",
         "report": "report/index.html",
@@ -134,7 +135,9 @@ def run_plan(opts: PlanOptions, ctx: StageContext) -> dict[str, Any]:
     result.trajectory.to_csv(ctx.out_dir / "trajectory.csv")
     with atomic_path(ctx.out_dir / PLAN_PICKLE) as tmp:
         tmp.write_bytes(pickle.dumps({"scenario": str(opts.scenario), "result": result}))
-    result.report(ctx.out_dir / "report")
+    source = "the pipeline's identify stage" if "identify" in ctx.upstream else "the scenario's [liquid] table"
+    links = {"pipeline index": "../../index.html", "trajectory CSV": "../trajectory.csv"}
+    result.report(ctx.out_dir / "report", links, liquid_source=source)
     figure = _save_figure(result.plot(), ctx.out_dir / "plan.png")
     return {"trajectory": "trajectory.csv", "report": "report/index.html", "figure": figure, **result.to_dict()}
 
@@ -167,14 +170,19 @@ def run_compare(opts: CompareOptions, ctx: StageContext) -> dict[str, Any]:
     """Build and score every method (reusing the plan stage's solution), write scores.json and the report."""
     scenario = load_scenario(opts.scenario)
     params = _liquid(ctx, scenario)
-    comp = compare_scenario(scenario, params, plan=_upstream_plan(ctx, opts.scenario, params), progress=True)
+    interval = None
+    if "identify" in ctx.upstream:
+        interval = IdentifiedFrequency.from_identify_json(ctx.upstream["identify"] / "params.json").ci95_hz
+    planned = _upstream_plan(ctx, opts.scenario, params)
+    comp = compare_scenario(scenario, params, plan=planned, f_interval_hz=interval, progress=True)
     summary = comp.to_dict()
     write_json(ctx.out_dir / "scores.json", summary)
-    comp.report(ctx.out_dir / "report")
+    comp.report(ctx.out_dir / "report", {"pipeline index": "../../index.html", "scores JSON": "../scores.json"})
     return {
         "scores": "scores.json",
         "report": "report/index.html",
         "verdict": summary["verdict"],
+        "recommendation": summary["recommendation"],
         "methods": summary["methods"],
     }
 

@@ -1,0 +1,143 @@
+"""The comparison's decision: the fastest method that stays slosh-free over the frequency band the user actually
+knows (the identified 95 % interval of f widened by a margin), within robot and move limits and collision-free."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from sloshid.comparison.robustness import band_responses
+from sloshid.model.pendulum import SloshParams
+
+if TYPE_CHECKING:
+    from sloshid.comparison.compare import CompareSettings, MethodResult
+
+LOW_RISK_SHARE = 0.5
+"""A recommendation whose worst residual and peak over the band stay below this share of their thresholds is low
+risk (green); closer to a threshold it is coloured as uncertain."""
+
+
+@dataclass(frozen=True)
+class BandCheck:
+    """One method over the band: the frequencies tried, its peak during the move and residual after it at each."""
+
+    f_hz: tuple[float, ...]
+    peak_during_deg: tuple[float, ...]
+    residual_deg: tuple[float, ...]
+    loses_because: str = ""
+    """Empty when the method stays slosh-free over the whole band."""
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain lists and the reason it lost (None when it did not)."""
+        return {
+            "f_hz": list(self.f_hz),
+            "peak_during_deg": list(self.peak_during_deg),
+            "residual_deg": list(self.residual_deg),
+            "loses_because": self.loses_because or None,
+        }
+
+
+@dataclass(frozen=True)
+class Recommendation:
+    """The recommended method (None when no method qualifies), the band it was judged over, and why."""
+
+    method: str | None
+    label: str
+    band_hz: tuple[float, float]
+    band_source: str
+    reason: str
+    risk: str
+    """'good' (clear margin), 'uncertain' (close to a threshold) or 'unreliable' (no method qualifies)."""
+    checks: dict[str, BandCheck] = field(default_factory=dict)
+    """Per method key: what the band check found (only the methods it had to try, fastest first)."""
+
+    def to_dict(self) -> dict[str, Any]:
+        """The JSON `recommendation`: method, band_hz [lo, hi], reason, and the checks behind it."""
+        return {
+            "method": self.method,
+            "label": self.label,
+            "band_hz": list(self.band_hz),
+            "band_source": self.band_source,
+            "reason": self.reason,
+            "risk": self.risk,
+            "checks": {k: c.to_dict() for k, c in self.checks.items()},
+        }
+
+
+def frequency_band(f_hz: float, interval_hz: tuple[float, float] | None, margin: float) -> tuple[tuple, str]:
+    """((lo, hi), where it came from): the identified 95 % interval widened by `margin` (relative), or the nominal
+    frequency widened by it when no interval is known (a scenario's [liquid] table)."""
+    lo, hi = interval_hz if interval_hz is not None else (f_hz, f_hz)
+    band = (min(lo, f_hz) * (1 - margin), max(hi, f_hz) * (1 + margin))
+    if interval_hz is not None:
+        return band, f"the identified 95 % interval {lo:.4g}-{hi:.4g} Hz widened by {100 * margin:g} %"
+    return band, f"the nominal {f_hz:.4g} Hz widened by {100 * margin:g} % (no identified interval)"
+
+
+def _static_failure(r: MethodResult) -> str:
+    """Why a method loses before any band check: limits or a collision (empty when it passes)."""
+    s = r.score
+    if s.min_clearance_m is not None and s.min_clearance_m < 0:
+        return "collides with an obstacle"
+    if s.limits_failed:
+        return "breaks a limit (" + s.limits_failed[0] + ")"
+    return ""
+
+
+def _band_failure(check: BandCheck, settings: CompareSettings) -> str:
+    """Why a method is not slosh-free somewhere in the band (empty when it is)."""
+    worst = int(np.argmax(np.asarray(check.residual_deg) / settings.residual_ok_deg))
+    if check.residual_deg[worst] > settings.residual_ok_deg:
+        return f"leaves {check.residual_deg[worst]:.2g} deg of residual slosh at {check.f_hz[worst]:.3g} Hz"
+    worst = int(np.argmax(check.peak_during_deg))
+    if check.peak_during_deg[worst] > settings.peak_ok_deg:
+        return f"sloshes to {check.peak_during_deg[worst]:.2g} deg during the move at {check.f_hz[worst]:.3g} Hz"
+    return ""
+
+
+def recommend(
+    results: list[MethodResult],
+    params: SloshParams,
+    settings: CompareSettings,
+    interval_hz: tuple[float, float] | None,
+    progress: bool = False,
+) -> Recommendation:
+    """Try the methods fastest first: limits and collisions, then the band's ends and middle; the first to pass wins."""
+    band, source = frequency_band(params.f_hz, interval_hz, settings.frequency_margin)
+    freqs = (band[0], params.f_hz, band[1])
+    truths = [params.scaled(f / params.f_hz, 1.0) for f in freqs]
+    checks: dict[str, BandCheck] = {}
+    losers: list[str] = []
+    ranked = sorted((r for r in results if r.applicable), key=lambda r: r.score.transfer_time_s)
+    for r in ranked:
+        why = _static_failure(r)
+        if not why:
+            resp = band_responses({r.label: r.replay}, truths, settings.settle_s, progress)[r.label]
+            check = BandCheck(freqs, tuple(resp[:, 0]), tuple(resp[:, 1]))
+            why = _band_failure(check, settings)
+            checks[r.key] = BandCheck(freqs, check.peak_during_deg, check.residual_deg, why)
+            if not why:
+                return _chosen(r, check, band, source, losers, checks, settings)
+        losers.append(f"{r.label} {why}")
+    reason = (
+        f"No method stays slosh-free (residual <= {settings.residual_ok_deg:g} deg, peak <= "
+        f"{settings.peak_ok_deg:g} deg) over {band[0]:.3g}-{band[1]:.3g} Hz ({source}): " + "; ".join(losers) + "."
+    )
+    return Recommendation(None, "none", band, source, reason, "unreliable", checks)
+
+
+def _chosen(r, check, band, source, losers, checks, settings) -> Recommendation:
+    """The recommendation for method r, with one sentence on why the faster ones lose."""
+    share = max(max(check.residual_deg) / settings.residual_ok_deg, max(check.peak_during_deg) / settings.peak_ok_deg)
+    reason = (
+        f"Recommended: {r.label} ({r.score.transfer_time_s:.3g} s), the fastest move that stays slosh-free "
+        f"(residual <= {settings.residual_ok_deg:g} deg, peak during the move <= {settings.peak_ok_deg:g} deg) over "
+        f"{band[0]:.3g}-{band[1]:.3g} Hz, {source}; worst case there {max(check.residual_deg):.2g} deg residual, "
+        f"{max(check.peak_during_deg):.2g} deg peak."
+    )
+    if losers:
+        reason += " Faster ones lose: " + "; ".join(losers) + "."
+    risk = "good" if share <= LOW_RISK_SHARE else "uncertain"
+    return Recommendation(r.key, r.label, band, source, reason, risk, checks)

@@ -1,0 +1,270 @@
+"""The identification verdict, per parameter group and overall: `good`, `uncertain` or `unreliable`, each with the
+reasons behind it. The frequency group (f, omega, l) is what the planner needs most; the damping group (zeta, d)
+is set by the envelope's shape and is doubted by anything that bends it (misfit, disagreeing decrement)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from scipy import stats
+
+from sloshid.core.spectrum import Spectrum
+from sloshid.identification.crosschecks import CrossCheck
+from sloshid.identification.decay_window import DecayWindow
+from sloshid.identification.pt2fit import PT2Fit, autocorrelation
+from sloshid.identification.second_mode import SecondMode, strong_peaks
+from sloshid.identification.signals import Signal
+
+LEVELS = ("good", "uncertain", "unreliable")
+"""Verdicts from best to worst; a group takes the worst of its reasons, the overall verdict the worst group's."""
+GROUPS = {"frequency": ("f_hz", "omega_rad_s", "l_m"), "damping": ("zeta", "d_ns_per_m")}
+"""Which parameters each group's verdict applies to."""
+PARAMETER_LABELS = {
+    "f_hz": ("natural frequency f", "Hz"),
+    "omega_rad_s": ("angular frequency omega", "rad/s"),
+    "zeta": ("damping ratio zeta", "-"),
+    "l_m": ("pendulum length l", "m"),
+    "d_ns_per_m": ("damping constant d", "N s/m"),
+    "m_kg": ("liquid mass m", "kg"),
+}
+"""Human label and unit of each parameter key, for tables."""
+AMPLITUDE_SNR = 3.0
+"""A fitted amplitude less than this many standard errors above zero is barely distinguishable from noise."""
+CROSS_CHECK_MIN_PERIODS = 8.0
+"""A cross-check built on fewer (effective) mode periods than this is shown but does not sway the verdict."""
+CROSS_CHECK_F_TOL = 0.02
+"""Frequencies of independent methods on at least 8 periods agree to a fraction of a Welch bin, far inside 2 %."""
+LOG_DECREMENT_FACTOR = 1.5
+"""The peak-based decrement reads zeta up to ~25 % low on noisy synthetic decays (noise lifts the late, small
+peaks); a factor 1.5 apart, beyond the fit's own 95 % interval, is disagreement, not that bias."""
+MISFIT_P = 0.01
+"""Significance of the two residual tests: not white (Ljung-Box) and larger where the oscillation is larger."""
+
+
+@dataclass(frozen=True)
+class GroupVerdict:
+    """One group's verdict and its reasons (empty when good)."""
+
+    quality: str
+    reasons: tuple[str, ...]
+
+
+@dataclass(frozen=True)
+class Verdict:
+    """Per-group verdicts, the overall one (the worst group), and notes that inform without doubting."""
+
+    groups: dict[str, GroupVerdict]
+    notes: list[str]
+
+    @property
+    def quality(self) -> str:
+        """The overall verdict: the worst group's."""
+        return max((g.quality for g in self.groups.values()), key=LEVELS.index)
+
+    @property
+    def reasons(self) -> list[str]:
+        """Every group's reasons, each once, frequency first."""
+        return list(dict.fromkeys(r for g in self.groups.values() for r in g.reasons))
+
+
+@dataclass(frozen=True)
+class VerdictInput:
+    """Everything the verdict weighs, from one identification."""
+
+    signals: list[Signal]
+    windows: list[DecayWindow]
+    spectra: list[Spectrum]
+    fit: PT2Fit
+    parameters: dict[str, Any]
+    """Name -> Estimate (value, stderr, ci95)."""
+    cross_checks: list[list[CrossCheck]]
+    ljung_box: list[float]
+    fit_percent: list[float]
+    min_fit_percent: float
+    min_periods: float
+    second_mode_ratio: float
+    second: SecondMode | None = None
+    prior: dict[str, float] = field(default_factory=dict)
+    """The geometric prior (empty without container geometry); its presence settles which peak is the first mode."""
+
+
+class _Doubts:
+    """Collects (level, reason) per group."""
+
+    def __init__(self) -> None:
+        self.items: dict[str, list[tuple[str, str]]] = {g: [] for g in GROUPS}
+
+    def add(self, groups: tuple[str, ...], level: str, reason: str) -> None:
+        """Count one reason, at one level, against each of the named groups."""
+        for g in groups:
+            self.items[g].append((level, reason))
+
+    def verdict(self, notes: list[str]) -> Verdict:
+        """Each group takes the worst level among its reasons (good without any)."""
+        out = {}
+        for g, found in self.items.items():
+            worst = max((lvl for lvl, _ in found), key=LEVELS.index, default="good")
+            out[g] = GroupVerdict(worst, tuple(dict.fromkeys(r for _, r in found)))
+        return Verdict(out, notes)
+
+
+BOTH = ("frequency", "damping")
+
+
+def residual_grows_p(resid: np.ndarray, lags: int) -> float:
+    """One-sided F-test p-value that the residual variance in the window's first third exceeds that in its last
+    third (degrees of freedom shrunk by the residual's correlation over `lags`, Bartlett weights). Measurement noise
+    is stationary; a residual that fades with the ring-down is the mode misfitted (nonlinear crests, a frequency
+    that drifts with amplitude), which bends the envelope and so the damping."""
+    k = resid.size // 3
+    if k < 8:
+        return 1.0
+    ratio = float(np.mean(resid[:k] ** 2) / max(np.mean(resid[-k:] ** 2), 1e-300))
+    acf = autocorrelation(resid, lags)[1:]
+    weights = 1 - np.arange(1, lags + 1) / (lags + 1)
+    dof = k / max(1.0, 1 + 2 * float(np.sum(weights * acf)))
+    return float(stats.f.sf(ratio, dof, dof))
+
+
+def judge(inp: VerdictInput) -> Verdict:
+    """The verdict: a group is `good` unless a reason doubts its numbers beyond their intervals (a merely wide interval
+    is honest and only noted); `unreliable` when the number is probably not what it claims to be."""
+    doubts, notes = _Doubts(), []
+    fit, f = inp.fit, inp.parameters["f_hz"].value
+    f2 = fit.second.omega_rad_s / (2 * math.pi) if fit.second else None
+    if inp.second is not None and inp.second.separated:
+        notes.append(
+            f"a second mode at {f2:.4g} Hz (zeta {fit.second.zeta:.2g}) was fitted beside the main one; "
+            f"the main mode's numbers account for it."
+        )
+    for i, sig in enumerate(inp.signals):
+        _judge_signal(inp, i, Path(sig.source).name, f, f2, doubts, notes)
+    _judge_bounds(inp, doubts, notes)
+    _judge_mode_choice(inp, f, f2, doubts)
+    return doubts.verdict(notes)
+
+
+def _judge_signal(inp: VerdictInput, i: int, name: str, f: float, f2: float | None, doubts: _Doubts, notes) -> None:
+    """The doubts one signal's window raises."""
+    fit = inp.fit
+    if inp.fit_percent[i] < inp.min_fit_percent:
+        doubts.add(BOTH, "uncertain", f"{name}: fit {inp.fit_percent[i]:.1f} % is below {inp.min_fit_percent:g} %.")
+    periods = inp.windows[i].duration_s * f
+    if periods < inp.min_periods:
+        doubts.add(
+            BOTH, "uncertain", f"{name}: only {periods:.1f} periods in the window (fewer than {inp.min_periods:g})."
+        )
+    # a peak the fitted second mode accounts for (within one bin) is no longer a doubt; any other one is
+    strong = [
+        p
+        for p in strong_peaks(inp.spectra[i], inp.second_mode_ratio)
+        if f2 is None or abs(p.f_hz - f2) > inp.spectra[i].resolution_hz
+    ]
+    if strong:
+        p, second = strong[0], inp.second
+        why = "; ".join(second.problems) if second is not None and not second.separated else ""
+        doubts.add(
+            BOTH,
+            "uncertain",
+            f"{name}: strong second mode at {p.f_hz:.3g} Hz ({100 * p.relative:.0f} % of the main peak's PSD)"
+            + (f" that a two-mode fit could not separate ({why})." if why else "."),
+        )
+    snr = fit.amplitude(i) / fit.amplitude_se(i)
+    if snr < AMPLITUDE_SNR:
+        doubts.add(BOTH, "uncertain", f"{name}: the fitted amplitude is only {snr:.1f} standard errors above zero.")
+    _judge_residual(inp, i, name, doubts, notes)
+    _judge_cross_checks(inp, i, name, f, doubts)
+
+
+def _judge_residual(inp: VerdictInput, i: int, name: str, doubts: _Doubts, notes: list[str]) -> None:
+    """Correlated residuals widen the intervals (handled); residuals that fade with the mode are misfit (a doubt)."""
+    lb, lags = inp.ljung_box[i], inp.fit.hac_lags[i]
+    if not lb < MISFIT_P:
+        return
+    p_grow = residual_grows_p(inp.fit.residuals[i], lags)
+    if p_grow < MISFIT_P:
+        doubts.add(
+            ("damping",),
+            "uncertain",
+            f"{name}: the residual is not white (Ljung-Box p = {lb:.2g}) and fades with the oscillation (p = "
+            f"{p_grow:.2g}): the model misfits the mode, which bends the envelope the damping is read from.",
+        )
+    else:
+        notes.append(
+            f"{name}: residuals are not white (Ljung-Box p = {lb:.2g}) but stationary like measurement noise; the "
+            f"intervals are corrected for correlation over {lags} lags."
+        )
+
+
+def _judge_cross_checks(inp: VerdictInput, i: int, name: str, f: float, doubts: _Doubts) -> None:
+    """Independent methods that disagree beyond their own accuracy."""
+    z = inp.parameters["zeta"]
+    for c in inp.cross_checks[i]:
+        if c.n_periods < CROSS_CHECK_MIN_PERIODS:
+            continue
+        if math.isfinite(c.f_hz) and abs(c.f_hz - f) > CROSS_CHECK_F_TOL * f:
+            doubts.add(
+                ("frequency",),
+                "uncertain",
+                f"{name}: {c.method} gives f = {c.f_hz:.4g} Hz, more than 2 % from the fit's {f:.4g} Hz.",
+            )
+        if c.method == "logarithmic decrement" and math.isfinite(c.zeta):
+            outside = not z.ci95[0] <= c.zeta <= z.ci95[1]
+            far = not z.value / LOG_DECREMENT_FACTOR <= c.zeta <= z.value * LOG_DECREMENT_FACTOR
+            if outside and far:
+                doubts.add(
+                    ("damping",),
+                    "uncertain",
+                    f"{name}: the logarithmic decrement gives zeta = {c.zeta:.2g}, outside the fit's 95 % interval "
+                    f"{z.ci95[0]:.2g}-{z.ci95[1]:.2g} and more than a factor {LOG_DECREMENT_FACTOR:g} from {z.value:.2g}.",
+                )
+
+
+def _judge_bounds(inp: VerdictInput, doubts: _Doubts, notes: list[str]) -> None:
+    """Parameters that ended on their search bounds, and a damping that cannot be told from zero."""
+    fit = inp.fit
+    for name in fit.at_bound:
+        if name == "zeta" and fit.zeta < 0.5:  # the lower bound: no decay, or a growing amplitude, in the window
+            doubts.add(
+                ("damping",),
+                "unreliable",
+                "zeta ended on its search bound 0: the oscillation does not decay in the window (no free decay).",
+            )
+        elif name == "omega":
+            doubts.add(("frequency",), "unreliable", "omega ended on its search bound.")
+        else:
+            doubts.add(BOTH, "uncertain", f"{name} ended on its search bound.")
+    z = inp.parameters["zeta"]
+    if "zeta" not in fit.at_bound and z.ci95[0] <= 0:  # a wide but valid interval: reported, not a doubt
+        notes.append(
+            f"zeta = {z.value:.2g} ± {z.stderr:.2g} cannot be told from zero: the amplitude barely decays in the window."
+        )
+
+
+def _judge_mode_choice(inp: VerdictInput, f: float, f2: float | None, doubts: _Doubts) -> None:
+    """Is the identified mode the first one? With geometry the prior's band decides; without it, a strong mode
+    below the reported one competes (the first sloshing mode is the lowest)."""
+    if inp.prior:
+        lo, hi = inp.prior["band_hz"]
+        if not lo <= f <= hi:
+            doubts.add(
+                ("frequency",),
+                "unreliable",
+                f"f = {f:.4g} Hz lies outside {lo:.3g}-{hi:.3g} Hz, the band where the container's first mode "
+                f"({inp.prior['f_hz']:.3g} Hz) is nearer than its second azimuthal mode: not the first mode.",
+            )
+        return
+    lower = [f2] if f2 is not None and f2 < f else []
+    for sp in inp.spectra:
+        lower += [p.f_hz for p in strong_peaks(sp, inp.second_mode_ratio) if p.f_hz < f]
+    if lower:
+        doubts.add(
+            ("frequency",),
+            "uncertain",
+            f"a strong mode at {min(lower):.3g} Hz lies below the reported {f:.4g} Hz: the first sloshing mode is the "
+            "lowest, so the reported one may be a higher mode; give the container geometry to pick the first.",
+        )
