@@ -9,7 +9,7 @@ import statistics
 import numpy as np
 from plan_common import save_figure, scenario, timed, write
 
-from sloshid import ocp
+from sloshid.planning import ocp
 from sloshid.model.simulate import simulate_liquid
 from sloshid.planning.ocp import bang_bang_time
 from sloshid.planning.planner import plan, solve_segment

