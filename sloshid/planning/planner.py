@@ -12,6 +12,7 @@ import time
 from collections.abc import Sequence
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -65,12 +66,25 @@ class PlanResult:
     """Smallest distance of any 1 kHz sample to an inflated obstacle (None without obstacles)."""
     wall_time_s: float = 0.0
     """Everything: construction, solves, export and verification."""
+    verify_during_deg: float = VERIFY_DURING_DEG
+    """Largest relative angle accepted while moving: 0.1 deg, or [limits].rel_angle_max_deg for [path] plans."""
+    max_path_deviation_m: float | None = None
+    """[path] plans: largest distance of a 1 kHz sample from the user's path (m)."""
+    path_tolerance_m: float | None = None
+    """[path] plans: [path].path_tolerance_m."""
+    joints: Any = None
+    """`sloshid.planning.arm.JointCheck` when the scenario has a [robot] model and joints were requested."""
 
     @property
     def verification_ok(self) -> bool:
-        """Relative angle < 0.1 deg while moving and < 0.05 deg after arrival."""
+        """Relative angle below verify_during_deg while moving and < 0.05 deg after arrival."""
         v = self.verification
-        return v.peak_during_deg < VERIFY_DURING_DEG and v.residual_deg < VERIFY_AFTER_DEG
+        return v.peak_during_deg < self.verify_during_deg and v.residual_deg < VERIFY_AFTER_DEG
+
+    @property
+    def path_ok(self) -> bool:
+        """True for free moves, and for [path] plans within the path tolerance."""
+        return self.max_path_deviation_m is None or self.max_path_deviation_m <= self.path_tolerance_m
 
     @property
     def max_tilt_deg(self) -> float:
@@ -109,11 +123,14 @@ class PlanResult:
             "verification": {
                 "peak_during_deg": v.peak_during_deg,
                 "residual_deg": v.residual_deg,
-                "during_max_deg": VERIFY_DURING_DEG,
+                "during_max_deg": self.verify_during_deg,
                 "after_max_deg": VERIFY_AFTER_DEG,
                 "ok": self.verification_ok,
             },
             "min_clearance_m": self.min_clearance_m,
+            "max_path_deviation_m": self.max_path_deviation_m,
+            "path_tolerance_m": self.path_tolerance_m,
+            "path_ok": self.path_ok,
             "robust_omega_factors": list(self.robust_omega_factors),
             "liquid": self.params.to_dict(),
             "samples": len(self.trajectory.t_s),
@@ -364,6 +381,10 @@ def plan(
     None takes [solver].robust_omega_factors. warm_from: a previous result of the same scenario shape to
     warm-start IPOPT from.
     """
+    if scenario.path is not None:
+        from sloshid.planning.path_planner import plan_path
+
+        return plan_path(scenario, params, progress=progress)
     t_wall = time.perf_counter()
     check_feasible(scenario)
     factors = scenario.solver.robust_omega_factors if robust_omega_factors is None else robust_omega_factors

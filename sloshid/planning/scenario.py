@@ -17,6 +17,10 @@ from sloshid.core.errors import UserError
 from sloshid.core.settings import did_you_mean, from_dict, load_toml
 from sloshid.model.pendulum import SloshParams
 from sloshid.model.trajectory import RobotLimits
+from sloshid.planning.path import PathGeometry, PathTable, build_geometry
+
+ARM_KEYS = ("model", "base_xyz_m", "base_rpy_deg", "tool_offset_m", "q_start")
+"""[robot] keys that describe the arm (the rest are its Cartesian limits, RobotLimits)."""
 
 Vec3 = tuple[float, float, float]
 
@@ -67,6 +71,9 @@ class Limits:
     """Largest roll and pitch rate (deg/s)."""
     t_max_s: float = 20.0
     """Longest allowed duration of one segment (s)."""
+    rel_angle_max_deg: float = 0.5
+    """[path] plans: largest angle between the liquid surface and the container while moving (deg); free moves keep
+    the container on the liquid's surface (0 deg)."""
 
     def __post_init__(self) -> None:
         for name in ("acc_max", "vel_max", "jerk_max"):
@@ -80,6 +87,8 @@ class Limits:
             raise UserError(f"[limits].tilt_rate_max_deg_s must be positive, got {self.tilt_rate_max_deg_s}.")
         if not self.t_max_s > 0:
             raise UserError(f"[limits].t_max_s must be positive, got {self.t_max_s}.")
+        if not 0 < self.rel_angle_max_deg <= 10:
+            raise UserError(f"[limits].rel_angle_max_deg must lie in (0, 10] deg, got {self.rel_angle_max_deg}.")
 
 
 @dataclass(frozen=True)
@@ -225,9 +234,15 @@ class Scenario:
     compare: dict = field(default_factory=dict)
     source: str = ""
     """File the scenario came from (for messages)."""
+    path: PathGeometry | None = None
+    """[path] scenarios: the prescribed curve (then `waypoints` are its two ends)."""
+    path_table: PathTable | None = None
+    """[path] as written (tolerances)."""
+    arm: Any = None
+    """[robot] model = "panda" ...: the arm for joint-space checks (sloshid.planning.arm.ArmSettings), else None."""
 
 
-_TABLES = ("move", "limits", "obstacles", "container", "solver", "liquid", "robot", "compare")
+_TABLES = ("move", "path", "limits", "obstacles", "container", "solver", "liquid", "robot", "compare")
 
 
 def scenario_from_dict(data: dict[str, Any], source: str = "") -> Scenario:
@@ -240,9 +255,17 @@ def scenario_from_dict(data: dict[str, Any], source: str = "") -> Scenario:
     misplaced = [k for k in data.get("solver", {}) if k in Limits.__dataclass_fields__]
     if misplaced:
         raise UserError(f"'[solver].{misplaced[0]}' belongs in the [limits] table.")
-    if "move" not in data:
-        raise UserError(f"{source or 'the scenario'} has no [move] table (start and goal, or waypoints).")
-    move = from_dict(Move, data["move"], "[move]")
+    if "move" in data and "path" in data:
+        raise UserError(f"{source or 'the scenario'} has both [move] and [path]; give one of them.")
+    if "move" not in data and "path" not in data:
+        raise UserError(f"{source or 'the scenario'} has no [move] table (start and goal, or waypoints) nor [path].")
+    path_table = geometry = None
+    if "path" in data:
+        path_table = from_dict(PathTable, data["path"], "[path]")
+        geometry = build_geometry(path_table, Path(source).parent if source else None)
+        points = [tuple(map(float, geometry.start)), tuple(map(float, geometry.end))]
+    else:
+        points = from_dict(Move, data["move"], "[move]").points()
     obstacles_raw = data.get("obstacles", [])
     if not isinstance(obstacles_raw, list):
         raise UserError("obstacles must be an array of tables [[obstacles]].")
@@ -251,16 +274,26 @@ def scenario_from_dict(data: dict[str, Any], source: str = "") -> Scenario:
     if "liquid" in data:
         t = from_dict(LiquidTable, data["liquid"], "[liquid]")
         liquid = SloshParams(t.m_kg, t.l_m, t.d_ns_per_m)
+    robot_raw = dict(data.get("robot", {}))
+    arm_raw = {k: robot_raw.pop(k) for k in list(robot_raw) if k in ARM_KEYS}
+    arm = None
+    if arm_raw:
+        from sloshid.planning.arm import arm_settings
+
+        arm = arm_settings(arm_raw)
     return Scenario(
-        waypoints=move.points(),
+        waypoints=points,
         limits=from_dict(Limits, data.get("limits", {}), "[limits]"),
         obstacles=obstacles,
         container_radius_m=from_dict(Container, data.get("container", {}), "[container]").radius_m,
         solver=from_dict(SolverSettings, data.get("solver", {}), "[solver]"),
         liquid=liquid,
-        robot=from_dict(RobotLimits, data.get("robot", {}), "[robot]"),
+        robot=from_dict(RobotLimits, robot_raw, "[robot]"),
         compare=dict(data.get("compare", {})),
         source=source,
+        path=geometry,
+        path_table=path_table,
+        arm=arm,
     )
 
 

@@ -12,10 +12,15 @@ Hessian block-diagonal (cheap to colour and evaluate).
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import casadi as ca
 import numpy as np
 
 from sloshid.planning.problem import SegmentProblem
+
+if TYPE_CHECKING:
+    from sloshid.planning.path_problem import PathProblem
 
 
 def rk4(f: ca.Function, x, u, p, h, steps: int):
@@ -30,7 +35,7 @@ def rk4(f: ca.Function, x, u, p, h, steps: int):
     return x
 
 
-def interval_function(prob: SegmentProblem) -> tuple[ca.Function, list[str]]:
+def interval_function(prob: SegmentProblem | PathProblem) -> tuple[ca.Function, list[str]]:
     """interval(x, u, h, p) -> (state at the end, cost over the interval, clearance between the nodes), kinds."""
     s, x, u, p = prob.s, prob.x, prob.u, prob.p
     h = ca.SX.sym("h")
@@ -46,9 +51,8 @@ def interval_function(prob: SegmentProblem) -> tuple[ca.Function, list[str]]:
 class MultipleShooting:
     """The NLP {x: w, f: T + sum of interval costs, g: continuity and path constraints, p: [p; mesh]}."""
 
-    def __init__(self, prob: SegmentProblem) -> None:
-        s = prob.s
-        self.nx, self.nu, self.N = s.nx, s.n_pos, s.N
+    def __init__(self, prob: SegmentProblem | PathProblem) -> None:
+        self.nx, self.nu, self.N = prob.x.numel(), prob.u.numel(), prob.s.N
         nx, N = self.nx, self.N
         interval, sub_kinds = interval_function(prob)
         node_expr = ca.vertcat(*(e for e, _ in prob.path))
