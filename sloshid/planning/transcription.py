@@ -44,7 +44,13 @@ def interval_function(prob: SegmentProblem | PathProblem) -> tuple[ca.Function, 
         for i in range(1, s.clearance_points + 1):  # exact positions between the nodes
             sub.append(prob.clearance(prob.position_at(h * i / (s.clearance_points + 1)), p))
             kinds += ["clear"] * (s.n_spheres + s.n_cylinders)
+    between = getattr(prob, "between", None)
+    if between is not None:  # further constraints inside the interval (exact states under the constant input)
+        expr, more = between(h)
+        sub.append(expr)
+        kinds += more
     x_end = rk4(prob.rhs, x, u, p, h, s.rk4_steps)
+
     return ca.Function("interval", [x, u, h, p], [x_end, h * prob.running_cost, ca.vertcat(*sub)]), kinds
 
 
