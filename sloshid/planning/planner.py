@@ -131,6 +131,7 @@ class PlanResult:
             "max_path_deviation_m": self.max_path_deviation_m,
             "path_tolerance_m": self.path_tolerance_m,
             "path_ok": self.path_ok,
+            "joints": self.joints.to_dict() if self.joints is not None else None,
             "robust_omega_factors": list(self.robust_omega_factors),
             "liquid": self.params.to_dict(),
             "samples": len(self.trajectory.t_s),

@@ -205,7 +205,29 @@ def plan_report(result: PlanResult, scenario: Scenario) -> Report:
             for u in s["limits"]
         ],
     )
+    if result.max_path_deviation_m is not None:
+        rep.add_text(
+            f"Prescribed path: the 1 kHz trajectory stays within {result.max_path_deviation_m * 1e3:.3f} mm of it "
+            f"(tolerance {result.path_tolerance_m * 1e3:g} mm); the liquid may lean against the container by up to "
+            f"{result.verify_during_deg:g} deg while moving."
+        )
+    if result.joints is not None:
+        j = result.joints
+        rep.add_heading("Joint space (Franka Panda)")
+        rep.add_text(
+            ("The Panda can follow the trajectory" if j.executable else "NOT executable: " + j.reason())
+            + f" Inverse kinematics at every 1 kHz sample; forward kinematics of the joints reproduces the "
+            f"trajectory within {j.fk_position_error_m * 1e3:.2g} mm and {j.fk_angle_error_deg:.2g} deg (container "
+            f"axis). Worst: joint {j.worst.joint} {j.worst.quantity} at t = {j.worst.t_s:.3f} s.",
+            "verdict-good" if j.executable else "verdict-uncertain",
+        )
+        rep.add_table(
+            ["quantity", "worst joint", "peak", "limit (datasheet)", "margin", "t (s)", "ok"],
+            [[u.quantity, u.joint, u.peak, u.limit, u.margin, u.t_s, "yes" if u.ok else "NO"] for u in j.usages],
+            "Position: the joint closest to a bound, margin its distance to it. Rates by forward differences at 1 kHz.",
+        )
     rep.add_heading("Independent verification")
+
     rep.add_figure(
         verification_figure(result),
         "The nonlinear pendulum integrated by solve_ivp under the exported "
