@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from sloshid.model.trajectory import limit_profiles
-from sloshid.planning.planner import VERIFY_AFTER_DEG, VERIFY_DURING_DEG, PlanResult
+from sloshid.planning.planner import VERIFY_AFTER_DEG, PlanResult
 from sloshid.planning.scenario import Scenario
 from sloshid.report.html import Report
 
@@ -128,7 +128,8 @@ def verification_figure(result: PlanResult):
     v = result.verification
     fig, ax = plt.subplots(figsize=(9, 3.5))
     ax.semilogy(v.t_s, np.maximum(v.rel_angle_deg, 1e-9), lw=1, label="|liquid - container| (simulated)")
-    ax.axhline(VERIFY_DURING_DEG, color="C1", ls="--", lw=1, label=f"{VERIFY_DURING_DEG} deg (during)")
+    during = result.verify_during_deg
+    ax.axhline(during, color="C1", ls="--", lw=1, label=f"{during:g} deg (during)")
     ax.axhline(VERIFY_AFTER_DEG, color="C3", ls=":", lw=1, label=f"{VERIFY_AFTER_DEG} deg (after arrival)")
     ax.axvline(v.t_arrival_s, color="k", lw=0.8)
     ax.set_xlabel("time (s)")
