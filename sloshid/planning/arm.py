@@ -351,7 +351,9 @@ def fit_to_joints(scenario, params, first=None, check: JointCheck | None = None)
     Slowing a slosh-free trajectory down in time would make it slosh (the liquid's dynamics do not scale), so the
     planner runs again: the [robot] Cartesian limits behind each failing joint quantity (velocity: vel_m_s and
     rot_vel_rad_s; acceleration: acc_m_s2 and rot_acc_rad_s2; jerk: jerk_m_s3 and rot_jerk_rad_s3) are scaled by
-    FIT_SAFETY * limit / peak of the worst joint. A joint position limit cannot be fixed by timing (UserError)."""
+    FIT_SAFETY * limit / peak of the worst joint. A joint position limit cannot be fixed by timing: the loop stops
+    and the result stays not executable."""
+
     import dataclasses
 
     from sloshid.planning.planner import plan
@@ -365,9 +367,8 @@ def fit_to_joints(scenario, params, first=None, check: JointCheck | None = None)
             break
         bad = [u for u in check.usages if not u.ok]
         if any(u.quantity == "position_rad" for u in bad):
-            raise UserError(
-                f"{check.reason()} Re-timing cannot fix a joint position limit: move the path, the base or q_start."
-            )
+            steps[-1].reason += " Re-planning cannot fix a joint position limit: move the path, the base or q_start."
+            break
         changes = {}
         for u in bad:
             factor = FIT_SAFETY * u.limit / abs(u.peak)

@@ -7,6 +7,7 @@ against the robot limits and, independently of the optimiser, by simulating the 
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from collections.abc import Sequence
@@ -299,30 +300,31 @@ def solve_segment(
         index, tuple(start), tuple(goal), s.axis, s.jerk_limited, T, status, iters, elapsed, X, U, warm_out, mesh
     )
     if sv.grid == "refined" and not use_warm and seg.success:  # once more on a grid fitted to this optimum
-        fine = equidistributed_mesh(seg.t_nodes, U)
-        X2, U2 = regrid(seg.t_nodes, X, U, np.concatenate([[0.0], np.cumsum(fine)]) * T / s.N)
-        status2, iters2, elapsed2, w2, warm2 = solver.solve(
-            *fixed, inflate, T_bounds, solver.join(T, X2, U2), None, fine
-        )
-        if status2 in OK_STATUSES:
-            T2, X2, U2 = solver.split(w2)
-            seg = SegmentResult(
-                index,
-                tuple(start),
-                tuple(goal),
-                s.axis,
-                s.jerk_limited,
-                T2,
-                status2,
-                iters + iters2,
-                elapsed + elapsed2,
-                X2,
-                U2,
-                warm2,
-                fine,
-                coarse_T_s=T,
-            )
+        seg = _refine(seg, solver, (*fixed, inflate, T_bounds))
     return seg
+
+
+def _refine(seg: SegmentResult, solver, fixed: tuple) -> SegmentResult:
+    """Re-solve on a grid that equidistributes the first optimum's input, started from it moved onto that grid."""
+    N = len(seg.u)
+    fine = equidistributed_mesh(seg.t_nodes, seg.u)
+    X, U = regrid(seg.t_nodes, seg.x_nodes, seg.u, np.concatenate([[0.0], np.cumsum(fine)]) * seg.T_s / N)
+    status, iters, elapsed, w, warm = solver.solve(*fixed, solver.join(seg.T_s, X, U), None, fine)
+    if status not in OK_STATUSES:
+        return seg
+    T, X, U = solver.split(w)
+    return dataclasses.replace(
+        seg,
+        T_s=T,
+        status=status,
+        iterations=seg.iterations + iters,
+        solve_time_s=seg.solve_time_s + elapsed,
+        x_nodes=X,
+        u=U,
+        warm=warm,
+        mesh=fine,
+        coarse_T_s=seg.T_s,
+    )
 
 
 def _advice(status: str) -> str:
