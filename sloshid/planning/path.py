@@ -7,7 +7,7 @@ and a C1 curve would jump the centripetal acceleration). A CSV polyline is smoot
 whose distance to every CSV point is at most `smoothing_m` (default: half of `path_tolerance_m`).
 
 The planner needs the curve in (nearly) arc length sigma, evaluable in CasADi: the curve is resampled at equal
-arc-length steps of at most PIECE_M and interpolated by a cubic spline in sigma, written in the truncated-power
+arc-length steps (5 cm, shorter where the tolerance needs it) and interpolated by a cubic spline in sigma, written in the truncated-power
 basis p(sigma) = a0 + a1 sigma + a2 sigma^2 + a3 sigma^3 + sum_i c_i max(sigma - k_i, 0)^3 (exact for a C2 cubic
 spline, and a few max() per evaluation in CasADi's SX). `max_path_deviation_m` is measured against the user's
 curve (the waypoint spline, or the CSV polyline itself).
@@ -29,7 +29,9 @@ from sloshid.core.tables import read_csv
 Vec3 = tuple[float, float, float]
 
 PIECE_M = 0.05
-"""Longest spline piece of the planning curve (m)."""
+"""Longest spline piece of the planning curve (m); halved until the curve is within a quarter of the tolerance."""
+MIN_PIECE_M = 0.005
+"""Shortest spline piece (m): each piece adds a term to every evaluation of the curve in the NLP."""
 REFERENCE_STEP_M = 2e-4
 """Spacing of the dense samples of the user's curve that deviations are measured against (m)."""
 MIN_CSV_POINTS = 4
@@ -201,16 +203,20 @@ def build_geometry(table: PathTable, base_dir: Path | None = None) -> PathGeomet
     dense = curve(dense_u)
     arc = _chord(dense)
     length = float(arc[-1])
-    pieces = max(4, math.ceil(length / PIECE_M))
-    sigma = np.linspace(0.0, length, pieces + 1)
-    knot_points = np.column_stack([np.interp(sigma, arc, dense[:, j]) for j in range(3)])
-    knots, poly, jumps = _truncated_power(sigma, knot_points)
     if table.points_csv is not None:
         smoothing = float(np.linalg.norm(curve(_chord(raw)) - raw, axis=1).max())
         reference = _refine_polyline(raw)
     else:
         reference = dense
-    return PathGeometry(length, knots, poly, jumps, reference, source, smoothing)
+    piece = PIECE_M
+    while True:  # shorter pieces until the planning curve is within a quarter of the tolerance of the user's
+        sigma = np.linspace(0.0, length, max(4, math.ceil(length / piece)) + 1)
+        knot_points = np.column_stack([np.interp(sigma, arc, dense[:, j]) for j in range(3)])
+        geo = PathGeometry(length, *_truncated_power(sigma, knot_points), reference, source, smoothing)
+        gap = geo.deviation(geo.evaluate(np.linspace(0.0, length, 2000))).max() - smoothing
+        if gap <= table.path_tolerance_m / 4 or piece < MIN_PIECE_M:
+            return geo
+        piece /= 2
 
 
 def _refine_polyline(points: np.ndarray) -> np.ndarray:
