@@ -2,12 +2,14 @@
 
 The [robot] table places the arm (`base_xyz_m`, `base_rpy_deg`), says where the liquid surface centre sits in
 the flange frame (`tool_offset_m`) and where the arm starts (`q_start`, rad). The container is mounted so that
-it is upright when the flange points straight down (flange z = -world z), with the flange's yaw taken from
-`q_start`; the container's tilt of the trajectory rotates the flange with it.
+it is upright when the flange points straight down (flange z = -world z); the container's tilt of the
+trajectory tilts the flange with it. A round container does not care about its yaw about its own axis, so
+the task is 5-D: the liquid surface centre's position and the container's axis.
 
 Inverse kinematics runs at every 1 kHz sample, each solve started from the previous one (q_start at t = 0):
-damped Newton on the 6-D pose error to 1e-10, and the 7th degree of freedom resolved by a null-space pull
-toward q_start's posture (a continuous function of the pose, so no jumps). The joint trajectory is checked
+damped Newton to 1e-10, each step the least-norm joint change, so the two redundant freedoms (the 7th joint
+and the yaw) move as little as they can: the joints are continuous, without jumps. The joint trajectory is checked
+
 against the Panda datasheet's position, velocity, acceleration and jerk limits (rates by forward differences
 at 1 kHz, as the robot's controller sees them). Nothing is downloaded: the URDF ships in the example-robot-data
 wheel.
