@@ -5,22 +5,23 @@ from __future__ import annotations
 
 from plan_common import save_figure, scenario, timed, write
 
-from sloshid import ocp
+from sloshid.planning import ocp
 from sloshid.planning.planner import plan
 from sloshid.planning.report import path_figure, states_figure
 
 
-def run(parallel: bool) -> dict:
+def run(parallel: bool, grid: str = "graded") -> dict:
     """One cold plan() of paper_3d (solver cache cleared first: construction is included)."""
-    sc = scenario("paper_3d", parallel=parallel)
+    sc = scenario("paper_3d", parallel=parallel, grid=grid)
     ocp._CACHE.clear()
     res, wall, cpu = timed(plan, sc, sc.liquid)
-    if not parallel:
+    if not parallel and grid == "graded":
         save_figure(path_figure(res, sc), "plan_3d_path")
         save_figure(states_figure(res), "plan_3d_states")
     s = res.to_dict()
     return {
         "parallel": parallel,
+        "grid": grid,
         "plan_wall_s": wall,
         "main_process_cpu_s": cpu,
         "solve_time_s": res.solve_time_s,
@@ -36,6 +37,7 @@ def run(parallel: bool) -> dict:
 
 def main() -> None:
     results = [run(False), run(True)]
+    uniform = run(False, grid="uniform")
     rows = [
         [
             ("2 processes" if r["parallel"] else "sequential"),
@@ -58,6 +60,8 @@ def main() -> None:
         "the solve_ivp verification. 'IPOPT time' sums the five solves (in the parallel run they overlap).",
         "'total CPU' is the process CPU time of the sequential run: what the wall time is on an otherwise idle core "
         "(the shared machine's load inflates wall time; its load average is in the JSON).",
+        f"The uniform grid (before issue 13) in the same run: T {uniform['T_s']:.3f} s, {uniform['iterations']} iterations, "
+        f"CPU {uniform['main_process_cpu_s']:.2f} s; graded / uniform CPU {seq['main_process_cpu_s'] / uniform['main_process_cpu_s']:.2f}.",
         f"Parallel / sequential wall-time ratio: {par['plan_wall_s'] / seq['plan_wall_s']:.2f} (measured side by side "
         "in one run; worker processes each build their own solver).",
         "Waypoints and obstacles are invented (the seed gives none), inside a Panda's reach; N = 60 per segment, "
@@ -77,7 +81,7 @@ def main() -> None:
         "rel. angle during (deg)",
         "residual (deg)",
     ]
-    write("plan_3d", {"results": results}, header, rows, notes)
+    write("plan_3d", {"results": results, "uniform_grid": uniform}, header, rows, notes)
 
 
 if __name__ == "__main__":

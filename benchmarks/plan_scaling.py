@@ -7,7 +7,7 @@ import dataclasses
 
 from plan_common import scenario, timed, write
 
-from sloshid import ocp
+from sloshid.planning import ocp
 from sloshid.planning.planner import solve_segment
 from sloshid.planning.scenario import Obstacle
 

@@ -10,6 +10,7 @@ import json
 import os
 import sys
 
+from sloshid.core.errors import UserError
 from sloshid.core.outputs import Outputs
 
 
@@ -42,6 +43,20 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="write an HTML report (states over time, 3-D path, limit usage, verification) to DIR",
     )
     parser.add_argument(
+        "--joints",
+        metavar="JOINTS.csv",
+        default=None,
+        help="also write the arm's joint angles at 1 kHz (t_s, q1..q7 in rad) by inverse kinematics, checked "
+        "against the datasheet's joint position, velocity, acceleration and jerk limits; needs a [robot] table "
+        'with model = "panda"; exit code 1 when the arm cannot follow (files are still written)',
+    )
+    parser.add_argument(
+        "--fit-joints",
+        action="store_true",
+        help="with --joints: when the arm cannot follow, re-plan with lower Cartesian limits until it can "
+        "(slower; the JSON's joints.fit lists each attempt's T in s)",
+    )
+    parser.add_argument(
         "--json",
         action="store_true",
         help="print a JSON summary (T_s in s, solve_time_s in s, iterations, status, max_tilt_deg, "
@@ -50,27 +65,78 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Check every output, load, plan, then write the CSV (and report) only after everything succeeded."""
-    from sloshid.model.pendulum import IdentifiedFrequency
-    from sloshid.planning.planner import VERIFY_AFTER_DEG, VERIFY_DURING_DEG, plan
+    """Check every output, load, plan, then write the CSV, joints and report only after everything succeeded;
+    exit code 1 when the arm cannot follow (the files are still written, for inspection)."""
+    from sloshid.planning.planner import plan
     from sloshid.planning.scenario import load_scenario, resolve_liquid
 
     outputs = Outputs([p for p in (args.scenario, args.params) if p])
     output = outputs.file(args.output, "-o", (".csv",))
+    joints = outputs.file(args.joints, "--joints", (".csv",)) if args.joints else None
     report_dir = outputs.report_dir(args.report) if args.report else None
+    if args.fit_joints and joints is None:
+        raise UserError("--fit-joints needs --joints JOINTS.csv.")
     scenario = load_scenario(args.scenario)
+    if joints is not None and scenario.arm is None:
+        raise UserError(
+            '--joints needs a [robot] table with model = "panda" (and base_xyz_m, q_start) in the scenario.'
+        )
     params = resolve_liquid(scenario, args.params)
-    if args.params:
-        freq = IdentifiedFrequency.from_identify_json(args.params)
-        if freq.quality not in (None, "good"):
-            why = f": {freq.reasons[0]}" if freq.reasons else ""
-            print(f"sloshid: warning: the identified frequency is {freq.quality}{why}", file=sys.stderr)
+    _warn_on_doubtful_frequency(args.params)
     result = plan(scenario, params, progress=sys.stderr.isatty())
+    fit = []
+    if joints is not None:
+        result, fit = _check_joints(result, scenario, params, args.fit_joints)
     result.trajectory.to_csv(output)
+    if joints is not None:
+        result.joints.write_csv(joints)
     if report_dir is not None:
         source = f"identify's {args.params}" if args.params else f"the [liquid] table of {args.scenario}"
         csv = os.path.relpath(os.path.abspath(output), os.path.abspath(report_dir))
         result.report(report_dir, {"trajectory CSV": csv}, liquid_source=source)
+    _warnings(result, fit)
+    if args.json:
+        summary = result.to_dict()
+        if fit and summary["joints"] is not None:
+            summary["joints"]["fit"] = [vars(f) for f in fit]
+        print(json.dumps(summary, indent=2))
+    else:
+        print(f"{result.summary()}; wrote {output}" + (f" and {joints}" if joints is not None else ""))
+    if result.joints is not None and not result.joints.executable:
+        hint = "" if args.fit_joints else " (--fit-joints re-plans slower until it can)"
+        print(f"sloshid: not executable on the Panda: {result.joints.reason()}{hint}", file=sys.stderr)
+        return 1
+    return 0
+
+
+def _warn_on_doubtful_frequency(params_path: str | None) -> None:
+    """One stderr line when the identify JSON's frequency verdict is not good (the plan still runs)."""
+    from sloshid.model.pendulum import IdentifiedFrequency
+
+    if params_path:
+        freq = IdentifiedFrequency.from_identify_json(params_path)
+        if freq.quality not in (None, "good"):
+            why = f": {freq.reasons[0]}" if freq.reasons else ""
+            print(f"sloshid: warning: the identified frequency is {freq.quality}{why}", file=sys.stderr)
+
+
+def _check_joints(result, scenario, params, fit_joints: bool) -> tuple:
+    """Inverse kinematics and joint limits on the plan, re-planned slower with --fit-joints when the arm cannot
+    follow; (the plan with its joint check, the fit attempts)."""
+    from sloshid.planning.arm import check_joints, fit_to_joints
+
+    check = check_joints(result.trajectory, scenario.arm)
+    fit = []
+    if fit_joints and not check.executable:
+        result, check, fit = fit_to_joints(scenario, params, result, check)
+    result.joints = check
+    return result, fit
+
+
+def _warnings(result, fit: list) -> None:
+    """Robot limits exceeded, a failed verification, a path left, and joint re-planning, one line each."""
+    from sloshid.planning.planner import VERIFY_AFTER_DEG
+
     for usage in result.limits:
         if not usage.ok:
             print(
@@ -82,8 +148,19 @@ def run(args: argparse.Namespace) -> int:
     if not result.verification_ok:
         print(
             f"sloshid: warning: verification failed: liquid-container angle {v.peak_during_deg:.3g} deg during the "
-            f"move (limit {VERIFY_DURING_DEG}) and {v.residual_deg:.3g} deg after (limit {VERIFY_AFTER_DEG}).",
+            f"move (limit {result.verify_during_deg:g}) and {v.residual_deg:.3g} deg after (limit {VERIFY_AFTER_DEG}).",
             file=sys.stderr,
         )
-    print(json.dumps(result.to_dict(), indent=2) if args.json else f"{result.summary()}; wrote {output}")
-    return 0
+    if result.max_path_deviation_m is not None and not result.path_ok:
+        print(
+            f"sloshid: warning: the trajectory leaves the path by {result.max_path_deviation_m * 1e3:.3f} mm, more "
+            f"than [path].path_tolerance_m = {result.path_tolerance_m * 1e3:g} mm.",
+            file=sys.stderr,
+        )
+    if fit:
+        print(
+            f"sloshid: re-planned {len(fit) - 1} time(s) with lower Cartesian limits for the joints: T "
+            + " -> ".join(f"{f.T_s:.3f}" for f in fit)
+            + f" s (+{100 * (fit[-1].T_s / fit[0].T_s - 1):.1f} %).",
+            file=sys.stderr,
+        )

@@ -41,16 +41,26 @@ METHODS: dict[str, str] = {
     "sloshid_robust": "sloshid robust plan",
     "constant_acc_feedback": "constant acceleration + feedback",
     "sloshid_feedback": "sloshid plan + feedback",
+    "toppra": "TOPP-RA",
+    "toppra_tilt": "TOPP-RA + tilt",
+    "toppra_zvd": "TOPP-RA + ZVD",
 }
 """Method key -> label shown in tables and legends."""
+
+PATH_METHODS = ["toppra", "toppra_tilt", "toppra_zvd", "sloshid"]
+"""Default methods of a [path] scenario: those that can follow a prescribed path."""
+FREE_METHODS = [k for k in METHODS if k not in PATH_METHODS or k == "sloshid"]
+"""Default methods of a [move] scenario."""
+_STRAIGHT = ("constant_acc", "zv", "zvd", "ruckig", "ruckig_tilt")
 
 
 @dataclass(frozen=True)
 class CompareSettings:
     """The [compare] table of a scenario: which methods, their tuning, and the studies around them."""
 
-    methods: list[str] = field(default_factory=lambda: list(METHODS))
-    """Method keys to build, in table order (see sloshid.comparison.compare.METHODS)."""
+    methods: list[str] = field(default_factory=lambda: list(FREE_METHODS))
+    """Method keys to build, in table order (see sloshid.comparison.compare.METHODS); a [path] scenario's default
+    is PATH_METHODS."""
     jerk_max_m_s3: float | None = None
     """Jerk limit of the ruckig methods, m/s^3; default acc_max * f (the jerk ramp lasts one slosh period)."""
     robot_bandwidth_hz: float = 20.0
@@ -133,6 +143,8 @@ class Score:
     """The scenario's own acceleration, velocity, tilt and tilt-rate limits hold."""
     min_clearance_m: float | None = None
     """Smallest distance to an inflated obstacle (negative: collides); None without obstacles."""
+    max_path_deviation_m: float | None = None
+    """[path] scenarios: largest distance from the prescribed path (m); None for free moves."""
 
 
 @dataclass
@@ -168,6 +180,8 @@ class MoveLimits:
     obstacles: list[Any] = field(default_factory=list)
     """Objects with `clearance(points, inflate_m)` (sloshid.planning.scenario.Obstacle)."""
     container_radius_m: float = 0.0
+    path: Any = None
+    """sloshid.planning.path.PathGeometry of a [path] scenario (deviations are scored against it), else None."""
 
 
 def tilt_profiles(traj: Trajectory) -> tuple[np.ndarray, np.ndarray]:
@@ -196,6 +210,7 @@ def score(traj: Trajectory, params: SloshParams, limits: MoveLimits, settle_s: f
     clearance = None
     if limits.obstacles:
         clearance = float(min(np.min(o.clearance(traj.pos_m, limits.container_radius_m)) for o in limits.obstacles))
+    deviation = float(limits.path.deviation(traj.pos_m).max()) if limits.path is not None else None
     sc = Score(
         traj.duration_s,
         resp.peak_during_deg,
@@ -206,6 +221,7 @@ def score(traj: Trajectory, params: SloshParams, limits: MoveLimits, settle_s: f
         failed,
         not any(f.startswith("move") for f in failed),
         clearance,
+        deviation,
     )
     return sc, resp
 
@@ -253,6 +269,8 @@ def from_scenario(scenario: Any, params: SloshParams, f_interval_hz: tuple[float
     from sloshid.core.settings import from_dict
 
     settings = from_dict(CompareSettings, scenario.compare, "[compare]")
+    if getattr(scenario, "path", None) is not None and "methods" not in scenario.compare:
+        settings = replace(settings, methods=list(PATH_METHODS))
     lim = scenario.limits
     task = MoveTask(tuple(tuple(map(float, p)) for p in scenario.waypoints), tuple(lim.acc_max), tuple(lim.vel_max))
     limits = MoveLimits(
@@ -262,8 +280,24 @@ def from_scenario(scenario: Any, params: SloshParams, f_interval_hz: tuple[float
         scenario.robot,
         list(scenario.obstacles),
         scenario.container_radius_m,
+        getattr(scenario, "path", None),
     )
     return CompareInput(limits, params, settings, scenario, f_interval_hz)
+
+
+def _path_only(key: str, inp: CompareInput) -> None:
+    """Raise NotApplicable when a method cannot follow the scenario's [path], or needs one that is not there."""
+    path = inp.limits.path
+    if key.startswith("toppra") and path is None:
+        raise NotApplicable("needs a [path] scenario (a prescribed path to parameterise).")
+    if path is None:
+        return
+    if key in _STRAIGHT:
+        raise NotApplicable("goes straight between waypoints and stops at each: it cannot follow the [path].")
+    if key == "sloshid_robust":
+        raise NotApplicable("the path planner has no robust variant.")
+    if key.endswith("_feedback"):
+        raise NotApplicable("camera feedback corrects the acceleration and would leave the [path].")
 
 
 def sloshid_plan(inp: CompareInput, robust: bool) -> tuple[Trajectory, float]:
@@ -295,7 +329,18 @@ def build_method(key: str, inp: CompareInput, built: dict[str, MethodResult]) ->
     task = inp.limits.task
     t0 = time.perf_counter()
     try:
-        if key == "constant_acc":
+        _path_only(key, inp)
+        if key in ("toppra", "toppra_tilt"):
+            from sloshid.comparison.toppra_moves import toppra_move
+
+            lim = inp.limits
+            traj = toppra_move(lim.path, task.vel_max_m_s, task.acc_max_m_s2, lim.robot, tilt=key == "toppra_tilt")
+        elif key == "toppra_zvd":
+            from sloshid.comparison.toppra_moves import toppra_shaped
+
+            lim = inp.limits
+            traj = toppra_shaped(lim.path, task.vel_max_m_s, task.acc_max_m_s2, lim.robot, inp.params)
+        elif key == "constant_acc":
             traj = constant_acceleration(task)
         elif key in ("zv", "zvd"):
             traj = shaped_constant_acceleration(task, inp.params, key.upper())  # type: ignore[arg-type]

@@ -7,11 +7,13 @@ against the robot limits and, independently of the optimiser, by simulating the 
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -21,9 +23,17 @@ from sloshid.core.tables import to_pandas
 from sloshid.model.pendulum import G, SloshParams
 from sloshid.model.simulate import LiquidResponse, simulate_liquid
 from sloshid.model.trajectory import EXPORT_RATE_HZ, LimitUsage, Trajectory, check_limits
-from sloshid.planning.ocp import SegmentResult, Structure, get_solver, segment_axis, time_lower_bound
+from sloshid.planning.ocp import (
+    OK_STATUSES,
+    SegmentResult,
+    Structure,
+    get_solver,
+    segment_axis,
+    time_lower_bound,
+)
 from sloshid.planning.sampling import sample_segments
 from sloshid.planning.scenario import Obstacle, Scenario
+from sloshid.planning.transcription import equidistributed_mesh, graded_mesh, regrid
 
 VERIFY_DURING_DEG = 0.1
 """Largest relative liquid-container angle allowed while moving (issue 4)."""
@@ -33,6 +43,9 @@ GUESS_MARGIN_M = 0.02
 """Initial-guess points inside an inflated obstacle are pushed this far outside it."""
 CLEARANCE_RETRIES = 3
 """Re-solves with a grown obstacle margin when a 1 kHz sample dips into an obstacle between constraint points."""
+MAX_OMEGA_H = 0.9
+"""The graded grid's longest interval (estimated from the segment's time bound) stays below this many radians of
+the liquid's oscillation: RK4 with two steps stays accurate there; coarser grids get less or no grading."""
 NEAR_M = 0.1
 """A segment's problem includes the obstacles that come this close to its straight line (all, if the check fails)."""
 
@@ -56,14 +69,27 @@ class PlanResult:
     """Smallest distance of any 1 kHz sample to an inflated obstacle (None without obstacles)."""
     wall_time_s: float = 0.0
     """Everything: construction, solves, export and verification."""
+    verify_during_deg: float = VERIFY_DURING_DEG
+    """Largest relative angle accepted while moving: 0.1 deg, or [limits].rel_angle_max_deg for [path] plans."""
+    max_path_deviation_m: float | None = None
+    """[path] plans: largest distance of a 1 kHz sample from the user's path (m)."""
+    path_tolerance_m: float | None = None
+    """[path] plans: [path].path_tolerance_m."""
+    joints: Any = None
+    """`sloshid.planning.arm.JointCheck` when the scenario has a [robot] model and joints were requested."""
     scenario: Scenario | None = None
     """The scenario that was planned (its report shows the obstacles and limits)."""
 
     @property
     def verification_ok(self) -> bool:
-        """Relative angle < 0.1 deg while moving and < 0.05 deg after arrival."""
+        """Relative angle below verify_during_deg while moving and < 0.05 deg after arrival."""
         v = self.verification
-        return v.peak_during_deg < VERIFY_DURING_DEG and v.residual_deg < VERIFY_AFTER_DEG
+        return v.peak_during_deg < self.verify_during_deg and v.residual_deg < VERIFY_AFTER_DEG
+
+    @property
+    def path_ok(self) -> bool:
+        """True for free moves, and for [path] plans within the path tolerance."""
+        return self.max_path_deviation_m is None or self.max_path_deviation_m <= self.path_tolerance_m
 
     @property
     def max_tilt_deg(self) -> float:
@@ -102,11 +128,15 @@ class PlanResult:
             "verification": {
                 "peak_during_deg": v.peak_during_deg,
                 "residual_deg": v.residual_deg,
-                "during_max_deg": VERIFY_DURING_DEG,
+                "during_max_deg": self.verify_during_deg,
                 "after_max_deg": VERIFY_AFTER_DEG,
                 "ok": self.verification_ok,
             },
             "min_clearance_m": self.min_clearance_m,
+            "max_path_deviation_m": self.max_path_deviation_m,
+            "path_tolerance_m": self.path_tolerance_m,
+            "path_ok": self.path_ok,
+            "joints": self.joints.to_dict() if self.joints is not None else None,
             "robust_omega_factors": list(self.robust_omega_factors),
             "liquid": self.params.to_dict(),
             "samples": len(self.trajectory.t_s),
@@ -224,10 +254,13 @@ def _structure(scenario: Scenario, start, goal, obstacles, n_robust: int, warm: 
     )
 
 
-def _guess(s: Structure, scenario: Scenario, obstacles, start, goal, T0: float, inflate_m: float) -> np.ndarray:
+def _guess(
+    s: Structure, scenario: Scenario, obstacles, start, goal, T0: float, inflate_m: float, mesh: np.ndarray | None
+) -> np.ndarray:
     """Initial guess: a minimum-jerk straight line pushed out of obstacles, liquid at its quasi-static tilt."""
     N = s.N
-    tau = np.linspace(0, 1, N + 1)[:, None]
+    m = np.ones(N) if mesh is None else mesh
+    tau = (np.concatenate([[0.0], np.cumsum(m)]) / N)[:, None]
     delta = np.subtract(goal, start)[None, :]
     pos = np.asarray(start)[None, :] + (10 * tau**3 - 15 * tau**4 + 6 * tau**5) * delta
     vel = (30 * tau**2 - 60 * tau**3 + 30 * tau**4) * delta / T0
@@ -263,6 +296,12 @@ def _guess(s: Structure, scenario: Scenario, obstacles, start, goal, T0: float, 
     return get_solver(s).join(T0, np.column_stack(cols), mid[:, ax])
 
 
+def _grading(sv, params: SloshParams, robust: Sequence[float], t_lb: float) -> float:
+    """[solver].grid_grading, reduced so that no interval grows beyond MAX_OMEGA_H / omega (RK4's accuracy)."""
+    omega = params.omega_rad_s * max([1.0, *robust])
+    return float(np.clip(MAX_OMEGA_H * sv.N / (omega * t_lb) - 1.0, 0.0, sv.grid_grading))
+
+
 def solve_segment(
     scenario: Scenario,
     params: SloshParams,
@@ -285,28 +324,49 @@ def solve_segment(
     solver = get_solver(s)
     t_lb = time_lower_bound(start, goal, scenario.limits, scenario.solver.kappa_T)
     T_bounds = (t_lb, scenario.limits.t_max_s)
+    sv = scenario.solver
+    if use_warm:
+        mesh = warm.mesh
+    else:
+        mesh = None if sv.grid == "uniform" else graded_mesh(s.N, _grading(sv, params, robust, t_lb))
     guess = (
         warm.warm["x"]
         if use_warm
-        else _guess(s, scenario, obstacles, start, goal, min(1.15 * t_lb, T_bounds[1]), inflate)
+        else _guess(s, scenario, obstacles, start, goal, min(1.15 * t_lb, T_bounds[1]), inflate, mesh)
     )
+    fixed = (np.asarray(start), np.asarray(goal), scenario.limits, scenario.robot, sv, params, robust, obstacles)
     status, iters, elapsed, w, warm_out = solver.solve(
-        np.asarray(start),
-        np.asarray(goal),
-        scenario.limits,
-        scenario.robot,
-        scenario.solver,
-        params,
-        robust,
-        obstacles,
-        inflate,
-        T_bounds,
-        guess,
-        warm.warm if use_warm else None,
+        *fixed, inflate, T_bounds, guess, warm.warm if use_warm else None, mesh
     )
     T, X, U = solver.split(w)
-    return SegmentResult(
-        index, tuple(start), tuple(goal), s.axis, s.jerk_limited, T, status, iters, elapsed, X, U, warm_out
+    seg = SegmentResult(
+        index, tuple(start), tuple(goal), s.axis, s.jerk_limited, T, status, iters, elapsed, X, U, warm_out, mesh
+    )
+    if sv.grid == "refined" and not use_warm and seg.success:  # once more on a grid fitted to this optimum
+        seg = _refine(seg, solver, (*fixed, inflate, T_bounds))
+    return seg
+
+
+def _refine(seg: SegmentResult, solver, fixed: tuple) -> SegmentResult:
+    """Re-solve on a grid that equidistributes the first optimum's input, started from it moved onto that grid."""
+    N = len(seg.u)
+    fine = equidistributed_mesh(seg.t_nodes, seg.u)
+    X, U = regrid(seg.t_nodes, seg.x_nodes, seg.u, np.concatenate([[0.0], np.cumsum(fine)]) * seg.T_s / N)
+    status, iters, elapsed, w, warm = solver.solve(*fixed, solver.join(seg.T_s, X, U), None, fine)
+    if status not in OK_STATUSES:
+        return seg
+    T, X, U = solver.split(w)
+    return dataclasses.replace(
+        seg,
+        T_s=T,
+        status=status,
+        iterations=seg.iterations + iters,
+        solve_time_s=seg.solve_time_s + elapsed,
+        x_nodes=X,
+        u=U,
+        warm=warm,
+        mesh=fine,
+        coarse_T_s=seg.T_s,
     )
 
 
@@ -354,6 +414,10 @@ def plan(
     None takes [solver].robust_omega_factors. warm_from: a previous result of the same scenario shape to
     warm-start IPOPT from.
     """
+    if scenario.path is not None:
+        from sloshid.planning.path_planner import plan_path
+
+        return plan_path(scenario, params, progress=progress)
     t_wall = time.perf_counter()
     check_feasible(scenario)
     factors = scenario.solver.robust_omega_factors if robust_omega_factors is None else robust_omega_factors

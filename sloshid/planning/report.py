@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from sloshid.model.trajectory import limit_profiles
-from sloshid.planning.planner import VERIFY_AFTER_DEG, VERIFY_DURING_DEG, PlanResult
+from sloshid.planning.planner import VERIFY_AFTER_DEG, PlanResult
 from sloshid.planning.scenario import Scenario
 from sloshid.report.html import Report
 
@@ -145,7 +145,8 @@ def verification_figure(result: PlanResult):
     v = result.verification
     fig, ax = plt.subplots(figsize=(9, 3.5))
     ax.semilogy(v.t_s, np.maximum(v.rel_angle_deg, 1e-9), lw=1, label="|liquid - container| (simulated)")
-    ax.axhline(VERIFY_DURING_DEG, color="C1", ls="--", lw=1, label=f"{VERIFY_DURING_DEG} deg (during)")
+    during = result.verify_during_deg
+    ax.axhline(during, color="C1", ls="--", lw=1, label=f"{during:g} deg (during)")
     ax.axhline(VERIFY_AFTER_DEG, color="C3", ls=":", lw=1, label=f"{VERIFY_AFTER_DEG} deg (after arrival)")
     ax.axvline(v.t_arrival_s, color="k", lw=0.8)
     ax.set_xlabel("time (s)")
@@ -235,6 +236,7 @@ def plan_report(
         + (f"{result.min_clearance_m * 1e3:.1f} mm." if result.min_clearance_m is not None else "no obstacles."),
     )
     _limits_section(rep, result, scenario)
+    _path_and_joints_section(rep, result)
     rep.add_heading("Independent verification")
     rep.add_figure(
         verification_figure(result),
@@ -269,3 +271,28 @@ def _limits_section(rep: Report, result: PlanResult, scenario: Scenario) -> None
             for u in s["limits"]
         ],
     )
+
+
+def _path_and_joints_section(rep: Report, result: PlanResult) -> None:
+    """How close a [path] plan stays to the user's path, and whether the Panda can follow the trajectory."""
+    if result.max_path_deviation_m is not None:
+        rep.add_text(
+            f"Prescribed path: the 1 kHz trajectory stays within {result.max_path_deviation_m * 1e3:.3f} mm of it "
+            f"(tolerance {result.path_tolerance_m * 1e3:g} mm); the liquid may lean against the container by up to "
+            f"{result.verify_during_deg:g} deg while moving."
+        )
+    if result.joints is not None:
+        j = result.joints
+        rep.add_heading("Joint space (Franka Panda)")
+        rep.add_text(
+            ("The Panda can follow the trajectory" if j.executable else "NOT executable: " + j.reason())
+            + f" Inverse kinematics at every 1 kHz sample; forward kinematics of the joints reproduces the "
+            f"trajectory within {j.fk_position_error_m * 1e3:.2g} mm and {j.fk_angle_error_deg:.2g} deg (container "
+            f"axis). Worst: joint {j.worst.joint} {j.worst.quantity} at t = {j.worst.t_s:.3f} s.",
+            "verdict-good" if j.executable else "verdict-uncertain",
+        )
+        rep.add_table(
+            ["quantity", "worst joint", "peak", "limit (datasheet)", "margin", "t (s)", "ok"],
+            [[u.quantity, u.joint, u.peak, u.limit, u.margin, u.t_s, "yes" if u.ok else "NO"] for u in j.usages],
+            "Position: the joint closest to a bound, margin its distance to it. Rates by forward differences at 1 kHz.",
+        )

@@ -29,12 +29,13 @@ def _input_3d(seg: SegmentResult) -> np.ndarray:
     return u
 
 
-def _node_states(seg: SegmentResult, u3: np.ndarray, h: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _node_states(seg: SegmentResult, u3: np.ndarray, hk: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Position, velocity, acceleration at each node, propagated exactly from the start (N+1, 3) each."""
     n = len(u3)
     p, v, a = np.zeros((n + 1, 3)), np.zeros((n + 1, 3)), np.zeros((n + 1, 3))
     p[0] = seg.start
     for k in range(n):
+        h = hk[k]
         acc0 = a[k] if seg.jerk_limited else u3[k]
         jerk = u3[k] if seg.jerk_limited else 0.0
         p[k + 1] = p[k] + v[k] * h + acc0 * h**2 / 2 + jerk * h**3 / 6
@@ -49,12 +50,13 @@ def sample_segment(
     """Samples of one segment on t = 0, dt, ... ceil(T/dt) dt (holding the goal after T), and the final pendulum state."""
     u3 = _input_3d(seg)
     n = len(u3)
-    h = seg.T_s / n
-    p, v, a = _node_states(seg, u3, h)
+    tn = seg.t_nodes  # node times (the grid may be refined, i.e. non-uniform)
+    hk = np.diff(tn)
+    p, v, a = _node_states(seg, u3, hk)
     K = math.ceil(seg.T_s / dt - 1e-9)
     t = np.arange(K + 1) * dt
-    k = np.minimum((t / h).astype(int), n - 1)
-    tau = np.clip(t - k * h, 0.0, h)[:, None]
+    k = np.clip(np.searchsorted(tn, t, side="right") - 1, 0, n - 1)
+    tau = np.clip(t - tn[k], 0.0, hk[k])[:, None]
     after = t >= seg.T_s
     if seg.jerk_limited:
         jerk = u3[k]
@@ -69,12 +71,12 @@ def sample_segment(
 
     def acc_in(kk: int):
         """Acceleration as a function of absolute time inside interval kk (exact polynomial)."""
-        t0 = kk * h
+        t0 = tn[kk]
         if seg.jerk_limited:
             return lambda tt: (a[kk] + u3[kk] * (tt - t0)).tolist()
         return lambda tt: u3[kk].tolist()
 
-    pieces = [(kk * h, (kk + 1) * h if kk < n - 1 else seg.T_s, acc_in(kk)) for kk in range(n)]
+    pieces = [(tn[kk], tn[kk + 1] if kk < n - 1 else seg.T_s, acc_in(kk)) for kk in range(n)]
     pieces.append((seg.T_s, max(seg.T_s, float(t[-1])), lambda tt: (0.0, 0.0, 0.0)))
     ang = integrate_pendulums(pieces, t, params, y0, rtol=1e-11, atol=1e-13)
     y = ang[-1]  # the state at the last sample, where the next segment starts
