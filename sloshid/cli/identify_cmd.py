@@ -60,6 +60,16 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--value-var", metavar="NAME", help=".mat variable holding the signal")
     parser.add_argument("--container-radius-m", type=float, metavar="M", help="cylinder radius in m (geometric prior)")
     parser.add_argument("--fill-height-m", type=float, metavar="M", help="liquid fill height in m (geometric prior)")
+    parser.add_argument(
+        "--trajectory",
+        action="append",
+        metavar="TRAJECTORY",
+        help="input-output identification: the trajectory or pose log that caused each signal (once per signal, same "
+        "order); fits f, zeta and the input gain to the whole records (see `sloshid predict` for the pose options)",
+    )
+    parser.add_argument("--axis-offset-m", type=float, default=0.0, metavar="M", help="with --trajectory: pivot offset")
+    parser.add_argument("--pose-columns", metavar="NAMES", help="with --trajectory: a headerless log's column names")
+    parser.add_argument("--smooth-s", type=float, default=0.1, metavar="S", help="with --trajectory: smoothing window")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -73,7 +83,8 @@ def run(args: argparse.Namespace) -> int:
         f_range_hz=args.f_range or IdentSettings.f_range_hz,
         drift=args.drift,
         min_fit_percent=args.min_fit,
-        container_radius_m=args.container_radius_m,
+        # the input-output fit needs the radius alone (for wall heights); the prior needs it with the fill height
+        container_radius_m=args.container_radius_m if args.trajectory is None or args.fill_height_m else None,
         fill_height_m=args.fill_height_m,
     )
     signals = [
@@ -85,9 +96,23 @@ def run(args: argparse.Namespace) -> int:
     for sig in signals:
         for w in sig.warnings:
             print(f"sloshid: warning: {w}", file=sys.stderr)
-    result = Identifier(settings).fit(signals).result
-    report = None
-    if args.report:
+    if args.trajectory is not None:
+        from sloshid.validation.iofit import fit_io_files
+
+        result = fit_io_files(
+            args.trajectory,
+            signals,
+            settings,
+            args.container_radius_m,
+            args.axis_offset_m,
+            args.smooth_s,
+            args.pose_columns,
+        )
+        report = result.report() if args.report else None
+    else:
+        result = Identifier(settings).fit(signals).result
+        report = None
+    if args.report and report is None:
         from sloshid.identification.report import build_report
 
         report = build_report(result)

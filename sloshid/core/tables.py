@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import csv
+import io
 from pathlib import Path
 
 import numpy as np
@@ -40,3 +41,33 @@ def read_csv(path: str | Path) -> dict[str, np.ndarray]:
     except ValueError:
         raise UserError(f"{path} is not a numeric CSV table.") from None
     return {name: data[:, i] for i, name in enumerate(rows[0])}
+
+
+def read_rows(p: Path) -> tuple[list[str] | None, list[list[str]]]:
+    """CSV rows with the delimiter (`,` `;` tab or space) sniffed; the header is the first row when it is not all
+    numbers (None when the file has no header)."""
+    try:
+        text = p.read_text(encoding="utf-8-sig")
+    except UnicodeDecodeError:
+        raise UserError(f"{p} is not a text CSV file.") from None
+    sample = text[:8192]
+    try:
+        dialect = csv.Sniffer().sniff(sample, delimiters=",;\t ")
+    except csv.Error:
+        dialect = csv.excel
+    rows = [r for r in csv.reader(io.StringIO(text), dialect) if r and any(c.strip() for c in r)]
+    if not rows:
+        raise UserError(f"{p} is empty.")
+    first = [c.strip() for c in rows[0]]
+
+    def numeric(cell: str) -> bool:
+        """True when the cell parses as a number."""
+        try:
+            float(cell)
+            return True
+        except ValueError:
+            return False
+
+    if all(numeric(c) for c in first if c):
+        return None, rows
+    return first, rows[1:]
