@@ -71,6 +71,7 @@ def summarise(rows: list[dict], model: str) -> dict:
     return {
         "median_abs_peak_error_percent": float(np.median(peaks)),
         "median_fit_percent": float(np.median(fits)),
+        "median_fit_move_percent": float(np.median([r[model]["fit_move_percent"] for r in rows])),
         "share_within_20_percent": float(np.mean([p <= 20 for p in peaks])),
         "n_runs": len(rows),
     }
@@ -118,7 +119,8 @@ def main() -> None:
         f"Cells: fit % / peak error % during the move, on runs the fold did not fit. {fits}. Tilt_TRD rows: never "
         f"fitted, shown per fold. Targets on unseen runs (input-output): median |peak error| "
         f"{io['median_abs_peak_error_percent']:.1f} % (target <= 8), median fit {io['median_fit_percent']:.1f} % "
-        f"(target >= 60), within 20 %: {100 * io['share_within_20_percent']:.0f} % of runs (target >= 85)."
+        f"(target >= 60; during the move alone {io['median_fit_move_percent']:.1f} %), within 20 %: "
+        f"{100 * io['share_within_20_percent']:.0f} % of runs (target >= 85)."
     )
     write_results(
         "validate_real",

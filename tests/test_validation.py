@@ -104,6 +104,7 @@ def test_predict_cli_reads_headerless_semicolon_log_and_writes_columns(tmp_path,
     assert data[i, -1] == pytest.approx(50 * math.tan(math.radians(data[i, header.index("rel_angle_deg")])), rel=1e-6)
 
 
+@pytest.mark.slow
 def test_io_fit_recovers_known_parameters_from_a_noisy_500_hz_pose_log(tmp_path, run_cli):
     # truth: the project's nonlinear model (f 3.2 Hz, zeta 0.03, input gain 0.85) on the clean move; the fit sees a
     # pose log with 20 um position noise and 1e-4 quaternion noise, and 0.1 mm height noise at 60 Hz on a clock 3.3 s

@@ -41,7 +41,7 @@ FIT_RATE_HZ = 50.0
 """The smoothed pivot acceleration is thinned to about this rate while fitting (the full rate scores the result)."""
 FIT_RTOL = 1e-5
 LAG_SPAN_S = 0.5
-"""The fitted lag stays within this of the cross-correlation's."""
+"""Simulated time kept beyond the aligned record's end, so that a re-alignment still finds a prediction there."""
 F_SPAN = 0.3
 """The frequency is searched within +-30 % of the best start."""
 GAIN_BOUNDS = (0.2, 5.0)
@@ -50,6 +50,8 @@ START_ZETAS = (0.01, 0.03, 0.1)
 """Damping ratios tried as starts beside the decay-only one (real decays can be long, strongly excited moves not)."""
 ROUNDS = 1
 """Fit, re-align every run by cross-correlation with the fitted model, and fit again this many times."""
+TOLERANCES = {"ftol": 1e-4, "xtol": 1e-4, "gtol": 1e-8}
+"""Stop when the cost or the scaled step changes by less than 0.01 %: far below the parameters' own uncertainty."""
 DIFF_STEP = 1e-2
 """Finite-difference step of the scaled physics (0.1 % of f, 1 % of zeta and k): well above the integrator's noise."""
 
@@ -195,7 +197,8 @@ def _thin(exc: Excitation, rate_hz: float) -> Excitation:
 
 
 def _prepare(pose: PoseLog, sig: Signal, start: LiquidModel) -> _RunData:
-    """Thin the excitation, align the start model's prediction with the measurement, subtract the baseline."""
+    """Thin the excitation, align the start model's prediction with the measurement, subtract the baseline; later
+    simulations run only as long as the aligned record needs (plus the lag's search span)."""
     kind = measured_kind(sig, start)
     exc = _thin(excitation(pose, start.axis_offset_m, start.smooth_s), FIT_RATE_HZ)
     y_all = measured_magnitude(sig, kind)
@@ -205,7 +208,7 @@ def _prepare(pose: PoseLog, sig: Signal, start: LiquidModel) -> _RunData:
     al = align(sig.t_s, y_all, resp.t_s, predicted_series(resp, kind, start.radius_m), exc.move_span_s)
     keep = sig.t_s - al.lag_s >= exc.move_span_s[0] - LEAD_IN_S
     y = y_all[keep] - baseline(sig.t_s, y_all, exc.move_span_s[0] + al.lag_s)
-    settle = max(float(sig.t_s[-1] - sig.t_s[0]) + 1.0, 0.1)
+    settle = max(float(sig.t_s[-1] - al.lag_s - exc.t_s[-1]) + LAG_SPAN_S, 0.1)
     norm = float(np.linalg.norm(y - y.mean())) or 1.0
     return _RunData(exc, sig.t_s[keep], y, al.lag_s, settle, norm, kind)
 
@@ -304,10 +307,12 @@ def fit_io(
     hi = np.array([10 * F_SPAN, math.log(ZETA_BOUNDS[1] / prob.zeta0), math.log(GAIN_BOUNDS[1])])
     x = np.zeros(3)
     for _ in range(ROUNDS):
-        sol = least_squares(prob.residuals, x, bounds=(lo, hi), jac=prob.jacobian, x_scale="jac", max_nfev=25)
+        sol = least_squares(
+            prob.residuals, x, bounds=(lo, hi), jac=prob.jacobian, x_scale="jac", max_nfev=25, **TOLERANCES
+        )
         x = sol.x
         prob.realign(x)
-    sol = least_squares(prob.residuals, x, bounds=(lo, hi), jac=prob.jacobian, x_scale="jac", max_nfev=20)
+    sol = least_squares(prob.residuals, x, bounds=(lo, hi), jac=prob.jacobian, x_scale="jac", max_nfev=20, **TOLERANCES)
     f, zeta, k = prob.physical(sol.x)
     at_bound = [nm for nm, v, a, b in zip(("f_hz", "zeta", "input_gain"), sol.x, lo, hi) if min(v - a, b - v) < 1e-6]
     params = _estimates(sol, prob, f, zeta, k, settings.mass_kg)
