@@ -265,3 +265,30 @@ def test_real_run_validates_within_expected_ranges(antisloshing_dir, run_cli, tm
     assert run["correlation"] > 0.85
     assert abs(run["scores"]["during"]["peak_error_percent"]) < 25
     assert 20 < run["scores"]["all"]["fit_percent"] < 90
+
+
+def test_sloshid_trajectory_csv_predicts_what_simulate_liquid_does(tmp_path):
+    # an upright sloshid trajectory keeps its exact accelerations through the CSV: the pose path must give the
+    # planner's own relative angle (1e-4 deg: the CSV's 9 significant digits)
+    from sloshid.model.simulate import simulate_liquid
+    from sloshid.model.trajectory import Trajectory
+
+    dt, z = 1e-3, np.zeros(2000)
+    t = np.arange(2000) * dt
+    x = 0.3 * smooth_step(t, 0.2, 1.5)
+    v = np.gradient(x, dt)
+    traj = Trajectory(
+        t,
+        np.column_stack([x, z, z]),
+        np.column_stack([v, z, z]),
+        np.column_stack([np.gradient(v, dt), z, z]),
+        np.zeros((2000, 3)),
+        np.zeros((2000, 3)),
+    )
+    traj.to_csv(tmp_path / "traj.csv")
+    pose = load_pose_log(tmp_path / "traj.csv")
+    assert pose.acc_m_s2 is not None
+    ours = respond(excitation(pose), TRUTH, settle_s=1.0)
+    theirs = simulate_liquid(traj, TRUTH, settle_s=1.0)
+    assert np.max(np.abs(ours.rel_angle_deg - theirs.rel_angle_deg)) < 1e-4
+    assert theirs.rel_angle_deg.max() > 1.0
