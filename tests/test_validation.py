@@ -127,6 +127,8 @@ def test_io_fit_recovers_known_parameters_from_a_noisy_500_hz_pose_log(tmp_path,
         OFFSET,
         "--window",
         "5.7,10.5",  # the free decay (measured clock) for the decay-only start: a magnitude, so it rings at 2 f
+        "--report",
+        tmp_path / "rep",
     )
     assert code == 0, err
     data = json.loads(out.read_text())
@@ -138,6 +140,7 @@ def test_io_fit_recovers_known_parameters_from_a_noisy_500_hz_pose_log(tmp_path,
     assert data["method"] == "input-output" and "window_s" in data  # the identify schema plus the extras
     assert data["geometry"]["axis_offset_m"] == OFFSET
     assert "decay-only" in stdout
+    assert "input_gain" in (tmp_path / "rep" / "index.html").read_text()
 
 
 def test_validate_scores_the_truth_model_near_perfect(tmp_path, run_cli):
