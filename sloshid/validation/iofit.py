@@ -12,7 +12,7 @@ from __future__ import annotations
 import html
 import itertools
 import math
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -86,7 +86,6 @@ class IOFit:
     """The same runs scored with the decay-only model (input gain 1)."""
     at_bound: list[str]
     n_simulations: int
-    notes: list[str] = field(default_factory=list)
 
     @property
     def quality(self) -> str:
@@ -142,7 +141,6 @@ class IOFit:
             "method": "input-output",
             "quality": self.quality,
             "reasons": self.reasons,
-            "notes": [*self.notes, *base["notes"]],
             "parameters": params,
             "decay_only_parameters": base["parameters"],
             "transfer_function": {**base["transfer_function"], "num": [self.model.input_gain * num[0]], "den": den},

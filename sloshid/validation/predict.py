@@ -54,16 +54,15 @@ def load_model(path: str | Path) -> LiquidModel:
     """Read `sloshid identify` JSON: the mode, the input gain (input-output fits) and any stored geometry."""
     params = SloshParams.from_identify_json(path)
     data = json.loads(Path(path).read_text(encoding="utf-8"))
-    gain = data["parameters"].get("input_gain", {}).get("value", 1.0)
-    geometry = data.get("geometry") or {}
-    radius = geometry.get("container_radius_m") or (data.get("prior") or {}).get("container_radius_m")
-    return LiquidModel(
-        params,
-        float(gain),
-        None if radius is None else float(radius),
-        float(geometry.get("axis_offset_m", 0.0)),
-        float(geometry.get("smooth_s", SMOOTH_S)),
-    )
+    try:
+        gain = float(data["parameters"].get("input_gain", {}).get("value", 1.0))
+        geometry = data.get("geometry") or {}
+        radius = geometry.get("container_radius_m") or (data.get("prior") or {}).get("container_radius_m")
+        radius = None if radius is None else float(radius)
+        offset, smooth = float(geometry.get("axis_offset_m", 0.0)), float(geometry.get("smooth_s", SMOOTH_S))
+    except (AttributeError, TypeError, ValueError):
+        raise UserError(f"parameter file {path}: input_gain or geometry is not a number.") from None
+    return LiquidModel(params, gain, radius, offset, smooth)
 
 
 def predict(pose: PoseLog, model: LiquidModel, settle_s: float = 3.0, rtol: float = 1e-9) -> PoseResponse:
