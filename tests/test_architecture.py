@@ -21,6 +21,7 @@ ALLOWED: dict[str, set[str]] = {
     "planning": {"core", "model", "report"},
     "comparison": {"core", "model", "report", "planning"},
     "synthetic": {"core", "model", "video", "identification"},
+    "validation": {"core", "model", "report", "identification"},
     "workflow": {"core", "model", "video", "report", "tracking", "identification", "planning", "comparison"},
     "cli": {
         "core",
@@ -32,6 +33,7 @@ ALLOWED: dict[str, set[str]] = {
         "planning",
         "comparison",
         "synthetic",
+        "validation",
         "workflow",
     },
 }

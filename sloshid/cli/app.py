@@ -19,6 +19,8 @@ COMMANDS: dict[str, str] = {
     "track": "measure the float's angle in every frame of a video, relative to the image or container",
     "identify": "find the sloshing frequency, damping, pendulum length and damping constant of a signal",
     "plan": "plan a time-optimal, slosh-free container move (CasADi) and write a 1 kHz robot trajectory",
+    "predict": "predict the liquid's response (angles, wall height) to any recorded container motion or pose log",
+    "validate": "score a model's predictions against measured moves (alignment, NRMSE fit, peak error, report)",
     "compare": "score the plan against constant-acceleration, input shaping, jerk-limited and feedback moves",
     "run": "run a declared pipeline (track, identify, plan, compare, report) with caching",
     "batch": "track and identify many videos in parallel on Dask",

@@ -59,6 +59,16 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--value-var", metavar="NAME", help=".mat variable holding the signal")
     parser.add_argument("--container-radius-m", type=float, metavar="M", help="cylinder radius in m (geometric prior)")
     parser.add_argument("--fill-height-m", type=float, metavar="M", help="liquid fill height in m (geometric prior)")
+    parser.add_argument(
+        "--trajectory",
+        action="append",
+        metavar="TRAJECTORY",
+        help="input-output identification: the trajectory or pose log that caused each signal (once per signal, same "
+        "order); fits f, zeta and the input gain to the whole records (see `sloshid predict` for the pose options)",
+    )
+    parser.add_argument("--axis-offset-m", type=float, default=0.0, metavar="M", help="with --trajectory: pivot offset")
+    parser.add_argument("--pose-columns", metavar="NAMES", help="with --trajectory: a headerless log's column names")
+    parser.add_argument("--smooth-s", type=float, default=0.1, metavar="S", help="with --trajectory: smoothing window")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -66,7 +76,7 @@ def run(args: argparse.Namespace) -> int:
     from sloshid.core.atomic import write_json
     from sloshid.core.outputs import Outputs
     from sloshid.identification.estimator import IdentSettings
-    from sloshid.identification.stage import SignalColumns, identify_sources
+    from sloshid.identification.stage import SignalColumns, identify_sources, to_signal
 
     settings = IdentSettings(
         mass_kg=args.mass,
@@ -74,16 +84,36 @@ def run(args: argparse.Namespace) -> int:
         f_range_hz=args.f_range or IdentSettings.f_range_hz,
         drift=args.drift,
         min_fit_percent=args.min_fit,
-        container_radius_m=args.container_radius_m,
+        # the input-output fit needs the radius alone (for wall heights); the prior needs it with the fill height
+        container_radius_m=args.container_radius_m if args.trajectory is None or args.fill_height_m else None,
         fill_height_m=args.fill_height_m,
     )
-    outputs = Outputs(args.signals)
+    outputs = Outputs([*args.signals, *(args.trajectory or [])])
     output = outputs.file(args.output, "-o", (".json",))
     report_dir = outputs.report_dir(args.report) if args.report else None
     columns = SignalColumns(args.time_col, args.value_col, args.time_var, args.value_var)
-    result = identify_sources(
-        args.signals, settings, columns, warn=lambda w: print(f"sloshid: warning: {w}", file=sys.stderr)
-    )
+
+    def warn(text: str) -> None:
+        print(f"sloshid: warning: {text}", file=sys.stderr)
+
+    if args.trajectory is not None:  # input-output: the whole record, forced response and free decay
+        from sloshid.validation.iofit import fit_io_files
+
+        signals = [to_signal(p, columns) for p in args.signals]
+        for sig in signals:
+            for w in sig.warnings:
+                warn(w)
+        result = fit_io_files(
+            args.trajectory,
+            signals,
+            settings,
+            args.container_radius_m,
+            args.axis_offset_m,
+            args.smooth_s,
+            args.pose_columns,
+        )
+    else:
+        result = identify_sources(args.signals, settings, columns, warn=warn)
     doc = result.to_dict()
     if report_dir is not None:
         result.report(report_dir)

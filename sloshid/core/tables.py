@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import csv
+import io
 from pathlib import Path
 from typing import Any
 
@@ -50,3 +51,36 @@ def to_pandas(columns: dict[str, Any]):
     except ImportError:
         raise UserError("to_pandas() needs pandas; install it with `pip install pandas`.") from None
     return pd.DataFrame(columns)
+
+
+def read_rows(p: Path) -> tuple[list[str] | None, list[list[str]]]:
+    """CSV rows with the delimiter (`,` `;` tab or space) sniffed; the header is the first row when it is not all
+    numbers (None when the file has no header)."""
+    try:
+        text = p.read_text(encoding="utf-8-sig")
+    except UnicodeDecodeError as exc:
+        raise UserError(
+            f"{p} is not UTF-8 text (byte 0x{exc.object[exc.start]:02X} at position {exc.start}); if it is a "
+            "CSV saved in another encoding (e.g. Latin-1), re-save it as UTF-8."
+        ) from None
+    sample = text[:8192]
+    try:
+        dialect = csv.Sniffer().sniff(sample, delimiters=",;\t ")
+    except csv.Error:
+        dialect = csv.excel
+    rows = [r for r in csv.reader(io.StringIO(text), dialect) if r and any(c.strip() for c in r)]
+    if not rows:
+        raise UserError(f"{p} is empty.")
+    first = [c.strip() for c in rows[0]]
+
+    def numeric(cell: str) -> bool:
+        """True when the cell parses as a number."""
+        try:
+            float(cell)
+            return True
+        except ValueError:
+            return False
+
+    if all(numeric(c) for c in first if c):
+        return None, rows
+    return first, rows[1:]

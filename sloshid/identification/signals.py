@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import csv
-import io
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Protocol
@@ -11,6 +9,7 @@ from typing import Protocol
 import numpy as np
 
 from sloshid.core.errors import SettingError, UserError
+from sloshid.core.tables import read_rows
 
 TRACKER_COLUMNS = ("t_s", "angle_deg", "valid")
 """Columns that mark a `sloshid track` CSV; its value is `angle_deg` on rows with valid == 1."""
@@ -149,6 +148,8 @@ def load_signal(
         raise UserError(f"{p} is a directory, not a signal file.")
     if p.suffix.lower() == ".mat":
         return _load_mat(p, time_var, value_var)
+    if p.suffix.lower() in VIDEO_LIKE:
+        raise UserError(f"{p} is a video; run `sloshid track` on it first and identify the CSV it writes.")
     return _load_csv(p, time_col, value_col)
 
 
@@ -186,40 +187,6 @@ def _load_mat(p: Path, time_var: str | None, value_var: str | None) -> Signal:
     return make_signal(arrays[0], arrays[1], value_var, unit or unit_from_name(value_var), str(p))
 
 
-def _read_rows(p: Path) -> tuple[list[str] | None, list[list[str]]]:
-    """CSV rows with the delimiter sniffed; the header is the first row when it is not all numbers."""
-    if p.suffix.lower() in VIDEO_LIKE:
-        raise UserError(f"{p} is a video; run `sloshid track` on it first and identify the CSV it writes.")
-    try:
-        text = p.read_text(encoding="utf-8-sig")
-    except UnicodeDecodeError as exc:
-        raise UserError(
-            f"{p} is not UTF-8 text (byte 0x{exc.object[exc.start]:02X} at position {exc.start}); if it is a "
-            "CSV saved in another encoding (e.g. Latin-1), re-save it as UTF-8."
-        ) from None
-    sample = text[:8192]
-    try:
-        dialect = csv.Sniffer().sniff(sample, delimiters=",;\t ")
-    except csv.Error:
-        dialect = csv.excel
-    rows = [r for r in csv.reader(io.StringIO(text), dialect) if r and any(c.strip() for c in r)]
-    if not rows:
-        raise UserError(f"{p} is empty.")
-    first = [c.strip() for c in rows[0]]
-
-    def numeric(cell: str) -> bool:
-        """True when the cell parses as a number."""
-        try:
-            float(cell)
-            return True
-        except ValueError:
-            return False
-
-    if all(numeric(c) for c in first if c):
-        return None, rows
-    return first, rows[1:]
-
-
 def _column_index(spec: str, header: list[str] | None, ncols: int, p: Path, role: str) -> int:
     """Resolve a column given by name (needs a header) or by 0-based index."""
     if header is not None and spec in header:
@@ -249,7 +216,7 @@ def _column_floats(rows: list[list[str]], i: int, keep: np.ndarray, p: Path, hea
 
 def _load_csv(p: Path, time_col: str | None, value_col: str | None) -> Signal:
     """Read a tracker CSV (angle_deg where valid == 1) or any CSV with chosen time and value columns."""
-    header, rows = _read_rows(p)
+    header, rows = read_rows(p)
     ncols = max(len(r) for r in rows) if rows else len(header or [])
     if not rows:
         raise UserError(f"{p} has a header but no data rows.")

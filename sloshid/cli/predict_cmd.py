@@ -1,0 +1,72 @@
+"""Predict the liquid's response to any recorded container motion: a sloshid trajectory CSV or a robot pose log
+(time s, position m, orientation as a unit quaternion x,y,z,w or as roll/pitch/yaw; header or not; `,` or `;`).
+The pendulums live in the world frame and are driven by the acceleration of their pivot, `--axis-offset-m` up the
+container axis from the logged point (Savitzky-Golay, order 5, `--smooth-s` window); the output holds the pivot
+acceleration, the surface angles relative to the container and the wall height R tan(relative angle)."""
+
+from __future__ import annotations
+
+import argparse
+
+from sloshid.core.errors import UserError
+
+
+def add_geometry_arguments(parser: argparse.ArgumentParser) -> None:
+    """The geometry and pose-log options shared by predict, validate and identify --trajectory."""
+    parser.add_argument(
+        "--axis-offset-m",
+        type=float,
+        metavar="M",
+        help="distance along the container axis from the logged point up to the pendulum pivot (about the liquid "
+        "surface at rest); default: the value stored in the parameters, else 0",
+    )
+    parser.add_argument(
+        "--container-radius-m", type=float, metavar="M", help="container radius R in m (default: from the parameters)"
+    )
+    parser.add_argument(
+        "--pose-columns",
+        metavar="NAMES",
+        help="names of a headerless pose log's columns in order, e.g. t,x,y,z,qx,qy,qz,qw (the default for 8 "
+        "columns) or t,x,y,z,roll_deg,pitch_deg,yaw_deg; `_` skips a column",
+    )
+    parser.add_argument(
+        "--smooth-s",
+        type=float,
+        metavar="S",
+        help="Savitzky-Golay window for accelerations from a pose log (default 0.1 s: gain 0.999 at 3 Hz)",
+    )
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Options of `sloshid predict`."""
+    parser.add_argument("trajectory", metavar="TRAJECTORY", help="sloshid trajectory CSV or robot pose log")
+    parser.add_argument("-o", "--output", required=True, metavar="PREDICTION.csv", help="prediction CSV to write")
+    parser.add_argument("--params", required=True, metavar="PARAMS.json", help="parameters from `sloshid identify`")
+    parser.add_argument(
+        "--settle-s", type=float, default=3.0, metavar="S", help="how long to continue after the log ends (s)"
+    )
+    add_geometry_arguments(parser)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Load and check everything, predict, write the CSV atomically, print the peaks."""
+    from sloshid.model.pose import load_pose_log
+    from sloshid.validation.predict import load_model, predict, write_prediction
+
+    model = load_model(args.params).with_geometry(args.container_radius_m, args.axis_offset_m, args.smooth_s)
+    if model.radius_m is None:
+        raise UserError("the wall height needs the container radius: give --container-radius-m (m).")
+    if not args.settle_s >= 0:
+        raise UserError(f"--settle-s must be zero or positive, got {args.settle_s:g}.")
+    pose = load_pose_log(args.trajectory, args.pose_columns)
+    resp = predict(pose, model, args.settle_s)
+    write_prediction(args.output, resp, model.radius_m)
+    move = resp.move_span_s
+    during = (resp.t_s >= move[0]) & (resp.t_s <= move[1])
+    height = resp.wall_height_mm(model.radius_m)
+    print(
+        f"move {move[0]:.3f}-{move[1]:.3f} s: peak relative angle {resp.rel_angle_deg[during].max():.2f} deg, "
+        f"peak wall height {height[during].max():.2f} mm; after it {resp.rel_angle_deg[~during & (resp.t_s > move[1])].max(initial=0):.2f} deg"
+    )
+    print(f"wrote {args.output}")
+    return 0

@@ -1,0 +1,57 @@
+"""Check a liquid model against measured moves: predict each trajectory, align the prediction with its measurement
+by cross-correlation over the move (lag and correlation reported), and score it as system identification does:
+NRMSE fit % = 100 (1 - |y - yhat| / |y - mean y|) and peak error %, over the record and per phase (during the move,
+after it). Measured wall heights (mm, e.g. the antisloshing .mat files) lose the quiet lead-in's baseline and are
+compared with R tan(relative angle); measured angles (deg) with the relative angle. Several runs give a table and
+the medians."""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+from sloshid.cli.predict_cmd import add_geometry_arguments
+from sloshid.core.errors import UserError
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Options of `sloshid validate`."""
+    parser.add_argument(
+        "--trajectory", required=True, action="append", metavar="T", help="trajectory or pose log (once per run)"
+    )
+    parser.add_argument(
+        "--measured", required=True, action="append", metavar="M", help="measured signal, .mat or CSV (once per run)"
+    )
+    parser.add_argument("--params", required=True, metavar="PARAMS.json", help="parameters from `sloshid identify`")
+    parser.add_argument("--report", metavar="DIR", help="write the HTML report to DIR/index.html")
+    parser.add_argument("--json", action="store_true", help="print the scores as JSON instead of the table")
+    add_geometry_arguments(parser)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Load and check all inputs first (nothing is written on bad input), validate each run, print, report."""
+    from sloshid.identification.signals import load_signal
+    from sloshid.model.pose import load_pose_log
+    from sloshid.validation.predict import load_model
+    from sloshid.validation.validate import build_report, medians, table_text, validate_run
+
+    if len(args.trajectory) != len(args.measured):
+        raise UserError(
+            f"give one --trajectory per --measured, in the same order: {len(args.trajectory)} trajectories, "
+            f"{len(args.measured)} measurements."
+        )
+    if args.report is not None and (args.report.endswith((".html", ".htm")) or Path(args.report).is_file()):
+        raise UserError(f"--report takes a directory (index.html is written inside it), got {args.report}.")
+    model = load_model(args.params).with_geometry(args.container_radius_m, args.axis_offset_m, args.smooth_s)
+    poses = [load_pose_log(t, args.pose_columns) for t in args.trajectory]
+    signals = [load_signal(m) for m in args.measured]
+    runs = [validate_run(p, s, model) for p, s in zip(poses, signals)]
+    if args.report is not None:
+        path = build_report(runs, model).save(args.report)
+        print(f"report written to {path}")
+    if args.json:
+        print(json.dumps({"runs": [r.to_dict() for r in runs], "medians": medians(runs)}, indent=2))
+    else:
+        print(table_text(runs))
+    return 0

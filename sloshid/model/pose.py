@@ -1,0 +1,282 @@
+"""Any recorded container motion as the liquid model's input: a robot pose log (time, position, orientation) turned
+into the acceleration of the pendulum pivot and the container orientation, and the liquid's angles back in the
+container's frame.
+
+Frames: the pendulums live in the world frame (z up, gravity -z), which does not turn with the container; a rotation
+about the vertical axis through the pivot therefore accelerates nothing and makes no slosh, and vertical acceleration
+changes the effective gravity to g + az (`simulate_liquid`). The pivot sits `axis_offset_m` up the container axis
+from the logged point (about the liquid surface at rest), so a tilt about the logged point moves the pivot.
+Accelerations come from a Savitzky-Golay filter (polynomial order 5, window `smooth_s`), never from raw double
+differences: zero phase, and with the default 0.1 s window the gain at 3 Hz is 0.999 (`savgol_acceleration_response`).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from scipy.signal import savgol_coeffs, savgol_filter
+from scipy.spatial.transform import Rotation, Slerp
+
+from sloshid.core.errors import UserError
+from sloshid.core.tables import read_rows
+from sloshid.model.pendulum import SloshParams
+from sloshid.model.simulate import simulate_liquid
+from sloshid.model.trajectory import CSV_COLUMNS, Trajectory
+
+SMOOTH_S = 0.1
+"""Default Savitzky-Golay window (s) for accelerations from a pose log."""
+SG_ORDER = 5
+"""Savitzky-Golay polynomial order: flat to 0.1 % at 3 Hz with the 0.1 s window (order 3 would lose 6 %)."""
+UNIT_TOL = 1e-3
+"""A quaternion whose norm differs from 1 by more than this is refused (logs round to ~1e-6)."""
+MOVE_TOL_M = 1e-5
+"""Pose change (m of position, or rad of rotation times 1 m) that counts as the container moving."""
+DEFAULT_COLUMNS = ("t", "x", "y", "z", "qx", "qy", "qz", "qw")
+"""Column order assumed for a headerless 8-column log (the shared antisloshing commands)."""
+ALIASES = {
+    "t": ("t", "t_s", "time", "time_s", "timestamp", "times"),
+    "x": ("x", "x_m", "px", "pos_x", "position_x"),
+    "y": ("y", "y_m", "py", "pos_y", "position_y"),
+    "z": ("z", "z_m", "pz", "pos_z", "position_z"),
+    "qx": ("qx", "quat_x", "orientation_x"),
+    "qy": ("qy", "quat_y", "orientation_y"),
+    "qz": ("qz", "quat_z", "orientation_z"),
+    "qw": ("qw", "quat_w", "orientation_w"),
+    "roll": ("roll", "roll_rad", "phi", "phi_rad", "roll_deg", "phi_deg"),
+    "pitch": ("pitch", "pitch_rad", "theta", "theta_rad", "pitch_deg", "theta_deg"),
+    "yaw": ("yaw", "yaw_rad", "psi", "psi_rad", "yaw_deg", "psi_deg"),
+}
+"""Header names accepted for each pose quantity (positions in m; angles in rad unless the name ends in _deg)."""
+
+
+@dataclass
+class PoseLog:
+    """A container pose over time: the logged point's position and the container's orientation."""
+
+    t_s: np.ndarray
+    """Sample times (N,), strictly increasing."""
+    pos_m: np.ndarray
+    """Logged point, world frame, z up (N, 3)."""
+    rot: Rotation
+    """Container orientation, container frame to world frame (N rotations; its z axis is the container axis)."""
+    source: str = "array"
+    acc_m_s2: np.ndarray | None = None
+    """The logged point's exact acceleration when the file carries it (sloshid trajectory CSV); else None."""
+
+    def __post_init__(self) -> None:
+        if self.t_s.size < 2 or np.any(np.diff(self.t_s) <= 0):
+            k = int(np.argmax(np.diff(self.t_s) <= 0)) + 1 if self.t_s.size >= 2 else 0
+            raise UserError(f"{self.source}: the pose log's time does not increase at sample {k}.")
+
+    @property
+    def move_span_s(self) -> tuple[float, float]:
+        """(start, end) of the motion: the first and last sample whose pose differs from the idle start and end."""
+
+        def differs(k: int) -> np.ndarray:
+            angle = (self.rot[k].inv() * self.rot).magnitude()
+            return (np.linalg.norm(self.pos_m - self.pos_m[k], axis=1) > MOVE_TOL_M) | (angle > MOVE_TOL_M)
+
+        away_start, away_end = np.flatnonzero(differs(0)), np.flatnonzero(differs(-1))
+        if away_start.size == 0:
+            raise UserError(f"{self.source}: the container never moves in this pose log.")
+        return float(self.t_s[max(away_start[0] - 1, 0)]), float(self.t_s[min(away_end[-1] + 1, self.t_s.size - 1)])
+
+    def uniform(self) -> PoseLog:
+        """The log on a uniform grid at its median step (positions linear, orientations slerped); self if uniform."""
+        dt = float(np.median(np.diff(self.t_s)))
+        if np.allclose(np.diff(self.t_s), dt, rtol=1e-3, atol=1e-9):
+            return self
+        t = self.t_s[0] + dt * np.arange(math.floor((self.t_s[-1] - self.t_s[0]) / dt + 1e-9) + 1)
+        pos = np.column_stack([np.interp(t, self.t_s, self.pos_m[:, i]) for i in range(3)])
+        return PoseLog(t, pos, Slerp(self.t_s, self.rot)(t), self.source)
+
+
+@dataclass
+class Excitation:
+    """What the liquid feels: the pivot's world acceleration and the container's orientation on a uniform grid."""
+
+    t_s: np.ndarray
+    acc_m_s2: np.ndarray
+    """Pivot acceleration, world frame (N, 3)."""
+    rot: Rotation
+    """Container orientation (N)."""
+    move_span_s: tuple[float, float]
+    smooth_s: float
+    axis_offset_m: float
+
+
+def savgol_acceleration_response(f_hz: float, rate_hz: float, smooth_s: float = SMOOTH_S) -> complex:
+    """Gain and phase (as one complex ratio) of the Savitzky-Golay acceleration against the true one at f_hz."""
+    n = _window_samples(smooth_s, rate_hz)
+    h = savgol_coeffs(n, SG_ORDER, deriv=2, delta=1.0 / rate_hz, use="dot")
+    w = 2 * math.pi * f_hz
+    k = np.arange(n) - n // 2
+    return complex(np.sum(h * np.exp(1j * w * k / rate_hz)) / -(w**2))
+
+
+def _window_samples(smooth_s: float, rate_hz: float) -> int:
+    """Odd window length in samples for a window of smooth_s seconds (at least order + 2)."""
+    if not smooth_s > 0:
+        raise UserError(f"the smoothing window must be positive, got {smooth_s!r} s.")
+    n = round(smooth_s * rate_hz) | 1
+    return max(n, SG_ORDER + 2 | 1)
+
+
+def excitation(pose: PoseLog, axis_offset_m: float = 0.0, smooth_s: float = SMOOTH_S) -> Excitation:
+    """Pivot acceleration (Savitzky-Golay second derivative of the pivot's position) and orientation of a pose log."""
+    pose = pose.uniform()
+    dt = float(pose.t_s[1] - pose.t_s[0])
+    n = _window_samples(smooth_s, 1.0 / dt)
+    if pose.t_s.size < n:
+        raise UserError(f"{pose.source}: {pose.t_s.size} samples are fewer than the {n}-sample smoothing window.")
+    axis = pose.rot.apply([0.0, 0.0, 1.0])
+
+    def second_derivative(x: np.ndarray) -> np.ndarray:
+        """SG acceleration; at the ends the window's polynomial is extrapolated (a log may stop mid-move)."""
+        return savgol_filter(x, n, SG_ORDER, deriv=2, delta=dt, axis=0, mode="interp")
+
+    if pose.acc_m_s2 is not None:  # exact point acceleration from the file; only the offset's part is smoothed
+        acc = pose.acc_m_s2 + second_derivative(axis_offset_m * axis)
+    else:
+        acc = second_derivative(pose.pos_m + axis_offset_m * axis)
+    return Excitation(pose.t_s, acc, pose.rot, pose.move_span_s, smooth_s, axis_offset_m)
+
+
+@dataclass
+class PoseResponse:
+    """The liquid's response to an Excitation: surface angles in the world and relative to the container."""
+
+    t_s: np.ndarray
+    acc_m_s2: np.ndarray
+    """Pivot acceleration (N, 3), zero after the log ends."""
+    liquid_rad: np.ndarray
+    """World-frame surface roll phi and pitch theta (N, 2), the pendulum states."""
+    rel_rad: np.ndarray
+    """Surface tilt in the container frame, roll about its x and pitch about its y (N, 2)."""
+    rel_angle_rad: np.ndarray
+    """Angle between surface normal and container axis (N,)."""
+    move_span_s: tuple[float, float]
+
+    @property
+    def rel_angle_deg(self) -> np.ndarray:
+        """Relative angle magnitude in degrees."""
+        return np.degrees(self.rel_angle_rad)
+
+    def wall_height_mm(self, radius_m: float) -> np.ndarray:
+        """Highest point of the tilted plane at the wall, R tan(relative angle), in mm."""
+        return 1000.0 * radius_m * np.tan(np.minimum(self.rel_angle_rad, 1.4))
+
+
+def respond(
+    exc: Excitation,
+    params: SloshParams,
+    input_gain: float = 1.0,
+    settle_s: float = 3.0,
+    rtol: float = 1e-9,
+    atol: float = 1e-12,
+) -> PoseResponse:
+    """Integrate the pendulums (simulate_liquid) under the pivot acceleration; horizontal input scaled by input_gain."""
+    acc = exc.acc_m_s2 * np.array([input_gain, input_gain, 1.0])
+    zero = np.zeros_like(acc)
+    traj = Trajectory(exc.t_s, zero, zero, acc, zero, zero, name="pivot")  # only t_s and acc_m_s2 drive the liquid
+    res = simulate_liquid(traj, params, settle_s, rtol, atol)
+    n_after = res.t_s.size - exc.t_s.size
+    quat = exc.rot.as_quat()
+    rot = Rotation.from_quat(np.vstack([quat, np.repeat(quat[-1:], n_after, axis=0)]))  # the last pose is held
+    phi, theta = res.liquid_rad[:, 0], res.liquid_rad[:, 1]
+    normal = np.column_stack([np.cos(phi) * np.sin(theta), -np.sin(phi), np.cos(phi) * np.cos(theta)])
+    local = rot.inv().apply(normal)
+    rel = np.column_stack([np.arctan2(-local[:, 1], local[:, 2]), np.arctan2(local[:, 0], local[:, 2])])
+    magnitude = np.arccos(np.clip(local[:, 2], -1.0, 1.0))
+    acc_all = np.vstack([acc, np.zeros((n_after, 3))])
+    return PoseResponse(res.t_s, acc_all, res.liquid_rad, rel, magnitude, exc.move_span_s)
+
+
+def pose_from_trajectory(traj: Trajectory, source: str = "trajectory") -> PoseLog:
+    """A sloshid Trajectory as a PoseLog that keeps its exact accelerations."""
+    rot = Rotation.from_euler("ZYX", traj.euler_rad[:, ::-1])
+    return PoseLog(np.asarray(traj.t_s, float), np.asarray(traj.pos_m, float), rot, source, traj.acc_m_s2)
+
+
+def load_pose_log(path: str | Path, columns: str | None = None) -> PoseLog:
+    """Read a sloshid trajectory CSV or a robot pose log (header or not, `,` or `;`; see ALIASES for the names).
+
+    `columns` names a headerless file's columns in order, comma-separated (`_` skips one), e.g.
+    `t,x,y,z,qx,qy,qz,qw` (the default for 8 columns) or `t,x,y,z,roll_deg,pitch_deg,yaw_deg`."""
+    p = Path(path)
+    if not p.is_file():
+        raise UserError(f"trajectory file {p} does not exist.")
+    header, rows = read_rows(p)
+    if header is not None and all(c in header for c in CSV_COLUMNS) and columns is None:
+        return pose_from_trajectory(Trajectory.from_csv(p), str(p))
+    data = _numeric(rows, p)
+    names = _column_names(header, columns, data.shape[1], p)
+    return _pose_from_columns(names, data, p)
+
+
+def _numeric(rows: list[list[str]], p: Path) -> np.ndarray:
+    """The rows as a float matrix, or one sentence naming the first bad line."""
+    width = len(rows[0])
+    for k, row in enumerate(rows):
+        if len(row) != width:
+            raise UserError(f"{p}: data row {k + 1} has {len(row)} columns, the first has {width}.")
+    try:
+        return np.array(rows, dtype=float)
+    except ValueError:
+        raise UserError(f"{p} holds a cell that is not a number.") from None
+
+
+def _column_names(header: list[str] | None, columns: str | None, ncols: int, p: Path) -> list[str]:
+    """Canonical names (t, x, ..., qw or roll/pitch/yaw with a unit) of the file's columns, '' for unused ones."""
+    given = [c.strip().lower() for c in columns.split(",")] if columns else None
+    if given is None and header is None:
+        if ncols != len(DEFAULT_COLUMNS):
+            raise UserError(
+                f"{p} has no header and {ncols} columns; name them with --pose-columns "
+                "(e.g. t,x,y,z,qx,qy,qz,qw or t,x,y,z,roll_deg,pitch_deg,yaw_deg)."
+            )
+        given = list(DEFAULT_COLUMNS)
+    raw = given if given is not None else [h.strip().lower() for h in header]
+    if len(raw) != ncols:
+        raise UserError(f"--pose-columns names {len(raw)} columns but {p} has {ncols}.")
+    names = []
+    for name in raw:
+        canon = next((k for k, alias in ALIASES.items() if name in alias), "")
+        if canon in ("roll", "pitch", "yaw"):
+            canon += "_deg" if name.endswith("_deg") else "_rad"
+        if given is not None and not canon and name not in ("_", "-", ""):
+            raise UserError(f"--pose-columns: unknown column name '{name}'; use t, x, y, z, qx..qw, roll, pitch, yaw.")
+        names.append(canon)
+    return names
+
+
+def _pose_from_columns(names: list[str], data: np.ndarray, p: Path) -> PoseLog:
+    """Build the PoseLog from canonical column names; quaternions must be unit."""
+    base = [n.split("_")[0] for n in names]
+    col = lambda key: data[:, base.index(key)]  # noqa: E731
+    need = ["t", "x", "y", "z"]
+    quat, rpy = all(q in base for q in ("qx", "qy", "qz", "qw")), all(a in base for a in ("roll", "pitch", "yaw"))
+    missing = [k for k in need if k not in base]
+    if missing or not (quat or rpy):
+        what = ", ".join(missing) or "an orientation (qx, qy, qz, qw or roll, pitch, yaw)"
+        raise UserError(f"{p} lacks {what}; name the columns with a header or --pose-columns.")
+    if not np.all(np.isfinite(data)):
+        raise UserError(f"{p} holds NaN or infinite values.")
+    pos = np.column_stack([col("x"), col("y"), col("z")])
+    if quat:
+        q = np.column_stack([col("qx"), col("qy"), col("qz"), col("qw")])
+        norm = np.linalg.norm(q, axis=1)
+        bad = np.flatnonzero(np.abs(norm - 1.0) > UNIT_TOL)
+        if bad.size:
+            raise UserError(
+                f"{p}: the quaternion on data row {bad[0] + 1} has norm {norm[bad[0]]:.4g}, not 1 "
+                "(orientation must be a unit quaternion x, y, z, w)."
+            )
+        rot = Rotation.from_quat(q)
+    else:
+        degrees = names[base.index("roll")].endswith("_deg")
+        rot = Rotation.from_euler("ZYX", np.column_stack([col("yaw"), col("pitch"), col("roll")]), degrees=degrees)
+    return PoseLog(col("t"), pos, rot, str(p))

@@ -1,0 +1,382 @@
+"""Input-output identification: the nonlinear pendulum driven by each recorded move, fitted to the whole measured
+record (forced response and free decay) of one or several runs at once.
+
+Shared physics: frequency f, damping ratio zeta and the input gain k (how strongly the mode feels the pivot's
+horizontal acceleration: 1 for an ideal pendulum; a real first mode carries only part of the liquid). Per run: the
+clock lag (started by cross-correlation) and an offset of the measured zero. Started from the decay-only fit;
+bounded least squares (scipy) on residuals scaled so that every run weighs as its NRMSE; Newey-West intervals.
+"""
+
+from __future__ import annotations
+
+import html
+import itertools
+import math
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from scipy.optimize import least_squares
+
+from sloshid.core.errors import UserError
+from sloshid.identification.estimator import Estimate, Identifier, IdentResult, IdentSettings, _estimate
+from sloshid.identification.pt2fit import hac_covariance
+from sloshid.identification.signals import Signal
+from sloshid.model.pendulum import G, SloshParams, linear_tf_coeffs
+from sloshid.model.pose import SMOOTH_S, Excitation, PoseLog, excitation, load_pose_log, respond
+from sloshid.validation.predict import LiquidModel
+from sloshid.validation.scoring import LEAD_IN_S, align, baseline
+from sloshid.validation.validate import (
+    ValidationRun,
+    build_report,
+    measured_kind,
+    measured_magnitude,
+    medians,
+    predicted_series,
+    validate_run,
+)
+
+FIT_RATE_HZ = 50.0
+"""The smoothed pivot acceleration is thinned to about this rate while fitting (the full rate scores the result)."""
+FIT_RTOL = 1e-5
+LAG_SPAN_S = 0.5
+"""Simulated time kept beyond the aligned record's end, so that a re-alignment still finds a prediction there."""
+F_SPAN = 0.3
+"""The frequency is searched within +-30 % of the best start."""
+GAIN_BOUNDS = (0.2, 5.0)
+ZETA_BOUNDS = (1e-3, 0.5)
+START_ZETAS = (0.01, 0.03, 0.1)
+"""Damping ratios tried as starts beside the decay-only one (real decays can be long, strongly excited moves not)."""
+ROUNDS = 1
+"""Fit, re-align every run by cross-correlation with the fitted model, and fit again this many times."""
+TOLERANCES = {"ftol": 1e-4, "xtol": 1e-4, "gtol": 1e-8}
+"""Stop when the cost or the scaled step changes by less than 0.01 %: far below the parameters' own uncertainty."""
+DIFF_STEP = 1e-2
+"""Finite-difference step of the scaled physics (0.1 % of f, 1 % of zeta and k): well above the integrator's noise."""
+
+
+@dataclass
+class _RunData:
+    """One run prepared for the fit: the thinned excitation, the measured samples (measured clock), scale."""
+
+    exc: Excitation
+    t_meas: np.ndarray
+    y: np.ndarray
+    lag0: float
+    settle_s: float
+    norm: float
+    kind: str
+
+
+@dataclass
+class IOFit:
+    """Result of the input-output fit: the model, its intervals, per-run alignment and scores, the decay-only start."""
+
+    model: LiquidModel
+    parameters: dict[str, Estimate]
+    decay: IdentResult
+    names: list[str]
+    trajectories: list[str]
+    lags_s: list[float]
+    offsets: list[float]
+    runs: list[ValidationRun]
+    """The runs scored with the fitted model (full-rate prediction, as `validate` does)."""
+    decay_runs: list[ValidationRun]
+    """The same runs scored with the decay-only model (input gain 1)."""
+    at_bound: list[str]
+    n_simulations: int
+
+    @property
+    def quality(self) -> str:
+        """'good' unless a parameter ended on its bound or the median fit stays below 15 %."""
+        return "uncertain" if self.reasons else "good"
+
+    @property
+    def reasons(self) -> list[str]:
+        """Why the verdict is uncertain (empty when good)."""
+        out = [f"{name} ended on its search bound." for name in self.at_bound]
+        fit = medians(self.runs)["all"]["fit_percent"]
+        if not fit >= 15.0:
+            out.append(f"the median fit over the runs is only {fit:.1f} %.")
+        return out
+
+    def comparison(self) -> dict[str, Any]:
+        """Median scores of the input-output model against the decay-only one on the fitted runs."""
+        io, decay = medians(self.runs), medians(self.decay_runs)
+        return {
+            "input_output": io,
+            "decay_only": decay,
+            "fit_gain_points": io["all"]["fit_percent"] - decay["all"]["fit_percent"],
+            "abs_peak_error_change_points": io["during"]["abs_peak_error_percent"]
+            - decay["during"]["abs_peak_error_percent"],
+        }
+
+    def report(self, directory: str | Path, links: dict[str, str] | None = None) -> Path:
+        """Write the HTML report (the fitted parameters and the runs as `validate` shows them) to
+        directory/index.html; `links` (text -> relative href) are shown at the top."""
+        rep = build_report(self.runs, self.model, "sloshid identify (input-output)")
+        rep.items.insert(0, f"<pre>{html.escape(self.summary())}</pre>")
+        rep.add_links(links or {})
+        return rep.save(directory)
+
+    def to_dict(self) -> dict[str, Any]:
+        """The `identify` JSON schema (the decay-only fit's keys) with the input-output parameters and extras."""
+        base = self.decay.to_dict()
+        num, den = linear_tf_coeffs(self.model.params)
+        params = {k: v.to_dict() for k, v in self.parameters.items()}
+        if self.decay.mass_kg is not None:
+            params["m_kg"] = {"value": self.decay.mass_kg}
+        per_signal = []
+        for i, run in enumerate(self.runs):
+            per_signal.append(
+                {
+                    "source": self.decay.signals[i].source,
+                    "trajectory": self.trajectories[i],
+                    "fitted_lag_s": self.lags_s[i],
+                    "fitted_offset": self.offsets[i],
+                    **run.to_dict(),
+                }
+            )
+        return {
+            **base,
+            "method": "input-output",
+            "quality": self.quality,
+            "reasons": self.reasons,
+            "parameters": params,
+            "decay_only_parameters": base["parameters"],
+            "transfer_function": {**base["transfer_function"], "num": [self.model.input_gain * num[0]], "den": den},
+            "geometry": {
+                "container_radius_m": self.model.radius_m,
+                "axis_offset_m": self.model.axis_offset_m,
+                "smooth_s": self.model.smooth_s,
+            },
+            "fit": {
+                "model": "nonlinear pendulums (seed eq. 2 per axis, world frame) driven by input_gain x the pivot's "
+                "horizontal acceleration, g + az; output R tan(angle to the container axis) or that angle; per run "
+                "lag and offset",
+                "fit_percent": medians(self.runs)["all"]["fit_percent"],
+                "n_simulations": self.n_simulations,
+                "interval_method": "Newey-West sandwich on the least-squares Jacobian (per-run blocks); normal 95 %",
+                "per_signal": per_signal,
+            },
+            "comparison_with_decay_only": self.comparison(),
+        }
+
+    def summary(self) -> str:
+        """Readable summary: parameters, per-run scores, and the gain over the decay-only model."""
+        lines = [f"sloshid identify (input-output): {len(self.runs)} run(s)"]
+        for key, est in self.parameters.items():
+            lines.append(
+                f"  {key:<12} = {est.value:.5g} ± {est.stderr:.2g}  (95 % CI {est.ci95[0]:.5g} .. {est.ci95[1]:.5g})"
+            )
+        d = self.decay.parameters
+        lines.append(f"  decay-only start: f = {d['f_hz'].value:.4g} Hz, zeta = {d['zeta'].value:.3g}")
+        for name, run, lag, dec in zip(self.names, self.runs, self.lags_s, self.decay_runs):
+            lines.append(
+                f"  {name}: lag {lag:.3f} s, fit {run.scores['all'].fit_percent:.1f} % (decay-only "
+                f"{dec.scores['all'].fit_percent:.1f} %), peak error {run.scores['during'].peak_error_percent:+.1f} % "
+                f"(decay-only {dec.scores['during'].peak_error_percent:+.1f} %)"
+            )
+        c = self.comparison()
+        lines.append(
+            f"  median fit {c['input_output']['all']['fit_percent']:.1f} % vs decay-only "
+            f"{c['decay_only']['all']['fit_percent']:.1f} %; median |peak error| "
+            f"{c['input_output']['during']['abs_peak_error_percent']:.1f} % vs "
+            f"{c['decay_only']['during']['abs_peak_error_percent']:.1f} % (on the fitted runs)"
+        )
+        lines.append(f"verdict: {self.quality}")
+        lines += [f"  - {r}" for r in self.reasons]
+        return "\n".join(lines)
+
+
+def _thin(exc: Excitation, rate_hz: float) -> Excitation:
+    """Every k-th sample of an already smoothed excitation (k so that the rate stays at or above rate_hz)."""
+    step = max(1, math.floor((1.0 / (exc.t_s[1] - exc.t_s[0])) / rate_hz))
+    return replace(exc, t_s=exc.t_s[::step], acc_m_s2=exc.acc_m_s2[::step], rot=exc.rot[::step])
+
+
+def _prepare(pose: PoseLog, sig: Signal, start: LiquidModel) -> _RunData:
+    """Thin the excitation, align the start model's prediction with the measurement, subtract the baseline; later
+    simulations run only as long as the aligned record needs (plus the lag's search span)."""
+    kind = measured_kind(sig, start)
+    exc = _thin(excitation(pose, start.axis_offset_m, start.smooth_s), FIT_RATE_HZ)
+    y_all = measured_magnitude(sig, kind)
+    resp = respond(
+        exc, start.params, start.input_gain, float(sig.t_s[-1] - sig.t_s[0]) + 1.0, FIT_RTOL, FIT_RTOL * 1e-3
+    )
+    al = align(sig.t_s, y_all, resp.t_s, predicted_series(resp, kind, start.radius_m), exc.move_span_s)
+    keep = sig.t_s - al.lag_s >= exc.move_span_s[0] - LEAD_IN_S
+    y = y_all[keep] - baseline(sig.t_s, y_all, exc.move_span_s[0] + al.lag_s)
+    settle = max(float(sig.t_s[-1] - al.lag_s - exc.t_s[-1]) + LAG_SPAN_S, 0.1)
+    norm = float(np.linalg.norm(y - y.mean())) or 1.0
+    return _RunData(exc, sig.t_s[keep], y, al.lag_s, settle, norm, kind)
+
+
+class _Problem:
+    """Residuals of the shared physics x = [10 (f/f0 - 1), log(zeta/zeta0), log k] at fixed per-run lags; each run's
+    offset is its mean residual (variable projection), and each run weighs as its NRMSE."""
+
+    def __init__(self, data: list[_RunData], f0: float, zeta0: float, radius_m: float | None):
+        self.data, self.f0, self.zeta0, self.radius_m = data, f0, zeta0, radius_m
+        self.lags = [d.lag0 for d in data]
+        self.n_sim = 0
+
+    def physical(self, x: np.ndarray) -> tuple[float, float, float]:
+        """(f, zeta, k) from the scaled vector."""
+        return self.f0 * (1 + x[0] / 10), self.zeta0 * math.exp(x[1]), math.exp(x[2])
+
+    def predictions(self, x: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
+        """Predicted (t, series) of every run (trajectory clock)."""
+        f, zeta, k = self.physical(x)
+        params = SloshParams.from_modal(2 * math.pi * f, zeta)
+        self.n_sim += 1
+        out = []
+        for d in self.data:
+            resp = respond(d.exc, params, k, d.settle_s, rtol=FIT_RTOL, atol=FIT_RTOL * 1e-3)
+            out.append((resp.t_s, predicted_series(resp, d.kind, self.radius_m)))
+        return out
+
+    def residuals(self, x: np.ndarray) -> np.ndarray:
+        """Stacked (y - yhat - offset) / |y - mean y| of all runs."""
+        parts = []
+        for d, (tp, yp), lag in zip(self.data, self.predictions(x), self.lags):
+            r = d.y - np.interp(d.t_meas - lag, tp, yp, left=yp[0])
+            parts.append((r - r.mean()) / d.norm)
+        return np.concatenate(parts)
+
+    def jacobian(self, x: np.ndarray) -> np.ndarray:
+        """Forward differences with fixed steps (scipy's relative steps vanish at x = 0, below integrator noise)."""
+        r0 = self.residuals(x)
+        cols = []
+        for j in range(x.size):
+            step = np.zeros_like(x)
+            step[j] = DIFF_STEP
+            cols.append((self.residuals(x + step) - r0) / DIFF_STEP)
+        return np.column_stack(cols)
+
+    def realign(self, x: np.ndarray) -> None:
+        """Per-run lags from the cross-correlation of the current model's prediction over the move."""
+        for i, (d, (tp, yp)) in enumerate(zip(self.data, self.predictions(x))):
+            self.lags[i] = align(d.t_meas, d.y, tp, yp, d.exc.move_span_s).lag_s
+
+    def offsets(self, x: np.ndarray) -> list[float]:
+        """The projected offsets at x (measured unit)."""
+        return [
+            float(np.mean(d.y - np.interp(d.t_meas - lag, tp, yp, left=yp[0])))
+            for d, (tp, yp), lag in zip(self.data, self.predictions(x), self.lags)
+        ]
+
+
+def _best_start(prob: _Problem, candidates_hz: list[float]) -> None:
+    """Move the problem's reference (f0, zeta0) to the lowest-cost start among the candidate frequencies (the
+    decay-only one and its half: a measured magnitude of a planar slosh repeats at twice the mode's frequency) and
+    a few damping ratios."""
+    best = (math.inf, prob.f0, prob.zeta0)
+    zero, zetas = np.zeros(3), sorted({prob.zeta0, *START_ZETAS})
+    for f in candidates_hz:
+        for z in zetas:
+            prob.f0, prob.zeta0 = f, z
+            best = min(best, (float(np.sum(prob.residuals(zero) ** 2)), f, z))
+    prob.f0, prob.zeta0 = best[1], best[2]
+
+
+def fit_io(
+    poses: list[PoseLog],
+    signals: list[Signal],
+    radius_m: float | None,
+    axis_offset_m: float = 0.0,
+    smooth_s: float = SMOOTH_S,
+    settings: IdentSettings | None = None,
+    names: list[str] | None = None,
+) -> IOFit:
+    """Fit f, zeta and the input gain jointly over the runs (own lag and offset each), from the decay-only start."""
+    if len(poses) != len(signals):
+        raise UserError(
+            f"give one --trajectory per signal, in the same order: {len(signals)} signal(s), {len(poses)} trajectories."
+        )
+    settings = settings or IdentSettings()
+    decay = Identifier(settings).fit(signals).result  # the start, and the model the result is compared with
+    f0 = decay.parameters["f_hz"].value
+    zeta0 = min(max(decay.parameters["zeta"].value, ZETA_BOUNDS[0]), ZETA_BOUNDS[1])
+    start = LiquidModel(SloshParams.from_modal(2 * math.pi * f0, zeta0), 1.0, radius_m, axis_offset_m, smooth_s)
+    prob = _Problem([_prepare(p, s, start) for p, s in zip(poses, signals)], f0, zeta0, radius_m)
+    _best_start(prob, [f0, f0 / 2])
+    prob.realign(np.zeros(3))
+    lo = np.array([-10 * F_SPAN, math.log(ZETA_BOUNDS[0] / prob.zeta0), math.log(GAIN_BOUNDS[0])])
+    hi = np.array([10 * F_SPAN, math.log(ZETA_BOUNDS[1] / prob.zeta0), math.log(GAIN_BOUNDS[1])])
+    x = np.zeros(3)
+    for _ in range(ROUNDS):
+        sol = least_squares(
+            prob.residuals, x, bounds=(lo, hi), jac=prob.jacobian, x_scale="jac", max_nfev=25, **TOLERANCES
+        )
+        x = sol.x
+        prob.realign(x)
+    sol = least_squares(prob.residuals, x, bounds=(lo, hi), jac=prob.jacobian, x_scale="jac", max_nfev=20, **TOLERANCES)
+    f, zeta, k = prob.physical(sol.x)
+    at_bound = [nm for nm, v, a, b in zip(("f_hz", "zeta", "input_gain"), sol.x, lo, hi) if min(v - a, b - v) < 1e-6]
+    params = _estimates(sol, prob, f, zeta, k, settings.mass_kg)
+    mass = settings.mass_kg or 1.0
+    model = LiquidModel(SloshParams.from_modal(2 * math.pi * f, zeta, mass), k, radius_m, axis_offset_m, smooth_s)
+    names = names or [s.source for s in signals]
+    runs = [validate_run(p, s, model, nm) for p, s, nm in zip(poses, signals, names)]
+    decay_model = replace(start, params=decay.params)
+    decay_runs = [validate_run(p, s, decay_model, nm) for p, s, nm in zip(poses, signals, names)]
+    return IOFit(
+        model,
+        params,
+        decay,
+        names,
+        [p.source for p in poses],
+        [float(v) for v in prob.lags],
+        prob.offsets(sol.x),
+        runs,
+        decay_runs,
+        at_bound,
+        prob.n_sim,
+    )
+
+
+def fit_io_files(
+    trajectories: list[str],
+    signals: list[Signal],
+    settings: IdentSettings,
+    radius_m: float | None,
+    axis_offset_m: float,
+    smooth_s: float,
+    pose_columns: str | None = None,
+) -> IOFit:
+    """`identify --trajectory`: check the counts and geometry, read the pose logs, fit."""
+    if len(trajectories) != len(signals):
+        raise UserError(
+            f"give one --trajectory per signal, in the same order: {len(signals)} signal(s), "
+            f"{len(trajectories)} trajectories."
+        )
+    if radius_m is None and any(s.unit == "mm" for s in signals):
+        raise UserError("wall heights in mm need the container radius: give --container-radius-m (m).")
+    poses = [load_pose_log(t, pose_columns) for t in trajectories]
+    return fit_io(poses, signals, radius_m, axis_offset_m, smooth_s, settings, [Path(s.source).stem for s in signals])
+
+
+def _estimates(sol, prob: _Problem, f: float, zeta: float, k: float, mass: float | None) -> dict[str, Estimate]:
+    """Parameters with Newey-West standard errors (per-run blocks), mapped from the scaled vector."""
+    data = prob.data
+    sizes = np.cumsum([0] + [d.y.size for d in data])
+    blocks = [slice(a, b) for a, b in itertools.pairwise(sizes)]
+    periods = [max(round(1.0 / (f * np.median(np.diff(d.t_meas)))), 1) for d in data]
+    cov, _naive, _lags = hac_covariance(sol.jac, sol.fun, blocks, periods)
+    d_scaled = np.array([prob.f0 / 10, zeta, k])
+    se = np.sqrt(np.clip(np.diag(cov)[:3], 0, None)) * d_scaled
+    omega, se_w = 2 * math.pi * f, 2 * math.pi * se[0]
+    out = {
+        "f_hz": _estimate(f, se[0]),
+        "omega_rad_s": _estimate(omega, se_w),
+        "zeta": _estimate(zeta, se[1], floor=0.0),
+        "l_m": _estimate(G / omega**2, 2 * G / omega**3 * se_w),
+        "input_gain": _estimate(k, se[2], floor=0.0),
+    }
+    if mass is not None:
+        out["d_ns_per_m"] = _estimate(
+            2 * mass * omega * zeta, 2 * mass * math.hypot(zeta * se_w, omega * se[1]), floor=0.0
+        )
+    return out
