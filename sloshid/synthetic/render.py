@@ -112,6 +112,24 @@ class SynthSettings:
     """Float length as a fraction of the frame height."""
     seed: int = 0
     """Seed of every random draw (noise, flicker, frame-time jitter)."""
+    scene: Literal["float", "surface"] = "float"
+    """'float': a coloured float on pale liquid; 'surface': dyed liquid whose surface itself is measured."""
+    liquid_color: str = "blue"
+    """Surface scene: dye colour preset name (the liquid body's colour)."""
+    elevation_deg: float = 0.0
+    """Surface scene: camera this far above the surface plane, so the round surface shows as a thin ellipse."""
+    meniscus_px: float = 0.0
+    """Surface scene: thickness of the meniscus band along the surface (curls up 3x as high at the walls)."""
+    meniscus_dark: bool = False
+    """Surface scene: a dark meniscus band instead of a bright one."""
+    specular: float = 0.0
+    """Surface scene: opacity of two vertical highlight stripes on the glass (0 = none)."""
+    reflection: float = 0.0
+    """Surface scene: opacity of the surface's mirror image on the wall near each side (0 = none)."""
+    second_mode: float = 0.0
+    """Surface scene: wall height of an antisymmetric second mode (1.7 f, 2 zeta) relative to the first mode's."""
+    container_diameter_m: float = 0.1
+    """Surface scene: the container's inner diameter, which sets the millimetre scale of the wall-height truth."""
 
     def __post_init__(self) -> None:
         checks = [
@@ -137,11 +155,18 @@ class SynthSettings:
             ),
             (0.05 <= self.float_length_frac <= 0.3, "float length must be 0.05..0.3 of the frame height"),
             (self.move_duration_s > 0 and self.px_per_m > 0, "move duration and px_per_m must be positive"),
+            (self.scene in ("float", "surface"), "scene must be 'float' or 'surface'"),
+            (0 <= self.elevation_deg <= 20, "camera elevation must be 0..20 degrees"),
+            (0 <= self.meniscus_px <= 10, "meniscus must be 0..10 pixels"),
+            (0 <= self.specular <= 1 and 0 <= self.reflection <= 1, "specular and reflection must be 0..1"),
+            (abs(self.second_mode) <= 1, "second mode must be within -1..1 of the first"),
+            (self.container_diameter_m > 0, "container diameter must be positive"),
         ]
         for ok, message in checks:
             if not ok:
                 raise UserError(f"{message}.")
         preset(self.float_color)
+        preset(self.liquid_color)
         _ = self.params  # validates m, l, d
 
     @property
@@ -349,11 +374,23 @@ def _background(s: SynthSettings) -> np.ndarray:
     return BACKGROUND_TOP_BGR * (1 - frac) + BACKGROUND_BOTTOM_BGR * frac
 
 
-def render_frames(s: SynthSettings):
-    """Yield (truth row dict, BGR uint8 frame) for every frame; the generator behind render_video."""
+@dataclass
+class _Motion:
+    """Per-frame container pose and liquid angle shared by both scenes (arrays, one entry per frame)."""
+
+    t: np.ndarray
+    rel: np.ndarray
+    tilt: np.ndarray
+    dx: np.ndarray
+    accel: np.ndarray
+    drift: np.ndarray
+    rng: np.random.Generator
+
+
+def _motion(s: SynthSettings) -> _Motion:
+    """Frame times, the pendulum's relative angle, the container's travel and tilt, the lighting drift."""
     t = frame_times(s)
     rel = relative_angle_rad(s, t)
-    sc = _scene(s)
     tilt = np.radians(s.container_tilt_deg) * np.sin(2 * np.pi * s.container_tilt_hz * t)
     if s.motion == "move":
         dx = s.px_per_m * move_position_m(s, t)
@@ -361,11 +398,24 @@ def render_frames(s: SynthSettings):
     else:
         dx = s.travel_px * _smoothstep(t / max(s.duration_s, 1e-9))
         accel = np.zeros_like(t)
+    rng = np.random.default_rng([s.seed, 2])
+    drift = np.cumsum(rng.normal(0, 0.002, len(t)))
+    return _Motion(t, rel, tilt, dx, accel, drift, rng)
+
+
+def render_frames(s: SynthSettings):
+    """Yield (truth row dict, BGR uint8 frame) for every frame; the generator behind render_video."""
+    if s.scene == "surface":
+        from sloshid.synthetic.surface_scene import surface_frames  # the dyed-liquid scene builds on this module
+
+        yield from surface_frames(s, _motion(s))
+        return
+    mo = _motion(s)
+    t, rel, tilt, dx, accel, drift, rng = mo.t, mo.rel, mo.tilt, mo.dx, mo.accel, mo.drift, mo.rng
+    sc = _scene(s)
     roll = math.radians(s.camera_roll_deg)
     R_roll = _rot(roll)
     centre_img = np.array([s.width / 2, s.height / 2])
-    rng = np.random.default_rng([s.seed, 2])
-    drift = np.cumsum(rng.normal(0, 0.002, len(t)))
     float_bgr = preset(s.float_color).bgr
     base = _background(s)
     noise = _NoisePool(base.shape, s.noise_sigma, rng) if s.noise_sigma > 0 else None
@@ -470,7 +520,7 @@ def render_video(
             ):
                 writer.write(frame, row["t_s"])
                 rows.append(row)
-        truth = Truth({c: np.array([r[c] for r in rows]) for c in TRUTH_COLUMNS})
+        truth = Truth({c: np.array([r[c] for r in rows]) for c in rows[0]})
         if truth_csv is not None:
             truth.to_csv(truth_csv)
     return truth

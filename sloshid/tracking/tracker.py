@@ -25,6 +25,7 @@ from sloshid.tracking.container_ref import ContainerMeasurement, ContainerTracke
 from sloshid.tracking.float_angle import FloatFinder
 from sloshid.tracking.overlay import draw_overlay
 from sloshid.tracking.smooth import smooth_angle
+from sloshid.tracking.surface_track import SurfaceStep
 from sloshid.video.colors import DEFAULT_FLOAT_COLOR, HsvRange, preset
 from sloshid.video.frames import FrameReader, VideoWriter
 
@@ -42,13 +43,32 @@ TRACK_COLUMNS = (
 )
 """Output columns of `sloshid track` (the contract with identify/batch/pipeline)."""
 
+SURFACE_COLUMNS = (
+    "frame",
+    "t_s",
+    "angle_deg",
+    "surface_angle_deg",
+    "container_angle_deg",
+    "x_px",
+    "y_px",
+    "quality",
+    "valid",
+    "angle_smoothed_deg",
+    "left_wall_px",
+    "right_wall_px",
+    "left_wall_mm",
+    "right_wall_mm",
+)
+"""Output columns with --target surface: the same contract plus the wall heights (surface_angle_deg is the
+surface's angle against the image horizontal, where the float target writes float_angle_deg)."""
+
 VALID_QUALITY = 0.5
 """Frames whose quality is below this are marked valid = 0 (not used by the smoother)."""
 
 
 @dataclass
 class TrackSettings:
-    """How to find the float and what to measure its angle against."""
+    """What to measure (the float or the dyed liquid's surface), how to find it and what to measure against."""
 
     hsv: HsvRange = field(default_factory=lambda: preset(DEFAULT_FLOAT_COLOR).hsv)
     """OpenCV HSV box of the float colour (H 0..179, S and V 0..255; hue low > high wraps through red)."""
@@ -58,10 +78,33 @@ class TrackSettings:
     """'image': angle against the image horizontal; 'container': against the container's measured walls."""
     smooth: bool = True
     """Compute angle_smoothed_deg (Kalman + RTS); off saves a little time on very long videos."""
+    target: Literal["float", "surface"] = "float"
+    """'float': a coloured float's angle; 'surface': the dyed liquid's surface angle and wall heights."""
+    liquid_hsv: HsvRange | None = None
+    """Surface target: OpenCV HSV box of the dyed liquid; None picks the preset covering most of the first frame."""
+    rest_frames: int | None = None
+    """Surface target: the first this many frames define the rest level of the wall heights; None = the first second."""
+    container_diameter_m: float | None = None
+    """Surface target: the container's inner diameter, for the wall heights in millimetres (the walls give px/m)."""
 
     def __post_init__(self) -> None:
         if self.reference not in ("image", "container"):
             raise UserError(f"reference must be 'image' or 'container', got {self.reference!r}.")
+        if self.target not in ("float", "surface"):
+            raise UserError(f"target must be 'float' or 'surface', got {self.target!r}.")
+        if self.target == "float" and self.container_diameter_m is not None:
+            raise UserError(
+                "--container-diameter-m scales the wall heights, which only --target surface measures "
+                "(the float target finds no walls to scale)."
+            )
+        if self.container_diameter_m is not None and not (
+            math.isfinite(self.container_diameter_m) and self.container_diameter_m > 0
+        ):
+            raise UserError(
+                f"--container-diameter-m must be a positive number of metres, got {self.container_diameter_m}."
+            )
+        if self.rest_frames is not None and self.rest_frames < 1:
+            raise UserError(f"--rest-frames must be at least 1, got {self.rest_frames}.")
         if self.roi is not None:
             x, y, w, h = self.roi
             if w <= 0 or h <= 0 or x < 0 or y < 0:
@@ -86,6 +129,10 @@ class TrackResult:
     lost_share: float = 0.0
     """Share of the frames the container declares that did not decode (truncated file)."""
     warnings: list[str] = field(default_factory=list)
+    target: str = "float"
+    """What was measured; with 'surface', float_angle_deg holds the surface's angle against the image."""
+    walls: dict[str, np.ndarray] = field(default_factory=dict)
+    """Surface target: left_wall_px, right_wall_px, left_wall_mm, right_wall_mm (NaN without a scale)."""
 
     @property
     def invalid_share(self) -> float:
@@ -93,8 +140,11 @@ class TrackResult:
         return float(1 - np.mean(self.valid)) if len(self.valid) else 1.0
 
     def columns(self) -> dict[str, np.ndarray]:
-        """The output table, keyed by TRACK_COLUMNS."""
-        return {name: getattr(self, name) for name in TRACK_COLUMNS}
+        """The output table, keyed by TRACK_COLUMNS (SURFACE_COLUMNS for the surface target)."""
+        if self.target != "surface":
+            return {name: getattr(self, name) for name in TRACK_COLUMNS}
+        named = {"surface_angle_deg": self.float_angle_deg, **self.walls}
+        return {name: named[name] if name in named else getattr(self, name) for name in SURFACE_COLUMNS}
 
     def to_csv(self, path: str | Path) -> None:
         """Write the table atomically as CSV."""
@@ -118,6 +168,44 @@ def _unwrap(angle: float, previous: float) -> float:
     return angle - 180.0 * round((angle - previous) / 180.0)
 
 
+class _FloatStep:
+    """Per-frame float measurement (float_angle) against the image or the container walls (container_ref)."""
+
+    def __init__(self, settings: TrackSettings, roi: tuple[int, int, int, int]) -> None:
+        self.settings, self.roi = settings, roi
+        self.finder = FloatFinder(settings.hsv, roi)
+        self.walls = ContainerTracker(roi) if settings.reference == "container" else None
+        self.last_angle = math.nan
+        self.found = 0
+
+    def __call__(self, frame: np.ndarray, draw: bool) -> tuple[tuple, np.ndarray | None]:
+        """(row, overlay frame or None) of one frame."""
+        fm = self.finder.measure(frame)
+        self.found += fm.found
+        cm = ContainerMeasurement(True, 0.0)
+        if self.walls is not None:
+            cm = self.walls.measure(frame, fm.x_px, fm.y_px, fm.length_px) if fm.found else ContainerMeasurement(False)
+        float_angle = _unwrap(fm.angle_deg, self.last_angle) if fm.found else math.nan
+        ok = fm.found and cm.found and fm.quality >= VALID_QUALITY
+        if ok:
+            self.last_angle = float_angle
+        angle = float_angle - cm.angle_deg
+        row = (angle, float_angle, cm.angle_deg, fm.x_px, fm.y_px, fm.quality if cm.found else 0.0, int(ok))
+        return row, draw_overlay(frame, fm, cm, angle, ok, self.roi) if draw else None
+
+    def nothing_found(self, n: int, path: Path, hint: str) -> UserError:
+        """The one-sentence error when no frame was valid."""
+        if self.walls is not None and self.found:
+            return UserError(
+                f"the float was found in {self.found} of {n} frames of {path} but the container's "
+                f"side walls in none of them; {hint}, or use --reference image."
+            )
+        return UserError(
+            f"no float found in any of the {n} frames of {path} with HSV range "
+            f"{self.settings.hsv.describe()}; {hint} and adjust --float-hsv-low/--float-hsv-high or --float-color."
+        )
+
+
 def track_video(
     path: str | Path,
     settings: TrackSettings | None = None,
@@ -125,22 +213,19 @@ def track_video(
     progress: bool = False,
     multithreaded: bool = True,
 ) -> TrackResult:
-    """Track the float in every decoded frame of `path`; optionally write an overlay video.
+    """Track the float (or the liquid surface) in every decoded frame of `path`; optionally write an overlay video.
 
-    Raises UserError for unreadable videos, a bad ROI, and a float (or, with the container reference,
-    container walls) found in no frame; the overlay, if requested, is still written then: it shows what
-    was searched. Truncation and partial loss are reported in `warnings`, `lost_share`, `invalid_share`.
+    Raises UserError for unreadable videos, a bad ROI, and a float or liquid (or the container walls they need)
+    found in no frame; the overlay, if requested, is still written then: it shows what was searched.
+    Truncation and partial loss are reported in `warnings`, `lost_share`, `invalid_share`.
     multithreaded=False decodes on one core in this thread (for batches that run many videos side by side).
     """
     settings = settings or TrackSettings()
     reader = FrameReader(Path(path), multithreaded)
     width, height = reader.frame_size
     roi = _roi_box(settings, width, height)
-    finder = FloatFinder(settings.hsv, roi)
-    walls = ContainerTracker(roi) if settings.reference == "container" else None
+    step = _FloatStep(settings, roi) if settings.target == "float" else SurfaceStep(settings, roi)
     rows: list[tuple] = []
-    last_angle = math.nan
-    floats_found = 0
     with contextlib.ExitStack() as stack:
         writer = None
         if overlay is not None:
@@ -155,52 +240,29 @@ def track_video(
             leave=False,
         )
         for index, t, frame in frames:
-            fm = finder.measure(frame)
-            floats_found += fm.found
-            cm = ContainerMeasurement(True, 0.0)
-            if walls is not None:
-                cm = walls.measure(frame, fm.x_px, fm.y_px, fm.length_px) if fm.found else ContainerMeasurement(False)
-            float_angle = _unwrap(fm.angle_deg, last_angle) if fm.found else math.nan
-            ok = fm.found and cm.found and fm.quality >= VALID_QUALITY
-            if ok:
-                last_angle = float_angle
-            rows.append(
-                (
-                    index,
-                    t,
-                    float_angle - cm.angle_deg,
-                    float_angle,
-                    cm.angle_deg,
-                    fm.x_px,
-                    fm.y_px,
-                    fm.quality if cm.found else 0.0,
-                    int(ok),
-                )
-            )
+            row, drawn = step(frame, writer is not None)
+            rows.append((index, t, *row))
             if writer is not None:
-                writer.write(draw_overlay(frame, fm, cm, float_angle - cm.angle_deg, ok, roi), t)
+                writer.write(drawn, t)
     # raised after the overlay is finished: when nothing is found, the overlay is the user's diagnosis
-    if not any(r[-1] for r in rows):
+    if not any(r[8] for r in rows):
         hint = f"see the overlay {overlay}" if overlay else "write --overlay OUT.mp4 to see what was searched"
-        if walls is not None and floats_found:
-            raise UserError(
-                f"the float was found in {floats_found} of {len(rows)} frames of {path} but the container's "
-                f"side walls in none of them; {hint}, or use --reference image."
-            )
-        raise UserError(
-            f"no float found in any of the {len(rows)} frames of {path} with HSV range "
-            f"{settings.hsv.describe()}; {hint} and adjust --float-hsv-low/--float-hsv-high or --float-color."
-        )
-    return _result(Path(path), rows, reader.lost_share, reader.info.frame_count, settings.smooth)
+        raise step.nothing_found(len(rows), path, hint)
+    body, walls = [r[:9] for r in rows], {}
+    if settings.target == "surface":
+        body, walls = step.finish(rows)
+    res = _result(Path(path), body, reader.lost_share, reader.info.frame_count, settings)
+    res.target, res.walls = settings.target, walls
+    return res
 
 
-def _result(video: Path, rows: list[tuple], lost_share: float, declared: int, smooth: bool) -> TrackResult:
+def _result(video: Path, rows: list[tuple], lost_share: float, declared: int, settings: TrackSettings) -> TrackResult:
     """Assemble the TrackResult, smooth the angle and collect warnings."""
     cols = list(zip(*rows))
     arr = [np.asarray(c) for c in cols]
     frame, t, angle, fang, cang, x, y, q, valid = arr
     frame, valid = frame.astype(int), valid.astype(int)
-    smoothed = smooth_angle(t, angle, valid.astype(bool), q) if smooth else np.full(len(t), np.nan)
+    smoothed = smooth_angle(t, angle, valid.astype(bool), q) if settings.smooth else np.full(len(t), np.nan)
     res = TrackResult(
         video,
         frame,
@@ -222,7 +284,7 @@ def _result(video: Path, rows: list[tuple], lost_share: float, declared: int, sm
         )
     if res.invalid_share > 0:
         res.warnings.append(
-            f"float not measured in {int(np.sum(valid == 0))} of {len(valid)} frames "
+            f"{settings.target} not measured in {int(np.sum(valid == 0))} of {len(valid)} frames "
             f"({100 * res.invalid_share:.1f} %); those rows have valid = 0 and are bridged "
             "in angle_smoothed_deg."
         )
