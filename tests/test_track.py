@@ -287,3 +287,96 @@ def test_truncated_video_tracks_what_decodes_and_warns(bad_files, tmp_path, run_
     assert "looks truncated" in err and "% lost" in err
     res = read_csv(out)
     assert 10 < len(res["t_s"]) < 60 and res["valid"].all()
+
+
+# --- the liquid surface (--target surface) -------------------------------------------------------------------------
+# A dyed liquid seen from 4 deg above (thin ellipse), with a bright meniscus, two highlight stripes, the surface's
+# image on the walls, a weak second mode, a container tilting +-2 deg and H.264 at 320x240: every effect at once,
+# at half the benchmark's size.
+SURFACE = dict(
+    SMALL,
+    scene="surface",
+    duration_s=4.0,
+    tap_s=1.0,
+    f_hz=2.0,
+    zeta=0.04,
+    amplitude_deg=7.0,
+    elevation_deg=4.0,
+    meniscus_px=1.5,
+    specular=0.4,
+    reflection=0.5,
+    second_mode=0.15,
+    container_tilt_deg=2.0,
+    container_tilt_hz=0.3,
+    liquid_color="green",
+    seed=21,
+)
+
+
+@pytest.fixture(scope="module")
+def surface_video(tmp_path_factory):
+    """The SURFACE scene rendered once, and its truth."""
+    path = tmp_path_factory.mktemp("surface") / "surface.mp4"
+    return path, render_video(path, SynthSettings(**SURFACE))
+
+
+@pytest.mark.parametrize("reference, column", [("image", "surface_angle_deg"), ("container", "rel_angle_deg")])
+def test_surface_angle_and_wall_heights_match_truth(surface_video, reference, column):
+    path, truth = surface_video
+    res = track_video(path, TrackSettings(target="surface", reference=reference, container_diameter_m=0.1))
+    ok = res.valid.astype(bool)
+    assert ok.mean() > 0.9
+    # measured here: 0.18 deg RMSE and 0.4-0.6 px wall RMSE; the bounds leave room for other encoders.
+    # (the benchmark's targets, 0.3 deg and 1 px, are for 640x480, where the walls are twice as long)
+    assert _rmse((res.angle_deg - truth[column])[ok]) < 0.3
+    cols = res.columns()
+    for side in ("left", "right"):
+        assert _rmse((cols[f"{side}_wall_px"] - truth[f"{side}_wall_px"])[ok]) < 1.2
+        # the scale comes from the measured walls (inner width 0.1 m = 120 px): 1.2 px is 1.0 mm
+        assert _rmse((cols[f"{side}_wall_mm"] - truth[f"{side}_wall_mm"])[ok]) < 1.0
+    assert list(cols)[:10] == ["frame", "t_s", "angle_deg", "surface_angle_deg", *TRACK_COLUMNS[4:]]
+
+
+def test_surface_csv_identifies_like_its_truth(surface_video, tmp_path, run_cli):
+    # the contract with identify: a surface CSV is read like a float CSV, and its f matches the truth trace's
+    path, truth = surface_video
+    out = tmp_path / "s.csv"
+    code, stdout, _ = run_cli("track", path, "-o", out, "--target", "surface", "--reference", "container")
+    assert code == 0 and "valid" in stdout
+    from sloshid.identification.estimator import Identifier
+    from sloshid.identification.signals import Signal, load_signal
+
+    tracked = Identifier().fit(load_signal(out)).result.parameters
+    exact = Identifier().fit(Signal(truth["t_s"], truth["rel_angle_deg"], "angle", "deg", "truth")).result.parameters
+    # 3 s of a 2 Hz decay at 30 fps: f to 0.5 %, zeta to 15 % of the truth trace's (benchmark: longer clips)
+    assert tracked["f_hz"].value == pytest.approx(exact["f_hz"].value, rel=0.005)
+    assert tracked["zeta"].value == pytest.approx(exact["zeta"].value, rel=0.15)
+
+
+@pytest.mark.parametrize(
+    "extra, message",
+    [
+        (["--target", "surface", "--liquid-color", "red"], "no liquid of colour H 170..10"),
+        (["--target", "surface", "--roi", "110,40,100,150"], "not the container's inner walls"),
+        (["--container-diameter-m", "0.1"], "only --target surface measures"),
+        (["--target", "surface", "--liquid-hsv-low", "40,100,60"], "together"),
+    ],
+)
+def test_surface_bad_input_is_one_sentence_and_leaves_nothing(surface_video, tmp_path, run_cli, extra, message):
+    path, _ = surface_video
+    out = tmp_path / "a.csv"
+    code, _, err = run_cli("track", path, "-o", out, *extra)
+    assert code == 2 and message in err
+    assert err.count("\n") == 1 and "Traceback" not in err
+    assert not out.exists()
+
+
+def test_surface_overlay_draws_the_line_and_wall_points(surface_video, tmp_path):
+    path, truth = surface_video
+    track_video(path, TrackSettings(target="surface"), overlay=tmp_path / "o.mp4")
+    frames = list(FrameReader(tmp_path / "o.mp4"))
+    assert len(frames) == len(truth)
+    _, _, img = frames[5]  # at rest: the surface line is green across the middle of the liquid
+    x, y = int(truth["surface_x_px"][5]), int(truth["surface_y_px"][5])
+    patch = img[y - 3 : y + 4, x - 3 : x + 4].reshape(-1, 3).astype(int)
+    assert np.any((patch[:, 1] > 170) & (patch[:, 2] < 120) & (patch[:, 0] < 120))

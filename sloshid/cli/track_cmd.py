@@ -7,6 +7,11 @@ relative to the container's side walls, measured in every frame (static camera, 
 Timestamps are the video's own presentation times. Angles are degrees, counter-clockwise positive as
 seen. Columns: frame, t_s, angle_deg, float_angle_deg, container_angle_deg, x_px, y_px, quality (0..1),
 valid (0/1), angle_smoothed_deg (Kalman + RTS smoother on the real timestamps, bridges valid = 0 rows).
+
+With --target surface the dyed liquid itself is measured: angle_deg is the surface's best-fit line across the
+container's inner width, and left_wall_px/right_wall_px (left_wall_mm/right_wall_mm with
+--container-diameter-m) its height at each inner wall above the rest level (surface_angle_deg replaces
+float_angle_deg).
 """
 
 from __future__ import annotations
@@ -56,6 +61,24 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="also write the video with the detected float, the reference and the angle drawn on it",
     )
     parser.add_argument("--no-smooth", action="store_true", help="skip the Kalman/RTS angle_smoothed_deg column (NaN)")
+    g = parser.add_argument_group("liquid surface (--target surface)")
+    g.add_argument(
+        "--target",
+        choices=("float", "surface"),
+        default="float",
+        help="float: a coloured float's angle; surface: the dyed liquid's surface angle and its height at each wall",
+    )
+    g.add_argument(
+        "--liquid-color", metavar="NAME", help="dye colour preset (default: the one covering most of frame 0)"
+    )
+    g.add_argument("--liquid-hsv-low", metavar="H,S,V", help="lower corner of the dye colour in OpenCV HSV")
+    g.add_argument("--liquid-hsv-high", metavar="H,S,V", help="upper corner of the dye colour in OpenCV HSV")
+    g.add_argument(
+        "--rest-frames", type=int, metavar="N", help="the first N frames define rest (default: first second)"
+    )
+    g.add_argument(
+        "--container-diameter-m", type=float, metavar="D", help="inner diameter, m: adds the wall heights in mm"
+    )
 
 
 def _hsv_from_args(args: argparse.Namespace) -> HsvRange:
@@ -67,6 +90,17 @@ def _hsv_from_args(args: argparse.Namespace) -> HsvRange:
             parse_hsv(args.float_hsv_low, "--float-hsv-low"), parse_hsv(args.float_hsv_high, "--float-hsv-high")
         )
     return preset(args.float_color).hsv
+
+
+def _liquid_hsv_from_args(args: argparse.Namespace) -> HsvRange | None:
+    """The dye's HSV range: explicit low/high, a preset, or None (chosen from the first frame)."""
+    if (args.liquid_hsv_low is None) != (args.liquid_hsv_high is None):
+        raise UserError("give --liquid-hsv-low and --liquid-hsv-high together.")
+    if args.liquid_hsv_low is not None:
+        return HsvRange(
+            parse_hsv(args.liquid_hsv_low, "--liquid-hsv-low"), parse_hsv(args.liquid_hsv_high, "--liquid-hsv-high")
+        )
+    return preset(args.liquid_color).hsv if args.liquid_color else None
 
 
 def _roi_from_args(text: str | None) -> tuple[int, int, int, int] | None:
@@ -85,7 +119,14 @@ def _roi_from_args(text: str | None) -> tuple[int, int, int, int] | None:
 def run(args: argparse.Namespace) -> int:
     """Track, write the CSV (and overlay), report warnings; exit 1 when the video was truncated."""
     settings = TrackSettings(
-        hsv=_hsv_from_args(args), roi=_roi_from_args(args.roi), reference=args.reference, smooth=not args.no_smooth
+        hsv=_hsv_from_args(args),
+        roi=_roi_from_args(args.roi),
+        reference=args.reference,
+        smooth=not args.no_smooth,
+        target=args.target,
+        liquid_hsv=_liquid_hsv_from_args(args),
+        rest_frames=args.rest_frames,
+        container_diameter_m=args.container_diameter_m,
     )
     if args.output.suffix.lower() != ".csv":
         raise UserError(f"output {args.output} must end in .csv.")

@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from sloshid.core.errors import UserError
+from sloshid.tracking.container_ref import ContainerTracker
 from sloshid.tracking.overlay import draw_surface_overlay
 from sloshid.tracking.surface import SurfaceFinder
 
@@ -28,11 +29,18 @@ class SurfaceStep:
         self.settings, self.roi = settings, roi
         self.finder = SurfaceFinder(settings.liquid_hsv, roi)
         self.liquid_frames = 0
+        self.walls = ContainerTracker(roi) if settings.reference == "container" else None
 
     def __call__(self, frame: np.ndarray, draw: bool) -> tuple[tuple, np.ndarray | None]:
         """(row, overlay frame or None): the track row's fields, then the raw surface geometry."""
         m = self.finder.measure(frame)
         self.liquid_frames += m.liquid
+        if m.found and self.walls is not None:
+            # the container's whole wall edges (rim to bottom) give its angle more precisely than the liquid's sides
+            cm = self.walls.measure(frame, m.x_px, m.y_px, 0.8 * m.width_px)
+            if cm.found:
+                seen = math.atan(m.rel_slope) + math.radians(m.container_angle_deg - cm.angle_deg)
+                m.rel_slope, m.container_angle_deg = math.tan(seen), cm.angle_deg
         ok = m.found and m.quality >= VALID_QUALITY
         rel = math.degrees(math.atan(m.rel_slope)) if m.found else math.nan
         cang = m.container_angle_deg if self.settings.reference == "container" else 0.0

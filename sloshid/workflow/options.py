@@ -34,6 +34,8 @@ class TrackOptions:
     """Also write an overlay video per input (slower)."""
     smooth: bool = True
     """Compute the Kalman/RTS angle_smoothed_deg column."""
+    target: Literal["float", "surface"] = "float"
+    """What to measure: the float, or the dyed liquid's surface (its dye colour is chosen from the first frame)."""
 
     def __post_init__(self) -> None:
         if (self.float_hsv_low is None) != (self.float_hsv_high is None):
@@ -47,7 +49,7 @@ class TrackOptions:
             if self.float_hsv_low is not None
             else preset(self.float_color).hsv
         )
-        return TrackSettings(hsv=hsv, roi=self.roi, reference=self.reference, smooth=self.smooth)
+        return TrackSettings(hsv=hsv, roi=self.roi, reference=self.reference, smooth=self.smooth, target=self.target)
 
 
 @dataclass(frozen=True)
