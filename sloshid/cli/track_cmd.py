@@ -136,7 +136,7 @@ def run(args: argparse.Namespace) -> int:
         print(f"sloshid: warning: {warning}", file=sys.stderr)
     valid = int(result.valid.sum())
     print(
-        f"wrote {args.output}: {len(result.t_s)} frames, {valid} valid, "
+        f"wrote {args.output}: {len(result.t_s)} frames, {valid} valid ({int(result.repeated.sum())} repeated), "
         f"{result.t_s[-1] - result.t_s[0]:.2f} s" + (f"; overlay {args.overlay}" if args.overlay else "")
     )
     return 1 if result.lost_share > 0.005 else 0

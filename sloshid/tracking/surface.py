@@ -60,6 +60,8 @@ class SurfaceMeasurement:
     """(a, b, y0, y1) of the inner walls x = a y + b, for the overlay."""
     ends: tuple = ()
     """Image points of the fitted line at the walls and of the wall heights, for the overlay."""
+    band: tuple[int, int, int, int] = (0, 0, 0, 0)
+    """Box (x0, y0, x1, y1) around the measured front edge: where a repeated picture shows."""
 
 
 def auto_liquid_range(frame: np.ndarray, roi: tuple[int, int, int, int]) -> HsvRange | None:
@@ -85,6 +87,33 @@ def _crossings_first(m: np.ndarray, axis: int) -> tuple[np.ndarray, np.ndarray]:
     b = np.take_along_axis(m, np.expand_dims(j, axis), axis).squeeze(axis)
     frac = np.where(b > a, (0.5 - a) / np.where(b > a, b - a, 1), 0.5)
     return jm + frac, ok
+
+
+def refine_on_luma(gray: np.ndarray, pos: np.ndarray, ok: np.ndarray, reach: int = 6) -> np.ndarray:
+    """Move each column's edge estimate `pos` (rows of `gray`, sub-pixel) to the luma profile's mid-level crossing.
+
+    Compression keeps colour at half resolution and in coarse blocks, but luma at full resolution: the edge is
+    where the column's luma passes halfway between its levels `reach` pixels before and after the estimate
+    (the crossing closest to the estimate). Columns without that contrast keep their estimate.
+    """
+    n = gray.shape[0]
+    base = np.rint(pos).astype(int)
+    offs = np.arange(-reach, reach + 1)
+    rows = np.clip(base[None, :] + offs[:, None], 0, n - 1)
+    prof = gray[rows, np.arange(gray.shape[1])[None, :]]
+    n_lvl = max(1, reach // 2)  # the outer samples give the two levels
+    lo, hi = prof[:n_lvl].mean(axis=0), prof[-n_lvl:].mean(axis=0)
+    mid = 0.5 * (lo + hi)
+    d = prof - mid
+    cross = (d[:-1] * d[1:] <= 0) & (d[:-1] != d[1:])
+    dist = np.where(cross, np.abs(offs[:-1, None] + 0.5 - (pos - base)[None, :]), np.inf)
+    i = np.argmin(dist, axis=0)
+    cols = np.arange(gray.shape[1])
+    d0, d1 = d[i, cols], d[i + 1, cols]
+    frac = np.where(d0 != d1, d0 / np.where(d0 != d1, d0 - d1, 1), 0.5)
+    refined = base + offs[i] + frac
+    good = ok & np.isfinite(dist[i, cols]) & (np.abs(hi - lo) >= 12) & (base - reach >= 0) & (base + reach < n)
+    return np.where(good, refined, pos)
 
 
 class SurfaceFinder:
@@ -151,12 +180,13 @@ class SurfaceFinder:
         if self._model is None:
             return SurfaceMeasurement(False, liquid=True)
         body = membership_map(crop, self._model[0])
-        frame_geom = _container_axes(body, (X0, Y0), box)
+        gray = cv2.cvtColor(crop, cv2.COLOR_BGR2GRAY).astype(np.float32)
+        frame_geom = _container_axes(body, gray, (X0, Y0), box)
         if frame_geom is None:
             return SurfaceMeasurement(False, liquid=True)
-        return self._surface(crop, body, (X0, Y0), frame_geom)
+        return self._surface(gray, body, (X0, Y0), frame_geom)
 
-    def _surface(self, crop, body, origin, geom) -> SurfaceMeasurement:
+    def _surface(self, gray, body, origin, geom) -> SurfaceMeasurement:
         """Front and back edge per column, mid-line in container coordinates, robust cubic, line and wall heights."""
         X0, Y0 = origin
         walls, o, e_u, e_w = geom
@@ -170,6 +200,7 @@ class SurfaceFinder:
         if half < 10 or len(cols) < 12:
             return SurfaceMeasurement(False, liquid=True)
         front, ok = _crossings_first(body[:, cols], axis=0)
+        front = refine_on_luma(gray[:, cols], front, ok)
         p = np.column_stack([cols.astype(float), front]) - o
         u, wv = p @ e_u, p @ e_w
         s = (u - uc) / half
@@ -204,7 +235,14 @@ class SurfaceFinder:
             float(kept * min(1.0, max(0.0, 1.5 - rms))),
             wall_lines,
             (tuple(line_l), tuple(line_r), tuple(pl), tuple(pr)),
+            _band(front[ok], cols, (X0, Y0)),
         )
+
+
+def _band(front: np.ndarray, cols: np.ndarray, origin: tuple[int, int]) -> tuple[int, int, int, int]:
+    """Frame box around the front edge points, 3 px beyond them vertically."""
+    X0, Y0 = origin
+    return X0 + int(cols[0]), Y0 + int(front.min()) - 3, X0 + int(cols[-1]) + 1, Y0 + int(front.max()) + 4
 
 
 def _locally_consistent(w: np.ndarray, ok: np.ndarray) -> np.ndarray:
@@ -249,7 +287,7 @@ def _fit_front_basis(basis: np.ndarray, w: np.ndarray, min_points: int):
     return coef, keep, float(np.sqrt(np.mean((w[keep] - basis[keep] @ coef) ** 2)))
 
 
-def _container_axes(body: np.ndarray, origin: tuple[int, int], box: tuple[int, int, int, int]):
+def _container_axes(body: np.ndarray, gray: np.ndarray, origin: tuple[int, int], box: tuple[int, int, int, int]):
     """Inner walls (robust lines from the body's side crossings) and bottom; the container's axes, or None.
 
     Returns ((aL, bL), (aR, bR)) of the walls x = a y + b, the origin o on the inner bottom midway between the
@@ -265,6 +303,8 @@ def _container_axes(body: np.ndarray, origin: tuple[int, int], box: tuple[int, i
     left, okl = _crossings_first(band, axis=1)
     right, okr = _crossings_first(band[:, ::-1], axis=1)
     right = band.shape[1] - 1 - right
+    left = refine_on_luma(gray[r0:r1].T, left, okl, reach=2)
+    right = refine_on_luma(gray[r0:r1].T, right, okr, reach=2)
     fl = robust_polyfit(rows[okl].astype(float), left[okl], 1, 0.3, min_points=max(10, len(rows) // 3))
     fr = robust_polyfit(rows[okr].astype(float), right[okr], 1, 0.3, min_points=max(10, len(rows) // 3))
     if fl is None or fr is None:

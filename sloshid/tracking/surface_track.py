@@ -16,6 +16,7 @@ import numpy as np
 from sloshid.core.errors import UserError
 from sloshid.tracking.container_ref import ContainerTracker
 from sloshid.tracking.overlay import draw_surface_overlay
+from sloshid.tracking.repeats import REPEAT_SHARE, repeated_share
 from sloshid.tracking.surface import SurfaceFinder
 
 VALID_QUALITY = 0.5
@@ -29,6 +30,8 @@ class SurfaceStep:
         self.settings, self.roi = settings, roi
         self.finder = SurfaceFinder(settings.liquid_hsv, roi)
         self.liquid_frames = 0
+        self.previous: np.ndarray | None = None
+        self.repeated: list[bool] = []
         self.walls = ContainerTracker(roi) if settings.reference == "container" else None
 
     def __call__(self, frame: np.ndarray, draw: bool) -> tuple[tuple, np.ndarray | None]:
@@ -41,6 +44,9 @@ class SurfaceStep:
             if cm.found:
                 seen = math.atan(m.rel_slope) + math.radians(m.container_angle_deg - cm.angle_deg)
                 m.rel_slope, m.container_angle_deg = math.tan(seen), cm.angle_deg
+        repeat = m.found and repeated_share(frame, self.previous, m.band, dy_only=True) >= REPEAT_SHARE
+        self.previous = frame
+        self.repeated.append(bool(repeat))
         ok = m.found and m.quality >= VALID_QUALITY
         rel = math.degrees(math.atan(m.rel_slope)) if m.found else math.nan
         cang = m.container_angle_deg if self.settings.reference == "container" else 0.0

@@ -24,6 +24,7 @@ from sloshid.core.tables import write_csv
 from sloshid.tracking.container_ref import ContainerMeasurement, ContainerTracker
 from sloshid.tracking.float_angle import FloatFinder
 from sloshid.tracking.overlay import draw_overlay
+from sloshid.tracking.repeats import REPEAT_SHARE, repeated_share, stale_repeats
 from sloshid.tracking.smooth import smooth_angle
 from sloshid.tracking.surface_track import SurfaceStep
 from sloshid.video.colors import DEFAULT_FLOAT_COLOR, HsvRange, preset
@@ -133,6 +134,9 @@ class TrackResult:
     """What was measured; with 'surface', float_angle_deg holds the surface's angle against the image."""
     walls: dict[str, np.ndarray] = field(default_factory=dict)
     """Surface target: left_wall_px, right_wall_px, left_wall_mm, right_wall_mm (NaN without a scale)."""
+    repeated: np.ndarray = field(default_factory=lambda: np.zeros(0, bool))
+    """Frames whose picture of the float/surface the encoder copied from the previous frame while it moved
+    (valid = 0: an old picture is not a new measurement)."""
 
     @property
     def invalid_share(self) -> float:
@@ -177,11 +181,16 @@ class _FloatStep:
         self.walls = ContainerTracker(roi) if settings.reference == "container" else None
         self.last_angle = math.nan
         self.found = 0
+        self.previous: np.ndarray | None = None
+        self.repeated: list[bool] = []
 
     def __call__(self, frame: np.ndarray, draw: bool) -> tuple[tuple, np.ndarray | None]:
         """(row, overlay frame or None) of one frame."""
         fm = self.finder.measure(frame)
         self.found += fm.found
+        repeat = fm.found and repeated_share(frame, self.previous, fm.bbox, dy_only=False) >= REPEAT_SHARE
+        self.previous = frame
+        self.repeated.append(bool(repeat))
         cm = ContainerMeasurement(True, 0.0)
         if self.walls is not None:
             cm = self.walls.measure(frame, fm.x_px, fm.y_px, fm.length_px) if fm.found else ContainerMeasurement(False)
@@ -251,12 +260,16 @@ def track_video(
     body, walls = [r[:9] for r in rows], {}
     if settings.target == "surface":
         body, walls = step.finish(rows)
-    res = _result(Path(path), body, reader.lost_share, reader.info.frame_count, settings)
-    res.target, res.walls = settings.target, walls
+    repeated = stale_repeats(np.array([r[2] for r in body]), np.array([r[8] for r in body], bool), step.repeated)
+    body = [(*r[:8], int(r[8] and not rep)) for r, rep in zip(body, repeated)]
+    res = _result(Path(path), body, reader.lost_share, reader.info.frame_count, settings, repeated)
+    res.target, res.walls, res.repeated = settings.target, walls, repeated
     return res
 
 
-def _result(video: Path, rows: list[tuple], lost_share: float, declared: int, settings: TrackSettings) -> TrackResult:
+def _result(
+    video: Path, rows: list[tuple], lost_share: float, declared: int, settings: TrackSettings, repeated: np.ndarray
+) -> TrackResult:
     """Assemble the TrackResult, smooth the angle and collect warnings."""
     cols = list(zip(*rows))
     arr = [np.asarray(c) for c in cols]
@@ -282,10 +295,17 @@ def _result(video: Path, rows: list[tuple], lost_share: float, declared: int, se
             f"{video} looks truncated: only {len(rows)} of {declared} frames decoded "
             f"({100 * lost_share:.1f} % lost); tracked what decoded."
         )
-    if res.invalid_share > 0:
+    lost, repeats = int(np.sum((valid == 0) & ~repeated)), int(repeated.sum())
+    if lost > 0:
         res.warnings.append(
-            f"{settings.target} not measured in {int(np.sum(valid == 0))} of {len(valid)} frames "
-            f"({100 * res.invalid_share:.1f} %); those rows have valid = 0 and are bridged "
+            f"{settings.target} not measured in {lost} of {len(valid)} frames "
+            f"({100 * lost / len(valid):.1f} %); those rows have valid = 0 and are bridged "
             "in angle_smoothed_deg."
+        )
+    if repeats > 0:
+        res.warnings.append(
+            f"the encoder repeated the moving {settings.target}'s previous picture in {repeats} of {len(valid)} "
+            f"frames ({100 * repeats / len(valid):.1f} %; bit-exact copies, common at low bit rates and high frame "
+            "rates): those rows have valid = 0, so old pictures do not pass for new measurements."
         )
     return res
