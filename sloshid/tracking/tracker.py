@@ -275,7 +275,10 @@ def _result(
     arr = [np.asarray(c) for c in cols]
     frame, t, angle, fang, cang, x, y, q, valid = arr
     frame, valid = frame.astype(int), valid.astype(int)
-    smoothed = smooth_angle(t, angle, valid.astype(bool), q) if settings.smooth else np.full(len(t), np.nan)
+    # the smoother may lean on repeated pictures: they are late by a frame or two, not wrong, and without them
+    # it would bridge whole stretches (a float at rest until a tap) along an oscillator of coarse frequency
+    measured = valid.astype(bool) | repeated
+    smoothed = smooth_angle(t, angle, measured, q) if settings.smooth else np.full(len(t), np.nan)
     res = TrackResult(
         video,
         frame,
