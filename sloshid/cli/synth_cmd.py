@@ -100,6 +100,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="codec quality: H.264 CRF 0..51 (default 23), MPEG-4 qscale 1..31 (default 4); lower is better",
     )
     g.add_argument("--seed", type=int, default=d.seed, help="seed of all random draws (noise, flicker, jitter)")
+    g.add_argument("--float-rounded", action="store_true", help="rounded float ends (a capsule)")
+    g.add_argument("--float-bend", type=float, default=d.float_bend_px, help="float ends sag by this much, pixels")
+    g.add_argument("--float-specular", type=float, default=d.float_specular, help="specular spot opacity, 0..1")
+    g.add_argument(
+        "--float-submerged", type=float, default=d.float_submerged, help="share of the float under the liquid, 0..1"
+    )
+    g.add_argument(
+        "--motion-blur", type=float, default=d.motion_blur, help="exposure, share of the frame interval (0..1)"
+    )
     g = parser.add_argument_group("dyed-liquid scene (--scene surface)")
     g.add_argument(
         "--scene",
@@ -153,6 +162,11 @@ def settings_from_args(args: argparse.Namespace) -> SynthSettings:
         codec=args.codec,
         quality=args.quality,
         seed=args.seed,
+        float_rounded=args.float_rounded,
+        float_bend_px=args.float_bend,
+        float_specular=args.float_specular,
+        float_submerged=args.float_submerged,
+        motion_blur=args.motion_blur,
         scene=args.scene,
         liquid_color=args.liquid_color,
         elevation_deg=args.elevation,

@@ -112,6 +112,16 @@ class SynthSettings:
     """Float length as a fraction of the frame height."""
     seed: int = 0
     """Seed of every random draw (noise, flicker, frame-time jitter)."""
+    float_rounded: bool = False
+    """Float scene: rounded float ends (a capsule) instead of square ones."""
+    float_bend_px: float = 0.0
+    """Float scene: the float's ends sag this many pixels below its middle (a slightly curved float)."""
+    float_specular: float = 0.0
+    """Float scene: opacity of a specular spot fixed to the light, so the float turns under it (0 = none)."""
+    float_submerged: float = 0.0
+    """Float scene: share of the float's thickness under the tinted liquid, seen through it (0..1)."""
+    motion_blur: float = 0.0
+    """Exposure as a share of the frame interval (0..1): each frame averages 5 poses across it, centred."""
     scene: Literal["float", "surface"] = "float"
     """'float': a coloured float on pale liquid; 'surface': dyed liquid whose surface itself is measured."""
     liquid_color: str = "blue"
@@ -156,6 +166,9 @@ class SynthSettings:
             (0.05 <= self.float_length_frac <= 0.3, "float length must be 0.05..0.3 of the frame height"),
             (self.move_duration_s > 0 and self.px_per_m > 0, "move duration and px_per_m must be positive"),
             (self.scene in ("float", "surface"), "scene must be 'float' or 'surface'"),
+            (0 <= self.float_submerged <= 1 and 0 <= self.float_specular <= 1, "float submerged/specular must be 0..1"),
+            (0 <= self.motion_blur <= 1, "motion blur must be 0..1 of the frame interval"),
+            (0 <= self.float_bend_px <= 0.2 * self.height, "float bend must be 0..0.2 of the frame height"),
             (0 <= self.elevation_deg <= 20, "camera elevation must be 0..20 degrees"),
             (0 <= self.meniscus_px <= 10, "meniscus must be 0..10 pixels"),
             (0 <= self.specular <= 1 and 0 <= self.reflection <= 1, "specular and reflection must be 0..1"),
@@ -387,17 +400,21 @@ class _Motion:
     rng: np.random.Generator
 
 
-def _motion(s: SynthSettings) -> _Motion:
-    """Frame times, the pendulum's relative angle, the container's travel and tilt, the lighting drift."""
-    t = frame_times(s)
-    rel = relative_angle_rad(s, t)
+def _poses_at(s: SynthSettings, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(relative angle rad, container tilt rad, container travel px) at times t."""
     tilt = np.radians(s.container_tilt_deg) * np.sin(2 * np.pi * s.container_tilt_hz * t)
     if s.motion == "move":
         dx = s.px_per_m * move_position_m(s, t)
-        accel = move_accel(s, t)
     else:
         dx = s.travel_px * _smoothstep(t / max(s.duration_s, 1e-9))
-        accel = np.zeros_like(t)
+    return relative_angle_rad(s, t), tilt, dx
+
+
+def _motion(s: SynthSettings) -> _Motion:
+    """Frame times, the pendulum's relative angle, the container's travel and tilt, the lighting drift."""
+    t = frame_times(s)
+    rel, tilt, dx = _poses_at(s, t)
+    accel = move_accel(s, t) if s.motion == "move" else np.zeros_like(t)
     rng = np.random.default_rng([s.seed, 2])
     drift = np.cumsum(rng.normal(0, 0.002, len(t)))
     return _Motion(t, rel, tilt, dx, accel, drift, rng)
@@ -428,25 +445,49 @@ def render_frames(s: SynthSettings):
     }
     L, T = sc.float_l / 2, sc.float_t / 2
     float_local = _rect(-L, L, -T, T)
-    for k in range(len(t)):
-        # container frame (x right, y up, origin at the float centre) -> world -> rolled camera -> image
-        pos_world = np.array([sc.x0 + dx[k], s.height - sc.y0])  # y up in world
-        R_c = _rot(tilt[k])
+    looks = s.float_rounded or s.float_bend_px or s.float_specular or s.float_submerged
 
-        def to_img(pts: np.ndarray, R_c: np.ndarray = R_c, pos_world: np.ndarray = pos_world) -> np.ndarray:
-            """Container coordinates (x right, y up) -> image pixels (y down), through tilt, pose and roll."""
-            world = pts @ R_c.T + pos_world
-            cam = (world - np.array([s.width / 2, s.height / 2])) @ R_roll.T
+    def to_img_at(tilt_k: float, dx_k: float):
+        """Container coordinates (x right, y up) -> image pixels (y down), through tilt, pose and roll."""
+        R_c, pos_world = _rot(tilt_k), np.array([sc.x0 + dx_k, s.height - sc.y0])  # y up in world
+
+        def to_img(pts: np.ndarray) -> np.ndarray:
+            cam = (pts @ R_c.T + pos_world - centre_img) @ R_roll.T
             return np.column_stack([cam[:, 0] + centre_img[0], centre_img[1] - cam[:, 1]])
 
+        def to_container(x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+            cam = np.stack([x - centre_img[0], centre_img[1] - y], axis=-1)
+            local = (cam @ R_roll + centre_img - pos_world) @ R_c
+            return local[..., 0], local[..., 1]
+
+        return to_img, to_container
+
+    def paint(rel_k: float, tilt_k: float, dx_k: float) -> np.ndarray:
+        """The undegraded picture of one pose."""
+        to_img, to_container = to_img_at(tilt_k, dx_k)
         img = base.copy()
         _paint(img, to_img(shapes_container["glass"]), (235, 240, 240), 0.25)
         # liquid: the container interior below the surface line through the float centre (a convex polygon)
-        liquid = _liquid_polygon(half, sc.depth, rel[k])
-        _paint(img, to_img(liquid), LIQUID_BGR, 0.8)
+        _paint(img, to_img(_liquid_polygon(half, sc.depth, rel_k)), LIQUID_BGR, 0.8)
         for part in ("left", "right", "bottom"):
             _paint(img, to_img(shapes_container[part]), WALL_BGR, 0.92)
-        _paint(img, to_img(float_local @ _rot(rel[k]).T), float_bgr, 1.0)
+        if looks:
+            from sloshid.synthetic.float_look import paint_float  # the realistic float builds on this module
+
+            paint_float(img, s, sc, rel_k, to_img(float_local @ _rot(rel_k).T), to_container, float_bgr)
+        else:
+            _paint(img, to_img(float_local @ _rot(rel_k).T), float_bgr, 1.0)
+        return img
+
+    offsets = (np.linspace(0, 1, 5) - 0.5) * s.motion_blur / s.fps if s.motion_blur > 0 else np.zeros(1)
+    sub = _poses_at(s, (t[:, None] + offsets[None, :]).ravel()) if s.motion_blur > 0 else None
+    for k in range(len(t)):
+        to_img, _ = to_img_at(tilt[k], dx[k])
+        if sub is None:
+            img = paint(rel[k], tilt[k], dx[k])
+        else:  # motion blur: the exposure's poses averaged, centred on the frame time
+            n = len(offsets)
+            img = sum(paint(*(p[k * n + j] for p in sub)) for j in range(n)) / np.float32(n)
         img = _degrade(img, s, t[k], drift[k], noise)
         centre = to_img(np.zeros((1, 2)))[0]
         ctr_base = to_img(np.array([[0.0, -sc.depth]]))[0]
