@@ -9,7 +9,8 @@ angle against the true container angle).
 
 Dynamics (issue 12): a seeded set of 20 short rendered tap tests, float and dyed-liquid surface targets, 30-120 fps,
 640x480 and 800x600, H.264 CRF 16-20 and MPEG-4 qscale 2-3, noise, blur, and a different look per clip (colours,
-camera elevation, meniscus, highlight stripes, wall reflection, second mode, container tilt, camera roll). Each
+camera elevation, meniscus, highlight stripes, wall reflection, second mode, container tilt, camera roll; most
+floats rounded, bent, with a specular spot, partly under the tinted liquid and motion-blurred). Each
 clip's tracked trace and its exact truth trace are identified alike; reported per clip: angle RMSE, wall-height
 RMSE, the f and zeta errors of the tracked trace against the truth trace's, and whether the tracked 95 % intervals
 cover the truth trace's values. Targets: f within 0.1 %, zeta within 3 %, coverage near 95 %, surface angle RMSE
@@ -235,10 +236,16 @@ def dynamics_cases(n: int = 20, seed: int = 1212) -> list[tuple[str, str, SynthS
                 container_tilt_deg=float(rng.uniform(0, 2)),
             )
         else:
+            real = rng.random() < 0.6  # most floats look real: rounded, bent, a specular spot, partly submerged
             look = dict(
                 float_color=str(rng.choice(colours[:1] + colours[2:])),  # orange is too close to the pale liquid's
                 float_length_frac=float(rng.uniform(0.15, 0.25)),
                 camera_roll_deg=float(rng.uniform(-2, 2)),
+                float_rounded=real,
+                float_bend_px=float(rng.uniform(0, 3)) if real else 0.0,
+                float_specular=float(rng.uniform(0, 0.6)) if real else 0.0,
+                float_submerged=float(rng.uniform(0, 0.4)) if real else 0.0,
+                motion_blur=float(rng.uniform(0, 0.5)) if real else 0.0,
             )
         s = SynthSettings(**common, **look)
         name = f"{k:02d} {target} {w}x{h} {fps:.0f}fps {codec} q{quality:g} noise{s.noise_sigma:.0f}"

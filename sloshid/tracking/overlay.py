@@ -35,12 +35,7 @@ def draw_overlay(
     roi: tuple[int, int, int, int],
 ) -> np.ndarray:
     """A copy of `frame` with the float axis, the reference, the ROI and the numbers drawn on it."""
-    out = frame.copy()
-    h, w = out.shape[:2]
-    x, y, rw, rh = roi
-    if (rw, rh) != (w, h):
-        cv2.rectangle(out, (x, y), (x + rw - 1, y + rh - 1), _YELLOW, 1)
-    thick = max(1, round(h / 360))
+    out, thick = _canvas(frame, roi)
     if fm.found:
         half = 0.6 * fm.length_px
         a = math.radians(fm.angle_deg)
@@ -67,12 +62,7 @@ def draw_surface_overlay(
     frame: np.ndarray, m: SurfaceMeasurement, angle_deg: float, valid: bool, roi: tuple[int, int, int, int], reference
 ) -> np.ndarray:
     """A copy of `frame` with the fitted surface line, the wall points, the reference, the ROI and the numbers."""
-    out = frame.copy()
-    h, w = out.shape[:2]
-    x, y, rw, rh = roi
-    if (rw, rh) != (w, h):
-        cv2.rectangle(out, (x, y), (x + rw - 1, y + rh - 1), _YELLOW, 1)
-    thick = max(1, round(h / 360))
+    out, thick = _canvas(frame, roi)
     if m.found:
         line_l, line_r, wall_l, wall_r = m.ends
         colour = _GREEN if valid else _RED
@@ -89,6 +79,16 @@ def draw_surface_overlay(
         text = "surface not valid" if m.found else ("container not found" if m.liquid else "liquid not found")
     _label(out, text, valid)
     return out
+
+
+def _canvas(frame: np.ndarray, roi: tuple[int, int, int, int]) -> tuple[np.ndarray, int]:
+    """A copy of the frame with the ROI drawn (when it is not the whole frame), and the line thickness for its size."""
+    out = frame.copy()
+    h, w = out.shape[:2]
+    x, y, rw, rh = roi
+    if (rw, rh) != (w, h):
+        cv2.rectangle(out, (x, y), (x + rw - 1, y + rh - 1), _YELLOW, 1)
+    return out, max(1, round(h / 360))
 
 
 def _label(out: np.ndarray, text: str, valid: bool) -> None:

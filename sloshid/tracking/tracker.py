@@ -45,16 +45,9 @@ TRACK_COLUMNS = (
 """Output columns of `sloshid track` (the contract with identify/batch/pipeline)."""
 
 SURFACE_COLUMNS = (
-    "frame",
-    "t_s",
-    "angle_deg",
+    *TRACK_COLUMNS[:3],
     "surface_angle_deg",
-    "container_angle_deg",
-    "x_px",
-    "y_px",
-    "quality",
-    "valid",
-    "angle_smoothed_deg",
+    *TRACK_COLUMNS[4:],
     "left_wall_px",
     "right_wall_px",
     "left_wall_mm",
