@@ -20,7 +20,6 @@ from dataclasses import dataclass
 
 import cv2
 import numpy as np
-from scipy.ndimage import median_filter
 
 from sloshid.tracking.float_angle import REFIT_EVERY, fit_colour_model, hsv_mask, membership_map
 from sloshid.tracking.robust import robust_polyfit
@@ -150,17 +149,19 @@ class SurfaceFinder:
             mx, my = 8 + 0.1 * (x1 - x0), 8 + 0.1 * (y1 - y0)
             X0, Y0 = max(X0, int(x0 - mx)), max(Y0, int(y0 - my))
             X1, Y1 = min(X1, int(x1 + mx) + 1), min(Y1, int(y1 + my) + 1)
-        mask = cv2.morphologyEx(hsv_mask(frame[Y0:Y1, X0:X1], self.hsv), cv2.MORPH_OPEN, np.ones((3, 3), np.uint8))
+        # the box only bounds the search: half resolution finds it four times faster, to within 2 px
+        small = cv2.resize(frame[Y0:Y1, X0:X1], None, fx=0.5, fy=0.5, interpolation=cv2.INTER_AREA)
+        mask = cv2.morphologyEx(hsv_mask(small, self.hsv), cv2.MORPH_OPEN, np.ones((3, 3), np.uint8))
         n, _, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=8)
         if n <= 1:
             return None
-        areas = stats[1:, cv2.CC_STAT_AREA]
+        areas = 4 * stats[1:, cv2.CC_STAT_AREA]  # full-resolution pixels
         if areas.max() < MIN_LIQUID_SHARE * rw * rh and self._box is None:
             return None
         # highlight stripes cut the body into side-by-side pieces: the box holds every sizeable piece
         big = stats[1:][areas >= 0.1 * areas.max()]
-        bx0, by0 = big[:, 0].min(), big[:, 1].min()
-        bx1, by1 = (big[:, 0] + big[:, 2]).max(), (big[:, 1] + big[:, 3]).max()
+        bx0, by0 = 2 * big[:, 0].min(), 2 * big[:, 1].min()
+        bx1, by1 = 2 * (big[:, 0] + big[:, 2]).max(), 2 * (big[:, 1] + big[:, 3]).max()
         return X0 + int(bx0), Y0 + int(by0), X0 + int(bx1), Y0 + int(by1)
 
     def _measure_body(self, frame: np.ndarray, box: tuple[int, int, int, int]) -> SurfaceMeasurement:
@@ -251,7 +252,9 @@ def _locally_consistent(w: np.ndarray, ok: np.ndarray) -> np.ndarray:
     keep = np.zeros_like(ok)
     if ok.sum() < 12:
         return keep
-    r = w[ok] - median_filter(w[ok], size=max(7, (ok.sum() // 6) | 1), mode="nearest")
+    size = max(7, (int(ok.sum()) // 6) | 1)
+    padded = np.pad(w[ok], size // 2, mode="edge")
+    r = w[ok] - np.median(np.lib.stride_tricks.sliding_window_view(padded, size), axis=1)
     mad = 1.4826 * np.median(np.abs(r - np.median(r)))
     keep[ok] = np.abs(r - np.median(r)) < max(3 * mad, 0.7)
     return keep
