@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import contextlib
 import math
+import threading
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Literal
@@ -25,7 +26,7 @@ from sloshid.tracking.container_ref import ContainerMeasurement, ContainerTracke
 from sloshid.tracking.float_angle import FloatFinder
 from sloshid.tracking.overlay import draw_overlay
 from sloshid.tracking.repeats import REPEAT_SHARE, repeated_share, stale_repeats
-from sloshid.tracking.smooth import smooth_angle
+from sloshid.tracking.smooth import smooth_angle, warm_up
 from sloshid.tracking.surface_track import SurfaceStep
 from sloshid.video.colors import DEFAULT_FLOAT_COLOR, HsvRange, preset
 from sloshid.video.frames import FrameReader, VideoWriter
@@ -224,6 +225,9 @@ def track_video(
     """
     settings = settings or TrackSettings()
     reader = FrameReader(Path(path), multithreaded)
+    warming = threading.Thread(target=warm_up, daemon=True) if settings.smooth and multithreaded else None
+    if warming is not None:  # the smoother's imports load beside decoding instead of after it
+        warming.start()
     width, height = reader.frame_size
     roi = _roi_box(settings, width, height)
     step = _FloatStep(settings, roi) if settings.target == "float" else SurfaceStep(settings, roi)
@@ -246,6 +250,8 @@ def track_video(
             rows.append((index, t, *row))
             if writer is not None:
                 writer.write(drawn, t)
+    if warming is not None:
+        warming.join()
     # raised after the overlay is finished: when nothing is found, the overlay is the user's diagnosis
     if not any(r[8] for r in rows):
         hint = f"see the overlay {overlay}" if overlay else "write --overlay OUT.mp4 to see what was searched"
