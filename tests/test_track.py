@@ -406,3 +406,14 @@ def test_realistic_float_keeps_its_angle(tmp_path):
     assert ok.mean() > 0.5
     # measured 0.14 deg (the spot, fixed to the light, is a hole the float turns under); target 0.2 at 640x480
     assert _rmse((res.angle_deg - truth["float_angle_deg"])[ok]) < 0.25
+
+
+def test_pipeline_track_table_takes_the_target():
+    # [track] target = "surface" in a pipeline or batch config reaches the tracker; a typo is one sentence
+    from sloshid.core.errors import UserError
+    from sloshid.workflow.options import TrackOptions
+
+    assert TrackOptions(target="surface").track_settings().target == "surface"
+    assert TrackOptions().track_settings().target == "float"
+    with pytest.raises(UserError, match="target must be 'float' or 'surface'"):
+        TrackOptions(target="liquid")
