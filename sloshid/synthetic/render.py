@@ -420,6 +420,60 @@ def _motion(s: SynthSettings) -> _Motion:
     return _Motion(t, rel, tilt, dx, accel, drift, rng)
 
 
+class _FloatScene:
+    """The float scene's fixed parts and its painter: one undegraded picture per pose."""
+
+    def __init__(self, s: SynthSettings) -> None:
+        self.s, self.sc = s, _scene(s)
+        self.R_roll = _rot(math.radians(s.camera_roll_deg))
+        self.centre = np.array([s.width / 2, s.height / 2])
+        self.base = _background(s)
+        half = self.sc.inner_w / 2
+        sc = self.sc
+        self.shapes = {
+            "glass": _rect(-half, half, -sc.depth, sc.head),
+            "left": _rect(-half - sc.wall, -half, -sc.depth - sc.wall, sc.head),
+            "right": _rect(half, half + sc.wall, -sc.depth - sc.wall, sc.head),
+            "bottom": _rect(-half, half, -sc.depth - sc.wall, -sc.depth),
+        }
+        L, T = sc.float_l / 2, sc.float_t / 2
+        self.float_local = _rect(-L, L, -T, T)
+        self.looks = s.float_rounded or s.float_bend_px or s.float_specular or s.float_submerged
+
+    def transforms(self, tilt: float, dx: float):
+        """(to_img, to_container): container coordinates (x right, y up) <-> image pixels (y down)."""
+        R_c, pos = _rot(tilt), np.array([self.sc.x0 + dx, self.s.height - self.sc.y0])  # y up in world
+        R_roll, centre = self.R_roll, self.centre
+
+        def to_img(pts: np.ndarray) -> np.ndarray:
+            cam = (pts @ R_c.T + pos - centre) @ R_roll.T
+            return np.column_stack([cam[:, 0] + centre[0], centre[1] - cam[:, 1]])
+
+        def to_container(x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+            local = (np.stack([x - centre[0], centre[1] - y], axis=-1) @ R_roll + centre - pos) @ R_c
+            return local[..., 0], local[..., 1]
+
+        return to_img, to_container
+
+    def paint(self, rel: float, tilt: float, dx: float) -> np.ndarray:
+        """The undegraded picture of one pose."""
+        to_img, to_container = self.transforms(tilt, dx)
+        img = self.base.copy()
+        _paint(img, to_img(self.shapes["glass"]), (235, 240, 240), 0.25)
+        # liquid: the container interior below the surface line through the float centre (a convex polygon)
+        _paint(img, to_img(_liquid_polygon(self.sc.inner_w / 2, self.sc.depth, rel)), LIQUID_BGR, 0.8)
+        for part in ("left", "right", "bottom"):
+            _paint(img, to_img(self.shapes[part]), WALL_BGR, 0.92)
+        corners, bgr = to_img(self.float_local @ _rot(rel).T), preset(self.s.float_color).bgr
+        if self.looks:
+            from sloshid.synthetic.float_look import paint_float  # the realistic float builds on this module
+
+            paint_float(img, self.s, self.sc, rel, corners, to_container, bgr)
+        else:
+            _paint(img, corners, bgr, 1.0)
+        return img
+
+
 def render_frames(s: SynthSettings):
     """Yield (truth row dict, BGR uint8 frame) for every frame; the generator behind render_video."""
     if s.scene == "surface":
@@ -428,66 +482,19 @@ def render_frames(s: SynthSettings):
         yield from surface_frames(s, _motion(s))
         return
     mo = _motion(s)
-    t, rel, tilt, dx, accel, drift, rng = mo.t, mo.rel, mo.tilt, mo.dx, mo.accel, mo.drift, mo.rng
-    sc = _scene(s)
-    roll = math.radians(s.camera_roll_deg)
-    R_roll = _rot(roll)
-    centre_img = np.array([s.width / 2, s.height / 2])
-    float_bgr = preset(s.float_color).bgr
-    base = _background(s)
-    noise = _NoisePool(base.shape, s.noise_sigma, rng) if s.noise_sigma > 0 else None
-    half = sc.inner_w / 2
-    shapes_container = {
-        "glass": _rect(-half, half, -sc.depth, sc.head),
-        "left": _rect(-half - sc.wall, -half, -sc.depth - sc.wall, sc.head),
-        "right": _rect(half, half + sc.wall, -sc.depth - sc.wall, sc.head),
-        "bottom": _rect(-half, half, -sc.depth - sc.wall, -sc.depth),
-    }
-    L, T = sc.float_l / 2, sc.float_t / 2
-    float_local = _rect(-L, L, -T, T)
-    looks = s.float_rounded or s.float_bend_px or s.float_specular or s.float_submerged
-
-    def to_img_at(tilt_k: float, dx_k: float):
-        """Container coordinates (x right, y up) -> image pixels (y down), through tilt, pose and roll."""
-        R_c, pos_world = _rot(tilt_k), np.array([sc.x0 + dx_k, s.height - sc.y0])  # y up in world
-
-        def to_img(pts: np.ndarray) -> np.ndarray:
-            cam = (pts @ R_c.T + pos_world - centre_img) @ R_roll.T
-            return np.column_stack([cam[:, 0] + centre_img[0], centre_img[1] - cam[:, 1]])
-
-        def to_container(x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-            cam = np.stack([x - centre_img[0], centre_img[1] - y], axis=-1)
-            local = (cam @ R_roll + centre_img - pos_world) @ R_c
-            return local[..., 0], local[..., 1]
-
-        return to_img, to_container
-
-    def paint(rel_k: float, tilt_k: float, dx_k: float) -> np.ndarray:
-        """The undegraded picture of one pose."""
-        to_img, to_container = to_img_at(tilt_k, dx_k)
-        img = base.copy()
-        _paint(img, to_img(shapes_container["glass"]), (235, 240, 240), 0.25)
-        # liquid: the container interior below the surface line through the float centre (a convex polygon)
-        _paint(img, to_img(_liquid_polygon(half, sc.depth, rel_k)), LIQUID_BGR, 0.8)
-        for part in ("left", "right", "bottom"):
-            _paint(img, to_img(shapes_container[part]), WALL_BGR, 0.92)
-        if looks:
-            from sloshid.synthetic.float_look import paint_float  # the realistic float builds on this module
-
-            paint_float(img, s, sc, rel_k, to_img(float_local @ _rot(rel_k).T), to_container, float_bgr)
-        else:
-            _paint(img, to_img(float_local @ _rot(rel_k).T), float_bgr, 1.0)
-        return img
-
+    t, rel, tilt, dx, accel, drift = mo.t, mo.rel, mo.tilt, mo.dx, mo.accel, mo.drift
+    scene = _FloatScene(s)
+    sc, roll = scene.sc, math.radians(s.camera_roll_deg)
+    noise = _NoisePool(scene.base.shape, s.noise_sigma, mo.rng) if s.noise_sigma > 0 else None
     offsets = (np.linspace(0, 1, 5) - 0.5) * s.motion_blur / s.fps if s.motion_blur > 0 else np.zeros(1)
     sub = _poses_at(s, (t[:, None] + offsets[None, :]).ravel()) if s.motion_blur > 0 else None
     for k in range(len(t)):
-        to_img, _ = to_img_at(tilt[k], dx[k])
+        to_img, _ = scene.transforms(tilt[k], dx[k])
         if sub is None:
-            img = paint(rel[k], tilt[k], dx[k])
+            img = scene.paint(rel[k], tilt[k], dx[k])
         else:  # motion blur: the exposure's poses averaged, centred on the frame time
             n = len(offsets)
-            img = sum(paint(*(p[k * n + j] for p in sub)) for j in range(n)) / np.float32(n)
+            img = sum(scene.paint(*(p[k * n + j] for p in sub)) for j in range(n)) / np.float32(n)
         img = _degrade(img, s, t[k], drift[k], noise)
         centre = to_img(np.zeros((1, 2)))[0]
         ctr_base = to_img(np.array([[0.0, -sc.depth]]))[0]

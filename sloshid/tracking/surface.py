@@ -5,12 +5,13 @@ the largest region of the first frame) and measured with the same linear colour 
 body membership of every pixel. The body's sides are the container's inner walls (one sub-pixel crossing per
 row, robust straight lines) and its lower boundary is the inner bottom: together they fix the container's axes
 in every frame, so a container that moves and tilts in the picture is measured in its own coordinates.
-Per column, the body's upper boundary is the front edge of the surface; a camera slightly above the liquid
-also sees the back edge (the top of the thin ellipse, the strongest colour step above the front edge), and
-the surface's height is the mid-line between the two. A meniscus band, highlight stripes and a reflection of
-the surface on the wall disturb single columns; a robust cubic through the columns (away from the walls, where
-the meniscus curls up) discards them, gives the best-fit line across the whole inner width (the angle) and the
-height at each wall.
+Per column, the body's upper boundary is the front edge of the surface, refined on the full-resolution luma. A
+camera slightly above the liquid sees the round surface as a thin ellipse: its front edge lies R sin(elevation)
+sqrt(1 - s^2) below the mid-line (s = -1..1 across the inner width), so the front edges are fitted with the
+mid-line (an antisymmetric cubic: first and second mode) minus that term. The fit is robust (a running median,
+then 3-MAD trimming): highlight stripes, a meniscus band and a reflection of the surface on the wall disturb runs
+of columns and drop out, and the columns next to the walls, where the meniscus curls up, are not used. The
+mid-line's best-fit line across the whole inner width is the angle; its values at the walls are the heights.
 """
 
 from __future__ import annotations
@@ -188,7 +189,7 @@ class SurfaceFinder:
         return self._surface(gray, body, (X0, Y0), frame_geom)
 
     def _surface(self, gray, body, origin, geom) -> SurfaceMeasurement:
-        """Front and back edge per column, mid-line in container coordinates, robust cubic, line and wall heights."""
+        """Front edge per column in container coordinates, robust fit of mid-line and ellipse, line and wall heights."""
         X0, Y0 = origin
         walls, o, e_u, e_w = geom
         (aL, bL), (aR, bR) = walls
