@@ -25,27 +25,29 @@ difference of two measurements at the tracker's 0.05 deg noise)."""
 def repeated_share(
     frame: np.ndarray, previous: np.ndarray | None, box: tuple[int, int, int, int], dy_only: bool
 ) -> float:
-    """Share of the strong edge pixels in `box` (x0, y0, x1, y1) that are identical to the previous frame.
+    """Share of the strong edge pixels in `box` (x0, y0, x1, y1) whose grey level equals the previous frame's.
 
-    dy_only counts only vertical intensity steps (a surface line), so static vertical edges such as
-    highlight stripes on the glass do not count as repeated.
+    dy_only counts only vertical intensity steps (a surface line), so static vertical edges such as highlight
+    stripes on the glass do not count as repeated. OpenCV calls only: this runs for every frame.
     """
     if previous is None or previous.shape != frame.shape:
         return 0.0
     x0, y0, x1, y1 = (int(v) for v in box)
     x0, y0 = max(x0, 0), max(y0, 0)
-    cur, old = frame[y0:y1, x0:x1], previous[y0:y1, x0:x1]
-    if cur.size == 0:
+    if x1 - x0 < 3 or y1 - y0 < 3:
         return 0.0
-    gray = cv2.cvtColor(cur, cv2.COLOR_BGR2GRAY)
-    grad = np.abs(cv2.Sobel(gray, cv2.CV_32F, 0, 1, ksize=3))
+    cur = cv2.cvtColor(frame[y0:y1, x0:x1], cv2.COLOR_BGR2GRAY)
+    old = cv2.cvtColor(previous[y0:y1, x0:x1], cv2.COLOR_BGR2GRAY)
+    grad = cv2.convertScaleAbs(cv2.Sobel(cur, cv2.CV_16S, 0, 1, ksize=3), alpha=0.25)
     if not dy_only:
-        grad += np.abs(cv2.Sobel(gray, cv2.CV_32F, 1, 0, ksize=3))
-    edges = grad > 0.3 * float(grad.max())
-    if not edges.any():
+        grad = cv2.add(grad, cv2.convertScaleAbs(cv2.Sobel(cur, cv2.CV_16S, 1, 0, ksize=3), alpha=0.25))
+    top = cv2.minMaxLoc(grad)[1]
+    edges = cv2.compare(grad, 0.3 * top, cv2.CMP_GT)
+    n = cv2.countNonZero(edges)
+    if top <= 0 or n == 0:
         return 0.0
-    same = np.all(cur == old, axis=2)
-    return float(same[edges].mean())
+    same = cv2.compare(cur, old, cv2.CMP_EQ)
+    return cv2.countNonZero(cv2.bitwise_and(same, edges)) / n
 
 
 def stale_repeats(angle: np.ndarray, valid: np.ndarray, repeated: list[bool]) -> np.ndarray:
