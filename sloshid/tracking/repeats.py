@@ -1,4 +1,4 @@
-"""Frames the encoder repeated: an object whose edges are bit-exact copies of the previous frame was not measured anew.
+"""Frames the encoder repeated: an object whose edges are copies of the previous frame was not measured anew.
 
 Inter-frame codecs (H.264, MPEG-4) copy a block from the previous frame when its motion is below what they
 bother to code ("skip" blocks). While a float or a surface moves by a fraction of a pixel per frame (small
@@ -16,7 +16,7 @@ import cv2
 import numpy as np
 
 REPEAT_SHARE = 0.5
-"""A frame whose object edges are at least this share bit-exact copies of the previous frame is a repeat."""
+"""A frame whose object edges are at least this share unchanged copies of the previous frame is a repeat."""
 MOVED_DEG = 0.15
 """A run of repeats hides motion when the fresh angles around it differ by more than this (about 2 sigma of the
 difference of two measurements at the tracker's 0.05 deg noise)."""

@@ -307,7 +307,7 @@ def _result(
     if repeats > 0:
         res.warnings.append(
             f"the encoder repeated the moving {settings.target}'s previous picture in {repeats} of {len(valid)} "
-            f"frames ({100 * repeats / len(valid):.1f} %; bit-exact copies, common at low bit rates and high frame "
+            f"frames ({100 * repeats / len(valid):.1f} %; unchanged copies, common at low bit rates and high frame "
             "rates): those rows have valid = 0, so old pictures do not pass for new measurements."
         )
     return res
