@@ -10,7 +10,7 @@ import pytest
 from sloshid.core.errors import UserError
 from sloshid.core.tables import read_csv
 from sloshid.model.pendulum import TABLE_I, G
-from sloshid.synthetic.render import SynthSettings, frame_times, relative_angle_rad, render_video
+from sloshid.synthetic.render import SynthSettings, frame_times, relative_angle_rad, render_frames, render_video
 from sloshid.video.frames import FrameReader
 
 SMALL = dict(width=320, height=240, duration_s=1.0)
@@ -118,3 +118,49 @@ def test_cli_rejects_bad_settings_without_output(run_cli, tmp_path, args, messag
 def test_settings_reject_unknown_colour():
     with pytest.raises(UserError, match="did you mean 'green'"):
         SynthSettings(float_color="gren")
+
+
+def test_surface_scene_truth_is_the_pendulum_plus_a_flat_second_mode(tmp_path):
+    # The wall heights are R tan(angle) plus the second mode's (which adds nothing to the best-fit line), so
+    # without a second mode right - left = 2 R tan(rel) exactly; with one, their mean gives back its own trace.
+    base = dict(SMALL, scene="surface", f_hz=2.0, zeta=0.05, amplitude_deg=6.0, tap_s=0.2, duration_s=1.0)
+    plain = render_video(tmp_path / "a.mp4", SynthSettings(**base))
+    half = 0.25 * 240  # inner width = half the frame height
+    np.testing.assert_allclose(
+        plain["right_wall_px"] - plain["left_wall_px"], 2 * half * np.tan(np.radians(plain["rel_angle_deg"])), atol=1e-9
+    )
+    np.testing.assert_allclose(plain["right_wall_px"], -plain["left_wall_px"], atol=1e-9)  # antisymmetric
+    # 0.1 m inner diameter over 120 px
+    np.testing.assert_allclose(plain["left_wall_mm"], plain["left_wall_px"] * 100 / 120, rtol=1e-12)
+    moded = render_video(tmp_path / "b.mp4", SynthSettings(**base, second_mode=0.3, container_tilt_deg=2.0))
+    np.testing.assert_allclose(moded["rel_angle_deg"], plain["rel_angle_deg"], atol=1e-12)
+    extra = moded["right_wall_px"] - plain["right_wall_px"]
+    assert np.abs(extra).max() > 0.1 * np.abs(plain["right_wall_px"]).max()  # the second mode is there
+    np.testing.assert_allclose(moded["surface_angle_deg"], moded["rel_angle_deg"] + moded["container_angle_deg"])
+
+
+def test_float_looks_keep_the_truth_and_change_the_picture():
+    # the realistic float (rounded, bent, specular, submerged, motion blur) changes pixels, not the truth
+    base = dict(SMALL, duration_s=0.3, tap_s=0.0, amplitude_deg=5.0)
+    (row_a, plain), (row_b, real) = (
+        next(render_frames(SynthSettings(**base))),
+        next(
+            render_frames(
+                SynthSettings(
+                    **base,
+                    float_rounded=True,
+                    float_bend_px=2,
+                    float_specular=0.6,
+                    float_submerged=0.4,
+                    motion_blur=0.5,
+                )
+            )
+        ),
+    )
+    assert row_a == row_b
+    diff = np.abs(plain.astype(int) - real.astype(int)).sum(axis=2)
+    assert diff.max() > 60  # the spot and the tint
+    ys, xs = np.nonzero(diff > 20)
+    # only on the float and, blurred by the motion, along the liquid surface: within the container's inner
+    # half-width (60 px) of the float centre, nowhere else
+    assert np.hypot(xs - row_a["float_x_px"], ys - row_a["float_y_px"]).max() < 62

@@ -5,7 +5,9 @@ The float's angle relative to the container follows a known pendulum trace: a ta
 the response to a constant-acceleration move (--motion move). Camera effects (noise, blur, flicker,
 compression, roll, VFR timing) and a container travelling and tilting in the picture make it realistic.
 The truth CSV (default: OUT with suffix _truth.csv) has t_s, rel_angle_deg, container_angle_deg,
-float_angle_deg, float_x_px, float_y_px, container_x_px, container_y_px, accel_m_s2.
+float_angle_deg, float_x_px, float_y_px, container_x_px, container_y_px, accel_m_s2. With --scene surface the
+liquid is dyed and has no float; the truth then has surface_angle_deg instead of float_angle_deg, and
+left_wall_px, right_wall_px, left_wall_mm, right_wall_mm (surface height at each inner wall above rest).
 """
 
 from __future__ import annotations
@@ -98,6 +100,34 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="codec quality: H.264 CRF 0..51 (default 23), MPEG-4 qscale 1..31 (default 4); lower is better",
     )
     g.add_argument("--seed", type=int, default=d.seed, help="seed of all random draws (noise, flicker, jitter)")
+    g.add_argument("--float-rounded", action="store_true", help="rounded float ends (a capsule)")
+    g.add_argument("--float-bend", type=float, default=d.float_bend_px, help="float ends sag by this much, pixels")
+    g.add_argument("--float-specular", type=float, default=d.float_specular, help="specular spot opacity, 0..1")
+    g.add_argument(
+        "--float-submerged", type=float, default=d.float_submerged, help="share of the float under the liquid, 0..1"
+    )
+    g.add_argument(
+        "--motion-blur", type=float, default=d.motion_blur, help="exposure, share of the frame interval (0..1)"
+    )
+    g = parser.add_argument_group("dyed-liquid scene (--scene surface)")
+    g.add_argument(
+        "--scene",
+        choices=("float", "surface"),
+        default=d.scene,
+        help="float: a float on pale liquid; surface: dyed liquid whose surface is measured (truth: wall heights too)",
+    )
+    g.add_argument("--liquid-color", choices=sorted(PRESETS), default=d.liquid_color, help="dye colour")
+    g.add_argument("--elevation", type=float, default=d.elevation_deg, help="camera above the surface plane, degrees")
+    g.add_argument("--meniscus", type=float, default=d.meniscus_px, help="meniscus band thickness, pixels")
+    g.add_argument("--meniscus-dark", action="store_true", help="a dark meniscus band instead of a bright one")
+    g.add_argument("--specular", type=float, default=d.specular, help="opacity of highlight stripes on the glass, 0..1")
+    g.add_argument("--reflection", type=float, default=d.reflection, help="opacity of the surface's image on the wall")
+    g.add_argument(
+        "--second-mode", type=float, default=d.second_mode, help="second mode's wall height relative to the first's"
+    )
+    g.add_argument(
+        "--container-diameter", type=float, default=d.container_diameter_m, help="inner diameter, m (mm truth scale)"
+    )
 
 
 def settings_from_args(args: argparse.Namespace) -> SynthSettings:
@@ -132,6 +162,20 @@ def settings_from_args(args: argparse.Namespace) -> SynthSettings:
         codec=args.codec,
         quality=args.quality,
         seed=args.seed,
+        float_rounded=args.float_rounded,
+        float_bend_px=args.float_bend,
+        float_specular=args.float_specular,
+        float_submerged=args.float_submerged,
+        motion_blur=args.motion_blur,
+        scene=args.scene,
+        liquid_color=args.liquid_color,
+        elevation_deg=args.elevation,
+        meniscus_px=args.meniscus,
+        meniscus_dark=args.meniscus_dark,
+        specular=args.specular,
+        reflection=args.reflection,
+        second_mode=args.second_mode,
+        container_diameter_m=args.container_diameter,
     )
 
 

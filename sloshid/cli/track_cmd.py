@@ -7,6 +7,11 @@ relative to the container's side walls, measured in every frame (static camera, 
 Timestamps are the video's own presentation times. Angles are degrees, counter-clockwise positive as
 seen. Columns: frame, t_s, angle_deg, float_angle_deg, container_angle_deg, x_px, y_px, quality (0..1),
 valid (0/1), angle_smoothed_deg (Kalman + RTS smoother on the real timestamps, bridges valid = 0 rows).
+
+With --target surface the dyed liquid itself is measured: angle_deg is the surface's best-fit line across the
+container's inner width, and left_wall_px/right_wall_px (left_wall_mm/right_wall_mm with
+--container-diameter-m) its height at each inner wall above the rest level (surface_angle_deg replaces
+float_angle_deg).
 """
 
 from __future__ import annotations
@@ -58,6 +63,24 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="also write the video with the detected float, the reference and the angle drawn on it",
     )
     parser.add_argument("--no-smooth", action="store_true", help="skip the Kalman/RTS angle_smoothed_deg column (NaN)")
+    g = parser.add_argument_group("liquid surface (--target surface)")
+    g.add_argument(
+        "--target",
+        choices=("float", "surface"),
+        default="float",
+        help="float: a coloured float's angle; surface: the dyed liquid's surface angle and its height at each wall",
+    )
+    g.add_argument(
+        "--liquid-color", metavar="NAME", help="dye colour preset (default: the one covering most of frame 0)"
+    )
+    g.add_argument("--liquid-hsv-low", metavar="H,S,V", help="lower corner of the dye colour in OpenCV HSV")
+    g.add_argument("--liquid-hsv-high", metavar="H,S,V", help="upper corner of the dye colour in OpenCV HSV")
+    g.add_argument(
+        "--rest-frames", type=int, metavar="N", help="the first N frames define rest (default: first second)"
+    )
+    g.add_argument(
+        "--container-diameter-m", type=float, metavar="D", help="inner diameter, m: adds the wall heights in mm"
+    )
 
 
 def _roi_from_args(text: str | None) -> tuple[int, ...] | None:
@@ -82,6 +105,12 @@ def run(args: argparse.Namespace) -> int:
         roi=_roi_from_args(args.roi),
         reference=args.reference,
         smooth=not args.no_smooth,
+        target=args.target,
+        liquid_color=args.liquid_color,
+        liquid_hsv_low=parse_hsv(args.liquid_hsv_low, "--liquid-hsv-low") if args.liquid_hsv_low else None,
+        liquid_hsv_high=parse_hsv(args.liquid_hsv_high, "--liquid-hsv-high") if args.liquid_hsv_high else None,
+        rest_frames=args.rest_frames,
+        container_diameter_m=args.container_diameter_m,
     )
     outputs = Outputs([args.video])
     output = outputs.file(args.output, "-o", (".csv",))

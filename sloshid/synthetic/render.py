@@ -113,6 +113,34 @@ class SynthSettings:
     """Float length as a fraction of the frame height."""
     seed: int = 0
     """Seed of every random draw (noise, flicker, frame-time jitter)."""
+    float_rounded: bool = False
+    """Float scene: rounded float ends (a capsule) instead of square ones."""
+    float_bend_px: float = 0.0
+    """Float scene: the float's ends sag this many pixels below its middle (a slightly curved float)."""
+    float_specular: float = 0.0
+    """Float scene: opacity of a specular spot fixed to the light, so the float turns under it (0 = none)."""
+    float_submerged: float = 0.0
+    """Float scene: share of the float's thickness under the tinted liquid, seen through it (0..1)."""
+    motion_blur: float = 0.0
+    """Exposure as a share of the frame interval (0..1): each frame averages 5 poses across it, centred."""
+    scene: Literal["float", "surface"] = "float"
+    """'float': a coloured float on pale liquid; 'surface': dyed liquid whose surface itself is measured."""
+    liquid_color: str = "blue"
+    """Surface scene: dye colour preset name (the liquid body's colour)."""
+    elevation_deg: float = 0.0
+    """Surface scene: camera this far above the surface plane, so the round surface shows as a thin ellipse."""
+    meniscus_px: float = 0.0
+    """Surface scene: thickness of the meniscus band along the surface (curls up 3x as high at the walls)."""
+    meniscus_dark: bool = False
+    """Surface scene: a dark meniscus band instead of a bright one."""
+    specular: float = 0.0
+    """Surface scene: opacity of two vertical highlight stripes on the glass (0 = none)."""
+    reflection: float = 0.0
+    """Surface scene: opacity of the surface's mirror image on the wall near each side (0 = none)."""
+    second_mode: float = 0.0
+    """Surface scene: wall height of an antisymmetric second mode (1.7 f, 2 zeta) relative to the first mode's."""
+    container_diameter_m: float = 0.1
+    """Surface scene: the container's inner diameter, which sets the millimetre scale of the wall-height truth."""
 
     def __post_init__(self) -> None:
         checks = [
@@ -138,11 +166,21 @@ class SynthSettings:
             ),
             (0.05 <= self.float_length_frac <= 0.3, "float length must be 0.05..0.3 of the frame height"),
             (self.move_duration_s > 0 and self.px_per_m > 0, "move duration and px_per_m must be positive"),
+            (self.scene in ("float", "surface"), "scene must be 'float' or 'surface'"),
+            (0 <= self.float_submerged <= 1 and 0 <= self.float_specular <= 1, "float submerged/specular must be 0..1"),
+            (0 <= self.motion_blur <= 1, "motion blur must be 0..1 of the frame interval"),
+            (0 <= self.float_bend_px <= 0.2 * self.height, "float bend must be 0..0.2 of the frame height"),
+            (0 <= self.elevation_deg <= 20, "camera elevation must be 0..20 degrees"),
+            (0 <= self.meniscus_px <= 10, "meniscus must be 0..10 pixels"),
+            (0 <= self.specular <= 1 and 0 <= self.reflection <= 1, "specular and reflection must be 0..1"),
+            (abs(self.second_mode) <= 1, "second mode must be within -1..1 of the first"),
+            (self.container_diameter_m > 0, "container diameter must be positive"),
         ]
         for ok, message in checks:
             if not ok:
                 raise UserError(f"{message}.")
         preset(self.float_color)
+        preset(self.liquid_color)
         _ = self.params  # validates m, l, d
 
     @property
@@ -337,54 +375,114 @@ def _background(s: SynthSettings) -> np.ndarray:
     return BACKGROUND_TOP_BGR * (1 - frac) + BACKGROUND_BOTTOM_BGR * frac
 
 
-def render_frames(s: SynthSettings):
-    """Yield (truth row dict, BGR uint8 frame) for every frame; the generator behind render_video."""
-    t = frame_times(s)
-    rel = relative_angle_rad(s, t)
-    sc = _scene(s)
+@dataclass
+class _Motion:
+    """Per-frame container pose and liquid angle shared by both scenes (arrays, one entry per frame)."""
+
+    t: np.ndarray
+    rel: np.ndarray
+    tilt: np.ndarray
+    dx: np.ndarray
+    accel: np.ndarray
+    drift: np.ndarray
+    rng: np.random.Generator
+
+
+def _poses_at(s: SynthSettings, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(relative angle rad, container tilt rad, container travel px) at times t."""
     tilt = np.radians(s.container_tilt_deg) * np.sin(2 * np.pi * s.container_tilt_hz * t)
     if s.motion == "move":
         dx = s.px_per_m * move_position_m(s, t)
-        accel = move_accel(s, t)
     else:
         dx = s.travel_px * _smoothstep(t / max(s.duration_s, 1e-9))
-        accel = np.zeros_like(t)
-    roll = math.radians(s.camera_roll_deg)
-    R_roll = _rot(roll)
-    centre_img = np.array([s.width / 2, s.height / 2])
+    return relative_angle_rad(s, t), tilt, dx
+
+
+def _motion(s: SynthSettings) -> _Motion:
+    """Frame times, the pendulum's relative angle, the container's travel and tilt, the lighting drift."""
+    t = frame_times(s)
+    rel, tilt, dx = _poses_at(s, t)
+    accel = move_accel(s, t) if s.motion == "move" else np.zeros_like(t)
     rng = np.random.default_rng([s.seed, 2])
     drift = np.cumsum(rng.normal(0, 0.002, len(t)))
-    float_bgr = preset(s.float_color).bgr
-    base = _background(s)
-    noise = _NoisePool(base.shape, s.noise_sigma, rng) if s.noise_sigma > 0 else None
-    half = sc.inner_w / 2
-    shapes_container = {
-        "glass": _rect(-half, half, -sc.depth, sc.head),
-        "left": _rect(-half - sc.wall, -half, -sc.depth - sc.wall, sc.head),
-        "right": _rect(half, half + sc.wall, -sc.depth - sc.wall, sc.head),
-        "bottom": _rect(-half, half, -sc.depth - sc.wall, -sc.depth),
-    }
-    L, T = sc.float_l / 2, sc.float_t / 2
-    float_local = _rect(-L, L, -T, T)
-    for k in range(len(t)):
-        # container frame (x right, y up, origin at the float centre) -> world -> rolled camera -> image
-        pos_world = np.array([sc.x0 + dx[k], s.height - sc.y0])  # y up in world
-        R_c = _rot(tilt[k])
+    return _Motion(t, rel, tilt, dx, accel, drift, rng)
 
-        def to_img(pts: np.ndarray, R_c: np.ndarray = R_c, pos_world: np.ndarray = pos_world) -> np.ndarray:
-            """Container coordinates (x right, y up) -> image pixels (y down), through tilt, pose and roll."""
-            world = pts @ R_c.T + pos_world
-            cam = (world - np.array([s.width / 2, s.height / 2])) @ R_roll.T
-            return np.column_stack([cam[:, 0] + centre_img[0], centre_img[1] - cam[:, 1]])
 
-        img = base.copy()
-        _paint(img, to_img(shapes_container["glass"]), (235, 240, 240), 0.25)
+class _FloatScene:
+    """The float scene's fixed parts and its painter: one undegraded picture per pose."""
+
+    def __init__(self, s: SynthSettings) -> None:
+        self.s, self.sc = s, _scene(s)
+        self.R_roll = _rot(math.radians(s.camera_roll_deg))
+        self.centre = np.array([s.width / 2, s.height / 2])
+        self.base = _background(s)
+        half = self.sc.inner_w / 2
+        sc = self.sc
+        self.shapes = {
+            "glass": _rect(-half, half, -sc.depth, sc.head),
+            "left": _rect(-half - sc.wall, -half, -sc.depth - sc.wall, sc.head),
+            "right": _rect(half, half + sc.wall, -sc.depth - sc.wall, sc.head),
+            "bottom": _rect(-half, half, -sc.depth - sc.wall, -sc.depth),
+        }
+        L, T = sc.float_l / 2, sc.float_t / 2
+        self.float_local = _rect(-L, L, -T, T)
+        self.looks = s.float_rounded or s.float_bend_px or s.float_specular or s.float_submerged
+
+    def transforms(self, tilt: float, dx: float):
+        """(to_img, to_container): container coordinates (x right, y up) <-> image pixels (y down)."""
+        R_c, pos = _rot(tilt), np.array([self.sc.x0 + dx, self.s.height - self.sc.y0])  # y up in world
+        R_roll, centre = self.R_roll, self.centre
+
+        def to_img(pts: np.ndarray) -> np.ndarray:
+            cam = (pts @ R_c.T + pos - centre) @ R_roll.T
+            return np.column_stack([cam[:, 0] + centre[0], centre[1] - cam[:, 1]])
+
+        def to_container(x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+            local = (np.stack([x - centre[0], centre[1] - y], axis=-1) @ R_roll + centre - pos) @ R_c
+            return local[..., 0], local[..., 1]
+
+        return to_img, to_container
+
+    def paint(self, rel: float, tilt: float, dx: float) -> np.ndarray:
+        """The undegraded picture of one pose."""
+        to_img, to_container = self.transforms(tilt, dx)
+        img = self.base.copy()
+        _paint(img, to_img(self.shapes["glass"]), (235, 240, 240), 0.25)
         # liquid: the container interior below the surface line through the float centre (a convex polygon)
-        liquid = _liquid_polygon(half, sc.depth, rel[k])
-        _paint(img, to_img(liquid), LIQUID_BGR, 0.8)
+        _paint(img, to_img(_liquid_polygon(self.sc.inner_w / 2, self.sc.depth, rel)), LIQUID_BGR, 0.8)
         for part in ("left", "right", "bottom"):
-            _paint(img, to_img(shapes_container[part]), WALL_BGR, 0.92)
-        _paint(img, to_img(float_local @ _rot(rel[k]).T), float_bgr, 1.0)
+            _paint(img, to_img(self.shapes[part]), WALL_BGR, 0.92)
+        corners, bgr = to_img(self.float_local @ _rot(rel).T), preset(self.s.float_color).bgr
+        if self.looks:
+            from sloshid.synthetic.float_look import paint_float  # the realistic float builds on this module
+
+            paint_float(img, self.s, self.sc, rel, corners, to_container, bgr)
+        else:
+            _paint(img, corners, bgr, 1.0)
+        return img
+
+
+def render_frames(s: SynthSettings):
+    """Yield (truth row dict, BGR uint8 frame) for every frame; the generator behind render_video."""
+    if s.scene == "surface":
+        from sloshid.synthetic.surface_scene import surface_frames  # the dyed-liquid scene builds on this module
+
+        yield from surface_frames(s, _motion(s))
+        return
+    mo = _motion(s)
+    t, rel, tilt, dx, accel, drift = mo.t, mo.rel, mo.tilt, mo.dx, mo.accel, mo.drift
+    scene = _FloatScene(s)
+    sc, roll = scene.sc, math.radians(s.camera_roll_deg)
+    noise = _NoisePool(scene.base.shape, s.noise_sigma, mo.rng) if s.noise_sigma > 0 else None
+    offsets = (np.linspace(0, 1, 5) - 0.5) * s.motion_blur / s.fps if s.motion_blur > 0 else np.zeros(1)
+    sub = _poses_at(s, (t[:, None] + offsets[None, :]).ravel()) if s.motion_blur > 0 else None
+    for k in range(len(t)):
+        to_img, _ = scene.transforms(tilt[k], dx[k])
+        if sub is None:
+            img = scene.paint(rel[k], tilt[k], dx[k])
+        else:  # motion blur: the exposure's poses averaged, centred on the frame time
+            n = len(offsets)
+            img = sum(scene.paint(*(p[k * n + j] for p in sub)) for j in range(n)) / np.float32(n)
         img = _degrade(img, s, t[k], drift[k], noise)
         centre = to_img(np.zeros((1, 2)))[0]
         ctr_base = to_img(np.array([[0.0, -sc.depth]]))[0]
@@ -458,7 +556,7 @@ def render_video(
             ):
                 writer.write(frame, row["t_s"])
                 rows.append(row)
-        truth = Truth({c: np.array([r[c] for r in rows]) for c in TRUTH_COLUMNS})
+        truth = Truth({c: np.array([r[c] for r in rows]) for c in rows[0]})
         if truth_csv is not None:
             truth.to_csv(truth_csv)
     return truth

@@ -17,6 +17,8 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
+from sloshid.tracking.robust import robust_polyfit
+
 BAND_PX = 9
 """Half-width of the band searched around a predicted wall line, pixels."""
 
@@ -84,15 +86,10 @@ def _fit_edge(gray: np.ndarray, predicted: EdgeLine, polarity: int) -> EdgeLine 
     frac = 0.5 * (g0[ok] - g2[ok]) / denom[ok]
     x = cols[ok, 0] + 1 + j[ok] + frac
     y = ys[ok].astype(float)
-    keep = np.ones(len(y), bool)
-    for _ in range(3):  # robust: drop rows more than 3 MAD (min 0.3 px) off the line and refit
-        a, b = np.polyfit(y[keep], x[keep], 1)
-        res = x - (a * y + b)
-        mad = 1.4826 * np.median(np.abs(res[keep]))
-        keep = np.abs(res) < max(3 * mad, 0.3)
-        if keep.sum() < 10:
-            return None
-    a, b = np.polyfit(y[keep], x[keep], 1)
+    fit = robust_polyfit(y, x, 1, 0.3)
+    if fit is None:
+        return None
+    (a, b), keep = fit
     rms = float(np.sqrt(np.mean((x[keep] - (a * y[keep] + b)) ** 2)))
     return EdgeLine(float(a), float(b), int(y[keep].min()), int(y[keep].max()) + 1, rms, int(keep.sum()))
 

@@ -5,6 +5,7 @@ Model: a slowly drifting baseline plus a lightly damped oscillator at the trace'
 every step's own dt (Van Loan). A sloshing angle is exactly such a signal, so frames with valid = 0 are
 bridged along the oscillation instead of by a straight or cubic line. Traces too short for a spectrum
 fall back to a constant-velocity model. Noise levels are set from the valid data's own spread.
+SciPy and filterpy are imported on first use (`warm_up` does it in a background thread), so a command starts fast.
 """
 
 from __future__ import annotations
@@ -12,12 +13,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from filterpy.kalman import predict as kf_predict
-from filterpy.kalman import rts_smoother
-from filterpy.kalman import update as kf_update
-from scipy.linalg import expm
-
-from sloshid.core.spectrum import welch_spectrum
 
 MEASUREMENT_SIGMA_DEG = 0.05
 """Standard deviation of a quality-1 angle measurement, degrees (tracker accuracy on synthetic video)."""
@@ -32,6 +27,8 @@ bridge gaps more faithfully, large ones follow sudden excitation (a tap) without
 
 def dominant_omega(t: np.ndarray, z: np.ndarray) -> float | None:
     """Angular frequency (rad/s) of the strongest spectral peak of valid samples, or None if too short."""
+    from sloshid.core.spectrum import welch_spectrum  # SciPy on first use: `track` warms it up while decoding
+
     if len(t) < 32 or t[-1] - t[0] <= 0:
         return None
     f = welch_spectrum(t, z, nperseg=min(len(t), 256)).peak_f_hz
@@ -40,6 +37,8 @@ def dominant_omega(t: np.ndarray, z: np.ndarray) -> float | None:
 
 def _discretise(a: np.ndarray, qc: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
     """Van Loan: exact discrete F and Q of dx = A x dt + dW with spectral density Qc over a step dt."""
+    from scipy.linalg import expm
+
     n = len(a)
     m = np.zeros((2 * n, 2 * n))
     m[:n, :n], m[:n, n:], m[n:, n:] = -a, qc, a.T
@@ -70,6 +69,10 @@ def _model(omega: float | None, spread: float, period: float) -> tuple[np.ndarra
 
 def smooth_angle(t_s: np.ndarray, angle_deg: np.ndarray, valid: np.ndarray, quality: np.ndarray) -> np.ndarray:
     """RTS-smoothed angle (degrees) at every timestamp; invalid samples are bridged, not used."""
+    from filterpy.kalman import predict as kf_predict
+    from filterpy.kalman import rts_smoother
+    from filterpy.kalman import update as kf_update
+
     t = np.asarray(t_s, float)
     z = np.asarray(angle_deg, float)
     ok = np.asarray(valid, bool) & np.isfinite(z)
@@ -103,3 +106,10 @@ def smooth_angle(t_s: np.ndarray, angle_deg: np.ndarray, valid: np.ndarray, qual
     # filterpy's functional smoother steps from k to k+1 with Fs[k]; ours hold the step into k: shift by one
     smoothed, _, _, _ = rts_smoother(xs, ps, Fs[1:] + Fs[-1:], Qs[1:] + Qs[-1:])
     return smoothed @ h[0]
+
+
+def warm_up() -> None:
+    """Import the smoother's libraries (seconds of start-up); `track` runs this beside decoding."""
+    import filterpy.kalman  # noqa: F401
+    import scipy.linalg
+    import scipy.signal  # noqa: F401

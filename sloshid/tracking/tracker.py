@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import contextlib
 import math
+import threading
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Literal
@@ -24,7 +25,9 @@ from sloshid.core.tables import to_pandas, write_csv
 from sloshid.tracking.container_ref import ContainerMeasurement, ContainerTracker
 from sloshid.tracking.float_angle import FloatFinder
 from sloshid.tracking.overlay import draw_overlay
-from sloshid.tracking.smooth import smooth_angle
+from sloshid.tracking.repeats import REPEAT_SHARE, repeated_share, stale_repeats
+from sloshid.tracking.smooth import smooth_angle, warm_up
+from sloshid.tracking.surface_track import SurfaceStep
 from sloshid.video.colors import DEFAULT_FLOAT_COLOR, HsvRange, preset
 from sloshid.video.frames import FrameReader, VideoWriter
 
@@ -42,14 +45,27 @@ TRACK_COLUMNS = (
 )
 """Output columns of `sloshid track` (the contract with identify/batch/pipeline)."""
 
+SURFACE_COLUMNS = (
+    *TRACK_COLUMNS[:3],
+    "surface_angle_deg",
+    *TRACK_COLUMNS[4:],
+    "left_wall_px",
+    "right_wall_px",
+    "left_wall_mm",
+    "right_wall_mm",
+)
+"""Output columns with --target surface: the same contract plus the wall heights (surface_angle_deg is the
+surface's angle against the image horizontal, where the float target writes float_angle_deg)."""
+
 VALID_QUALITY = 0.5
 """Frames whose quality is below this are marked valid = 0 (not used by the smoother)."""
 
 
 @dataclass(frozen=True)
 class TrackSettings:
-    """How to find the float and what to measure its angle against: the one settings object of the tracker, which
-    `sloshid track` options, the pipeline's and batch's [track] table and `sloshid.track(...)` keywords all fill."""
+    """What to measure (the float or the dyed liquid's surface), how to find it and what to measure against: the one
+    settings object of the tracker, which `sloshid track` options, the pipeline's and batch's [track] table and
+    `sloshid.track(...)` keywords all fill."""
 
     float_color: str = DEFAULT_FLOAT_COLOR
     """Named float colour preset (red, orange, yellow, green, blue, magenta)."""
@@ -64,13 +80,46 @@ class TrackSettings:
     """'image': angle against the image horizontal; 'container': against the container's measured walls."""
     smooth: bool = True
     """Compute angle_smoothed_deg (Kalman + RTS); off saves a little time on very long videos."""
+    target: Literal["float", "surface"] = "float"
+    """'float': a coloured float's angle; 'surface': the dyed liquid's surface angle and wall heights."""
+    liquid_color: str | None = None
+    """Surface target: named dye colour preset; with neither it nor liquid_hsv_low/high, the preset covering most
+    of the first frame is taken."""
+    liquid_hsv_low: tuple[int, int, int] | None = None
+    """Surface target: lower OpenCV HSV corner of the dyed liquid; overrides liquid_color, needs liquid_hsv_high."""
+    liquid_hsv_high: tuple[int, int, int] | None = None
+    """Surface target: upper OpenCV HSV corner of the dyed liquid."""
+    rest_frames: int | None = None
+    """Surface target: the first this many frames define the rest level of the wall heights; None = the first second."""
+    container_diameter_m: float | None = None
+    """Surface target: the container's inner diameter, for the wall heights in millimetres (the walls give px/m)."""
 
     def __post_init__(self) -> None:
         if self.reference not in ("image", "container"):
             raise SettingError("reference", f"{{name}} must be 'image' or 'container', got {self.reference!r}.")
-        if (self.float_hsv_low is None) != (self.float_hsv_high is None):
-            missing = "float_hsv_high" if self.float_hsv_high is None else "float_hsv_low"
-            raise SettingError(missing, "the float's HSV range needs both corners given together; add {name}.")
+        if self.target not in ("float", "surface"):
+            raise SettingError("target", f"{{name}} must be 'float' or 'surface', got {self.target!r}.")
+        for kind in ("float", "liquid"):
+            low, high = getattr(self, f"{kind}_hsv_low"), getattr(self, f"{kind}_hsv_high")
+            if (low is None) != (high is None):
+                missing = f"{kind}_hsv_high" if high is None else f"{kind}_hsv_low"
+                raise SettingError(missing, f"the {kind}'s HSV range needs both corners given together; add {{name}}.")
+        if self.target == "float" and self.container_diameter_m is not None:
+            raise SettingError(
+                "container_diameter_m",
+                "{name} scales the wall heights, which only {target} surface measures "
+                "(the float target finds no walls to scale).",
+                "target",
+            )
+        if self.container_diameter_m is not None and not (
+            math.isfinite(self.container_diameter_m) and self.container_diameter_m > 0
+        ):
+            raise SettingError(
+                "container_diameter_m",
+                f"{{name}} must be a positive number of metres, got {self.container_diameter_m}.",
+            )
+        if self.rest_frames is not None and self.rest_frames < 1:
+            raise SettingError("rest_frames", f"{{name}} must be at least 1, got {self.rest_frames}.")
         if self.roi is not None:
             x, y, w, h = self.roi
             if w <= 0 or h <= 0 or x < 0 or y < 0:
@@ -78,6 +127,13 @@ class TrackSettings:
                     "roi", f"{{name}} {x},{y},{w},{h} must have x, y >= 0 and a positive width and height."
                 )
         _ = self.hsv  # validates the colour name or the HSV corners now, before any frame is read
+
+    @property
+    def liquid_hsv(self) -> HsvRange | None:
+        """The HSV box searched for the dyed liquid, or None to choose it from the first frame."""
+        if self.liquid_hsv_low is not None:
+            return HsvRange(tuple(self.liquid_hsv_low), tuple(self.liquid_hsv_high))
+        return preset(self.liquid_color).hsv if self.liquid_color else None
 
     @property
     def hsv(self) -> HsvRange:
@@ -105,6 +161,13 @@ class TrackResult:
     lost_share: float = 0.0
     """Share of the frames the container declares that did not decode (truncated file)."""
     warnings: list[str] = field(default_factory=list)
+    target: str = "float"
+    """What was measured; with 'surface', float_angle_deg holds the surface's angle against the image."""
+    walls: dict[str, np.ndarray] = field(default_factory=dict)
+    """Surface target: left_wall_px, right_wall_px, left_wall_mm, right_wall_mm (NaN without a scale)."""
+    repeated: np.ndarray = field(default_factory=lambda: np.zeros(0, bool))
+    """Frames whose picture of the float/surface the encoder copied from the previous frame while it moved
+    (valid = 0: an old picture is not a new measurement)."""
 
     @property
     def invalid_share(self) -> float:
@@ -112,8 +175,11 @@ class TrackResult:
         return float(1 - np.mean(self.valid)) if len(self.valid) else 1.0
 
     def columns(self) -> dict[str, np.ndarray]:
-        """The output table, keyed by TRACK_COLUMNS."""
-        return {name: getattr(self, name) for name in TRACK_COLUMNS}
+        """The output table, keyed by TRACK_COLUMNS (SURFACE_COLUMNS for the surface target)."""
+        if self.target != "surface":
+            return {name: getattr(self, name) for name in TRACK_COLUMNS}
+        named = {"surface_angle_deg": self.float_angle_deg, **self.walls}
+        return {name: named[name] if name in named else getattr(self, name) for name in SURFACE_COLUMNS}
 
     def to_csv(self, path: str | Path) -> None:
         """Write the table atomically as CSV."""
@@ -122,14 +188,17 @@ class TrackResult:
     def summary(self) -> str:
         """One line: frames, valid frames, duration (what `sloshid track` prints)."""
         duration = self.t_s[-1] - self.t_s[0] if len(self.t_s) else 0.0
-        return f"{self.video}: {len(self.t_s)} frames, {int(self.valid.sum())} valid, {duration:.2f} s"
+        repeated = f" ({int(self.repeated.sum())} repeated)" if self.repeated.any() else ""
+        return f"{self.video}: {len(self.t_s)} frames, {int(self.valid.sum())} valid{repeated}, {duration:.2f} s"
 
     def to_dict(self) -> dict:
         """JSON-safe summary of the run (the per-frame table is `to_csv`/`to_pandas`)."""
         return {
             "video": str(self.video),
             "frames": len(self.t_s),
+            "target": self.target,
             "valid_frames": int(self.valid.sum()),
+            "repeated_frames": int(self.repeated.sum()),
             "invalid_share": self.invalid_share,
             "lost_share": self.lost_share,
             "duration_s": float(self.t_s[-1] - self.t_s[0]) if len(self.t_s) else 0.0,
@@ -182,6 +251,55 @@ def _unwrap(angle: float, previous: float) -> float:
     return angle - 180.0 * round((angle - previous) / 180.0)
 
 
+class _FloatStep:
+    """Per-frame float measurement (float_angle) against the image or the container walls (container_ref)."""
+
+    def __init__(self, settings: TrackSettings, roi: tuple[int, int, int, int]) -> None:
+        self.settings, self.roi = settings, roi
+        self.finder = FloatFinder(settings.hsv, roi)
+        self.walls = ContainerTracker(roi) if settings.reference == "container" else None
+        self.last_angle = math.nan
+        self.found = 0
+        self.previous: np.ndarray | None = None
+        self.repeated: list[bool] = []
+
+    def __call__(self, frame: np.ndarray, draw: bool) -> tuple[tuple, np.ndarray | None]:
+        """(row, overlay frame or None) of one frame."""
+        fm = self.finder.measure(frame)
+        self.found += fm.found
+        repeat = fm.found and repeated_share(frame, self.previous, fm.bbox, dy_only=False) >= REPEAT_SHARE
+        self.previous = frame
+        self.repeated.append(bool(repeat))
+        cm = ContainerMeasurement(True, 0.0)
+        if self.walls is not None:
+            cm = self.walls.measure(frame, fm.x_px, fm.y_px, fm.length_px) if fm.found else ContainerMeasurement(False)
+        float_angle = _unwrap(fm.angle_deg, self.last_angle) if fm.found else math.nan
+        ok = fm.found and cm.found and fm.quality >= VALID_QUALITY
+        if ok:
+            self.last_angle = float_angle
+        angle = float_angle - cm.angle_deg
+        row = (angle, float_angle, cm.angle_deg, fm.x_px, fm.y_px, fm.quality if cm.found else 0.0, int(ok))
+        return row, draw_overlay(frame, fm, cm, angle, ok, self.roi) if draw else None
+
+    def nothing_found(self, n: int, path: Path, hint: str) -> UserError:
+        """The one-sentence error when no frame was valid."""
+        if self.walls is not None and self.found:
+            return SettingError(
+                "reference",
+                f"the float was found in {self.found} of {n} frames of {path} but the container's "
+                f"side walls in none of them; {hint}, or use {{name}} image.",
+                "overlay",
+            )
+        return SettingError(
+            "float_color",
+            f"no float found in any of the {n} frames of {path} with HSV range "
+            f"{self.settings.hsv.describe()}; {hint} and adjust {{float_hsv_low}}/{{float_hsv_high}} or {{name}}.",
+            "overlay",
+            "float_hsv_low",
+            "float_hsv_high",
+        )
+
+
 def track_video(
     path: str | Path,
     settings: TrackSettings | None = None,
@@ -189,22 +307,22 @@ def track_video(
     progress: bool = False,
     multithreaded: bool = True,
 ) -> TrackResult:
-    """Track the float in every decoded frame of `path`; optionally write an overlay video.
+    """Track the float (or the liquid surface) in every decoded frame of `path`; optionally write an overlay video.
 
-    Raises UserError for unreadable videos, a bad ROI, and a float (or, with the container reference,
-    container walls) found in no frame; the overlay, if requested, is still written then: it shows what
-    was searched. Truncation and partial loss are reported in `warnings`, `lost_share`, `invalid_share`.
+    Raises UserError for unreadable videos, a bad ROI, and a float or liquid (or the container walls they need)
+    found in no frame; the overlay, if requested, is still written then: it shows what was searched.
+    Truncation and partial loss are reported in `warnings`, `lost_share`, `invalid_share`.
     multithreaded=False decodes on one core in this thread (for batches that run many videos side by side).
     """
     settings = settings or TrackSettings()
     reader = FrameReader(Path(path), multithreaded)
+    warming = threading.Thread(target=warm_up, daemon=True) if settings.smooth and multithreaded else None
+    if warming is not None:  # the smoother's imports load beside decoding instead of after it
+        warming.start()
     width, height = reader.frame_size
     roi = _roi_box(settings, width, height)
-    finder = FloatFinder(settings.hsv, roi)
-    walls = ContainerTracker(roi) if settings.reference == "container" else None
+    step = _FloatStep(settings, roi) if settings.target == "float" else SurfaceStep(settings, roi)
     rows: list[tuple] = []
-    last_angle = math.nan
-    floats_found = 0
     with contextlib.ExitStack() as stack:
         writer = None
         if overlay is not None:
@@ -219,60 +337,40 @@ def track_video(
             leave=False,
         )
         for index, t, frame in frames:
-            fm = finder.measure(frame)
-            floats_found += fm.found
-            cm = ContainerMeasurement(True, 0.0)
-            if walls is not None:
-                cm = walls.measure(frame, fm.x_px, fm.y_px, fm.length_px) if fm.found else ContainerMeasurement(False)
-            float_angle = _unwrap(fm.angle_deg, last_angle) if fm.found else math.nan
-            ok = fm.found and cm.found and fm.quality >= VALID_QUALITY
-            if ok:
-                last_angle = float_angle
-            rows.append(
-                (
-                    index,
-                    t,
-                    float_angle - cm.angle_deg,
-                    float_angle,
-                    cm.angle_deg,
-                    fm.x_px,
-                    fm.y_px,
-                    fm.quality if cm.found else 0.0,
-                    int(ok),
-                )
-            )
+            row, drawn = step(frame, writer is not None)
+            rows.append((index, t, *row))
             if writer is not None:
-                writer.write(draw_overlay(frame, fm, cm, float_angle - cm.angle_deg, ok, roi), t)
+                writer.write(drawn, t)
+    if warming is not None:
+        warming.join()
     # raised after the overlay is finished: when nothing is found, the overlay is the user's diagnosis
-    if not any(r[-1] for r in rows):
+    if not any(r[8] for r in rows):
         hint = (
             f"see the overlay {overlay}" if overlay else "write an overlay video ({overlay}) to see what was searched"
         )
-        if walls is not None and floats_found:
-            raise SettingError(
-                "reference",
-                f"the float was found in {floats_found} of {len(rows)} frames of {path} but the container's "
-                f"side walls in none of them; {hint}, or use {{name}} image.",
-                "overlay",
-            )
-        raise SettingError(
-            "float_color",
-            f"no float found in any of the {len(rows)} frames of {path} with HSV range "
-            f"{settings.hsv.describe()}; {hint} and adjust {{float_hsv_low}}/{{float_hsv_high}} or {{name}}.",
-            "overlay",
-            "float_hsv_low",
-            "float_hsv_high",
-        )
-    return _result(Path(path), rows, reader.lost_share, reader.info.frame_count, settings.smooth)
+        raise step.nothing_found(len(rows), path, hint)
+    body, walls = [r[:9] for r in rows], {}
+    if settings.target == "surface":
+        body, walls = step.finish(rows)
+    repeated = stale_repeats(np.array([r[2] for r in body]), np.array([r[8] for r in body], bool), step.repeated)
+    body = [(*r[:8], int(r[8] and not rep)) for r, rep in zip(body, repeated)]
+    res = _result(Path(path), body, reader.lost_share, reader.info.frame_count, settings, repeated)
+    res.target, res.walls, res.repeated = settings.target, walls, repeated
+    return res
 
 
-def _result(video: Path, rows: list[tuple], lost_share: float, declared: int, smooth: bool) -> TrackResult:
+def _result(
+    video: Path, rows: list[tuple], lost_share: float, declared: int, settings: TrackSettings, repeated: np.ndarray
+) -> TrackResult:
     """Assemble the TrackResult, smooth the angle and collect warnings."""
     cols = list(zip(*rows))
     arr = [np.asarray(c) for c in cols]
     frame, t, angle, fang, cang, x, y, q, valid = arr
     frame, valid = frame.astype(int), valid.astype(int)
-    smoothed = smooth_angle(t, angle, valid.astype(bool), q) if smooth else np.full(len(t), np.nan)
+    # the smoother may lean on repeated pictures: they are late by a frame or two, not wrong, and without them
+    # it would bridge whole stretches (a float at rest until a tap) along an oscillator of coarse frequency
+    measured = valid.astype(bool) | repeated
+    smoothed = smooth_angle(t, angle, measured, q) if settings.smooth else np.full(len(t), np.nan)
     res = TrackResult(
         video,
         frame,
@@ -292,10 +390,17 @@ def _result(video: Path, rows: list[tuple], lost_share: float, declared: int, sm
             f"{video} looks truncated: only {len(rows)} of {declared} frames decoded "
             f"({100 * lost_share:.1f} % lost); tracked what decoded."
         )
-    if res.invalid_share > 0:
+    lost, repeats = int(np.sum((valid == 0) & ~repeated)), int(repeated.sum())
+    if lost > 0:
         res.warnings.append(
-            f"float not measured in {int(np.sum(valid == 0))} of {len(valid)} frames "
-            f"({100 * res.invalid_share:.1f} %); those rows have valid = 0 and are bridged "
+            f"{settings.target} not measured in {lost} of {len(valid)} frames "
+            f"({100 * lost / len(valid):.1f} %); those rows have valid = 0 and are bridged "
             "in angle_smoothed_deg."
+        )
+    if repeats > 0:
+        res.warnings.append(
+            f"the encoder repeated the moving {settings.target}'s previous picture in {repeats} of {len(valid)} "
+            f"frames ({100 * repeats / len(valid):.1f} %; unchanged copies, common at low bit rates and high frame "
+            "rates): those rows have valid = 0, so old pictures do not pass for new measurements."
         )
     return res

@@ -19,7 +19,6 @@ from fractions import Fraction
 from pathlib import Path
 from typing import Literal
 
-import av
 import cv2
 import numpy as np
 
@@ -66,6 +65,8 @@ def _quiet_decoding() -> Iterator[None]:
 
 def _why_unreadable(path: Path) -> str:
     """One sentence on why OpenCV could not open `path`: no video frames, or not a video at all."""
+    import av  # PyAV only for writing and for this diagnosis: reading alone starts faster without it
+
     try:
         with av.open(str(path)) as probe:
             streams = probe.streams.video
@@ -196,6 +197,9 @@ class VideoWriter:
     ) -> None:
         if codec not in _ENCODERS:
             raise UserError(f"codec must be one of {', '.join(_ENCODERS)}, got {codec!r}.")
+        import av
+
+        self._av = av
         self._out = av.open(str(path), "w", format="mp4", options={"movflags": "faststart"})
         stream = self._out.add_stream(_ENCODERS[codec], rate=Fraction(fps).limit_denominator(1001))
         stream.width, stream.height, stream.pix_fmt = width - width % 2, height - height % 2, "yuv420p"
@@ -215,7 +219,7 @@ class VideoWriter:
     def write(self, frame_bgr: np.ndarray, t_s: float) -> None:
         """Encode one frame shown at presentation time t_s (must increase by at least one time-base tick)."""
         h, w = self._stream.height, self._stream.width
-        frame = av.VideoFrame.from_ndarray(np.ascontiguousarray(frame_bgr[:h, :w]), format="bgr24")
+        frame = self._av.VideoFrame.from_ndarray(np.ascontiguousarray(frame_bgr[:h, :w]), format="bgr24")
         pts = round(t_s / self._time_base)
         if pts <= self._last_pts:
             raise ValueError(

@@ -1,0 +1,70 @@
+"""Frames the encoder repeated: an object whose edges are copies of the previous frame was not measured anew.
+
+Inter-frame codecs (H.264, MPEG-4) copy a block from the previous frame when its motion is below what they
+bother to code ("skip" blocks). While a float or a surface moves by a fraction of a pixel per frame (small
+amplitudes, high frame rates, low bit rates) its edges then freeze for several frames and jump later: a
+measurement of a frozen picture is an old measurement under a new timestamp. Such lags grow as the slosh
+decays, so they bias the identified frequency low and the damping high. Marking those frames as not valid
+keeps only measurements of pictures the encoder actually updated. A run of repeats counts only when the object
+moved across it (the fresh measurements on either side differ by more than noise): a float at rest is
+rightly copied, and its frames stay valid.
+"""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+
+REPEAT_SHARE = 0.5
+"""A frame whose object edges are at least this share unchanged copies of the previous frame is a repeat."""
+MOVED_DEG = 0.15
+"""A run of repeats hides motion when the fresh angles around it differ by more than this (about 2 sigma of the
+difference of two measurements at the tracker's 0.05 deg noise)."""
+
+
+def repeated_share(
+    frame: np.ndarray, previous: np.ndarray | None, box: tuple[int, int, int, int], dy_only: bool
+) -> float:
+    """Share of the strong edge pixels in `box` (x0, y0, x1, y1) whose grey level equals the previous frame's.
+
+    dy_only counts only vertical intensity steps (a surface line), so static vertical edges such as highlight
+    stripes on the glass do not count as repeated. OpenCV calls only: this runs for every frame.
+    """
+    if previous is None or previous.shape != frame.shape:
+        return 0.0
+    x0, y0, x1, y1 = (int(v) for v in box)
+    x0, y0 = max(x0, 0), max(y0, 0)
+    if x1 - x0 < 3 or y1 - y0 < 3:
+        return 0.0
+    cur = cv2.cvtColor(frame[y0:y1, x0:x1], cv2.COLOR_BGR2GRAY)
+    old = cv2.cvtColor(previous[y0:y1, x0:x1], cv2.COLOR_BGR2GRAY)
+    grad = cv2.convertScaleAbs(cv2.Sobel(cur, cv2.CV_16S, 0, 1, ksize=3), alpha=0.25)
+    if not dy_only:
+        grad = cv2.add(grad, cv2.convertScaleAbs(cv2.Sobel(cur, cv2.CV_16S, 1, 0, ksize=3), alpha=0.25))
+    top = cv2.minMaxLoc(grad)[1]
+    edges = cv2.compare(grad, 0.3 * top, cv2.CMP_GT)
+    n = cv2.countNonZero(edges)
+    if top <= 0 or n == 0:
+        return 0.0
+    same = cv2.compare(cur, old, cv2.CMP_EQ)
+    return cv2.countNonZero(cv2.bitwise_and(same, edges)) / n
+
+
+def stale_repeats(angle: np.ndarray, valid: np.ndarray, repeated: list[bool]) -> np.ndarray:
+    """Repeated frames inside runs across which the object moved: the frames whose measurement is out of date."""
+    rep = np.asarray(repeated, bool)
+    fresh = np.flatnonzero(valid & ~rep)
+    stale = np.zeros(len(rep), bool)
+    k = 0
+    while k < len(rep):
+        if not rep[k]:
+            k += 1
+            continue
+        end = k
+        while end < len(rep) and rep[end]:
+            end += 1
+        before, after = fresh[fresh < k], fresh[fresh >= end]
+        if before.size and after.size and abs(angle[after[0]] - angle[before[-1]]) > MOVED_DEG:
+            stale[k:end] = True
+        k = end
+    return stale

@@ -1,0 +1,334 @@
+"""Find dyed liquid in a container and measure its surface: angle across the inner width and height at each wall.
+
+The liquid body is detected with an HSV range (a preset, the user's range, or the preset whose colour covers
+the largest region of the first frame) and measured with the same linear colour model as the float, a soft
+body membership of every pixel. The body's sides are the container's inner walls (one sub-pixel crossing per
+row, robust straight lines) and its lower boundary is the inner bottom: together they fix the container's axes
+in every frame, so a container that moves and tilts in the picture is measured in its own coordinates.
+Per column, the body's upper boundary is the front edge of the surface, refined on the full-resolution luma. A
+camera slightly above the liquid sees the round surface as a thin ellipse: its front edge lies R sin(elevation)
+sqrt(1 - s^2) below the mid-line (s = -1..1 across the inner width), so the front edges are fitted with the
+mid-line (an antisymmetric cubic: first and second mode) minus that term. The fit is robust (a running median,
+then 3-MAD trimming): highlight stripes, a meniscus band and a reflection of the surface on the wall disturb runs
+of columns and drop out, and the columns next to the walls, where the meniscus curls up, are not used. The
+mid-line's best-fit line across the whole inner width is the angle; its values at the walls are the heights.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from sloshid.tracking.float_angle import REFIT_EVERY, fit_colour_model, hsv_mask, membership_map
+from sloshid.tracking.robust import robust_polyfit
+from sloshid.video.colors import PRESETS, HsvRange
+
+MIN_LIQUID_SHARE = 0.005
+"""A liquid region must cover at least this share of the searched area."""
+WALL_MARGIN = 0.06
+"""Columns this close to a wall (share of the inner width, at least 4 px) are not used: the meniscus curls up."""
+HOLD_ELEVATION_AFTER = 15
+"""The camera's elevation is fitted in this many frames, then held at their median."""
+LINE_SLOPE_OF_CUBIC = 0.6
+"""Least-squares line slope of s^3 over s in [-1, 1]: the cubic's contribution to the best-fit line."""
+
+
+@dataclass
+class SurfaceMeasurement:
+    """One frame's surface measurement in container coordinates (u along the width, w up the walls), pixels as seen."""
+
+    found: bool
+    liquid: bool = False
+    """The liquid colour was found (False with found=False means: no liquid; True: no container)."""
+    rel_slope: float = math.nan
+    """Best-fit line slope dw/du of the surface's mid-line across the inner width."""
+    container_angle_deg: float = math.nan
+    """Mean tilt of the two inner walls from the image vertical, CCW positive as seen."""
+    left_w: float = math.nan
+    right_w: float = math.nan
+    """Surface height at the left/right inner wall above the inner bottom, along the walls."""
+    width_px: float = math.nan
+    opening_px: float = math.nan
+    """Front-to-back distance of the surface ellipse at the centre (0 when the camera is level)."""
+    x_px: float = math.nan
+    y_px: float = math.nan
+    quality: float = 0.0
+    walls: tuple = ()
+    """(a, b, y0, y1) of the inner walls x = a y + b, for the overlay."""
+    ends: tuple = ()
+    """Image points of the fitted line at the walls and of the wall heights, for the overlay."""
+    band: tuple[int, int, int, int] = (0, 0, 0, 0)
+    """Box (x0, y0, x1, y1) around the measured front edge: where a repeated picture shows."""
+
+
+def auto_liquid_range(frame: np.ndarray, roi: tuple[int, int, int, int]) -> HsvRange | None:
+    """The preset whose colour covers the largest connected region of the ROI, or None when none covers enough."""
+    x, y, w, h = roi
+    crop = frame[y : y + h, x : x + w]
+    best, best_area = None, MIN_LIQUID_SHARE * w * h
+    for p in PRESETS.values():
+        n, _, stats, _ = cv2.connectedComponentsWithStats(hsv_mask(crop, p.hsv), connectivity=8)
+        area = stats[1:, cv2.CC_STAT_AREA].max() if n > 1 else 0
+        if area > best_area:
+            best, best_area = p.hsv, area
+    return best
+
+
+def _crossings_first(m: np.ndarray, axis: int) -> tuple[np.ndarray, np.ndarray]:
+    """Sub-pixel position of the first 0.5 crossing of m along `axis` (from index 0), and whether there is one."""
+    above = m >= 0.5
+    j = np.argmax(above, axis=axis)
+    ok = above.any(axis=axis) & (j > 0)
+    jm = np.clip(j - 1, 0, None)
+    a = np.take_along_axis(m, np.expand_dims(jm, axis), axis).squeeze(axis)
+    b = np.take_along_axis(m, np.expand_dims(j, axis), axis).squeeze(axis)
+    frac = np.where(b > a, (0.5 - a) / np.where(b > a, b - a, 1), 0.5)
+    return jm + frac, ok
+
+
+def refine_on_luma(gray: np.ndarray, pos: np.ndarray, ok: np.ndarray, reach: int = 6) -> np.ndarray:
+    """Move each column's edge estimate `pos` (rows of `gray`, sub-pixel) to the luma profile's mid-level crossing.
+
+    Compression keeps colour at half resolution and in coarse blocks, but luma at full resolution: the edge is
+    where the column's luma passes halfway between its levels `reach` pixels before and after the estimate
+    (the crossing closest to the estimate). Columns without that contrast keep their estimate.
+    """
+    n = gray.shape[0]
+    base = np.rint(pos).astype(int)
+    offs = np.arange(-reach, reach + 1)
+    rows = np.clip(base[None, :] + offs[:, None], 0, n - 1)
+    prof = gray[rows, np.arange(gray.shape[1])[None, :]]
+    n_lvl = max(1, reach // 2)  # the outer samples give the two levels
+    lo, hi = prof[:n_lvl].mean(axis=0), prof[-n_lvl:].mean(axis=0)
+    mid = 0.5 * (lo + hi)
+    d = prof - mid
+    cross = (d[:-1] * d[1:] <= 0) & (d[:-1] != d[1:])
+    dist = np.where(cross, np.abs(offs[:-1, None] + 0.5 - (pos - base)[None, :]), np.inf)
+    i = np.argmin(dist, axis=0)
+    cols = np.arange(gray.shape[1])
+    d0, d1 = d[i, cols], d[i + 1, cols]
+    frac = np.where(d0 != d1, d0 / np.where(d0 != d1, d0 - d1, 1), 0.5)
+    refined = base + offs[i] + frac
+    good = ok & np.isfinite(dist[i, cols]) & (np.abs(hi - lo) >= 12) & (base - reach >= 0) & (base + reach < n)
+    return np.where(good, refined, pos)
+
+
+class SurfaceFinder:
+    """Stateful per-video surface measurement: follows the liquid body from frame to frame."""
+
+    def __init__(self, hsv: HsvRange | None, roi: tuple[int, int, int, int]) -> None:
+        self.hsv = hsv
+        self.roi = roi
+        self._box: tuple[int, int, int, int] | None = None  # last liquid body box (x0, y0, x1, y1)
+        self._model: tuple[np.ndarray, float] | None = None
+        self._since_fit = 0
+        self._k: list[float] = []  # k / R = sin(elevation) from the first frames
+
+    def measure(self, frame: np.ndarray) -> SurfaceMeasurement:
+        """Measure the surface in one BGR frame."""
+        if self.hsv is None:
+            self.hsv = auto_liquid_range(frame, self.roi)
+            if self.hsv is None:
+                return SurfaceMeasurement(False)
+        box = self._find_body(frame)
+        if box is None:
+            self._box = None
+            return SurfaceMeasurement(False)
+        m = self._measure_body(frame, box)
+        self._box = box if m.found else None
+        return m
+
+    def _find_body(self, frame: np.ndarray) -> tuple[int, int, int, int] | None:
+        """Box of the largest liquid-coloured region near the last one (or in the whole ROI after a loss)."""
+        rx, ry, rw, rh = self.roi
+        X0, Y0, X1, Y1 = rx, ry, rx + rw, ry + rh
+        if self._box is not None:
+            x0, y0, x1, y1 = self._box
+            mx, my = 8 + 0.1 * (x1 - x0), 8 + 0.1 * (y1 - y0)
+            X0, Y0 = max(X0, int(x0 - mx)), max(Y0, int(y0 - my))
+            X1, Y1 = min(X1, int(x1 + mx) + 1), min(Y1, int(y1 + my) + 1)
+        # the box only bounds the search: half resolution finds it four times faster, to within 2 px
+        small = cv2.resize(frame[Y0:Y1, X0:X1], None, fx=0.5, fy=0.5, interpolation=cv2.INTER_AREA)
+        mask = cv2.morphologyEx(hsv_mask(small, self.hsv), cv2.MORPH_OPEN, np.ones((3, 3), np.uint8))
+        n, _, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=8)
+        if n <= 1:
+            return None
+        areas = 4 * stats[1:, cv2.CC_STAT_AREA]  # full-resolution pixels
+        if areas.max() < MIN_LIQUID_SHARE * rw * rh and self._box is None:
+            return None
+        # highlight stripes cut the body into side-by-side pieces: the box holds every sizeable piece
+        big = stats[1:][areas >= 0.1 * areas.max()]
+        bx0, by0 = 2 * big[:, 0].min(), 2 * big[:, 1].min()
+        bx1, by1 = 2 * (big[:, 0] + big[:, 2]).max(), 2 * (big[:, 1] + big[:, 3]).max()
+        return X0 + int(bx0), Y0 + int(by0), X0 + int(bx1), Y0 + int(by1)
+
+    def _measure_body(self, frame: np.ndarray, box: tuple[int, int, int, int]) -> SurfaceMeasurement:
+        """Walls, bottom and surface of the liquid body in `box`."""
+        h, w = frame.shape[:2]
+        x0, y0, x1, y1 = box
+        rx, _ry, rw, _rh = self.roi
+        if x0 <= rx or x1 >= rx + rw:  # the liquid reaches the side of the picture: no walls to measure
+            return SurfaceMeasurement(False, liquid=True)
+        pad, up = 6 + int(0.03 * (x1 - x0)), 6 + int(0.3 * (x1 - x0))
+        X0, Y0, X1, Y1 = max(0, x0 - pad), max(0, y0 - up), min(w, x1 + pad), min(h, y1 + pad)
+        crop = frame[Y0:Y1, X0:X1]
+        self._since_fit += 1
+        if self._model is None or self._since_fit >= REFIT_EVERY:
+            blob = hsv_mask(crop, self.hsv)
+            self._model, self._since_fit = fit_colour_model(crop, blob), 0
+        if self._model is None:
+            return SurfaceMeasurement(False, liquid=True)
+        body = membership_map(crop, self._model[0])
+        gray = cv2.cvtColor(crop, cv2.COLOR_BGR2GRAY).astype(np.float32)
+        frame_geom = _container_axes(body, gray, (X0, Y0), box)
+        if frame_geom is None:
+            return SurfaceMeasurement(False, liquid=True)
+        return self._surface(gray, body, (X0, Y0), frame_geom)
+
+    def _surface(self, gray, body, origin, geom) -> SurfaceMeasurement:
+        """Front edge per column in container coordinates, robust fit of mid-line and ellipse, line and wall heights."""
+        X0, Y0 = origin
+        walls, o, e_u, e_w = geom
+        (aL, bL), (aR, bR) = walls
+        ytop = float(np.argmax(body.max(axis=1) >= 0.5))
+        uL = (np.array([aL * ytop + bL, ytop]) - o) @ e_u
+        uR = (np.array([aR * ytop + bR, ytop]) - o) @ e_u
+        half, uc = 0.5 * (uR - uL), 0.5 * (uR + uL)
+        margin = max(4.0, WALL_MARGIN * 2 * half)
+        cols = np.arange(math.ceil(aL * ytop + bL + margin), int(aR * ytop + bR - margin))
+        if half < 10 or len(cols) < 12:
+            return SurfaceMeasurement(False, liquid=True)
+        front, ok = _crossings_first(body[:, cols], axis=0)
+        front = refine_on_luma(gray[:, cols], front, ok)
+        p = np.column_stack([cols.astype(float), front]) - o
+        u, wv = p @ e_u, p @ e_w
+        s = (u - uc) / half
+        ok &= _locally_consistent(wv, ok)
+        # the elevation is fitted in the first frames and then held (a static camera): slopes separate from it
+        held = float(np.median(self._k)) if len(self._k) >= HOLD_ELEVATION_AFTER else None
+        fit = _fit_front(s[ok], wv[ok], max(10, len(cols) // 3), None if held is None else held * half)
+        if fit is None:
+            return SurfaceMeasurement(False, liquid=True)
+        (c0, c1, c3, k), keep, rms = fit
+        if held is None:
+            self._k.append(k / half)
+        kept = keep.mean() * ok.mean()
+        left, right = c0 - c1 - c3, c0 + c1 + c3
+        to_img = lambda uu, ww: o + uu * e_u + ww * e_w + np.array([X0, Y0])  # noqa: E731
+        line = c1 + LINE_SLOPE_OF_CUBIC * c3
+        pl, pr, pc = to_img(uL, left), to_img(uR, right), to_img(uc, c0)
+        line_l, line_r = to_img(uL, c0 - line), to_img(uR, c0 + line)
+        y_lo, y_hi = Y0 + ytop, Y0 + float(o[1])
+        wall_lines = tuple((a, b + X0 - a * Y0, y_lo, y_hi) for a, b in walls)
+        return SurfaceMeasurement(
+            True,
+            True,
+            (c1 + LINE_SLOPE_OF_CUBIC * c3) / half,
+            math.degrees(math.atan(0.5 * (aL + aR))),
+            float(left),
+            float(right),
+            float(2 * half),
+            float(2 * k),
+            float(pc[0]),
+            float(pc[1]),
+            float(kept * min(1.0, max(0.0, 1.5 - rms))),
+            wall_lines,
+            (tuple(line_l), tuple(line_r), tuple(pl), tuple(pr)),
+            _band(front[ok], cols, (X0, Y0)),
+        )
+
+
+def _band(front: np.ndarray, cols: np.ndarray, origin: tuple[int, int]) -> tuple[int, int, int, int]:
+    """Frame box around the front edge points, 3 px beyond them vertically."""
+    X0, Y0 = origin
+    return X0 + int(cols[0]), Y0 + int(front.min()) - 3, X0 + int(cols[-1]) + 1, Y0 + int(front.max()) + 4
+
+
+def _locally_consistent(w: np.ndarray, ok: np.ndarray) -> np.ndarray:
+    """Columns within 3 MAD (at least 0.7 px) of a running median over a sixth of the width: stripes and
+    reflections move runs of neighbouring columns together, which would drag a first least-squares fit."""
+    keep = np.zeros_like(ok)
+    if ok.sum() < 12:
+        return keep
+    size = max(7, (int(ok.sum()) // 6) | 1)
+    padded = np.pad(w[ok], size // 2, mode="edge")
+    r = w[ok] - np.median(np.lib.stride_tricks.sliding_window_view(padded, size), axis=1)
+    mad = 1.4826 * np.median(np.abs(r - np.median(r)))
+    keep[ok] = np.abs(r - np.median(r)) < max(3 * mad, 0.7)
+    return keep
+
+
+def _fit_front(s: np.ndarray, w: np.ndarray, min_points: int, k: float | None = None):
+    """Robust least squares of the front edge: w = c0 + c1 s + c3 s^3 - k sqrt(1 - s^2).
+
+    The mid-line of the surface ellipse is the antisymmetric cubic (first and second mode); its front edge lies
+    k = R sin(elevation) below it at the centre and meets it at the walls. k is fitted when not given.
+    Returns ((c0, c1, c3, k), inliers, rms) or None. Each pass drops points more than 3 MAD (at least 0.5 px) off.
+    """
+    chord = np.sqrt(np.clip(1 - s * s, 0, None))
+    if k is not None:
+        fit = _fit_front_basis(np.column_stack([np.ones_like(s), s, s**3]), w + k * chord, min_points)
+        return None if fit is None else ((*fit[0], k), *fit[1:])
+    return _fit_front_basis(np.column_stack([np.ones_like(s), s, s**3, -chord]), w, min_points)
+
+
+def _fit_front_basis(basis: np.ndarray, w: np.ndarray, min_points: int):
+    """Iteratively trimmed linear least squares of w on the basis columns: (coefficients, inliers, rms) or None."""
+    keep = np.ones(len(w), bool)
+    for _ in range(4):
+        if keep.sum() < min_points:
+            return None
+        coef = np.linalg.lstsq(basis[keep], w[keep], rcond=None)[0]
+        res = w - basis @ coef
+        mad = 1.4826 * np.median(np.abs(res[keep]))
+        keep = np.abs(res) < max(3 * mad, 0.5)
+    if keep.sum() < min_points:
+        return None
+    coef = np.linalg.lstsq(basis[keep], w[keep], rcond=None)[0]
+    return coef, keep, float(np.sqrt(np.mean((w[keep] - basis[keep] @ coef) ** 2)))
+
+
+def _container_axes(body: np.ndarray, gray: np.ndarray, origin: tuple[int, int], box: tuple[int, int, int, int]):
+    """Inner walls (robust lines from the body's side crossings) and bottom; the container's axes, or None.
+
+    Returns ((aL, bL), (aR, bR)) of the walls x = a y + b, the origin o on the inner bottom midway between the
+    walls and the unit vectors e_u (right) and e_w (up along the walls), all in crop coordinates.
+    """
+    X0, Y0 = origin
+    x0, y0, x1, y1 = box
+    r0, r1 = y0 - Y0 + int(0.4 * (y1 - y0)), y1 - Y0 - int(0.1 * (y1 - y0)) - 2
+    if r1 - r0 < 10:
+        return None
+    rows = np.arange(r0, r1)
+    band = body[r0:r1]
+    left, okl = _crossings_first(band, axis=1)
+    right, okr = _crossings_first(band[:, ::-1], axis=1)
+    right = band.shape[1] - 1 - right
+    left = refine_on_luma(gray[r0:r1].T, left, okl, reach=2)
+    right = refine_on_luma(gray[r0:r1].T, right, okr, reach=2)
+    fl = robust_polyfit(rows[okl].astype(float), left[okl], 1, 0.3, min_points=max(10, len(rows) // 3))
+    fr = robust_polyfit(rows[okr].astype(float), right[okr], 1, 0.3, min_points=max(10, len(rows) // 3))
+    if fl is None or fr is None:
+        return None
+    (aL, bL), (aR, bR) = fl[0], fr[0]
+    c0, c1 = int(0.2 * (x1 - x0)) + x0 - X0, int(0.8 * (x1 - x0)) + x0 - X0
+    cols = np.arange(c0, c1)
+    bottom, okb = _crossings_first(body[::-1, cols], axis=0)
+    bottom = body.shape[0] - 1 - bottom
+    fb = robust_polyfit(cols[okb].astype(float), bottom[okb], 1, 0.3, min_points=max(10, len(cols) // 3))
+    if fb is None:
+        return None
+    a = 0.5 * (aL + aR)
+    n = math.hypot(1, a)
+    e_w, e_u = np.array([-a, -1.0]) / n, np.array([1.0, -a]) / n
+    # the bottom line y = k x + d meets the centre line between the walls
+    k, d = fb[0]
+    xm_at = lambda y: 0.5 * ((aL + aR) * y + bL + bR)  # noqa: E731
+    y_b = d
+    for _ in range(3):
+        y_b = k * xm_at(y_b) + d
+    o = np.array([xm_at(y_b), y_b])
+    return ((aL, bL), (aR, bR)), o, e_u, e_w

@@ -1,0 +1,109 @@
+"""The surface target of `track_video`: per-frame surface measurements (surface.py) turned into the track table.
+
+Per frame it keeps what the picture shows; after the last frame it corrects for a camera above the liquid
+(the surface ellipse's opening over the inner width is the sine of the elevation, which shortens heights and
+flattens slopes by its cosine), subtracts the rest level of each wall (median of the rest frames) and scales
+the wall heights to millimetres when the container's inner diameter is given (the measured walls give px/m).
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+
+from sloshid.core.errors import SettingError, UserError
+from sloshid.tracking.container_ref import ContainerTracker
+from sloshid.tracking.overlay import draw_surface_overlay
+from sloshid.tracking.repeats import REPEAT_SHARE, repeated_share
+from sloshid.tracking.surface import SurfaceFinder
+
+VALID_QUALITY = 0.5
+"""Frames whose surface quality is below this are marked valid = 0."""
+
+
+class SurfaceStep:
+    """Measures the liquid surface frame by frame and assembles the surface columns at the end."""
+
+    def __init__(self, settings, roi: tuple[int, int, int, int]) -> None:
+        self.settings, self.roi = settings, roi
+        self.finder = SurfaceFinder(settings.liquid_hsv, roi)
+        self.liquid_frames = 0
+        self.previous: np.ndarray | None = None
+        self.repeated: list[bool] = []
+        self.walls = ContainerTracker(roi) if settings.reference == "container" else None
+
+    def __call__(self, frame: np.ndarray, draw: bool) -> tuple[tuple, np.ndarray | None]:
+        """(row, overlay frame or None): the track row's fields, then the raw surface geometry."""
+        m = self.finder.measure(frame)
+        self.liquid_frames += m.liquid
+        if m.found and self.walls is not None:
+            # the container's whole wall edges (rim to bottom) give its angle more precisely than the liquid's sides
+            cm = self.walls.measure(frame, m.x_px, m.y_px, 0.8 * m.width_px)
+            if cm.found:
+                seen = math.atan(m.rel_slope) + math.radians(m.container_angle_deg - cm.angle_deg)
+                m.rel_slope, m.container_angle_deg = math.tan(seen), cm.angle_deg
+        repeat = m.found and repeated_share(frame, self.previous, m.band, dy_only=True) >= REPEAT_SHARE
+        self.previous = frame
+        self.repeated.append(bool(repeat))
+        ok = m.found and m.quality >= VALID_QUALITY
+        rel = math.degrees(math.atan(m.rel_slope)) if m.found else math.nan
+        cang = m.container_angle_deg if self.settings.reference == "container" else 0.0
+        angle = rel if self.settings.reference == "container" else rel + m.container_angle_deg
+        row = (angle, rel + m.container_angle_deg, cang, m.x_px, m.y_px, m.quality, int(ok))
+        raw = (m.rel_slope, m.container_angle_deg, m.left_w, m.right_w, m.width_px, m.opening_px)
+        drawn = draw_surface_overlay(frame, m, angle, ok, self.roi, self.settings.reference) if draw else None
+        return row + raw, drawn
+
+    def nothing_found(self, n: int, path: Path, hint: str) -> UserError:
+        """The one-sentence error when no frame was valid: no liquid of that colour, or no container around it."""
+        if self.finder.hsv is None:
+            return SettingError(
+                "liquid_color",
+                f"no dyed liquid of any preset colour found in the {n} frames of {path}; {hint} and give {{name}} "
+                "or {liquid_hsv_low}/{liquid_hsv_high}.",
+                "overlay",
+                "liquid_hsv_low",
+                "liquid_hsv_high",
+            )
+        if self.liquid_frames == 0:
+            return SettingError(
+                "liquid_color",
+                f"no liquid of colour {self.finder.hsv.describe()} found in any of the {n} frames of {path}; "
+                f"{hint} and adjust {{name}} or {{liquid_hsv_low}}/{{liquid_hsv_high}}.",
+                "overlay",
+                "liquid_hsv_low",
+                "liquid_hsv_high",
+            )
+        return SettingError(
+            "roi",
+            f"the liquid was found in {self.liquid_frames} of {n} frames of {path} but not the container's inner "
+            f"walls (straight sides of the liquid inside the picture) in any of them; {hint} or widen {{name}}.",
+            "overlay",
+        )
+
+    def finish(self, rows: list[tuple]) -> tuple[list[tuple], dict[str, np.ndarray]]:
+        """Elevation-corrected angles and the wall heights above rest (px, and mm with the diameter)."""
+        t = np.array([r[1] for r in rows], float)
+        valid = np.array([r[8] for r in rows], bool)
+        slope, cang, left, right, width, opening = (np.array(c, float) for c in zip(*[r[9:] for r in rows]))
+        sin_e = float(np.clip(np.median(opening[valid]) / np.median(width[valid]), 0, 0.5))
+        cos_e = math.sqrt(1 - sin_e * sin_e)
+        rel = np.degrees(np.arctan(slope / cos_e))
+        container = self.settings.reference == "container"
+        angle = rel if container else rel + cang
+        body = [(*r[:2], a, rv + c, *r[4:9]) for r, a, rv, c in zip(rows, angle, rel, cang)]
+        rest = valid & (np.arange(len(t)) < self.settings.rest_frames if self.settings.rest_frames else t < t[0] + 1.0)
+        rest = rest if rest.any() else valid
+        walls = {}
+        for name, w in (("left_wall", left), ("right_wall", right)):
+            walls[f"{name}_px"] = np.where(valid, (w - np.median(w[rest])) / cos_e, np.nan)
+        mm_per_px = (
+            1000 * self.settings.container_diameter_m / float(np.median(width[valid]))
+            if self.settings.container_diameter_m
+            else math.nan
+        )
+        for name in ("left_wall", "right_wall"):
+            walls[f"{name}_mm"] = walls[f"{name}_px"] * mm_per_px
+        return body, walls
