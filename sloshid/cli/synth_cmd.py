@@ -23,7 +23,8 @@ _DEFAULTS = SynthSettings()
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    """Options of `sloshid synth`, each with its unit."""
+    """Options of `sloshid synth`, each with its unit (one argparse call per option: long, but read one entry
+    at a time, so it is not split)."""
     d = _DEFAULTS
     parser.add_argument("output", type=Path, metavar="OUT.mp4", help="video file to write (.mp4)")
     parser.add_argument("--truth", type=Path, help="ground-truth CSV to write (default: OUT_truth.csv)")

@@ -343,7 +343,7 @@ def build_method(key: str, inp: CompareInput, built: dict[str, MethodResult]) ->
         elif key == "constant_acc":
             traj = constant_acceleration(task)
         elif key in ("zv", "zvd"):
-            traj = shaped_constant_acceleration(task, inp.params, key.upper())  # type: ignore[arg-type]
+            traj = shaped_constant_acceleration(task, inp.params, key.upper())
         elif key in ("ruckig", "ruckig_tilt"):
             traj = jerk_limited(task, inp.jerk_max_m_s3, tilt=key == "ruckig_tilt")
         elif key in ("sloshid", "sloshid_robust"):
@@ -355,7 +355,7 @@ def build_method(key: str, inp: CompareInput, built: dict[str, MethodResult]) ->
                 base = build_method(base_key, inp, built)
             if not base.applicable:
                 raise NotApplicable(f"its feedforward '{base.label}' is not applicable.")
-            res.replay = with_feedback(inp, base.trajectory)  # type: ignore[arg-type]
+            res.replay = with_feedback(inp, base.trajectory)
             traj = res.replay(inp.params)
     except NotApplicable as exc:
         res.reason = str(exc)
@@ -514,12 +514,12 @@ def camera_study(inp: CompareInput, built: dict[str, MethodResult]) -> tuple[lis
         if base is None or not base.applicable or f"{base_key}_feedback" not in built:
             continue
         reference[base.label] = simulate_liquid(base.trajectory, truth, settle_s=s.settle_s).residual_deg
-        dt = base.trajectory.dt_s  # type: ignore[union-attr]
-        rel = base.response.rel_angle_deg[: len(base.trajectory.t_s)]  # type: ignore[union-attr]  # while moving
+        dt = base.trajectory.dt_s
+        rel = base.response.rel_angle_deg[: len(base.trajectory.t_s)]  # while moving
         for fps in s.camera_fps_sweep:
             seen = camera_seen_peak(rel, dt, fps)
             fb = FeedbackSettings(**{**vars(s.feedback), "camera_fps": fps})
-            traj = with_feedback(inp, base.trajectory, fb)(truth)  # type: ignore[arg-type]
+            traj = with_feedback(inp, base.trajectory, fb)(truth)
             resp = simulate_liquid(traj, truth, settle_s=s.settle_s)
             points.append(
                 CameraPoint(
@@ -550,12 +550,12 @@ def compare(inp: CompareInput, progress: bool = False) -> Comparison:
         built[key] = build_method(key, inp, built)
     results = [built[k] for k in s.methods]
     ok = [r for r in results if r.applicable]
-    closed = {r.key: closed_loop_response(r.trajectory, inp.params, s.robot_bandwidth_hz, s.settle_s) for r in ok}  # type: ignore[arg-type]
+    closed = {r.key: closed_loop_response(r.trajectory, inp.params, s.robot_bandwidth_hz, s.settle_s) for r in ok}
     robust = sweep(
         {r.label: r.replay for r in ok},
         inp.params,
         s.omega_factors,
-        s.zeta_factors,  # type: ignore[misc]
+        s.zeta_factors,
         progress=progress,
         workers=s.workers,
     )
@@ -571,14 +571,14 @@ def verdict(comp: Comparison) -> str:
     alternatives cost and how robust they are."""
     limit = comp.settings.residual_ok_deg
     ok = [r for r in comp.results if r.applicable]
-    collides = [r for r in ok if r.score.min_clearance_m is not None and r.score.min_clearance_m < 0]  # type: ignore[union-attr]
+    collides = [r for r in ok if r.score.min_clearance_m is not None and r.score.min_clearance_m < 0]
     parts = [comp.recommendation.reason] if comp.recommendation is not None else []
     const = comp.result("constant_acc")
     if const is not None and const.applicable:
         parts.append(
-            f"The constant-acceleration profile sloshes to {const.score.peak_during_deg:.3g} deg during the "  # type: ignore[union-attr]
+            f"The constant-acceleration profile sloshes to {const.score.peak_during_deg:.3g} deg during the "
             f"move and leaves {const.score.residual_deg:.3g} deg behind."
-        )  # type: ignore[union-attr]
+        )
     bands = []
     for r in ok:
         band = comp.robustness.tolerance_band(r.label, limit)
@@ -588,13 +588,13 @@ def verdict(comp: Comparison) -> str:
         parts.append(f"Frequency error tolerated with residual <= {limit:g} deg: " + ", ".join(bands) + ".")
     nominal, rob = comp.result("sloshid"), comp.result("sloshid_robust")
     if nominal is not None and rob is not None and nominal.applicable and rob.applicable:
-        cost = rob.score.transfer_time_s / nominal.score.transfer_time_s - 1  # type: ignore[union-attr]
+        cost = rob.score.transfer_time_s / nominal.score.transfer_time_s - 1
         parts.append(f"The robust plan costs {100 * cost:.1f} % more transfer time.")
     if collides:
         parts.append(
             "Going straight between waypoints collides with an obstacle: " + ", ".join(r.label for r in collides) + "."
         )
-    broken = [r.label for r in ok if not r.score.robot_limits_ok]  # type: ignore[union-attr]
+    broken = [r.label for r in ok if not r.score.robot_limits_ok]
     if broken:
         parts.append("Robot limits fail for: " + ", ".join(broken) + ".")
     return " ".join(parts)

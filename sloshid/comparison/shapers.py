@@ -51,7 +51,7 @@ def shape(profile: PathProfile, shaper: Shaper) -> PathProfile:
 
     def evaluate(t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         parts = [profile.evaluate(np.asarray(t, float) - ti) for ti in shaper.times_s]
-        return tuple(sum(a * p[k] for a, p in zip(shaper.amplitudes, parts)) for k in range(3))  # type: ignore
+        return tuple(sum(a * p[k] for a, p in zip(shaper.amplitudes, parts)) for k in range(3))
 
     return PathProfile(profile.length_m, profile.duration_s + shaper.duration_s, evaluate)
 

@@ -171,7 +171,8 @@ class IdentResult:
         return self.signals[i].between(self.windows[i].t0_s, self.windows[i].t1_s)
 
     def to_dict(self) -> dict[str, Any]:
-        """The `sloshid identify` JSON (schema in README; read back by SloshParams.from_identify_json)."""
+        """The `sloshid identify` JSON (schema in README; read back by SloshParams.from_identify_json). Long, but it
+        is the file's schema written out in one place, which is easier to check than pieces."""
         num, den = linear_tf_coeffs(self.params)
         params = {}
         for k, v in self.parameters.items():

@@ -53,7 +53,7 @@ def _solver(s: PathStructure, geo):
     if s not in _CACHE:
         prob = build_path_problem(s, geo)
         ms = MultipleShooting(prob)
-        opts = ipopt_options(s)  # type: ignore[arg-type]
+        opts = ipopt_options(s)
         _CACHE[s] = (ca.nlpsol("path", "ipopt", ms.nlp, opts), ms, prob)
     return _CACHE[s]
 

@@ -453,6 +453,11 @@ def plan(
                 margins[i] += float(-clearance[seg_of_sample == i].min()) + 1e-3
             full.add(i)
         segs.update(_solve_all(scenario, params, robust, margins, dipped, None, progress, full))
+    return _assemble(scenario, params, ordered, traj, clearance, robust, t_wall)
+
+
+def _assemble(scenario, params, ordered, traj, clearance, robust, t_wall: float) -> PlanResult:
+    """The PlanResult of solved segments: limits checked and the liquid verified on the 1 kHz trajectory."""
     usages = check_limits(traj, scenario.robot)
     verification = simulate_liquid(traj, params)
     return PlanResult(

@@ -50,7 +50,7 @@ class Move:
 
     def points(self) -> list[Vec3]:
         """Start ... goal as a list."""
-        return list(self.waypoints) if self.waypoints is not None else [self.start, self.goal]  # type: ignore[list-item]
+        return list(self.waypoints) if self.waypoints is not None else [self.start, self.goal]
 
 
 @dataclass(frozen=True)
@@ -123,7 +123,7 @@ class Obstacle:
         if self.kind == "sphere":
             return np.linalg.norm(p - np.asarray(self.center), axis=-1) - r
         radial = np.hypot(p[..., 0] - self.center[0], p[..., 1] - self.center[1]) - r
-        lo, hi = self.z_range[0] - inflate_m, self.z_range[1] + inflate_m  # type: ignore[index]
+        lo, hi = self.z_range[0] - inflate_m, self.z_range[1] + inflate_m
         vertical = np.maximum(lo - p[..., 2], p[..., 2] - hi)
         return np.maximum(radial, vertical)
 

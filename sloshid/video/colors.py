@@ -74,7 +74,7 @@ def parse_hsv(text: str, what: str) -> tuple[int, int, int]:
         values = ()
     if len(values) != 3:
         raise UserError(f"{what} must be three whole numbers H,S,V (H 0..179, S and V 0..255), got '{text}'.")
-    return values  # type: ignore[return-value]
+    return values
 
 
 def format_hsv(triple: tuple[int, int, int]) -> str:

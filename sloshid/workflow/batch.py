@@ -183,10 +183,6 @@ def _with_interval(row: dict[str, Any], key: str, lo: str, hi: str) -> str:
 
 def batch_report(result: BatchResult) -> Report:
     """Summary page: how many videos succeeded, the distribution of identified frequencies, the table."""
-    import matplotlib.pyplot as plt
-    import numpy as np
-    from matplotlib.ticker import MaxNLocator
-
     ok = [r for r in result.rows if r["status"] != "failed" and r["f_hz"] != ""]
     report = Report("sloshid batch summary")
     report.add_text(
@@ -194,27 +190,8 @@ def batch_report(result: BatchResult) -> Report:
         f"({sum(r.get('quality') == 'good' for r in ok)} with verdict 'good')."
     )
     if ok:
-        f = np.array([float(r["f_hz"]) for r in ok])
-        lo = np.array([float(r["f_lo_hz"]) for r in ok])
-        hi = np.array([float(r["f_hi_hz"]) for r in ok])
-        fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(11, 3.6))
-        ax1.hist(f, bins=min(20, max(5, len(f) // 2)), color="#36c", alpha=0.8)
-        ax1.set(xlabel="identified sloshing frequency f (Hz)", ylabel="videos", title="distribution of f")
-        ax1.yaxis.set_major_locator(MaxNLocator(integer=True))  # a count of videos
-        order = np.argsort(f)
-        ax2.errorbar(
-            np.arange(len(f)),
-            f[order],
-            yerr=[f[order] - lo[order], hi[order] - f[order]],
-            fmt="o",
-            color="#36c",
-            ecolor="#999",
-            capsize=2,
-        )
-        ax2.set(xlabel="video (sorted by f)", ylabel="f (Hz) with 95 % interval", title="per video")
-        ax2.set_xticks(np.arange(len(f)), [Path(ok[i]["file"]).name for i in order], rotation=60, ha="right")
         report.add_figure(
-            fig,
+            _frequency_figure(ok),
             "Left: how the identified frequencies spread over the batch. Right: each video's "
             "estimate with its 95 % interval; an interval far from the rest points at a bad video.",
         )
@@ -247,3 +224,31 @@ def batch_report(result: BatchResult) -> Report:
         ],
     )
     return report
+
+
+def _frequency_figure(ok: list[dict[str, Any]]):
+    """The spread of identified frequencies (histogram) and each video's estimate with its 95 % interval."""
+    import matplotlib.pyplot as plt
+    import numpy as np
+    from matplotlib.ticker import MaxNLocator
+
+    f = np.array([float(r["f_hz"]) for r in ok])
+    lo = np.array([float(r["f_lo_hz"]) for r in ok])
+    hi = np.array([float(r["f_hi_hz"]) for r in ok])
+    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(11, 3.6))
+    ax1.hist(f, bins=min(20, max(5, len(f) // 2)), color="#36c", alpha=0.8)
+    ax1.set(xlabel="identified sloshing frequency f (Hz)", ylabel="videos", title="distribution of f")
+    ax1.yaxis.set_major_locator(MaxNLocator(integer=True))  # a count of videos
+    order = np.argsort(f)
+    ax2.errorbar(
+        np.arange(len(f)),
+        f[order],
+        yerr=[f[order] - lo[order], hi[order] - f[order]],
+        fmt="o",
+        color="#36c",
+        ecolor="#999",
+        capsize=2,
+    )
+    ax2.set(xlabel="video (sorted by f)", ylabel="f (Hz) with 95 % interval", title="per video")
+    ax2.set_xticks(np.arange(len(f)), [Path(ok[i]["file"]).name for i in order], rotation=60, ha="right")
+    return fig
