@@ -23,8 +23,10 @@ if TYPE_CHECKING:
 def track(
     video: str | Path, *, overlay: str | Path | None = None, progress: bool = False, **settings: Any
 ) -> TrackResult:
-    """Track the float in every frame of `video`; keywords are TrackSettings fields (float_color, float_hsv_low,
-    float_hsv_high, roi, reference, smooth). `overlay` also writes the annotated video."""
+    """Track the float (or, with target="surface", the dyed liquid's surface) in every frame of `video`; keywords
+    are TrackSettings fields (float_color, float_hsv_low, float_hsv_high, roi, reference, smooth, target,
+    liquid_color, liquid_hsv_low, liquid_hsv_high, rest_frames, container_diameter_m). `overlay` also writes the
+    annotated video."""
     from sloshid.tracking.tracker import TrackSettings, track_video
 
     return track_video(video, from_dict(TrackSettings, settings), overlay=overlay, progress=progress)

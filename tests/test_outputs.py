@@ -347,3 +347,20 @@ def test_a_setting_error_is_reworded_per_front_end_and_keeps_braces_in_paths():
     assert str(err) == "mass_kg must be positive in /data/{run}/a.csv; see overlay"
     assert str(err.named(lambda s: f"[identify].{s}")).startswith("[identify].mass_kg must")
     assert str(err.named(lambda s: "--" + s.replace("_", "-"))).endswith("see --overlay")
+
+
+def test_predict_and_validate_never_overwrite_their_inputs(tmp_path, run_cli):
+    log = tmp_path / "log.csv"
+    log.write_text("t;x;y;z;qx;qy;qz;qw\n" + "".join(f"{i / 500};0;0;0;0;0;0;1\n" for i in range(600)))
+    params = tmp_path / "p.json"
+    params.write_text('{"parameters": {"omega_rad_s": {"value": 20.0}, "zeta": {"value": 0.05}}}')
+    before = log.read_bytes()
+    code, _, err = run_cli("predict", log, "-o", log, "--params", params, "--container-radius-m", "0.05")
+    _one_sentence(code, err)
+    assert "also an input" in err and log.read_bytes() == before
+    site = tmp_path / "site"
+    site.mkdir()
+    (site / "index.html").write_text("mine")
+    code, _, err = run_cli("validate", "--trajectory", log, "--measured", log, "--params", params, "--report", site)
+    _one_sentence(code, err)
+    assert (site / "index.html").read_text() == "mine"

@@ -15,13 +15,13 @@ from sloshid import __version__
 from sloshid.core.errors import SettingError, UserError
 
 COMMANDS: dict[str, str] = {
-    "synth": "render a synthetic float video with exact ground truth (for testing the tracker)",
-    "track": "measure the float's angle in every frame of a video, relative to the image or container",
+    "synth": "render a synthetic float or dyed-liquid video with exact ground truth (for testing the tracker)",
+    "track": "measure the float's (or the liquid surface's) angle in every frame, relative to image or container",
     "identify": "find the sloshing frequency, damping, pendulum length and damping constant of a signal",
     "plan": "plan a time-optimal, slosh-free container move (CasADi) and write a 1 kHz robot trajectory",
     "predict": "predict the liquid's response (angles, wall height) to any recorded container motion or pose log",
     "validate": "score a model's predictions against measured moves (alignment, NRMSE fit, peak error, report)",
-    "compare": "score the plan against constant-acceleration, input shaping, jerk-limited and feedback moves",
+    "compare": "score the plan against constant acceleration, input shaping, jerk-limited, TOPP-RA and feedback",
     "run": "run a declared pipeline (track, identify, plan, compare, report) with caching",
     "batch": "track and identify many videos in parallel on Dask",
 }

@@ -50,9 +50,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Load and check everything, predict, write the CSV atomically, print the peaks."""
+    from sloshid.core.outputs import Outputs
     from sloshid.model.pose import load_pose_log
     from sloshid.validation.predict import load_model, predict, write_prediction
 
+    output = Outputs([args.trajectory, args.params]).file(args.output, "-o", (".csv",))
     model = load_model(args.params).with_geometry(args.container_radius_m, args.axis_offset_m, args.smooth_s)
     if model.radius_m is None:
         raise UserError("the wall height needs the container radius: give --container-radius-m (m).")
@@ -60,7 +62,7 @@ def run(args: argparse.Namespace) -> int:
         raise UserError(f"--settle-s must be zero or positive, got {args.settle_s:g}.")
     pose = load_pose_log(args.trajectory, args.pose_columns)
     resp = predict(pose, model, args.settle_s)
-    write_prediction(args.output, resp, model.radius_m)
+    write_prediction(output, resp, model.radius_m)
     move = resp.move_span_s
     during = (resp.t_s >= move[0]) & (resp.t_s <= move[1])
     height = resp.wall_height_mm(model.radius_m)
@@ -68,5 +70,5 @@ def run(args: argparse.Namespace) -> int:
         f"move {move[0]:.3f}-{move[1]:.3f} s: peak relative angle {resp.rel_angle_deg[during].max():.2f} deg, "
         f"peak wall height {height[during].max():.2f} mm; after it {resp.rel_angle_deg[~during & (resp.t_s > move[1])].max(initial=0):.2f} deg"
     )
-    print(f"wrote {args.output}")
+    print(f"wrote {output}")
     return 0

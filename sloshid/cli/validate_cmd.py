@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import argparse
 import json
-from pathlib import Path
 
 from sloshid.cli.predict_cmd import add_geometry_arguments
 from sloshid.core.errors import UserError
@@ -31,6 +30,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Load and check all inputs first (nothing is written on bad input), validate each run, print, report."""
+    from sloshid.core.outputs import Outputs
     from sloshid.identification.signals import load_signal
     from sloshid.model.pose import load_pose_log
     from sloshid.validation.predict import load_model
@@ -41,14 +41,14 @@ def run(args: argparse.Namespace) -> int:
             f"give one --trajectory per --measured, in the same order: {len(args.trajectory)} trajectories, "
             f"{len(args.measured)} measurements."
         )
-    if args.report is not None and (args.report.endswith((".html", ".htm")) or Path(args.report).is_file()):
-        raise UserError(f"--report takes a directory (index.html is written inside it), got {args.report}.")
+    outputs = Outputs([*args.trajectory, *args.measured, args.params])
+    report_dir = outputs.report_dir(args.report) if args.report is not None else None
     model = load_model(args.params).with_geometry(args.container_radius_m, args.axis_offset_m, args.smooth_s)
     poses = [load_pose_log(t, args.pose_columns) for t in args.trajectory]
     signals = [load_signal(m) for m in args.measured]
     runs = [validate_run(p, s, model) for p, s in zip(poses, signals)]
-    if args.report is not None:
-        path = build_report(runs, model).save(args.report)
+    if report_dir is not None:
+        path = build_report(runs, model).save(report_dir)
         print(f"report written to {path}")
     if args.json:
         print(json.dumps({"runs": [r.to_dict() for r in runs], "medians": medians(runs)}, indent=2))

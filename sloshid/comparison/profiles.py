@@ -99,8 +99,7 @@ def container_orientation(acc_m_s2: np.ndarray, dt_s: float, tilt: bool) -> tupl
     """Container euler angles and rates: upright (zeros), or quasi-static, at the liquid's steady tilt per sample."""
     euler = np.zeros_like(acc_m_s2)
     if tilt:
-        for i, (ux, uy, uz) in enumerate(acc_m_s2):
-            euler[i, :2] = steady_tilt(ux, uy, uz)
+        euler[:, 0], euler[:, 1] = steady_tilt(acc_m_s2[:, 0], acc_m_s2[:, 1], acc_m_s2[:, 2])
     return euler, np.gradient(euler, dt_s, axis=0)
 
 

@@ -83,7 +83,9 @@ def _signal_section(rep: Report, res: IdentResult, i: int) -> None:
     rep.add_heading(f"Signal {i + 1}: {name}")
     fig, ax = plt.subplots(figsize=(9, 3))
     res.plot_signal(i, ax)
-    how = "found automatically after the last forced motion" if w.chosen_by == "auto" else "given with --window"
+    how = (
+        "found automatically after the last forced motion" if w.chosen_by == "auto" else "given by the user (window_s)"
+    )
     rep.add_figure(fig, f"The whole recording. Shaded: the free-decay window {w.t0_s:.2f}-{w.t1_s:.2f} s ({how}).")
     fig, ax = plt.subplots(figsize=(9, 3.2))
     res.plot_psd(i, ax)
@@ -128,7 +130,9 @@ def _parameter_section(rep: Report, res: IdentResult) -> None:
         "values by the delta method.",
     )
     if res.mass_kg is None:
-        rep.add_text("No --mass given, so the damping constant d is not reported (it scales with the liquid mass).")
+        rep.add_text(
+            "No liquid mass given (mass_kg), so the damping constant d is not reported (it scales with the mass)."
+        )
 
 
 def _second_mode_section(rep: Report, res: IdentResult) -> None:

@@ -16,7 +16,9 @@
 
 from __future__ import annotations
 
-import math
+from typing import Any
+
+import numpy as np
 
 G = 9.81
 """Gravitational acceleration in m/s^2 (the seed's value)."""
@@ -28,6 +30,6 @@ SEEN_SIGN = -1.0
 """Model angle (tilting toward +u, the move going to the image right) -> counter-clockwise angle as seen."""
 
 
-def steady_tilt(ux: float, uy: float, uz: float = 0.0) -> tuple[float, float]:
-    """(phi, theta) in rad at which the surface settles under a constant acceleration."""
-    return -math.atan2(uy, G + uz), math.atan2(ux, G + uz)
+def steady_tilt(ux: Any, uy: Any, uz: Any = 0.0) -> tuple[Any, Any]:
+    """(phi, theta) in rad at which the surface settles under a constant acceleration (numbers or arrays)."""
+    return -np.arctan2(uy, G + uz), np.arctan2(ux, G + uz)

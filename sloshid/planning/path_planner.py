@@ -17,7 +17,8 @@ import casadi as ca
 import numpy as np
 
 from sloshid.core.errors import UserError
-from sloshid.model.pendulum import G, SloshParams
+from sloshid.model.conventions import steady_tilt
+from sloshid.model.pendulum import SloshParams
 from sloshid.model.simulate import simulate_liquid
 from sloshid.model.trajectory import EXPORT_RATE_HZ, Trajectory, check_limits
 from sloshid.planning.ocp import OK_STATUSES, SegmentResult, bang_bang_time, ipopt_options
@@ -110,7 +111,7 @@ def _guess(scenario: Scenario, ms: MultipleShooting, mesh: np.ndarray, T0: float
     sdd = L * (60 * tau - 180 * tau**2 + 120 * tau**3) / T0**2
     sddd = L * (60 - 360 * tau + 360 * tau**2) / T0**3
     acc = geo.evaluate(sig, 2) * sd[:, None] ** 2 + geo.evaluate(sig, 1) * sdd[:, None]
-    tilt = np.column_stack([-np.arctan(acc[:, 1] / (G + acc[:, 2])), np.arctan(acc[:, 0] / (G + acc[:, 2]))])
+    tilt = np.column_stack(steady_tilt(acc[:, 0], acc[:, 1], acc[:, 2]))
     X = np.zeros((N + 1, NX))
     X[:, SIG], X[:, SD], X[:, SDD] = sig, sd, sdd
     X[:, LIQ] = X[:, CON] = tilt

@@ -20,7 +20,8 @@ import numpy as np
 from sloshid.core.errors import UserError
 from sloshid.core.parallel import parallel_map
 from sloshid.core.tables import to_pandas
-from sloshid.model.pendulum import G, SloshParams
+from sloshid.model.conventions import steady_tilt
+from sloshid.model.pendulum import SloshParams
 from sloshid.model.simulate import LiquidResponse, simulate_liquid
 from sloshid.model.trajectory import EXPORT_RATE_HZ, LimitUsage, Trajectory, check_limits
 from sloshid.planning.ocp import (
@@ -286,10 +287,11 @@ def _guess(
         pos += np.outer(bump / max(bump[k], 0.3), side) * need
     ax = [s.axis] if s.axis is not None else [0, 1, 2]
     tilt = math.radians(scenario.limits.tilt_max_deg) * 0.9
+    # the guess tilts at the steady angle of the horizontal acceleration (1-D: the angle that tilts toward +u)
     if s.axis is not None:
-        ang = np.clip(np.arctan(acc[:, ax] / G), -tilt, tilt)
+        ang = np.clip(steady_tilt(acc[:, ax], 0.0)[1], -tilt, tilt)
     else:
-        ang = np.clip(np.column_stack([-np.arctan(acc[:, 1] / G), np.arctan(acc[:, 0] / G)]), -tilt, tilt)
+        ang = np.clip(np.column_stack(steady_tilt(acc[:, 0], acc[:, 1])), -tilt, tilt)
     cols = [pos[:, ax], vel[:, ax]] + ([acc[:, ax]] if s.jerk_limited else [])
     cols += [ang, np.zeros_like(ang)] * (1 + s.n_robust)
     mid = (jerk[:-1] + jerk[1:]) / 2 if s.jerk_limited else (acc[:-1] + acc[1:]) / 2

@@ -1,5 +1,6 @@
-"""Stage 1, the tracker: find the float in every frame, measure its angle relative to the image or
-the container walls, Kalman/RTS smoothing across lost frames, overlay video.
+"""Stage 1, the tracker: find the float (or the dyed liquid's surface) in every frame, measure its angle relative
+to the image or the container walls, mark frames the encoder repeated, Kalman/RTS smoothing across lost frames,
+overlay video.
 
-May import: sloshid.core, sloshid.video.
+May import: sloshid.core, sloshid.video, sloshid.report.
 """
