@@ -107,7 +107,7 @@ def process_video(video: str, config: BatchConfig, out_root: str) -> dict[str, A
         )
     )
     row.update(status="ok", quality=doc["quality"], reasons="; ".join(doc["reasons"]))
-    write_text(marker, json.dumps({"key": key, "row": row}, indent=2) + "\n")
+    write_json(marker, {"key": key, "row": row})
     return row
 
 
