@@ -47,7 +47,7 @@ def run(args: argparse.Namespace) -> int:
     from sloshid.planning.scenario import load_scenario, resolve_liquid
 
     outputs = Outputs([p for p in (args.scenario, args.params) if p])
-    report_dir = outputs.report_dir(args.report) if args.report is not None else None
+    report_dir = outputs.report_dir(args.report, "--report") if args.report is not None else None
     scenario = load_scenario(args.scenario)
     params = resolve_liquid(scenario, args.params)
     interval = IdentifiedFrequency.from_identify_json(args.params).ci95_hz if args.params else None

@@ -90,7 +90,7 @@ def run(args: argparse.Namespace) -> int:
     )
     outputs = Outputs([*args.signals, *(args.trajectory or [])])
     output = outputs.file(args.output, "-o", (".json",))
-    report_dir = outputs.report_dir(args.report) if args.report else None
+    report_dir = outputs.report_dir(args.report, "--report") if args.report else None
     columns = SignalColumns(args.time_col, args.value_col, args.time_var, args.value_var)
 
     def warn(text: str) -> None:

@@ -73,7 +73,7 @@ def run(args: argparse.Namespace) -> int:
     outputs = Outputs([p for p in (args.scenario, args.params) if p])
     output = outputs.file(args.output, "-o", (".csv",))
     joints = outputs.file(args.joints, "--joints", (".csv",)) if args.joints else None
-    report_dir = outputs.report_dir(args.report) if args.report else None
+    report_dir = outputs.report_dir(args.report, "--report") if args.report else None
     if args.fit_joints and joints is None:
         raise UserError("--fit-joints needs --joints JOINTS.csv.")
     scenario = load_scenario(args.scenario)

@@ -42,7 +42,7 @@ def run(args: argparse.Namespace) -> int:
             f"{len(args.measured)} measurements."
         )
     outputs = Outputs([*args.trajectory, *args.measured, args.params])
-    report_dir = outputs.report_dir(args.report) if args.report is not None else None
+    report_dir = outputs.report_dir(args.report, "--report") if args.report is not None else None
     model = load_model(args.params).with_geometry(args.container_radius_m, args.axis_offset_m, args.smooth_s)
     poses = [load_pose_log(t, args.pose_columns) for t in args.trajectory]
     signals = [load_signal(m) for m in args.measured]

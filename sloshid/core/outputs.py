@@ -66,7 +66,7 @@ class Outputs:
         writable_folder(p.parent, role, p)
         return self._claim(p, role)
 
-    def report_dir(self, path: str | os.PathLike, role: str = "--report") -> Path:
+    def report_dir(self, path: str | os.PathLike, role: str) -> Path:
         """A report folder: sloshid writes only its index.html there, and never over a page it did not write."""
         p = Path(path)
         if (p.exists() and not p.is_dir()) or p.suffix.lower() in (".html", ".htm"):

@@ -20,7 +20,7 @@ import numpy as np
 from scipy.signal import savgol_coeffs, savgol_filter
 from scipy.spatial.transform import Rotation, Slerp
 
-from sloshid.core.errors import UserError
+from sloshid.core.errors import SettingError, UserError
 from sloshid.core.tables import read_rows
 from sloshid.model.pendulum import SloshParams
 from sloshid.model.simulate import simulate_liquid
@@ -234,21 +234,24 @@ def _column_names(header: list[str] | None, columns: str | None, ncols: int, p: 
     given = [c.strip().lower() for c in columns.split(",")] if columns else None
     if given is None and header is None:
         if ncols != len(DEFAULT_COLUMNS):
-            raise UserError(
-                f"{p} has no header and {ncols} columns; name them with --pose-columns "
-                "(e.g. t,x,y,z,qx,qy,qz,qw or t,x,y,z,roll_deg,pitch_deg,yaw_deg)."
+            raise SettingError(
+                "pose_columns",
+                f"{p} has no header and {ncols} columns; name them with {{name}} "
+                "(e.g. t,x,y,z,qx,qy,qz,qw or t,x,y,z,roll_deg,pitch_deg,yaw_deg).",
             )
         given = list(DEFAULT_COLUMNS)
     raw = given if given is not None else [h.strip().lower() for h in header]
     if len(raw) != ncols:
-        raise UserError(f"--pose-columns names {len(raw)} columns but {p} has {ncols}.")
+        raise SettingError("pose_columns", f"{{name}} names {len(raw)} columns but {p} has {ncols}.")
     names = []
     for name in raw:
         canon = next((k for k, alias in ALIASES.items() if name in alias), "")
         if canon in ("roll", "pitch", "yaw"):
             canon += "_deg" if name.endswith("_deg") else "_rad"
         if given is not None and not canon and name not in ("_", "-", ""):
-            raise UserError(f"--pose-columns: unknown column name '{name}'; use t, x, y, z, qx..qw, roll, pitch, yaw.")
+            raise SettingError(
+                "pose_columns", f"{{name}}: unknown column name '{name}'; use t, x, y, z, qx..qw, roll, pitch, yaw."
+            )
         names.append(canon)
     return names
 
@@ -262,7 +265,7 @@ def _pose_from_columns(names: list[str], data: np.ndarray, p: Path) -> PoseLog:
     missing = [k for k in need if k not in base]
     if missing or not (quat or rpy):
         what = ", ".join(missing) or "an orientation (qx, qy, qz, qw or roll, pitch, yaw)"
-        raise UserError(f"{p} lacks {what}; name the columns with a header or --pose-columns.")
+        raise SettingError("pose_columns", f"{p} lacks {what}; name the columns with a header or {{name}}.")
     if not np.all(np.isfinite(data)):
         raise UserError(f"{p} holds NaN or infinite values.")
     pos = np.column_stack([col("x"), col("y"), col("z")])

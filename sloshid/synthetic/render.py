@@ -30,20 +30,6 @@ from sloshid.model.simulate import integrate_pendulums
 from sloshid.video.colors import DEFAULT_FLOAT_COLOR, preset
 from sloshid.video.frames import Codec, VideoWriter
 
-TRUTH_COLUMNS = (
-    "frame",
-    "t_s",
-    "rel_angle_deg",
-    "container_angle_deg",
-    "float_angle_deg",
-    "float_x_px",
-    "float_y_px",
-    "container_x_px",
-    "container_y_px",
-    "accel_m_s2",
-)
-"""Ground-truth CSV columns; angles CCW positive as seen, pixel coordinates with (0,0) the top-left pixel centre."""
-
 LIQUID_BGR = (200, 165, 110)
 """Pale blue water: saturation below every float preset, so no preset mistakes the liquid for the float."""
 WALL_BGR = (70, 70, 70)
@@ -193,7 +179,8 @@ class SynthSettings:
 
 @dataclass
 class Truth:
-    """Ground truth of a rendered video, one entry per frame (columns as in TRUTH_COLUMNS)."""
+    """Ground truth of a rendered video, one entry per frame (the truth CSV's columns, listed in the README; angles
+    counter-clockwise positive as seen, pixel coordinates with (0,0) the top-left pixel centre)."""
 
     columns: dict[str, np.ndarray] = field(default_factory=dict)
 

@@ -126,7 +126,12 @@ class TrackSettings:
                 raise SettingError(
                     "roi", f"{{name}} {x},{y},{w},{h} must have x, y >= 0 and a positive width and height."
                 )
-        _ = self.hsv  # validates the colour name or the HSV corners now, before any frame is read
+        for setting, check in (("float_color", lambda: self.hsv), ("liquid_color", lambda: self.liquid_hsv)):
+            try:
+                check()  # the colour names and HSV corners are valid now, before any frame is read
+            except UserError as exc:
+                name = setting if "HSV" not in str(exc) else setting.replace("color", "hsv_low")
+                raise SettingError(name, f"{{name}}: {exc}") from None
 
     @property
     def liquid_hsv(self) -> HsvRange | None:

@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 from scipy.optimize import least_squares
 
-from sloshid.core.errors import UserError
+from sloshid.core.errors import SettingError
 from sloshid.identification.estimator import Estimate, Identifier, IdentResult, IdentSettings, _estimate
 from sloshid.identification.pt2fit import hac_covariance
 from sloshid.identification.signals import Signal
@@ -292,8 +292,9 @@ def fit_io(
 ) -> IOFit:
     """Fit f, zeta and the input gain jointly over the runs (own lag and offset each), from the decay-only start."""
     if len(poses) != len(signals):
-        raise UserError(
-            f"give one --trajectory per signal, in the same order: {len(signals)} signal(s), {len(poses)} trajectories."
+        raise SettingError(
+            "trajectory",
+            f"give one {{name}} per signal, in the same order: {len(signals)} signal(s), {len(poses)} trajectories.",
         )
     settings = settings or IdentSettings()
     decay = Identifier(settings).fit(signals).result  # the start, and the model the result is compared with
@@ -348,12 +349,13 @@ def fit_io_files(
 ) -> IOFit:
     """`identify --trajectory`: check the counts and geometry, read the pose logs, fit."""
     if len(trajectories) != len(signals):
-        raise UserError(
-            f"give one --trajectory per signal, in the same order: {len(signals)} signal(s), "
-            f"{len(trajectories)} trajectories."
+        raise SettingError(
+            "trajectory",
+            f"give one {{name}} per signal, in the same order: {len(signals)} signal(s), "
+            f"{len(trajectories)} trajectories.",
         )
     if radius_m is None and any(s.unit == "mm" for s in signals):
-        raise UserError("wall heights in mm need the container radius: give --container-radius-m (m).")
+        raise SettingError("container_radius_m", "wall heights in mm need the container radius: give {name} (m).")
     poses = [load_pose_log(t, pose_columns) for t in trajectories]
     return fit_io(poses, signals, radius_m, axis_offset_m, smooth_s, settings, [Path(s.source).stem for s in signals])
 

@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from sloshid.core.errors import UserError
+from sloshid.core.errors import SettingError, UserError
 from sloshid.identification.signals import Signal
 from sloshid.model.pose import PoseLog, PoseResponse
 from sloshid.validation.predict import LiquidModel, predict
@@ -29,8 +29,9 @@ def measured_kind(sig: Signal, model: LiquidModel) -> str:
     """'wall_height_mm' for a height in mm (needs the radius), 'rel_angle_deg' for an angle; else one sentence."""
     if sig.unit == "mm":
         if model.radius_m is None:
-            raise UserError(
-                f"{sig.source} is a wall height in mm; give the container radius (--container-radius-m) to predict it."
+            raise SettingError(
+                "container_radius_m",
+                f"{sig.source} is a wall height in mm; give the container radius ({{name}}) to predict it.",
             )
         return "wall_height_mm"
     if sig.unit in ("deg", "rad"):

@@ -63,7 +63,8 @@ def run_track(opts: TrackOptions, ctx: StageContext) -> dict[str, Any]:
         ok = table["valid"] == 1
         ax.plot(table["t_s"][ok], table["angle_deg"][ok], ".", ms=2, alpha=0.5)
         ax.plot(table["t_s"], table["angle_smoothed_deg"], lw=1, label=f"{Path(summary['video']).name} (smoothed)")
-    ax.set(xlabel="time t (s)", ylabel="float angle (deg)", title="tracked float angle (dots: measured frames)")
+    what = "liquid surface" if opts.target == "surface" else "float"
+    ax.set(xlabel="time t (s)", ylabel=f"{what} angle (deg)", title=f"tracked {what} angle (dots: measured frames)")
     ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1))
     return {"figure": _save_figure(fig, ctx.out_dir / "angle.png"), "videos": summaries}
 
