@@ -76,6 +76,8 @@ def parallel_map(
     # fork where the platform has it: workers start in milliseconds and inherit the imported numerics
     context = "fork" if "fork" in multiprocessing.get_all_start_methods() else None
     with dask.config.set({"multiprocessing.context": context} if context else {}), _Tick():
-        out = list(dask.compute(*tasks, scheduler="processes", num_workers=min(check_workers(workers), len(jobs))))
+        workers = min(check_workers(workers), len(jobs))
+        # chunksize 1: jobs here are few and long, so batching them (dask's default) would leave a worker idle
+        out = list(dask.compute(*tasks, scheduler="processes", num_workers=workers, chunksize=1))
     bar.close()
     return out
