@@ -296,3 +296,27 @@ def test_sloshid_trajectory_csv_predicts_what_simulate_liquid_does(tmp_path):
     theirs = simulate_liquid(traj, TRUTH, settle_s=1.0)
     assert np.max(np.abs(ours.rel_angle_deg - theirs.rel_angle_deg)) < 1e-4
     assert theirs.rel_angle_deg.max() > 1.0
+
+
+def test_the_validation_result_behaves_like_every_stage_result(tmp_path):
+    # the same truth-model case through the Python stage function: text, JSON, figure, page and table agree
+    import matplotlib.figure
+
+    from sloshid.core.outputs import REPORT_MARK
+    from sloshid.identification.signals import load_signal
+    from sloshid.model.pose import load_pose_log
+    from sloshid.validation.predict import LiquidModel
+    from sloshid.validation.validate import validate
+
+    pose = move_pose()
+    write_pose_csv(tmp_path / "log.csv", pose)
+    measured_csv(tmp_path / "meas.csv", pose)
+    model = LiquidModel(TRUTH, TRUE_GAIN, RADIUS, OFFSET)
+    result = validate([load_pose_log(tmp_path / "log.csv")], [load_signal(tmp_path / "meas.csv")], model)
+    doc = json.loads(json.dumps(result.to_dict(), allow_nan=False))
+    assert doc["runs"][0]["scores"]["all"]["fit_percent"] > 90  # as the command line's test above
+    assert f"{doc['runs'][0]['scores']['all']['fit_percent']:.1f}" in result.summary()
+    assert isinstance(result.plot(), matplotlib.figure.Figure)
+    assert REPORT_MARK in result.report(tmp_path / "rep").read_text(encoding="utf-8")
+    table = result.to_pandas()
+    assert list(table["phase"]) == ["all", "during", "after"] and table["fit_percent"].iloc[0] > 90

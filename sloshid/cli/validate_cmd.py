@@ -34,24 +34,19 @@ def run(args: argparse.Namespace) -> int:
     from sloshid.identification.signals import load_signal
     from sloshid.model.pose import load_pose_log
     from sloshid.validation.predict import load_model
-    from sloshid.validation.validate import build_report, medians, table_text, validate_run
+    from sloshid.validation.validate import validate
 
+    outputs = Outputs([*args.trajectory, *args.measured, args.params])
+    report_dir = outputs.report_dir(args.report, "--report") if args.report is not None else None
+    model = load_model(args.params).with_geometry(args.container_radius_m, args.axis_offset_m, args.smooth_s)
     if len(args.trajectory) != len(args.measured):
         raise UserError(
             f"give one --trajectory per --measured, in the same order: {len(args.trajectory)} trajectories, "
             f"{len(args.measured)} measurements."
         )
-    outputs = Outputs([*args.trajectory, *args.measured, args.params])
-    report_dir = outputs.report_dir(args.report, "--report") if args.report is not None else None
-    model = load_model(args.params).with_geometry(args.container_radius_m, args.axis_offset_m, args.smooth_s)
     poses = [load_pose_log(t, args.pose_columns) for t in args.trajectory]
-    signals = [load_signal(m) for m in args.measured]
-    runs = [validate_run(p, s, model) for p, s in zip(poses, signals)]
+    result = validate(poses, [load_signal(m) for m in args.measured], model)
     if report_dir is not None:
-        path = build_report(runs, model).save(report_dir)
-        print(f"report written to {path}")
-    if args.json:
-        print(json.dumps({"runs": [r.to_dict() for r in runs], "medians": medians(runs)}, indent=2))
-    else:
-        print(table_text(runs))
+        print(f"report written to {result.report(report_dir)}")
+    print(json.dumps(result.to_dict(), indent=2) if args.json else result.summary())
     return 0

@@ -20,6 +20,7 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from sloshid.core.errors import SettingError
+from sloshid.core.tables import to_pandas
 from sloshid.identification.estimator import Estimate, Identifier, IdentResult, IdentSettings, _estimate
 from sloshid.identification.pt2fit import hac_covariance
 from sloshid.identification.signals import Signal
@@ -119,6 +120,23 @@ class IOFit:
         rep.items.insert(0, f"<pre>{html.escape(self.summary())}</pre>")
         rep.add_links(links or {})
         return rep.save(directory)
+
+    def plot(self, ax=None):
+        """The first run measured and predicted by the fitted model (as `validate` draws it); returns the figure."""
+        axes = self.runs[0].plot(None if ax is None else [ax, ax.twinx()])
+        return axes[0].figure
+
+    def to_pandas(self):
+        """The fitted parameters as a table: one row each with value, standard error and 95 % interval."""
+        return to_pandas(
+            {
+                "parameter": list(self.parameters),
+                "value": [e.value for e in self.parameters.values()],
+                "stderr": [e.stderr for e in self.parameters.values()],
+                "ci95_lo": [e.ci95[0] for e in self.parameters.values()],
+                "ci95_hi": [e.ci95[1] for e in self.parameters.values()],
+            }
+        )
 
     def to_dict(self) -> dict[str, Any]:
         """The `identify` JSON schema (the decay-only fit's keys) with the input-output parameters and extras."""

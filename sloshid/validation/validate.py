@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 
 from sloshid.core.errors import SettingError, UserError
+from sloshid.core.tables import to_pandas
 from sloshid.identification.signals import Signal
 from sloshid.model.pose import PoseLog, PoseResponse
 from sloshid.validation.predict import LiquidModel, predict
@@ -192,3 +193,59 @@ def build_report(runs: list[ValidationRun], model: LiquidModel, title: str = "sl
         axes = r.plot()
         rep.add_figure(axes[0].figure, f"{r.name}: measured and predicted (move shaded), residual below.")
     return rep
+
+
+def _score_rows(runs: list[ValidationRun]) -> dict[str, list]:
+    """One row per run and phase (all, during, after) with its scores: the table of `to_pandas`."""
+    rows = [(r, phase, sc) for r in runs for phase, sc in r.scores.items()]
+    return {
+        "run": [r.name for r, _, _ in rows],
+        "phase": [phase for _, phase, _ in rows],
+        "lag_s": [r.alignment.lag_s for r, _, _ in rows],
+        "correlation": [r.alignment.correlation for r, _, _ in rows],
+        "fit_percent": [sc.fit_percent for _, _, sc in rows],
+        "peak_error_percent": [sc.peak_error_percent for _, _, sc in rows],
+    }
+
+
+@dataclass
+class Validation:
+    """Several recorded moves validated against one model: the result of `sloshid validate`, which behaves like
+    every stage result (summary, to_dict, plot, report, to_pandas)."""
+
+    runs: list[ValidationRun]
+    model: LiquidModel
+
+    def summary(self) -> str:
+        """The score table with the median row (what `sloshid validate` prints)."""
+        return table_text(self.runs)
+
+    def to_dict(self) -> dict[str, Any]:
+        """The `--json` content: every run's scores and the medians."""
+        return {"runs": [r.to_dict() for r in self.runs], "medians": medians(self.runs)}
+
+    def plot(self, ax=None):
+        """Measured and predicted of the first run (with its residual when no axes are given); returns the figure."""
+        axes = self.runs[0].plot(None if ax is None else [ax, ax.twinx()])
+        return axes[0].figure
+
+    def report(self, directory: str | Path, links: dict[str, str] | None = None) -> Path:
+        """Write the HTML report to directory/index.html (`links`: text -> relative href shown at the top)."""
+        rep = build_report(self.runs, self.model)
+        rep.add_links(links or {})
+        return rep.save(directory)
+
+    def to_pandas(self):
+        """One row per run and phase with lag, correlation, fit % and peak error %."""
+        return to_pandas(_score_rows(self.runs))
+
+
+def validate(poses: list[PoseLog], signals: list[Signal], model: LiquidModel) -> Validation:
+    """The validate stage in one call: every recorded move (pose log and measurement, in the same order) scored."""
+    if len(poses) != len(signals):
+        raise SettingError(
+            "trajectory",
+            f"give one {{name}} per measurement, in the same order: {len(poses)} trajectories, "
+            f"{len(signals)} measurements.",
+        )
+    return Validation([validate_run(p, s, model) for p, s in zip(poses, signals)], model)
