@@ -99,7 +99,7 @@ def run(args: argparse.Namespace) -> int:
     if args.trajectory is not None:  # input-output: the whole record, forced response and free decay
         from sloshid.validation.iofit import fit_io_files
 
-        signals = [to_signal(p, columns) for p in args.signals]
+        signals = [to_signal(p, columns, progress=True) for p in args.signals]
         for sig in signals:
             for w in sig.warnings:
                 warn(w)
@@ -113,7 +113,7 @@ def run(args: argparse.Namespace) -> int:
             args.pose_columns,
         )
     else:
-        result = identify_sources(args.signals, settings, columns, warn=warn)
+        result = identify_sources(args.signals, settings, columns, warn=warn, progress=True)
     doc = result.to_dict()
     if report_dir is not None:
         result.report(report_dir)

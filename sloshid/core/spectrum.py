@@ -11,6 +11,10 @@ MIN_PROMINENCE = 10.0
 """Dominant peak / median PSD below this (10 dB) means no oscillatory mode stands out of the noise.
 For white noise a Welch PSD with 3 averages exceeds 10x its median with probability ~1e-10 per bin."""
 
+MAX_PADDED_NFFT = 1 << 20
+"""Zero-padding stops growing at this FFT length (16 MB per segment): a segment this long already resolves a
+bin finer than any mode's width, and padding a million-sample record 16-fold would take gigabytes."""
+
 SECONDARY_MIN_RATIO = 0.02
 """Secondary peaks weaker than this fraction of the dominant peak (-17 dB) are not listed."""
 
@@ -112,7 +116,7 @@ def welch_spectrum(
     n = x.size
     seg = int(nperseg) if nperseg else max(16, n // 2)
     seg = min(seg, n)
-    nfft = 1 << int(np.ceil(np.log2(16 * seg)))
+    nfft = max(_pow2(seg), min(_pow2(16 * seg), MAX_PADDED_NFFT))
     f, p = sps.welch(x, fs=u.fs_hz, window="hann", nperseg=seg, noverlap=seg // 2, nfft=nfft, detrend="linear")
     n_avg = 1 + (n - seg) // (seg - seg // 2)
     resolution = u.fs_hz / seg
@@ -147,6 +151,11 @@ def welch_spectrum(
         _secondary_peaks(f, p, k, peak_f, resolution),
         resonant,
     )
+
+
+def _pow2(n: int) -> int:
+    """The smallest power of two >= n."""
+    return 1 << int(np.ceil(np.log2(n)))
 
 
 def _refine_peak(f: np.ndarray, p: np.ndarray, k: int, resolution: float) -> float:

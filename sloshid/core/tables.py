@@ -3,11 +3,15 @@
 from __future__ import annotations
 
 import csv
-import io
+import itertools
+import math
+from collections.abc import Callable, Iterator, Sequence
+from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, BinaryIO
 
 import numpy as np
+from tqdm import tqdm
 
 from sloshid.core.atomic import write_text
 from sloshid.core.errors import UserError
@@ -29,19 +33,14 @@ def write_csv(path: str | Path, columns: dict[str, np.ndarray]) -> None:
 
 
 def read_csv(path: str | Path) -> dict[str, np.ndarray]:
-    """Read a numeric CSV written by write_csv into float columns keyed by header name."""
-    try:
-        with open(path, newline="", encoding="utf-8") as fh:
-            rows = list(csv.reader(fh))
-    except FileNotFoundError:
-        raise UserError(f"{path} does not exist.") from None
-    if not rows:
-        raise UserError(f"{path} is empty.")
-    try:
-        data = np.array(rows[1:], dtype=float).reshape(len(rows) - 1, len(rows[0]))
-    except ValueError:
-        raise UserError(f"{path} is not a numeric CSV table.") from None
-    return {name: data[:, i] for i, name in enumerate(rows[0])}
+    """Read a numeric CSV with a header (as write_csv writes it) into float columns keyed by header name."""
+    p = Path(path)
+    if not p.is_file():
+        raise UserError(f"{p} does not exist.")
+    table = read_table(p)
+    if table.header is None:
+        raise UserError(f"{p} has no header row naming its columns.")
+    return {name: table.data[:, i] for i, name in enumerate(table.header)}
 
 
 def to_pandas(columns: dict[str, Any]):
@@ -53,34 +52,139 @@ def to_pandas(columns: dict[str, Any]):
     return pd.DataFrame(columns)
 
 
-def read_rows(p: Path) -> tuple[list[str] | None, list[list[str]]]:
-    """CSV rows with the delimiter (`,` `;` tab or space) sniffed; the header is the first row when it is not all
-    numbers (None when the file has no header)."""
-    try:
-        text = p.read_text(encoding="utf-8-sig")
-    except UnicodeDecodeError as exc:
-        raise UserError(
-            f"{p} is not UTF-8 text (byte 0x{exc.object[exc.start]:02X} at position {exc.start}); if it is a "
-            "CSV saved in another encoding (e.g. Latin-1), re-save it as UTF-8."
-        ) from None
-    sample = text[:8192]
-    try:
-        dialect = csv.Sniffer().sniff(sample, delimiters=",;\t ")
-    except csv.Error:
-        dialect = csv.excel
-    rows = [r for r in csv.reader(io.StringIO(text), dialect) if r and any(c.strip() for c in r)]
-    if not rows:
-        raise UserError(f"{p} is empty.")
-    first = [c.strip() for c in rows[0]]
+CHUNK_LINES = 65536
+"""Lines parsed at a time: reading holds the kept columns plus one chunk of text, however long the file."""
 
-    def numeric(cell: str) -> bool:
-        """True when the cell parses as a number."""
+PROGRESS_DELAY_S = 0.5
+"""A progress bar appears only when reading lasts longer than this (small files stay quiet)."""
+
+Pick = Callable[[list[str] | None, int], Sequence[int]]
+"""Chooses the column indices to keep, given the header (None when the file has none) and the column count."""
+
+
+@dataclass(frozen=True)
+class Table:
+    """The numeric columns kept from a CSV file, with its header and column count."""
+
+    header: list[str] | None
+    """Column names, or None when the first row is all numbers."""
+    ncols: int
+    columns: tuple[int, ...]
+    """Indices of the kept columns, in the order of `data`'s columns."""
+    data: np.ndarray
+    """Float matrix, one row per data line; blank, nan and inf cells are NaN/inf."""
+
+
+def read_table(p: Path, pick: Pick | None = None, progress: bool = False) -> Table:
+    """Numeric columns of a CSV (`,` `;` tab or whitespace, sniffed; header optional) read in chunks by NumPy's C
+    parser, so that a million rows take seconds and little memory; `pick` keeps only the columns it names.
+
+    A cell that is not a number, or a row with another number of cells, is refused with its line number."""
+    bar = tqdm(
+        total=p.stat().st_size,
+        unit="B",
+        unit_scale=True,
+        desc=f"read {p.name}",
+        leave=False,
+        delay=PROGRESS_DELAY_S,
+        disable=None if progress else True,
+    )
+    with open(p, "rb") as fh, bar:
+        chunks = _decoded_chunks(p, fh, bar)
+        first_line, lines = next(chunks, (1, []))
+        if not any(line.strip() for line in lines):
+            raise UserError(f"{p} is empty.")
+        delimiter = _delimiter(lines[:200])
+        first_row = next(cells for line in lines if (cells := _split([line], delimiter)[0]))
+        header = None if all(_is_number(c) for c in first_row if c) else first_row
+        data_lines = _data_lines(lines, first_line, header is not None)
+        ncols = len(_split([data_lines[0][1]], delimiter)[0]) if data_lines else len(first_row)
+        cols = tuple(pick(header, ncols)) if pick is not None else tuple(range(ncols))
+        blocks = [_parse(data_lines, delimiter, cols, ncols, p, header)]
+        del lines, data_lines  # only one chunk of text is held at a time
+        blocks += [_parse(_data_lines(ls, k, False), delimiter, cols, ncols, p, header) for k, ls in chunks]
+    return Table(header, ncols, cols, np.concatenate(blocks))
+
+
+def _decoded_chunks(p: Path, fh: BinaryIO, bar: tqdm) -> Iterator[tuple[int, list[str]]]:
+    """(number of the first line, decoded lines) for CHUNK_LINES lines at a time; a byte-order mark is dropped."""
+    line = 1
+    while raw := list(itertools.islice(fh, CHUNK_LINES)):
+        blob = b"".join(raw)
+        bar.update(len(blob))
         try:
-            float(cell)
-            return True
-        except ValueError:
-            return False
+            text = blob.decode("utf-8-sig" if line == 1 else "utf-8")
+        except UnicodeDecodeError as exc:
+            bad = line + blob.count(b"\n", 0, exc.start)
+            raise UserError(
+                f"{p} is not UTF-8 text (byte 0x{blob[exc.start]:02X} on line {bad}); if it is a CSV saved in another "
+                "encoding (e.g. Latin-1), re-save it as UTF-8."
+            ) from None
+        yield line, text.splitlines()
+        line += len(raw)
 
-    if all(numeric(c) for c in first if c):
-        return None, rows
-    return first, rows[1:]
+
+def _delimiter(lines: list[str]) -> str:
+    """The delimiter of a CSV's first lines: `,` `;` or tab as sniffed, else ' ' (any run of whitespace) when that
+    splits the lines into columns, else `,`."""
+    sample = [line for line in lines if line.strip()]
+    try:
+        return csv.Sniffer().sniff("\n".join(sample), delimiters=",;\t ").delimiter
+    except csv.Error:
+        widths = {len(line.split()) for line in sample}
+        return " " if len(widths) == 1 and widths.pop() > 1 else ","
+
+
+def _split(lines: Sequence[str], delimiter: str) -> list[list[str]]:
+    """Cells of each line (quotes honoured; whitespace-delimited lines split on any run of blanks)."""
+    if delimiter == " ":
+        return [line.split() for line in lines]
+    return [[c.strip() for c in row] for row in csv.reader(lines, delimiter=delimiter)]
+
+
+def _data_lines(lines: list[str], first_line: int, skip_header: bool) -> list[tuple[int, str]]:
+    """(line number, text) of the non-blank lines, without the header line when it is among them."""
+    numbered = [(k, line) for k, line in enumerate(lines, start=first_line) if line.strip()]
+    return numbered[1:] if skip_header else numbered
+
+
+def _parse(
+    lines: list[tuple[int, str]], delimiter: str, cols: tuple[int, ...], ncols: int, p: Path, header: list[str] | None
+) -> np.ndarray:
+    """The kept columns of one chunk as floats: NumPy's parser first, a cell-by-cell pass to name the bad line."""
+    text = [line for _, line in lines]
+    if not text:
+        return np.empty((0, len(cols)))
+    try:
+        return np.loadtxt(
+            text, delimiter=None if delimiter == " " else delimiter, usecols=cols, ndmin=2, comments=None, quotechar='"'
+        )
+    except ValueError:
+        return _parse_cells(lines, delimiter, cols, ncols, p, header)
+
+
+def _parse_cells(
+    lines: list[tuple[int, str]], delimiter: str, cols: tuple[int, ...], ncols: int, p: Path, header: list[str] | None
+) -> np.ndarray:
+    """The slow pass over a chunk NumPy refused: blank cells become NaN; a row too short for the kept columns or a
+    cell that is not a number is one sentence naming its line."""
+    out = np.empty((len(lines), len(cols)))
+    for r, ((line, _), cells) in enumerate(zip(lines, _split([t for _, t in lines], delimiter))):
+        if len(cells) <= max(cols, default=-1):
+            raise UserError(f"{p} line {line} has {len(cells)} cells, the first data line has {ncols}.")
+        for j, i in enumerate(cols):
+            try:
+                out[r, j] = float(cells[i]) if cells[i] else math.nan
+            except ValueError:
+                name = header[i] if header and i < len(header) else f"column {i}"
+                raise UserError(f"{p} line {line}: '{name}' holds '{cells[i]}', which is not a number.") from None
+    return out
+
+
+def _is_number(cell: str) -> bool:
+    """True when the cell parses as a number."""
+    try:
+        float(cell)
+        return True
+    except ValueError:
+        return False

@@ -11,11 +11,12 @@ from typing import Any
 
 import numpy as np
 from scipy import stats
+from tqdm import tqdm
 
 from sloshid import __version__
 from sloshid.core.errors import SettingError, UserError
 from sloshid.core.spectrum import MIN_PROMINENCE, Spectrum, welch_spectrum
-from sloshid.core.tables import to_pandas
+from sloshid.core.tables import PROGRESS_DELAY_S, to_pandas
 from sloshid.identification.crosschecks import CrossCheck, half_power, hilbert_envelope, log_decrement
 from sloshid.identification.decay_window import (
     DecayWindow,
@@ -406,10 +407,11 @@ class Identifier:
     def __init__(self, settings: IdentSettings | None = None, **overrides: Any):
         self.settings = settings if settings is not None else IdentSettings(**overrides)
 
-    def fit(self, signals: Signal | str | Path | Sequence[Signal | str | Path]) -> Identifier:
+    def fit(self, signals: Signal | str | Path | Sequence[Signal | str | Path], progress: bool = False) -> Identifier:
         """Find windows and spectra, fit the PT2 response jointly, derive parameters, judge quality.
 
-        Accepts Signal objects or file paths (read with load_signal's defaults)."""
+        Accepts Signal objects or file paths (read with load_signal's defaults); `progress` shows a bar per signal
+        while the decay windows are searched, the slow part of a long record."""
         items = [signals] if isinstance(signals, (Signal, str, Path)) else list(signals)
         sigs = [s if isinstance(s, Signal) else load_signal(s) for s in items]
         if not sigs:
@@ -417,12 +419,15 @@ class Identifier:
         st = self.settings
         prior = geometric_prior(st)
         f_range = search_band(st, prior)
-        windows, spectra, fullspec = [], [], []
-        for sig in sigs:
-            win, spec, whole = self._window(sig, f_range)
-            windows.append(win)
-            spectra.append(spec)
-            fullspec.append(whole)
+        bar = tqdm(
+            sigs,
+            desc="decay windows",
+            unit="signal",
+            leave=False,
+            delay=PROGRESS_DELAY_S,
+            disable=None if progress else True,
+        )
+        windows, spectra, fullspec = map(list, zip(*(self._window(sig, f_range) for sig in bar)))
         parts = [s.between(w.t0_s, w.t1_s) for s, w in zip(sigs, windows)]
         hp0 = [half_power(p.t_s, p.value, sp.peak_f_hz) for p, sp in zip(parts, spectra)]
         omega_starts = [2 * math.pi * float(np.median([sp.peak_f_hz for sp in spectra]))]

@@ -9,7 +9,7 @@ from typing import Protocol
 import numpy as np
 
 from sloshid.core.errors import SettingError, UserError
-from sloshid.core.tables import read_rows
+from sloshid.core.tables import read_table
 
 TRACKER_COLUMNS = ("t_s", "angle_deg", "valid")
 """Columns that mark a `sloshid track` CSV; its value is `angle_deg` on rows with valid == 1."""
@@ -139,8 +139,10 @@ def load_signal(
     value_col: str | None = None,
     time_var: str | None = None,
     value_var: str | None = None,
+    progress: bool = False,
 ) -> Signal:
-    """Read one signal from a tracker CSV, a generic CSV or a MATLAB .mat file (format from suffix and columns)."""
+    """Read one signal from a tracker CSV, a generic CSV or a MATLAB .mat file (format from suffix and columns);
+    `progress` shows a bar while a long CSV is read."""
     p = Path(path)
     if not p.exists():
         raise UserError(f"signal file {p} does not exist.")
@@ -150,7 +152,7 @@ def load_signal(
         return _load_mat(p, time_var, value_var)
     if p.suffix.lower() in VIDEO_LIKE:
         raise UserError(f"{p} is a video; run `sloshid track` on it first and identify the CSV it writes.")
-    return _load_csv(p, time_col, value_col)
+    return _load_csv(p, time_col, value_col, progress)
 
 
 def _load_mat(p: Path, time_var: str | None, value_var: str | None) -> Signal:
@@ -197,59 +199,46 @@ def _column_index(spec: str, header: list[str] | None, ncols: int, p: Path, role
     raise UserError(f"{p} has no {role} column '{spec}'; available: {available}.")
 
 
-def _column_floats(rows: list[list[str]], i: int, keep: np.ndarray, p: Path, header: list[str] | None) -> np.ndarray:
-    """Column i of the kept rows as floats (blank, nan and inf cells as NaN), converted by NumPy in one go; a cell
-    that is not a number is named with its line."""
-    cells = [row[i].strip() if i < len(row) else "" for row, k in zip(rows, keep) if k]
-    try:
-        return np.array([c if c else "nan" for c in cells], dtype=str).astype(float)
-    except ValueError:
-        lines = [k for k, kept in enumerate(keep, start=2 if header else 1) if kept]
-        for line, cell in zip(lines, cells):
-            try:
-                float(cell or "nan")
-            except ValueError:
-                name = header[i] if header else f"column {i}"
-                raise UserError(f"{p} line {line}: '{name}' holds '{cell}', which is not a number.") from None
-        raise
+def _load_csv(p: Path, time_col: str | None, value_col: str | None, progress: bool = False) -> Signal:
+    """Read a tracker CSV (angle_deg where valid == 1) or any CSV with chosen time and value columns; only those
+    columns are kept, so a long file costs little memory."""
+    chosen: dict[str, int] = {}
 
+    def pick(header: list[str] | None, ncols: int) -> list[int]:
+        """The time and value columns (and a tracker CSV's valid column), resolved once the header is known."""
+        is_tracker = header is not None and all(c in header for c in TRACKER_COLUMNS)
+        tcol = time_col or next((n for n in TIME_NAMES if header and n in header), "0")
+        vcol = value_col
+        if vcol is None:
+            if is_tracker:
+                vcol = "angle_deg"
+            elif ncols == 2:
+                vcol = "1"
+            elif ncols == 1:
+                raise UserError(
+                    f"{p} has only one column; identify needs a time column in seconds and a signal column."
+                )
+            else:
+                available = ", ".join(header) if header else f"indices 0..{ncols - 1}"
+                raise SettingError(
+                    "value_col", f"{p} has {ncols} columns; choose the signal with {{name}} (available: {available})."
+                )
+        chosen["t"] = _column_index(tcol, header, ncols, p, "time")
+        chosen["v"] = _column_index(vcol, header, ncols, p, "value")
+        if is_tracker and header[chosen["v"]] == "angle_deg":
+            chosen["valid"] = header.index("valid")
+        return list(chosen.values())
 
-def _load_csv(p: Path, time_col: str | None, value_col: str | None) -> Signal:
-    """Read a tracker CSV (angle_deg where valid == 1) or any CSV with chosen time and value columns."""
-    header, rows = read_rows(p)
-    ncols = max(len(r) for r in rows) if rows else len(header or [])
-    if not rows:
+    table = read_table(p, pick, progress)
+    if not table.data.shape[0]:
         raise UserError(f"{p} has a header but no data rows.")
-    is_tracker = header is not None and all(c in header for c in TRACKER_COLUMNS)
-    if time_col is None:
-        found = next((n for n in TIME_NAMES if header and n in header), None)
-        time_col = found if found is not None else "0"
-    if value_col is None:
-        if is_tracker:
-            value_col = "angle_deg"
-        elif ncols == 2:
-            value_col = "1"
-        elif ncols == 1:
-            raise UserError(f"{p} has only one column; identify needs a time column in seconds and a signal column.")
-        else:
-            available = ", ".join(header) if header else f"indices 0..{ncols - 1}"
-            raise SettingError(
-                "value_col", f"{p} has {ncols} columns; choose the signal with {{name}} (available: {available})."
-            )
-    ti = _column_index(time_col, header, ncols, p, "time")
-    vi = _column_index(value_col, header, ncols, p, "value")
-    use_valid = is_tracker and header[vi] == "angle_deg"
-    gi = header.index("valid") if use_valid else None
-    keep = np.ones(len(rows), bool)
-    if gi is not None:
-        keep = np.array([gi < len(r) and r[gi].strip() in ("1", "1.0", "true", "True") for r in rows])
+    t, y = table.data[:, 0], table.data[:, 1]
+    keep = table.data[:, 2] == 1 if "valid" in chosen else np.ones(t.size, bool)
     dropped = int((~keep).sum())
-    t, y = (_column_floats(rows, i, keep, p, header) for i in (ti, vi))
-    if use_valid and not y.size:
+    if "valid" in chosen and not keep.any():
         raise UserError(f"{p}: no tracker frame is valid (valid == 1), so there is no angle to identify from.")
-    label = header[vi] if header else f"column {vi}"
-    unit = unit_from_name(label)
-    sig = make_signal(t, y, label, unit, str(p), n_dropped=dropped)
+    label = table.header[chosen["v"]] if table.header else f"column {chosen['v']}"
+    sig = make_signal(t[keep], y[keep], label, unit_from_name(label), str(p), n_dropped=dropped)
     if dropped:
         sig = replace(sig, warnings=(*sig.warnings, f"{p}: skipped {dropped} tracker frames with valid = 0."))
     return sig

@@ -29,13 +29,14 @@ class SignalColumns:
     """.mat variable holding the signal."""
 
 
-def to_signal(source: Source, columns: SignalColumns | None = None) -> Signal:
-    """One source as a Signal: files are read, tracker results converted without a file round trip."""
+def to_signal(source: Source, columns: SignalColumns | None = None, progress: bool = False) -> Signal:
+    """One source as a Signal: files are read (with a progress bar when asked), tracker results converted without a
+    file round trip."""
     if isinstance(source, Signal):
         return source
     if isinstance(source, (str, Path)):
         c = columns or SignalColumns()
-        return load_signal(source, c.time_col, c.value_col, c.time_var, c.value_var)
+        return load_signal(source, c.time_col, c.value_col, c.time_var, c.value_var, progress)
     if all(hasattr(source, name) for name in ("t_s", "angle_deg", "valid")):
         return signal_from_track(source)
     raise TypeError(f"cannot identify from a {type(source).__name__}; give a file path, a Signal or a TrackResult.")
@@ -59,18 +60,20 @@ def identify_sources(
     settings: IdentSettings | None = None,
     columns: SignalColumns | None = None,
     warn: Callable[[str], None] | None = None,
+    progress: bool = False,
 ) -> IdentResult:
     """Identify the sloshing mode jointly over every source (shared frequency and damping, own amplitude each).
 
     The same file named twice is refused: it would count its evidence twice and narrow every interval by sqrt(2).
-    `warn` receives what the user should know about the inputs (dropped frames, uneven timestamps)."""
+    `warn` receives what the user should know about the inputs (dropped frames, uneven timestamps); `progress` shows
+    bars while long files are read and fitted."""
     files = [Path(s).resolve() for s in sources if isinstance(s, (str, Path))]
     twice = sorted({str(f) for f in files if files.count(f) > 1})
     if twice:
         raise UserError(f"{twice[0]} is given more than once; each recording may count only once.")
     if not sources:
         raise UserError("nothing to identify: give at least one signal.")
-    signals = [to_signal(s, columns) for s in sources]
+    signals = [to_signal(s, columns, progress) for s in sources]
     settings = settings or IdentSettings()
     for sig in signals:
         check_sampling(sig, settings.f_range_hz)
@@ -78,4 +81,4 @@ def identify_sources(
         for sig in signals:
             for w in sig.warnings:
                 warn(w)
-    return Identifier(settings).fit(signals).result
+    return Identifier(settings).fit(signals, progress).result

@@ -21,7 +21,7 @@ from scipy.signal import savgol_coeffs, savgol_filter
 from scipy.spatial.transform import Rotation, Slerp
 
 from sloshid.core.errors import SettingError, UserError
-from sloshid.core.tables import read_rows
+from sloshid.core.tables import read_table
 from sloshid.model.pendulum import SloshParams
 from sloshid.model.simulate import simulate_liquid
 from sloshid.model.trajectory import CSV_COLUMNS, Trajectory
@@ -209,24 +209,13 @@ def load_pose_log(path: str | Path, columns: str | None = None) -> PoseLog:
     p = Path(path)
     if not p.is_file():
         raise UserError(f"trajectory file {p} does not exist.")
-    header, rows = read_rows(p)
+    table = read_table(p)
+    header, data = table.header, table.data
     if header is not None and all(c in header for c in CSV_COLUMNS) and columns is None:
-        return pose_from_trajectory(Trajectory.from_csv(p), str(p))
-    data = _numeric(rows, p)
+        traj = Trajectory.from_columns(dict(zip(header, data.T)), str(p), p.stem)
+        return pose_from_trajectory(traj, str(p))
     names = _column_names(header, columns, data.shape[1], p)
     return _pose_from_columns(names, data, p)
-
-
-def _numeric(rows: list[list[str]], p: Path) -> np.ndarray:
-    """The rows as a float matrix, or one sentence naming the first bad line."""
-    width = len(rows[0])
-    for k, row in enumerate(rows):
-        if len(row) != width:
-            raise UserError(f"{p}: data row {k + 1} has {len(row)} columns, the first has {width}.")
-    try:
-        return np.array(rows, dtype=float)
-    except ValueError:
-        raise UserError(f"{p} holds a cell that is not a number.") from None
 
 
 def _column_names(header: list[str] | None, columns: str | None, ncols: int, p: Path) -> list[str]:

@@ -121,7 +121,11 @@ class Trajectory:
     @classmethod
     def from_csv(cls, path: str | Path, name: str = "") -> Trajectory:
         """Read a CSV written by `to_csv` (euler rates are recovered from the angular velocity)."""
-        data = read_csv(path)
+        return cls.from_columns(read_csv(path), str(path), name or Path(path).stem)
+
+    @classmethod
+    def from_columns(cls, data: dict[str, np.ndarray], path: str, name: str) -> Trajectory:
+        """The trajectory held by CSV_COLUMNS-named columns read from `path`."""
         missing = [c for c in CSV_COLUMNS if c not in data]
         if missing:
             raise UserError(f"trajectory file {path} lacks columns {', '.join(missing)}.")
@@ -136,7 +140,7 @@ class Trajectory:
             col("ax_m_s2", "ay_m_s2", "az_m_s2"),
             euler,
             rates,
-            name=name or Path(path).stem,
+            name=name,
         )
 
 
