@@ -6,6 +6,7 @@ import json
 import re
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from sloshid.synthetic.render import SynthSettings, render_video
@@ -76,6 +77,21 @@ def test_failing_stage_keeps_finished_results(video, tmp_path, run_cli):
     assert (run_dir / "track" / "tap.csv").exists() and not (run_dir / "identify").exists()
     assert not list((tmp_path / "runs" / "p" / ".cache" / "identify").glob("*")), "no half-written cache entry"
     _links_exist(run_dir / "index.html")
+
+
+def test_identify_stage_keeps_what_reading_the_inputs_noticed(tmp_path, run_cli):
+    # a clean 3 Hz decay with three NaN samples: identify drops them, and the run must say so, not only the CLI
+    t = np.arange(1500) / 100
+    y = np.exp(-0.05 * 2 * np.pi * 3 * t) * np.cos(2 * np.pi * 3 * t)
+    y[[100, 400, 900]] = np.nan
+    sig = _write(tmp_path / "decay.csv", "t_s,angle_deg\n" + "".join(f"{a:.3f},{b:.6g}\n" for a, b in zip(t, y)))
+    pipe = _write(tmp_path / "p.toml", f'[identify]\nsignals = ["{sig}"]\n')
+    code, out, _ = run_cli("run", pipe, "--output-dir", tmp_path / "runs", "--quiet")
+    assert code == 0
+    run_dir = Path(out.strip()).parent
+    summary = json.loads((run_dir / "manifest.json").read_text())["stages"][0]["summary"]
+    assert summary["input_warnings"] == [f"{sig}: dropped 3 NaN/inf samples of 1500."]
+    assert "dropped 3 NaN/inf samples" in (run_dir / "index.html").read_text()
 
 
 @pytest.mark.parametrize(

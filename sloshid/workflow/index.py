@@ -48,7 +48,7 @@ def _track(report: Report, run_dir: Path, s: dict[str, Any]) -> None:
 
 
 def _identify(report: Report, run_dir: Path, s: dict[str, Any]) -> None:
-    """Verdict, parameter table with 95 % intervals and per-parameter verdicts, report link."""
+    """Verdict, parameter table with 95 % intervals and per-parameter verdicts, notes on the inputs, report link."""
     report.add_text(
         f"Verdict: {s['quality']}" + (f" ({'; '.join(s['reasons'])})" if s["reasons"] else ""),
         css_class=f"verdict-{s['quality']}",
@@ -60,6 +60,8 @@ def _identify(report: Report, run_dir: Path, s: dict[str, Any]) -> None:
             [label, unit, p["value"], p.get("stderr"), *(p.get("ci95") or [None, None]), p.get("quality", "given")]
         )
     report.add_table(["parameter", "unit", "value", "std. error", "95 % low", "95 % high", "verdict"], rows)
+    if s.get("input_warnings"):
+        report.add_text("Inputs: " + " ".join(s["input_warnings"]))
     report.add_html(
         "<p>"
         + _link(run_dir, "identify/params.json", "parameters (JSON)")

@@ -83,7 +83,8 @@ def _check_scenario(opts: PlanOptions | CompareOptions) -> None:
 
 
 def run_identify(opts: IdentifyOptions, ctx: StageContext) -> dict[str, Any]:
-    """Joint identification of the tracked angles and the listed signal files; JSON and HTML report."""
+    """Joint identification of the tracked angles and the listed signal files; JSON and HTML report. What the
+    inputs' reading noticed (dropped frames, NaN samples) goes into the summary and the index."""
     tracked = sorted((ctx.upstream["track"]).glob("*.csv")) if "track" in ctx.upstream else []
     signals = [to_signal(p) for p in tracked] + [to_signal(p, opts.columns()) for p in opts.signals]
     result = identify_sources(signals, opts.ident_settings())
@@ -97,6 +98,7 @@ def run_identify(opts: IdentifyOptions, ctx: StageContext) -> dict[str, Any]:
         "reasons": doc["reasons"],
         "parameters": doc["parameters"],
         "n_signals": len(signals),
+        "input_warnings": [w for sig in signals for w in sig.warnings],
     }
 
 
