@@ -24,7 +24,7 @@ from sloshid.identification.decay_window import (
     rough_mode_frequency,
     user_window,
 )
-from sloshid.identification.pt2fit import Z95, PT2Fit, WindowData, autocorrelation, fit_pt2
+from sloshid.identification.pt2fit import Z95, PT2Fit, WindowData, allow_encoder_hold, autocorrelation, fit_pt2
 from sloshid.identification.second_mode import SecondMode, resolve_second_mode, strong_peaks
 from sloshid.identification.signals import Signal, load_signal
 from sloshid.identification.verdict import AMPLITUDE_SNR, GROUPS, GroupVerdict, VerdictInput, judge
@@ -234,7 +234,16 @@ class IdentResult:
                 "fit_percent": float(np.mean([self.fit_percent(i) for i in range(len(self.signals))])),
                 "ljung_box_p": float(min(self.ljung_box)),
                 "interval_method": "Newey-West sandwich (VAR(1) prewhitened, Bartlett kernel) on the least-squares "
-                "Jacobian; delta method for derived values; normal 95 % quantile",
+                "Jacobian; delta method for derived values; normal 95 % quantile"
+                + (
+                    "; plus the encoder-hold correction as a systematic part" if self.fit.hold_shift is not None else ""
+                ),
+                "encoder_hold_correction": None
+                if self.fit.hold_shift is None
+                else {
+                    "omega_rad_s": -0.5 * float(self.fit.hold_shift[0]),
+                    "zeta": -0.5 * float(self.fit.hold_shift[1]),
+                },
                 "stderr_inflation_vs_white": inflation,
                 "n_starts": self.fit.n_starts,
                 "per_signal": per_signal,
@@ -461,6 +470,8 @@ class Identifier:
         second = resolve_second_mode(wdata, fit, spectra, st.second_mode_ratio, AMPLITUDE_SNR)
         if second is not None and second.separated:
             fit = second.fit
+        if any(s.from_video for s in sigs):
+            fit = allow_encoder_hold(wdata, fit)
         self.result_ = self._assemble(
             sigs, windows, parts, spectra, [s.noise_std for s in fullspec], fit, second, prior
         )
@@ -538,6 +549,12 @@ class Identifier:
             )
         )
         notes = verdict.notes + [w for s in sigs for w in s.warnings]
+        if fit.hold_shift is not None:
+            shift_f, shift_z = -50 * fit.hold_shift / np.array([omega, zeta or 1.0])
+            notes.append(
+                f"tracked from video: f corrected by {shift_f:+.3f} % and zeta by {shift_z:+.2f} % for the encoder's "
+                "hold of slow edges, and the intervals widened by as much (see README, identify)."
+            )
         return IdentResult(
             sigs,
             windows,

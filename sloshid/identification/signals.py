@@ -45,6 +45,8 @@ class Signal:
     """Samples dropped on reading (tracker frames with valid == 0, NaN/inf values)."""
     warnings: tuple[str, ...] = field(default=())
     """Things the user should know about the input (printed to stderr by the CLI)."""
+    from_video: bool = False
+    """Measured by `sloshid track` in compressed video: its intervals then allow for the encoder's hold (pt2fit)."""
 
     @property
     def rate_hz(self) -> float:
@@ -119,6 +121,7 @@ def signal_from_track(track: TracedAngles) -> Signal:
     ok = np.asarray(track.valid).astype(bool)
     dropped = int((~ok).sum())
     sig = make_signal(track.t_s[ok], track.angle_deg[ok], "angle_deg", "deg", str(track.video), n_dropped=dropped)
+    sig = replace(sig, from_video=True)
     if dropped:
         sig = replace(sig, warnings=(*sig.warnings, f"{track.video}: skipped {dropped} tracker frames with valid = 0."))
     return sig
@@ -249,7 +252,7 @@ def _load_csv(p: Path, time_col: str | None, value_col: str | None) -> Signal:
         raise UserError(f"{p}: no tracker frame is valid (valid == 1), so there is no angle to identify from.")
     label = header[vi] if header else f"column {vi}"
     unit = unit_from_name(label)
-    sig = make_signal(t, y, label, unit, str(p), n_dropped=dropped)
+    sig = replace(make_signal(t, y, label, unit, str(p), n_dropped=dropped), from_video=is_tracker)
     if dropped:
         sig = replace(sig, warnings=(*sig.warnings, f"{p}: skipped {dropped} tracker frames with valid = 0."))
     return sig
