@@ -449,7 +449,7 @@ def test_tracked_clip_keeps_the_dynamics(tmp_path):
     tracked = signal_from_track(track_video(tmp_path / "c.mp4", TrackSettings(float_color="green")))
     exact = Identifier().fit(make_signal(truth["t_s"], truth["float_angle_deg"], "angle_deg", "deg", "truth"))
     want = exact.result.parameters
-    plain = Identifier().fit(replace(tracked, from_video=False)).result.parameters
+    plain = Identifier().fit(replace(tracked, tracked="")).result.parameters
     assert plain["f_hz"].value < want["f_hz"].value * (1 - 0.001)  # the bias the correction is for (measured -0.20 %)
     got = Identifier().fit(tracked).result.parameters
     # the targets: f within 0.1 % and zeta within 3 % of the truth trace's (measured -0.08 % and +1.9 %),

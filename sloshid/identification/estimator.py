@@ -235,14 +235,12 @@ class IdentResult:
                 "ljung_box_p": float(min(self.ljung_box)),
                 "interval_method": "Newey-West sandwich (VAR(1) prewhitened, Bartlett kernel) on the least-squares "
                 "Jacobian; delta method for derived values; normal 95 % quantile"
-                + (
-                    "; plus the encoder-hold correction as a systematic part" if self.fit.hold_shift is not None else ""
-                ),
-                "encoder_hold_correction": None
+                + ("; plus a systematic part for the video encoder's hold" if self.fit.hold_shift is not None else ""),
+                "encoder_hold": None
                 if self.fit.hold_shift is None
                 else {
-                    "omega_rad_s": -0.5 * float(self.fit.hold_shift[0]),
-                    "zeta": -0.5 * float(self.fit.hold_shift[1]),
+                    "correction": dict(zip(("omega_rad_s", "zeta"), self.fit.hold_correction.tolist())),
+                    "stderr": dict(zip(("omega_rad_s", "zeta"), (np.abs(self.fit.hold_shift) / 2).tolist())),
                 },
                 "stderr_inflation_vs_white": inflation,
                 "n_starts": self.fit.n_starts,
@@ -470,8 +468,9 @@ class Identifier:
         second = resolve_second_mode(wdata, fit, spectra, st.second_mode_ratio, AMPLITUDE_SNR)
         if second is not None and second.separated:
             fit = second.fit
-        if any(s.from_video for s in sigs):
-            fit = allow_encoder_hold(wdata, fit)
+        tracked = {s.tracked for s in sigs} - {""}
+        if tracked:
+            fit = allow_encoder_hold(wdata, fit, correct=tracked == {"float"})
         self.result_ = self._assemble(
             sigs, windows, parts, spectra, [s.noise_std for s in fullspec], fit, second, prior
         )
@@ -550,10 +549,12 @@ class Identifier:
         )
         notes = verdict.notes + [w for s in sigs for w in s.warnings]
         if fit.hold_shift is not None:
-            shift_f, shift_z = -50 * fit.hold_shift / np.array([omega, zeta or 1.0])
+            scale = 100 / np.array([omega, zeta or 1.0])
+            (fix_f, fix_z), (sys_f, sys_z) = fit.hold_correction * scale, np.abs(fit.hold_shift) / 2 * scale
             notes.append(
-                f"tracked from video: f corrected by {shift_f:+.3f} % and zeta by {shift_z:+.2f} % for the encoder's "
-                "hold of slow edges, and the intervals widened by as much (see README, identify)."
+                f"tracked from video: f corrected by {fix_f:+.3f} % and zeta by {fix_z:+.2f} % for the encoder's hold "
+                f"of slowly moving edges, with standard errors of {sys_f:.3f} % and {sys_z:.2f} % for it in the "
+                "intervals (README: identify, video-tracked signals)."
             )
         return IdentResult(
             sigs,
