@@ -25,7 +25,7 @@ from sloshid.identification.decay_window import (
     rough_mode_frequency,
     user_window,
 )
-from sloshid.identification.pt2fit import Z95, PT2Fit, WindowData, autocorrelation, fit_pt2
+from sloshid.identification.pt2fit import Z95, PT2Fit, WindowData, allow_encoder_hold, autocorrelation, fit_pt2
 from sloshid.identification.second_mode import SecondMode, resolve_second_mode, strong_peaks
 from sloshid.identification.signals import Signal, load_signal
 from sloshid.identification.verdict import AMPLITUDE_SNR, GROUPS, GroupVerdict, VerdictInput, judge
@@ -235,7 +235,14 @@ class IdentResult:
                 "fit_percent": float(np.mean([self.fit_percent(i) for i in range(len(self.signals))])),
                 "ljung_box_p": float(min(self.ljung_box)),
                 "interval_method": "Newey-West sandwich (VAR(1) prewhitened, Bartlett kernel) on the least-squares "
-                "Jacobian; delta method for derived values; normal 95 % quantile",
+                "Jacobian; delta method for derived values; normal 95 % quantile"
+                + ("; plus a systematic part for the video encoder's hold" if self.fit.hold_shift is not None else ""),
+                "encoder_hold": None
+                if self.fit.hold_shift is None
+                else {
+                    "correction": dict(zip(("omega_rad_s", "zeta"), self.fit.hold_correction.tolist())),
+                    "stderr": dict(zip(("omega_rad_s", "zeta"), (np.abs(self.fit.hold_shift) / 2).tolist())),
+                },
                 "stderr_inflation_vs_white": inflation,
                 "n_starts": self.fit.n_starts,
                 "per_signal": per_signal,
@@ -466,6 +473,9 @@ class Identifier:
         second = resolve_second_mode(wdata, fit, spectra, st.second_mode_ratio, AMPLITUDE_SNR)
         if second is not None and second.separated:
             fit = second.fit
+        tracked = {s.tracked for s in sigs} - {""}
+        if tracked:
+            fit = allow_encoder_hold(wdata, fit, correct=tracked == {"float"})
         self.result_ = self._assemble(
             sigs, windows, parts, spectra, [s.noise_std for s in fullspec], fit, second, prior
         )
@@ -543,6 +553,14 @@ class Identifier:
             )
         )
         notes = verdict.notes + [w for s in sigs for w in s.warnings]
+        if fit.hold_shift is not None:
+            scale = 100 / np.array([omega, zeta or 1.0])
+            (fix_f, fix_z), (sys_f, sys_z) = fit.hold_correction * scale, np.abs(fit.hold_shift) / 2 * scale
+            notes.append(
+                f"tracked from video: f corrected by {fix_f:+.3f} % and zeta by {fix_z:+.2f} % for the encoder's hold "
+                f"of slowly moving edges, with standard errors of {sys_f:.3f} % and {sys_z:.2f} % for it in the "
+                "intervals (README: identify, video-tracked signals)."
+            )
         return IdentResult(
             sigs,
             windows,

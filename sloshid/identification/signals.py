@@ -45,6 +45,9 @@ class Signal:
     """Samples dropped on reading (tracker frames with valid == 0, NaN/inf values)."""
     warnings: tuple[str, ...] = field(default=())
     """Things the user should know about the input (printed to stderr by the CLI)."""
+    tracked: str = ""
+    """What `sloshid track` measured in a video ('float' or 'surface'), '' for other signals: identification allows
+    for the video encoder's hold in tracked signals (pt2fit.allow_encoder_hold)."""
 
     @property
     def rate_hz(self) -> float:
@@ -112,6 +115,7 @@ class TracedAngles(Protocol):
     t_s: np.ndarray
     angle_deg: np.ndarray
     valid: np.ndarray
+    target: str
 
 
 def signal_from_track(track: TracedAngles) -> Signal:
@@ -119,6 +123,7 @@ def signal_from_track(track: TracedAngles) -> Signal:
     ok = np.asarray(track.valid).astype(bool)
     dropped = int((~ok).sum())
     sig = make_signal(track.t_s[ok], track.angle_deg[ok], "angle_deg", "deg", str(track.video), n_dropped=dropped)
+    sig = replace(sig, tracked=track.target)
     if dropped:
         sig = replace(sig, warnings=(*sig.warnings, f"{track.video}: skipped {dropped} tracker frames with valid = 0."))
     return sig
@@ -237,8 +242,12 @@ def _load_csv(p: Path, time_col: str | None, value_col: str | None, progress: bo
     dropped = int((~keep).sum())
     if "valid" in chosen and not keep.any():
         raise UserError(f"{p}: no tracker frame is valid (valid == 1), so there is no angle to identify from.")
-    label = table.header[chosen["v"]] if table.header else f"column {chosen['v']}"
-    sig = make_signal(t[keep], y[keep], label, unit_from_name(label), str(p), n_dropped=dropped)
+    header = table.header or []
+    label = header[chosen["v"]] if header else f"column {chosen['v']}"
+    tracked = ("surface" if "surface_angle_deg" in header else "float") if set(TRACKER_COLUMNS) <= set(header) else ""
+    sig = replace(
+        make_signal(t[keep], y[keep], label, unit_from_name(label), str(p), n_dropped=dropped), tracked=tracked
+    )
     if dropped:
         sig = replace(sig, warnings=(*sig.warnings, f"{p}: skipped {dropped} tracker frames with valid = 0."))
     return sig
