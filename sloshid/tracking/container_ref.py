@@ -17,7 +17,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from sloshid.tracking.robust import robust_polyfit
+from sloshid.tracking.robust import median, robust_polyfit
 
 BAND_PX = 9
 """Half-width of the band searched around a predicted wall line, pixels."""
@@ -88,7 +88,7 @@ def _fit_edge(gray: np.ndarray, origin: tuple[int, int], predicted: EdgeLine, po
     rows = np.arange(len(ys))
     g0, g1, g2 = grad[rows, np.clip(j - 1, 0, None)], grad[rows, j], grad[rows, np.clip(j + 1, None, grad.shape[1] - 1)]
     strength = g1
-    ok &= strength > max(4.0, 0.35 * float(np.median(strength[ok])) if ok.any() else 4.0)
+    ok &= strength > max(4.0, 0.35 * median(strength[ok]) if ok.any() else 4.0)
     denom = g0 - 2 * g1 + g2
     ok &= denom < 0
     if ok.sum() < 10:

@@ -52,14 +52,16 @@ class Picture:
 
     `picture[y0:y1, x0:x1]` equals the same slice of the whole BGR frame (BT.601 limited range, as OpenCV's and
     FFmpeg's default conversion), so a tracker that looks at a box around the float or the liquid does not pay for
-    converting the whole picture; `np.asarray(picture)` converts it all (for drawing an overlay).
+    converting the whole picture; `np.asarray(picture)` converts it all (for drawing an overlay). The last converted
+    box is kept, and a slice inside it is a read-only view of it: a tracker looks at nested boxes of one frame.
     """
 
-    __slots__ = ("_u", "_v", "_y", "shape")
+    __slots__ = ("_last", "_u", "_v", "_y", "shape")
 
     def __init__(self, y: np.ndarray, u: np.ndarray, v: np.ndarray) -> None:
         self._y, self._u, self._v = y, u, v
         self.shape = (*y.shape, 3)
+        self._last: tuple[int, int, int, int, np.ndarray] | None = None
 
     def __getitem__(self, key: tuple[slice, slice]) -> np.ndarray:
         """The BGR pixels of a (rows, columns) slice; the crop is widened to even edges for the half-size chroma."""
@@ -68,6 +70,10 @@ class Picture:
         x0, x1, _ = key[1].indices(w)
         if y1 <= y0 or x1 <= x0:
             return np.zeros((max(0, y1 - y0), max(0, x1 - x0), 3), np.uint8)
+        if self._last is not None:
+            Y0, X0, Y1, X1, bgr = self._last
+            if Y0 <= y0 < y1 <= Y1 and X0 <= x0 < x1 <= X1:
+                return bgr[y0 - Y0 : y1 - Y0, x0 - X0 : x1 - X0]
         Y0, X0, Y1, X1 = y0 - y0 % 2, x0 - x0 % 2, y1 + y1 % 2, x1 + x1 % 2
         hh, ww = Y1 - Y0, X1 - X0
         n, q = hh * ww, hh * ww // 4
@@ -76,11 +82,13 @@ class Picture:
         buf[n : n + q].reshape(hh // 2, ww // 2)[:] = self._u[Y0 // 2 : Y1 // 2, X0 // 2 : X1 // 2]
         buf[n + q :].reshape(hh // 2, ww // 2)[:] = self._v[Y0 // 2 : Y1 // 2, X0 // 2 : X1 // 2]
         bgr = cv2.cvtColor(buf.reshape(hh * 3 // 2, ww), cv2.COLOR_YUV2BGR_I420)
+        bgr.flags.writeable = False
+        self._last = (Y0, X0, Y1, X1, bgr)
         return bgr[y0 - Y0 : y1 - Y0, x0 - X0 : x1 - X0]
 
     def __array__(self, dtype=None, copy=None) -> np.ndarray:
-        full = self[:, :]
-        return full if dtype is None else full.astype(dtype)
+        """The whole picture as a new, writable BGR array."""
+        return np.array(self[:, :], dtype=dtype)
 
 
 _ROTATIONS = {90: cv2.ROTATE_90_COUNTERCLOCKWISE, 180: cv2.ROTATE_180, 270: cv2.ROTATE_90_CLOCKWISE}
@@ -106,9 +114,9 @@ def _as_shown(frame, lazy: bool) -> np.ndarray | Picture:
 
 
 def _decode_threads(multithreaded: bool) -> int:
-    """FFmpeg decoding threads: all cores but the one the caller's per-frame work needs (its decode thread runs
-    beside that work), one when many videos run side by side."""
-    return max(1, (os.cpu_count() or 1) - 1) if multithreaded else 1
+    """FFmpeg decoding threads: one per core (on a busy machine a reader with fewer runnable threads than the
+    other programs gets less of the processor), one when many videos run side by side."""
+    return max(1, os.cpu_count() or 1) if multithreaded else 1
 
 
 @dataclass
