@@ -215,8 +215,8 @@ def main() -> None:
         "Whole commands, start-up included: a bare OpenCV decode loop as its own Python process vs `sloshid track VIDEO "
         "-o CSV --target T` (default settings: Kalman/RTS smoothing on), on the same two-minute video per target, run "
         f"alternately (bare, float, bare, surface) {REPEATS} times. Ratio = bare wall time / track wall time, median "
-        "of the pairs; the CPU-time ratio (user + system seconds of each process and its threads) does not depend on "
-        "the other jobs' load, which the wall-clock ratio does.",
+        "of the pairs; the CPU-time ratio (user + system seconds of each process and its threads) shows the work "
+        "done, which the other jobs' load changes less than the wall-clock ratio (contention still inflates it).",
         "",
         "| target | video | bare s | track s | ratio (wall) | per-pair ratios | CPU-time ratio | load (1-min) | "
         "target | met |",
