@@ -14,13 +14,7 @@ no global state of any of them.
 from __future__ import annotations
 
 from importlib import import_module
-from importlib.metadata import PackageNotFoundError, version
 from typing import TYPE_CHECKING, Any
-
-try:
-    __version__ = version("sloshid")
-except PackageNotFoundError:  # running from a source tree that was never installed
-    __version__ = "0.0.0+unknown"
 
 _LAZY = {
     "track": "sloshid.api",
@@ -62,8 +56,22 @@ if TYPE_CHECKING:
     from sloshid.tracking.tracker import TrackResult
 
 
+def _installed_version() -> str:
+    """The installed distribution's version (importlib.metadata scans the environment: tens of milliseconds that a
+    command only spends when it writes the version)."""
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("sloshid")
+    except PackageNotFoundError:  # running from a source tree that was never installed
+        return "0.0.0+unknown"
+
+
 def __getattr__(name: str) -> Any:
-    """Import a public name on first use (PEP 562)."""
+    """Import a public name (and look up __version__) on first use (PEP 562)."""
+    if name == "__version__":
+        globals()[name] = _installed_version()
+        return globals()[name]
     if name in _LAZY:
         value = getattr(import_module(_LAZY[name]), name)
         globals()[name] = value

@@ -11,7 +11,6 @@ import signal
 import sys
 from collections.abc import Sequence
 
-from sloshid import __version__
 from sloshid.core.errors import SettingError, UserError
 
 COMMANDS: dict[str, str] = {
@@ -29,6 +28,19 @@ COMMANDS: dict[str, str] = {
 
 class Terminated(BaseException):
     """SIGTERM as an exception, so that every `finally` runs and no half-written temporary file is left."""
+
+
+class _Version(argparse.Action):
+    """--version: the installed version, looked up only when asked for (the lookup slows every command's start)."""
+
+    def __init__(self, option_strings: list[str], dest: str = argparse.SUPPRESS, help: str | None = None) -> None:
+        super().__init__(option_strings, dest, nargs=0, default=argparse.SUPPRESS, help=help)
+
+    def __call__(self, parser, namespace, values, option_string=None) -> None:
+        from sloshid import __version__
+
+        print(f"sloshid {__version__}")
+        parser.exit()
 
 
 class _Formatter(argparse.RawDescriptionHelpFormatter):
@@ -51,7 +63,7 @@ def build_parser(only: str | None = None) -> argparse.ArgumentParser:
         "robot moves. Units are SI; angles in files are degrees, counter-clockwise positive as seen.",
         formatter_class=_Formatter,
     )
-    parser.add_argument("--version", action="version", version=f"sloshid {__version__}")
+    parser.add_argument("--version", action=_Version, help="show the version and exit")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     for name, help_text in COMMANDS.items():
         if name != only:

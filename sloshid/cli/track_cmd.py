@@ -29,7 +29,7 @@ from sloshid.video.frames import VIDEO_SUFFIXES
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of `sloshid track`, each with its unit."""
-    parser.add_argument("video", type=Path, metavar="VIDEO", help="video file any OpenCV/FFmpeg build can decode")
+    parser.add_argument("video", type=Path, metavar="VIDEO", help="video file FFmpeg can decode")
     parser.add_argument("-o", "--output", type=Path, required=True, metavar="ANGLES.csv", help="CSV file to write")
     presets = ", ".join(f"{n} ({format_hsv(p.hsv.low)} .. {format_hsv(p.hsv.high)})" for n, p in PRESETS.items())
     parser.add_argument(

@@ -17,7 +17,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from sloshid.tracking.robust import robust_polyfit
+from sloshid.tracking.robust import median, robust_polyfit
 
 BAND_PX = 9
 """Half-width of the band searched around a predicted wall line, pixels."""
@@ -53,32 +53,42 @@ class ContainerMeasurement:
     edges: tuple[EdgeLine, ...] = ()
 
 
-def _gray(frame: np.ndarray) -> np.ndarray:
-    """Grey levels as float32 (edge profiles are differenced)."""
-    return cv2.cvtColor(frame, cv2.COLOR_BGR2GRAY).astype(np.float32)
+def _gray_around(frame: np.ndarray, lines: list[EdgeLine]) -> tuple[tuple[int, int], np.ndarray]:
+    """Grey levels (float32: edge profiles are differenced) of the box the bands around `lines` cover, and the
+    box's top-left corner (x, y): only that part of the frame is converted."""
+    h, w = frame.shape[:2]
+    y0, y1 = max(0, min(ln.y0 for ln in lines)), min(h, max(ln.y1 for ln in lines))
+    xs = [ln.x_at(y) for ln in lines for y in (y0, y1)]
+    x0, x1 = max(0, int(min(xs)) - BAND_PX - 2), min(w, int(max(xs)) + BAND_PX + 3)
+    if x1 <= x0 or y1 <= y0:
+        return (0, 0), np.zeros((0, 0), np.float32)
+    return (x0, y0), cv2.cvtColor(frame[y0:y1, x0:x1], cv2.COLOR_BGR2GRAY).astype(np.float32)
 
 
-def _fit_edge(gray: np.ndarray, predicted: EdgeLine, polarity: int) -> EdgeLine | None:
-    """Sub-pixel edge points of one polarity (+1 rising, -1 falling along x) near `predicted`, robust line fit."""
+def _fit_edge(gray: np.ndarray, origin: tuple[int, int], predicted: EdgeLine, polarity: int) -> EdgeLine | None:
+    """Sub-pixel edge points of one polarity (+1 rising, -1 falling along x) near `predicted`, robust line fit.
+
+    `gray` is the part of the frame whose top-left pixel is `origin` (x, y); lines are in frame coordinates."""
+    ox, oy = origin
     h, w = gray.shape
-    ys = np.arange(max(predicted.y0, 0), min(predicted.y1, h))
+    ys = np.arange(max(predicted.y0, oy), min(predicted.y1, oy + h))
     if len(ys) < 10:
         return None
     xc = np.rint(predicted.x_at(ys)).astype(int)
     offs = np.arange(-BAND_PX, BAND_PX + 1)
     cols = xc[:, None] + offs[None, :]
-    inside = (cols.min(axis=1) >= 0) & (cols.max(axis=1) < w)
+    inside = (cols.min(axis=1) >= ox) & (cols.max(axis=1) < ox + w)
     ys, cols = ys[inside], cols[inside]
     if len(ys) < 10:
         return None
-    prof = gray[ys[:, None], cols]
+    prof = gray[ys[:, None] - oy, cols - ox]
     grad = polarity * (prof[:, 2:] - prof[:, :-2]) * 0.5  # central difference, index j <-> offset j+1
     j = np.argmax(grad, axis=1)
     ok = (j > 0) & (j < grad.shape[1] - 1)
     rows = np.arange(len(ys))
     g0, g1, g2 = grad[rows, np.clip(j - 1, 0, None)], grad[rows, j], grad[rows, np.clip(j + 1, None, grad.shape[1] - 1)]
     strength = g1
-    ok &= strength > max(4.0, 0.35 * float(np.median(strength[ok])) if ok.any() else 4.0)
+    ok &= strength > max(4.0, 0.35 * median(strength[ok]) if ok.any() else 4.0)
     denom = g0 - 2 * g1 + g2
     ok &= denom < 0
     if ok.sum() < 10:
@@ -153,14 +163,16 @@ class ContainerTracker:
 
     def _follow(self, frame: np.ndarray, rows: tuple[int, int]) -> ContainerMeasurement:
         """Refit every wall edge near its predicted position (last line moved by the last shift)."""
-        gray = _gray(frame)
+        preds = [EdgeLine(w.a, w.b + self._shift, rows[0], rows[1], w.rms_px, w.rows) for w in self._walls]
+        origin, gray = _gray_around(frame, preds)
         fitted: list[EdgeLine] = []
         wall_angles: list[float] = []
         new_walls: list[EdgeLine] = []
-        for wall in self._walls:
-            pred = EdgeLine(wall.a, wall.b + self._shift, rows[0], rows[1], wall.rms_px, wall.rows)
+        for pred in preds:
             fits = [
-                f for f in (_fit_edge(gray, pred, +1), _fit_edge(gray, pred, -1)) if f is not None and f.rms_px < 1.0
+                f
+                for f in (_fit_edge(gray, origin, pred, +1), _fit_edge(gray, origin, pred, -1))
+                if f is not None and f.rms_px < 1.0
             ]
             if not fits:
                 continue

@@ -23,7 +23,7 @@ import cv2
 import numpy as np
 
 from sloshid.tracking.float_angle import REFIT_EVERY, fit_colour_model, hsv_mask, membership_map
-from sloshid.tracking.robust import robust_polyfit
+from sloshid.tracking.robust import median, robust_polyfit
 from sloshid.video.colors import PRESETS, HsvRange
 
 MIN_LIQUID_SHARE = 0.005
@@ -177,8 +177,9 @@ class SurfaceFinder:
         crop = frame[Y0:Y1, X0:X1]
         self._since_fit += 1
         if self._model is None or self._since_fit >= REFIT_EVERY:
-            blob = hsv_mask(crop, self.hsv)
-            self._model, self._since_fit = fit_colour_model(crop, blob), 0
+            # every second pixel each way: thousands of body and background pixels still fix the four coefficients
+            half = crop[::2, ::2]
+            self._model, self._since_fit = fit_colour_model(half, hsv_mask(half, self.hsv)), 0
         if self._model is None:
             return SurfaceMeasurement(False, liquid=True)
         body = membership_map(crop, self._model[0])
@@ -253,11 +254,12 @@ def _locally_consistent(w: np.ndarray, ok: np.ndarray) -> np.ndarray:
     keep = np.zeros_like(ok)
     if ok.sum() < 12:
         return keep
-    size = max(7, (int(ok.sum()) // 6) | 1)
+    size = max(7, (int(ok.sum()) // 6) | 1)  # odd: the running median is the middle of each window
     padded = np.pad(w[ok], size // 2, mode="edge")
-    r = w[ok] - np.median(np.lib.stride_tricks.sliding_window_view(padded, size), axis=1)
-    mad = 1.4826 * np.median(np.abs(r - np.median(r)))
-    keep[ok] = np.abs(r - np.median(r)) < max(3 * mad, 0.7)
+    windows = np.lib.stride_tricks.sliding_window_view(padded, size)
+    r = w[ok] - np.partition(windows, size // 2, axis=1)[:, size // 2]
+    dev = np.abs(r - median(r))
+    keep[ok] = dev < max(3 * 1.4826 * median(dev), 0.7)
     return keep
 
 
@@ -278,17 +280,18 @@ def _fit_front(s: np.ndarray, w: np.ndarray, min_points: int, k: float | None = 
 def _fit_front_basis(basis: np.ndarray, w: np.ndarray, min_points: int):
     """Iteratively trimmed linear least squares of w on the basis columns: (coefficients, inliers, rms) or None."""
     keep = np.ones(len(w), bool)
-    for _ in range(4):
+    for passes in range(5):
         if keep.sum() < min_points:
             return None
-        coef = np.linalg.lstsq(basis[keep], w[keep], rcond=None)[0]
-        res = w - basis @ coef
-        mad = 1.4826 * np.median(np.abs(res[keep]))
-        keep = np.abs(res) < max(3 * mad, 0.5)
-    if keep.sum() < min_points:
-        return None
-    coef = np.linalg.lstsq(basis[keep], w[keep], rcond=None)[0]
-    return coef, keep, float(np.sqrt(np.mean((w[keep] - basis[keep] @ coef) ** 2)))
+        b = basis[keep]
+        try:  # normal equations: at most four well-separated columns on [-1, 1], hundreds of rows
+            coef = np.linalg.solve(b.T @ b, b.T @ w[keep])
+        except np.linalg.LinAlgError:
+            return None
+        res = np.abs(w - basis @ coef)
+        if passes < 4:
+            keep = res < max(3 * 1.4826 * median(res[keep]), 0.5)
+    return coef, keep, float(np.sqrt(np.mean(res[keep] ** 2)))
 
 
 def _container_axes(body: np.ndarray, gray: np.ndarray, origin: tuple[int, int], box: tuple[int, int, int, int]):

@@ -320,7 +320,7 @@ def track_video(
     multithreaded=False decodes on one core in this thread (for batches that run many videos side by side).
     """
     settings = settings or TrackSettings()
-    reader = FrameReader(Path(path), multithreaded)
+    reader = FrameReader(Path(path), multithreaded, pictures=True)
     warming = threading.Thread(target=warm_up, daemon=True) if settings.smooth and multithreaded else None
     if warming is not None:  # the smoother's imports load beside decoding instead of after it
         warming.start()
@@ -342,6 +342,8 @@ def track_video(
             leave=False,
         )
         for index, t, frame in frames:
+            if writer is not None:  # the overlay is drawn on the whole picture: convert it all once
+                frame = np.asarray(frame)
             row, drawn = step(frame, writer is not None)
             rows.append((index, t, *row))
             if writer is not None:

@@ -1,5 +1,5 @@
-"""Video files in and out (OpenCV/FFmpeg reading with presentation timestamps, PyAV writing with exact
-timestamps) and the named float colours shared by the renderer and the tracker.
+"""Video files in and out (PyAV/FFmpeg reading with presentation timestamps, converting to BGR only the parts
+looked at; PyAV writing with exact timestamps) and the named float colours shared by the renderer and the tracker.
 
 May import: sloshid.core.
 """

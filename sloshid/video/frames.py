@@ -1,15 +1,16 @@
-"""Video in and out: sequential OpenCV/FFmpeg reading with presentation timestamps, PyAV writing with exact pts.
+"""Video in and out through PyAV (FFmpeg): sequential reading with presentation timestamps, writing with exact pts.
 
-Reading never seeks: frames come in decode order with the container's own presentation time
-(CAP_PROP_POS_MSEC), so variable-frame-rate files keep their real timing. Orientation metadata is
-applied by OpenCV (CAP_PROP_ORIENTATION_AUTO). Writing uses PyAV because OpenCV's writer in this
-environment has no H.264 encoder; every frame gets an explicit pts, so VFR files can be written.
+Reading never seeks: frames come in decode order with the stream's own presentation time (from its start, as
+OpenCV's CAP_PROP_POS_MSEC), so variable-frame-rate files keep their real timing, and orientation metadata turns
+the picture as players show it. A decoded 4:2:0 frame stays in its YUV planes (`Picture`) until a part of it is
+looked at: converting the whole frame to BGR costs about as much as decoding a 640x480 H.264 frame, and the tracker
+needs a box around the float or the liquid. Writing uses PyAV because OpenCV's writer in this environment has no
+H.264 encoder; every frame gets an explicit pts, so VFR files can be written.
 """
 
 from __future__ import annotations
 
 import contextlib
-import math
 import os
 import queue
 import threading
@@ -46,124 +47,185 @@ class VideoInfo:
     """Frames the container declares (0 when unknown)."""
 
 
-FFMPEG_QUIET = "-8"
-"""AV_LOG_QUIET: FFmpeg's own decoder complaints would print before sloshid's one sentence about the file."""
+class Picture:
+    """A decoded 4:2:0 picture kept in its planes; slicing converts only the sliced part to BGR.
+
+    `picture[y0:y1, x0:x1]` equals the same slice of the whole BGR frame (BT.601 limited range, as OpenCV's and
+    FFmpeg's default conversion), so a tracker that looks at a box around the float or the liquid does not pay for
+    converting the whole picture; `np.asarray(picture)` converts it all (for drawing an overlay). The last converted
+    box is kept, and a slice inside it is a read-only view of it: a tracker looks at nested boxes of one frame.
+    """
+
+    __slots__ = ("_last", "_u", "_v", "_y", "shape")
+
+    def __init__(self, y: np.ndarray, u: np.ndarray, v: np.ndarray) -> None:
+        self._y, self._u, self._v = y, u, v
+        self.shape = (*y.shape, 3)
+        self._last: tuple[int, int, int, int, np.ndarray] | None = None
+
+    def __getitem__(self, key: tuple[slice, slice]) -> np.ndarray:
+        """The BGR pixels of a (rows, columns) slice; the crop is widened to even edges for the half-size chroma."""
+        h, w = self._y.shape
+        y0, y1, _ = key[0].indices(h)
+        x0, x1, _ = key[1].indices(w)
+        if y1 <= y0 or x1 <= x0:
+            return np.zeros((max(0, y1 - y0), max(0, x1 - x0), 3), np.uint8)
+        if self._last is not None:
+            Y0, X0, Y1, X1, bgr = self._last
+            if Y0 <= y0 < y1 <= Y1 and X0 <= x0 < x1 <= X1:
+                return bgr[y0 - Y0 : y1 - Y0, x0 - X0 : x1 - X0]
+        Y0, X0, Y1, X1 = y0 - y0 % 2, x0 - x0 % 2, y1 + y1 % 2, x1 + x1 % 2
+        hh, ww = Y1 - Y0, X1 - X0
+        n, q = hh * ww, hh * ww // 4
+        buf = np.empty(n + 2 * q, np.uint8)  # I420 layout: Y rows, then the U plane, then the V plane
+        buf[:n].reshape(hh, ww)[:] = self._y[Y0:Y1, X0:X1]
+        buf[n : n + q].reshape(hh // 2, ww // 2)[:] = self._u[Y0 // 2 : Y1 // 2, X0 // 2 : X1 // 2]
+        buf[n + q :].reshape(hh // 2, ww // 2)[:] = self._v[Y0 // 2 : Y1 // 2, X0 // 2 : X1 // 2]
+        bgr = cv2.cvtColor(buf.reshape(hh * 3 // 2, ww), cv2.COLOR_YUV2BGR_I420)
+        bgr.flags.writeable = False
+        self._last = (Y0, X0, Y1, X1, bgr)
+        return bgr[y0 - Y0 : y1 - Y0, x0 - X0 : x1 - X0]
+
+    def __array__(self, dtype=None, copy=None) -> np.ndarray:
+        """The whole picture as a new, writable BGR array."""
+        return np.array(self[:, :], dtype=dtype)
 
 
-@contextlib.contextmanager
-def _quiet_decoding() -> Iterator[None]:
-    """Silence OpenCV's log while sloshid opens a video and restore the caller's level afterwards; FFmpeg inside
-    OpenCV reads its level once, at the first capture, so it is quiet unless the user chose a level."""
-    os.environ.setdefault("OPENCV_FFMPEG_LOGLEVEL", FFMPEG_QUIET)
-    previous = cv2.utils.logging.getLogLevel()
-    cv2.utils.logging.setLogLevel(cv2.utils.logging.LOG_LEVEL_SILENT)
-    try:
-        yield
-    finally:
-        cv2.utils.logging.setLogLevel(previous)
+_ROTATIONS = {90: cv2.ROTATE_90_COUNTERCLOCKWISE, 180: cv2.ROTATE_180, 270: cv2.ROTATE_90_CLOCKWISE}
+"""Display-matrix rotations (counter-clockwise degrees, as FFmpeg reports them) and the turn that shows the picture."""
 
 
-def _why_unreadable(path: Path) -> str:
-    """One sentence on why OpenCV could not open `path`: no video frames, or not a video at all."""
-    import av  # PyAV only for writing and for this diagnosis: reading alone starts faster without it
+def _plane(frame, index: int) -> np.ndarray:
+    """One plane of a decoded frame as a 2-D uint8 view (no copy; row padding cut off)."""
+    plane = frame.planes[index]
+    return np.frombuffer(plane, np.uint8).reshape(plane.height, plane.line_size)[:, : plane.width]
 
-    try:
-        with av.open(str(path)) as probe:
-            streams = probe.streams.video
-            if not streams or not streams[0].frames:
-                return f"{path} contains no video frames."
-    except (av.FFmpegError, OSError, ValueError):
-        pass
-    return f"{path} is not a video OpenCV/FFmpeg can decode (or it is cut off before its index)."
+
+def _as_shown(frame, lazy: bool) -> np.ndarray | Picture:
+    """The decoded frame as displayed: a Picture (when `lazy`) or a BGR array; other pixel formats, full-range
+    video and turned pictures go through FFmpeg's own conversion to BGR."""
+    rotation = round(frame.rotation) % 360
+    plain = frame.format.name == "yuv420p" and frame.color_range != 2 and frame.width % 2 == 0 == frame.height % 2
+    if plain and rotation == 0:
+        picture = Picture(_plane(frame, 0), _plane(frame, 1), _plane(frame, 2))
+        return picture if lazy else picture[:, :]
+    bgr = frame.to_ndarray(format="bgr24")
+    return cv2.rotate(bgr, _ROTATIONS[rotation]) if rotation in _ROTATIONS else bgr
+
+
+def _decode_threads(multithreaded: bool) -> int:
+    """FFmpeg decoding threads: one per core (on a busy machine a reader with fewer runnable threads than the
+    other programs gets less of the processor), one when many videos run side by side."""
+    return max(1, os.cpu_count() or 1) if multithreaded else 1
 
 
 @dataclass
 class FrameReader:
-    """Iterate (index, t_s, BGR frame) over a video sequentially; afterwards `decoded` and `lost_share` tell
+    """Iterate (index, t_s, frame) over a video sequentially; afterwards `decoded` and `lost_share` tell
     how much of the declared content could actually be decoded (a truncated file decodes only a prefix)."""
 
     path: Path
     multithreaded: bool = True
-    """Let FFmpeg decode with several threads, in a background thread that overlaps the caller's work (one
-    video, several cores); off when many videos run side by side and each should use one core."""
+    """Decode in a background thread (FFmpeg releases the GIL), so the caller's per-frame work overlaps decoding;
+    off when many videos run side by side and each should use one core."""
+    pictures: bool = False
+    """Yield `Picture`s, which convert only the sliced part to BGR, instead of whole BGR arrays (the tracker)."""
     info: VideoInfo = field(init=False)
     decoded: int = field(init=False, default=0)
-    _cap: cv2.VideoCapture = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
+        import av  # PyAV decodes: its frames keep the YUV planes, so only the parts looked at are converted
+
         self.path = Path(self.path)
         if not self.path.exists():
             raise UserError(f"video {self.path} does not exist.")
         if not self.path.is_file():
             raise UserError(f"video {self.path} is not a file.")
-        params = [] if self.multithreaded else [cv2.CAP_PROP_N_THREADS, 1]
-        with _quiet_decoding():
-            cap = cv2.VideoCapture(str(self.path), cv2.CAP_FFMPEG, params)
-        if not cap.isOpened():
-            raise UserError(_why_unreadable(self.path))
-        cap.set(cv2.CAP_PROP_ORIENTATION_AUTO, 1)
-        w, h = int(cap.get(cv2.CAP_PROP_FRAME_WIDTH)), int(cap.get(cv2.CAP_PROP_FRAME_HEIGHT))
-        if w <= 0 or h <= 0:
-            cap.release()
-            raise UserError(f"{self.path} is not a video OpenCV/FFmpeg can decode (no picture size).")
-        count = cap.get(cv2.CAP_PROP_FRAME_COUNT)
-        count = int(count) if math.isfinite(count) and count > 0 else 0
-        self._cap = cap
-        self.info = VideoInfo(self.path, w, h, float(cap.get(cv2.CAP_PROP_FPS) or 0.0), count)
+        try:
+            self._container = av.open(str(self.path))
+        except (av.FFmpegError, ValueError) as exc:
+            raise UserError(
+                f"{self.path} is not a video FFmpeg can decode (or it is cut off before its index)."
+            ) from exc
+        streams = self._container.streams.video
+        if not streams:
+            self._container.close()
+            raise UserError(f"{self.path} contains no video frames.")
+        stream = self._stream = streams[0]
+        threads = _decode_threads(self.multithreaded)
+        stream.thread_type, stream.thread_count = ("AUTO" if threads > 1 else "NONE"), threads
+        self._start = stream.start_time or 0
+        self._frames = self._decode_frames(av.FFmpegError)
+        self._first = next(self._frames, None)
+        if self._first is None:
+            self._container.close()
+            raise UserError(f"{self.path} contains no video frames.")
+        h, w = _as_shown(self._first, True).shape[:2]
+        fps = float(stream.average_rate or stream.guessed_rate or 0.0)
+        count = stream.frames or (round(float(stream.duration * stream.time_base) * fps) if stream.duration else 0)
+        self.info = VideoInfo(self.path, w, h, fps, int(count))
 
-    def __iter__(self) -> Iterator[tuple[int, float, np.ndarray]]:
-        """Frames in order. Decoding runs in a background thread (OpenCV releases the GIL while decoding),
-        so the caller's per-frame work overlaps with decoding the next frames (unless multithreaded is off)."""
-        if not self.multithreaded:
-            yield from self._in_this_thread()
-            return
+    def _decode_frames(self, errors: type[Exception]) -> Iterator:
+        """PyAV frames in order until the end or the first undecodable data (a truncated file)."""
+        frames = self._container.decode(self._stream)
+        while True:
+            try:
+                frame = next(frames)
+            except (StopIteration, EOFError, errors):
+                return
+            yield frame
+
+    def _timed(self, frame) -> tuple[float, np.ndarray | Picture]:
+        """(presentation time in seconds from the stream's start, picture as shown)."""
+        if frame.pts is None:  # no timestamp: evenly spaced at the declared rate
+            t_s = self.decoded / (self.info.fps or 30.0)
+        else:
+            t_s = float((frame.pts - self._start) * frame.time_base)
+        return t_s, _as_shown(frame, self.pictures)
+
+    def _produce(self) -> Iterator[tuple[float, np.ndarray | Picture]]:
+        """(t_s, picture) of every frame, the one decoded at opening first."""
+        if self._first is not None:
+            first, self._first = self._first, None
+            yield self._timed(first)
+        for frame in self._frames:
+            yield self._timed(frame)
+
+    def __iter__(self) -> Iterator[tuple[int, float, np.ndarray | Picture]]:
+        """Frames in order (decoded in a background thread unless multithreaded is off)."""
+        try:
+            items = self._threaded() if self.multithreaded else self._produce()
+            for t_s, picture in items:
+                yield self.decoded, t_s, picture
+                self.decoded += 1
+        finally:
+            self._container.close()
+
+    def _threaded(self) -> Iterator[tuple[float, np.ndarray | Picture]]:
+        """The producer's items, decoded and converted in a background thread (FFmpeg releases the GIL)."""
         frames: queue.Queue = queue.Queue(maxsize=8)
         stop = threading.Event()
-        worker = threading.Thread(target=self._decode, args=(frames, stop), daemon=True)
+
+        def produce() -> None:
+            try:
+                for item in self._produce():
+                    if stop.is_set():
+                        return
+                    frames.put(item)
+            finally:
+                frames.put(None) if not stop.is_set() else None
+
+        worker = threading.Thread(target=produce, daemon=True)
         worker.start()
         try:
-            while True:
-                item = frames.get()
-                if item is None:
-                    break
-                t_s, frame = item
-                yield self.decoded, t_s, frame
-                self.decoded += 1
+            while (item := frames.get()) is not None:
+                yield item
         finally:
             stop.set()
             while worker.is_alive():  # unblock a producer waiting on a full queue
                 with contextlib.suppress(queue.Empty):
                     frames.get_nowait()
                 worker.join(timeout=0.01)
-            self._cap.release()
-        if self.decoded == 0:
-            raise UserError(f"{self.path} contains no decodable video frames.")
-
-    def _in_this_thread(self) -> Iterator[tuple[int, float, np.ndarray]]:
-        """Frames in order, decoded in the caller's thread."""
-        try:
-            while True:
-                ok, frame = self._cap.read()
-                if not ok or frame is None:
-                    break
-                yield self.decoded, self._cap.get(cv2.CAP_PROP_POS_MSEC) / 1000.0, frame
-                self.decoded += 1
-        finally:
-            self._cap.release()
-        if self.decoded == 0:
-            raise UserError(f"{self.path} contains no decodable video frames.")
-
-    def _decode(self, frames: queue.Queue, stop: threading.Event) -> None:
-        """Producer: read frames sequentially with their presentation time until the end or `stop`."""
-        cap = self._cap
-        try:
-            while not stop.is_set():
-                ok, frame = cap.read()
-                if not ok or frame is None:
-                    break
-                frames.put((cap.get(cv2.CAP_PROP_POS_MSEC) / 1000.0, frame))
-        finally:
-            frames.put(None) if not stop.is_set() else None
 
     @property
     def lost_share(self) -> float:

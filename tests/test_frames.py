@@ -1,0 +1,74 @@
+"""Decoded pictures converted box by box, and the tracker's robust line fit: the same numbers as the whole-frame and
+library routes they replace for speed."""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+import pytest
+
+from sloshid.synthetic.render import SynthSettings, render_video
+from sloshid.tracking.robust import median, robust_polyfit
+from sloshid.video.frames import FrameReader, Picture
+
+
+def _planes(bgr: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Y, U and V planes of a BGR picture (4:2:0, as a decoder hands them over)."""
+    h, w = bgr.shape[:2]
+    i420 = cv2.cvtColor(bgr, cv2.COLOR_BGR2YUV_I420).reshape(-1)
+    q = h * w // 4
+    return (
+        i420[: h * w].reshape(h, w),
+        i420[h * w : h * w + q].reshape(h // 2, w // 2),
+        i420[h * w + q :].reshape(h // 2, w // 2),
+    )
+
+
+def test_picture_slices_equal_the_whole_conversion():
+    # odd and even edges, boxes at the border, nested boxes served from the kept conversion, empty boxes:
+    # every slice must be pixel for pixel the same slice of the whole picture converted at once
+    rng = np.random.default_rng(4)
+    bgr = rng.integers(0, 256, (48, 64, 3), dtype=np.uint8)
+    picture = Picture(*_planes(bgr))
+    whole = np.asarray(picture)
+    assert whole.shape == picture.shape == (48, 64, 3) and whole.flags.writeable
+    for y0, y1, x0, x1 in [(3, 17, 5, 30), (4, 16, 6, 30), (0, 48, 0, 64), (45, 60, 61, 70), (10, 12, 10, 11)]:
+        np.testing.assert_array_equal(picture[y0:y1, x0:x1], whole[y0:y1, x0:x1])
+    assert picture[2:40, 2:60].shape == (38, 58, 3)  # converts and keeps this box
+    np.testing.assert_array_equal(picture[5:9, 7:13], whole[5:9, 7:13])  # inside the kept box
+    assert picture[10:10, 3:9].shape == (0, 6, 3)
+
+
+def test_reader_pictures_and_arrays_agree(tmp_path):
+    # the tracker's lazy pictures and the plain BGR frames of the same file: same count, times and pixels
+    render_video(tmp_path / "v.mp4", SynthSettings(width=160, height=120, fps=30, duration_s=0.5, seed=2))
+    arrays = list(FrameReader(tmp_path / "v.mp4", multithreaded=False))
+    pictures = list(FrameReader(tmp_path / "v.mp4", pictures=True))
+    assert len(arrays) == len(pictures) == 15
+    for (i, t, a), (j, u, p) in zip(arrays, pictures):
+        assert i == j and t == u
+        np.testing.assert_array_equal(np.asarray(p), a)
+        np.testing.assert_array_equal(p[31:77, 9:100], a[31:77, 9:100])
+
+
+def test_robust_line_is_the_least_squares_line_of_its_inliers():
+    # a wall edge with 0.2 px noise and a highlight that pulls 15 rows by 5 px: the highlight is dropped and the
+    # line is np.polyfit's on the rows kept (to rounding), within 0.01 px/row of the true slope (0.2 px noise
+    # over 150 rows gives a slope error of about 0.0005)
+    rng = np.random.default_rng(8)
+    y = np.arange(40.0, 190.0)
+    x = 0.05 * y + 100 + rng.normal(0, 0.2, y.size)
+    x[60:75] += 5.0
+    x[3] = np.nan
+    coef, keep = robust_polyfit(y, x, 1, 0.3)
+    assert not keep[60:75].any() and not keep[3] and keep.sum() > 120
+    np.testing.assert_allclose(coef, np.polyfit(y[keep], x[keep], 1), rtol=1e-9)
+    assert coef[0] == pytest.approx(0.05, abs=0.01)
+    assert robust_polyfit(np.full(20, 3.0), np.arange(20.0), 1, 0.3) is None  # one column: no line
+
+
+def test_median_matches_numpy():
+    rng = np.random.default_rng(9)
+    for n in (1, 2, 7, 50, 51):
+        values = rng.normal(size=n)
+        assert median(values) == pytest.approx(float(np.median(values)), abs=1e-15)
