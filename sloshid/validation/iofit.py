@@ -6,7 +6,8 @@ horizontal acceleration: 1 for an ideal pendulum; a real first mode carries only
 gain c (measured wall height per R tan(relative angle): the mode's wall elevation is not that of a plane, and the
 sensor has its own scale; it also scales the container's own tilt, which k cannot) and the crest coefficient q (the
 reading grows by q tan(relative angle): a steep wave's crest rises above the plane). Per run: the clock lag (started
-by cross-correlation) and an offset of the measured zero. Started from the decay-only fit; bounded least squares
+by cross-correlation, then fitted with the physics: a lag held fixed leaves phase errors that the output map would
+absorb) and an offset of the measured zero. Started from the decay-only fit; bounded least squares
 (scipy) on residuals scaled so that every run weighs as its NRMSE; Newey-West intervals.
 """
 
@@ -44,7 +45,7 @@ FIT_RATE_HZ = 50.0
 """The smoothed pivot acceleration is thinned to about this rate while fitting (the full rate scores the result)."""
 FIT_RTOL = 1e-5
 LAG_SPAN_S = 0.5
-"""Simulated time kept beyond the aligned record's end, so that a re-alignment still finds a prediction there."""
+"""Simulated time kept beyond the aligned record's end, so that a fitted lag still finds a prediction there."""
 F_SPAN = 0.3
 """The frequency is searched within +-30 % of the best start."""
 GAIN_BOUNDS = (0.2, 5.0)
@@ -53,8 +54,11 @@ CREST_BOUNDS = (-1.0, 3.0)
 ZETA_BOUNDS = (1e-3, 0.5)
 START_ZETAS = (0.01, 0.03, 0.1)
 """Damping ratios tried as starts beside the decay-only one (real decays can be long, strongly excited moves not)."""
-ROUNDS = 1
-"""Fit, re-align every run by cross-correlation with the fitted model, and fit again this many times."""
+LAG_SCALE_S = 0.1
+"""A run's lag enters the scaled vector as (lag - cross-correlation lag) / LAG_SCALE_S."""
+LAG_SPAN = 1.5
+"""Each lag is fitted within +-0.15 s of its cross-correlation start: under half a period of the 3 Hz mode."""
+MAX_NFEV = 45
 TOLERANCES = {"ftol": 1e-4, "xtol": 1e-4, "gtol": 1e-8}
 """Stop when the cost or the scaled step changes by less than 0.01 %: far below the parameters' own uncertainty."""
 FITTED = ("f_hz", "zeta", "input_gain", "output_gain", "crest_coeff")
@@ -63,8 +67,8 @@ N_PARAMS = len(FITTED)
 SIM_CACHE = 8
 """Simulated physics kept at once (a Jacobian needs the base point and one step per physical parameter)."""
 DIFF_STEP = 1e-2
-"""Finite-difference step of the scaled vector (0.1 % of f, 1 % of zeta and the gains, 0.01 of q): well above the
-integrator's noise."""
+"""Finite-difference step of the scaled vector (0.1 % of f, 1 % of zeta and the gains, 0.01 of q, 1 ms of a lag):
+well above the integrator's noise."""
 
 
 @dataclass
@@ -242,8 +246,9 @@ def _prepare(pose: PoseLog, sig: Signal, start: LiquidModel) -> _RunData:
 
 
 class _Problem:
-    """Residuals of the shared physics x = [10 (f/f0 - 1), log(zeta/zeta0), log k, log c, q] at fixed per-run lags;
-    each run's offset is its mean residual (variable projection), and each run weighs as its NRMSE."""
+    """Residuals of x = [10 (f/f0 - 1), log(zeta/zeta0), log k, log c, q, (lag_i - lag0_i) / LAG_SCALE_S ...]: the
+    shared physics and each run's lag; each run's offset is its mean residual (variable projection), and each run
+    weighs as its NRMSE."""
 
     def __init__(self, data: list[_RunData], f0: float, zeta0: float, radius_m: float | None):
         self.data, self.f0, self.zeta0, self.radius_m = data, f0, zeta0, radius_m
@@ -257,9 +262,15 @@ class _Problem:
 
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
         """Lower and upper bounds of the scaled vector (f within F_SPAN of the start, the others their *_BOUNDS)."""
+        n = len(self.data)
         lo = [-10 * F_SPAN, math.log(ZETA_BOUNDS[0] / self.zeta0), *[math.log(GAIN_BOUNDS[0])] * 2, CREST_BOUNDS[0]]
         hi = [10 * F_SPAN, math.log(ZETA_BOUNDS[1] / self.zeta0), *[math.log(GAIN_BOUNDS[1])] * 2, CREST_BOUNDS[1]]
-        return np.array(lo), np.array(hi)
+        return np.array(lo + [-LAG_SPAN] * n), np.array(hi + [LAG_SPAN] * n)
+
+    def lags_at(self, x: np.ndarray) -> list[float]:
+        """Each run's lag (s) at x (the starts when x holds the physics alone)."""
+        shifts = x[N_PARAMS:] if x.size > N_PARAMS else np.zeros(len(self.lags))
+        return [lag + LAG_SCALE_S * float(v) for lag, v in zip(self.lags, shifts)]
 
     def predictions(self, x: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
         """Predicted (t, series) of every run (trajectory clock); recent physics' simulations are kept, so that a
@@ -280,7 +291,7 @@ class _Problem:
     def residuals(self, x: np.ndarray) -> np.ndarray:
         """Stacked (y - yhat - offset) / |y - mean y| of all runs."""
         parts = []
-        for d, (tp, yp), lag in zip(self.data, self.predictions(x), self.lags):
+        for d, (tp, yp), lag in zip(self.data, self.predictions(x), self.lags_at(x)):
             r = d.y - np.interp(d.t_meas - lag, tp, yp, left=yp[0])
             parts.append((r - r.mean()) / d.norm)
         return np.concatenate(parts)
@@ -304,7 +315,7 @@ class _Problem:
         """The projected offsets at x (measured unit)."""
         return [
             float(np.mean(d.y - np.interp(d.t_meas - lag, tp, yp, left=yp[0])))
-            for d, (tp, yp), lag in zip(self.data, self.predictions(x), self.lags)
+            for d, (tp, yp), lag in zip(self.data, self.predictions(x), self.lags_at(x))
         ]
 
 
@@ -346,14 +357,10 @@ def fit_io(
     _best_start(prob, [f0, f0 / 2])
     prob.realign(np.zeros(N_PARAMS))
     lo, hi = prob.bounds()
-    x = np.zeros(N_PARAMS)
-    for _ in range(ROUNDS):
-        sol = least_squares(
-            prob.residuals, x, bounds=(lo, hi), jac=prob.jacobian, x_scale="jac", max_nfev=25, **TOLERANCES
-        )
-        x = sol.x
-        prob.realign(x)
-    sol = least_squares(prob.residuals, x, bounds=(lo, hi), jac=prob.jacobian, x_scale="jac", max_nfev=20, **TOLERANCES)
+    x = np.zeros(lo.size)
+    sol = least_squares(
+        prob.residuals, x, bounds=(lo, hi), jac=prob.jacobian, x_scale="jac", max_nfev=MAX_NFEV, **TOLERANCES
+    )
     f, zeta, k, c, q = physical = prob.physical(sol.x)
     at_bound = [nm for nm, v, a, b in zip(FITTED, sol.x, lo, hi) if min(v - a, b - v) < 1e-6]
     params = _estimates(sol, prob, physical, settings.mass_kg)
@@ -370,7 +377,7 @@ def fit_io(
         decay,
         names,
         [p.source for p in poses],
-        [float(v) for v in prob.lags],
+        prob.lags_at(sol.x),
         prob.offsets(sol.x),
         runs,
         decay_runs,
