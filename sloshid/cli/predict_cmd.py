@@ -62,10 +62,10 @@ def run(args: argparse.Namespace) -> int:
         raise UserError(f"--settle-s must be zero or positive, got {args.settle_s:g}.")
     pose = load_pose_log(args.trajectory, args.pose_columns)
     resp = predict(pose, model, args.settle_s)
-    write_prediction(output, resp, model.radius_m)
+    write_prediction(output, resp, model)
     move = resp.move_span_s
     during = (resp.t_s >= move[0]) & (resp.t_s <= move[1])
-    height = resp.wall_height_mm(model.radius_m)
+    height = model.reading(resp, "wall_height_mm")
     print(
         f"move {move[0]:.3f}-{move[1]:.3f} s: peak relative angle {resp.rel_angle_deg[during].max():.2f} deg, "
         f"peak wall height {height[during].max():.2f} mm; after it {resp.rel_angle_deg[~during & (resp.t_s > move[1])].max(initial=0):.2f} deg"

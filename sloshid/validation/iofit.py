@@ -1,10 +1,14 @@
 """Input-output identification: the nonlinear pendulum driven by each recorded move, fitted to the whole measured
 record (forced response and free decay) of one or several runs at once.
 
-Shared physics: frequency f, damping ratio zeta and the input gain k (how strongly the mode feels the pivot's
-horizontal acceleration: 1 for an ideal pendulum; a real first mode carries only part of the liquid). Per run: the
-clock lag (started by cross-correlation) and an offset of the measured zero. Started from the decay-only fit;
-bounded least squares (scipy) on residuals scaled so that every run weighs as its NRMSE; Newey-West intervals.
+Shared physics: frequency f, damping ratio zeta, the input gain k (how strongly the mode feels the pivot's
+horizontal acceleration: 1 for an ideal pendulum; a real first mode carries only part of the liquid), the output
+gain c (measured wall height per R tan(relative angle): the mode's wall elevation is not that of a plane, and the
+sensor has its own scale; it also scales the container's own tilt, which k cannot) and the crest coefficient q (the
+reading grows by q tan(relative angle): a steep wave's crest rises above the plane). Per run: the clock lag (started
+by cross-correlation, then fitted with the physics: a lag held fixed leaves phase errors that the output map would
+absorb) and an offset of the measured zero. Started from the decay-only fit; bounded least squares
+(scipy) on residuals scaled so that every run weighs as its NRMSE; Newey-West intervals.
 """
 
 from __future__ import annotations
@@ -26,7 +30,7 @@ from sloshid.identification.pt2fit import hac_covariance
 from sloshid.identification.signals import Signal
 from sloshid.model.pendulum import G, SloshParams, linear_tf_coeffs
 from sloshid.model.pose import SMOOTH_S, Excitation, PoseLog, excitation, load_pose_log, respond
-from sloshid.validation.predict import LiquidModel
+from sloshid.validation.predict import LiquidModel, plane_series, read_out
 from sloshid.validation.scoring import LEAD_IN_S, align, baseline
 from sloshid.validation.validate import (
     ValidationRun,
@@ -34,7 +38,6 @@ from sloshid.validation.validate import (
     measured_kind,
     measured_magnitude,
     medians,
-    predicted_series,
     validate_run,
 )
 
@@ -42,19 +45,30 @@ FIT_RATE_HZ = 50.0
 """The smoothed pivot acceleration is thinned to about this rate while fitting (the full rate scores the result)."""
 FIT_RTOL = 1e-5
 LAG_SPAN_S = 0.5
-"""Simulated time kept beyond the aligned record's end, so that a re-alignment still finds a prediction there."""
+"""Simulated time kept beyond the aligned record's end, so that a fitted lag still finds a prediction there."""
 F_SPAN = 0.3
 """The frequency is searched within +-30 % of the best start."""
 GAIN_BOUNDS = (0.2, 5.0)
+CREST_BOUNDS = (-1.0, 3.0)
+"""The crest coefficient may come out negative (a reading flatter than the plane); 3 doubles the reading at 18 deg."""
 ZETA_BOUNDS = (1e-3, 0.5)
 START_ZETAS = (0.01, 0.03, 0.1)
 """Damping ratios tried as starts beside the decay-only one (real decays can be long, strongly excited moves not)."""
-ROUNDS = 1
-"""Fit, re-align every run by cross-correlation with the fitted model, and fit again this many times."""
+LAG_SCALE_S = 0.1
+"""A run's lag enters the scaled vector as (lag - cross-correlation lag) / LAG_SCALE_S."""
+LAG_SPAN = 1.5
+"""Each lag is fitted within +-0.15 s of its cross-correlation start: under half a period of the 3 Hz mode."""
+MAX_NFEV = 45
 TOLERANCES = {"ftol": 1e-4, "xtol": 1e-4, "gtol": 1e-8}
 """Stop when the cost or the scaled step changes by less than 0.01 %: far below the parameters' own uncertainty."""
+FITTED = ("f_hz", "zeta", "input_gain", "output_gain", "crest_coeff")
+"""The shared parameters the fit moves, in the order of the scaled vector."""
+N_PARAMS = len(FITTED)
+SIM_CACHE = 8
+"""Simulated physics kept at once (a Jacobian needs the base point and one step per physical parameter)."""
 DIFF_STEP = 1e-2
-"""Finite-difference step of the scaled physics (0.1 % of f, 1 % of zeta and k): well above the integrator's noise."""
+"""Finite-difference step of the scaled vector (0.1 % of f, 1 % of zeta and the gains, 0.01 of q, 1 ms of a lag):
+well above the integrator's noise."""
 
 
 @dataclass
@@ -171,8 +185,8 @@ class IOFit:
             },
             "fit": {
                 "model": "nonlinear pendulums (seed eq. 2 per axis, world frame) driven by input_gain x the pivot's "
-                "horizontal acceleration, g + az; output R tan(angle to the container axis) or that angle; per run "
-                "lag and offset",
+                "horizontal acceleration, g + az; output output_gain x R tan(angle to the container axis) (or x that "
+                "angle) x (1 + crest_coeff x tan(that angle)); per run lag and offset",
                 "fit_percent": medians(self.runs)["all"]["fit_percent"],
                 "n_simulations": self.n_simulations,
                 "interval_method": "Newey-West sandwich on the least-squares Jacobian (per-run blocks); normal 95 %",
@@ -223,7 +237,7 @@ def _prepare(pose: PoseLog, sig: Signal, start: LiquidModel) -> _RunData:
     resp = respond(
         exc, start.params, start.input_gain, float(sig.t_s[-1] - sig.t_s[0]) + 1.0, FIT_RTOL, FIT_RTOL * 1e-3
     )
-    al = align(sig.t_s, y_all, resp.t_s, predicted_series(resp, kind, start.radius_m), exc.move_span_s)
+    al = align(sig.t_s, y_all, resp.t_s, start.reading(resp, kind), exc.move_span_s)
     keep = sig.t_s - al.lag_s >= exc.move_span_s[0] - LEAD_IN_S
     y = y_all[keep] - baseline(sig.t_s, y_all, exc.move_span_s[0] + al.lag_s)
     settle = max(float(sig.t_s[-1] - al.lag_s - exc.t_s[-1]) + LAG_SPAN_S, 0.1)
@@ -232,33 +246,52 @@ def _prepare(pose: PoseLog, sig: Signal, start: LiquidModel) -> _RunData:
 
 
 class _Problem:
-    """Residuals of the shared physics x = [10 (f/f0 - 1), log(zeta/zeta0), log k] at fixed per-run lags; each run's
-    offset is its mean residual (variable projection), and each run weighs as its NRMSE."""
+    """Residuals of x = [10 (f/f0 - 1), log(zeta/zeta0), log k, log c, q, (lag_i - lag0_i) / LAG_SCALE_S ...]: the
+    shared physics and each run's lag; each run's offset is its mean residual (variable projection), and each run
+    weighs as its NRMSE."""
 
     def __init__(self, data: list[_RunData], f0: float, zeta0: float, radius_m: float | None):
         self.data, self.f0, self.zeta0, self.radius_m = data, f0, zeta0, radius_m
         self.lags = [d.lag0 for d in data]
         self.n_sim = 0
+        self._sims: dict[tuple[float, float, float], list[tuple[np.ndarray, np.ndarray, np.ndarray]]] = {}
 
-    def physical(self, x: np.ndarray) -> tuple[float, float, float]:
-        """(f, zeta, k) from the scaled vector."""
-        return self.f0 * (1 + x[0] / 10), self.zeta0 * math.exp(x[1]), math.exp(x[2])
+    def physical(self, x: np.ndarray) -> tuple[float, float, float, float, float]:
+        """(f, zeta, k, c, q) from the scaled vector."""
+        return self.f0 * (1 + x[0] / 10), self.zeta0 * math.exp(x[1]), math.exp(x[2]), math.exp(x[3]), float(x[4])
+
+    def bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """Lower and upper bounds of the scaled vector (f within F_SPAN of the start, the others their *_BOUNDS)."""
+        n = len(self.data)
+        lo = [-10 * F_SPAN, math.log(ZETA_BOUNDS[0] / self.zeta0), *[math.log(GAIN_BOUNDS[0])] * 2, CREST_BOUNDS[0]]
+        hi = [10 * F_SPAN, math.log(ZETA_BOUNDS[1] / self.zeta0), *[math.log(GAIN_BOUNDS[1])] * 2, CREST_BOUNDS[1]]
+        return np.array(lo + [-LAG_SPAN] * n), np.array(hi + [LAG_SPAN] * n)
+
+    def lags_at(self, x: np.ndarray) -> list[float]:
+        """Each run's lag (s) at x (the starts when x holds the physics alone)."""
+        shifts = x[N_PARAMS:] if x.size > N_PARAMS else np.zeros(len(self.lags))
+        return [lag + LAG_SCALE_S * float(v) for lag, v in zip(self.lags, shifts)]
 
     def predictions(self, x: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
-        """Predicted (t, series) of every run (trajectory clock)."""
-        f, zeta, k = self.physical(x)
-        params = SloshParams.from_modal(2 * math.pi * f, zeta)
-        self.n_sim += 1
-        out = []
-        for d in self.data:
-            resp = respond(d.exc, params, k, d.settle_s, rtol=FIT_RTOL, atol=FIT_RTOL * 1e-3)
-            out.append((resp.t_s, predicted_series(resp, d.kind, self.radius_m)))
-        return out
+        """Predicted (t, series) of every run (trajectory clock); recent physics' simulations are kept, so that a
+        step of the output map alone (gain, crest) simulates nothing."""
+        f, zeta, k, c, q = self.physical(x)
+        if (f, zeta, k) not in self._sims:
+            params = SloshParams.from_modal(2 * math.pi * f, zeta)
+            self.n_sim += 1
+            if len(self._sims) >= SIM_CACHE:
+                self._sims.clear()
+            sims = []
+            for d in self.data:
+                resp = respond(d.exc, params, k, d.settle_s, rtol=FIT_RTOL, atol=FIT_RTOL * 1e-3)
+                sims.append((resp.t_s, *plane_series(resp, d.kind, self.radius_m)))
+            self._sims[f, zeta, k] = sims
+        return [(t, read_out(plane, slope, c, q)) for t, plane, slope in self._sims[f, zeta, k]]
 
     def residuals(self, x: np.ndarray) -> np.ndarray:
         """Stacked (y - yhat - offset) / |y - mean y| of all runs."""
         parts = []
-        for d, (tp, yp), lag in zip(self.data, self.predictions(x), self.lags):
+        for d, (tp, yp), lag in zip(self.data, self.predictions(x), self.lags_at(x)):
             r = d.y - np.interp(d.t_meas - lag, tp, yp, left=yp[0])
             parts.append((r - r.mean()) / d.norm)
         return np.concatenate(parts)
@@ -282,7 +315,7 @@ class _Problem:
         """The projected offsets at x (measured unit)."""
         return [
             float(np.mean(d.y - np.interp(d.t_meas - lag, tp, yp, left=yp[0])))
-            for d, (tp, yp), lag in zip(self.data, self.predictions(x), self.lags)
+            for d, (tp, yp), lag in zip(self.data, self.predictions(x), self.lags_at(x))
         ]
 
 
@@ -291,7 +324,7 @@ def _best_start(prob: _Problem, candidates_hz: list[float]) -> None:
     decay-only one and its half: a measured magnitude of a planar slosh repeats at twice the mode's frequency) and
     a few damping ratios."""
     best = (math.inf, prob.f0, prob.zeta0)
-    zero, zetas = np.zeros(3), sorted({prob.zeta0, *START_ZETAS})
+    zero, zetas = np.zeros(N_PARAMS), sorted({prob.zeta0, *START_ZETAS})
     for f in candidates_hz:
         for z in zetas:
             prob.f0, prob.zeta0 = f, z
@@ -308,7 +341,8 @@ def fit_io(
     settings: IdentSettings | None = None,
     names: list[str] | None = None,
 ) -> IOFit:
-    """Fit f, zeta and the input gain jointly over the runs (own lag and offset each), from the decay-only start."""
+    """Fit f, zeta, the input and output gains and the crest coefficient jointly over the runs (own lag and offset
+    each), from the decay-only start."""
     if len(poses) != len(signals):
         raise SettingError(
             "trajectory",
@@ -321,22 +355,18 @@ def fit_io(
     start = LiquidModel(SloshParams.from_modal(2 * math.pi * f0, zeta0), 1.0, radius_m, axis_offset_m, smooth_s)
     prob = _Problem([_prepare(p, s, start) for p, s in zip(poses, signals)], f0, zeta0, radius_m)
     _best_start(prob, [f0, f0 / 2])
-    prob.realign(np.zeros(3))
-    lo = np.array([-10 * F_SPAN, math.log(ZETA_BOUNDS[0] / prob.zeta0), math.log(GAIN_BOUNDS[0])])
-    hi = np.array([10 * F_SPAN, math.log(ZETA_BOUNDS[1] / prob.zeta0), math.log(GAIN_BOUNDS[1])])
-    x = np.zeros(3)
-    for _ in range(ROUNDS):
-        sol = least_squares(
-            prob.residuals, x, bounds=(lo, hi), jac=prob.jacobian, x_scale="jac", max_nfev=25, **TOLERANCES
-        )
-        x = sol.x
-        prob.realign(x)
-    sol = least_squares(prob.residuals, x, bounds=(lo, hi), jac=prob.jacobian, x_scale="jac", max_nfev=20, **TOLERANCES)
-    f, zeta, k = prob.physical(sol.x)
-    at_bound = [nm for nm, v, a, b in zip(("f_hz", "zeta", "input_gain"), sol.x, lo, hi) if min(v - a, b - v) < 1e-6]
-    params = _estimates(sol, prob, f, zeta, k, settings.mass_kg)
+    prob.realign(np.zeros(N_PARAMS))
+    lo, hi = prob.bounds()
+    x = np.zeros(lo.size)
+    sol = least_squares(
+        prob.residuals, x, bounds=(lo, hi), jac=prob.jacobian, x_scale="jac", max_nfev=MAX_NFEV, **TOLERANCES
+    )
+    f, zeta, k, c, q = physical = prob.physical(sol.x)
+    at_bound = [nm for nm, v, a, b in zip(FITTED, sol.x, lo, hi) if min(v - a, b - v) < 1e-6]
+    params = _estimates(sol, prob, physical, settings.mass_kg)
     mass = settings.mass_kg or 1.0
-    model = LiquidModel(SloshParams.from_modal(2 * math.pi * f, zeta, mass), k, radius_m, axis_offset_m, smooth_s)
+    physics = SloshParams.from_modal(2 * math.pi * f, zeta, mass)
+    model = LiquidModel(physics, k, radius_m, axis_offset_m, smooth_s, c, q)
     names = names or [s.source for s in signals]
     runs = [validate_run(p, s, model, nm) for p, s, nm in zip(poses, signals, names)]
     decay_model = replace(start, params=decay.params)
@@ -347,7 +377,7 @@ def fit_io(
         decay,
         names,
         [p.source for p in poses],
-        [float(v) for v in prob.lags],
+        prob.lags_at(sol.x),
         prob.offsets(sol.x),
         runs,
         decay_runs,
@@ -378,15 +408,18 @@ def fit_io_files(
     return fit_io(poses, signals, radius_m, axis_offset_m, smooth_s, settings, [Path(s.source).stem for s in signals])
 
 
-def _estimates(sol, prob: _Problem, f: float, zeta: float, k: float, mass: float | None) -> dict[str, Estimate]:
-    """Parameters with Newey-West standard errors (per-run blocks), mapped from the scaled vector."""
+def _estimates(
+    sol, prob: _Problem, physical: tuple[float, float, float, float, float], mass: float | None
+) -> dict[str, Estimate]:
+    """Parameters (f, zeta, k, c, q) with Newey-West standard errors (per-run blocks), mapped from the scaled vector."""
+    f, zeta, k, c, q = physical
     data = prob.data
     sizes = np.cumsum([0] + [d.y.size for d in data])
     blocks = [slice(a, b) for a, b in itertools.pairwise(sizes)]
     periods = [max(round(1.0 / (f * np.median(np.diff(d.t_meas)))), 1) for d in data]
     cov, _naive, _lags = hac_covariance(sol.jac, sol.fun, blocks, periods)
-    d_scaled = np.array([prob.f0 / 10, zeta, k])
-    se = np.sqrt(np.clip(np.diag(cov)[:3], 0, None)) * d_scaled
+    d_scaled = np.array([prob.f0 / 10, zeta, k, c, 1.0])
+    se = np.sqrt(np.clip(np.diag(cov)[:N_PARAMS], 0, None)) * d_scaled
     omega, se_w = 2 * math.pi * f, 2 * math.pi * se[0]
     out = {
         "f_hz": _estimate(f, se[0]),
@@ -394,6 +427,8 @@ def _estimates(sol, prob: _Problem, f: float, zeta: float, k: float, mass: float
         "zeta": _estimate(zeta, se[1], floor=0.0),
         "l_m": _estimate(G / omega**2, 2 * G / omega**3 * se_w),
         "input_gain": _estimate(k, se[2], floor=0.0),
+        "output_gain": _estimate(c, se[3], floor=0.0),
+        "crest_coeff": _estimate(q, se[4]),
     }
     if mass is not None:
         out["d_ns_per_m"] = _estimate(

@@ -28,12 +28,21 @@ class LiquidModel:
     """Distance up the container axis from the logged point to the pendulum pivot."""
     smooth_s: float = SMOOTH_S
     """Savitzky-Golay window for the pose log's accelerations."""
+    output_gain: float = 1.0
+    """Scale of the reading (wall height, or angle) against the plane of the pendulum's surface: the sloshing mode's
+    wall elevation per surface angle and the sensor's own scale (1 for a decay-only or physical model)."""
+    crest_coeff: float = 0.0
+    """Second-order crest term: the reading grows by this times tan(relative angle) (0: a plane's wall height)."""
 
     def __post_init__(self) -> None:
-        if not (math.isfinite(self.input_gain) and self.input_gain > 0):
-            raise UserError(f"the input gain must be a positive number, got {self.input_gain!r}.")
+        for name in ("input_gain", "output_gain"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value > 0):
+                raise UserError(f"the {name.replace('_', ' ')} must be a positive number, got {value!r}.")
         if self.radius_m is not None and not (math.isfinite(self.radius_m) and self.radius_m > 0):
             raise UserError(f"the container radius must be a positive number of m, got {self.radius_m!r}.")
+        if not math.isfinite(self.crest_coeff):
+            raise UserError(f"the crest coefficient must be a number, got {self.crest_coeff!r}.")
         if not math.isfinite(self.axis_offset_m):
             raise UserError(f"the axis offset must be a number of m, got {self.axis_offset_m!r}.")
 
@@ -47,22 +56,47 @@ class LiquidModel:
             self.radius_m if radius_m is None else radius_m,
             self.axis_offset_m if axis_offset_m is None else axis_offset_m,
             self.smooth_s if smooth_s is None else smooth_s,
+            self.output_gain,
+            self.crest_coeff,
         )
+
+    def reading(self, resp: PoseResponse, kind: str) -> np.ndarray:
+        """What the sensor reads from the predicted surface: the wall height (mm) for kind 'wall_height_mm', else the
+        relative angle (deg)."""
+        return read_out(*plane_series(resp, kind, self.radius_m), self.output_gain, self.crest_coeff)
+
+
+def plane_series(resp: PoseResponse, kind: str, radius_m: float | None) -> tuple[np.ndarray, np.ndarray]:
+    """The plane's value a reading of this kind scales (R tan(relative angle) in mm, or the angle in deg) and the
+    surface slope tan(relative angle)."""
+    slope = np.tan(np.minimum(resp.rel_angle_rad, 1.4))
+    return (resp.wall_height_mm(radius_m) if kind == "wall_height_mm" else resp.rel_angle_deg), slope
+
+
+def read_out(plane: np.ndarray, slope: np.ndarray, output_gain: float, crest_coeff: float) -> np.ndarray:
+    """output_gain x the plane's value x (1 + crest_coeff x slope): the first mode's wall elevation is a fraction of
+    the plane's (2 / (xi^2 - 1) = 0.84 in linear theory) and a steep wave's crest rises above it (second order)."""
+    return output_gain * plane * (1.0 + crest_coeff * slope)
 
 
 def load_model(path: str | Path) -> LiquidModel:
-    """Read `sloshid identify` JSON: the mode, the input gain (input-output fits) and any stored geometry."""
+    """Read `sloshid identify` JSON: the mode, the input and output gains (input-output fits) and any stored
+    geometry."""
     params = SloshParams.from_identify_json(path)
     data = json.loads(Path(path).read_text(encoding="utf-8"))
     try:
         gain = float(data["parameters"].get("input_gain", {}).get("value", 1.0))
+        out_gain = float(data["parameters"].get("output_gain", {}).get("value", 1.0))
+        crest = float(data["parameters"].get("crest_coeff", {}).get("value", 0.0))
         geometry = data.get("geometry") or {}
         radius = geometry.get("container_radius_m") or (data.get("prior") or {}).get("container_radius_m")
         radius = None if radius is None else float(radius)
         offset, smooth = float(geometry.get("axis_offset_m", 0.0)), float(geometry.get("smooth_s", SMOOTH_S))
     except (AttributeError, TypeError, ValueError):
-        raise UserError(f"parameter file {path}: input_gain or geometry is not a number.") from None
-    return LiquidModel(params, gain, radius, offset, smooth)
+        raise UserError(
+            f"parameter file {path}: a gain, the crest coefficient or the geometry is not a number."
+        ) from None
+    return LiquidModel(params, gain, radius, offset, smooth, out_gain, crest)
 
 
 def predict(pose: PoseLog, model: LiquidModel, settle_s: float = 3.0, rtol: float = 1e-9) -> PoseResponse:
@@ -71,8 +105,8 @@ def predict(pose: PoseLog, model: LiquidModel, settle_s: float = 3.0, rtol: floa
     return respond(exc, model.params, model.input_gain, settle_s, rtol=rtol, atol=rtol * 1e-3)
 
 
-def prediction_columns(resp: PoseResponse, radius_m: float | None) -> dict[str, np.ndarray]:
-    """The `sloshid predict` CSV columns (SI, angles in degrees)."""
+def prediction_columns(resp: PoseResponse, model: LiquidModel) -> dict[str, np.ndarray]:
+    """The `sloshid predict` CSV columns (SI, angles in degrees); the wall height is the model's reading."""
     cols = {
         "t_s": resp.t_s,
         "ax_m_s2": resp.acc_m_s2[:, 0],
@@ -84,11 +118,11 @@ def prediction_columns(resp: PoseResponse, radius_m: float | None) -> dict[str, 
         "rel_pitch_deg": np.degrees(resp.rel_rad[:, 1]),
         "rel_angle_deg": resp.rel_angle_deg,
     }
-    if radius_m is not None:
-        cols["wall_height_mm"] = resp.wall_height_mm(radius_m)
+    if model.radius_m is not None:
+        cols["wall_height_mm"] = model.reading(resp, "wall_height_mm")
     return cols
 
 
-def write_prediction(path: str | Path, resp: PoseResponse, radius_m: float | None) -> None:
+def write_prediction(path: str | Path, resp: PoseResponse, model: LiquidModel) -> None:
     """Write the prediction CSV atomically."""
-    write_csv(path, prediction_columns(resp, radius_m))
+    write_csv(path, prediction_columns(resp, model))

@@ -17,7 +17,7 @@ import numpy as np
 from sloshid.core.errors import SettingError, UserError
 from sloshid.core.tables import to_pandas
 from sloshid.identification.signals import Signal
-from sloshid.model.pose import PoseLog, PoseResponse
+from sloshid.model.pose import PoseLog
 from sloshid.validation.predict import LiquidModel, predict
 from sloshid.validation.scoring import LEAD_IN_S, Alignment, PhaseScore, align, baseline, score
 
@@ -41,11 +41,6 @@ def measured_kind(sig: Signal, model: LiquidModel) -> str:
         f"{sig.source}: the measured '{sig.label}' has no unit this command can compare (a wall height in mm or "
         "an angle in deg/rad; name the column e.g. height_mm or angle_deg)."
     )
-
-
-def predicted_series(resp: PoseResponse, kind: str, radius_m: float | None) -> np.ndarray:
-    """The predicted quantity a measurement of this kind is compared with."""
-    return resp.wall_height_mm(radius_m) if kind == "wall_height_mm" else resp.rel_angle_deg
 
 
 def measured_magnitude(sig: Signal, kind: str) -> np.ndarray:
@@ -121,7 +116,7 @@ def validate_run(pose: PoseLog, sig: Signal, model: LiquidModel, name: str = "")
     kind = measured_kind(sig, model)
     y_all = measured_magnitude(sig, kind)
     resp = predict(pose, model, settle_s=float(sig.t_s[-1] - sig.t_s[0]) + 1.0, rtol=FIT_RTOL)
-    pred = predicted_series(resp, kind, model.radius_m)
+    pred = model.reading(resp, kind)
     move = resp.move_span_s
     al = align(sig.t_s, y_all, resp.t_s, pred, move)
     base = baseline(sig.t_s, y_all, move[0] + al.lag_s)
@@ -177,7 +172,8 @@ def build_report(runs: list[ValidationRun], model: LiquidModel, title: str = "sl
     rep = Report(title)
     p = model.params
     rep.add_text(
-        f"Model: f = {p.f_hz:.4g} Hz, zeta = {p.zeta:.3g}, input gain {model.input_gain:.3g}, radius "
+        f"Model: f = {p.f_hz:.4g} Hz, zeta = {p.zeta:.3g}, input gain {model.input_gain:.3g}, output gain "
+        f"{model.output_gain:.3g}, crest coefficient {model.crest_coeff:.3g}, radius "
         f"{'-' if model.radius_m is None else f'{1000 * model.radius_m:.1f} mm'}, axis offset "
         f"{1000 * model.axis_offset_m:.0f} mm, acceleration smoothing {1000 * model.smooth_s:.0f} ms (Savitzky-Golay)."
     )
