@@ -166,6 +166,30 @@ def test_sigterm_during_an_overlay_leaves_no_half_written_file(tmp_path):
     assert not _leftovers(out) and not (out / "o.mp4").exists() and not (out / "a.csv").exists()
 
 
+@pytest.mark.parametrize("kind", ["file", "folder"])
+def test_an_interruption_right_after_the_temporary_appears_leaves_nothing(tmp_path, monkeypatch, kind):
+    # SIGTERM's handler raises at any bytecode; the worst moment is just after the temporary file or folder is
+    # created, before the code that removes it on failure is entered (the SIGTERM test above hit it once in CI)
+    from sloshid.cli.app import Terminated
+    from sloshid.core import atomic
+
+    name = "open" if kind == "file" else "mkdir"
+    real = getattr(os, name)
+
+    def create_then_interrupt(*args, **kwargs):
+        made = real(*args, **kwargs)
+        if kind == "file":
+            os.close(made)
+        raise Terminated
+
+    monkeypatch.setattr(atomic.os, name, create_then_interrupt)
+    context = atomic.atomic_path(tmp_path / "a.csv") if kind == "file" else atomic.atomic_dir(tmp_path / "run")
+    with pytest.raises(Terminated), context:
+        pass
+    monkeypatch.undo()
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_folders_sloshid_creates_get_the_users_normal_permissions(tmp_path):
     from sloshid.core.atomic import atomic_dir
 

@@ -8,8 +8,8 @@ from __future__ import annotations
 import contextlib
 import json
 import os
+import secrets
 import shutil
-import tempfile
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -17,11 +17,12 @@ from typing import Any
 from sloshid.core.errors import UserError
 
 
-def _usual_mode(path: Path, directory: bool) -> None:
-    """Give a temp file or folder (mkstemp/mkdtemp make them owner-only) the permissions of a normal output."""
-    umask = os.umask(0)
-    os.umask(umask)
-    os.chmod(path, (0o777 if directory else 0o666) & ~umask)
+def _sibling(target: Path, suffix: str) -> Path:
+    """A hidden temporary name beside `target`, random (64 bits) so that parallel runs never pick the same one.
+
+    The name is chosen before anything is created, so that a `finally` can remove whatever exists under it: an
+    interruption (SIGTERM, Ctrl-C) between creating the file and entering a `try` would otherwise leave it behind."""
+    return target.parent / f".{target.name}.{secrets.token_hex(8)}{suffix}"
 
 
 def _write_error(target: Path, exc: OSError) -> UserError:
@@ -33,22 +34,17 @@ def _write_error(target: Path, exc: OSError) -> UserError:
 def atomic_path(path: str | os.PathLike) -> Iterator[Path]:
     """Yield a temporary path beside `path` (same suffix); it replaces `path` only if the block succeeds."""
     target = Path(path)
+    tmp = _sibling(target, f".part{target.suffix}")
     try:
         target.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=f".part{target.suffix}", dir=target.parent)
-        os.close(fd)
-        _usual_mode(Path(tmp), directory=False)
-    except OSError as exc:
-        raise _write_error(target, exc) from None
-    tmp_path = Path(tmp)
-    try:
-        yield tmp_path
-        os.replace(tmp_path, target)
+        os.close(os.open(tmp, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o666))  # the umask gives the usual mode
+        yield tmp
+        os.replace(tmp, target)
     except OSError as exc:
         raise _write_error(target, exc) from None
     finally:
-        if tmp_path.exists():
-            tmp_path.unlink()
+        if tmp.exists():
+            tmp.unlink()
 
 
 def write_text(path: str | os.PathLike, text: str) -> None:
@@ -73,13 +69,10 @@ def atomic_dir(path: str | os.PathLike) -> Iterator[Path]:
     target = Path(path)
     if target.exists():
         raise UserError(f"{target} already exists; sloshid does not replace a folder it did not just create.")
+    tmp = _sibling(target, ".part")
     try:
         target.parent.mkdir(parents=True, exist_ok=True)
-        tmp = Path(tempfile.mkdtemp(prefix=f".{target.name}.", suffix=".part", dir=target.parent))
-        _usual_mode(tmp, directory=True)
-    except OSError as exc:
-        raise _write_error(target, exc) from None
-    try:
+        tmp.mkdir()  # mode 0o777 less the umask: readable like any folder the user makes
         yield tmp
         os.replace(tmp, target)
     except OSError as exc:
