@@ -110,12 +110,25 @@ class Estimate:
         return {"value": self.value, "stderr": self.stderr, "ci95": list(self.ci95)}
 
 
-def _estimate(value: float, se: float, floor: float | None = None) -> Estimate:
+def estimate(value: float, se: float, floor: float | None = None) -> Estimate:
     """Normal 95 % interval, clipped at `floor` for quantities that cannot be negative."""
     lo, hi = value - Z95 * se, value + Z95 * se
     if floor is not None:
         lo = max(lo, floor)
     return Estimate(float(value), float(se), (float(lo), float(hi)))
+
+
+def estimates_table(parameters: dict[str, Estimate]):
+    """Estimates as a pandas table: one row each with value, standard error and 95 % interval."""
+    return to_pandas(
+        {
+            "parameter": list(parameters),
+            "value": [e.value for e in parameters.values()],
+            "stderr": [e.stderr for e in parameters.values()],
+            "ci95_lo": [e.ci95[0] for e in parameters.values()],
+            "ci95_hi": [e.ci95[1] for e in parameters.values()],
+        }
+    )
 
 
 def ljung_box_p(resid: np.ndarray, lags: int) -> float:
@@ -295,15 +308,7 @@ class IdentResult:
 
     def to_pandas(self):
         """The parameters as a table: one row each with value, standard error and 95 % interval."""
-        return to_pandas(
-            {
-                "parameter": list(self.parameters),
-                "value": [e.value for e in self.parameters.values()],
-                "stderr": [e.stderr for e in self.parameters.values()],
-                "ci95_lo": [e.ci95[0] for e in self.parameters.values()],
-                "ci95_hi": [e.ci95[1] for e in self.parameters.values()],
-            }
-        )
+        return estimates_table(self.parameters)
 
     # ---- plots (each takes ax=None and returns the axes it drew on) ----
 
@@ -523,14 +528,14 @@ class Identifier:
         omega, zeta = fit.omega_rad_s, fit.zeta
         se_w, se_z = np.sqrt(np.clip(np.diag(fit.cov), 0, None))
         params = {
-            "f_hz": _estimate(omega / (2 * math.pi), se_w / (2 * math.pi)),
-            "omega_rad_s": _estimate(omega, se_w),
-            "zeta": _estimate(zeta, se_z, floor=0.0),
-            "l_m": _estimate(G / omega**2, 2 * G / omega**3 * se_w),
+            "f_hz": estimate(omega / (2 * math.pi), se_w / (2 * math.pi)),
+            "omega_rad_s": estimate(omega, se_w),
+            "zeta": estimate(zeta, se_z, floor=0.0),
+            "l_m": estimate(G / omega**2, 2 * G / omega**3 * se_w),
         }
         if st.mass_kg is not None:
             grad = np.array([2 * st.mass_kg * zeta, 2 * st.mass_kg * omega])
-            params["d_ns_per_m"] = _estimate(2 * st.mass_kg * omega * zeta, math.sqrt(grad @ fit.cov @ grad), floor=0.0)
+            params["d_ns_per_m"] = estimate(2 * st.mass_kg * omega * zeta, math.sqrt(grad @ fit.cov @ grad), floor=0.0)
         checks, lb, lb_lags = _cross_checks(sigs, windows, parts, noise_std, fit)
         fits = [fit.fit_percent(i, p.value) for i, p in enumerate(parts)]
         if prior:

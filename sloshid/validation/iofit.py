@@ -24,8 +24,14 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from sloshid.core.errors import SettingError
-from sloshid.core.tables import to_pandas
-from sloshid.identification.estimator import Estimate, Identifier, IdentResult, IdentSettings, _estimate
+from sloshid.identification.estimator import (
+    Estimate,
+    Identifier,
+    IdentResult,
+    IdentSettings,
+    estimate,
+    estimates_table,
+)
 from sloshid.identification.pt2fit import hac_covariance
 from sloshid.identification.signals import Signal
 from sloshid.model.pendulum import G, SloshParams, linear_tf_coeffs
@@ -142,15 +148,7 @@ class IOFit:
 
     def to_pandas(self):
         """The fitted parameters as a table: one row each with value, standard error and 95 % interval."""
-        return to_pandas(
-            {
-                "parameter": list(self.parameters),
-                "value": [e.value for e in self.parameters.values()],
-                "stderr": [e.stderr for e in self.parameters.values()],
-                "ci95_lo": [e.ci95[0] for e in self.parameters.values()],
-                "ci95_hi": [e.ci95[1] for e in self.parameters.values()],
-            }
-        )
+        return estimates_table(self.parameters)
 
     def to_dict(self) -> dict[str, Any]:
         """The `identify` JSON schema (the decay-only fit's keys) with the input-output parameters and extras."""
@@ -422,16 +420,16 @@ def _estimates(
     se = np.sqrt(np.clip(np.diag(cov)[:N_PARAMS], 0, None)) * d_scaled
     omega, se_w = 2 * math.pi * f, 2 * math.pi * se[0]
     out = {
-        "f_hz": _estimate(f, se[0]),
-        "omega_rad_s": _estimate(omega, se_w),
-        "zeta": _estimate(zeta, se[1], floor=0.0),
-        "l_m": _estimate(G / omega**2, 2 * G / omega**3 * se_w),
-        "input_gain": _estimate(k, se[2], floor=0.0),
-        "output_gain": _estimate(c, se[3], floor=0.0),
-        "crest_coeff": _estimate(q, se[4]),
+        "f_hz": estimate(f, se[0]),
+        "omega_rad_s": estimate(omega, se_w),
+        "zeta": estimate(zeta, se[1], floor=0.0),
+        "l_m": estimate(G / omega**2, 2 * G / omega**3 * se_w),
+        "input_gain": estimate(k, se[2], floor=0.0),
+        "output_gain": estimate(c, se[3], floor=0.0),
+        "crest_coeff": estimate(q, se[4]),
     }
     if mass is not None:
-        out["d_ns_per_m"] = _estimate(
+        out["d_ns_per_m"] = estimate(
             2 * mass * omega * zeta, 2 * mass * math.hypot(zeta * se_w, omega * se[1]), floor=0.0
         )
     return out
