@@ -5,12 +5,15 @@ Model: a slowly drifting baseline plus a lightly damped oscillator at the trace'
 every step's own dt (Van Loan). A sloshing angle is exactly such a signal, so frames with valid = 0 are
 bridged along the oscillation instead of by a straight or cubic line. Traces too short for a spectrum
 fall back to a constant-velocity model. Noise levels are set from the valid data's own spread.
-SciPy and filterpy are imported on first use (`warm_up` does it in a background thread), so a command starts fast.
+SciPy and filterpy are imported on first use, so a command starts fast; `SmoothingWorker` imports them in a forked
+process beside decoding, as their imports would hold this process's GIL against the measuring loop for seconds.
 """
 
 from __future__ import annotations
 
 import math
+import multiprocessing
+import sys
 
 import numpy as np
 
@@ -109,7 +112,65 @@ def smooth_angle(t_s: np.ndarray, angle_deg: np.ndarray, valid: np.ndarray, qual
 
 
 def warm_up() -> None:
-    """Import the smoother's libraries (seconds of start-up); `track` runs this beside decoding."""
+    """Import the smoother's libraries (seconds of start-up)."""
     import filterpy.kalman  # noqa: F401
     import scipy.linalg
     import scipy.signal  # noqa: F401
+
+
+class SmoothingWorker:
+    """`smooth_angle` in a process forked before decoding, which imports SciPy and filterpy on the other core.
+
+    In this process those imports (1-2 s of Python) hold the GIL against the measuring loop even from a thread. The
+    fork happens only while filterpy is not imported yet and on Linux, where fork is the default start method;
+    otherwise, or when the worker is gone (killed, out of memory), `smooth` runs here, with the same result.
+    """
+
+    def __init__(self) -> None:
+        self._proc = self._conn = None
+        if "filterpy.kalman" not in sys.modules and sys.platform.startswith("linux"):
+            ctx = multiprocessing.get_context("fork")
+            self._conn, child = ctx.Pipe()
+            self._proc = ctx.Process(target=_serve, args=(child,), daemon=True, name="sloshid-smoother")
+            self._proc.start()
+            child.close()
+
+    def smooth(self, t_s: np.ndarray, angle_deg: np.ndarray, valid: np.ndarray, quality: np.ndarray) -> np.ndarray:
+        """`smooth_angle` of the arguments, computed by the worker when there is one."""
+        if self._proc is not None:
+            try:
+                self._conn.send((t_s, angle_deg, valid, quality))
+                done, smoothed = self._conn.recv()
+                if done:
+                    return smoothed
+            except (EOFError, OSError):
+                pass  # the worker is gone: smooth here
+            finally:
+                self.close()
+        return smooth_angle(t_s, angle_deg, valid, quality)
+
+    def close(self) -> None:
+        """Stop the worker (at once if it was given nothing to smooth)."""
+        if self._proc is not None:
+            self._conn.close()
+            self._proc.join(timeout=0.5)
+            if self._proc.is_alive():
+                self._proc.terminate()
+                self._proc.join()
+            self._proc = None
+
+
+def _serve(conn) -> None:
+    """The worker: import, wait for one trace, send (True, smoothed); (False, None) when smoothing raised, so the
+    caller repeats it and raises the error itself; nothing when the caller closed the pipe or the user interrupted."""
+    try:
+        warm_up()
+        args = conn.recv()
+    except (EOFError, KeyboardInterrupt):
+        return
+    try:
+        conn.send((True, smooth_angle(*args)))
+    except Exception:
+        conn.send((False, None))
+    except KeyboardInterrupt:
+        return

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import contextlib
 import math
-import threading
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Literal
@@ -26,7 +26,7 @@ from sloshid.tracking.container_ref import ContainerMeasurement, ContainerTracke
 from sloshid.tracking.float_angle import FloatFinder
 from sloshid.tracking.overlay import draw_overlay
 from sloshid.tracking.repeats import REPEAT_SHARE, repeated_share, stale_repeats
-from sloshid.tracking.smooth import smooth_angle, warm_up
+from sloshid.tracking.smooth import SmoothingWorker, smooth_angle
 from sloshid.tracking.surface_track import SurfaceStep
 from sloshid.video.colors import DEFAULT_FLOAT_COLOR, HsvRange, preset
 from sloshid.video.frames import FrameReader, VideoWriter
@@ -321,14 +321,15 @@ def track_video(
     """
     settings = settings or TrackSettings()
     reader = FrameReader(Path(path), multithreaded, pictures=True)
-    warming = threading.Thread(target=warm_up, daemon=True) if settings.smooth and multithreaded else None
-    if warming is not None:  # the smoother's imports load beside decoding instead of after it
-        warming.start()
     width, height = reader.frame_size
     roi = _roi_box(settings, width, height)
     step = _FloatStep(settings, roi) if settings.target == "float" else SurfaceStep(settings, roi)
     rows: list[tuple] = []
     with contextlib.ExitStack() as stack:
+        # the smoother's imports load beside decoding, on the other core, instead of after it
+        smoother = SmoothingWorker() if settings.smooth and multithreaded else None
+        if smoother is not None:
+            stack.callback(smoother.close)
         writer = None
         if overlay is not None:
             tmp = stack.enter_context(atomic_path(overlay))
@@ -348,28 +349,35 @@ def track_video(
             rows.append((index, t, *row))
             if writer is not None:
                 writer.write(drawn, t)
-    if warming is not None:
-        warming.join()
-    # raised after the overlay is finished: when nothing is found, the overlay is the user's diagnosis
-    if not any(r[8] for r in rows):
-        hint = (
-            f"see the overlay {overlay}" if overlay else "write an overlay video ({overlay}) to see what was searched"
-        )
-        raise step.nothing_found(len(rows), path, hint)
-    body, walls = [r[:9] for r in rows], {}
-    if settings.target == "surface":
-        body, walls = step.finish(rows)
-    repeated = stale_repeats(np.array([r[2] for r in body]), np.array([r[8] for r in body], bool), step.repeated)
-    body = [(*r[:8], int(r[8] and not rep)) for r, rep in zip(body, repeated)]
-    res = _result(Path(path), body, reader.lost_share, reader.info.frame_count, settings, repeated)
+        # raised after the overlay is finished: when nothing is found, the overlay is the user's diagnosis
+        if not any(r[8] for r in rows):
+            hint = (
+                f"see the overlay {overlay}"
+                if overlay
+                else "write an overlay video ({overlay}) to see what was searched"
+            )
+            raise step.nothing_found(len(rows), path, hint)
+        body, walls = [r[:9] for r in rows], {}
+        if settings.target == "surface":
+            body, walls = step.finish(rows)
+        repeated = stale_repeats(np.array([r[2] for r in body]), np.array([r[8] for r in body], bool), step.repeated)
+        body = [(*r[:8], int(r[8] and not rep)) for r, rep in zip(body, repeated)]
+        smooth = smoother.smooth if smoother is not None else smooth_angle if settings.smooth else None
+        res = _result(Path(path), body, reader.lost_share, reader.info.frame_count, smooth, repeated, settings.target)
     res.target, res.walls, res.repeated = settings.target, walls, repeated
     return res
 
 
 def _result(
-    video: Path, rows: list[tuple], lost_share: float, declared: int, settings: TrackSettings, repeated: np.ndarray
+    video: Path,
+    rows: list[tuple],
+    lost_share: float,
+    declared: int,
+    smooth: Callable[..., np.ndarray] | None,
+    repeated: np.ndarray,
+    target: str,
 ) -> TrackResult:
-    """Assemble the TrackResult, smooth the angle and collect warnings."""
+    """Assemble the TrackResult, smooth the angle (`smooth_angle` or the worker's, None: not) and collect warnings."""
     cols = list(zip(*rows))
     arr = [np.asarray(c) for c in cols]
     frame, t, angle, fang, cang, x, y, q, valid = arr
@@ -377,7 +385,7 @@ def _result(
     # the smoother may lean on repeated pictures: they are late by a frame or two, not wrong, and without them
     # it would bridge whole stretches (a float at rest until a tap) along an oscillator of coarse frequency
     measured = valid.astype(bool) | repeated
-    smoothed = smooth_angle(t, angle, measured, q) if settings.smooth else np.full(len(t), np.nan)
+    smoothed = smooth(t, angle, measured, q) if smooth is not None else np.full(len(t), np.nan)
     res = TrackResult(
         video,
         frame,
@@ -400,13 +408,13 @@ def _result(
     lost, repeats = int(np.sum((valid == 0) & ~repeated)), int(repeated.sum())
     if lost > 0:
         res.warnings.append(
-            f"{settings.target} not measured in {lost} of {len(valid)} frames "
+            f"{target} not measured in {lost} of {len(valid)} frames "
             f"({100 * lost / len(valid):.1f} %); those rows have valid = 0 and are bridged "
             "in angle_smoothed_deg."
         )
     if repeats > 0:
         res.warnings.append(
-            f"the encoder repeated the moving {settings.target}'s previous picture in {repeats} of {len(valid)} "
+            f"the encoder repeated the moving {target}'s previous picture in {repeats} of {len(valid)} "
             f"frames ({100 * repeats / len(valid):.1f} %; unchanged copies, common at low bit rates and high frame "
             "rates): those rows have valid = 0, so old pictures do not pass for new measurements."
         )
