@@ -177,9 +177,11 @@ def respond(
     settle_s: float = 3.0,
     rtol: float = 1e-9,
     atol: float = 1e-12,
+    vertical_gain: float = 1.0,
 ) -> PoseResponse:
-    """Integrate the pendulums (simulate_liquid) under the pivot acceleration; horizontal input scaled by input_gain."""
-    acc = exc.acc_m_s2 * np.array([input_gain, input_gain, 1.0])
+    """Integrate the pendulums (simulate_liquid) under the pivot acceleration; horizontal input scaled by input_gain,
+    vertical by vertical_gain (gravity becomes g + vertical_gain az)."""
+    acc = exc.acc_m_s2 * np.array([input_gain, input_gain, vertical_gain])
     zero = np.zeros_like(acc)
     traj = Trajectory(exc.t_s, zero, zero, acc, zero, zero, name="pivot")  # only t_s and acc_m_s2 drive the liquid
     res = simulate_liquid(traj, params, settle_s, rtol, atol)

@@ -5,7 +5,8 @@ Shared physics: frequency f, damping ratio zeta, the input gain k (how strongly 
 horizontal acceleration: 1 for an ideal pendulum; a real first mode carries only part of the liquid), the output
 gain c (measured wall height per R tan(relative angle): the mode's wall elevation is not that of a plane, and the
 sensor has its own scale; it also scales the container's own tilt, which k cannot) and the crest coefficient q (the
-reading grows by q tan(relative angle): a steep wave's crest rises above the plane). Per run: the clock lag (started
+reading grows by q tan(relative angle): a steep wave's crest rises above the plane) and the vertical gain kv (gravity
+becomes g + kv az: how strongly vertical motion pumps the mode; 1 for a pendulum). Per run: the clock lag (started
 by cross-correlation, then fitted with the physics: a lag held fixed leaves phase errors that the output map would
 absorb) and an offset of the measured zero. Started from the decay-only fit; bounded least squares
 (scipy) on residuals scaled so that every run weighs as its NRMSE; Newey-West intervals.
@@ -67,7 +68,7 @@ LAG_SPAN = 1.5
 MAX_NFEV = 45
 TOLERANCES = {"ftol": 1e-4, "xtol": 1e-4, "gtol": 1e-8}
 """Stop when the cost or the scaled step changes by less than 0.01 %: far below the parameters' own uncertainty."""
-FITTED = ("f_hz", "zeta", "input_gain", "output_gain", "crest_coeff")
+FITTED = ("f_hz", "zeta", "input_gain", "output_gain", "crest_coeff", "vertical_gain")
 """The shared parameters the fit moves, in the order of the scaled vector."""
 N_PARAMS = len(FITTED)
 SIM_CACHE = 8
@@ -183,7 +184,7 @@ class IOFit:
             },
             "fit": {
                 "model": "nonlinear pendulums (seed eq. 2 per axis, world frame) driven by input_gain x the pivot's "
-                "horizontal acceleration, g + az; output output_gain x R tan(angle to the container axis) (or x that "
+                "horizontal acceleration, g + vertical_gain x az; output output_gain x R tan(angle to the container axis) (or x that "
                 "angle) x (1 + crest_coeff x tan(that angle)); per run lag and offset",
                 "fit_percent": medians(self.runs)["all"]["fit_percent"],
                 "n_simulations": self.n_simulations,
@@ -198,7 +199,7 @@ class IOFit:
         lines = [f"sloshid identify (input-output): {len(self.runs)} run(s)"]
         for key, est in self.parameters.items():
             lines.append(
-                f"  {key:<12} = {est.value:.5g} ± {est.stderr:.2g}  (95 % CI {est.ci95[0]:.5g} .. {est.ci95[1]:.5g})"
+                f"  {key:<13} = {est.value:.5g} ± {est.stderr:.2g}  (95 % CI {est.ci95[0]:.5g} .. {est.ci95[1]:.5g})"
             )
         d = self.decay.parameters
         lines.append(f"  decay-only start: f = {d['f_hz'].value:.4g} Hz, zeta = {d['zeta'].value:.3g}")
@@ -244,7 +245,7 @@ def _prepare(pose: PoseLog, sig: Signal, start: LiquidModel) -> _RunData:
 
 
 class _Problem:
-    """Residuals of x = [10 (f/f0 - 1), log(zeta/zeta0), log k, log c, q, (lag_i - lag0_i) / LAG_SCALE_S ...]: the
+    """Residuals of x = [10 (f/f0 - 1), log(zeta/zeta0), log k, log c, q, log kv, (lag_i - lag0_i) / LAG_SCALE_S ...]: the
     shared physics and each run's lag; each run's offset is its mean residual (variable projection), and each run
     weighs as its NRMSE."""
 
@@ -252,17 +253,19 @@ class _Problem:
         self.data, self.f0, self.zeta0, self.radius_m = data, f0, zeta0, radius_m
         self.lags = [d.lag0 for d in data]
         self.n_sim = 0
-        self._sims: dict[tuple[float, float, float], list[tuple[np.ndarray, np.ndarray, np.ndarray]]] = {}
+        self._sims: dict[tuple[float, float, float, float], list[tuple[np.ndarray, np.ndarray, np.ndarray]]] = {}
 
-    def physical(self, x: np.ndarray) -> tuple[float, float, float, float, float]:
-        """(f, zeta, k, c, q) from the scaled vector."""
-        return self.f0 * (1 + x[0] / 10), self.zeta0 * math.exp(x[1]), math.exp(x[2]), math.exp(x[3]), float(x[4])
+    def physical(self, x: np.ndarray) -> tuple[float, float, float, float, float, float]:
+        """(f, zeta, k, c, q, kv) from the scaled vector."""
+        f, zeta = self.f0 * (1 + x[0] / 10), self.zeta0 * math.exp(x[1])
+        return f, zeta, math.exp(x[2]), math.exp(x[3]), float(x[4]), math.exp(x[5])
 
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
         """Lower and upper bounds of the scaled vector (f within F_SPAN of the start, the others their *_BOUNDS)."""
         n = len(self.data)
-        lo = [-10 * F_SPAN, math.log(ZETA_BOUNDS[0] / self.zeta0), *[math.log(GAIN_BOUNDS[0])] * 2, CREST_BOUNDS[0]]
-        hi = [10 * F_SPAN, math.log(ZETA_BOUNDS[1] / self.zeta0), *[math.log(GAIN_BOUNDS[1])] * 2, CREST_BOUNDS[1]]
+        gain_lo, gain_hi = math.log(GAIN_BOUNDS[0]), math.log(GAIN_BOUNDS[1])
+        lo = [-10 * F_SPAN, math.log(ZETA_BOUNDS[0] / self.zeta0), gain_lo, gain_lo, CREST_BOUNDS[0], gain_lo]
+        hi = [10 * F_SPAN, math.log(ZETA_BOUNDS[1] / self.zeta0), gain_hi, gain_hi, CREST_BOUNDS[1], gain_hi]
         return np.array(lo + [-LAG_SPAN] * n), np.array(hi + [LAG_SPAN] * n)
 
     def lags_at(self, x: np.ndarray) -> list[float]:
@@ -273,18 +276,18 @@ class _Problem:
     def predictions(self, x: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
         """Predicted (t, series) of every run (trajectory clock); recent physics' simulations are kept, so that a
         step of the output map alone (gain, crest) simulates nothing."""
-        f, zeta, k, c, q = self.physical(x)
-        if (f, zeta, k) not in self._sims:
+        f, zeta, k, c, q, kv = self.physical(x)
+        if (f, zeta, k, kv) not in self._sims:
             params = SloshParams.from_modal(2 * math.pi * f, zeta)
             self.n_sim += 1
             if len(self._sims) >= SIM_CACHE:
                 self._sims.clear()
             sims = []
             for d in self.data:
-                resp = respond(d.exc, params, k, d.settle_s, rtol=FIT_RTOL, atol=FIT_RTOL * 1e-3)
+                resp = respond(d.exc, params, k, d.settle_s, FIT_RTOL, FIT_RTOL * 1e-3, kv)
                 sims.append((resp.t_s, *plane_series(resp, d.kind, self.radius_m)))
-            self._sims[f, zeta, k] = sims
-        return [(t, read_out(plane, slope, c, q)) for t, plane, slope in self._sims[f, zeta, k]]
+            self._sims[f, zeta, k, kv] = sims
+        return [(t, read_out(plane, slope, c, q)) for t, plane, slope in self._sims[f, zeta, k, kv]]
 
     def residuals(self, x: np.ndarray) -> np.ndarray:
         """Stacked (y - yhat - offset) / |y - mean y| of all runs."""
@@ -339,8 +342,8 @@ def fit_io(
     settings: IdentSettings | None = None,
     names: list[str] | None = None,
 ) -> IOFit:
-    """Fit f, zeta, the input and output gains and the crest coefficient jointly over the runs (own lag and offset
-    each), from the decay-only start."""
+    """Fit f, zeta, the input, output and vertical gains and the crest coefficient jointly over the runs (own lag and
+    offset each), from the decay-only start."""
     if len(poses) != len(signals):
         raise SettingError(
             "trajectory",
@@ -359,12 +362,12 @@ def fit_io(
     sol = least_squares(
         prob.residuals, x, bounds=(lo, hi), jac=prob.jacobian, x_scale="jac", max_nfev=MAX_NFEV, **TOLERANCES
     )
-    f, zeta, k, c, q = physical = prob.physical(sol.x)
+    f, zeta, k, c, q, kv = physical = prob.physical(sol.x)
     at_bound = [nm for nm, v, a, b in zip(FITTED, sol.x, lo, hi) if min(v - a, b - v) < 1e-6]
     params = _estimates(sol, prob, physical, settings.mass_kg)
     mass = settings.mass_kg or 1.0
     physics = SloshParams.from_modal(2 * math.pi * f, zeta, mass)
-    model = LiquidModel(physics, k, radius_m, axis_offset_m, smooth_s, c, q)
+    model = LiquidModel(physics, k, radius_m, axis_offset_m, smooth_s, c, q, kv)
     names = names or [s.source for s in signals]
     runs = [validate_run(p, s, model, nm) for p, s, nm in zip(poses, signals, names)]
     decay_model = replace(start, params=decay.params)
@@ -407,16 +410,17 @@ def fit_io_files(
 
 
 def _estimates(
-    sol, prob: _Problem, physical: tuple[float, float, float, float, float], mass: float | None
+    sol, prob: _Problem, physical: tuple[float, float, float, float, float, float], mass: float | None
 ) -> dict[str, Estimate]:
-    """Parameters (f, zeta, k, c, q) with Newey-West standard errors (per-run blocks), mapped from the scaled vector."""
-    f, zeta, k, c, q = physical
+    """Parameters (f, zeta, k, c, q, kv) with Newey-West standard errors (per-run blocks), mapped from the scaled
+    vector."""
+    f, zeta, k, c, q, kv = physical
     data = prob.data
     sizes = np.cumsum([0] + [d.y.size for d in data])
     blocks = [slice(a, b) for a, b in itertools.pairwise(sizes)]
     periods = [max(round(1.0 / (f * np.median(np.diff(d.t_meas)))), 1) for d in data]
     cov, _naive, _lags = hac_covariance(sol.jac, sol.fun, blocks, periods)
-    d_scaled = np.array([prob.f0 / 10, zeta, k, c, 1.0])
+    d_scaled = np.array([prob.f0 / 10, zeta, k, c, 1.0, kv])
     se = np.sqrt(np.clip(np.diag(cov)[:N_PARAMS], 0, None)) * d_scaled
     omega, se_w = 2 * math.pi * f, 2 * math.pi * se[0]
     out = {
@@ -427,6 +431,7 @@ def _estimates(
         "input_gain": estimate(k, se[2], floor=0.0),
         "output_gain": estimate(c, se[3], floor=0.0),
         "crest_coeff": estimate(q, se[4]),
+        "vertical_gain": estimate(kv, se[5], floor=0.0),
     }
     if mass is not None:
         out["d_ns_per_m"] = estimate(

@@ -33,9 +33,12 @@ class LiquidModel:
     wall elevation per surface angle and the sensor's own scale (1 for a decay-only or physical model)."""
     crest_coeff: float = 0.0
     """Second-order crest term: the reading grows by this times tan(relative angle) (0: a plane's wall height)."""
+    vertical_gain: float = 1.0
+    """Scale of the vertical pivot acceleration in the effective gravity g + vertical_gain az (1 for a pendulum): how
+    strongly vertical motion pumps the mode."""
 
     def __post_init__(self) -> None:
-        for name in ("input_gain", "output_gain"):
+        for name in ("input_gain", "output_gain", "vertical_gain"):
             value = getattr(self, name)
             if not (math.isfinite(value) and value > 0):
                 raise UserError(f"the {name.replace('_', ' ')} must be a positive number, got {value!r}.")
@@ -58,6 +61,7 @@ class LiquidModel:
             self.smooth_s if smooth_s is None else smooth_s,
             self.output_gain,
             self.crest_coeff,
+            self.vertical_gain,
         )
 
     def reading(self, resp: PoseResponse, kind: str) -> np.ndarray:
@@ -80,14 +84,15 @@ def read_out(plane: np.ndarray, slope: np.ndarray, output_gain: float, crest_coe
 
 
 def load_model(path: str | Path) -> LiquidModel:
-    """Read `sloshid identify` JSON: the mode, the input and output gains (input-output fits) and any stored
-    geometry."""
+    """Read `sloshid identify` JSON: the mode, the input, output and vertical gains (input-output fits; 1 where a file
+    lacks them) and any stored geometry."""
     params = SloshParams.from_identify_json(path)
     data = json.loads(Path(path).read_text(encoding="utf-8"))
     try:
         gain = float(data["parameters"].get("input_gain", {}).get("value", 1.0))
         out_gain = float(data["parameters"].get("output_gain", {}).get("value", 1.0))
         crest = float(data["parameters"].get("crest_coeff", {}).get("value", 0.0))
+        vertical = float(data["parameters"].get("vertical_gain", {}).get("value", 1.0))
         geometry = data.get("geometry") or {}
         radius = geometry.get("container_radius_m") or (data.get("prior") or {}).get("container_radius_m")
         radius = None if radius is None else float(radius)
@@ -96,13 +101,13 @@ def load_model(path: str | Path) -> LiquidModel:
         raise UserError(
             f"parameter file {path}: a gain, the crest coefficient or the geometry is not a number."
         ) from None
-    return LiquidModel(params, gain, radius, offset, smooth, out_gain, crest)
+    return LiquidModel(params, gain, radius, offset, smooth, out_gain, crest, vertical)
 
 
 def predict(pose: PoseLog, model: LiquidModel, settle_s: float = 3.0, rtol: float = 1e-9) -> PoseResponse:
     """The liquid's response to the logged motion, held at the last pose for settle_s after the log ends."""
     exc = excitation(pose, model.axis_offset_m, model.smooth_s)
-    return respond(exc, model.params, model.input_gain, settle_s, rtol=rtol, atol=rtol * 1e-3)
+    return respond(exc, model.params, model.input_gain, settle_s, rtol, rtol * 1e-3, model.vertical_gain)
 
 
 def prediction_columns(resp: PoseResponse, model: LiquidModel) -> dict[str, np.ndarray]:

@@ -173,7 +173,8 @@ def build_report(runs: list[ValidationRun], model: LiquidModel, title: str = "sl
     p = model.params
     rep.add_text(
         f"Model: f = {p.f_hz:.4g} Hz, zeta = {p.zeta:.3g}, input gain {model.input_gain:.3g}, output gain "
-        f"{model.output_gain:.3g}, crest coefficient {model.crest_coeff:.3g}, radius "
+        f"{model.output_gain:.3g}, crest coefficient {model.crest_coeff:.3g}, vertical gain "
+        f"{model.vertical_gain:.3g}, radius "
         f"{'-' if model.radius_m is None else f'{1000 * model.radius_m:.1f} mm'}, axis offset "
         f"{1000 * model.axis_offset_m:.0f} mm, acceleration smoothing {1000 * model.smooth_s:.0f} ms (Savitzky-Golay)."
     )
