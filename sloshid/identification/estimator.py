@@ -25,7 +25,7 @@ from sloshid.identification.decay_window import (
     rough_mode_frequency,
     user_window,
 )
-from sloshid.identification.pt2fit import Z95, PT2Fit, WindowData, allow_encoder_hold, autocorrelation, fit_pt2
+from sloshid.identification.pt2fit import Z95, PT2Fit, WindowData, autocorrelation, fit_pt2, fit_pt2_hold
 from sloshid.identification.second_mode import SecondMode, resolve_second_mode, strong_peaks
 from sloshid.identification.signals import Signal, load_signal
 from sloshid.identification.verdict import AMPLITUDE_SNR, GROUPS, GroupVerdict, VerdictInput, judge
@@ -249,12 +249,22 @@ class IdentResult:
                 "ljung_box_p": float(min(self.ljung_box)),
                 "interval_method": "Newey-West sandwich (VAR(1) prewhitened, Bartlett kernel) on the least-squares "
                 "Jacobian; delta method for derived values; normal 95 % quantile"
-                + ("; plus a systematic part for the video encoder's hold" if self.fit.hold_shift is not None else ""),
+                + (
+                    "; the fitted encoder hold's width is one of the parameters, and the shift from a plain fit is "
+                    "added as a systematic standard error"
+                    if self.fit.hold is not None
+                    else ""
+                ),
                 "encoder_hold": None
-                if self.fit.hold_shift is None
+                if self.fit.hold is None
                 else {
-                    "correction": dict(zip(("omega_rad_s", "zeta"), self.fit.hold_correction.tolist())),
-                    "stderr": dict(zip(("omega_rad_s", "zeta"), (np.abs(self.fit.hold_shift) / 2).tolist())),
+                    "half_width": self.fit.hold.width,
+                    "half_width_stderr": self.fit.hold.width_se,
+                    "unit": self.signals[0].unit,
+                    "shift_from_plain_fit": dict(zip(("omega_rad_s", "zeta"), self.fit.hold.shift.tolist())),
+                    "plain_fit_stderr": dict(
+                        zip(("omega_rad_s", "zeta"), np.sqrt(np.diag(self.fit.hold.plain_cov)).tolist())
+                    ),
                 },
                 "stderr_inflation_vs_white": inflation,
                 "n_starts": self.fit.n_starts,
@@ -287,6 +297,13 @@ class IdentResult:
             lines.append(f"  {self.second_mode.summary()}")
         fits = ", ".join(f"{self.fit_percent(i):.1f}" for i in range(len(self.signals)))
         lines.append(f"  fit % (NRMSE): {fits}")
+        if self.fit.hold is not None:
+            h = self.fit.hold
+            shift_f, shift_z = 100 * h.shift / np.array([self.fit.omega_rad_s, self.fit.zeta or 1.0])
+            lines.append(
+                f"  encoder hold (fitted, video-tracked): half-width {h.width:.3g} ± {h.width_se:.2g} "
+                f"{self.signals[0].unit}; f {shift_f:+.3f} %, zeta {shift_z:+.2f} % against a plain fit"
+            )
         lines.append(f"verdict: {self.quality}")
         for group, names in GROUPS.items():
             if group in self.groups:
@@ -478,9 +495,8 @@ class Identifier:
         second = resolve_second_mode(wdata, fit, spectra, st.second_mode_ratio, AMPLITUDE_SNR)
         if second is not None and second.separated:
             fit = second.fit
-        tracked = {s.tracked for s in sigs} - {""}
-        if tracked:
-            fit = allow_encoder_hold(wdata, fit, correct=tracked == {"float"})
+        if any(s.tracked for s in sigs):  # a video encoder's hold distorts every tracked target alike
+            fit = fit_pt2_hold(wdata, fit)
         self.result_ = self._assemble(
             sigs, windows, parts, spectra, [s.noise_std for s in fullspec], fit, second, prior
         )
@@ -558,13 +574,10 @@ class Identifier:
             )
         )
         notes = verdict.notes + [w for s in sigs for w in s.warnings]
-        if fit.hold_shift is not None:
-            scale = 100 / np.array([omega, zeta or 1.0])
-            (fix_f, fix_z), (sys_f, sys_z) = fit.hold_correction * scale, np.abs(fit.hold_shift) / 2 * scale
+        if fit.hold is not None:
             notes.append(
-                f"tracked from video: f corrected by {fix_f:+.3f} % and zeta by {fix_z:+.2f} % for the encoder's hold "
-                f"of slowly moving edges, with standard errors of {sys_f:.3f} % and {sys_z:.2f} % for it in the "
-                "intervals (README: identify, video-tracked signals)."
+                "tracked from video: the mode was fitted as seen through the encoder's hold of slowly moving edges, "
+                "its half-width fitted with it (README: identify, video-tracked signals)."
             )
         return IdentResult(
             sigs,

@@ -22,6 +22,8 @@ ZETA_BOUNDS = (0.0, 0.95)
 OMEGA_SPAN = 0.25
 """omega is searched within +-25 % of the spectral estimate (the PSD is good to a fraction of a bin)."""
 ZETA_STARTS = (0.003, 0.02, 0.08, 0.3)
+HOLD_STARTS = (0.0, 0.5, 1.0, 2.0)
+"""Starting hold half-widths, in residual rms of the plain fit (a perfect play leaves about 0.4 of its width)."""
 
 
 @dataclass(frozen=True)
@@ -40,6 +42,20 @@ class ModeFit:
     omega_rad_s: float
     zeta: float
     cov: np.ndarray
+
+
+@dataclass(frozen=True)
+class HoldFit:
+    """The encoder hold fitted jointly with the mode (`fit_pt2_hold`): its half-width, and what fitting it changed."""
+
+    width: float
+    """Half-width of the hold, in the signal's unit."""
+    width_se: float
+    """Its standard error (the same Newey-West covariance as omega and zeta)."""
+    shift: np.ndarray
+    """(omega, zeta) of the fit with the hold minus those of the plain fit; also a systematic standard error in cov."""
+    plain_cov: np.ndarray
+    """2x2 covariance of (omega, zeta) of the plain fit, for comparison."""
 
 
 @dataclass(frozen=True)
@@ -66,11 +82,8 @@ class PT2Fit:
     """The second mode when the model had one."""
     second_fitted: tuple[np.ndarray, ...] = ()
     """Per window: the second mode's part of `fitted` (empty without a second mode)."""
-    hold_shift: np.ndarray | None = None
-    """Video-tracked signals: the (omega, zeta) shift an encoder hold as wide as the residual rms causes; `cov` holds
-    half of it as a systematic standard error (None for other signals)."""
-    hold_correction: np.ndarray | None = None
-    """The part of -hold_shift already applied to omega and zeta: half of it for a float, none for a surface."""
+    hold: HoldFit | None = None
+    """Video-tracked signals: the encoder hold fitted with the mode (None for other signals)."""
 
     def fit_percent(self, i: int, values: np.ndarray) -> float:
         """NRMSE fit in percent (100 = perfect, 0 = no better than the mean) of window i."""
@@ -92,44 +105,22 @@ class PT2Fit:
 
 def encoder_hold(x: np.ndarray, width: float) -> np.ndarray:
     """x seen through a hold (play, backlash) of half-width `width`: the output moves only once x is `width` past it,
-    as a video encoder keeps an edge that moved less than its quantiser codes (see allow_encoder_hold)."""
-    out = np.empty_like(x)
-    held = x[0]
+    as a video encoder keeps an edge that moved less than its quantiser codes (see fit_pt2_hold)."""
+    return _hold_path(x, width)[0]
+
+
+def _hold_path(x: np.ndarray, width: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """encoder_hold with its derivative structure: output k equals x[src[k]] + sign[k] * width (sign 0 while the
+    output still holds the first sample), so the hold's Jacobian is a row selection plus a column of signs."""
+    out, src, sign = np.empty_like(x), np.zeros(x.size, int), np.zeros(x.size)
+    held, j, s = x[0], 0, 0.0
     for k, value in enumerate(x):
-        held = min(max(held, value - width), value + width)
-        out[k] = held
-    return out
-
-
-def allow_encoder_hold(windows: list[WindowData], fit: PT2Fit, correct: bool) -> PT2Fit:
-    """The fit with an allowance for a video encoder's hold (`encoder_hold`) in its (omega, zeta) covariance, and
-    corrected for half the hold's effect when `correct` (a tracked float).
-
-    Inter-frame codecs leave edges that moved less than their quantiser resolves where they were; the tracked angle
-    then lags the slosh by a nearly constant amount, which grows relative to the decaying swing: f comes out low and
-    zeta high (issue 12: raw frames of the same clips give neither). The residuals cannot show it, because the fit
-    takes its fundamental into the mode, so the HAC covariance alone misses it. The shift a hold as wide as the
-    window's residual rms causes (the fitted main mode refitted with and without it) is an empirical scale of the
-    bias: on the 10 float clips of benchmarks/track_accuracy.py it was 0.65-3.1 times the tracked trace's f error,
-    median 1.9 (white noise in the residual adds to it, a codec's hold is no perfect play), so half of it is
-    corrected and that half is the standard error. A surface line moves two to three times more pixels per degree than a float and
-    came out unbiased there (its residual holds higher modes and the meniscus): it gets the allowance only."""
-    held, clean = [], []
-    for w, fitted, resid, second in itertools.zip_longest(windows, fit.fitted, fit.residuals, fit.second_fitted):
-        main = fitted - second if second is not None else fitted
-        clean.append(WindowData(w.t_s, main, w.t0_s))
-        held.append(WindowData(w.t_s, encoder_hold(main, float(np.sqrt(np.mean(resid**2)))), w.t0_s))
-    seen, exact = (fit_pt2(d, [fit.omega_rad_s], fit.zeta or None, fit.drift) for d in (held, clean))
-    shift = np.array([seen.omega_rad_s - exact.omega_rad_s, seen.zeta - exact.zeta])
-    correction = -0.5 * shift if correct else np.zeros(2)
-    return replace(
-        fit,
-        omega_rad_s=fit.omega_rad_s + float(correction[0]),
-        zeta=max(fit.zeta + float(correction[1]), 0.0),
-        cov=fit.cov + np.outer(shift, shift) / 4,
-        hold_shift=shift,
-        hold_correction=correction,
-    )
+        if value - width > held:
+            held, j, s = value - width, k, -1.0
+        elif value + width < held:
+            held, j, s = value + width, k, 1.0
+        out[k], src[k], sign[k] = held, j, s
+    return out, src, sign
 
 
 def _mode_cols(mode: int, n_lin: int) -> list[int]:
@@ -162,6 +153,9 @@ def _basis(t_rel: np.ndarray, modes: np.ndarray, drift: bool) -> np.ndarray:
 
 class _JointModel:
     """Residuals and analytic Jacobian of the stacked windows for x = (omega, zeta[, omega2, zeta2], lin_1, ..., lin_K)."""
+
+    n_extra = 0
+    """Number of parameters after the linear ones (the hold's width in _HeldModel)."""
 
     def __init__(self, windows: list[WindowData], drift: bool, n_modes: int = 1):
         self.t = [w.t_s - w.t0_s for w in windows]
@@ -211,13 +205,33 @@ class _JointModel:
 
     def linear_start(self, q: tuple[float, ...]) -> np.ndarray:
         """Best linear parameters for fixed nonlinear ones q (variable projection), stacked behind q."""
-        modes = np.reshape(q, (self.n_modes, 2))
+        modes = np.reshape(q[: self.nq], (self.n_modes, 2))
         lins = [np.linalg.lstsq(_basis(t, modes, self.drift), y, rcond=None)[0] for t, y in zip(self.t, self.y)]
-        return np.concatenate([q, *lins])
+        return np.concatenate([q[: self.nq], *lins, q[self.nq :]])
 
     def cost(self, q: tuple[float, ...]) -> float:
         """Sum of squared residuals after variable projection (the screen for starting points)."""
         return float(np.sum(self.residuals(self.linear_start(q)) ** 2))
+
+
+class _HeldModel(_JointModel):
+    """The joint model seen through one encoder hold (`encoder_hold`, shared by all windows) whose half-width is the
+    last parameter; the linear start ignores the hold (it is a small distortion of the same decay)."""
+
+    n_extra = 1
+
+    def fitted(self, x: np.ndarray) -> list[np.ndarray]:
+        """Model values per window, through the hold."""
+        return [_hold_path(f, x[-1])[0] for f in super().fitted(x)]
+
+    def jacobian(self, x: np.ndarray) -> np.ndarray:
+        """d residuals / d x: the plain Jacobian's rows of the samples the hold passes on, and the hold's signs."""
+        jac = super().jacobian(x)
+        for f, rows in zip(super().fitted(x), self.blocks):
+            _, src, sign = _hold_path(f, x[-1])
+            jac[rows] = jac[rows][src]
+            jac[rows, -1] = sign
+        return jac
 
 
 def correlation_lags(r: np.ndarray, period: int) -> int:
@@ -292,12 +306,17 @@ def hac_covariance(
     return hac * np.outer(scale, scale), naive, lags
 
 
-def _solve(model: _JointModel, starts: list[tuple[float, ...]], lower_q, upper_q, keep: int = 5) -> PT2Fit:
+def _solve(
+    model: _JointModel, starts: list[tuple[float, ...]], lower_q, upper_q, keep: int = 5, plain: PT2Fit | None = None
+) -> PT2Fit:
     """Screen the starts by variable projection, polish the best `keep` with bounded least squares, keep the lowest
-    cost, and attach the corrected covariance."""
-    npar = model.nq + len(model.t) * model.nl
+    cost, and attach the corrected covariance. Starts and bounds cover the nonlinear parameters and then any extra
+    one (a _HeldModel's width, whose HoldFit compares with the `plain` fit)."""
+    nq, ne = model.nq, model.n_extra
+    npar = nq + len(model.t) * model.nl + ne
     lower, upper = np.full(npar, -np.inf), np.full(npar, np.inf)
-    lower[: model.nq], upper[: model.nq] = lower_q, upper_q
+    nonlinear = [*range(nq), *range(npar - ne, npar)]
+    lower[nonlinear], upper[nonlinear] = lower_q, upper_q
     screened = sorted(starts, key=model.cost)[:keep]
     best = None
     for q in screened:
@@ -323,10 +342,10 @@ def _solve(model: _JointModel, starts: list[tuple[float, ...]], lower_q, upper_q
     periods = [max(2, round(2 * np.pi / x[0] / np.median(np.diff(t)))) for t in model.t]
     cov, naive, lags = hac_covariance(jac, resid, model.blocks, periods)
     se = np.sqrt(np.clip(np.diag(cov), 0, None))
-    names = ("omega", "zeta", "omega2", "zeta2")
+    names = ("omega", "zeta", "omega2", "zeta2")[:nq] + ("hold",) * ne
     at_bound = [
-        names[i]
-        for i in range(model.nq)
+        name
+        for name, i in zip(names, nonlinear)
         if x[i] - lower[i] < 1e-6 * (upper[i] - lower[i]) or upper[i] - x[i] < 1e-6 * (upper[i] - lower[i])
     ]
     lins = model.split(x)
@@ -352,6 +371,14 @@ def _solve(model: _JointModel, starts: list[tuple[float, ...]], lower_q, upper_q
         len(screened),
         second,
         second_fitted,
+        None
+        if plain is None
+        else HoldFit(
+            float(x[-1]),
+            float(se[-1]),
+            np.array([x[0] - plain.omega_rad_s, x[1] - plain.zeta]),
+            plain.cov,
+        ),
     )
 
 
@@ -383,3 +410,35 @@ def fit_two_modes(windows: list[WindowData], first: PT2Fit, omega2_start: float)
     # the main mode starts where the single-mode fit put it; the second from the PSD peak, with several dampings
     starts = [(w1, first.zeta, omega2_start * f2, z2) for z2 in ZETA_STARTS for f2 in (1.0, 0.99, 1.01)]
     return _solve(model, starts, lower, upper, keep=3)
+
+
+def fit_pt2_hold(windows: list[WindowData], plain: PT2Fit) -> PT2Fit:
+    """The mode (and any second mode) refitted as seen through an encoder hold whose half-width is fitted with it,
+    started from the plain fit; for signals tracked in video (`encoder_hold`).
+
+    Inter-frame codecs leave an edge that moved less than their quantiser resolves where it was, so the tracked
+    angle trails the slosh by a nearly constant amount that grows relative to the decaying swing: fitted as a plain
+    decay, f comes out low and zeta high, while the residual cannot show it (the fit takes the hold's fundamental
+    into the mode). The width is searched from 0 to half the smallest window's starting amplitude; its uncertainty
+    enters omega's and zeta's through the joint Newey-West covariance. A codec is no perfect hold, so the shift from
+    the plain fit is added as a systematic standard error: the distance between the two models is what is known
+    about the model's own error (on rendered clips the hold explains most, not all, of the tracking error)."""
+    model = _HeldModel(windows, plain.drift, 2 if plain.second else 1)
+    modes = [(plain.omega_rad_s, plain.zeta)] + (
+        [(plain.second.omega_rad_s, plain.second.zeta)] if plain.second else []
+    )
+    reach = [OMEGA_SPAN * w for w, _ in modes]
+    if plain.second:  # as in fit_two_modes: each mode may move at most half-way toward the other
+        reach = [min(r, abs(modes[1][0] - modes[0][0]) / 2) for r in reach]
+    lower = [v for (w, _), r in zip(modes, reach) for v in (w - r, ZETA_BOUNDS[0])]
+    upper = [v for (w, _), r in zip(modes, reach) for v in (w + r, ZETA_BOUNDS[1])]
+    widest = 0.5 * min(plain.amplitude(i) for i in range(len(windows)))
+    rms = float(np.sqrt(np.mean(np.concatenate(plain.residuals) ** 2)))
+    starts = [(*np.ravel(modes), min(f * rms, widest)) for f in HOLD_STARTS]
+    fit = _solve(model, starts, (*lower, 0.0), (*upper, widest), keep=len(starts), plain=plain)
+    return replace(
+        fit,
+        cov=fit.cov + np.outer(fit.hold.shift, fit.hold.shift),
+        # a width of zero is a signal without a hold, not a search that ran out of room
+        at_bound=tuple(n for n in fit.at_bound if n != "hold" or fit.hold.width > widest / 2),
+    )

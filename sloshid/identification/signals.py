@@ -47,7 +47,7 @@ class Signal:
     """Things the user should know about the input (printed to stderr by the CLI)."""
     tracked: str = ""
     """What `sloshid track` measured in a video ('float' or 'surface'), '' for other signals: identification allows
-    for the video encoder's hold in tracked signals (pt2fit.allow_encoder_hold)."""
+    for the video encoder's hold in tracked signals (pt2fit.fit_pt2_hold)."""
 
     @property
     def rate_hz(self) -> float:
