@@ -325,30 +325,31 @@ def track_video(
     roi = _roi_box(settings, width, height)
     step = _FloatStep(settings, roi) if settings.target == "float" else SurfaceStep(settings, roi)
     rows: list[tuple] = []
-    with contextlib.ExitStack() as stack:
+    with contextlib.ExitStack() as workers:
         # the smoother's imports load beside decoding, on the other core, instead of after it
         smoother = SmoothingWorker() if settings.smooth and multithreaded else None
         if smoother is not None:
-            stack.callback(smoother.close)
-        writer = None
-        if overlay is not None:
-            tmp = stack.enter_context(atomic_path(overlay))
-            writer = stack.enter_context(VideoWriter(tmp, width, height, reader.info.fps or 30.0, "h264", 20))
-        frames = tqdm(
-            reader,
-            total=reader.info.frame_count or None,
-            desc="track",
-            unit="frame",
-            disable=None if progress else True,
-            leave=False,
-        )
-        for index, t, frame in frames:
-            if writer is not None:  # the overlay is drawn on the whole picture: convert it all once
-                frame = np.asarray(frame)
-            row, drawn = step(frame, writer is not None)
-            rows.append((index, t, *row))
-            if writer is not None:
-                writer.write(drawn, t)
+            workers.callback(smoother.close)
+        with contextlib.ExitStack() as stack:
+            writer = None
+            if overlay is not None:
+                tmp = stack.enter_context(atomic_path(overlay))
+                writer = stack.enter_context(VideoWriter(tmp, width, height, reader.info.fps or 30.0, "h264", 20))
+            frames = tqdm(
+                reader,
+                total=reader.info.frame_count or None,
+                desc="track",
+                unit="frame",
+                disable=None if progress else True,
+                leave=False,
+            )
+            for index, t, frame in frames:
+                if writer is not None:  # the overlay is drawn on the whole picture: convert it all once
+                    frame = np.asarray(frame)
+                row, drawn = step(frame, writer is not None)
+                rows.append((index, t, *row))
+                if writer is not None:
+                    writer.write(drawn, t)
         # raised after the overlay is finished: when nothing is found, the overlay is the user's diagnosis
         if not any(r[8] for r in rows):
             hint = (
