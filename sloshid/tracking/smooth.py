@@ -122,13 +122,14 @@ class SmoothingWorker:
     """`smooth_angle` in a process forked before decoding, which imports SciPy and filterpy on the other core.
 
     In this process those imports (1-2 s of Python) hold the GIL against the measuring loop even from a thread. The
-    fork happens only while filterpy is not imported yet and on Linux, where fork is the default start method;
-    otherwise, or when the worker is gone (killed, out of memory), `smooth` runs here, with the same result.
+    fork happens only when asked (`fork`, off for batches running many videos side by side), while filterpy is not
+    imported yet and on Linux, where fork is the default start method; otherwise, or when the worker is gone (killed,
+    out of memory), `smooth` runs here, with the same result.
     """
 
-    def __init__(self) -> None:
+    def __init__(self, fork: bool = True) -> None:
         self._proc = self._conn = None
-        if "filterpy.kalman" not in sys.modules and sys.platform.startswith("linux"):
+        if fork and "filterpy.kalman" not in sys.modules and sys.platform.startswith("linux"):
             ctx = multiprocessing.get_context("fork")
             self._conn, child = ctx.Pipe()
             self._proc = ctx.Process(target=_serve, args=(child,), daemon=True, name="sloshid-smoother")

@@ -26,7 +26,7 @@ from sloshid.tracking.container_ref import ContainerMeasurement, ContainerTracke
 from sloshid.tracking.float_angle import FloatFinder
 from sloshid.tracking.overlay import draw_overlay
 from sloshid.tracking.repeats import REPEAT_SHARE, repeated_share, stale_repeats
-from sloshid.tracking.smooth import SmoothingWorker, smooth_angle
+from sloshid.tracking.smooth import SmoothingWorker
 from sloshid.tracking.surface_track import SurfaceStep
 from sloshid.video.colors import DEFAULT_FLOAT_COLOR, HsvRange, preset
 from sloshid.video.frames import FrameReader, VideoWriter
@@ -327,7 +327,7 @@ def track_video(
     rows: list[tuple] = []
     with contextlib.ExitStack() as workers:
         # the smoother's imports load beside decoding, on the other core, instead of after it
-        smoother = SmoothingWorker() if settings.smooth and multithreaded else None
+        smoother = SmoothingWorker(fork=multithreaded) if settings.smooth else None
         if smoother is not None:
             workers.callback(smoother.close)
         with contextlib.ExitStack() as stack:
@@ -363,7 +363,7 @@ def track_video(
             body, walls = step.finish(rows)
         repeated = stale_repeats(np.array([r[2] for r in body]), np.array([r[8] for r in body], bool), step.repeated)
         body = [(*r[:8], int(r[8] and not rep)) for r, rep in zip(body, repeated)]
-        smooth = smoother.smooth if smoother is not None else smooth_angle if settings.smooth else None
+        smooth = smoother.smooth if smoother is not None else None
         res = _result(Path(path), body, reader.lost_share, reader.info.frame_count, smooth, repeated, settings.target)
     res.target, res.walls, res.repeated = settings.target, walls, repeated
     return res
@@ -378,7 +378,8 @@ def _result(
     repeated: np.ndarray,
     target: str,
 ) -> TrackResult:
-    """Assemble the TrackResult, smooth the angle (`smooth_angle` or the worker's, None: not) and collect warnings."""
+    """Assemble the TrackResult, smooth the angle (with `smooth`, a SmoothingWorker's; None: not) and collect
+    warnings."""
     cols = list(zip(*rows))
     arr = [np.asarray(c) for c in cols]
     frame, t, angle, fang, cang, x, y, q, valid = arr
