@@ -169,6 +169,11 @@ assert served._proc is None and killed._proc is None
 here = smooth_angle(t, z, valid, q)
 assert np.array_equal(a, here) and np.array_equal(b, here), (np.abs(a - here).max(), np.abs(b - here).max())
 assert SmoothingWorker()._proc is None  # filterpy is imported now: no fork
+del sys.modules["filterpy.kalman"]  # as before the import: the next worker forks
+abandoned = SmoothingWorker()
+abandoned._conn.close()  # the caller's end goes away unused (a caller killed by SIGTERM): the worker must end
+abandoned._proc.join(timeout=60)
+assert abandoned._proc.exitcode == 0, abandoned._proc.exitcode
 print("ok")
 """
 
@@ -176,7 +181,8 @@ print("ok")
 def test_smoothing_worker_gives_the_in_process_result_and_survives_its_loss():
     # In a fresh interpreter (filterpy not yet imported, so the worker forks): the forked worker's smoothing is
     # bit-identical to smooth_angle here, a worker killed before it got the trace falls back to smoothing here
-    # with the same result, and once filterpy is imported no process is forked.
+    # with the same result, once filterpy is imported no process is forked, and a worker whose caller's end of the
+    # pipe closes unused ends by itself (fork copies that end into the worker, which must close its copy).
     done = subprocess.run([sys.executable, "-c", WORKER_CHECK], capture_output=True, text=True, timeout=120)
     assert done.returncode == 0 and done.stdout.strip() == "ok", done.stderr[-2000:]
 

@@ -13,6 +13,8 @@ from __future__ import annotations
 
 import math
 import multiprocessing
+import os
+import signal
 import sys
 
 import numpy as np
@@ -132,7 +134,7 @@ class SmoothingWorker:
         if fork and "filterpy.kalman" not in sys.modules and sys.platform.startswith("linux"):
             ctx = multiprocessing.get_context("fork")
             self._conn, child = ctx.Pipe()
-            self._proc = ctx.Process(target=_serve, args=(child,), daemon=True, name="sloshid-smoother")
+            self._proc = ctx.Process(target=_serve, args=(child, self._conn), daemon=True, name="sloshid-smoother")
             self._proc.start()
             child.close()
 
@@ -161,9 +163,19 @@ class SmoothingWorker:
             self._proc = None
 
 
-def _serve(conn) -> None:
+def _serve(conn, callers_end) -> None:
     """The worker: import, wait for one trace, send (True, smoothed); (False, None) when smoothing raised, so the
-    caller repeats it and raises the error itself; nothing when the caller closed the pipe or the user interrupted."""
+    caller repeats it and raises the error itself; nothing when the caller closed the pipe or the user interrupted.
+
+    It first lets go of what fork copied from the caller: the caller's end of the pipe (else a caller that dies
+    without closing it, e.g. on SIGTERM, never reads as EOF here and the worker waits forever), the caller's output
+    (a program waiting for the caller's stderr to close would wait for the worker too) and its SIGTERM handler
+    (`terminate` must simply end the worker)."""
+    callers_end.close()
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    quiet = os.open(os.devnull, os.O_WRONLY)
+    os.dup2(quiet, 1)
+    os.dup2(quiet, 2)
     try:
         warm_up()
         args = conn.recv()
