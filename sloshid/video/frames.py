@@ -193,12 +193,13 @@ class FrameReader:
 
     def __iter__(self) -> Iterator[tuple[int, float, np.ndarray | Picture]]:
         """Frames in order (decoded in a background thread unless multithreaded is off)."""
+        items = self._threaded() if self.multithreaded else self._produce()
         try:
-            items = self._threaded() if self.multithreaded else self._produce()
             for t_s, picture in items:
                 yield self.decoded, t_s, picture
                 self.decoded += 1
         finally:
+            items.close()  # stops and joins the decoding thread: closing the file under it crashes FFmpeg
             self._container.close()
 
     def _threaded(self) -> Iterator[tuple[float, np.ndarray | Picture]]:
