@@ -3,13 +3,19 @@ library routes they replace for speed."""
 
 from __future__ import annotations
 
+import os
+import signal
+import subprocess
+import sys
+import time
+
 import cv2
 import numpy as np
 import pytest
 
 from sloshid.synthetic.render import SynthSettings, render_video
 from sloshid.tracking.robust import median, robust_polyfit
-from sloshid.video.frames import FrameReader, Picture
+from sloshid.video.frames import FrameReader, Picture, _signals_held
 
 
 def _planes(bgr: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -49,6 +55,57 @@ def test_reader_pictures_and_arrays_agree(tmp_path):
         assert i == j and t == u
         np.testing.assert_array_equal(np.asarray(p), a)
         np.testing.assert_array_equal(p[31:77, 9:100], a[31:77, 9:100])
+
+
+_INTERRUPTED_START = """
+import sys, threading
+from sloshid.video.frames import FrameReader
+start = threading.Thread.start
+def start_then_interrupted(thread):
+    start(thread)
+    raise KeyboardInterrupt
+threading.Thread.start = start_then_interrupted
+before = set(threading.enumerate())
+try:
+    next(iter(FrameReader(sys.argv[1], pictures=True)))
+except KeyboardInterrupt:
+    pass
+print(sum(t.is_alive() for t in set(threading.enumerate()) - before))
+"""
+
+
+def test_an_interruption_while_the_decoding_thread_starts_still_joins_it(tmp_path):
+    # SIGTERM's handler raises in the main thread wherever it is; the likeliest place at the start of tracking is
+    # Thread.start waiting for the new thread. The reader must then still stop and join that thread before it
+    # closes the file: a thread decoding a closed file crashes the process (exit -11 in CI, about 1 in 10 SIGTERMs).
+    # In a separate process, so that the crash fails this test instead of ending the whole run.
+    render_video(tmp_path / "v.mp4", SynthSettings(width=160, height=120, fps=30, duration_s=2.0, seed=2))
+    proc = subprocess.run(
+        [sys.executable, "-c", _INTERRUPTED_START, tmp_path / "v.mp4"], capture_output=True, text=True, timeout=120
+    )
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    assert proc.stdout.strip() == "0"  # no thread of the reader is left running
+
+
+def test_signals_held_are_delivered_when_the_block_ends():
+    # the decoding thread starts with SIGTERM held back, so the handler cannot interrupt Thread.start half-way;
+    # a signal that arrives meanwhile must reach the handler afterwards, not be lost
+    seen = []
+
+    def handler(signum, frame):
+        seen.append("handled")
+
+    previous = signal.signal(signal.SIGTERM, handler)
+    try:
+        with _signals_held():
+            os.kill(os.getpid(), signal.SIGTERM)
+            time.sleep(0.05)  # long enough for an unheld handler to run (Python runs it within microseconds)
+            assert seen == []
+        time.sleep(0.05)
+        assert seen == ["handled"]
+        assert signal.getsignal(signal.SIGTERM) is handler
+    finally:
+        signal.signal(signal.SIGTERM, previous)
 
 
 def test_robust_line_is_the_least_squares_line_of_its_inliers():

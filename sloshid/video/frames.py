@@ -13,6 +13,7 @@ from __future__ import annotations
 import contextlib
 import os
 import queue
+import signal
 import threading
 from collections.abc import Iterator
 from dataclasses import dataclass, field
@@ -111,6 +112,28 @@ def _as_shown(frame, lazy: bool) -> np.ndarray | Picture:
         return picture if lazy else picture[:, :]
     bgr = frame.to_ndarray(format="bgr24")
     return cv2.rotate(bgr, _ROTATIONS[rotation]) if rotation in _ROTATIONS else bgr
+
+
+@contextlib.contextmanager
+def _signals_held() -> Iterator[None]:
+    """Hold SIGINT and SIGTERM back until the block ends, then deliver them to the handlers they had (main thread).
+
+    Their handlers raise in the main thread wherever it is; `Thread.start` raising after the thread began leaves a
+    thread that `is_alive` does not report and so cannot be joined. The handlers are swapped, not the signal mask:
+    a masked signal still reaches FFmpeg's own threads, whose C handler makes Python run the handler here anyway."""
+    wanted = (signal.SIGINT, signal.SIGTERM)
+    if threading.current_thread() is not threading.main_thread() or None in map(signal.getsignal, wanted):
+        yield  # not ours to swap: a handler set outside Python could not be put back
+        return
+    caught: list[int] = []
+    previous = {s: signal.signal(s, lambda signum, frame: caught.append(signum)) for s in wanted}
+    try:
+        yield
+    finally:
+        for s, handler in previous.items():
+            signal.signal(s, handler)
+        for signum in caught:
+            signal.raise_signal(signum)
 
 
 def _decode_threads(multithreaded: bool) -> int:
@@ -217,8 +240,9 @@ class FrameReader:
                 frames.put(None) if not stop.is_set() else None
 
         worker = threading.Thread(target=produce, daemon=True)
-        worker.start()
         try:
+            with _signals_held():  # interrupted while starting, the thread would run on unseen and decode a closed file
+                worker.start()
             while (item := frames.get()) is not None:
                 yield item
         finally:
