@@ -23,7 +23,7 @@ import cv2
 import numpy as np
 
 from sloshid.tracking.float_angle import REFIT_EVERY, fit_colour_model, hsv_mask, membership_map
-from sloshid.tracking.robust import median, robust_polyfit
+from sloshid.tracking.robust import median, normal_solve, robust_polyfit
 from sloshid.video.colors import PRESETS, HsvRange
 
 MIN_LIQUID_SHARE = 0.005
@@ -32,6 +32,12 @@ WALL_MARGIN = 0.06
 """Columns this close to a wall (share of the inner width, at least 4 px) are not used: the meniscus curls up."""
 HOLD_ELEVATION_AFTER = 15
 """The camera's elevation is fitted in this many frames, then held at their median."""
+HOLD_AXES_FRAMES = 4
+"""The container's axes (three robust line fits, a third of the per-frame work) are held for up to this many frames
+while the container stands still: its last two measurements agreed within STILL_PX and the liquid's sides and
+bottom have not moved by a pixel since. A moving or tilting container is measured in every frame."""
+STILL_PX = 0.1
+"""Largest shift of the bottom centre or of a wall between two measurements of a container that stands still."""
 LINE_SLOPE_OF_CUBIC = 0.6
 """Least-squares line slope of s^3 over s in [-1, 1]: the cubic's contribution to the best-fit line."""
 
@@ -80,11 +86,13 @@ def auto_liquid_range(frame: np.ndarray, roi: tuple[int, int, int, int]) -> HsvR
 def _crossings_first(m: np.ndarray, axis: int) -> tuple[np.ndarray, np.ndarray]:
     """Sub-pixel position of the first 0.5 crossing of m along `axis` (from index 0), and whether there is one."""
     above = m >= 0.5
-    j = np.argmax(above, axis=axis)
-    ok = above.any(axis=axis) & (j > 0)
-    jm = np.clip(j - 1, 0, None)
-    a = np.take_along_axis(m, np.expand_dims(jm, axis), axis).squeeze(axis)
-    b = np.take_along_axis(m, np.expand_dims(j, axis), axis).squeeze(axis)
+    j = np.argmax(above, axis=axis)  # 0 where there is no crossing
+    other = np.arange(m.shape[1 - axis])
+    jm = np.maximum(j - 1, 0)
+    if axis == 0:
+        ok, a, b = above[j, other] & (j > 0), m[jm, other], m[j, other]
+    else:
+        ok, a, b = above[other, j] & (j > 0), m[other, jm], m[other, j]
     frac = np.where(b > a, (0.5 - a) / np.where(b > a, b - a, 1), 0.5)
     return jm + frac, ok
 
@@ -126,6 +134,8 @@ class SurfaceFinder:
         self._model: tuple[np.ndarray, float] | None = None
         self._since_fit = 0
         self._k: list[float] = []  # k / R = sin(elevation) from the first frames
+        self._held: float | None = None  # their median, once there are enough
+        self._axes: tuple | None = None  # (body sides and bottom, axes in frame coordinates, frames used, still)
 
     def measure(self, frame: np.ndarray) -> SurfaceMeasurement:
         """Measure the surface in one BGR frame."""
@@ -133,12 +143,13 @@ class SurfaceFinder:
             self.hsv = auto_liquid_range(frame, self.roi)
             if self.hsv is None:
                 return SurfaceMeasurement(False)
-        box = self._find_body(frame)
-        if box is None:
+        self._since_fit += 1
+        m = self._measure_body(frame, self._box, follow=True) if self._box is not None else None
+        if m is None:  # lost, or the body left the box it had: search around it (or the whole ROI)
+            box = self._find_body(frame)
+            m = SurfaceMeasurement(False) if box is None else self._measure_body(frame, box, follow=False)
+        if not m.found:
             self._box = None
-            return SurfaceMeasurement(False)
-        m = self._measure_body(frame, box)
-        self._box = box if m.found else None
         return m
 
     def _find_body(self, frame: np.ndarray) -> tuple[int, int, int, int] | None:
@@ -165,8 +176,11 @@ class SurfaceFinder:
         bx1, by1 = 2 * (big[:, 0] + big[:, 2]).max(), 2 * (big[:, 1] + big[:, 3]).max()
         return X0 + int(bx0), Y0 + int(by0), X0 + int(bx1), Y0 + int(by1)
 
-    def _measure_body(self, frame: np.ndarray, box: tuple[int, int, int, int]) -> SurfaceMeasurement:
-        """Walls, bottom and surface of the liquid body in `box`."""
+    def _measure_body(self, frame: np.ndarray, box: tuple[int, int, int, int], follow: bool) -> SurfaceMeasurement:
+        """Walls, bottom and surface of the liquid body in `box`; the box it was found in is kept for the next frame.
+
+        `follow`: `box` is the last frame's; the body's box is read off this frame's membership map around it
+        (a tenth of the cost of a colour search), or None is returned when the body reaches the map's edge."""
         h, w = frame.shape[:2]
         x0, y0, x1, y1 = box
         rx, _ry, rw, _rh = self.roi
@@ -175,7 +189,6 @@ class SurfaceFinder:
         pad, up = 6 + int(0.03 * (x1 - x0)), 6 + int(0.3 * (x1 - x0))
         X0, Y0, X1, Y1 = max(0, x0 - pad), max(0, y0 - up), min(w, x1 + pad), min(h, y1 + pad)
         crop = frame[Y0:Y1, X0:X1]
-        self._since_fit += 1
         if self._model is None or self._since_fit >= REFIT_EVERY:
             # every second pixel each way: thousands of body and background pixels still fix the four coefficients
             half = crop[::2, ::2]
@@ -183,10 +196,27 @@ class SurfaceFinder:
         if self._model is None:
             return SurfaceMeasurement(False, liquid=True)
         body = membership_map(crop, self._model[0])
+        if follow:
+            box = _body_box(body, (X0, Y0))
+            if box is None:
+                return None
+            if box[0] <= rx or box[2] >= rx + rw:
+                return SurfaceMeasurement(False, liquid=True)
+        self._box = box
         gray = cv2.cvtColor(crop, cv2.COLOR_BGR2GRAY).astype(np.float32)
-        frame_geom = _container_axes(body, gray, (X0, Y0), box)
-        if frame_geom is None:
-            return SurfaceMeasurement(False, liquid=True)
+        key = (box[0], box[2], box[3])  # the body's sides and bottom: where the container is
+        held = self._axes
+        if held is not None and held[3] and held[0] == key and held[2] < HOLD_AXES_FRAMES:
+            frame_geom = _shifted(held[1], (-X0, -Y0))
+            self._axes = (key, held[1], held[2] + 1, True)
+        else:
+            frame_geom = _container_axes(body, gray, (X0, Y0), box)
+            if frame_geom is None:
+                self._axes = None
+                return SurfaceMeasurement(False, liquid=True)
+            geom = _shifted(frame_geom, (X0, Y0))
+            still = held is not None and _moved_px(held[1], geom) < STILL_PX
+            self._axes = (key, geom, 1, still)
         return self._surface(gray, body, (X0, Y0), frame_geom)
 
     def _surface(self, gray, body, origin, geom) -> SurfaceMeasurement:
@@ -202,14 +232,17 @@ class SurfaceFinder:
         cols = np.arange(math.ceil(aL * ytop + bL + margin), int(aR * ytop + bR - margin))
         if half < 10 or len(cols) < 12:
             return SurfaceMeasurement(False, liquid=True)
-        front, ok = _crossings_first(body[:, cols], axis=0)
-        front = refine_on_luma(gray[:, cols], front, ok)
+        span = slice(cols[0], cols[-1] + 1)  # views, not copies: the columns are consecutive
+        front, ok = _crossings_first(body[:, span], axis=0)
+        front = refine_on_luma(gray[:, span], front, ok)
         p = np.column_stack([cols.astype(float), front]) - o
         u, wv = p @ e_u, p @ e_w
         s = (u - uc) / half
         ok &= _locally_consistent(wv, ok)
         # the elevation is fitted in the first frames and then held (a static camera): slopes separate from it
-        held = float(np.median(self._k)) if len(self._k) >= HOLD_ELEVATION_AFTER else None
+        if self._held is None and len(self._k) >= HOLD_ELEVATION_AFTER:
+            self._held = float(np.median(self._k))
+        held = self._held
         fit = _fit_front(s[ok], wv[ok], max(10, len(cols) // 3), None if held is None else held * half)
         if fit is None:
             return SurfaceMeasurement(False, liquid=True)
@@ -242,6 +275,22 @@ class SurfaceFinder:
         )
 
 
+def _body_box(body: np.ndarray, origin: tuple[int, int]) -> tuple[int, int, int, int] | None:
+    """Frame box (x0, y0, x1, y1) of the liquid in a membership map: columns holding a tenth of the fullest
+    column's liquid pixels (stripes cut columns, not the body's sides) and rows holding a twentieth of the fullest
+    row's (a sloped surface thins out at its top); None when that box touches the map's sides or bottom."""
+    inside = body >= 0.5
+    per_col, per_row = np.count_nonzero(inside, axis=0), np.count_nonzero(inside, axis=1)
+    if per_col.max() < 10 or per_row.max() < 10:
+        return None
+    c = np.flatnonzero(per_col >= 0.1 * per_col.max())
+    r = np.flatnonzero(per_row >= 0.05 * per_row.max())
+    if c[0] == 0 or c[-1] == body.shape[1] - 1 or r[0] == 0 or r[-1] == body.shape[0] - 1:
+        return None
+    X0, Y0 = origin
+    return X0 + int(c[0]), Y0 + int(r[0]), X0 + int(c[-1]) + 1, Y0 + int(r[-1]) + 1
+
+
 def _band(front: np.ndarray, cols: np.ndarray, origin: tuple[int, int]) -> tuple[int, int, int, int]:
     """Frame box around the front edge points, 3 px beyond them vertically."""
     X0, Y0 = origin
@@ -255,9 +304,10 @@ def _locally_consistent(w: np.ndarray, ok: np.ndarray) -> np.ndarray:
     if ok.sum() < 12:
         return keep
     size = max(7, (int(ok.sum()) // 6) | 1)  # odd: the running median is the middle of each window
-    padded = np.pad(w[ok], size // 2, mode="edge")
+    v, h = w[ok], size // 2
+    padded = np.concatenate([np.full(h, v[0]), v, np.full(h, v[-1])])  # edge padding, as np.pad's "edge"
     windows = np.lib.stride_tricks.sliding_window_view(padded, size)
-    r = w[ok] - np.partition(windows, size // 2, axis=1)[:, size // 2]
+    r = v - np.partition(windows, size // 2, axis=1)[:, size // 2]
     dev = np.abs(r - median(r))
     keep[ok] = dev < max(3 * 1.4826 * median(dev), 0.7)
     return keep
@@ -283,15 +333,33 @@ def _fit_front_basis(basis: np.ndarray, w: np.ndarray, min_points: int):
     for passes in range(5):
         if keep.sum() < min_points:
             return None
-        b = basis[keep]
-        try:  # normal equations: at most four well-separated columns on [-1, 1], hundreds of rows
-            coef = np.linalg.solve(b.T @ b, b.T @ w[keep])
-        except np.linalg.LinAlgError:
+        # normal equations: at most four well-separated columns on [-1, 1], hundreds of rows
+        coef = normal_solve(basis[keep], w[keep])
+        if coef is None:
             return None
         res = np.abs(w - basis @ coef)
-        if passes < 4:
-            keep = res < max(3 * 1.4826 * median(res[keep]), 0.5)
+        if passes == 4:
+            break
+        new = res < max(3 * 1.4826 * median(res[keep]), 0.5)
+        if np.array_equal(new, keep):  # converged: further passes would repeat this fit
+            break
+        keep = new
     return coef, keep, float(np.sqrt(np.mean(res[keep] ** 2)))
+
+
+def _shifted(geom: tuple, shift: tuple[int, int]) -> tuple:
+    """Container axes (as `_container_axes` returns them) in coordinates whose origin moved by -shift."""
+    ((aL, bL), (aR, bR)), o, e_u, e_w = geom
+    dx, dy = shift
+    return ((aL, bL + dx - aL * dy), (aR, bR + dx - aR * dy)), o + np.array([dx, dy]), e_u, e_w
+
+
+def _moved_px(a: tuple, b: tuple) -> float:
+    """Largest shift between two container axes (frame coordinates): of the bottom centre, and of each wall at it."""
+    (wa, oa, _, _), (wb, ob, _, _) = a, b
+    y = ob[1]
+    walls = [abs((p[0] - q[0]) * y + p[1] - q[1]) for p, q in zip(wa, wb)]
+    return max(float(np.hypot(*(oa - ob))), *walls)
 
 
 def _container_axes(body: np.ndarray, gray: np.ndarray, origin: tuple[int, int], box: tuple[int, int, int, int]):
@@ -319,7 +387,7 @@ def _container_axes(body: np.ndarray, gray: np.ndarray, origin: tuple[int, int],
     (aL, bL), (aR, bR) = fl[0], fr[0]
     c0, c1 = int(0.2 * (x1 - x0)) + x0 - X0, int(0.8 * (x1 - x0)) + x0 - X0
     cols = np.arange(c0, c1)
-    bottom, okb = _crossings_first(body[::-1, cols], axis=0)
+    bottom, okb = _crossings_first(body[::-1, c0:c1], axis=0)
     bottom = body.shape[0] - 1 - bottom
     fb = robust_polyfit(cols[okb].astype(float), bottom[okb], 1, 0.3, min_points=max(10, len(cols) // 3))
     if fb is None:
