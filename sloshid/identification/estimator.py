@@ -462,7 +462,7 @@ class Identifier:
         omega_starts = [2 * math.pi * float(np.median([sp.peak_f_hz for sp in spectra]))]
         omega_starts += [2 * math.pi * h.f_hz for h in hp0]
         zeta_hints = [h.zeta for h in hp0 if math.isfinite(h.zeta)]
-        wdata = [WindowData(p.t_s, p.value, w.t0_s) for p, w in zip(parts, windows)]
+        wdata = [WindowData(p.t_s, p.value, w.t0_s, p.hold_restarts()) for p, w in zip(parts, windows)]
         fit = fit_pt2(
             wdata,
             omega_starts,
@@ -490,7 +490,7 @@ class Identifier:
                 windows = longer
                 parts = [s.between(w.t0_s, w.t1_s) for s, w in zip(sigs, windows)]
                 spectra = [welch_spectrum(p.t_s, p.value, f_range) for p in parts]
-                wdata = [WindowData(p.t_s, p.value, w.t0_s) for p, w in zip(parts, windows)]
+                wdata = [WindowData(p.t_s, p.value, w.t0_s, p.hold_restarts()) for p, w in zip(parts, windows)]
                 fit = fit_pt2(wdata, [fit.omega_rad_s, *omega_starts[1:]], fit.zeta or None, st.drift)
         second = resolve_second_mode(wdata, fit, spectra, st.second_mode_ratio, AMPLITUDE_SNR)
         if second is not None and second.separated:
