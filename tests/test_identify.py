@@ -333,6 +333,14 @@ def test_the_encoder_hold_restarts_at_key_frames(tmp_path):
     f, z = restarting.parameters["f_hz"], restarting.parameters["zeta"]
     assert f.value == pytest.approx(2.0, rel=3e-4) and z.value == pytest.approx(0.03, rel=0.01)
     assert restarting.fit.hold.width == pytest.approx(0.15, abs=0.005)
+    # every key frame after the window's first sample restarts it once (the invalid one at the next valid sample)
+    win = restarting.windows[0]
+    inside = t[valid & (t >= win.t0_s) & (t <= win.t1_s)]
+    key_t = t[keys]
+    assert restarting.fit.hold.restarts == np.sum((key_t > inside[0]) & (key_t <= inside[-1])) > 30
+    assert never.fit.hold.restarts == 0
+    assert restarting.to_dict()["fit"]["encoder_hold"]["restarts_at_key_frames"] == restarting.fit.hold.restarts
+    assert f"restarting at {restarting.fit.hold.restarts} key frames" in restarting.summary()
     assert f.ci95[0] <= 2.0 <= f.ci95[1] and z.ci95[0] <= 0.03 <= z.ci95[1]
 
 

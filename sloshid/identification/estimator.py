@@ -260,6 +260,7 @@ class IdentResult:
                 else {
                     "half_width": self.fit.hold.width,
                     "half_width_stderr": self.fit.hold.width_se,
+                    "restarts_at_key_frames": self.fit.hold.restarts,
                     "unit": self.signals[0].unit,
                     "shift_from_plain_fit": dict(zip(("omega_rad_s", "zeta"), self.fit.hold.shift.tolist())),
                     "plain_fit_stderr": dict(
@@ -302,7 +303,8 @@ class IdentResult:
             shift_f, shift_z = 100 * h.shift / np.array([self.fit.omega_rad_s, self.fit.zeta or 1.0])
             lines.append(
                 f"  encoder hold (fitted, video-tracked): half-width {h.width:.3g} ± {h.width_se:.2g} "
-                f"{self.signals[0].unit}; f {shift_f:+.3f} %, zeta {shift_z:+.2f} % against a plain fit"
+                f"{self.signals[0].unit}, restarting at {h.restarts} key frames; f {shift_f:+.3f} %, zeta "
+                f"{shift_z:+.2f} % against a plain fit"
             )
         lines.append(f"verdict: {self.quality}")
         for group, names in GROUPS.items():

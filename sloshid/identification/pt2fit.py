@@ -59,6 +59,8 @@ class HoldFit:
     """(omega, zeta) of the fit with the hold minus those of the plain fit; also a systematic standard error in cov."""
     plain_cov: np.ndarray
     """2x2 covariance of (omega, zeta) of the plain fit, for comparison."""
+    restarts: int = 0
+    """How many times the hold restarted at a key frame inside the windows (0: no key frames known)."""
 
 
 @dataclass(frozen=True)
@@ -449,6 +451,7 @@ def fit_pt2_hold(windows: list[WindowData], plain: PT2Fit) -> PT2Fit:
     fit = _solve(model, starts, (*lower, 0.0), (*upper, widest), keep=len(starts), plain=plain)
     return replace(
         fit,
+        hold=replace(fit.hold, restarts=sum(int(np.sum(w.restarts)) for w in windows if w.restarts is not None)),
         cov=fit.cov + np.outer(fit.hold.shift, fit.hold.shift),
         # a width of zero is a signal without a hold, not a search that ran out of room
         at_bound=tuple(n for n in fit.at_bound if n != "hold" or fit.hold.width > widest / 2),
