@@ -13,7 +13,7 @@ import pytest
 
 from sloshid.core.tables import read_csv
 from sloshid.identification.estimator import Identifier
-from sloshid.identification.signals import make_signal, signal_from_track
+from sloshid.identification.signals import load_signal, make_signal, signal_from_track
 from sloshid.synthetic.render import SynthSettings, frame_times, relative_angle_rad, render_frames, render_video
 from sloshid.tracking.smooth import smooth_angle
 from sloshid.tracking.tracker import TRACK_COLUMNS, TrackSettings, track_video
@@ -100,6 +100,24 @@ def test_vfr_timestamps_reach_the_csv(tmp_path, run_cli):
     got = read_csv(tmp_path / "a.csv")
     assert list(got) == list(TRACK_COLUMNS)
     np.testing.assert_allclose(got["t_s"], truth["t_s"], atol=1 / 180000)  # half a 90 kHz tick
+
+
+def test_key_frames_reach_the_csv_and_identify(tmp_path, run_cli):
+    # sloshid synth's MPEG-4 codes every 12th picture afresh (PyAV's default GOP, checked here on the decoded pictures'
+    # own flags); the tracker marks exactly those frames from the packets, and identify reads them from the CSV
+    s = SynthSettings(**{**SMALL, "duration_s": 1.5}, codec="mpeg4")
+    render_video(tmp_path / "m.mp4", s)
+    with av.open(str(tmp_path / "m.mp4")) as container:
+        decoded = np.array([frame.key_frame for frame in container.decode(video=0)], int)
+    assert decoded.sum() == 4 and decoded[0] == 1
+    code, _, _ = run_cli("track", tmp_path / "m.mp4", "-o", tmp_path / "m.csv")
+    assert code == 0
+    got = read_csv(tmp_path / "m.csv")
+    np.testing.assert_array_equal(got["key_frame"], decoded)
+    assert load_signal(tmp_path / "m.csv").key_t_s == pytest.approx(got["t_s"][decoded == 1])
+    res = track_video(tmp_path / "m.mp4")
+    np.testing.assert_array_equal(res.key_frame, decoded)
+    assert signal_from_track(res).key_t_s == pytest.approx(res.t_s[decoded == 1])
 
 
 def _video_with_gap(path, settings, gap, display_rotation_deg=0):
@@ -380,7 +398,7 @@ def test_surface_angle_and_wall_heights_match_truth(surface_video, reference, co
         assert _rmse((cols[f"{side}_wall_px"] - truth[f"{side}_wall_px"])[ok]) < 1.2
         # the scale comes from the measured walls (inner width 0.1 m = 120 px): 1.2 px is 1.0 mm
         assert _rmse((cols[f"{side}_wall_mm"] - truth[f"{side}_wall_mm"])[ok]) < 1.0
-    assert list(cols)[:10] == ["frame", "t_s", "angle_deg", "surface_angle_deg", *TRACK_COLUMNS[4:]]
+    assert list(cols)[:11] == ["frame", "t_s", "angle_deg", "surface_angle_deg", *TRACK_COLUMNS[4:]]
 
 
 def test_surface_csv_identifies_like_its_truth(surface_video, tmp_path, run_cli):

@@ -6,7 +6,8 @@ fraction of a degree from the grey-level moments of a soft colour-membership map
 relative to the container's side walls, measured in every frame (static camera, moving container).
 Timestamps are the video's own presentation times. Angles are degrees, counter-clockwise positive as
 seen. Columns: frame, t_s, angle_deg, float_angle_deg, container_angle_deg, x_px, y_px, quality (0..1),
-valid (0/1), angle_smoothed_deg (Kalman + RTS smoother on the real timestamps, bridges valid = 0 rows).
+valid (0/1), angle_smoothed_deg (Kalman + RTS smoother on the real timestamps, bridges valid = 0 rows),
+key_frame (0/1: the video's key frames, where the encoder's hold restarts; identify uses them).
 
 With --target surface the dyed liquid itself is measured: angle_deg is the surface's best-fit line across the
 container's inner width, and left_wall_px/right_wall_px (left_wall_mm/right_wall_mm with

@@ -260,6 +260,7 @@ class IdentResult:
                 else {
                     "half_width": self.fit.hold.width,
                     "half_width_stderr": self.fit.hold.width_se,
+                    "restarts_at_key_frames": self.fit.hold.restarts,
                     "unit": self.signals[0].unit,
                     "shift_from_plain_fit": dict(zip(("omega_rad_s", "zeta"), self.fit.hold.shift.tolist())),
                     "plain_fit_stderr": dict(
@@ -302,7 +303,8 @@ class IdentResult:
             shift_f, shift_z = 100 * h.shift / np.array([self.fit.omega_rad_s, self.fit.zeta or 1.0])
             lines.append(
                 f"  encoder hold (fitted, video-tracked): half-width {h.width:.3g} ± {h.width_se:.2g} "
-                f"{self.signals[0].unit}; f {shift_f:+.3f} %, zeta {shift_z:+.2f} % against a plain fit"
+                f"{self.signals[0].unit}, restarting at {h.restarts} key frames; f {shift_f:+.3f} %, zeta "
+                f"{shift_z:+.2f} % against a plain fit"
             )
         lines.append(f"verdict: {self.quality}")
         for group, names in GROUPS.items():
@@ -462,7 +464,7 @@ class Identifier:
         omega_starts = [2 * math.pi * float(np.median([sp.peak_f_hz for sp in spectra]))]
         omega_starts += [2 * math.pi * h.f_hz for h in hp0]
         zeta_hints = [h.zeta for h in hp0 if math.isfinite(h.zeta)]
-        wdata = [WindowData(p.t_s, p.value, w.t0_s) for p, w in zip(parts, windows)]
+        wdata = [WindowData(p.t_s, p.value, w.t0_s, p.hold_restarts()) for p, w in zip(parts, windows)]
         fit = fit_pt2(
             wdata,
             omega_starts,
@@ -490,7 +492,7 @@ class Identifier:
                 windows = longer
                 parts = [s.between(w.t0_s, w.t1_s) for s, w in zip(sigs, windows)]
                 spectra = [welch_spectrum(p.t_s, p.value, f_range) for p in parts]
-                wdata = [WindowData(p.t_s, p.value, w.t0_s) for p, w in zip(parts, windows)]
+                wdata = [WindowData(p.t_s, p.value, w.t0_s, p.hold_restarts()) for p, w in zip(parts, windows)]
                 fit = fit_pt2(wdata, [fit.omega_rad_s, *omega_starts[1:]], fit.zeta or None, st.drift)
         second = resolve_second_mode(wdata, fit, spectra, st.second_mode_ratio, AMPLITUDE_SNR)
         if second is not None and second.separated:

@@ -33,6 +33,9 @@ class WindowData:
     t_s: np.ndarray
     value: np.ndarray
     t0_s: float
+    restarts: np.ndarray | None = None
+    """Video-tracked signals: True at the samples where the encoder's hold restarts (the first after a key frame,
+    a picture coded without reference to the previous ones); None: it never does."""
 
 
 @dataclass(frozen=True)
@@ -56,6 +59,8 @@ class HoldFit:
     """(omega, zeta) of the fit with the hold minus those of the plain fit; also a systematic standard error in cov."""
     plain_cov: np.ndarray
     """2x2 covariance of (omega, zeta) of the plain fit, for comparison."""
+    restarts: int = 0
+    """How many times the hold restarted at a key frame inside the windows (0: no key frames known)."""
 
 
 @dataclass(frozen=True)
@@ -103,19 +108,26 @@ class PT2Fit:
         return float(np.sqrt((a * sa) ** 2 + (b * sb) ** 2) / amp) if amp > 0 else float("inf")
 
 
-def encoder_hold(x: np.ndarray, width: float) -> np.ndarray:
+def encoder_hold(x: np.ndarray, width: float, restarts: np.ndarray | None = None) -> np.ndarray:
     """x seen through a hold (play, backlash) of half-width `width`: the output moves only once x is `width` past it,
-    as a video encoder keeps an edge that moved less than its quantiser codes (see fit_pt2_hold)."""
-    return _hold_path(x, width)[0]
+    as a video encoder keeps an edge that moved less than its quantiser codes (see fit_pt2_hold). Where `restarts` is
+    True the output is x itself: a key frame is coded afresh, without the previous pictures it could hold on to."""
+    return _hold_path(x, width, restarts)[0]
 
 
-def _hold_path(x: np.ndarray, width: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _hold_path(
+    x: np.ndarray, width: float, restarts: np.ndarray | None = None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """encoder_hold with its derivative structure: output k equals x[src[k]] + sign[k] * width (sign 0 while the
-    output still holds the first sample), so the hold's Jacobian is a row selection plus a column of signs."""
+    output still holds the first sample or the last restart's), so the hold's Jacobian is a row selection plus a
+    column of signs."""
     out, src, sign = np.empty_like(x), np.zeros(x.size, int), np.zeros(x.size)
+    fresh = np.zeros(x.size, bool) if restarts is None else restarts
     held, j, s = x[0], 0, 0.0
     for k, value in enumerate(x):
-        if value - width > held:
+        if fresh[k]:
+            held, j, s = value, k, 0.0
+        elif value - width > held:
             held, j, s = value - width, k, -1.0
         elif value + width < held:
             held, j, s = value + width, k, 1.0
@@ -160,6 +172,7 @@ class _JointModel:
     def __init__(self, windows: list[WindowData], drift: bool, n_modes: int = 1):
         self.t = [w.t_s - w.t0_s for w in windows]
         self.y = [w.value for w in windows]
+        self.restarts = [w.restarts for w in windows]
         self.n_modes = n_modes
         self.nq = 2 * n_modes
         """Number of nonlinear parameters (omega, zeta per mode)."""
@@ -222,13 +235,13 @@ class _HeldModel(_JointModel):
 
     def fitted(self, x: np.ndarray) -> list[np.ndarray]:
         """Model values per window, through the hold."""
-        return [_hold_path(f, x[-1])[0] for f in super().fitted(x)]
+        return [_hold_path(f, x[-1], r)[0] for f, r in zip(super().fitted(x), self.restarts)]
 
     def jacobian(self, x: np.ndarray) -> np.ndarray:
         """d residuals / d x: the plain Jacobian's rows of the samples the hold passes on, and the hold's signs."""
         jac = super().jacobian(x)
-        for f, rows in zip(super().fitted(x), self.blocks):
-            _, src, sign = _hold_path(f, x[-1])
+        for f, rows, restarts in zip(super().fitted(x), self.blocks, self.restarts):
+            _, src, sign = _hold_path(f, x[-1], restarts)
             jac[rows] = jac[rows][src]
             jac[rows, -1] = sign
         return jac
@@ -438,6 +451,7 @@ def fit_pt2_hold(windows: list[WindowData], plain: PT2Fit) -> PT2Fit:
     fit = _solve(model, starts, (*lower, 0.0), (*upper, widest), keep=len(starts), plain=plain)
     return replace(
         fit,
+        hold=replace(fit.hold, restarts=sum(int(np.sum(w.restarts)) for w in windows if w.restarts is not None)),
         cov=fit.cov + np.outer(fit.hold.shift, fit.hold.shift),
         # a width of zero is a signal without a hold, not a search that ran out of room
         at_bound=tuple(n for n in fit.at_bound if n != "hold" or fit.hold.width > widest / 2),

@@ -48,6 +48,9 @@ class Signal:
     tracked: str = ""
     """What `sloshid track` measured in a video ('float' or 'surface'), '' for other signals: identification allows
     for the video encoder's hold in tracked signals (pt2fit.fit_pt2_hold)."""
+    key_t_s: np.ndarray | None = None
+    """Tracked signals: times of the video's key frames (coded without the previous pictures), where the encoder's
+    hold restarts; None when unknown."""
 
     @property
     def rate_hz(self) -> float:
@@ -77,6 +80,13 @@ class Signal:
             "n_gaps": self.n_gaps,
             "n_dropped": self.n_dropped,
         }
+
+    def hold_restarts(self) -> np.ndarray | None:
+        """True at the samples that are the first after a key frame (the first sample starts the hold anyway)."""
+        if self.key_t_s is None:
+            return None
+        seen = np.searchsorted(self.key_t_s, self.t_s, side="right")  # key frames at or before each sample
+        return np.concatenate([[False], np.diff(seen) > 0])
 
     def between(self, t0: float, t1: float) -> Signal:
         """The part of the signal with t0 <= t <= t1."""
@@ -116,6 +126,7 @@ class TracedAngles(Protocol):
     angle_deg: np.ndarray
     valid: np.ndarray
     target: str
+    key_frame: np.ndarray
 
 
 def signal_from_track(track: TracedAngles) -> Signal:
@@ -123,7 +134,7 @@ def signal_from_track(track: TracedAngles) -> Signal:
     ok = np.asarray(track.valid).astype(bool)
     dropped = int((~ok).sum())
     sig = make_signal(track.t_s[ok], track.angle_deg[ok], "angle_deg", "deg", str(track.video), n_dropped=dropped)
-    sig = replace(sig, tracked=track.target)
+    sig = replace(sig, tracked=track.target, key_t_s=track.t_s[np.asarray(track.key_frame, bool)])
     if dropped:
         sig = replace(sig, warnings=(*sig.warnings, f"{track.video}: skipped {dropped} tracker frames with valid = 0."))
     return sig
@@ -232,6 +243,8 @@ def _load_csv(p: Path, time_col: str | None, value_col: str | None, progress: bo
         chosen["v"] = _column_index(vcol, header, ncols, p, "value")
         if is_tracker and header[chosen["v"]] == "angle_deg":
             chosen["valid"] = header.index("valid")
+            if "key_frame" in header:  # written since the tracker reports key frames; older files lack it
+                chosen["key"] = header.index("key_frame")
         return list(chosen.values())
 
     table = read_table(p, pick, progress)
@@ -245,8 +258,11 @@ def _load_csv(p: Path, time_col: str | None, value_col: str | None, progress: bo
     header = table.header or []
     label = header[chosen["v"]] if header else f"column {chosen['v']}"
     tracked = ("surface" if "surface_angle_deg" in header else "float") if set(TRACKER_COLUMNS) <= set(header) else ""
+    keys = t[table.data[:, 3] == 1] if "key" in chosen else None
     sig = replace(
-        make_signal(t[keep], y[keep], label, unit_from_name(label), str(p), n_dropped=dropped), tracked=tracked
+        make_signal(t[keep], y[keep], label, unit_from_name(label), str(p), n_dropped=dropped),
+        tracked=tracked,
+        key_t_s=keys,
     )
     if dropped:
         sig = replace(sig, warnings=(*sig.warnings, f"{p}: skipped {dropped} tracker frames with valid = 0."))

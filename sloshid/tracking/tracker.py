@@ -30,6 +30,7 @@ from sloshid.tracking.smooth import SmoothingWorker
 from sloshid.tracking.surface_track import SurfaceStep
 from sloshid.video.colors import DEFAULT_FLOAT_COLOR, HsvRange, preset
 from sloshid.video.frames import FrameReader, VideoWriter
+from sloshid.video.keyframes import key_frame_times
 
 TRACK_COLUMNS = (
     "frame",
@@ -42,6 +43,7 @@ TRACK_COLUMNS = (
     "quality",
     "valid",
     "angle_smoothed_deg",
+    "key_frame",
 )
 """Output columns of `sloshid track` (the contract with identify/batch/pipeline)."""
 
@@ -173,6 +175,9 @@ class TrackResult:
     repeated: np.ndarray = field(default_factory=lambda: np.zeros(0, bool))
     """Frames whose picture of the float/surface the encoder copied from the previous frame while it moved
     (valid = 0: an old picture is not a new measurement)."""
+    key_frame: np.ndarray = field(default_factory=lambda: np.zeros(0, int))
+    """1 on the video's key frames (coded afresh, without earlier pictures): there the encoder's hold of slowly moving
+    edges restarts, which identify models (pt2fit.encoder_hold)."""
 
     @property
     def invalid_share(self) -> float:
@@ -366,6 +371,7 @@ def track_video(
         smooth = smoother.smooth if smoother is not None else None
         res = _result(Path(path), body, reader.lost_share, reader.info.frame_count, smooth, repeated, settings.target)
     res.target, res.walls, res.repeated = settings.target, walls, repeated
+    res.key_frame = np.isin(res.t_s, key_frame_times(path)).astype(int)
     return res
 
 
