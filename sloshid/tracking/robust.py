@@ -51,10 +51,12 @@ def _line(x: np.ndarray, y: np.ndarray) -> np.ndarray | None:
     return np.array([slope, (sy - slope * sx) / n])
 
 
-def normal_solve(basis: np.ndarray, y: np.ndarray) -> np.ndarray | None:
-    """Least-squares coefficients by the normal equations, or None when the basis is singular."""
+def normal_solve(basis: np.ndarray, y: np.ndarray, rows: np.ndarray | None = None) -> np.ndarray | None:
+    """Least-squares coefficients by the normal equations (over the `rows` mask when given), or None when the basis
+    is singular. The mask weights the sums instead of copying the rows: the robust fits call this every pass."""
+    bt = basis.T if rows is None else basis.T * rows
     try:
-        return np.linalg.solve(basis.T @ basis, basis.T @ y)
+        return np.linalg.solve(bt @ basis, bt @ y)
     except np.linalg.LinAlgError:
         return None
 

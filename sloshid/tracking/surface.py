@@ -105,12 +105,13 @@ def refine_on_luma(gray: np.ndarray, pos: np.ndarray, ok: np.ndarray, reach: int
     (the crossing closest to the estimate). Columns without that contrast keep their estimate.
     """
     n = gray.shape[0]
-    base = np.rint(pos).astype(int)
+    base = np.rint(pos).astype(np.intp)
     offs = np.arange(-reach, reach + 1)
-    rows = np.clip(base[None, :] + offs[:, None], 0, n - 1)
-    prof = gray[rows, np.arange(gray.shape[1])[None, :]]
+    rows = base + offs[:, None]
+    np.minimum(np.maximum(rows, 0, out=rows), n - 1, out=rows)
+    prof = gray[rows, np.arange(gray.shape[1])]
     n_lvl = max(1, reach // 2)  # the outer samples give the two levels
-    lo, hi = prof[:n_lvl].mean(axis=0), prof[-n_lvl:].mean(axis=0)
+    lo, hi = prof[:n_lvl].sum(axis=0) / n_lvl, prof[-n_lvl:].sum(axis=0) / n_lvl
     mid = 0.5 * (lo + hi)
     d = prof - mid
     cross = (d[:-1] * d[1:] <= 0) & (d[:-1] != d[1:])
@@ -224,7 +225,8 @@ class SurfaceFinder:
         X0, Y0 = origin
         walls, o, e_u, e_w = geom
         (aL, bL), (aR, bR) = walls
-        ytop = float(np.argmax(body.max(axis=1) >= 0.5))
+        first = int(np.argmax(body.ravel() >= 0.5)) // body.shape[1]  # the liquid's top row: its first pixel's
+        ytop = float(first)
         uL = (np.array([aL * ytop + bL, ytop]) - o) @ e_u
         uR = (np.array([aR * ytop + bR, ytop]) - o) @ e_u
         half, uc = 0.5 * (uR - uL), 0.5 * (uR + uL)
@@ -233,10 +235,11 @@ class SurfaceFinder:
         if half < 10 or len(cols) < 12:
             return SurfaceMeasurement(False, liquid=True)
         span = slice(cols[0], cols[-1] + 1)  # views, not copies: the columns are consecutive
-        front, ok = _crossings_first(body[:, span], axis=0)
-        front = refine_on_luma(gray[:, span], front, ok)
-        p = np.column_stack([cols.astype(float), front]) - o
-        u, wv = p @ e_u, p @ e_w
+        start = max(0, first - 1)  # no row above the top one crosses; one row of it keeps a crossing there found
+        front, ok = _crossings_first(body[start:, span], axis=0)
+        front = refine_on_luma(gray[:, span], front + start, ok)
+        du, dw = cols - o[0], front - o[1]
+        u, wv = du * e_u[0] + dw * e_u[1], du * e_w[0] + dw * e_w[1]
         s = (u - uc) / half
         ok &= _locally_consistent(wv, ok)
         # the elevation is fitted in the first frames and then held (a static camera): slopes separate from it
@@ -249,7 +252,7 @@ class SurfaceFinder:
         (c0, c1, c3, k), keep, rms = fit
         if held is None:
             self._k.append(k / half)
-        kept = keep.mean() * ok.mean()
+        kept = np.count_nonzero(keep) / keep.size * np.count_nonzero(ok) / ok.size
         left, right = c0 - c1 - c3, c0 + c1 + c3
         to_img = lambda uu, ww: o + uu * e_u + ww * e_w + np.array([X0, Y0])  # noqa: E731
         line = c1 + LINE_SLOPE_OF_CUBIC * c3
@@ -279,8 +282,9 @@ def _body_box(body: np.ndarray, origin: tuple[int, int]) -> tuple[int, int, int,
     """Frame box (x0, y0, x1, y1) of the liquid in a membership map: columns holding a tenth of the fullest
     column's liquid pixels (stripes cut columns, not the body's sides) and rows holding a twentieth of the fullest
     row's (a sloped surface thins out at its top); None when that box touches the map's sides or bottom."""
-    inside = body >= 0.5
-    per_col, per_row = np.count_nonzero(inside, axis=0), np.count_nonzero(inside, axis=1)
+    inside = cv2.compare(body, 0.5, cv2.CMP_GE)  # 255 inside: OpenCV's row and column sums, a third of NumPy's cost
+    per_col = cv2.reduce(inside, 0, cv2.REDUCE_SUM, dtype=cv2.CV_32S).ravel() // 255
+    per_row = cv2.reduce(inside, 1, cv2.REDUCE_SUM, dtype=cv2.CV_32S).ravel() // 255
     if per_col.max() < 10 or per_row.max() < 10:
         return None
     c = np.flatnonzero(per_col >= 0.1 * per_col.max())
@@ -306,7 +310,8 @@ def _locally_consistent(w: np.ndarray, ok: np.ndarray) -> np.ndarray:
     size = max(7, (int(ok.sum()) // 6) | 1)  # odd: the running median is the middle of each window
     v, h = w[ok], size // 2
     padded = np.concatenate([np.full(h, v[0]), v, np.full(h, v[-1])])  # edge padding, as np.pad's "edge"
-    windows = np.lib.stride_tricks.sliding_window_view(padded, size)
+    step = padded.strides[0]  # overlapping windows as one strided view (sliding_window_view's checks cost more)
+    windows = np.ndarray((v.size, size), padded.dtype, padded, strides=(step, step))
     r = v - np.partition(windows, size // 2, axis=1)[:, size // 2]
     dev = np.abs(r - median(r))
     keep[ok] = dev < max(3 * 1.4826 * median(dev), 0.7)
@@ -320,21 +325,24 @@ def _fit_front(s: np.ndarray, w: np.ndarray, min_points: int, k: float | None = 
     k = R sin(elevation) below it at the centre and meets it at the walls. k is fitted when not given.
     Returns ((c0, c1, c3, k), inliers, rms) or None. Each pass drops points more than 3 MAD (at least 0.5 px) off.
     """
-    chord = np.sqrt(np.clip(1 - s * s, 0, None))
+    chord = np.sqrt(np.maximum(1 - s * s, 0))
+    basis = np.empty((s.size, 3 if k is not None else 4))
+    basis[:, 0], basis[:, 1], basis[:, 2] = 1.0, s, s**3
     if k is not None:
-        fit = _fit_front_basis(np.column_stack([np.ones_like(s), s, s**3]), w + k * chord, min_points)
+        fit = _fit_front_basis(basis, w + k * chord, min_points)
         return None if fit is None else ((*fit[0], k), *fit[1:])
-    return _fit_front_basis(np.column_stack([np.ones_like(s), s, s**3, -chord]), w, min_points)
+    basis[:, 3] = -chord
+    return _fit_front_basis(basis, w, min_points)
 
 
 def _fit_front_basis(basis: np.ndarray, w: np.ndarray, min_points: int):
     """Iteratively trimmed linear least squares of w on the basis columns: (coefficients, inliers, rms) or None."""
     keep = np.ones(len(w), bool)
     for passes in range(5):
-        if keep.sum() < min_points:
+        if np.count_nonzero(keep) < min_points:
             return None
         # normal equations: at most four well-separated columns on [-1, 1], hundreds of rows
-        coef = normal_solve(basis[keep], w[keep])
+        coef = normal_solve(basis, w, keep)
         if coef is None:
             return None
         res = np.abs(w - basis @ coef)
@@ -344,7 +352,8 @@ def _fit_front_basis(basis: np.ndarray, w: np.ndarray, min_points: int):
         if np.array_equal(new, keep):  # converged: further passes would repeat this fit
             break
         keep = new
-    return coef, keep, float(np.sqrt(np.mean(res[keep] ** 2)))
+    kept = res[keep]
+    return coef, keep, math.sqrt(kept @ kept / kept.size)
 
 
 def _shifted(geom: tuple, shift: tuple[int, int]) -> tuple:
