@@ -16,6 +16,7 @@ import pytest
 from sloshid.synthetic.render import SynthSettings, render_video
 from sloshid.tracking.robust import median, robust_polyfit
 from sloshid.video.frames import FrameReader, Picture, _signals_held
+from sloshid.video.keyframes import key_frame_times
 
 
 def _planes(bgr: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -129,3 +130,19 @@ def test_median_matches_numpy():
     for n in (1, 2, 7, 50, 51):
         values = rng.normal(size=n)
         assert median(values) == pytest.approx(float(np.median(values)), abs=1e-15)
+
+
+def test_a_reader_from_a_key_frame_yields_what_a_reader_from_the_start_does(tmp_path):
+    # MPEG-4 puts a key frame every 12 frames: a span from the second or third key frame (found by seeking) and a span
+    # ending at the next one give exactly the frames, times and pixels of one reader from the start
+    path = tmp_path / "k.mp4"
+    render_video(path, SynthSettings(width=160, height=120, fps=30, duration_s=1.5, codec="mpeg4", seed=3))
+    whole = list(FrameReader(path, multithreaded=False))
+    keys = key_frame_times(path)
+    assert len(keys) >= 3
+    for start, end in ((keys[1], keys[2]), (keys[2], None)):
+        span = list(FrameReader(path, multithreaded=False, start_s=float(start), end_s=end))
+        want = [(t, a) for _, t, a in whole if t >= start and (end is None or t < end)]
+        assert [t for _, t, _ in span] == [t for t, _ in want] and len(span) > 0
+        for (_, _, a), (_, b) in zip(span, want):
+            np.testing.assert_array_equal(a, b)

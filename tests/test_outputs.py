@@ -388,3 +388,36 @@ def test_predict_and_validate_never_overwrite_their_inputs(tmp_path, run_cli):
     code, _, err = run_cli("validate", "--trajectory", log, "--measured", log, "--params", params, "--report", site)
     _one_sentence(code, err)
     assert (site / "index.html").read_text() == "mine"
+
+
+def _children(pid: int) -> set[int]:
+    """Process ids of the direct children of a process (Linux)."""
+    path = Path(f"/proc/{pid}/task/{pid}/children")
+    return {int(p) for p in path.read_text().split()} if path.exists() else set()
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="spans run in forked processes on Linux only")
+def test_sigterm_while_spans_run_side_by_side_ends_every_worker_and_writes_nothing(tmp_path):
+    # a 25 s MPEG-4 video (a key frame every 12 frames) is tracked in two spans, each in its own process: SIGTERM to
+    # sloshid ends them all, exit 143, no CSV
+    from sloshid.synthetic.render import SynthSettings, render_video
+
+    video = tmp_path / "long.mp4"
+    render_video(video, SynthSettings(width=160, height=120, fps=30, duration_s=25.0, codec="mpeg4", seed=4))
+    out = tmp_path / "out"
+    out.mkdir()
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "sloshid", "track", video, "-o", out / "a.csv"], stderr=subprocess.PIPE
+    )
+    deadline, workers = time.monotonic() + 60, set()
+    while len(workers) < 3 and time.monotonic() < deadline and proc.poll() is None:
+        workers = _children(proc.pid)  # the smoother and two span workers
+        time.sleep(0.005)
+    if proc.poll() is not None or len(workers) < 3:
+        pytest.skip("tracking finished before it could be interrupted")
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 143, err
+    assert list(out.iterdir()) == []
+    time.sleep(0.5)
+    assert not [pid for pid in workers if Path(f"/proc/{pid}").exists()]

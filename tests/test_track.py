@@ -15,10 +15,12 @@ from sloshid.core.tables import read_csv
 from sloshid.identification.estimator import Identifier
 from sloshid.identification.signals import load_signal, make_signal, signal_from_track
 from sloshid.synthetic.render import SynthSettings, frame_times, relative_angle_rad, render_frames, render_video
+from sloshid.tracking import tracker
 from sloshid.tracking.smooth import smooth_angle
 from sloshid.tracking.tracker import TRACK_COLUMNS, TrackSettings, track_video
 from sloshid.video.colors import PRESETS
-from sloshid.video.frames import FrameReader, VideoWriter
+from sloshid.video.frames import FrameReader, VideoInfo, VideoWriter
+from sloshid.video.keyframes import key_frame_times
 
 # Small, fast videos: 320x240, 2 s, H.264 CRF 18. The float is 72 px long (0.3 of the height); at this size
 # H.264's half-resolution chroma carries the float's colour on only ~36x6 samples, so tolerances are looser
@@ -513,3 +515,58 @@ def test_tracked_clip_keeps_the_dynamics(tmp_path):
     assert got["zeta"].value == pytest.approx(want["zeta"].value, rel=0.03)
     for key in ("f_hz", "zeta"):
         assert got[key].ci95[0] <= want[key].value <= got[key].ci95[1]
+
+
+def test_spans_give_one_table_in_every_mode_and_lose_no_frame(tmp_path, monkeypatch):
+    # a long video is tracked in spans from key frames; here MPEG-4 puts one every 0.4 s and the spans are 1 s
+    # instead of 10 s. Side by side in processes, one after the other on one core, and while drawing an overlay, the
+    # table is the same; against one span over the whole video no frame is lost or doubled, and the angles differ
+    # only by the few frames in which each span's tracker settles
+    path = tmp_path / "s.mp4"
+    truth = render_video(path, SynthSettings(**{**SURFACE, "codec": "mpeg4", "quality": 3}))
+    monkeypatch.setattr(tracker, "SPAN_S", 1.0)
+    reader = FrameReader(path)
+    spans = tracker._spans(reader.info, key_frame_times(path))
+    reader.close()
+    assert len(spans) >= 3 and spans[0][0] is None and spans[-1][1] is None
+    settings = TrackSettings(target="surface", reference="container", container_diameter_m=0.1)
+    parallel = track_video(path, settings)
+    for other in (
+        track_video(path, settings, multithreaded=False),
+        track_video(path, settings, overlay=tmp_path / "o.mp4"),
+    ):
+        for name, column in parallel.columns().items():
+            np.testing.assert_array_equal(other.columns()[name], column, err_msg=name)
+    monkeypatch.setattr(tracker, "SPAN_S", 1e9)
+    whole = track_video(path, settings)
+    np.testing.assert_array_equal(whole.t_s, parallel.t_s)
+    np.testing.assert_array_equal(whole.frame, parallel.frame)
+    ok = parallel.valid.astype(bool) & whole.valid.astype(bool)
+    assert ok.mean() > 0.7
+    # measured: 0.007 deg and 0.10 px between the two; both 0.072 deg and 0.44 px from the truth
+    assert _rmse((parallel.angle_deg - whole.angle_deg)[ok]) < 0.03
+    assert _rmse((parallel.angle_deg - truth["rel_angle_deg"])[ok]) < 0.3
+    left = parallel.columns()["left_wall_px"] - whole.columns()["left_wall_px"]
+    assert _rmse(left[ok]) < 0.3
+
+
+def test_spans_start_at_key_frames_far_enough_apart():
+    # 120 s at 30 fps with a key frame every 4 s: spans from the first key frame at least SPAN_S (10 s) after the last
+    # start, none starting within 10 s of the end; a video whose frames carry no timestamps is one span
+    info = VideoInfo(Path("v.mp4"), 640, 480, 30.0, 3600)
+    keys = np.arange(0.0, 120.0, 4.0)
+    assert tracker._spans(info, keys) == [
+        (None, 12.0),
+        (12.0, 24.0),
+        (24.0, 36.0),
+        (36.0, 48.0),
+        (48.0, 60.0),
+        (60.0, 72.0),
+        (72.0, 84.0),
+        (84.0, 96.0),
+        (96.0, 108.0),
+        (108.0, None),
+    ]
+    assert tracker._spans(info, np.array([0.0])) == [(None, None)]
+    assert tracker._spans(replace(info, timed=False), keys) == [(None, None)]
+    assert tracker._spans(replace(info, frame_count=500), keys) == [(None, None)]  # 16.7 s: too short for two

@@ -18,6 +18,7 @@ from sloshid.tracking.container_ref import ContainerTracker
 from sloshid.tracking.overlay import draw_surface_overlay
 from sloshid.tracking.repeats import REPEAT_SHARE, repeated_share
 from sloshid.tracking.surface import SurfaceFinder
+from sloshid.video.colors import HsvRange
 
 VALID_QUALITY = 0.5
 """Frames whose surface quality is below this are marked valid = 0."""
@@ -26,9 +27,10 @@ VALID_QUALITY = 0.5
 class SurfaceStep:
     """Measures the liquid surface frame by frame and assembles the surface columns at the end."""
 
-    def __init__(self, settings, roi: tuple[int, int, int, int]) -> None:
+    def __init__(self, settings, roi: tuple[int, int, int, int], liquid: HsvRange | None = None) -> None:
+        """`liquid`: the dye's HSV box when already chosen (else the settings', else chosen from the first frame)."""
         self.settings, self.roi = settings, roi
-        self.finder = SurfaceFinder(settings.liquid_hsv, roi)
+        self.finder = SurfaceFinder(liquid or settings.liquid_hsv, roi)
         self.liquid_frames = 0
         self.previous: np.ndarray | None = None
         self.repeated: list[bool] = []
@@ -55,6 +57,11 @@ class SurfaceStep:
         raw = (m.rel_slope, m.container_angle_deg, m.left_w, m.right_w, m.width_px, m.opening_px)
         drawn = draw_surface_overlay(frame, m, angle, ok, self.roi, self.settings.reference) if draw else None
         return row + raw, drawn
+
+    def merge(self, later: SurfaceStep) -> None:
+        """Take in what the step of a later span of the same video found (for `nothing_found`)."""
+        self.liquid_frames += later.liquid_frames
+        self.finder.hsv = self.finder.hsv or later.finder.hsv
 
     def nothing_found(self, n: int, path: Path, hint: str) -> UserError:
         """The one-sentence error when no frame was valid: no liquid of that colour, or no container around it."""

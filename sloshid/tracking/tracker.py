@@ -10,7 +10,12 @@ overlay video showing what was measured.
 from __future__ import annotations
 
 import contextlib
+import itertools
 import math
+import multiprocessing
+import os
+import signal
+import sys
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -27,9 +32,10 @@ from sloshid.tracking.float_angle import FloatFinder
 from sloshid.tracking.overlay import draw_overlay
 from sloshid.tracking.repeats import REPEAT_SHARE, repeated_share, stale_repeats
 from sloshid.tracking.smooth import SmoothingWorker
+from sloshid.tracking.surface import auto_liquid_range
 from sloshid.tracking.surface_track import SurfaceStep
 from sloshid.video.colors import DEFAULT_FLOAT_COLOR, HsvRange, preset
-from sloshid.video.frames import FrameReader, VideoWriter
+from sloshid.video.frames import FrameReader, VideoInfo, VideoWriter, lost_share
 from sloshid.video.keyframes import key_frame_times
 
 TRACK_COLUMNS = (
@@ -291,6 +297,10 @@ class _FloatStep:
         row = (angle, float_angle, cm.angle_deg, fm.x_px, fm.y_px, fm.quality if cm.found else 0.0, int(ok))
         return row, draw_overlay(frame, fm, cm, angle, ok, self.roi) if draw else None
 
+    def merge(self, later: _FloatStep) -> None:
+        """Take in what the step of a later span of the same video found (for `nothing_found`)."""
+        self.found += later.found
+
     def nothing_found(self, n: int, path: Path, hint: str) -> UserError:
         """The one-sentence error when no frame was valid."""
         if self.walls is not None and self.found:
@@ -322,14 +332,21 @@ def track_video(
     Raises UserError for unreadable videos, a bad ROI, and a float or liquid (or the container walls they need)
     found in no frame; the overlay, if requested, is still written then: it shows what was searched.
     Truncation and partial loss are reported in `warnings`, `lost_share`, `invalid_share`.
-    multithreaded=False decodes on one core in this thread (for batches that run many videos side by side).
+    A long video is tracked in spans (`SPAN_S`), side by side in processes when `multithreaded` and no overlay is
+    written; multithreaded=False tracks them one after the other on one core in this thread (for batches that run
+    many videos side by side). The table is the same either way.
     """
     settings = settings or TrackSettings()
     reader = FrameReader(Path(path), multithreaded, pictures=True)
     width, height = reader.frame_size
     roi = _roi_box(settings, width, height)
-    step = _FloatStep(settings, roi) if settings.target == "float" else SurfaceStep(settings, roi)
-    rows: list[tuple] = []
+    key_times = key_frame_times(path)
+    spans = _spans(reader.info, key_times)
+    reader.end_s = spans[0][1]
+    liquid = settings.liquid_hsv
+    if settings.target == "surface" and liquid is None:  # one automatic dye colour for every span: the first frame's
+        liquid = auto_liquid_range(reader.first_picture(), roi)
+    parallel = multithreaded and overlay is None and len(spans) > 1 and _can_fork()
     with contextlib.ExitStack() as workers:
         # the smoother's imports load beside decoding, on the other core, instead of after it
         smoother = SmoothingWorker(fork=multithreaded) if settings.smooth else None
@@ -340,21 +357,20 @@ def track_video(
             if overlay is not None:
                 tmp = stack.enter_context(atomic_path(overlay))
                 writer = stack.enter_context(VideoWriter(tmp, width, height, reader.info.fps or 30.0, "h264", 20))
-            frames = tqdm(
-                reader,
-                total=reader.info.frame_count or None,
-                desc="track",
-                unit="frame",
-                disable=None if progress else True,
-                leave=False,
-            )
-            for index, t, frame in frames:
-                if writer is not None:  # the overlay is drawn on the whole picture: convert it all once
-                    frame = np.asarray(frame)
-                row, drawn = step(frame, writer is not None)
-                rows.append((index, t, *row))
-                if writer is not None:
-                    writer.write(drawn, t)
+            jobs = [(Path(path), settings, roi, liquid, span) for span in spans]
+            if parallel:
+                reader.close()
+                parts = _parallel_spans(jobs, reader.info.frame_count, reader.info.duration_s, progress)
+            else:
+                bar = stack.enter_context(_progress_bar(reader.info.frame_count, progress))
+                parts = [_track_frames(reader, _step(settings, roi, liquid), bar.update, writer)]
+                for job in jobs[1:]:
+                    span_reader = FrameReader(job[0], multithreaded, pictures=True, start_s=job[4][0], end_s=job[4][1])
+                    parts.append(_track_frames(span_reader, _step(settings, roi, liquid), bar.update, writer))
+        step = parts[0].step
+        for part in parts[1:]:
+            step.merge(part.step)
+        rows = [(index, *row) for index, row in enumerate(row for part in parts for row in part.rows)]
         # raised after the overlay is finished: when nothing is found, the overlay is the user's diagnosis
         if not any(r[8] for r in rows):
             hint = (
@@ -366,13 +382,128 @@ def track_video(
         body, walls = [r[:9] for r in rows], {}
         if settings.target == "surface":
             body, walls = step.finish(rows)
-        repeated = stale_repeats(np.array([r[2] for r in body]), np.array([r[8] for r in body], bool), step.repeated)
+        flags = [flag for part in parts for flag in part.repeated]
+        repeated = stale_repeats(np.array([r[2] for r in body]), np.array([r[8] for r in body], bool), flags)
         body = [(*r[:8], int(r[8] and not rep)) for r, rep in zip(body, repeated)]
         smooth = smoother.smooth if smoother is not None else None
-        res = _result(Path(path), body, reader.lost_share, reader.info.frame_count, smooth, repeated, settings.target)
+        lost = lost_share(reader.info.frame_count, len(rows))
+        res = _result(Path(path), body, lost, reader.info.frame_count, smooth, repeated, settings.target)
     res.target, res.walls, res.repeated = settings.target, walls, repeated
-    res.key_frame = np.isin(res.t_s, key_frame_times(path)).astype(int)
+    res.key_frame = np.isin(res.t_s, key_times).astype(int)
     return res
+
+
+SPAN_S = 10.0
+"""A video is tracked in spans that start at key frames at least this far apart (none within this of the end).
+Decoding a span needs nothing from before its key frame, and the trackers' state (where the float or the liquid
+is, its colour model, the camera's elevation) settles within a fraction of a second, so spans can run side by side;
+every mode tracks the same spans, so the table does not depend on how many ran at once."""
+
+
+@dataclass
+class _Span:
+    """One span's table rows (time first, no frame index), repeat flags, and its tracker step (what it found)."""
+
+    rows: list[tuple]
+    repeated: list[bool]
+    step: _FloatStep | SurfaceStep
+
+
+def _spans(info: VideoInfo, key_times: np.ndarray) -> list[tuple[float | None, float | None]]:
+    """(start, end) presentation times of the spans (None: the video's start or end), from its key frames."""
+    if not info.timed or not info.fps:
+        return [(None, None)]
+    end = info.duration_s
+    starts: list[float] = []
+    for k in key_times:
+        if k - (starts[-1] if starts else 0.0) >= SPAN_S and end - k >= SPAN_S:
+            starts.append(float(k))
+    bounds = [None, *starts, None]
+    return list(itertools.pairwise(bounds))
+
+
+def _step(settings: TrackSettings, roi: tuple[int, int, int, int], liquid: HsvRange | None):
+    """A fresh per-frame measurement step of the target."""
+    return _FloatStep(settings, roi) if settings.target == "float" else SurfaceStep(settings, roi, liquid)
+
+
+def _track_frames(reader: FrameReader, step, tick: Callable[[int], object], writer: VideoWriter | None = None) -> _Span:
+    """Measure every frame the reader yields with `step` (drawing the overlay into `writer`); tick(1) per frame."""
+    rows: list[tuple] = []
+    for _, t, frame in reader:
+        if writer is not None:  # the overlay is drawn on the whole picture: convert it all once
+            frame = np.asarray(frame)
+        row, drawn = step(frame, writer is not None)
+        rows.append((t, *row))
+        if writer is not None:
+            writer.write(drawn, t)
+        tick(1)
+    step.previous = None  # the last picture: not needed any more, and it holds the decoder's buffers
+    return _Span(rows, step.repeated, step)
+
+
+def _progress_bar(total: int, progress: bool) -> tqdm:
+    """The frames' progress bar (shown only when asked and stderr is a terminal)."""
+    return tqdm(total=total or None, desc="track", unit="frame", disable=None if progress else True, leave=False)
+
+
+def _can_fork() -> bool:
+    """Spans can run in forked processes: on Linux, and not from a daemonic process (which may have no children)."""
+    return sys.platform.startswith("linux") and not multiprocessing.current_process().daemon
+
+
+_done = None
+"""In a span worker: the shared count of frames tracked, which the parent's progress bar shows."""
+
+
+def _parallel_spans(jobs: list[tuple], total: int, duration: float, progress: bool) -> list[_Span]:
+    """Track the spans in forked processes, one per core, in order; the progress bar counts their frames."""
+    ctx = multiprocessing.get_context("fork")
+    done = ctx.Value("q", 0)
+    # the longest spans first (the last one runs on to the end): no core waits long for another's last span
+    order = sorted(range(len(jobs)), key=lambda k: -_length(jobs[k][4], duration))
+    with ctx.Pool(min(len(jobs), os.cpu_count() or 1), _start_worker, (done,)) as pool:
+        pending = pool.map_async(_span_job, [jobs[k] for k in order], chunksize=1)
+        with _progress_bar(total, progress) as bar:  # after the fork: its monitor thread stays here
+            while not pending.ready():
+                pending.wait(0.1)
+                bar.update(done.value - bar.n)
+            bar.update(done.value - bar.n)
+        parts = pending.get()
+    return [parts[order.index(k)] for k in range(len(jobs))]
+
+
+def _length(span: tuple[float | None, float | None], duration: float) -> float:
+    """Seconds of video in a span."""
+    start, end = span
+    return (duration if end is None else end) - (start or 0.0)
+
+
+def _start_worker(done) -> None:
+    """A span worker: SIGTERM (the pool's terminate) ends it at once; Ctrl-C is the parent's to handle."""
+    global _done
+    _done = done
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+def _span_job(job: tuple) -> _Span:
+    """Track one span in a worker (decoding in this process's one thread)."""
+    path, settings, roi, liquid, (start, end) = job
+    counted = [0]
+
+    def tick(n: int) -> None:
+        counted[0] += n
+        if counted[0] >= 30:  # the shared counter's lock costs more than a frame's bookkeeping
+            with _done.get_lock():
+                _done.value += counted[0]
+            counted[0] = 0
+
+    part = _track_frames(
+        FrameReader(path, False, pictures=True, start_s=start, end_s=end), _step(settings, roi, liquid), tick
+    )
+    tick(30)
+    return part
 
 
 def _result(

@@ -1,8 +1,9 @@
 """Video in and out through PyAV (FFmpeg): sequential reading with presentation timestamps, writing with exact pts.
 
-Reading never seeks: frames come in decode order with the stream's own presentation time (from its start, as
-OpenCV's CAP_PROP_POS_MSEC), so variable-frame-rate files keep their real timing, and orientation metadata turns
-the picture as players show it. A decoded 4:2:0 frame stays in its YUV planes (`Picture`) until a part of it is
+Frames come in order with the stream's own presentation time (from its start, as OpenCV's CAP_PROP_POS_MSEC), so
+variable-frame-rate files keep their real timing, and orientation metadata turns the picture as players show it.
+A reader seeks only to start a span of the video at one of its key frames (`start_s`), and then yields exactly the
+frames a reader from the beginning yields from that time on. A decoded 4:2:0 frame stays in its YUV planes (`Picture`) until a part of it is
 looked at: converting the whole frame to BGR costs about as much as decoding a 640x480 H.264 frame, and the tracker
 needs a box around the float or the liquid. Writing uses PyAV because OpenCV's writer in this environment has no
 H.264 encoder; every frame gets an explicit pts, so VFR files can be written.
@@ -11,6 +12,7 @@ H.264 encoder; every frame gets an explicit pts, so VFR files can be written.
 from __future__ import annotations
 
 import contextlib
+import itertools
 import os
 import queue
 import signal
@@ -46,6 +48,13 @@ class VideoInfo:
     fps: float
     frame_count: int
     """Frames the container declares (0 when unknown)."""
+    timed: bool = True
+    """The frames carry presentation timestamps, so a reader can start a span at a key frame (`start_s`)."""
+
+    @property
+    def duration_s(self) -> float:
+        """Declared length in seconds (0 when the frame count or the rate is unknown)."""
+        return self.frame_count / self.fps if self.fps else 0.0
 
 
 class Picture:
@@ -153,6 +162,11 @@ class FrameReader:
     off when many videos run side by side and each should use one core."""
     pictures: bool = False
     """Yield `Picture`s, which convert only the sliced part to BGR, instead of whole BGR arrays (the tracker)."""
+    start_s: float | None = None
+    """Yield the frames from this presentation time on (a key frame's, as `key_frame_times` gives them): decoding
+    starts at the key frame at or before it, found by seeking."""
+    end_s: float | None = None
+    """Yield only the frames before this presentation time."""
     info: VideoInfo = field(init=False)
     decoded: int = field(init=False, default=0)
 
@@ -178,6 +192,9 @@ class FrameReader:
         threads = _decode_threads(self.multithreaded)
         stream.thread_type, stream.thread_count = ("AUTO" if threads > 1 else "NONE"), threads
         self._start = stream.start_time or 0
+        if self.start_s is not None:  # the last key frame at or before start_s: a frame early, never a frame late
+            ticks = int(self.start_s / stream.time_base) + self._start
+            self._container.seek(ticks, stream=stream, backward=True, any_frame=False)
         self._frames = self._decode_frames(av.FFmpegError)
         self._first = next(self._frames, None)
         if self._first is None:
@@ -186,7 +203,7 @@ class FrameReader:
         h, w = _as_shown(self._first, True).shape[:2]
         fps = float(stream.average_rate or stream.guessed_rate or 0.0)
         count = stream.frames or (round(float(stream.duration * stream.time_base) * fps) if stream.duration else 0)
-        self.info = VideoInfo(self.path, w, h, fps, int(count))
+        self.info = VideoInfo(self.path, w, h, fps, int(count), self._first.pts is not None)
 
     def _decode_frames(self, errors: type[Exception]) -> Iterator:
         """PyAV frames in order until the end or the first undecodable data (a truncated file)."""
@@ -207,12 +224,18 @@ class FrameReader:
         return t_s, _as_shown(frame, self.pictures)
 
     def _produce(self) -> Iterator[tuple[float, np.ndarray | Picture]]:
-        """(t_s, picture) of every frame, the one decoded at opening first."""
+        """(t_s, picture) of every frame of the span, the one decoded at opening first."""
+        frames = self._frames
         if self._first is not None:
-            first, self._first = self._first, None
-            yield self._timed(first)
-        for frame in self._frames:
-            yield self._timed(frame)
+            frames = itertools.chain([self._first], frames)
+            self._first = None
+        for frame in frames:
+            t_s, picture = self._timed(frame)
+            if self.start_s is not None and t_s < self.start_s:
+                continue
+            if self.end_s is not None and t_s >= self.end_s:
+                return
+            yield t_s, picture
 
     def __iter__(self) -> Iterator[tuple[int, float, np.ndarray | Picture]]:
         """Frames in order (decoded in a background thread unless multithreaded is off)."""
@@ -252,16 +275,32 @@ class FrameReader:
                     frames.get_nowait()
                 worker.join(timeout=0.01)
 
+    def close(self) -> None:
+        """Close the file of a reader whose frames will not be iterated (iterating closes it at the end). The decoding
+        generator goes too: it refers back to the reader, which would otherwise wait for the garbage collector with
+        FFmpeg's decoding threads, and a process forked later would free them there and hang."""
+        self._frames.close()
+        self._first = None
+        self._container.close()
+
     @property
     def lost_share(self) -> float:
         """Share of the declared frames that did not decode (0 when complete or when the count is unknown)."""
-        declared = self.info.frame_count
-        return max(0.0, (declared - self.decoded) / declared) if declared else 0.0
+        return lost_share(self.info.frame_count, self.decoded)
+
+    def first_picture(self) -> np.ndarray | Picture:
+        """The first frame decoded at opening, as iterating would give it (without taking it from the iteration)."""
+        return _as_shown(self._first, self.pictures)
 
     @property
     def frame_size(self) -> tuple[int, int]:
         """(width, height) in pixels after orientation is applied."""
         return self.info.width, self.info.height
+
+
+def lost_share(declared: int, decoded: int) -> float:
+    """Share of the declared frames that did not decode (0 when complete or when the count is unknown)."""
+    return max(0.0, (declared - decoded) / declared) if declared else 0.0
 
 
 class VideoWriter:
