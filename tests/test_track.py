@@ -391,7 +391,8 @@ def test_surface_angle_and_wall_heights_match_truth(surface_video, reference, co
     path, truth = surface_video
     res = track_video(path, TrackSettings(target="surface", reference=reference, container_diameter_m=0.1))
     ok = res.valid.astype(bool)
-    assert ok.mean() > 0.7  # 0.78 measured: the rest are frames the encoder repeated while the surface moved
+    # 0.75-0.78 measured (x264's code differs by CPU): the rest are frames the encoder repeated while the surface moved
+    assert ok.mean() > 0.7
     # measured here: 0.07-0.08 deg RMSE and 0.4-0.5 px wall RMSE; the bounds leave room for other encoders.
     # (the benchmark's targets, 0.3 deg and 1 px, are for 640x480, where the walls are twice as long)
     assert _rmse((res.angle_deg - truth[column])[ok]) < 0.3

@@ -151,6 +151,25 @@ def _decode_threads(multithreaded: bool) -> int:
     return max(1, os.cpu_count() or 1) if multithreaded else 1
 
 
+X264_UP_TO_AVX2 = "MMX2,SSE,SSE2,SSE3,SSSE3,SSE4.1,SSE4.2,AVX,FMA3,BMI1,BMI2,AVX2,LZCNT"
+"""x264's instruction sets up to AVX2, every one of which a CPU with AVX-512 has."""
+
+
+def _x264_determinism() -> dict[str, str]:
+    """x264 options that make the same frames encode to the same video on this CPU.
+
+    On CPUs with AVX-512, x264's AVX-512 code gave a different video for the same frames from run to run
+    (PyAV 18.1's libx264: every frame of a seeded 4 s render differed; with AVX2 code and with C code, none did).
+    A seeded render must repeat, so x264 is held to AVX2 there. The AVX2 code is as fast. Other CPUs keep x264's own
+    choice: naming instruction sets a CPU lacks would crash it.
+    """
+    try:
+        flags = Path("/proc/cpuinfo").read_text()
+    except OSError:
+        return {}
+    return {"x264-params": f"asm={X264_UP_TO_AVX2}"} if " avx512f" in flags else {}
+
+
 @dataclass
 class FrameReader:
     """Iterate (index, t_s, frame) over a video sequentially; afterwards `decoded` and `lost_share` tell
@@ -331,7 +350,7 @@ class VideoWriter:
         stream.width, stream.height, stream.pix_fmt = width - width % 2, height - height % 2, "yuv420p"
         if codec == "h264":
             crf = 23 if quality is None else quality
-            stream.options = {"crf": f"{crf:g}", "preset": "veryfast"}
+            stream.options = {"crf": f"{crf:g}", "preset": "veryfast", **_x264_determinism()}
         else:
             qscale = 4 if quality is None else quality
             stream.codec_context.qmin = stream.codec_context.qmax = round(qscale)  # fixed quantiser
