@@ -59,7 +59,7 @@ def fit_colour_model(crop: np.ndarray, blob: np.ndarray) -> tuple[np.ndarray, fl
 
     `blob` (0/255) marks the float roughly: eroded blob pixels are 'float' (1), pixels beyond a dilated
     blob are 'background' (0), whatever colours they have (air above, liquid below). Returns
-    (coefficients [wb, wg, wr, c], rms fit error) or None when the crop holds no background.
+    (`membership_map`'s transform of the model, rms fit error) or None when the crop holds no background.
     """
     core = cv2.erode(blob, _KERNEL, iterations=2)
     if cv2.countNonZero(core) < 6:
@@ -76,18 +76,19 @@ def fit_colour_model(crop: np.ndarray, blob: np.ndarray) -> tuple[np.ndarray, fl
         coef = np.linalg.solve(X.T @ X, X.T @ target)
     except np.linalg.LinAlgError:
         return None
-    return coef, float(np.sqrt(np.mean((X @ coef - target) ** 2)))
+    # the membership ramp (linear from 0.1 to 0.9) goes into the transform, once per fit: the blur is linear
+    ramp = np.append(coef[:3], coef[3] - 0.1)[None, :] * 1.25
+    return ramp.astype(np.float32), float(np.sqrt(np.mean((X @ coef - target) ** 2)))
 
 
-def membership_map(crop: np.ndarray, coef: np.ndarray) -> np.ndarray:
-    """Soft membership 0..1 of every crop pixel: the colour model, linear from 0.1 to 0.9 and clipped.
+def membership_map(crop: np.ndarray, transform: np.ndarray) -> np.ndarray:
+    """Soft membership 0..1 of every crop pixel: the colour model (`transform`, as `fit_colour_model` gives it),
+    linear from 0.1 to 0.9 and clipped.
 
     The ramp is symmetric about half coverage, so edges stay where they are, while background noise
     (membership near 0) and the float's interior (near 1) stop adding scatter to the moments.
     """
-    # the ramp's offset and scale go into the transform: the blur is linear and keeps constants
-    ramp = np.append(coef[:3], coef[3] - 0.1)[None, :] * 1.25
-    value = cv2.transform(crop.astype(np.float32), ramp.astype(np.float32)).reshape(crop.shape[:2])
+    value = cv2.transform(crop.astype(np.float32), transform).reshape(crop.shape[:2])
     # a slight isotropic blur smooths H.264's 2-pixel chroma staircase; it cannot turn the moments' axes
     value = cv2.GaussianBlur(value, (3, 3), 0.8)
     return np.clip(value, 0, 1, out=value)
@@ -210,8 +211,8 @@ class FloatFinder:
             self._frames_since_fit = 0
         if self._model is None:
             return FloatMeasurement(False)
-        coef, rms = self._model
-        soft = membership_map(crop, coef)
+        transform, rms = self._model
+        soft = membership_map(crop, transform)
         soft *= cv2.dilate(blob, _KERNEL, iterations=pad - 1) > 0  # only this blob, not other things
         mo = cv2.moments(soft)
         if mo["m00"] <= 1e-6:

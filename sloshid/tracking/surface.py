@@ -83,16 +83,16 @@ def auto_liquid_range(frame: np.ndarray, roi: tuple[int, int, int, int]) -> HsvR
     return best
 
 
-def _crossings_first(m: np.ndarray, axis: int) -> tuple[np.ndarray, np.ndarray]:
-    """Sub-pixel position of the first 0.5 crossing of m along `axis` (from index 0), and whether there is one."""
-    above = m >= 0.5
+def _crossings_first(m: np.ndarray, above: np.ndarray, axis: int) -> tuple[np.ndarray, np.ndarray]:
+    """Sub-pixel position of the first 0.5 crossing of m along `axis` (from index 0), and whether there is one;
+    `above` is the same view of m >= 0.5 (nonzero where true, as `_inside` gives it)."""
     j = np.argmax(above, axis=axis)  # 0 where there is no crossing
     other = np.arange(m.shape[1 - axis])
     jm = np.maximum(j - 1, 0)
     if axis == 0:
-        ok, a, b = above[j, other] & (j > 0), m[jm, other], m[j, other]
+        ok, a, b = (above[j, other] > 0) & (j > 0), m[jm, other], m[j, other]
     else:
-        ok, a, b = above[other, j] & (j > 0), m[other, jm], m[other, j]
+        ok, a, b = (above[other, j] > 0) & (j > 0), m[other, jm], m[other, j]
     frac = np.where(b > a, (0.5 - a) / np.where(b > a, b - a, 1), 0.5)
     return jm + frac, ok
 
@@ -100,7 +100,7 @@ def _crossings_first(m: np.ndarray, axis: int) -> tuple[np.ndarray, np.ndarray]:
 def refine_on_luma(gray: np.ndarray, pos: np.ndarray, ok: np.ndarray, reach: int = 6) -> np.ndarray:
     """Move each column's edge estimate `pos` (rows of `gray`, sub-pixel) to the luma profile's mid-level crossing.
 
-    Compression keeps colour at half resolution and in coarse blocks, but luma at full resolution: the edge is
+    Compression keeps colour at half resolution and in coarse blocks, but luma (`gray`, 8 bit) at full resolution: the edge is
     where the column's luma passes halfway between its levels `reach` pixels before and after the estimate
     (the crossing closest to the estimate). Columns without that contrast keep their estimate.
     """
@@ -109,7 +109,7 @@ def refine_on_luma(gray: np.ndarray, pos: np.ndarray, ok: np.ndarray, reach: int
     offs = np.arange(-reach, reach + 1)
     rows = base + offs[:, None]
     np.minimum(np.maximum(rows, 0, out=rows), n - 1, out=rows)
-    prof = gray[rows, np.arange(gray.shape[1])]
+    prof = gray[rows, np.arange(gray.shape[1])].astype(np.float32)
     n_lvl = max(1, reach // 2)  # the outer samples give the two levels
     lo, hi = prof[:n_lvl].sum(axis=0) / n_lvl, prof[-n_lvl:].sum(axis=0) / n_lvl
     mid = 0.5 * (lo + hi)
@@ -197,35 +197,36 @@ class SurfaceFinder:
         if self._model is None:
             return SurfaceMeasurement(False, liquid=True)
         body = membership_map(crop, self._model[0])
+        inside = _inside(body)
         if follow:
-            box = _body_box(body, (X0, Y0))
+            box = _body_box(inside, (X0, Y0))
             if box is None:
                 return None
             if box[0] <= rx or box[2] >= rx + rw:
                 return SurfaceMeasurement(False, liquid=True)
         self._box = box
-        gray = cv2.cvtColor(crop, cv2.COLOR_BGR2GRAY).astype(np.float32)
+        gray = cv2.cvtColor(crop, cv2.COLOR_BGR2GRAY)
         key = (box[0], box[2], box[3])  # the body's sides and bottom: where the container is
         held = self._axes
         if held is not None and held[3] and held[0] == key and held[2] < HOLD_AXES_FRAMES:
             frame_geom = _shifted(held[1], (-X0, -Y0))
             self._axes = (key, held[1], held[2] + 1, True)
         else:
-            frame_geom = _container_axes(body, gray, (X0, Y0), box)
+            frame_geom = _container_axes(body, inside, gray, (X0, Y0), box)
             if frame_geom is None:
                 self._axes = None
                 return SurfaceMeasurement(False, liquid=True)
             geom = _shifted(frame_geom, (X0, Y0))
             still = held is not None and _moved_px(held[1], geom) < STILL_PX
             self._axes = (key, geom, 1, still)
-        return self._surface(gray, body, (X0, Y0), frame_geom)
+        return self._surface(gray, body, inside, (X0, Y0), frame_geom)
 
-    def _surface(self, gray, body, origin, geom) -> SurfaceMeasurement:
+    def _surface(self, gray, body, inside, origin, geom) -> SurfaceMeasurement:
         """Front edge per column in container coordinates, robust fit of mid-line and ellipse, line and wall heights."""
         X0, Y0 = origin
         walls, o, e_u, e_w = geom
         (aL, bL), (aR, bR) = walls
-        first = int(np.argmax(body.ravel() >= 0.5)) // body.shape[1]  # the liquid's top row: its first pixel's
+        first = int(np.argmax(inside.ravel())) // body.shape[1]  # the liquid's top row: its first pixel's
         ytop = float(first)
         uL = (np.array([aL * ytop + bL, ytop]) - o) @ e_u
         uR = (np.array([aR * ytop + bR, ytop]) - o) @ e_u
@@ -236,7 +237,7 @@ class SurfaceFinder:
             return SurfaceMeasurement(False, liquid=True)
         span = slice(cols[0], cols[-1] + 1)  # views, not copies: the columns are consecutive
         start = max(0, first - 1)  # no row above the top one crosses; one row of it keeps a crossing there found
-        front, ok = _crossings_first(body[start:, span], axis=0)
+        front, ok = _crossings_first(body[start:, span], inside[start:, span], axis=0)
         front = refine_on_luma(gray[:, span], front + start, ok)
         du, dw = cols - o[0], front - o[1]
         u, wv = du * e_u[0] + dw * e_u[1], du * e_w[0] + dw * e_w[1]
@@ -278,18 +279,24 @@ class SurfaceFinder:
         )
 
 
-def _body_box(body: np.ndarray, origin: tuple[int, int]) -> tuple[int, int, int, int] | None:
-    """Frame box (x0, y0, x1, y1) of the liquid in a membership map: columns holding a tenth of the fullest
-    column's liquid pixels (stripes cut columns, not the body's sides) and rows holding a twentieth of the fullest
-    row's (a sloped surface thins out at its top); None when that box touches the map's sides or bottom."""
-    inside = cv2.compare(body, 0.5, cv2.CMP_GE)  # 255 inside: OpenCV's row and column sums, a third of NumPy's cost
+def _inside(body: np.ndarray) -> np.ndarray:
+    """255 where the membership map is at least 0.5, else 0 (OpenCV: a third of NumPy's cost, and its row and column
+    sums are faster too); the crossings and the body's box read it."""
+    return cv2.compare(body, 0.5, cv2.CMP_GE)
+
+
+def _body_box(inside: np.ndarray, origin: tuple[int, int]) -> tuple[int, int, int, int] | None:
+    """Frame box (x0, y0, x1, y1) of the liquid in a membership map (`inside`, as `_inside` gives it): columns
+    holding a tenth of the fullest column's liquid pixels (stripes cut columns, not the body's sides) and rows
+    holding a twentieth of the fullest row's (a sloped surface thins out at its top); None when that box touches
+    the map's sides or bottom."""
     per_col = cv2.reduce(inside, 0, cv2.REDUCE_SUM, dtype=cv2.CV_32S).ravel() // 255
     per_row = cv2.reduce(inside, 1, cv2.REDUCE_SUM, dtype=cv2.CV_32S).ravel() // 255
     if per_col.max() < 10 or per_row.max() < 10:
         return None
     c = np.flatnonzero(per_col >= 0.1 * per_col.max())
     r = np.flatnonzero(per_row >= 0.05 * per_row.max())
-    if c[0] == 0 or c[-1] == body.shape[1] - 1 or r[0] == 0 or r[-1] == body.shape[0] - 1:
+    if c[0] == 0 or c[-1] == inside.shape[1] - 1 or r[0] == 0 or r[-1] == inside.shape[0] - 1:
         return None
     X0, Y0 = origin
     return X0 + int(c[0]), Y0 + int(r[0]), X0 + int(c[-1]) + 1, Y0 + int(r[-1]) + 1
@@ -371,7 +378,9 @@ def _moved_px(a: tuple, b: tuple) -> float:
     return max(float(np.hypot(*(oa - ob))), *walls)
 
 
-def _container_axes(body: np.ndarray, gray: np.ndarray, origin: tuple[int, int], box: tuple[int, int, int, int]):
+def _container_axes(
+    body: np.ndarray, inside: np.ndarray, gray: np.ndarray, origin: tuple[int, int], box: tuple[int, int, int, int]
+):
     """Inner walls (robust lines from the body's side crossings) and bottom; the container's axes, or None.
 
     Returns ((aL, bL), (aR, bR)) of the walls x = a y + b, the origin o on the inner bottom midway between the
@@ -383,9 +392,9 @@ def _container_axes(body: np.ndarray, gray: np.ndarray, origin: tuple[int, int],
     if r1 - r0 < 10:
         return None
     rows = np.arange(r0, r1)
-    band = body[r0:r1]
-    left, okl = _crossings_first(band, axis=1)
-    right, okr = _crossings_first(band[:, ::-1], axis=1)
+    band, band_in = body[r0:r1], inside[r0:r1]
+    left, okl = _crossings_first(band, band_in, axis=1)
+    right, okr = _crossings_first(band[:, ::-1], band_in[:, ::-1], axis=1)
     right = band.shape[1] - 1 - right
     left = refine_on_luma(gray[r0:r1].T, left, okl, reach=2)
     right = refine_on_luma(gray[r0:r1].T, right, okr, reach=2)
@@ -396,7 +405,7 @@ def _container_axes(body: np.ndarray, gray: np.ndarray, origin: tuple[int, int],
     (aL, bL), (aR, bR) = fl[0], fr[0]
     c0, c1 = int(0.2 * (x1 - x0)) + x0 - X0, int(0.8 * (x1 - x0)) + x0 - X0
     cols = np.arange(c0, c1)
-    bottom, okb = _crossings_first(body[::-1, c0:c1], axis=0)
+    bottom, okb = _crossings_first(body[::-1, c0:c1], inside[::-1, c0:c1], axis=0)
     bottom = body.shape[0] - 1 - bottom
     fb = robust_polyfit(cols[okb].astype(float), bottom[okb], 1, 0.3, min_points=max(10, len(cols) // 3))
     if fb is None:

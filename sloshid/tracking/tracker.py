@@ -337,21 +337,22 @@ def track_video(
     many videos side by side). The table is the same either way.
     """
     settings = settings or TrackSettings()
-    reader = FrameReader(Path(path), multithreaded, pictures=True)
-    width, height = reader.frame_size
-    roi = _roi_box(settings, width, height)
-    key_times = key_frame_times(path)
-    spans = _spans(reader.info, key_times)
-    reader.end_s = spans[0][1]
-    liquid = settings.liquid_hsv
-    if settings.target == "surface" and liquid is None:  # one automatic dye colour for every span: the first frame's
-        liquid = auto_liquid_range(reader.first_picture(), roi)
-    parallel = multithreaded and overlay is None and len(spans) > 1 and _can_fork()
     with contextlib.ExitStack() as workers:
-        # the smoother's imports load beside decoding, on the other core, instead of after it
-        smoother = SmoothingWorker(fork=multithreaded) if settings.smooth else None
+        # the smoother's imports load beside opening and decoding, on the other core, instead of after them; forked
+        # before the reader opens, so no decoding thread exists at the fork
+        smoother = SmoothingWorker(fork=multithreaded) if settings.smooth and Path(path).is_file() else None
         if smoother is not None:
             workers.callback(smoother.close)
+        reader = FrameReader(Path(path), multithreaded, pictures=True)
+        width, height = reader.frame_size
+        roi = _roi_box(settings, width, height)
+        key_times = key_frame_times(path)
+        spans = _spans(reader.info, key_times)
+        reader.end_s = spans[0][1]
+        liquid = settings.liquid_hsv
+        if settings.target == "surface" and liquid is None:  # one automatic dye colour for every span: the first's
+            liquid = auto_liquid_range(reader.first_picture(), roi)
+        parallel = multithreaded and overlay is None and len(spans) > 1 and _can_fork()
         with contextlib.ExitStack() as stack:
             writer = None
             if overlay is not None:
