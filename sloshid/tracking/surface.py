@@ -100,9 +100,9 @@ def _crossings_first(m: np.ndarray, above: np.ndarray, axis: int) -> tuple[np.nd
 def refine_on_luma(gray: np.ndarray, pos: np.ndarray, ok: np.ndarray, reach: int = 6) -> np.ndarray:
     """Move each column's edge estimate `pos` (rows of `gray`, sub-pixel) to the luma profile's mid-level crossing.
 
-    Compression keeps colour at half resolution and in coarse blocks, but luma (`gray`, 8 bit) at full resolution: the edge is
-    where the column's luma passes halfway between its levels `reach` pixels before and after the estimate
-    (the crossing closest to the estimate). Columns without that contrast keep their estimate.
+    Compression keeps colour at half resolution and in coarse blocks, but luma (`gray`, 8 bit) at full resolution:
+    the edge is where the column's luma passes halfway between its levels `reach` pixels before and after the
+    estimate (the crossing closest to the estimate). Columns without that contrast keep their estimate.
     """
     n = gray.shape[0]
     base = np.rint(pos).astype(np.intp)
