@@ -22,7 +22,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from sloshid.tracking.float_angle import REFIT_EVERY, fit_colour_model, hsv_mask, membership_map
+from sloshid.tracking.float_angle import fit_colour_model, hsv_mask, membership_map
 from sloshid.tracking.robust import median, normal_solve, robust_polyfit
 from sloshid.video.colors import PRESETS, HsvRange
 
@@ -30,14 +30,30 @@ MIN_LIQUID_SHARE = 0.005
 """A liquid region must cover at least this share of the searched area."""
 WALL_MARGIN = 0.06
 """Columns this close to a wall (share of the inner width, at least 4 px) are not used: the meniscus curls up."""
+REFIT_EVERY = 24
+"""The liquid's colour model is refitted every this many frames (the float's: every 8): the front edge is placed on
+the luma, so a model that lags a lighting change by a second moves no edge; a refit reads the whole body."""
 HOLD_ELEVATION_AFTER = 15
 """The camera's elevation is fitted in this many frames, then held at their median."""
-HOLD_AXES_FRAMES = 4
-"""The container's axes (three robust line fits, a third of the per-frame work) are held for up to this many frames
-while the container stands still: its last two measurements agreed within STILL_PX and the liquid's sides and
-bottom have not moved by a pixel since. A moving or tilting container is measured in every frame."""
+HOLD_AXES_FRAMES = 30
+"""The container's axes (three robust line fits) are held for up to this many frames while the container stands
+still: its last two measurements agreed within STILL_PX and since then the liquid's sides and bottom have not moved
+by a pixel (ANCHOR_PX in band frames). A moving or tilting container is measured in every frame."""
 STILL_PX = 0.1
 """Largest shift of the bottom centre or of a wall between two measurements of a container that stands still."""
+ANCHOR_PX = 0.5
+"""Largest change of the liquid's centre or width in a strip across the body, or of its depth or centroid in a strip
+across the bottom, since the axes were measured, for which a band frame keeps them (a lift, a slide, a tilt)."""
+MAX_COLUMNS = 128
+"""The front edge is measured in at most this many evenly spaced columns: neighbouring columns share the compressed
+chroma and the blur, so more add little precision but cost time (a 640x480 view of a container: every second)."""
+HEADROOM = 0.1
+"""The surface is followed this far (share of the body's width, plus 6 px) above the liquid's top in the last frame;
+a surface that rises faster is found again by a colour search."""
+BAND_BELOW = 12
+"""While the container stands still, the liquid is mapped only down to this many pixels (or a twentieth of its width)
+plus twice the last frame's sinking below the last frame's lowest front-edge point, and in the two ANCHOR_PX strips:
+the rest of the body is not read then."""
 LINE_SLOPE_OF_CUBIC = 0.6
 """Least-squares line slope of s^3 over s in [-1, 1]: the cubic's contribution to the best-fit line."""
 
@@ -68,6 +84,8 @@ class SurfaceMeasurement:
     """Image points of the fitted line at the walls and of the wall heights, for the overlay."""
     band: tuple[int, int, int, int] = (0, 0, 0, 0)
     """Box (x0, y0, x1, y1) around the measured front edge: where a repeated picture shows."""
+    low: float = math.nan
+    """Lowest image row of the fitted front edge across the measured columns."""
 
 
 def auto_liquid_range(frame: np.ndarray, roi: tuple[int, int, int, int]) -> HsvRange | None:
@@ -137,6 +155,9 @@ class SurfaceFinder:
         self._k: list[float] = []  # k / R = sin(elevation) from the first frames
         self._held: float | None = None  # their median, once there are enough
         self._axes: tuple | None = None  # (body sides and bottom, axes in frame coordinates, frames used, still)
+        self._last: SurfaceMeasurement | None = None  # the last frame's, when found
+        self._anchor: tuple | None = None  # (strips where the container's sides and bottom are, their values)
+        self._sink = 0.0  # how far the front edge's lowest point sank from the frame before to the last one
 
     def measure(self, frame: np.ndarray) -> SurfaceMeasurement:
         """Measure the surface in one BGR frame."""
@@ -145,12 +166,16 @@ class SurfaceFinder:
             if self.hsv is None:
                 return SurfaceMeasurement(False)
         self._since_fit += 1
-        m = self._measure_body(frame, self._box, follow=True) if self._box is not None else None
+        m = self._measure_band(frame) if self._band_ready() else None
+        if m is None and self._box is not None:
+            m = self._measure_body(frame, self._box, follow=True)
         if m is None:  # lost, or the body left the box it had: search around it (or the whole ROI)
             box = self._find_body(frame)
             m = SurfaceMeasurement(False) if box is None else self._measure_body(frame, box, follow=False)
         if not m.found:
             self._box = None
+        self._sink = max(0.0, m.low - self._last.low) if m.found and self._last is not None else 0.0
+        self._last = m if m.found else None
         return m
 
     def _find_body(self, frame: np.ndarray) -> tuple[int, int, int, int] | None:
@@ -177,18 +202,70 @@ class SurfaceFinder:
         bx1, by1 = 2 * (big[:, 0] + big[:, 2]).max(), 2 * (big[:, 1] + big[:, 3]).max()
         return X0 + int(bx0), Y0 + int(by0), X0 + int(bx1), Y0 + int(by1)
 
+    def _window(self, box: tuple[int, int, int, int], shape: tuple) -> tuple[int, int, int, int]:
+        """Frame box (X0, Y0, X1, Y1) mapped around a liquid body box: its sides and bottom with a margin, and
+        HEADROOM above its top."""
+        x0, y0, x1, y1 = box
+        pad, up = 6 + int(0.03 * (x1 - x0)), 6 + int(HEADROOM * (x1 - x0))
+        return max(0, x0 - pad), max(0, y0 - up), min(shape[1], x1 + pad), min(shape[0], y1 + pad)
+
+    def _band_ready(self) -> bool:
+        """The next frame can be measured in a band: the container stood still, its axes are held, the elevation is
+        fixed, the last frame was measured and no colour refit is due (a refit reads the whole body)."""
+        held = self._axes
+        return (
+            self._last is not None
+            and held is not None
+            and held[3]
+            and held[2] < HOLD_AXES_FRAMES
+            and self._held is not None
+            and self._anchor is not None
+            and self._since_fit < REFIT_EVERY
+        )
+
+    def _measure_band(self, frame: np.ndarray) -> SurfaceMeasurement | None:
+        """The surface of a container that stands still, from the rows around it: the body's membership is mapped
+        down to BAND_BELOW below the last frame's front edge, and two thin strips confirm that the walls and the
+        bottom stayed where they were. None when that cannot be trusted: the strips changed by ANCHOR_PX, the liquid
+        rose to the top of the band or its fitted front edge came within half the margin of the band's bottom; the
+        whole body is measured then."""
+        key, geom, used, _ = self._axes
+        regions, reference = self._anchor
+        (sx0, sy0, sx1, sy1), (bx0, by0, bx1, by1) = regions
+        # the strips before the band (which stays the picture's converted box), a row and column beyond them each
+        # way: mapped as in the whole body's map, where their pixels' neighbours are real
+        side = membership_map(frame[sy0 - 1 : sy1 + 1, sx0:sx1], self._model[0])[1:-1]
+        low = membership_map(frame[by0 - 1 : by1 + 1, bx0 - 1 : bx1 + 1], self._model[0])[1:-1, 1:-1]
+        now = _anchor_values(side, low)
+        if now is None or np.abs(now - reference).max() > ANCHOR_PX:
+            return None
+        x0, _y0, x1, y1 = self._box
+        X0, Y0, X1, Y1 = self._window(self._box, frame.shape)
+        margin = max(BAND_BELOW, 0.05 * (x1 - x0)) + 2 * self._sink
+        crop = frame[Y0 : min(Y1, math.ceil(self._last.low + margin)), X0:X1]
+        body = membership_map(crop, self._model[0])
+        inside = _inside(body)
+        per_row = cv2.reduce(inside, 1, cv2.REDUCE_SUM, dtype=cv2.CV_32S).ravel()
+        top = int(np.argmax(per_row >= 0.05 * per_row.max()))  # the body's top, as `_body_box` finds it
+        if top == 0:
+            return None
+        gray = cv2.cvtColor(crop, cv2.COLOR_BGR2GRAY)
+        m = self._surface(gray, body, inside, (X0, Y0), _shifted(geom, (-X0, -Y0)))
+        if not m.found or m.low > Y0 + crop.shape[0] - margin / 2:
+            return None
+        self._box = (x0, Y0 + top, x1, y1)
+        self._axes = (key, geom, used + 1, True)
+        return m
+
     def _measure_body(self, frame: np.ndarray, box: tuple[int, int, int, int], follow: bool) -> SurfaceMeasurement:
         """Walls, bottom and surface of the liquid body in `box`; the box it was found in is kept for the next frame.
 
         `follow`: `box` is the last frame's; the body's box is read off this frame's membership map around it
         (a tenth of the cost of a colour search), or None is returned when the body reaches the map's edge."""
-        h, w = frame.shape[:2]
-        x0, y0, x1, y1 = box
         rx, _ry, rw, _rh = self.roi
-        if x0 <= rx or x1 >= rx + rw:  # the liquid reaches the side of the picture: no walls to measure
+        if box[0] <= rx or box[2] >= rx + rw:  # the liquid reaches the side of the picture: no walls to measure
             return SurfaceMeasurement(False, liquid=True)
-        pad, up = 6 + int(0.03 * (x1 - x0)), 6 + int(0.3 * (x1 - x0))
-        X0, Y0, X1, Y1 = max(0, x0 - pad), max(0, y0 - up), min(w, x1 + pad), min(h, y1 + pad)
+        X0, Y0, X1, Y1 = self._window(box, frame.shape)
         crop = frame[Y0:Y1, X0:X1]
         if self._model is None or self._since_fit >= REFIT_EVERY:
             # every second pixel each way: thousands of body and background pixels still fix the four coefficients
@@ -219,6 +296,7 @@ class SurfaceFinder:
             geom = _shifted(frame_geom, (X0, Y0))
             still = held is not None and _moved_px(held[1], geom) < STILL_PX
             self._axes = (key, geom, 1, still)
+        self._anchor = _anchor(body, box, frame_geom, (X0, Y0))
         return self._surface(gray, body, inside, (X0, Y0), frame_geom)
 
     def _surface(self, gray, body, inside, origin, geom) -> SurfaceMeasurement:
@@ -226,21 +304,24 @@ class SurfaceFinder:
         X0, Y0 = origin
         walls, o, e_u, e_w = geom
         (aL, bL), (aR, bR) = walls
+        # the axes as plain numbers: the few points below cost a microsecond each so, ten as arrays
+        (ox, oy), (eux, euy), (ewx, ewy) = (map(float, v) for v in (o, e_u, e_w))
         first = int(np.argmax(inside.ravel())) // body.shape[1]  # the liquid's top row: its first pixel's
         ytop = float(first)
-        uL = (np.array([aL * ytop + bL, ytop]) - o) @ e_u
-        uR = (np.array([aR * ytop + bR, ytop]) - o) @ e_u
+        uL = (aL * ytop + bL - ox) * eux + (ytop - oy) * euy
+        uR = (aR * ytop + bR - ox) * eux + (ytop - oy) * euy
         half, uc = 0.5 * (uR - uL), 0.5 * (uR + uL)
         margin = max(4.0, WALL_MARGIN * 2 * half)
-        cols = np.arange(math.ceil(aL * ytop + bL + margin), int(aR * ytop + bR - margin))
+        lo_col, hi_col = math.ceil(aL * ytop + bL + margin), int(aR * ytop + bR - margin)
+        cols = np.arange(lo_col, hi_col, max(1, -(-(hi_col - lo_col) // MAX_COLUMNS)))
         if half < 10 or len(cols) < 12:
             return SurfaceMeasurement(False, liquid=True)
-        span = slice(cols[0], cols[-1] + 1)  # views, not copies: the columns are consecutive
+        span = slice(cols[0], cols[-1] + 1, cols[1] - cols[0])  # views, not copies: the columns are evenly spaced
         start = max(0, first - 1)  # no row above the top one crosses; one row of it keeps a crossing there found
         front, ok = _crossings_first(body[start:, span], inside[start:, span], axis=0)
         front = refine_on_luma(gray[:, span], front + start, ok)
-        du, dw = cols - o[0], front - o[1]
-        u, wv = du * e_u[0] + dw * e_u[1], du * e_w[0] + dw * e_w[1]
+        du, dw = cols - ox, front - oy
+        u, wv = du * eux + dw * euy, du * ewx + dw * ewy
         s = (u - uc) / half
         ok &= _locally_consistent(wv, ok)
         # the elevation is fitted in the first frames and then held (a static camera): slopes separate from it
@@ -255,11 +336,16 @@ class SurfaceFinder:
             self._k.append(k / half)
         kept = np.count_nonzero(keep) / keep.size * np.count_nonzero(ok) / ok.size
         left, right = c0 - c1 - c3, c0 + c1 + c3
-        to_img = lambda uu, ww: o + uu * e_u + ww * e_w + np.array([X0, Y0])  # noqa: E731
+        to_img = lambda uu, ww: (X0 + ox + uu * eux + ww * ewx, Y0 + oy + uu * euy + ww * ewy)  # noqa: E731
         line = c1 + LINE_SLOPE_OF_CUBIC * c3
+        # the fitted front edge in every column (also where none was found), at the found edges' typical height
+        u_all = du * eux + median(dw[ok]) * euy
+        s_all = (u_all - uc) / half
+        fitted = c0 + c1 * s_all + c3 * s_all**3 - k * np.sqrt(np.maximum(1 - s_all * s_all, 0))
+        low = Y0 + oy + float(np.max(u_all * euy + fitted * ewy))
         pl, pr, pc = to_img(uL, left), to_img(uR, right), to_img(uc, c0)
         line_l, line_r = to_img(uL, c0 - line), to_img(uR, c0 + line)
-        y_lo, y_hi = Y0 + ytop, Y0 + float(o[1])
+        y_lo, y_hi = Y0 + ytop, Y0 + oy
         wall_lines = tuple((a, b + X0 - a * Y0, y_lo, y_hi) for a, b in walls)
         return SurfaceMeasurement(
             True,
@@ -274,9 +360,39 @@ class SurfaceFinder:
             float(pc[1]),
             float(kept * min(1.0, max(0.0, 1.5 - rms))),
             wall_lines,
-            (tuple(line_l), tuple(line_r), tuple(pl), tuple(pr)),
+            (line_l, line_r, pl, pr),
             _band(front[ok], cols, (X0, Y0)),
+            low,
         )
+
+
+def _anchor(body: np.ndarray, box: tuple, geom: tuple, origin: tuple[int, int]) -> tuple | None:
+    """The strips `SurfaceFinder._measure_band` watches, as frame boxes: eight rows across the body's middle and nine
+    across the bottom's centre between the walls; and their values in this body map (`geom`: the container's axes
+    in it), or None when there is no liquid in them or the map has no row or column beyond them."""
+    X0, Y0 = origin
+    y0, y1 = box[1] - Y0, box[3] - Y0
+    (aL, bL), (aR, bR) = geom[0]
+    o = geom[1]
+    r = y0 + int(0.5 * (y1 - y0))
+    half = 0.3 * ((aR - aL) * o[1] + bR - bL)
+    bx0, bx1, by0, by1 = int(o[0] - half), int(o[0] + half) + 1, int(o[1]) - 4, int(o[1]) + 5
+    if r < 5 or bx0 < 1 or by0 < 1 or bx1 >= body.shape[1] or by1 >= body.shape[0]:
+        return None
+    values = _anchor_values(body[r - 4 : r + 4], body[by0:by1, bx0:bx1])
+    regions = ((X0, Y0 + r - 4, X0 + body.shape[1], Y0 + r + 4), (X0 + bx0, Y0 + by0, X0 + bx1, Y0 + by1))
+    return None if values is None else (regions, values)
+
+
+def _anchor_values(side: np.ndarray, low: np.ndarray) -> np.ndarray | None:
+    """Where the container is, from membership maps of two strips (pixels, each moving with the container by about
+    as much as it does): the liquid's centre and width in the rows `side` across the body, and in the rows `low`
+    across the bottom how far down it reaches and its centroid, which a tilt moves (the depth changes across the
+    strip), or None when a strip holds no liquid."""
+    s, b = cv2.moments(side), cv2.moments(low)
+    if s["m00"] <= 0 or b["m00"] <= 0:
+        return None
+    return np.array([s["m10"] / s["m00"], s["m00"] / side.shape[0], b["m00"] / low.shape[1], b["m10"] / b["m00"]])
 
 
 def _inside(body: np.ndarray) -> np.ndarray:
