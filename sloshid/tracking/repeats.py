@@ -23,12 +23,18 @@ difference of two measurements at the tracker's 0.05 deg noise)."""
 
 
 def repeated_share(
-    frame: np.ndarray, previous: np.ndarray | None, box: tuple[int, int, int, int], dy_only: bool
+    frame: np.ndarray,
+    previous: np.ndarray | None,
+    box: tuple[int, int, int, int],
+    dy_only: bool,
+    lumas: tuple = (None, None),
 ) -> float:
     """Share of the strong edge pixels in `box` (x0, y0, x1, y1) whose grey level equals the previous frame's.
 
     dy_only counts only vertical intensity steps (a surface line), so static vertical edges such as highlight
-    stripes on the glass do not count as repeated. OpenCV calls only: this runs for every frame.
+    stripes on the glass do not count as repeated. OpenCV calls only: this runs for every frame. `lumas`: grey
+    crops of this and the previous frame that the tracker made anyway, each (array, (x, y) of its corner) or None;
+    the box is read from them when both hold it (the same grey levels, without converting the pictures again).
     """
     if previous is None or previous.shape != frame.shape:
         return 0.0
@@ -36,8 +42,10 @@ def repeated_share(
     x0, y0 = max(x0, 0), max(y0, 0)
     if x1 - x0 < 3 or y1 - y0 < 3:
         return 0.0
-    cur = cv2.cvtColor(frame[y0:y1, x0:x1], cv2.COLOR_BGR2GRAY)
-    old = cv2.cvtColor(previous[y0:y1, x0:x1], cv2.COLOR_BGR2GRAY)
+    cur, old = (_inside(luma, (x0, y0, x1, y1)) for luma in lumas)
+    if cur is None or old is None:
+        cur = cv2.cvtColor(frame[y0:y1, x0:x1], cv2.COLOR_BGR2GRAY)
+        old = cv2.cvtColor(previous[y0:y1, x0:x1], cv2.COLOR_BGR2GRAY)
     grad = cv2.convertScaleAbs(cv2.Sobel(cur, cv2.CV_16S, 0, 1, ksize=3), alpha=0.25)
     if not dy_only:
         grad = cv2.add(grad, cv2.convertScaleAbs(cv2.Sobel(cur, cv2.CV_16S, 1, 0, ksize=3), alpha=0.25))
@@ -48,6 +56,17 @@ def repeated_share(
         return 0.0
     same = cv2.compare(cur, old, cv2.CMP_EQ)
     return cv2.countNonZero(cv2.bitwise_and(same, edges)) / n
+
+
+def _inside(luma: tuple | None, box: tuple[int, int, int, int]) -> np.ndarray | None:
+    """The frame box (x0, y0, x1, y1) of a grey crop (array, (x, y) of its corner), or None when it is not all in it."""
+    if luma is None:
+        return None
+    grey, (x, y) = luma
+    x0, y0, x1, y1 = box
+    if x0 < x or y0 < y or x1 > x + grey.shape[1] or y1 > y + grey.shape[0]:
+        return None
+    return grey[y0 - y : y1 - y, x0 - x : x1 - x]
 
 
 def stale_repeats(angle: np.ndarray, valid: np.ndarray, repeated: list[bool]) -> np.ndarray:

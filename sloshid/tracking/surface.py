@@ -42,8 +42,10 @@ by a pixel (ANCHOR_PX in band frames). A moving or tilting container is measured
 STILL_PX = 0.1
 """Largest shift of the bottom centre or of a wall between two measurements of a container that stands still."""
 ANCHOR_PX = 0.5
-"""Largest change of the liquid's centre or width in a strip across the body, or of its depth or centroid in a strip
+"""Largest change of the liquid's centre or width across the body just above the bottom, or of its depth or centroid
 across the bottom, since the axes were measured, for which a band frame keeps them (a lift, a slide, a tilt)."""
+ANCHOR_ROWS = 8
+"""Rows across the body (just above the bottom's nine) in which the liquid's centre and width are watched."""
 MAX_COLUMNS = 128
 """The front edge is measured in at most this many evenly spaced columns: neighbouring columns share the compressed
 chroma and the blur, so more add little precision but cost time (a 640x480 view of a container: every second)."""
@@ -52,7 +54,7 @@ HEADROOM = 0.1
 a surface that rises faster is found again by a colour search."""
 BAND_BELOW = 12
 """While the container stands still, the liquid is mapped only down to this many pixels (or a twentieth of its width)
-plus twice the last frame's sinking below the last frame's lowest front-edge point, and in the two ANCHOR_PX strips:
+plus twice the last frame's sinking below the last frame's lowest front-edge point, and in the ANCHOR_PX strip:
 the rest of the body is not read then."""
 LINE_SLOPE_OF_CUBIC = 0.6
 """Least-squares line slope of s^3 over s in [-1, 1]: the cubic's contribution to the best-fit line."""
@@ -86,6 +88,8 @@ class SurfaceMeasurement:
     """Box (x0, y0, x1, y1) around the measured front edge: where a repeated picture shows."""
     low: float = math.nan
     """Lowest image row of the fitted front edge across the measured columns."""
+    luma: tuple | None = None
+    """(8-bit luma of the measured crop, frame (x, y) of its corner): the repeated-picture check reads it."""
 
 
 def auto_liquid_range(frame: np.ndarray, roi: tuple[int, int, int, int]) -> HsvRange | None:
@@ -156,7 +160,7 @@ class SurfaceFinder:
         self._held: float | None = None  # their median, once there are enough
         self._axes: tuple | None = None  # (body sides and bottom, axes in frame coordinates, frames used, still)
         self._last: SurfaceMeasurement | None = None  # the last frame's, when found
-        self._anchor: tuple | None = None  # (strips where the container's sides and bottom are, their values)
+        self._anchor: tuple | None = None  # (strip where the container's sides and bottom are, its centre, values)
         self._sink = 0.0  # how far the front edge's lowest point sank from the frame before to the last one
 
     def measure(self, frame: np.ndarray) -> SurfaceMeasurement:
@@ -175,6 +179,8 @@ class SurfaceFinder:
         if not m.found:
             self._box = None
         self._sink = max(0.0, m.low - self._last.low) if m.found and self._last is not None else 0.0
+        if m.found and self._held is None:
+            self._k.append(m.opening_px / m.width_px)  # k / R, while the elevation is still being fitted
         self._last = m if m.found else None
         return m
 
@@ -210,33 +216,29 @@ class SurfaceFinder:
         return max(0, x0 - pad), max(0, y0 - up), min(shape[1], x1 + pad), min(shape[0], y1 + pad)
 
     def _band_ready(self) -> bool:
-        """The next frame can be measured in a band: the container stood still, its axes are held, the elevation is
-        fixed, the last frame was measured and no colour refit is due (a refit reads the whole body)."""
+        """The next frame can be measured in a band: the container stood still, its axes are held, the last frame
+        was measured and no colour refit is due (a refit reads the whole body)."""
         held = self._axes
         return (
             self._last is not None
             and held is not None
             and held[3]
             and held[2] < HOLD_AXES_FRAMES
-            and self._held is not None
             and self._anchor is not None
             and self._since_fit < REFIT_EVERY
         )
 
     def _measure_band(self, frame: np.ndarray) -> SurfaceMeasurement | None:
         """The surface of a container that stands still, from the rows around it: the body's membership is mapped
-        down to BAND_BELOW below the last frame's front edge, and two thin strips confirm that the walls and the
-        bottom stayed where they were. None when that cannot be trusted: the strips changed by ANCHOR_PX, the liquid
-        rose to the top of the band or its fitted front edge came within half the margin of the band's bottom; the
-        whole body is measured then."""
+        down to BAND_BELOW below the last frame's front edge, and a thin strip across the bottom confirms that the
+        walls and the bottom stayed where they were. None when that cannot be trusted: the strip changed by
+        ANCHOR_PX, the liquid rose to the top of the band or its fitted front edge came within half the margin of
+        the band's bottom; the whole body is measured then."""
         key, geom, used, _ = self._axes
-        regions, reference = self._anchor
-        (sx0, sy0, sx1, sy1), (bx0, by0, bx1, by1) = regions
-        # the strips before the band (which stays the picture's converted box), a row and column beyond them each
-        # way: mapped as in the whole body's map, where their pixels' neighbours are real
-        side = membership_map(frame[sy0 - 1 : sy1 + 1, sx0:sx1], self._model[0])[1:-1]
-        low = membership_map(frame[by0 - 1 : by1 + 1, bx0 - 1 : bx1 + 1], self._model[0])[1:-1, 1:-1]
-        now = _anchor_values(side, low)
+        (sx0, sy0, sx1, sy1), centre, reference = self._anchor
+        # the strip before the band (which stays the picture's converted box), with a row beyond it each way: mapped
+        # as in the whole body's map, where its pixels' neighbours are real
+        now = _anchor_values(membership_map(frame[sy0 - 1 : sy1 + 1, sx0:sx1], self._model[0])[1:-1], centre)
         if now is None or np.abs(now - reference).max() > ANCHOR_PX:
             return None
         x0, _y0, x1, y1 = self._box
@@ -296,7 +298,7 @@ class SurfaceFinder:
             geom = _shifted(frame_geom, (X0, Y0))
             still = held is not None and _moved_px(held[1], geom) < STILL_PX
             self._axes = (key, geom, 1, still)
-        self._anchor = _anchor(body, box, frame_geom, (X0, Y0))
+        self._anchor = _anchor(body, frame_geom, (X0, Y0))
         return self._surface(gray, body, inside, (X0, Y0), frame_geom)
 
     def _surface(self, gray, body, inside, origin, geom) -> SurfaceMeasurement:
@@ -332,8 +334,6 @@ class SurfaceFinder:
         if fit is None:
             return SurfaceMeasurement(False, liquid=True)
         (c0, c1, c3, k), keep, rms = fit
-        if held is None:
-            self._k.append(k / half)
         kept = np.count_nonzero(keep) / keep.size * np.count_nonzero(ok) / ok.size
         left, right = c0 - c1 - c3, c0 + c1 + c3
         to_img = lambda uu, ww: (X0 + ox + uu * eux + ww * ewx, Y0 + oy + uu * euy + ww * ewy)  # noqa: E731
@@ -341,7 +341,8 @@ class SurfaceFinder:
         # the fitted front edge in every column (also where none was found), at the found edges' typical height
         u_all = du * eux + median(dw[ok]) * euy
         s_all = (u_all - uc) / half
-        fitted = c0 + c1 * s_all + c3 * s_all**3 - k * np.sqrt(np.maximum(1 - s_all * s_all, 0))
+        s2 = s_all * s_all
+        fitted = c0 + (c1 + c3 * s2) * s_all - k * np.sqrt(np.maximum(1 - s2, 0))
         low = Y0 + oy + float(np.max(u_all * euy + fitted * ewy))
         pl, pr, pc = to_img(uL, left), to_img(uR, right), to_img(uc, c0)
         line_l, line_r = to_img(uL, c0 - line), to_img(uR, c0 + line)
@@ -363,36 +364,38 @@ class SurfaceFinder:
             (line_l, line_r, pl, pr),
             _band(front[ok], cols, (X0, Y0)),
             low,
+            (gray, (X0, Y0)),
         )
 
 
-def _anchor(body: np.ndarray, box: tuple, geom: tuple, origin: tuple[int, int]) -> tuple | None:
-    """The strips `SurfaceFinder._measure_band` watches, as frame boxes: eight rows across the body's middle and nine
-    across the bottom's centre between the walls; and their values in this body map (`geom`: the container's axes
-    in it), or None when there is no liquid in them or the map has no row or column beyond them."""
+def _anchor(body: np.ndarray, geom: tuple, origin: tuple[int, int]) -> tuple | None:
+    """What `SurfaceFinder._measure_band` watches: a strip of ANCHOR_ROWS rows across the body just above its
+    bottom's centre and nine rows around it (frame box), the columns of the bottom's middle three fifths in it, and the
+    strip's values in this body map (`geom`: the container's axes in it); None when there is no liquid in it or the
+    map has no row beyond it."""
     X0, Y0 = origin
-    y0, y1 = box[1] - Y0, box[3] - Y0
     (aL, bL), (aR, bR) = geom[0]
     o = geom[1]
-    r = y0 + int(0.5 * (y1 - y0))
     half = 0.3 * ((aR - aL) * o[1] + bR - bL)
-    bx0, bx1, by0, by1 = int(o[0] - half), int(o[0] + half) + 1, int(o[1]) - 4, int(o[1]) + 5
-    if r < 5 or bx0 < 1 or by0 < 1 or bx1 >= body.shape[1] or by1 >= body.shape[0]:
+    r0, r1 = int(o[1]) - 4 - ANCHOR_ROWS, int(o[1]) + 5
+    centre = (int(o[0] - half), int(o[0] + half) + 1)
+    if r0 < 1 or r1 >= body.shape[0] or centre[0] < 0 or centre[1] > body.shape[1]:
         return None
-    values = _anchor_values(body[r - 4 : r + 4], body[by0:by1, bx0:bx1])
-    regions = ((X0, Y0 + r - 4, X0 + body.shape[1], Y0 + r + 4), (X0 + bx0, Y0 + by0, X0 + bx1, Y0 + by1))
-    return None if values is None else (regions, values)
+    values = _anchor_values(body[r0:r1], centre)
+    return None if values is None else ((X0, Y0 + r0, X0 + body.shape[1], Y0 + r1), centre, values)
 
 
-def _anchor_values(side: np.ndarray, low: np.ndarray) -> np.ndarray | None:
-    """Where the container is, from membership maps of two strips (pixels, each moving with the container by about
-    as much as it does): the liquid's centre and width in the rows `side` across the body, and in the rows `low`
-    across the bottom how far down it reaches and its centroid, which a tilt moves (the depth changes across the
-    strip), or None when a strip holds no liquid."""
-    s, b = cv2.moments(side), cv2.moments(low)
+def _anchor_values(strip: np.ndarray, centre: tuple[int, int]) -> np.ndarray | None:
+    """Where the container is, from the membership map of the `_anchor` strip (pixels, each moving with the container
+    by about as much as it does): the liquid's centre and width in its upper rows, across the body; and in its lower
+    nine rows, over the bottom's middle (`centre` columns), how far the liquid reaches down and its centroid, which a
+    tilt moves (the depth changes across them). None when either part holds no liquid."""
+    s, b = cv2.moments(strip[:ANCHOR_ROWS]), cv2.moments(strip[ANCHOR_ROWS:, centre[0] : centre[1]])
     if s["m00"] <= 0 or b["m00"] <= 0:
         return None
-    return np.array([s["m10"] / s["m00"], s["m00"] / side.shape[0], b["m00"] / low.shape[1], b["m10"] / b["m00"]])
+    return np.array(
+        [s["m10"] / s["m00"], s["m00"] / ANCHOR_ROWS, b["m00"] / (centre[1] - centre[0]), b["m10"] / b["m00"]]
+    )
 
 
 def _inside(body: np.ndarray) -> np.ndarray:

@@ -33,6 +33,7 @@ class SurfaceStep:
         self.finder = SurfaceFinder(liquid or settings.liquid_hsv, roi)
         self.liquid_frames = 0
         self.previous: np.ndarray | None = None
+        self.previous_luma: tuple | None = None  # the last measurement's luma crop, for the repeat check
         self.repeated: list[bool] = []
         self.walls = ContainerTracker(roi) if settings.reference == "container" else None
 
@@ -46,8 +47,9 @@ class SurfaceStep:
             if cm.found:
                 seen = math.atan(m.rel_slope) + math.radians(m.container_angle_deg - cm.angle_deg)
                 m.rel_slope, m.container_angle_deg = math.tan(seen), cm.angle_deg
-        repeat = m.found and repeated_share(frame, self.previous, m.band, dy_only=True) >= REPEAT_SHARE
-        self.previous = frame
+        lumas = (m.luma, self.previous_luma)
+        repeat = m.found and repeated_share(frame, self.previous, m.band, True, lumas) >= REPEAT_SHARE
+        self.previous, self.previous_luma = frame, m.luma
         self.repeated.append(bool(repeat))
         ok = m.found and m.quality >= VALID_QUALITY
         rel = math.degrees(math.atan(m.rel_slope)) if m.found else math.nan
