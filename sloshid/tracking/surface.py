@@ -38,7 +38,9 @@ HOLD_ELEVATION_AFTER = 15
 HOLD_AXES_FRAMES = 30
 """The container's axes (three robust line fits) are held for up to this many frames while the container stands
 still: its last two measurements agreed within STILL_PX and since then the liquid's sides and bottom have not moved
-by a pixel (ANCHOR_PX in band frames). A moving or tilting container is measured in every frame."""
+by a pixel (ANCHOR_PX in band frames). They are measured again with each colour refit (which reads the whole body
+anyway), so a still container's whole body is read about once every REFIT_EVERY frames. A moving or tilting
+container is measured in every frame."""
 STILL_PX = 0.1
 """Largest shift of the bottom centre or of a wall between two measurements of a container that stands still."""
 ANCHOR_PX = 0.5
@@ -269,7 +271,8 @@ class SurfaceFinder:
             return SurfaceMeasurement(False, liquid=True)
         X0, Y0, X1, Y1 = self._window(box, frame.shape)
         crop = frame[Y0:Y1, X0:X1]
-        if self._model is None or self._since_fit >= REFIT_EVERY:
+        refit = self._model is None or self._since_fit >= REFIT_EVERY
+        if refit:
             # every second pixel each way: thousands of body and background pixels still fix the four coefficients
             half = crop[::2, ::2]
             self._model, self._since_fit = fit_colour_model(half, hsv_mask(half, self.hsv)), 0
@@ -287,7 +290,7 @@ class SurfaceFinder:
         gray = cv2.cvtColor(crop, cv2.COLOR_BGR2GRAY)
         key = (box[0], box[2], box[3])  # the body's sides and bottom: where the container is
         held = self._axes
-        if held is not None and held[3] and held[0] == key and held[2] < HOLD_AXES_FRAMES:
+        if held is not None and held[3] and held[0] == key and held[2] < HOLD_AXES_FRAMES and not refit:
             frame_geom = _shifted(held[1], (-X0, -Y0))
             self._axes = (key, held[1], held[2] + 1, True)
         else:
@@ -369,10 +372,10 @@ class SurfaceFinder:
 
 
 def _anchor(body: np.ndarray, geom: tuple, origin: tuple[int, int]) -> tuple | None:
-    """What `SurfaceFinder._measure_band` watches: a strip of ANCHOR_ROWS rows across the body just above its
-    bottom's centre and nine rows around it (frame box), the columns of the bottom's middle three fifths in it, and the
-    strip's values in this body map (`geom`: the container's axes in it); None when there is no liquid in it or the
-    map has no row beyond it."""
+    """What `SurfaceFinder._measure_band` watches: a strip across the body (frame box) of ANCHOR_ROWS rows above the
+    bottom and the nine rows around the bottom's centre, the columns of the bottom's middle three fifths in it, and
+    the strip's values in this body map (`geom`: the container's axes in it); None when there is no liquid in it or
+    the map has no row beyond it."""
     X0, Y0 = origin
     (aL, bL), (aR, bR) = geom[0]
     o = geom[1]
