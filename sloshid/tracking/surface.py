@@ -30,17 +30,17 @@ MIN_LIQUID_SHARE = 0.005
 """A liquid region must cover at least this share of the searched area."""
 WALL_MARGIN = 0.06
 """Columns this close to a wall (share of the inner width, at least 4 px) are not used: the meniscus curls up."""
-REFIT_EVERY = 24
+REFIT_EVERY = 48
 """The liquid's colour model is refitted every this many frames (the float's: every 8): the front edge is placed on
-the luma, so a model that lags a lighting change by a second moves no edge; a refit reads the whole body."""
+the luma, so a model that lags a lighting change by a second or two moves no edge; a refit reads the whole body."""
 HOLD_ELEVATION_AFTER = 15
 """The camera's elevation is fitted in this many frames, then held at their median."""
 HOLD_AXES_FRAMES = 30
-"""The container's axes (three robust line fits) are held for up to this many frames while the container stands
-still: its last two measurements agreed within STILL_PX and since then the liquid's sides and bottom have not moved
-by a pixel (ANCHOR_PX in band frames). They are measured again with each colour refit (which reads the whole body
-anyway), so a still container's whole body is read about once every REFIT_EVERY frames. A moving or tilting
-container is measured in every frame."""
+"""The container's axes (three robust line fits) are held for at most this many frames while the container stands
+still. The hold doubles from two frames while each new fit agrees with the one held before it within STILL_PX, so a
+container that moves slowly (a tilt turning round) is measured again before it has moved by more than about that;
+during a hold the liquid's sides and bottom must not move by a pixel (ANCHOR_PX in band frames). The axes are
+measured again with each colour refit, which reads the whole body anyway and may move the fitted walls a little."""
 STILL_PX = 0.1
 """Largest shift of the bottom centre or of a wall between two measurements of a container that stands still."""
 ANCHOR_PX = 0.5
@@ -54,6 +54,9 @@ chroma and the blur, so more add little precision but cost time (a 640x480 view 
 HEADROOM = 0.1
 """The surface is followed this far (share of the body's width, plus 6 px) above the liquid's top in the last frame;
 a surface that rises faster is found again by a colour search."""
+FIT_HEADROOM = 0.3
+"""The colour model is fitted on the pixels up to this far above the liquid's top: the air above the surface is much
+of its background, and with less of it the fitted edges move (by 3 px at the walls of a test clip)."""
 BAND_BELOW = 12
 """While the container stands still, the liquid is mapped only down to this many pixels (or a twentieth of its width)
 plus twice the last frame's sinking below the last frame's lowest front-edge point, and in the ANCHOR_PX strip:
@@ -160,7 +163,8 @@ class SurfaceFinder:
         self._since_fit = 0
         self._k: list[float] = []  # k / R = sin(elevation) from the first frames
         self._held: float | None = None  # their median, once there are enough
-        self._axes: tuple | None = None  # (body sides and bottom, axes in frame coordinates, frames used, still)
+        # (body sides and bottom, axes in frame coordinates, frames they were used in, frames they may be used in)
+        self._axes: tuple | None = None
         self._last: SurfaceMeasurement | None = None  # the last frame's, when found
         self._anchor: tuple | None = None  # (strip where the container's sides and bottom are, its centre, values)
         self._sink = 0.0  # how far the front edge's lowest point sank from the frame before to the last one
@@ -210,22 +214,23 @@ class SurfaceFinder:
         bx1, by1 = 2 * (big[:, 0] + big[:, 2]).max(), 2 * (big[:, 1] + big[:, 3]).max()
         return X0 + int(bx0), Y0 + int(by0), X0 + int(bx1), Y0 + int(by1)
 
-    def _window(self, box: tuple[int, int, int, int], shape: tuple) -> tuple[int, int, int, int]:
+    def _window(
+        self, box: tuple[int, int, int, int], shape: tuple, headroom: float = HEADROOM
+    ) -> tuple[int, int, int, int]:
         """Frame box (X0, Y0, X1, Y1) mapped around a liquid body box: its sides and bottom with a margin, and
-        HEADROOM above its top."""
+        `headroom` (share of its width) above its top."""
         x0, y0, x1, y1 = box
-        pad, up = 6 + int(0.03 * (x1 - x0)), 6 + int(HEADROOM * (x1 - x0))
+        pad, up = 6 + int(0.03 * (x1 - x0)), 6 + int(headroom * (x1 - x0))
         return max(0, x0 - pad), max(0, y0 - up), min(shape[1], x1 + pad), min(shape[0], y1 + pad)
 
     def _band_ready(self) -> bool:
-        """The next frame can be measured in a band: the container stood still, its axes are held, the last frame
+        """The next frame can be measured in a band: the container's axes are held (it stood still), the last frame
         was measured and no colour refit is due (a refit reads the whole body)."""
         held = self._axes
         return (
             self._last is not None
             and held is not None
-            and held[3]
-            and held[2] < HOLD_AXES_FRAMES
+            and held[2] < held[3]
             and self._anchor is not None
             and self._since_fit < REFIT_EVERY
         )
@@ -258,7 +263,7 @@ class SurfaceFinder:
         if not m.found or m.low > Y0 + crop.shape[0] - margin / 2:
             return None
         self._box = (x0, Y0 + top, x1, y1)
-        self._axes = (key, geom, used + 1, True)
+        self._axes = (key, geom, used + 1, self._axes[3])
         return m
 
     def _measure_body(self, frame: np.ndarray, box: tuple[int, int, int, int], follow: bool) -> SurfaceMeasurement:
@@ -270,12 +275,14 @@ class SurfaceFinder:
         if box[0] <= rx or box[2] >= rx + rw:  # the liquid reaches the side of the picture: no walls to measure
             return SurfaceMeasurement(False, liquid=True)
         X0, Y0, X1, Y1 = self._window(box, frame.shape)
-        crop = frame[Y0:Y1, X0:X1]
         refit = self._model is None or self._since_fit >= REFIT_EVERY
         if refit:
-            # every second pixel each way: thousands of body and background pixels still fix the four coefficients
-            half = crop[::2, ::2]
+            # FIT_HEADROOM above the liquid (converted first: the crop below is then a view of it), every second
+            # pixel each way: thousands of body and background pixels still fix the four coefficients
+            fy0 = self._window(box, frame.shape, FIT_HEADROOM)[1]
+            half = frame[fy0:Y1, X0:X1][::2, ::2]
             self._model, self._since_fit = fit_colour_model(half, hsv_mask(half, self.hsv)), 0
+        crop = frame[Y0:Y1, X0:X1]
         if self._model is None:
             return SurfaceMeasurement(False, liquid=True)
         body = membership_map(crop, self._model[0])
@@ -290,17 +297,18 @@ class SurfaceFinder:
         gray = cv2.cvtColor(crop, cv2.COLOR_BGR2GRAY)
         key = (box[0], box[2], box[3])  # the body's sides and bottom: where the container is
         held = self._axes
-        if held is not None and held[3] and held[0] == key and held[2] < HOLD_AXES_FRAMES and not refit:
+        if held is not None and held[0] == key and held[2] < held[3] and not refit:
             frame_geom = _shifted(held[1], (-X0, -Y0))
-            self._axes = (key, held[1], held[2] + 1, True)
+            self._axes = (key, held[1], held[2] + 1, held[3])
         else:
             frame_geom = _container_axes(body, inside, gray, (X0, Y0), box)
             if frame_geom is None:
                 self._axes = None
                 return SurfaceMeasurement(False, liquid=True)
             geom = _shifted(frame_geom, (X0, Y0))
-            still = held is not None and _moved_px(held[1], geom) < STILL_PX
-            self._axes = (key, geom, 1, still)
+            # still since the held fit (over as many frames as it was used, with the same colours): hold twice as long
+            still = held is not None and not refit and _moved_px(held[1], geom) < STILL_PX
+            self._axes = (key, geom, 1, min(HOLD_AXES_FRAMES, 2 * held[2]) if still else 0)
         self._anchor = _anchor(body, frame_geom, (X0, Y0))
         return self._surface(gray, body, inside, (X0, Y0), frame_geom)
 
