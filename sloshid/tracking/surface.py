@@ -36,11 +36,11 @@ the luma, so a model that lags a lighting change by a second or two moves no edg
 HOLD_ELEVATION_AFTER = 15
 """The camera's elevation is fitted in this many frames, then held at their median."""
 HOLD_AXES_FRAMES = 30
-"""The container's axes (three robust line fits) are held for at most this many frames while the container stands
-still. The hold doubles from two frames while each new fit agrees with the one held before it within STILL_PX, so a
-container that moves slowly (a tilt turning round) is measured again before it has moved by more than about that;
-during a hold the liquid's sides and bottom must not move by a pixel (ANCHOR_PX in band frames). The axes are
-measured again with each colour refit, which reads the whole body anyway and may move the fitted walls a little."""
+"""The container's axes (three robust line fits) are held for up to this many frames while the container stands
+still: its last two fits (with the same colour model) agreed within STILL_PX, and since then the liquid's sides and
+bottom have not moved by a pixel in whole-body frames, nor the ANCHOR_PX strip in band frames (a change there means
+the container moved: its axes are fitted again at once). They are also fitted again with each colour refit, which
+reads the whole body anyway and may move the fitted walls a little. A moving container is measured every frame."""
 STILL_PX = 0.1
 """Largest shift of the bottom centre or of a wall between two measurements of a container that stands still."""
 ANCHOR_PX = 0.5
@@ -247,6 +247,7 @@ class SurfaceFinder:
         # as in the whole body's map, where its pixels' neighbours are real
         now = _anchor_values(membership_map(frame[sy0 - 1 : sy1 + 1, sx0:sx1], self._model[0])[1:-1], centre)
         if now is None or np.abs(now - reference).max() > ANCHOR_PX:
+            self._axes = None  # the container moved: its axes are measured again
             return None
         x0, _y0, x1, y1 = self._box
         X0, Y0, X1, Y1 = self._window(self._box, frame.shape)
@@ -306,9 +307,8 @@ class SurfaceFinder:
                 self._axes = None
                 return SurfaceMeasurement(False, liquid=True)
             geom = _shifted(frame_geom, (X0, Y0))
-            # still since the held fit (over as many frames as it was used, with the same colours): hold twice as long
             still = held is not None and not refit and _moved_px(held[1], geom) < STILL_PX
-            self._axes = (key, geom, 1, min(HOLD_AXES_FRAMES, 2 * held[2]) if still else 0)
+            self._axes = (key, geom, 1, HOLD_AXES_FRAMES if still else 0)
         self._anchor = _anchor(body, frame_geom, (X0, Y0))
         return self._surface(gray, body, inside, (X0, Y0), frame_geom)
 
