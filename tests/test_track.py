@@ -474,17 +474,17 @@ def test_band_frames_measure_a_still_container_like_whole_body_frames(still_surf
     path, truth = still_surface_video
     band, n_band = _tracked_with_band(path, True, monkeypatch)
     whole, n_whole = _tracked_with_band(path, False, monkeypatch)
-    # measured 67 of 90: the first frames fix the camera's elevation and the axes, every 24th refits the colours
-    assert n_whole == 0 and n_band > 0.6 * len(band.t_s)
+    # measured 83 of 90: the first frames fit the axes (two fits must agree), and the colours are refitted at 48
+    assert n_whole == 0 and n_band > 0.8 * len(band.t_s)
     ok = band.valid.astype(bool) & whole.valid.astype(bool)
     assert ok.mean() > 0.5  # 0.6: the surface rests for the first second, and the encoder repeats it
     # the same surface, but the axes are refitted at other frames and columns under a highlight stripe find no edge
-    # in the band (the robust fit drops them either way): measured 0.05 deg and 0.6 px at most; the accuracy against
-    # the truth is the same (0.09 deg and 0.3 px RMSE here)
+    # in the band (the robust fit drops them either way): measured 0.03 deg and 0.2 px at most; the accuracy against
+    # the truth is the same (0.09 deg and 0.27-0.31 px RMSE both ways)
     assert np.abs(band.angle_deg - whole.angle_deg)[ok].max() < 0.1
     for side in ("left", "right"):
         b, w = band.columns()[f"{side}_wall_px"], whole.columns()[f"{side}_wall_px"]
-        assert np.abs(b - w)[ok].max() < 1.0
+        assert np.abs(b - w)[ok].max() < 0.5
         assert _rmse((b - truth[f"{side}_wall_px"])[ok]) < 1.2
     assert _rmse((band.angle_deg - truth["surface_angle_deg"])[ok]) < 0.3
 
