@@ -42,7 +42,7 @@ def repeated_share(
     x0, y0 = max(x0, 0), max(y0, 0)
     if x1 - x0 < 3 or y1 - y0 < 3:
         return 0.0
-    cur, old = (_inside(luma, (x0, y0, x1, y1)) for luma in lumas)
+    cur, old = (_box_of(luma, (x0, y0, x1, y1)) for luma in lumas)
     if cur is None or old is None:
         cur = cv2.cvtColor(frame[y0:y1, x0:x1], cv2.COLOR_BGR2GRAY)
         old = cv2.cvtColor(previous[y0:y1, x0:x1], cv2.COLOR_BGR2GRAY)
@@ -58,7 +58,7 @@ def repeated_share(
     return cv2.countNonZero(cv2.bitwise_and(same, edges)) / n
 
 
-def _inside(luma: tuple | None, box: tuple[int, int, int, int]) -> np.ndarray | None:
+def _box_of(luma: tuple | None, box: tuple[int, int, int, int]) -> np.ndarray | None:
     """The frame box (x0, y0, x1, y1) of a grey crop (array, (x, y) of its corner), or None when it is not all in it."""
     if luma is None:
         return None

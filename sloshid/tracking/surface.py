@@ -317,7 +317,7 @@ class SurfaceFinder:
         X0, Y0 = origin
         walls, o, e_u, e_w = geom
         (aL, bL), (aR, bR) = walls
-        # the axes as plain numbers: the few points below cost a microsecond each so, ten as arrays
+        # the axes as plain numbers: the few points below cost a microsecond each this way, ten as arrays
         (ox, oy), (eux, euy), (ewx, ewy) = (map(float, v) for v in (o, e_u, e_w))
         first = int(np.argmax(inside.ravel())) // body.shape[1]  # the liquid's top row: its first pixel's
         ytop = float(first)
