@@ -255,8 +255,7 @@ class SurfaceFinder:
         crop = frame[Y0 : min(Y1, math.ceil(self._last.low + margin)), X0:X1]
         body = membership_map(crop, self._model[0])
         inside = _inside(body)
-        per_row = cv2.reduce(inside, 1, cv2.REDUCE_SUM, dtype=cv2.CV_32S).ravel()
-        top = int(np.argmax(per_row >= 0.05 * per_row.max()))  # the body's top, as `_body_box` finds it
+        top = int(_liquid_rows(inside)[1][0])  # the body's top, as `_body_box` finds it
         if top == 0:
             return None
         gray = cv2.cvtColor(crop, cv2.COLOR_BGR2GRAY)
@@ -421,15 +420,21 @@ def _body_box(inside: np.ndarray, origin: tuple[int, int]) -> tuple[int, int, in
     holding a twentieth of the fullest row's (a sloped surface thins out at its top); None when that box touches
     the map's sides or bottom."""
     per_col = cv2.reduce(inside, 0, cv2.REDUCE_SUM, dtype=cv2.CV_32S).ravel() // 255
-    per_row = cv2.reduce(inside, 1, cv2.REDUCE_SUM, dtype=cv2.CV_32S).ravel() // 255
+    per_row, r = _liquid_rows(inside)
     if per_col.max() < 10 or per_row.max() < 10:
         return None
     c = np.flatnonzero(per_col >= 0.1 * per_col.max())
-    r = np.flatnonzero(per_row >= 0.05 * per_row.max())
     if c[0] == 0 or c[-1] == inside.shape[1] - 1 or r[0] == 0 or r[-1] == inside.shape[0] - 1:
         return None
     X0, Y0 = origin
     return X0 + int(c[0]), Y0 + int(r[0]), X0 + int(c[-1]) + 1, Y0 + int(r[-1]) + 1
+
+
+def _liquid_rows(inside: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Liquid pixels per row of a membership map (`inside`, as `_inside` gives it), and the rows holding a twentieth
+    of the fullest row's (a sloped surface thins out at its top): the body's rows for its box and a band's top."""
+    per_row = cv2.reduce(inside, 1, cv2.REDUCE_SUM, dtype=cv2.CV_32S).ravel() // 255
+    return per_row, np.flatnonzero(per_row >= 0.05 * per_row.max())
 
 
 def _band(front: np.ndarray, cols: np.ndarray, origin: tuple[int, int]) -> tuple[int, int, int, int]:
