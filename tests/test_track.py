@@ -209,6 +209,32 @@ def test_smoothing_worker_gives_the_in_process_result_and_survives_its_loss():
     assert done.returncode == 0 and done.stdout.strip() == "ok", done.stderr[-2000:]
 
 
+EARLY_CHECK = """
+from sloshid.tracking import smooth
+smooth.start_early()
+early = smooth._early
+assert early._proc is not None
+assert smooth.smoothing_worker() is early and smooth._early is None  # the run takes the early worker
+early.close()
+smooth.start_early()
+unused = smooth._early
+smooth.discard_early()  # the command failed before tracking: the worker is stopped at once
+assert unused._proc is None and smooth._early is None
+smooth.start_early()
+unused = smooth._early
+batch = smooth.smoothing_worker(fork=False)  # a run that must not fork stops it and smooths in its own process
+assert batch is not unused and batch._proc is None and unused._proc is None
+print("ok")
+"""
+
+
+def test_track_forks_its_smoother_first_and_stops_it_when_unused():
+    # `sloshid track` forks the smoother before its own imports (start_early); the run takes that worker, and one that
+    # no run took (the command failed first, or the run may not fork) is stopped, not left running
+    done = subprocess.run([sys.executable, "-c", EARLY_CHECK], capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0 and done.stdout.strip() == "ok", done.stderr[-2000:]
+
+
 def test_orientation_metadata_is_respected(tmp_path):
     # A phone-style file: pixels stored landscape with a "rotate 90 deg CCW" display matrix. The tracker
     # must see the picture as displayed (portrait), so the float lies at its true angle + 90 deg.

@@ -126,6 +126,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     wanted = next((a for a in argv if a in COMMANDS), None)
     args = None
     previous = signal.signal(signal.SIGTERM, _on_sigterm)
+    smooth = None
+    if wanted == "track" and not {"-h", "--help", "--no-smooth"} & set(argv):
+        from sloshid.tracking import smooth  # NumPy only; forks before the command's imports (see start_early)
+
+        smooth.start_early()
     try:
         parser = build_parser(only=wanted)
         sub = _subparser(parser, wanted)
@@ -153,6 +158,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         print("sloshid: interrupted; finished outputs are kept, nothing half-written was left.", file=sys.stderr)
         return 130 if not isinstance(sys.exc_info()[1], Terminated) else 143
     finally:
+        if smooth is not None:
+            smooth.discard_early()
         signal.signal(signal.SIGTERM, previous)
 
 

@@ -153,14 +153,45 @@ class SmoothingWorker:
         return smooth_angle(t_s, angle_deg, valid, quality)
 
     def close(self) -> None:
-        """Stop the worker (at once if it was given nothing to smooth)."""
+        """Stop the worker: it has sent its result and ended, or it was given nothing and is ended now."""
         if self._proc is not None:
             self._conn.close()
-            self._proc.join(timeout=0.5)
             if self._proc.is_alive():
                 self._proc.terminate()
-                self._proc.join()
+            self._proc.join()
             self._proc = None
+
+
+_early: SmoothingWorker | None = None
+"""The worker `start_early` forked, until a run takes it (`smoothing_worker`) or `discard_early` stops it."""
+
+
+def start_early() -> None:
+    """Fork the smoother first thing in a `sloshid track` run: its second of SciPy and filterpy imports then runs beside
+    the command's own imports (OpenCV, PyAV) and the opening of the video, which leave the other core idle, instead of
+    beside the decoding, which uses both."""
+    global _early
+    if _early is None:
+        _early = SmoothingWorker()
+
+
+def smoothing_worker(fork: bool = True) -> SmoothingWorker:
+    """The smoother for a run: the one `start_early` forked when there is one (and `fork`), else a new one."""
+    global _early
+    worker, _early = _early, None
+    if worker is not None and fork:
+        return worker
+    if worker is not None:
+        worker.close()
+    return SmoothingWorker(fork)
+
+
+def discard_early() -> None:
+    """Stop an early-forked smoother that no run took (the command failed before it tracked)."""
+    global _early
+    if _early is not None:
+        _early.close()
+        _early = None
 
 
 def _serve(conn, callers_end) -> None:

@@ -31,7 +31,7 @@ from sloshid.tracking.container_ref import ContainerMeasurement, ContainerTracke
 from sloshid.tracking.float_angle import FloatFinder
 from sloshid.tracking.overlay import draw_overlay
 from sloshid.tracking.repeats import REPEAT_SHARE, repeated_share, stale_repeats
-from sloshid.tracking.smooth import SmoothingWorker
+from sloshid.tracking.smooth import smoothing_worker
 from sloshid.tracking.surface import auto_liquid_range
 from sloshid.tracking.surface_track import SurfaceStep
 from sloshid.video.colors import DEFAULT_FLOAT_COLOR, HsvRange, preset
@@ -340,7 +340,7 @@ def track_video(
     with contextlib.ExitStack() as workers:
         # the smoother's imports load beside opening and decoding, on the other core, instead of after them; forked
         # before the reader opens, so no decoding thread exists at the fork
-        smoother = SmoothingWorker(fork=multithreaded) if settings.smooth and Path(path).is_file() else None
+        smoother = smoothing_worker(fork=multithreaded) if settings.smooth and Path(path).is_file() else None
         if smoother is not None:
             workers.callback(smoother.close)
         reader = FrameReader(Path(path), multithreaded, pictures=True)
