@@ -546,7 +546,7 @@ def compare(inp: CompareInput, progress: bool = False) -> Comparison:
     """Build and score every requested method, then run the closed-loop, robustness, camera and linearity studies."""
     s = inp.settings
     built: dict[str, MethodResult] = {}
-    for key in tqdm(s.methods, desc="methods", disable=not progress, leave=False):
+    for key in tqdm(s.methods, desc="methods", disable=None if progress else True, leave=False):
         built[key] = build_method(key, inp, built)
     results = [built[k] for k in s.methods]
     ok = [r for r in results if r.applicable]

@@ -59,7 +59,7 @@ def parallel_map(
     from tqdm import tqdm
 
     jobs = list(jobs)
-    bar = tqdm(total=len(jobs), desc=desc, disable=not progress, leave=False)
+    bar = tqdm(total=len(jobs), desc=desc, disable=None if progress else True, leave=False)
     if workers <= 1 or len(jobs) <= 1:
         out = []
         for job in jobs:
