@@ -235,6 +235,15 @@ def test_track_forks_its_smoother_first_and_stops_it_when_unused():
     assert done.returncode == 0 and done.stdout.strip() == "ok", done.stderr[-2000:]
 
 
+def test_key_frame_column_marks_the_encoders_key_frames(tmp_path):
+    # MPEG-4 as sloshid writes it codes a key frame every 12 frames: exactly those rows are marked (identify restarts
+    # the encoder hold there)
+    path = tmp_path / "gop.mp4"
+    render_video(path, SynthSettings(**{**SMALL, "codec": "mpeg4", "quality": 3}))
+    res = track_video(path)
+    assert np.flatnonzero(res.key_frame).tolist() == [0, 12, 24, 36, 48]
+
+
 def test_orientation_metadata_is_respected(tmp_path):
     # A phone-style file: pixels stored landscape with a "rotate 90 deg CCW" display matrix. The tracker
     # must see the picture as displayed (portrait), so the float lies at its true angle + 90 deg.

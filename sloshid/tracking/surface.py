@@ -338,7 +338,7 @@ class SurfaceFinder:
         ok &= _locally_consistent(wv, ok)
         # the elevation is fitted in the first frames and then held (a static camera): slopes separate from it
         if self._held is None and len(self._k) >= HOLD_ELEVATION_AFTER:
-            self._held = float(np.median(self._k))
+            self._held = median(np.array(self._k))  # np.median would import numpy.ma (40 ms) in every span worker
         held = self._held
         fit = _fit_front(s[ok], wv[ok], max(10, len(cols) // 3), None if held is None else held * half)
         if fit is None:

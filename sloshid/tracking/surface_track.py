@@ -17,6 +17,7 @@ from sloshid.core.errors import SettingError, UserError
 from sloshid.tracking.container_ref import ContainerTracker
 from sloshid.tracking.overlay import draw_surface_overlay
 from sloshid.tracking.repeats import REPEAT_SHARE, repeated_share
+from sloshid.tracking.robust import median
 from sloshid.tracking.surface import SurfaceFinder
 from sloshid.video.colors import HsvRange
 
@@ -97,7 +98,7 @@ class SurfaceStep:
         t = np.array([r[1] for r in rows], float)
         valid = np.array([r[8] for r in rows], bool)
         slope, cang, left, right, width, opening = (np.array(c, float) for c in zip(*[r[9:] for r in rows]))
-        sin_e = float(np.clip(np.median(opening[valid]) / np.median(width[valid]), 0, 0.5))
+        sin_e = float(np.clip(median(opening[valid]) / median(width[valid]), 0, 0.5))
         cos_e = math.sqrt(1 - sin_e * sin_e)
         rel = np.degrees(np.arctan(slope / cos_e))
         container = self.settings.reference == "container"
@@ -107,9 +108,9 @@ class SurfaceStep:
         rest = rest if rest.any() else valid
         walls = {}
         for name, w in (("left_wall", left), ("right_wall", right)):
-            walls[f"{name}_px"] = np.where(valid, (w - np.median(w[rest])) / cos_e, np.nan)
+            walls[f"{name}_px"] = np.where(valid, (w - median(w[rest])) / cos_e, np.nan)
         mm_per_px = (
-            1000 * self.settings.container_diameter_m / float(np.median(width[valid]))
+            1000 * self.settings.container_diameter_m / median(width[valid])
             if self.settings.container_diameter_m
             else math.nan
         )
