@@ -269,7 +269,7 @@ def _smoothstep(x: np.ndarray) -> np.ndarray:
 
 
 @dataclass
-class _Scene:
+class SceneGeometry:
     """Fixed scene geometry in pixels, derived from the frame size."""
 
     inner_w: float
@@ -282,10 +282,10 @@ class _Scene:
     y0: float
 
 
-def _scene(s: SynthSettings) -> _Scene:
+def scene_geometry(s: SynthSettings) -> SceneGeometry:
     """Scene proportions from the frame height (container, walls, float) and the travel's start."""
     h = s.height
-    return _Scene(
+    return SceneGeometry(
         inner_w=0.5 * h,
         wall=max(3.0, 0.012 * h),
         depth=0.32 * h,
@@ -304,13 +304,13 @@ def _total_travel_px(s: SynthSettings) -> float:
     return s.travel_px
 
 
-def _rot(angle: float) -> np.ndarray:
+def rotation_matrix(angle: float) -> np.ndarray:
     """2x2 rotation CCW as seen, acting on (x right, y up) vectors."""
     c, si = math.cos(angle), math.sin(angle)
     return np.array([[c, -si], [si, c]])
 
 
-def _rect(x0: float, x1: float, y0: float, y1: float) -> np.ndarray:
+def rectangle_points(x0: float, x1: float, y0: float, y1: float) -> np.ndarray:
     """Corners of an axis-aligned rectangle, counter-clockwise in (x right, y up) coordinates."""
     return np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]], float)
 
@@ -342,7 +342,7 @@ def _coverage(poly_img: np.ndarray, shape: tuple[int, int]) -> tuple[tuple[slice
     return (slice(y0, y1), slice(x0, x1)), cov
 
 
-def _paint(img: np.ndarray, poly_img: np.ndarray, bgr: tuple[int, int, int], alpha: float = 1.0) -> None:
+def paint_polygon(img: np.ndarray, poly_img: np.ndarray, bgr: tuple[int, int, int], alpha: float = 1.0) -> None:
     """Alpha-blend a convex polygon of colour `bgr` into the float32 image with its analytic coverage."""
     res = _coverage(poly_img, img.shape[:2])
     if res is None:
@@ -352,7 +352,7 @@ def _paint(img: np.ndarray, poly_img: np.ndarray, bgr: tuple[int, int, int], alp
     img[sl] += a * (np.asarray(bgr, np.float32) - img[sl])
 
 
-def _background(s: SynthSettings) -> np.ndarray:
+def background_image(s: SynthSettings) -> np.ndarray:
     """A static vertical gradient backdrop (rolled with the camera) with a faint shelf line."""
     ys, xs = np.mgrid[0 : s.height, 0 : s.width].astype(np.float32)
     roll = math.radians(s.camera_roll_deg)
@@ -363,7 +363,7 @@ def _background(s: SynthSettings) -> np.ndarray:
 
 
 @dataclass
-class _Motion:
+class Motion:
     """Per-frame container pose and liquid angle shared by both scenes (arrays, one entry per frame)."""
 
     t: np.ndarray
@@ -385,39 +385,39 @@ def _poses_at(s: SynthSettings, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, 
     return relative_angle_rad(s, t), tilt, dx
 
 
-def _motion(s: SynthSettings) -> _Motion:
+def _motion(s: SynthSettings) -> Motion:
     """Frame times, the pendulum's relative angle, the container's travel and tilt, the lighting drift."""
     t = frame_times(s)
     rel, tilt, dx = _poses_at(s, t)
     accel = move_accel(s, t) if s.motion == "move" else np.zeros_like(t)
     rng = np.random.default_rng([s.seed, 2])
     drift = np.cumsum(rng.normal(0, 0.002, len(t)))
-    return _Motion(t, rel, tilt, dx, accel, drift, rng)
+    return Motion(t, rel, tilt, dx, accel, drift, rng)
 
 
 class _FloatScene:
     """The float scene's fixed parts and its painter: one undegraded picture per pose."""
 
     def __init__(self, s: SynthSettings) -> None:
-        self.s, self.sc = s, _scene(s)
-        self.R_roll = _rot(math.radians(s.camera_roll_deg))
+        self.s, self.sc = s, scene_geometry(s)
+        self.R_roll = rotation_matrix(math.radians(s.camera_roll_deg))
         self.centre = np.array([s.width / 2, s.height / 2])
-        self.base = _background(s)
+        self.base = background_image(s)
         half = self.sc.inner_w / 2
         sc = self.sc
         self.shapes = {
-            "glass": _rect(-half, half, -sc.depth, sc.head),
-            "left": _rect(-half - sc.wall, -half, -sc.depth - sc.wall, sc.head),
-            "right": _rect(half, half + sc.wall, -sc.depth - sc.wall, sc.head),
-            "bottom": _rect(-half, half, -sc.depth - sc.wall, -sc.depth),
+            "glass": rectangle_points(-half, half, -sc.depth, sc.head),
+            "left": rectangle_points(-half - sc.wall, -half, -sc.depth - sc.wall, sc.head),
+            "right": rectangle_points(half, half + sc.wall, -sc.depth - sc.wall, sc.head),
+            "bottom": rectangle_points(-half, half, -sc.depth - sc.wall, -sc.depth),
         }
         L, T = sc.float_l / 2, sc.float_t / 2
-        self.float_local = _rect(-L, L, -T, T)
+        self.float_local = rectangle_points(-L, L, -T, T)
         self.looks = s.float_rounded or s.float_bend_px or s.float_specular or s.float_submerged
 
     def transforms(self, tilt: float, dx: float):
         """(to_img, to_container): container coordinates (x right, y up) <-> image pixels (y down)."""
-        R_c, pos = _rot(tilt), np.array([self.sc.x0 + dx, self.s.height - self.sc.y0])  # y up in world
+        R_c, pos = rotation_matrix(tilt), np.array([self.sc.x0 + dx, self.s.height - self.sc.y0])  # y up in world
         R_roll, centre = self.R_roll, self.centre
 
         def to_img(pts: np.ndarray) -> np.ndarray:
@@ -434,18 +434,18 @@ class _FloatScene:
         """The undegraded picture of one pose."""
         to_img, to_container = self.transforms(tilt, dx)
         img = self.base.copy()
-        _paint(img, to_img(self.shapes["glass"]), (235, 240, 240), 0.25)
+        paint_polygon(img, to_img(self.shapes["glass"]), (235, 240, 240), 0.25)
         # liquid: the container interior below the surface line through the float centre (a convex polygon)
-        _paint(img, to_img(_liquid_polygon(self.sc.inner_w / 2, self.sc.depth, rel)), LIQUID_BGR, 0.8)
+        paint_polygon(img, to_img(_liquid_polygon(self.sc.inner_w / 2, self.sc.depth, rel)), LIQUID_BGR, 0.8)
         for part in ("left", "right", "bottom"):
-            _paint(img, to_img(self.shapes[part]), WALL_BGR, 0.92)
-        corners, bgr = to_img(self.float_local @ _rot(rel).T), preset(self.s.float_color).bgr
+            paint_polygon(img, to_img(self.shapes[part]), WALL_BGR, 0.92)
+        corners, bgr = to_img(self.float_local @ rotation_matrix(rel).T), preset(self.s.float_color).bgr
         if self.looks:
             from sloshid.synthetic.float_look import paint_float  # the realistic float builds on this module
 
             paint_float(img, self.s, self.sc, rel, corners, to_container, bgr)
         else:
-            _paint(img, corners, bgr, 1.0)
+            paint_polygon(img, corners, bgr, 1.0)
         return img
 
 
@@ -460,7 +460,7 @@ def render_frames(s: SynthSettings):
     t, rel, tilt, dx, accel, drift = mo.t, mo.rel, mo.tilt, mo.dx, mo.accel, mo.drift
     scene = _FloatScene(s)
     sc, roll = scene.sc, math.radians(s.camera_roll_deg)
-    noise = _NoisePool(scene.base.shape, s.noise_sigma, mo.rng) if s.noise_sigma > 0 else None
+    noise = NoisePool(scene.base.shape, s.noise_sigma, mo.rng) if s.noise_sigma > 0 else None
     offsets = (np.linspace(0, 1, 5) - 0.5) * s.motion_blur / s.fps if s.motion_blur > 0 else np.zeros(1)
     sub = _poses_at(s, (t[:, None] + offsets[None, :]).ravel()) if s.motion_blur > 0 else None
     for k in range(len(t)):
@@ -470,7 +470,7 @@ def render_frames(s: SynthSettings):
         else:  # motion blur: the exposure's poses averaged, centred on the frame time
             n = len(offsets)
             img = sum(scene.paint(*(p[k * n + j] for p in sub)) for j in range(n)) / np.float32(n)
-        img = _degrade(img, s, t[k], drift[k], noise)
+        img = degrade_picture(img, s, t[k], drift[k], noise)
         centre = to_img(np.zeros((1, 2)))[0]
         ctr_base = to_img(np.array([[0.0, -sc.depth]]))[0]
         row = {
@@ -495,7 +495,7 @@ def _liquid_polygon(half: float, depth: float, angle: float) -> np.ndarray:
     return np.array([[-half, -depth], [half, -depth], [half, yr], [-half, yl]], float)
 
 
-class _NoisePool:
+class NoisePool:
     """Seeded Gaussian sensor noise, fast: a few pre-drawn noise fields read at random offsets per frame."""
 
     def __init__(self, shape: tuple[int, ...], sigma: float, rng: np.random.Generator, fields: int = 4) -> None:
@@ -513,7 +513,7 @@ class _NoisePool:
         return self._fields[i, dy : dy + h, dx : dx + w]
 
 
-def _degrade(img: np.ndarray, s: SynthSettings, t: float, drift: float, noise: _NoisePool | None) -> np.ndarray:
+def degrade_picture(img: np.ndarray, s: SynthSettings, t: float, drift: float, noise: NoisePool | None) -> np.ndarray:
     """Camera effects in order of the optical path: blur, lighting flicker, sensor noise, 8-bit quantisation."""
     if s.blur_px > 0:
         img = cv2.GaussianBlur(img, (0, 0), s.blur_px)

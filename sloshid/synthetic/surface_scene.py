@@ -17,15 +17,15 @@ import math
 import numpy as np
 
 from sloshid.synthetic.render import (
+    Motion,
+    NoisePool,
     SynthSettings,
-    _background,
-    _degrade,
-    _Motion,
-    _NoisePool,
-    _paint,
-    _rect,
-    _rot,
-    _scene,
+    background_image,
+    degrade_picture,
+    paint_polygon,
+    rectangle_points,
+    rotation_matrix,
+    scene_geometry,
 )
 from sloshid.video.colors import preset
 
@@ -83,32 +83,34 @@ def _surface_layers(img, u, w, z, dz, walls_z: tuple[float, float], s: SynthSett
             _blend(img, s.specular * stripe * np.clip(0.5 + sc.head - w, 0, 1), (255, 255, 255))
 
 
-def surface_frames(s: SynthSettings, mo: _Motion):
+def surface_frames(s: SynthSettings, mo: Motion):
     """Yield (truth row dict, BGR uint8 frame) for every frame of the dyed-liquid scene."""
-    sc = _scene(s)
+    sc = scene_geometry(s)
     half = sc.inner_w / 2
     roll = math.radians(s.camera_roll_deg)
-    R_roll = _rot(roll)
-    base = _background(s)
-    noise = _NoisePool(base.shape, s.noise_sigma, mo.rng) if s.noise_sigma > 0 else None
+    R_roll = rotation_matrix(roll)
+    base = background_image(s)
+    noise = NoisePool(base.shape, s.noise_sigma, mo.rng) if s.noise_sigma > 0 else None
     tan_amp = math.tan(math.radians(abs(s.amplitude_deg)) if s.motion == "decay" else 0.1)
     h2 = _second_mode_height(s, mo.t, half * tan_amp)
     mm_per_px = 1000 * s.container_diameter_m / sc.inner_w
     walls = {
-        "left": _rect(-half - sc.wall, -half, -sc.depth - sc.wall, sc.head),
-        "right": _rect(half, half + sc.wall, -sc.depth - sc.wall, sc.head),
-        "bottom": _rect(-half, half, -sc.depth - sc.wall, -sc.depth),
+        "left": rectangle_points(-half - sc.wall, -half, -sc.depth - sc.wall, sc.head),
+        "right": rectangle_points(half, half + sc.wall, -sc.depth - sc.wall, sc.head),
+        "bottom": rectangle_points(-half, half, -sc.depth - sc.wall, -sc.depth),
     }
     centre = np.array([s.width / 2, s.height / 2])
     for k in range(len(mo.t)):
-        R_c, pos = _rot(mo.tilt[k]), np.array([sc.x0 + mo.dx[k], s.height - sc.y0])
+        R_c, pos = rotation_matrix(mo.tilt[k]), np.array([sc.x0 + mo.dx[k], s.height - sc.y0])
 
         def to_img(pts: np.ndarray, R_c: np.ndarray = R_c, pos: np.ndarray = pos) -> np.ndarray:
             """Container coordinates (x right, y up) -> image pixels (y down), through tilt, pose and roll."""
             cam = (pts @ R_c.T + pos - centre) @ R_roll.T
             return np.column_stack([cam[:, 0] + centre[0], centre[1] - cam[:, 1]])
 
-        corners = to_img(_rect(-half - sc.wall - 2, half + sc.wall + 2, -sc.depth - sc.wall - 2, sc.head + 2))
+        corners = to_img(
+            rectangle_points(-half - sc.wall - 2, half + sc.wall + 2, -sc.depth - sc.wall - 2, sc.head + 2)
+        )
         x0, y0 = np.maximum(np.floor(corners.min(axis=0)).astype(int), 0)
         x1, y1 = np.minimum(np.ceil(corners.max(axis=0)).astype(int) + 1, [s.width, s.height])
         ys, xs = np.mgrid[y0:y1, x0:x1].astype(np.float64)
@@ -124,8 +126,8 @@ def surface_frames(s: SynthSettings, mo: _Motion):
         f32 = np.float32
         _surface_layers(img[y0:y1, x0:x1], u.astype(f32), w.astype(f32), z.astype(f32), dz, (left, right), s, sc)
         for part in ("left", "right", "bottom"):
-            _paint(img, to_img(walls[part]), (70, 70, 70), 0.92)
-        img = _degrade(img, s, mo.t[k], mo.drift[k], noise)
+            paint_polygon(img, to_img(walls[part]), (70, 70, 70), 0.92)
+        img = degrade_picture(img, s, mo.t[k], mo.drift[k], noise)
         rel_deg = math.degrees(mo.rel[k])
         origin, bottom = to_img(np.array([[0.0, 0.0], [0.0, -sc.depth]]))
         row = {
