@@ -132,10 +132,13 @@ def refine_on_luma(gray: np.ndarray, pos: np.ndarray, ok: np.ndarray, reach: int
     estimate (the crossing closest to the estimate). Columns without that contrast keep their estimate.
     """
     n = gray.shape[0]
+    if n <= 2 * reach:  # no column has the levels' rows on both sides
+        return pos.copy()
     base = np.rint(pos).astype(np.intp)
+    # a column whose window leaves the picture keeps its estimate: its window is moved inside, whatever it reads
+    inner = (base >= reach) & (base < n - reach)
     offs = np.arange(-reach, reach + 1)
-    rows = base + offs[:, None]
-    np.minimum(np.maximum(rows, 0, out=rows), n - 1, out=rows)
+    rows = np.minimum(np.maximum(base, reach), n - 1 - reach) + offs[:, None]
     prof = gray[rows, np.arange(gray.shape[1])].astype(np.float32)
     n_lvl = max(1, reach // 2)  # the outer samples give the two levels
     lo, hi = prof[:n_lvl].sum(axis=0) / n_lvl, prof[-n_lvl:].sum(axis=0) / n_lvl
@@ -148,7 +151,7 @@ def refine_on_luma(gray: np.ndarray, pos: np.ndarray, ok: np.ndarray, reach: int
     d0, d1 = d[i, cols], d[i + 1, cols]
     frac = np.where(d0 != d1, d0 / np.where(d0 != d1, d0 - d1, 1), 0.5)
     refined = base + offs[i] + frac
-    good = ok & np.isfinite(dist[i, cols]) & (np.abs(hi - lo) >= 12) & (base - reach >= 0) & (base + reach < n)
+    good = ok & inner & np.isfinite(dist[i, cols]) & (np.abs(hi - lo) >= 12)
     return np.where(good, refined, pos)
 
 
