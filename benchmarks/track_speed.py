@@ -7,8 +7,8 @@ one run so machine load affects both alike; the headline ratio is the median of 
 test, noise 5, blur 1, H.264 CRF 23, 30 fps, two minutes) are rendered once by `sloshid synth` into
 out/benchmarks/ and reused.
 Issue 12 times whole commands, start-up included, as the target is stated: `sloshid track VIDEO -o CSV --target T`
-for the float and for a dyed-liquid surface video of the same size and length, each against a bare decode loop
-run as its own Python process on the same file, alternately; wall-clock and CPU-time ratios, load noted.
+for the float and for a dyed-liquid surface video of the same size and length (a still container, and one that
+tilts all video long), each against a bare decode loop run as its own Python process on the same file, alternately; wall-clock and CPU-time ratios, load noted.
 Since long videos are tracked in spans side by side (one process per core), the in-process figures count the span
 workers' and the smoother's CPU time too. Writes reports/benchmarks/track_speed.{json,md}. Run from the repository root: python3 benchmarks/track_speed.py
 """
@@ -72,10 +72,13 @@ def track_fps_no_smooth(path: Path) -> tuple[float, float]:
 
 BARE_LOOP = "import cv2,sys\ncap=cv2.VideoCapture(sys.argv[1],cv2.CAP_FFMPEG)\nwhile cap.read()[0]: pass\n"
 SCENES = {
-    "float": [],
-    "surface": ["--scene", "surface", "--specular", "0.3", "--meniscus", "1"],
+    "float": ("float", []),
+    "surface": ("surface", ["--scene", "surface", "--specular", "0.3", "--meniscus", "1"]),
+    "surface_tilting": ("surface", ["--scene", "surface", "--specular", "0.3", "--meniscus", "1", "--tilt", "2"]),
 }
-"""`sloshid synth` options of the two whole-command videos (beyond the common 120 s, 640x480, 30 fps, H.264)."""
+"""The whole-command videos: name -> (`--target`, `sloshid synth` options beyond the common 120 s, 640x480, 30 fps,
+H.264). The tilting container (2 deg at the default --tilt-hz, all video long) is read as a whole body in every frame:
+the slowest case of the surface tracker, where band frames do not apply."""
 
 
 def timed_process(cmd: list[str]) -> tuple[float, float]:
@@ -88,13 +91,13 @@ def timed_process(cmd: list[str]) -> tuple[float, float]:
     return wall, (after.ru_utime + after.ru_stime) - (before.ru_utime + before.ru_stime)
 
 
-def synth_video(target: str, width: int = 640, height: int = 480) -> Path:
-    """The two-minute 30 fps H.264 video of one target (Table I tap test, noise 5, blur 1, CRF 23), rendered once
+def synth_video(scene: str, width: int = 640, height: int = 480) -> Path:
+    """The two-minute 30 fps H.264 video of one scene (Table I tap test, noise 5, blur 1, CRF 23), rendered once
     by `sloshid synth` into out/benchmarks/ and reused."""
-    path = CACHE / f"speed_{target}_{width}x{height}_{DURATION_S:.0f}s.mp4"
+    path = CACHE / f"speed_{scene}_{width}x{height}_{DURATION_S:.0f}s.mp4"
     if not path.exists():
         size = ["--width", str(width), "--height", str(height), "--duration", f"{DURATION_S:g}", "--fps", "30"]
-        look = ["--noise", "5", "--blur", "1", "--seed", "7", *SCENES[target]]
+        look = ["--noise", "5", "--blur", "1", "--seed", "7", *SCENES[scene][1]]
         truth = path.with_name(path.stem + "_truth.csv")
         subprocess.run(
             [sys.executable, "-m", "sloshid", "synth", str(path), *size, *look, "--truth", str(truth)],
@@ -105,33 +108,34 @@ def synth_video(target: str, width: int = 640, height: int = 480) -> Path:
 
 
 def whole_commands() -> list[dict]:
-    """Both targets as whole commands (`sloshid track VIDEO -o CSV --target T`, start-up included) against a bare
-    decode loop run as its own Python process on the same file, alternating bare/float/bare/surface REPEATS times."""
-    videos = {target: synth_video(target) for target in SCENES}
+    """Every scene as a whole command (`sloshid track VIDEO -o CSV --target T`, start-up included) against a bare
+    decode loop run as its own Python process on the same file, alternating bare/track per scene REPEATS times."""
+    videos = {scene: synth_video(scene) for scene in SCENES}
     runs: dict[str, dict[str, list[float]]] = {
         t: {"bare": [], "track": [], "bare_cpu": [], "track_cpu": [], "raw": []} for t in SCENES
     }
     load = [os.getloadavg()[0]]
     with tempfile.TemporaryDirectory() as tmp:
         for _ in range(REPEATS):
-            for target, path in videos.items():
+            for scene, path in videos.items():
                 wall, cpu = timed_process([sys.executable, "-c", BARE_LOOP, str(path)])
-                runs[target]["bare"].append(wall)
-                runs[target]["bare_cpu"].append(cpu)
-                cmd = [sys.executable, "-m", "sloshid", "track", str(path), "-o", f"{tmp}/a.csv", "--target", target]
-                wall, cpu = timed_process(cmd)
-                runs[target]["track"].append(wall)
-                runs[target]["track_cpu"].append(cpu)
-                runs[target]["raw"].append(timed_process([*cmd, "--no-smooth"])[0])
+                runs[scene]["bare"].append(wall)
+                runs[scene]["bare_cpu"].append(cpu)
+                cmd = [sys.executable, "-m", "sloshid", "track", str(path), "-o", f"{tmp}/a.csv"]
+                wall, cpu = timed_process([*cmd, "--target", SCENES[scene][0]])
+                runs[scene]["track"].append(wall)
+                runs[scene]["track_cpu"].append(cpu)
+                runs[scene]["raw"].append(timed_process([*cmd, "--target", SCENES[scene][0], "--no-smooth"])[0])
                 load.append(os.getloadavg()[0])
     rows = []
-    for target, r in runs.items():
+    for scene, r in runs.items():
         pairs = [b / t for b, t in zip(r["bare"], r["track"])]
         cpu_pairs = [b / t for b, t in zip(r["bare_cpu"], r["track_cpu"])]
         raw_pairs = [b / t for b, t in zip(r["bare"], r["raw"])]
         row = {
-            "target": target,
-            "video": "640x480, 120 s, 30 fps, H.264 (sloshid synth " + (" ".join(SCENES[target]) or "float") + ")",
+            "target": SCENES[scene][0],
+            "scene": scene,
+            "video": "640x480, 120 s, 30 fps, H.264 (sloshid synth " + (" ".join(SCENES[scene][1]) or "float") + ")",
             "bare_s": r["bare"],
             "track_s": r["track"],
             "bare_cpu_s": r["bare_cpu"],
@@ -147,7 +151,7 @@ def whole_commands() -> list[dict]:
         }
         rows.append(row)
         print(
-            f"whole command, {target}: ratio {row['ratio']:.2f} (pairs {', '.join(f'{x:.2f}' for x in pairs)}), "
+            f"whole command, {scene}: ratio {row['ratio']:.2f} (pairs {', '.join(f'{x:.2f}' for x in pairs)}), "
             f"CPU-time ratio {row['cpu_ratio']:.2f}, with --no-smooth {row['ratio_no_smooth']:.2f}",
             flush=True,
         )
