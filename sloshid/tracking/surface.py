@@ -124,12 +124,15 @@ def _crossings_first(m: np.ndarray, above: np.ndarray, axis: int) -> tuple[np.nd
     return jm + frac, ok
 
 
-def refine_on_luma(gray: np.ndarray, pos: np.ndarray, ok: np.ndarray, reach: int = 6) -> np.ndarray:
+def refine_on_luma(
+    gray: np.ndarray, pos: np.ndarray, ok: np.ndarray, reach: int = 6, cols: np.ndarray | None = None
+) -> np.ndarray:
     """Move each column's edge estimate `pos` (rows of `gray`, sub-pixel) to the luma profile's mid-level crossing.
 
     Compression keeps colour at half resolution and in coarse blocks, but luma (`gray`, 8 bit) at full resolution:
     the edge is where the column's luma passes halfway between its levels `reach` pixels before and after the
     estimate (the crossing closest to the estimate). Columns without that contrast keep their estimate.
+    `cols`: the column of `gray` each estimate is in (default: one estimate per column; a column may come twice).
     """
     n = gray.shape[0]
     if n <= 2 * reach:  # no column has the levels' rows on both sides
@@ -139,7 +142,8 @@ def refine_on_luma(gray: np.ndarray, pos: np.ndarray, ok: np.ndarray, reach: int
     inner = (base >= reach) & (base < n - reach)
     offs = np.arange(-reach, reach + 1)
     rows = np.minimum(np.maximum(base, reach), n - 1 - reach) + offs[:, None]
-    prof = gray[rows, np.arange(gray.shape[1])].astype(np.float32)
+    cols = np.arange(gray.shape[1]) if cols is None else cols
+    prof = gray[rows, cols].astype(np.float32)
     n_lvl = max(1, reach // 2)  # the outer samples give the two levels
     lo, hi = prof[:n_lvl].sum(axis=0) / n_lvl, prof[-n_lvl:].sum(axis=0) / n_lvl
     mid = 0.5 * (lo + hi)
@@ -147,11 +151,11 @@ def refine_on_luma(gray: np.ndarray, pos: np.ndarray, ok: np.ndarray, reach: int
     cross = (d[:-1] * d[1:] <= 0) & (d[:-1] != d[1:])
     dist = np.where(cross, np.abs(offs[:-1, None] + 0.5 - (pos - base)[None, :]), np.inf)
     i = np.argmin(dist, axis=0)
-    cols = np.arange(gray.shape[1])
-    d0, d1 = d[i, cols], d[i + 1, cols]
+    at = np.arange(pos.size)
+    d0, d1 = d[i, at], d[i + 1, at]
     frac = np.where(d0 != d1, d0 / np.where(d0 != d1, d0 - d1, 1), 0.5)
     refined = base + offs[i] + frac
-    good = ok & inner & np.isfinite(dist[i, cols]) & (np.abs(hi - lo) >= 12)
+    good = ok & inner & np.isfinite(dist[i, at]) & (np.abs(hi - lo) >= 12)
     return np.where(good, refined, pos)
 
 
@@ -311,7 +315,8 @@ class SurfaceFinder:
             geom = _shifted(frame_geom, (X0, Y0))
             still = held is not None and not refit and _moved_px(held[1], geom) < STILL_PX
             self._axes = (key, geom, 1, HOLD_AXES_FRAMES if still else 0)
-        self._anchor = _anchor(body, frame_geom, (X0, Y0))
+        # the strip a band frame watches, when one may follow (the axes are held)
+        self._anchor = _anchor(body, frame_geom, (X0, Y0)) if self._axes[2] < self._axes[3] else None
         return self._surface(gray, body, inside, (X0, Y0), frame_geom)
 
     def _surface(self, gray, body, inside, origin, geom) -> SurfaceMeasurement:
@@ -534,8 +539,11 @@ def _container_axes(
     left, okl = _crossings_first(band, band_in, axis=1)
     right, okr = _crossings_first(band[:, ::-1], band_in[:, ::-1], axis=1)
     right = band.shape[1] - 1 - right
-    left = refine_on_luma(gray[r0:r1].T, left, okl, reach=2)
-    right = refine_on_luma(gray[r0:r1].T, right, okr, reach=2)
+    n = len(rows)  # both walls in one call: each row's luma is read at its left and at its right crossing
+    both = refine_on_luma(
+        gray[r0:r1].T, np.concatenate([left, right]), np.concatenate([okl, okr]), reach=2, cols=np.tile(np.arange(n), 2)
+    )
+    left, right = both[:n], both[n:]
     fl = robust_polyfit(rows[okl].astype(float), left[okl], 1, 0.3, min_points=max(10, len(rows) // 3))
     fr = robust_polyfit(rows[okr].astype(float), right[okr], 1, 0.3, min_points=max(10, len(rows) // 3))
     if fl is None or fr is None:
