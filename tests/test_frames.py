@@ -3,11 +3,8 @@ library routes they replace for speed."""
 
 from __future__ import annotations
 
-import os
-import signal
 import subprocess
 import sys
-import time
 
 import cv2
 import numpy as np
@@ -15,7 +12,7 @@ import pytest
 
 from sloshid.synthetic.render import SynthSettings, render_video
 from sloshid.tracking.robust import median, robust_polyfit
-from sloshid.video.frames import FrameReader, Picture, _signals_held
+from sloshid.video.frames import FrameReader, Picture
 from sloshid.video.keyframes import key_frame_times
 
 
@@ -86,27 +83,6 @@ def test_an_interruption_while_the_decoding_thread_starts_still_joins_it(tmp_pat
     )
     assert proc.returncode == 0, proc.stderr[-2000:]
     assert proc.stdout.strip() == "0"  # no thread of the reader is left running
-
-
-def test_signals_held_are_delivered_when_the_block_ends():
-    # the decoding thread starts with SIGTERM held back, so the handler cannot interrupt Thread.start half-way;
-    # a signal that arrives meanwhile must reach the handler afterwards, not be lost
-    seen = []
-
-    def handler(signum, frame):
-        seen.append("handled")
-
-    previous = signal.signal(signal.SIGTERM, handler)
-    try:
-        with _signals_held():
-            os.kill(os.getpid(), signal.SIGTERM)
-            time.sleep(0.05)  # long enough for an unheld handler to run (Python runs it within microseconds)
-            assert seen == []
-        time.sleep(0.05)
-        assert seen == ["handled"]
-        assert signal.getsignal(signal.SIGTERM) is handler
-    finally:
-        signal.signal(signal.SIGTERM, previous)
 
 
 def test_robust_line_is_the_least_squares_line_of_its_inliers():

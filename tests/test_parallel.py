@@ -4,12 +4,16 @@ refused with one sentence."""
 from __future__ import annotations
 
 import io
+import multiprocessing
 import os
+import signal
+import sys
+import time
 
 import pytest
 
 from sloshid.core.errors import UserError
-from sloshid.core.parallel import check_workers, parallel_map
+from sloshid.core.parallel import check_workers, parallel_map, signals_held
 
 
 def _square_and_pid(x: int) -> tuple[int, int]:
@@ -44,3 +48,45 @@ def test_progress_bar_draws_only_on_a_terminal(terminal, monkeypatch):
     monkeypatch.setattr("sys.stderr", err)
     parallel_map(_square_and_pid, [(i,) for i in range(3)], workers=1, progress=True, desc="squares")
     assert ("squares" in err.getvalue()) is terminal
+
+
+def test_signals_held_are_delivered_when_the_block_ends():
+    # the decoding thread starts with SIGTERM held back, so the handler cannot interrupt Thread.start half-way;
+    # a signal that arrives meanwhile must reach the handler afterwards, not be lost
+    seen = []
+
+    def handler(signum, frame):
+        seen.append("handled")
+
+    previous = signal.signal(signal.SIGTERM, handler)
+    try:
+        with signals_held():
+            os.kill(os.getpid(), signal.SIGTERM)
+            time.sleep(0.05)  # long enough for an unheld handler to run (Python runs it within microseconds)
+            assert seen == []
+        time.sleep(0.05)
+        assert seen == ["handled"]
+        assert signal.getsignal(signal.SIGTERM) is handler
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
+def _sleep_after(ready) -> None:
+    """A forked child that has set no handler of its own: says it runs, then sleeps."""
+    ready.set()
+    time.sleep(60)
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="fork")
+def test_a_process_forked_while_signals_are_held_ends_on_sigterm():
+    # a pool worker forked inside the block has not set its own handlers yet: SIGTERM (the pool's terminate) must end
+    # it, not be held for a delivery that never comes there (the pool would wait for it forever)
+    ctx = multiprocessing.get_context("fork")
+    ready = ctx.Event()
+    with signals_held():
+        child = ctx.Process(target=_sleep_after, args=(ready,))
+        child.start()
+    assert ready.wait(30)
+    child.terminate()
+    child.join(10)
+    assert child.exitcode == 128 + signal.SIGTERM, child.exitcode

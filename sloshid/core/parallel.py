@@ -1,18 +1,69 @@
 """The one parallel back-end: Dask. Local work (plan segments, robustness sweeps, a pipeline's videos) runs on
-Dask's local process scheduler; a batch streams results from a `dask.distributed` cluster, local or remote."""
+Dask's local process scheduler; a batch streams results from a `dask.distributed` cluster, local or remote. The
+tracker's own forked helpers (span workers, the smoother) end with the process that forked them (`die_with_parent`)."""
 
 from __future__ import annotations
 
+import contextlib
+import ctypes
 import logging
 import multiprocessing
 import os
-from collections.abc import Callable, Iterable, Sequence
+import signal
+import sys
+import threading
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from typing import Any
 
 from sloshid.core.errors import SettingError, UserError
 
 MAX_WORKERS_PER_CORE = 4
 """More local workers than this per core only queue up (and a huge number would hang starting them)."""
+
+
+PR_SET_PDEATHSIG = 1
+"""Linux prctl option: the signal the kernel sends a process when the thread that forked it ends."""
+
+
+def die_with_parent(parent_pid: int) -> None:
+    """In a forked helper (Linux): be killed as soon as the forking thread ends, and end now if the parent `parent_pid`
+    already has; else a helper can outlive a killed or interrupted command (a pool worker started again while the pool
+    was being stopped was seen waiting for tasks forever), holding the command's output pipes open."""
+    if not sys.platform.startswith("linux"):
+        return
+    ctypes.CDLL(None, use_errno=True).prctl(PR_SET_PDEATHSIG, int(signal.SIGKILL))
+    if os.getppid() != parent_pid:
+        os._exit(0)
+
+
+@contextlib.contextmanager
+def signals_held() -> Iterator[None]:
+    """Hold SIGINT and SIGTERM back until the block ends, then deliver them to the handlers they had (main thread).
+
+    Their handlers raise in the main thread wherever it is: starting a thread or a pool of processes, that leaves a
+    thread that `is_alive` does not report or a pool that nothing stops. The handlers are swapped, not the signal
+    mask: a masked signal still reaches FFmpeg's own threads, whose C handler makes Python run the handler here
+    anyway. A process forked inside the block ends on them, as with no handler (it has not set its own yet)."""
+    wanted = (signal.SIGINT, signal.SIGTERM)
+    if threading.current_thread() is not threading.main_thread() or None in map(signal.getsignal, wanted):
+        yield  # not ours to swap: a handler set outside Python could not be put back
+        return
+    caught: list[int] = []
+    here = os.getpid()
+
+    def hold(signum: int, frame: object) -> None:
+        if os.getpid() != here:
+            os._exit(128 + signum)
+        caught.append(signum)
+
+    previous = {s: signal.signal(s, hold) for s in wanted}
+    try:
+        yield
+    finally:
+        for s, handler in previous.items():
+            signal.signal(s, handler)
+        for signum in caught:
+            signal.raise_signal(signum)
 
 
 def check_workers(workers: int, what: str = "workers") -> int:

@@ -19,6 +19,8 @@ import sys
 
 import numpy as np
 
+from sloshid.core.parallel import die_with_parent
+
 MEASUREMENT_SIGMA_DEG = 0.05
 """Standard deviation of a quality-1 angle measurement, degrees (tracker accuracy on synthetic video)."""
 ASSUMED_ZETA = 0.05
@@ -134,7 +136,9 @@ class SmoothingWorker:
         if fork and "filterpy.kalman" not in sys.modules and sys.platform.startswith("linux"):
             ctx = multiprocessing.get_context("fork")
             self._conn, child = ctx.Pipe()
-            self._proc = ctx.Process(target=_serve, args=(child, self._conn), daemon=True, name="sloshid-smoother")
+            self._proc = ctx.Process(
+                target=_serve, args=(child, self._conn, os.getpid()), daemon=True, name="sloshid-smoother"
+            )
             self._proc.start()
             child.close()
 
@@ -194,16 +198,17 @@ def discard_early() -> None:
         _early = None
 
 
-def _serve(conn, callers_end) -> None:
+def _serve(conn, callers_end, parent_pid: int) -> None:
     """The worker: import, wait for one trace, send (True, smoothed); (False, None) when smoothing raised, so the
     caller repeats it and raises the error itself; nothing when the caller closed the pipe or the user interrupted.
 
     It first lets go of what fork copied from the caller: the caller's end of the pipe (else a caller that dies
     without closing it, e.g. on SIGTERM, never reads as EOF here and the worker waits forever), the caller's output
     (a program waiting for the caller's stderr to close would wait for the worker too) and its SIGTERM handler
-    (`terminate` must simply end the worker)."""
+    (`terminate` must simply end the worker); and it ends with the caller, even one killed outright."""
     callers_end.close()
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    die_with_parent(parent_pid)
     quiet = os.open(os.devnull, os.O_WRONLY)
     os.dup2(quiet, 1)
     os.dup2(quiet, 2)

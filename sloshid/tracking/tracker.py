@@ -26,6 +26,7 @@ from tqdm import tqdm
 
 from sloshid.core.atomic import atomic_path
 from sloshid.core.errors import SettingError, UserError
+from sloshid.core.parallel import die_with_parent, signals_held
 from sloshid.core.tables import to_pandas, write_csv
 from sloshid.tracking.container_ref import ContainerMeasurement, ContainerTracker
 from sloshid.tracking.float_angle import FloatFinder
@@ -472,7 +473,13 @@ def _parallel_spans(jobs: list[tuple], total: int, duration: float, progress: bo
     done = ctx.Value("q", 0)
     # the longest spans first (the last one runs on to the end): no core waits long for another's last span
     order = sorted(range(len(jobs)), key=lambda k: -_length(jobs[k][4], duration))
-    with ctx.Pool(min(len(jobs), os.cpu_count() or 1), _start_worker, (done,)) as pool:
+    with contextlib.ExitStack() as stack:
+        # a stop while the pool starts would raise before anything could stop the pool, whose workers (started again
+        # by its own thread) then outlive the command: it is raised once the pool is up, here, where it is stopped
+        with signals_held():
+            pool = stack.enter_context(
+                ctx.Pool(min(len(jobs), os.cpu_count() or 1), _start_worker, (done, os.getpid()))
+            )
         pending = pool.map_async(_span_job, [jobs[k] for k in order], chunksize=1)
         with _progress_bar(total, progress) as bar:  # after the fork: its monitor thread stays here
             while not pending.ready():
@@ -489,12 +496,14 @@ def _length(span: tuple[float | None, float | None], duration: float) -> float:
     return (duration if end is None else end) - (start or 0.0)
 
 
-def _start_worker(done) -> None:
-    """A span worker: SIGTERM (the pool's terminate) ends it at once; Ctrl-C is the parent's to handle."""
+def _start_worker(done, parent_pid: int) -> None:
+    """A span worker: SIGTERM (the pool's terminate) ends it at once, and so does the end of the parent (or of the
+    pool's thread that started it); Ctrl-C is the parent's to handle."""
     global _done
     _done = done
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    die_with_parent(parent_pid)
 
 
 def _span_job(job: tuple) -> _Span:

@@ -15,7 +15,6 @@ import contextlib
 import itertools
 import os
 import queue
-import signal
 import threading
 from collections.abc import Iterator
 from dataclasses import dataclass, field
@@ -27,6 +26,7 @@ import cv2
 import numpy as np
 
 from sloshid.core.errors import UserError
+from sloshid.core.parallel import signals_held
 
 Codec = Literal["h264", "mpeg4"]
 _ENCODERS = {"h264": "libx264", "mpeg4": "mpeg4"}
@@ -121,28 +121,6 @@ def _as_shown(frame, lazy: bool) -> np.ndarray | Picture:
         return picture if lazy else picture[:, :]
     bgr = frame.to_ndarray(format="bgr24")
     return cv2.rotate(bgr, _ROTATIONS[rotation]) if rotation in _ROTATIONS else bgr
-
-
-@contextlib.contextmanager
-def _signals_held() -> Iterator[None]:
-    """Hold SIGINT and SIGTERM back until the block ends, then deliver them to the handlers they had (main thread).
-
-    Their handlers raise in the main thread wherever it is; `Thread.start` raising after the thread began leaves a
-    thread that `is_alive` does not report and so cannot be joined. The handlers are swapped, not the signal mask:
-    a masked signal still reaches FFmpeg's own threads, whose C handler makes Python run the handler here anyway."""
-    wanted = (signal.SIGINT, signal.SIGTERM)
-    if threading.current_thread() is not threading.main_thread() or None in map(signal.getsignal, wanted):
-        yield  # not ours to swap: a handler set outside Python could not be put back
-        return
-    caught: list[int] = []
-    previous = {s: signal.signal(s, lambda signum, frame: caught.append(signum)) for s in wanted}
-    try:
-        yield
-    finally:
-        for s, handler in previous.items():
-            signal.signal(s, handler)
-        for signum in caught:
-            signal.raise_signal(signum)
 
 
 def _decode_threads(multithreaded: bool) -> int:
@@ -283,7 +261,7 @@ class FrameReader:
 
         worker = threading.Thread(target=produce, daemon=True)
         try:
-            with _signals_held():  # interrupted while starting, the thread would run on unseen and decode a closed file
+            with signals_held():  # interrupted while starting, the thread would run on unseen and decode a closed file
                 worker.start()
             while (item := frames.get()) is not None:
                 yield item
