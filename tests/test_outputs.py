@@ -396,25 +396,31 @@ def _children(pid: int) -> set[int]:
     return {int(p) for p in path.read_text().split()} if path.exists() else set()
 
 
-@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="spans run in forked processes on Linux only")
-def test_sigterm_while_spans_run_side_by_side_ends_every_worker_and_writes_nothing(tmp_path):
-    # a 25 s MPEG-4 video (a key frame every 12 frames) is tracked in two spans, each in its own process: SIGTERM to
-    # sloshid ends them all, exit 143, no CSV
+def _tracking_in_spans(tmp_path: Path, out: Path, stderr) -> tuple[subprocess.Popen, set[int]]:
+    """`sloshid track` of a 25 s MPEG-4 video (a key frame every 12 frames, so two spans), started and caught once
+    its three helpers run (the smoother and two span workers): the process and their ids; skips when it finished
+    first."""
     from sloshid.synthetic.render import SynthSettings, render_video
 
     video = tmp_path / "long.mp4"
     render_video(video, SynthSettings(width=160, height=120, fps=30, duration_s=25.0, codec="mpeg4", seed=4))
-    out = tmp_path / "out"
-    out.mkdir()
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "sloshid", "track", video, "-o", out / "a.csv"], stderr=subprocess.PIPE
-    )
+    proc = subprocess.Popen([sys.executable, "-m", "sloshid", "track", video, "-o", out], stderr=stderr)
     deadline, workers = time.monotonic() + 60, set()
     while len(workers) < 3 and time.monotonic() < deadline and proc.poll() is None:
-        workers = _children(proc.pid)  # the smoother and two span workers
+        workers = _children(proc.pid)
         time.sleep(0.005)
     if proc.poll() is not None or len(workers) < 3:
-        pytest.skip("tracking finished before it could be interrupted")
+        proc.kill()
+        pytest.skip("tracking finished before it could be stopped")
+    return proc, workers
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="spans run in forked processes on Linux only")
+def test_sigterm_while_spans_run_side_by_side_ends_every_worker_and_writes_nothing(tmp_path):
+    # the two spans run in their own processes: SIGTERM to sloshid ends them all, exit 143, no CSV
+    out = tmp_path / "out"
+    out.mkdir()
+    proc, workers = _tracking_in_spans(tmp_path, out / "a.csv", subprocess.PIPE)
     proc.send_signal(signal.SIGTERM)
     _, err = proc.communicate(timeout=60)
     assert proc.returncode == 143, err
@@ -437,19 +443,7 @@ def test_sigkill_of_sloshid_ends_its_workers_at_once(tmp_path):
     # sloshid killed outright, so none of its handlers runs: the kernel ends the smoother and both span workers with it
     # (measured: within 0.01 s; before, they went on for 0.5-0.7 s, finishing the smoother's imports and their spans,
     # and a pool worker started again during a stop could wait forever with the command's stderr open)
-    from sloshid.synthetic.render import SynthSettings, render_video
-
-    video = tmp_path / "long.mp4"
-    render_video(video, SynthSettings(width=160, height=120, fps=30, duration_s=25.0, codec="mpeg4", seed=4))
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "sloshid", "track", video, "-o", tmp_path / "a.csv"], stderr=subprocess.DEVNULL
-    )
-    deadline, workers = time.monotonic() + 60, set()
-    while len(workers) < 3 and time.monotonic() < deadline and proc.poll() is None:
-        workers = _children(proc.pid)  # the smoother and two span workers
-        time.sleep(0.005)
-    if proc.poll() is not None or len(workers) < 3:
-        pytest.skip("tracking finished before it could be killed")
+    proc, workers = _tracking_in_spans(tmp_path, tmp_path / "a.csv", subprocess.DEVNULL)
     proc.kill()
     proc.wait()
     deadline = time.monotonic() + 0.25  # the kernel's signal, not the workers' own pace
