@@ -1,7 +1,9 @@
-"""Shared fixtures: paths to bundled and third-party data, and a CLI runner that captures exit code and stderr."""
+"""Shared fixtures: paths to bundled and third-party data, a CLI runner that captures exit code and stderr, and a
+stderr that is or is not a terminal (tqdm draws only on one)."""
 
 from __future__ import annotations
 
+import io
 from pathlib import Path
 
 import matplotlib
@@ -32,3 +34,22 @@ def antisloshing_dir() -> Path:
     if not ANTISLOSHING.is_dir():
         pytest.skip("../shared/data/antisloshing is not beside this checkout")
     return ANTISLOSHING
+
+
+class _Terminal(io.StringIO):
+    """A stderr that says it is a terminal, so that tqdm draws (it stays quiet on pipes and files)."""
+
+    def isatty(self) -> bool:
+        return True
+
+
+@pytest.fixture
+def stderr_as(monkeypatch):
+    """stderr_as(terminal) puts a fresh text buffer in place of sys.stderr, a terminal or not, and returns it."""
+
+    def _swap(terminal: bool) -> io.StringIO:
+        err = _Terminal() if terminal else io.StringIO()
+        monkeypatch.setattr("sys.stderr", err)
+        return err
+
+    return _swap

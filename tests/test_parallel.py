@@ -3,7 +3,6 @@ refused with one sentence."""
 
 from __future__ import annotations
 
-import io
 import multiprocessing
 import os
 import signal
@@ -34,18 +33,10 @@ def test_worker_counts_a_machine_cannot_run_are_refused(workers):
         check_workers(workers)
 
 
-class _Terminal(io.StringIO):
-    """A stderr that says it is a terminal (tqdm draws only on one)."""
-
-    def isatty(self) -> bool:
-        return True
-
-
 @pytest.mark.parametrize("terminal", [True, False])
-def test_progress_bar_draws_only_on_a_terminal(terminal, monkeypatch):
+def test_progress_bar_draws_only_on_a_terminal(terminal, stderr_as):
     # a bar asked for is drawn on a terminal, and not into a log file or pipe that stderr was redirected to
-    err = _Terminal() if terminal else io.StringIO()
-    monkeypatch.setattr("sys.stderr", err)
+    err = stderr_as(terminal)
     parallel_map(_square_and_pid, [(i,) for i in range(3)], workers=1, progress=True, desc="squares")
     assert ("squares" in err.getvalue()) is terminal
 

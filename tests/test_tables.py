@@ -3,7 +3,6 @@ names bad lines correctly in any chunk, holds memory to the kept columns, and sh
 
 from __future__ import annotations
 
-import io
 import tracemalloc
 
 import numpy as np
@@ -102,19 +101,11 @@ def test_memory_grows_with_the_kept_columns_not_the_text(tmp_path, small_chunks)
     assert growth_per_row < 64, growth_per_row
 
 
-class Terminal(io.StringIO):
-    """A stderr that says it is a terminal, so that tqdm draws (it stays quiet on pipes and files)."""
-
-    def isatty(self) -> bool:
-        return True
-
-
-def test_progress_bar_is_drawn_on_a_terminal_only_when_asked(tmp_path, monkeypatch):
+def test_progress_bar_is_drawn_on_a_terminal_only_when_asked(tmp_path, monkeypatch, stderr_as):
     p = tmp_path / "long.csv"
     write_rows(p, np.ones((2000, 4)))
     monkeypatch.setattr(tables, "PROGRESS_DELAY_S", 0.0)
     for progress in (True, False):
-        err = Terminal()
-        monkeypatch.setattr("sys.stderr", err)
+        err = stderr_as(terminal=True)
         read_table(p, progress=progress)
         assert ("read long.csv" in err.getvalue()) is progress
