@@ -438,6 +438,11 @@ def test_surface_angle_and_wall_heights_match_truth(surface_video, reference, co
         assert _rmse((cols[f"{side}_wall_px"] - truth[f"{side}_wall_px"])[ok]) < 1.2
         # the scale comes from the measured walls (inner width 0.1 m = 120 px): 1.2 px is 1.0 mm
         assert _rmse((cols[f"{side}_wall_mm"] - truth[f"{side}_wall_mm"])[ok]) < 1.0
+    if reference == "container":
+        # the heights are turned onto the whole walls' axes, whose tilt is far better known than the liquid's sides':
+        # 0.25 px over both walls measured (0.44 px read along the liquid's sides)
+        both = np.concatenate([(cols[f"{side}_wall_px"] - truth[f"{side}_wall_px"])[ok] for side in ("left", "right")])
+        assert _rmse(both) < 0.35
     assert list(cols)[:11] == ["frame", "t_s", "angle_deg", "surface_angle_deg", *TRACK_COLUMNS[4:]]
 
 

@@ -46,7 +46,12 @@ class SurfaceStep:
             # the container's whole wall edges (rim to bottom) give its angle more precisely than the liquid's sides
             cm = self.walls.measure(frame, m.x_px, m.y_px, 0.8 * m.width_px)
             if cm.found:
-                seen = math.atan(m.rel_slope) + math.radians(m.container_angle_deg - cm.angle_deg)
+                tilt = math.radians(m.container_angle_deg - cm.angle_deg)  # the liquid's sides against the walls
+                seen = math.atan(m.rel_slope) + tilt
+                # the wall heights were read along the liquid's sides (their tilt is good to some 0.3 deg, the whole
+                # walls' to 0.02): on the walls' own axes each wall's height moves by half the width times the tilt
+                shift = 0.5 * m.width_px * math.tan(tilt)
+                m.left_w, m.right_w = m.left_w - shift, m.right_w + shift
                 m.rel_slope, m.container_angle_deg = math.tan(seen), cm.angle_deg
         lumas = (m.luma, self.previous_luma)
         repeat = m.found and repeated_share(frame, self.previous, m.band, True, lumas) >= REPEAT_SHARE
