@@ -18,7 +18,7 @@ from sloshid.identification.signals import load_signal, make_signal, signal_from
 from sloshid.synthetic.render import SynthSettings, frame_times, relative_angle_rad, render_frames, render_video
 from sloshid.tracking import tracker
 from sloshid.tracking.smooth import smooth_angle
-from sloshid.tracking.surface import SurfaceFinder
+from sloshid.tracking.surface import SurfaceFinder, _container_axes
 from sloshid.tracking.tracker import TRACK_COLUMNS, TrackResult, TrackSettings, track_video
 from sloshid.video.colors import PRESETS
 from sloshid.video.frames import FrameReader, VideoInfo, VideoWriter
@@ -552,6 +552,23 @@ def test_band_frames_stop_when_the_container_moves(still_surface_video, move):
     # the picture as it was: the band measures it; moved by a pixel or tilted: the whole body must be measured
     assert finder._measure_band(frames[k - 1]) is not None
     assert finder._measure_band(move(frames[k - 1])) is None
+
+
+@pytest.mark.parametrize("contrast_rows", [slice(0, 0), slice(0, None), slice(0, 75)])
+def test_a_wall_is_placed_on_luma_in_every_row_or_in_none(contrast_rows):
+    # a liquid body whose colour puts its left side at x = 20.4 in every row, while the luma edge lies at x = 21.5 in
+    # the rows that have the contrast: a wall through both (here the upper half of the rows the walls are fitted on,
+    # 50-99, on luma) would lean by degrees; it stands straight, on the colour or, when every row has the contrast,
+    # on the luma
+    x = np.arange(100, dtype=np.float32)
+    body = np.zeros((130, 100), np.float32)
+    body[10:111] = np.clip(0.5 + 0.5 * np.minimum(x - 20.4, 80.4 - x), 0, 1)
+    gray = np.full((130, 100), 80, np.uint8)
+    gray[contrast_rows] = np.where(x < 22, 60, 100)[None, :]
+    geom = _container_axes(body, body >= 0.5, gray, (0, 0), (20, 10, 81, 111))
+    (a_left, b_left), _ = geom[0]
+    assert a_left == pytest.approx(0.0, abs=1e-9)
+    assert b_left == pytest.approx(21.5 if contrast_rows.stop is None else 20.4, abs=1e-6)
 
 
 def test_surface_overlay_draws_the_line_and_wall_points(surface_video, tmp_path):

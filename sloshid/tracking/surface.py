@@ -135,9 +135,17 @@ def refine_on_luma(
     estimate (the crossing closest to the estimate). Columns without that contrast keep their estimate.
     `cols`: the column of `gray` each estimate is in (default: one estimate per column; a column may come twice).
     """
+    refined, good = luma_crossings(gray, pos, ok, reach, cols)
+    return np.where(good, refined, pos)
+
+
+def luma_crossings(
+    gray: np.ndarray, pos: np.ndarray, ok: np.ndarray, reach: int = 6, cols: np.ndarray | None = None
+) -> tuple[np.ndarray, np.ndarray]:
+    """`refine_on_luma`'s crossings and where they hold (the column has the contrast, its window fits the picture)."""
     n = gray.shape[0]
     if n <= 2 * reach:  # no column has the levels' rows on both sides
-        return pos.copy()
+        return pos.copy(), np.zeros(pos.shape, bool)
     base = np.rint(pos).astype(np.intp)
     # a column whose window leaves the picture keeps its estimate: its window is moved inside, whatever it reads
     inner = (base >= reach) & (base < n - reach)
@@ -157,7 +165,7 @@ def refine_on_luma(
     frac = np.where(d0 != d1, d0 / np.where(d0 != d1, d0 - d1, 1), 0.5)
     refined = base + offs[i] + frac
     good = ok & inner & np.isfinite(dist[i, at]) & (np.abs(hi - lo) >= 12)
-    return np.where(good, refined, pos)
+    return refined, good
 
 
 class SurfaceFinder:
@@ -541,10 +549,16 @@ def _container_axes(
     right, okr = _crossings_first(band[:, ::-1], band_in[:, ::-1], axis=1)
     right = band.shape[1] - 1 - right
     n = len(rows)  # both walls in one call: each row's luma is read at its left and at its right crossing
-    both = refine_on_luma(
+    both, good = luma_crossings(
         gray[r0:r1].T, np.concatenate([left, right]), np.concatenate([okl, okr]), reach=2, cols=np.tile(np.arange(n), 2)
     )
-    left, right = both[:n], both[n:]
+    # a wall is placed on luma only where every row of it has the contrast: the colour and the luma crossings differ
+    # by a fraction of a pixel, so a wall mixing them (a weak contrast, some rows short of it) tilts by tenths of a
+    # degree, which moves the wall heights by as many tenths of a pixel
+    if np.array_equal(good[:n], okl):
+        left = both[:n]
+    if np.array_equal(good[n:], okr):
+        right = both[n:]
     fl = robust_polyfit(rows[okl].astype(float), left[okl], 1, 0.3, min_points=max(10, len(rows) // 3))
     fr = robust_polyfit(rows[okr].astype(float), right[okr], 1, 0.3, min_points=max(10, len(rows) // 3))
     if fl is None or fr is None:
