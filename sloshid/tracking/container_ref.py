@@ -53,22 +53,23 @@ class ContainerMeasurement:
     edges: tuple[EdgeLine, ...] = ()
 
 
-def _gray_around(frame: np.ndarray, lines: list[EdgeLine]) -> tuple[tuple[int, int], np.ndarray]:
-    """Grey levels (float32: edge profiles are differenced) of the box the bands around `lines` cover, and the
-    box's top-left corner (x, y): only that part of the frame is converted."""
+def _band_gray(frame: np.ndarray, line: EdgeLine) -> tuple[tuple[int, int], np.ndarray]:
+    """Grey levels (float32: edge profiles are differenced) of the box the band around `line` covers, and the box's
+    top-left corner (x, y): only that part of the frame is converted (a wall's band, not the container between)."""
     h, w = frame.shape[:2]
-    y0, y1 = max(0, min(ln.y0 for ln in lines)), min(h, max(ln.y1 for ln in lines))
-    xs = [ln.x_at(y) for ln in lines for y in (y0, y1)]
+    y0, y1 = max(0, line.y0), min(h, line.y1)
+    xs = [line.x_at(y) for y in (y0, y1)]
     x0, x1 = max(0, int(min(xs)) - BAND_PX - 2), min(w, int(max(xs)) + BAND_PX + 3)
     if x1 <= x0 or y1 <= y0:
         return (0, 0), np.zeros((0, 0), np.float32)
     return (x0, y0), cv2.cvtColor(frame[y0:y1, x0:x1], cv2.COLOR_BGR2GRAY).astype(np.float32)
 
 
-def _fit_edge(gray: np.ndarray, origin: tuple[int, int], predicted: EdgeLine, polarity: int) -> EdgeLine | None:
-    """Sub-pixel edge points of one polarity (+1 rising, -1 falling along x) near `predicted`, robust line fit.
-
-    `gray` is the part of the frame whose top-left pixel is `origin` (x, y); lines are in frame coordinates."""
+def _band_profiles(
+    gray: np.ndarray, origin: tuple[int, int], predicted: EdgeLine
+) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+    """Rows, columns and rising-edge gradient (central difference, index j <-> column j+1) of the band around
+    `predicted`, in the rows whose band lies inside `gray` (whose top-left pixel is `origin`); None under 10 rows."""
     ox, oy = origin
     h, w = gray.shape
     ys = np.arange(max(predicted.y0, oy), min(predicted.y1, oy + h))
@@ -82,7 +83,12 @@ def _fit_edge(gray: np.ndarray, origin: tuple[int, int], predicted: EdgeLine, po
     if len(ys) < 10:
         return None
     prof = gray[ys[:, None] - oy, cols - ox]
-    grad = polarity * (prof[:, 2:] - prof[:, :-2]) * 0.5  # central difference, index j <-> offset j+1
+    return ys, cols, (prof[:, 2:] - prof[:, :-2]) * 0.5
+
+
+def _fit_edge(ys: np.ndarray, cols: np.ndarray, grad: np.ndarray) -> EdgeLine | None:
+    """Sub-pixel points of the edge whose gradient (`_band_profiles`', signed for its polarity) peaks in each row,
+    and their robust line fit (frame coordinates)."""
     j = np.argmax(grad, axis=1)
     ok = (j > 0) & (j < grad.shape[1] - 1)
     rows = np.arange(len(ys))
@@ -164,16 +170,15 @@ class ContainerTracker:
     def _follow(self, frame: np.ndarray, rows: tuple[int, int]) -> ContainerMeasurement:
         """Refit every wall edge near its predicted position (last line moved by the last shift)."""
         preds = [EdgeLine(w.a, w.b + self._shift, rows[0], rows[1], w.rms_px, w.rows) for w in self._walls]
-        origin, gray = _gray_around(frame, preds)
         fitted: list[EdgeLine] = []
         wall_angles: list[float] = []
         new_walls: list[EdgeLine] = []
         for pred in preds:
-            fits = [
-                f
-                for f in (_fit_edge(gray, origin, pred, +1), _fit_edge(gray, origin, pred, -1))
-                if f is not None and f.rms_px < 1.0
-            ]
+            origin, gray = _band_gray(frame, pred)
+            band = _band_profiles(gray, origin, pred)
+            # the rising and the falling edge (e.g. the wall's outer and inner face) from the same profiles
+            edges = () if band is None else (_fit_edge(*band[:2], band[2]), _fit_edge(*band[:2], -band[2]))
+            fits = [f for f in edges if f is not None and f.rms_px < 1.0]
             if not fits:
                 continue
             fitted.extend(fits)
