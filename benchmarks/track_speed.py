@@ -7,8 +7,8 @@ one run so machine load affects both alike; the headline ratio is the median of 
 test, noise 5, blur 1, H.264 CRF 23, 30 fps, two minutes) are rendered once by `sloshid synth` into
 out/benchmarks/ and reused.
 Issue 12 times whole commands, start-up included, as the target is stated: `sloshid track VIDEO -o CSV --target T`
-for the float and for a dyed-liquid surface video of the same size and length (a still container, and one that
-tilts all video long), each against a bare decode loop run as its own Python process on the same file, alternately; wall-clock and CPU-time ratios, load noted.
+for the float and for a dyed-liquid surface video of the same size and length (a still container, also with
+`--reference container`, and one that tilts all video long), each against a bare decode loop run as its own Python process on the same file, alternately; wall-clock and CPU-time ratios, load noted.
 Since long videos are tracked in spans side by side (one process per core), the in-process figures count the span
 workers' and the smoother's CPU time too. Writes reports/benchmarks/track_speed.{json,md}. Run from the repository root: python3 benchmarks/track_speed.py
 """
@@ -71,14 +71,17 @@ def track_fps_no_smooth(path: Path) -> tuple[float, float]:
 
 
 BARE_LOOP = "import cv2,sys\ncap=cv2.VideoCapture(sys.argv[1],cv2.CAP_FFMPEG)\nwhile cap.read()[0]: pass\n"
+SURFACE_LOOK = ["--scene", "surface", "--specular", "0.3", "--meniscus", "1"]
 SCENES = {
-    "float": ("float", []),
-    "surface": ("surface", ["--scene", "surface", "--specular", "0.3", "--meniscus", "1"]),
-    "surface_tilting": ("surface", ["--scene", "surface", "--specular", "0.3", "--meniscus", "1", "--tilt", "2"]),
+    "float": ("float", [], []),
+    "surface": ("surface", SURFACE_LOOK, []),
+    "surface_container": ("surface", SURFACE_LOOK, ["--reference", "container"]),
+    "surface_tilting": ("surface", [*SURFACE_LOOK, "--tilt", "2"], []),
 }
-"""The whole-command videos: name -> (`--target`, `sloshid synth` options beyond the common 120 s, 640x480, 30 fps,
-H.264). The tilting container (2 deg at the default --tilt-hz, all video long) is read as a whole body in every frame:
-the slowest case of the surface tracker, where band frames do not apply."""
+"""The whole commands: name -> (`--target`, `sloshid synth` options beyond the common 120 s, 640x480, 30 fps, H.264,
+further `sloshid track` options). The tilting container (2 deg at the default --tilt-hz, all video long) is read as a
+whole body in every frame: the slowest case of the surface tracker, where band frames do not apply. With
+`--reference container` the whole wall edges are measured in every frame as well."""
 
 
 def timed_process(cmd: list[str]) -> tuple[float, float]:
@@ -94,7 +97,9 @@ def timed_process(cmd: list[str]) -> tuple[float, float]:
 def synth_video(scene: str, width: int = 640, height: int = 480) -> Path:
     """The two-minute 30 fps H.264 video of one scene (Table I tap test, noise 5, blur 1, CRF 23), rendered once
     by `sloshid synth` into out/benchmarks/ and reused."""
-    path = CACHE / f"speed_{scene}_{width}x{height}_{DURATION_S:.0f}s.mp4"
+    # scenes that differ only in their track options share one video
+    first = next(name for name, v in SCENES.items() if v[1] == SCENES[scene][1])
+    path = CACHE / f"speed_{first}_{width}x{height}_{DURATION_S:.0f}s.mp4"
     if not path.exists():
         size = ["--width", str(width), "--height", str(height), "--duration", f"{DURATION_S:g}", "--fps", "30"]
         look = ["--noise", "5", "--blur", "1", "--seed", "7", *SCENES[scene][1]]
@@ -122,10 +127,11 @@ def whole_commands() -> list[dict]:
                 runs[scene]["bare"].append(wall)
                 runs[scene]["bare_cpu"].append(cpu)
                 cmd = [sys.executable, "-m", "sloshid", "track", str(path), "-o", f"{tmp}/a.csv"]
-                wall, cpu = timed_process([*cmd, "--target", SCENES[scene][0]])
+                cmd += ["--target", SCENES[scene][0], *SCENES[scene][2]]
+                wall, cpu = timed_process(cmd)
                 runs[scene]["track"].append(wall)
                 runs[scene]["track_cpu"].append(cpu)
-                runs[scene]["raw"].append(timed_process([*cmd, "--target", SCENES[scene][0], "--no-smooth"])[0])
+                runs[scene]["raw"].append(timed_process([*cmd, "--no-smooth"])[0])
                 load.append(os.getloadavg()[0])
     rows = []
     for scene, r in runs.items():
@@ -136,6 +142,7 @@ def whole_commands() -> list[dict]:
             "target": SCENES[scene][0],
             "scene": scene,
             "video": "640x480, 120 s, 30 fps, H.264 (sloshid synth " + (" ".join(SCENES[scene][1]) or "float") + ")",
+            "track_options": " ".join(SCENES[scene][2]),
             "bare_s": r["bare"],
             "track_s": r["track"],
             "bare_cpu_s": r["bare_cpu"],
@@ -244,7 +251,8 @@ def main() -> None:
     ]
     for r in commands:
         lines.append(
-            f"| {r['target']} | {r['video']} | {statistics.median(r['bare_s']):.2f} | "
+            f"| {r['target']}{' ' + r['track_options'] if r.get('track_options') else ''} | {r['video']} | "
+            f"{statistics.median(r['bare_s']):.2f} | "
             f"{statistics.median(r['track_s']):.2f} | {r['ratio']:.2f} | "
             f"{', '.join(f'{x:.2f}' for x in r['ratio_per_pair'])} | {r['cpu_ratio']:.2f} | "
             f"{r['ratio_no_smooth']:.2f} | {r['load_average_1min'][0]:.1f}-{r['load_average_1min'][1]:.1f} | >= {TARGET_RATIO} | "
