@@ -3,7 +3,7 @@
 The liquid body is detected with an HSV range (a preset, the user's range, or the preset whose colour covers
 the largest region of the first frame) and measured with the same linear colour model as the float, a soft
 body membership of every pixel. The body's sides are the container's inner walls (one sub-pixel crossing per
-row, robust straight lines) and its lower boundary is the inner bottom: together they fix the container's axes
+row, on the luma where every row has the contrast, robust straight lines) and its lower boundary is the inner bottom: together they fix the container's axes
 in every frame, so a container that moves and tilts in the picture is measured in its own coordinates.
 Per column, the body's upper boundary is the front edge of the surface, refined on the full-resolution luma. A
 camera slightly above the liquid sees the round surface as a thin ellipse: its front edge lies R sin(elevation)
