@@ -3,8 +3,9 @@
 The liquid body is detected with an HSV range (a preset, the user's range, or the preset whose colour covers
 the largest region of the first frame) and measured with the same linear colour model as the float, a soft
 body membership of every pixel. The body's sides are the container's inner walls (one sub-pixel crossing per
-row, on the luma where every row has the contrast, robust straight lines) and its lower boundary is the inner bottom: together they fix the container's axes
-in every frame, so a container that moves and tilts in the picture is measured in its own coordinates.
+row, on the luma where every row has the contrast, robust straight lines) and its lower boundary is the inner
+bottom: together they fix the container's axes in every frame, so a container that moves and tilts in the picture
+is measured in its own coordinates.
 Per column, the body's upper boundary is the front edge of the surface, refined on the full-resolution luma. A
 camera slightly above the liquid sees the round surface as a thin ellipse: its front edge lies R sin(elevation)
 sqrt(1 - s^2) below the mid-line (s = -1..1 across the inner width), so the front edges are fitted with the
@@ -135,11 +136,11 @@ def refine_on_luma(
     estimate (the crossing closest to the estimate). Columns without that contrast keep their estimate.
     `cols`: the column of `gray` each estimate is in (default: one estimate per column; a column may come twice).
     """
-    refined, good = luma_crossings(gray, pos, ok, reach, cols)
+    refined, good = _luma_crossings(gray, pos, ok, reach, cols)
     return np.where(good, refined, pos)
 
 
-def luma_crossings(
+def _luma_crossings(
     gray: np.ndarray, pos: np.ndarray, ok: np.ndarray, reach: int = 6, cols: np.ndarray | None = None
 ) -> tuple[np.ndarray, np.ndarray]:
     """`refine_on_luma`'s crossings and where they hold (the column has the contrast, its window fits the picture)."""
@@ -549,7 +550,7 @@ def _container_axes(
     right, okr = _crossings_first(band[:, ::-1], band_in[:, ::-1], axis=1)
     right = band.shape[1] - 1 - right
     n = len(rows)  # both walls in one call: each row's luma is read at its left and at its right crossing
-    both, good = luma_crossings(
+    both, good = _luma_crossings(
         gray[r0:r1].T, np.concatenate([left, right]), np.concatenate([okl, okr]), reach=2, cols=np.tile(np.arange(n), 2)
     )
     # a wall is placed on luma only where every row of it has the contrast: the colour and the luma crossings differ
