@@ -444,6 +444,9 @@ def test_surface_angle_and_wall_heights_match_truth(surface_video, reference, co
         both = np.concatenate([(cols[f"{side}_wall_px"] - truth[f"{side}_wall_px"])[ok] for side in ("left", "right")])
         assert _rmse(both) < 0.35
     assert list(cols)[:11] == ["frame", "t_s", "angle_deg", "surface_angle_deg", *TRACK_COLUMNS[4:]]
+    # against the image the angle includes the container's +-2 deg tilt, and track says so (3.9 deg measured)
+    turned = [w for w in res.warnings if "container turned by" in w]
+    assert len(turned) == (reference == "image") and all("--reference container" in w for w in turned)
 
 
 def test_surface_csv_identifies_like_its_truth(surface_video, tmp_path, run_cli):
@@ -527,6 +530,8 @@ def test_band_frames_measure_a_still_container_like_whole_body_frames(still_surf
         assert np.abs(b - w)[ok].max() < 0.5
         assert _rmse((b - truth[f"{side}_wall_px"])[ok]) < 1.2
     assert _rmse((band.angle_deg - truth["surface_angle_deg"])[ok]) < 0.3
+    # a container standing still draws no warning that it turned (0.0 deg measured; the threshold is 1 deg)
+    assert not any("container turned by" in w for w in band.warnings + whole.warnings)
 
 
 @pytest.mark.parametrize(

@@ -23,6 +23,10 @@ from sloshid.video.colors import HsvRange
 
 VALID_QUALITY = 0.5
 """Frames whose surface quality is below this are marked valid = 0."""
+TILT_NOTE_DEG = 1.0
+"""With `--reference image`, a container that turns by more than this in the picture (its walls as the liquid's sides
+give them, 1st to 99th percentile of the valid frames) draws a warning: the angle includes its tilt. A still
+container's sides span up to 0.7 deg (their fits move a little at each colour refit)."""
 
 
 class SurfaceStep:
@@ -98,8 +102,8 @@ class SurfaceStep:
             "overlay",
         )
 
-    def finish(self, rows: list[tuple]) -> tuple[list[tuple], dict[str, np.ndarray]]:
-        """Elevation-corrected angles and the wall heights above rest (px, and mm with the diameter)."""
+    def finish(self, rows: list[tuple]) -> tuple[list[tuple], dict[str, np.ndarray], list[str]]:
+        """Elevation-corrected angles, the wall heights above rest (px, and mm with the diameter) and warnings."""
         t = np.array([r[1] for r in rows], float)
         valid = np.array([r[8] for r in rows], bool)
         slope, cang, left, right, width, opening = (np.array(c, float) for c in zip(*[r[9:] for r in rows]))
@@ -121,4 +125,17 @@ class SurfaceStep:
         )
         for name in ("left_wall", "right_wall"):
             walls[f"{name}_mm"] = walls[f"{name}_px"] * mm_per_px
-        return body, walls
+        return body, walls, [] if container else _tilt_notes(cang[valid])
+
+
+def _tilt_notes(cang: np.ndarray) -> list[str]:
+    """The warning that the container turned in the picture (`cang`: its angle in the valid frames, deg), if it did."""
+    c = np.sort(cang[np.isfinite(cang)])  # np.percentile would import numpy.ma at the end of every run
+    span = c[int(0.99 * (c.size - 1))] - c[int(0.01 * (c.size - 1))] if c.size else 0.0
+    if span <= TILT_NOTE_DEG:
+        return []
+    return [
+        f"the container turned by {span:.1f} deg in the picture (1st to 99th percentile of the valid frames): "
+        "angle_deg is measured against the image and includes that tilt; --reference container measures the "
+        "liquid against the container."
+    ]

@@ -381,9 +381,9 @@ def track_video(
                 else "write an overlay video ({overlay}) to see what was searched"
             )
             raise step.nothing_found(len(rows), path, hint)
-        body, walls = [r[:9] for r in rows], {}
+        body, walls, notes = [r[:9] for r in rows], {}, []
         if settings.target == "surface":
-            body, walls = step.finish(rows)
+            body, walls, notes = step.finish(rows)
         flags = [flag for part in parts for flag in part.repeated]
         repeated = stale_repeats(np.array([r[2] for r in body]), np.array([r[8] for r in body], bool), flags)
         body = [(*r[:8], int(r[8] and not rep)) for r, rep in zip(body, repeated)]
@@ -391,6 +391,7 @@ def track_video(
         lost = lost_share(reader.info.frame_count, len(rows))
         res = _result(Path(path), body, lost, reader.info.frame_count, smooth, repeated, settings.target)
     res.target, res.walls, res.repeated = settings.target, walls, repeated
+    res.warnings.extend(notes)
     res.key_frame = _at_key_frames(res.t_s, key_times)
     return res
 
