@@ -110,6 +110,16 @@ def _bad_cases(tmp_path, decay):
             "no oscillatory mode found",
         )
     )
+    # a slow sway larger than the ring-down's swing to the end (a container tilting in the picture) is forcing
+    sway = _csv(tmp_path / "sway.csv", ["t_s", "angle_deg"], t, y + 3 * np.sin(2 * np.pi * 0.4 * t))
+    cases.append(
+        (
+            "sway",
+            [sway],
+            "is driven (its mean over a period moves by more than half its swing) until 9.65 s of 9.98 s; "
+            "give --window (start and end, s)",
+        )
+    )
     cases.append(("half prior", [ok, "--container-radius-m", "0.05"], "needs both"))
     return cases
 

@@ -523,6 +523,16 @@ class Identifier:
                 f"at least {MIN_PERIODS_ERROR:g} are needed."
             )
         if win.chosen_by == "auto" and (part.t_s.size < 16 or win.duration_s * f_guess < MIN_PERIODS_ERROR):
+            driven = win.excitation_end_s
+            if driven is not None and (sig.t_s[-1] - driven) * f_guess < MIN_PERIODS_ERROR:
+                # driven to the end: a slow motion larger than the swing (a container moving in the picture)
+                raise SettingError(
+                    "window_s",
+                    f"{sig.source}: no free ring-down of {MIN_PERIODS_ERROR:g} periods ({f_guess:.3g} Hz): the signal "
+                    f"is driven (its mean over a period moves by more than half its swing) until {driven:.2f} s of "
+                    f"{sig.t_s[-1]:.2f} s; give {{name}} (start and end, s) where it rings down freely, or track a "
+                    "container that moves in the picture against the container (sloshid track --reference container).",
+                )
             raise UserError(
                 f"{sig.source}: no oscillatory mode found; nowhere does a ring-down of {MIN_PERIODS_ERROR:g} "
                 f"periods ({f_guess:.3g} Hz) stand above the noise."
