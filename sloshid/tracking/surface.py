@@ -18,7 +18,9 @@ mid-line's best-fit line across the whole inner width is the angle; its values a
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
+from functools import partial
 
 import cv2
 import numpy as np
@@ -97,6 +99,9 @@ class SurfaceMeasurement:
     """Lowest image row of the fitted front edge across the measured columns."""
     luma: tuple | None = None
     """(8-bit luma of the measured crop, frame (x, y) of its corner): the repeated-picture check reads it."""
+    refit: Callable[[float], SurfaceMeasurement] | None = None
+    """Before the camera's elevation is held: this frame's measurement again with a given elevation (k / R), so that
+    the first frames can be measured as the later ones once it is (their own fits of it scatter)."""
 
 
 def auto_liquid_range(frame: np.ndarray, roi: tuple[int, int, int, int]) -> HsvRange | None:
@@ -206,6 +211,13 @@ class SurfaceFinder:
             self._k.append(m.opening_px / m.width_px)  # k / R, while the elevation is still being fitted
         self._last = m if m.found else None
         return m
+
+    def elevation(self) -> float | None:
+        """The camera's elevation as held (k / R = its sine), or the median of the frames' own fits of it when fewer
+        than HOLD_ELEVATION_AFTER were measured; None before any."""
+        if self._held is not None or not self._k:
+            return self._held
+        return median(np.array(self._k))
 
     def _find_body(self, frame: np.ndarray) -> tuple[int, int, int, int] | None:
         """Box of the largest liquid-coloured region near the last one (or in the whole ROI after a loss)."""
@@ -357,43 +369,59 @@ class SurfaceFinder:
         # the elevation is fitted in the first frames and then held (a static camera): slopes separate from it
         if self._held is None and len(self._k) >= HOLD_ELEVATION_AFTER:
             self._held = median(np.array(self._k))  # np.median would import numpy.ma (40 ms) in every span worker
-        held = self._held
-        fit = _fit_front(s[ok], wv[ok], max(10, len(cols) // 3), None if held is None else held * half)
-        if fit is None:
-            return SurfaceMeasurement(False, liquid=True)
-        (c0, c1, c3, k), keep, rms = fit
-        kept = np.count_nonzero(keep) / keep.size * np.count_nonzero(ok) / ok.size
-        left, right = c0 - c1 - c3, c0 + c1 + c3
-        to_img = lambda uu, ww: (X0 + ox + uu * eux + ww * ewx, Y0 + oy + uu * euy + ww * ewy)  # noqa: E731
-        line = c1 + LINE_SLOPE_OF_CUBIC * c3
-        # the fitted front edge in every column (also where none was found), at the found edges' typical height
-        u_all = du * eux + median(dw[ok]) * euy
-        s_all = (u_all - uc) / half
-        s2 = s_all * s_all
-        fitted = c0 + (c1 + c3 * s2) * s_all - k * np.sqrt(np.maximum(1 - s2, 0))
-        low = Y0 + oy + float(np.max(u_all * euy + fitted * ewy))
-        pl, pr, pc = to_img(uL, left), to_img(uR, right), to_img(uc, c0)
-        line_l, line_r = to_img(uL, c0 - line), to_img(uR, c0 + line)
-        y_lo, y_hi = Y0 + ytop, Y0 + oy
-        wall_lines = tuple((a, b + X0 - a * Y0, y_lo, y_hi) for a, b in walls)
-        return SurfaceMeasurement(
-            True,
-            True,
-            (c1 + LINE_SLOPE_OF_CUBIC * c3) / half,
-            math.degrees(math.atan(0.5 * (aL + aR))),
-            float(left),
-            float(right),
-            float(2 * half),
-            float(2 * k),
-            float(pc[0]),
-            float(pc[1]),
-            float(kept * min(1.0, max(0.0, 1.5 - rms))),
-            wall_lines,
-            (line_l, line_r, pl, pr),
-            _band(front[ok], cols, (X0, Y0)),
-            low,
-            (gray, (X0, Y0)),
-        )
+        # the measurement from these edge points with a given elevation (k / R; None: fitted with them); a partial
+        # of a plain function, not a closure, so a span worker's step can still be sent back to the parent
+        fitted = partial(_fitted, s, wv, ok, max(10, len(cols) // 3), geom, (X0, Y0), (ytop, uL, uR, du, dw))
+        m = fitted(self._held)
+        if m.found:
+            m.band, m.luma = _band(front[ok], cols, (X0, Y0)), (gray, (X0, Y0))
+            m.refit = fitted if self._held is None else None
+        return m
+
+
+def _fitted(s, wv, ok, min_points, geom, origin, where, held) -> SurfaceMeasurement:
+    """Robust fit of the front edge points (`_surface`'s) with the elevation `held` (k / R; None: fitted with
+    them), and the line, wall heights and overlay points from it."""
+    X0, Y0 = origin
+    walls, o, e_u, e_w = geom
+    (aL, _), (aR, _) = walls
+    (ox, oy), (eux, euy), (ewx, ewy) = (map(float, v) for v in (o, e_u, e_w))
+    ytop, uL, uR, du, dw = where
+    half, uc = 0.5 * (uR - uL), 0.5 * (uR + uL)
+    fit = _fit_front(s[ok], wv[ok], min_points, None if held is None else held * half)
+    if fit is None:
+        return SurfaceMeasurement(False, liquid=True)
+    (c0, c1, c3, k), keep, rms = fit
+    kept = np.count_nonzero(keep) / keep.size * np.count_nonzero(ok) / ok.size
+    left, right = c0 - c1 - c3, c0 + c1 + c3
+    to_img = lambda uu, ww: (X0 + ox + uu * eux + ww * ewx, Y0 + oy + uu * euy + ww * ewy)  # noqa: E731
+    line = c1 + LINE_SLOPE_OF_CUBIC * c3
+    # the fitted front edge in every column (also where none was found), at the found edges' typical height
+    u_all = du * eux + median(dw[ok]) * euy
+    s_all = (u_all - uc) / half
+    s2 = s_all * s_all
+    fitted = c0 + (c1 + c3 * s2) * s_all - k * np.sqrt(np.maximum(1 - s2, 0))
+    low = Y0 + oy + float(np.max(u_all * euy + fitted * ewy))
+    pl, pr, pc = to_img(uL, left), to_img(uR, right), to_img(uc, c0)
+    line_l, line_r = to_img(uL, c0 - line), to_img(uR, c0 + line)
+    y_lo, y_hi = Y0 + ytop, Y0 + oy
+    wall_lines = tuple((a, b + X0 - a * Y0, y_lo, y_hi) for a, b in walls)
+    return SurfaceMeasurement(
+        True,
+        True,
+        (c1 + LINE_SLOPE_OF_CUBIC * c3) / half,
+        math.degrees(math.atan(0.5 * (aL + aR))),
+        float(left),
+        float(right),
+        float(2 * half),
+        float(2 * k),
+        float(pc[0]),
+        float(pc[1]),
+        float(kept * min(1.0, max(0.0, 1.5 - rms))),
+        wall_lines,
+        (line_l, line_r, pl, pr),
+        low=low,
+    )
 
 
 def _anchor(body: np.ndarray, geom: tuple, origin: tuple[int, int]) -> tuple | None:

@@ -14,11 +14,11 @@ from pathlib import Path
 import numpy as np
 
 from sloshid.core.errors import SettingError, UserError
-from sloshid.tracking.container_ref import ContainerTracker
+from sloshid.tracking.container_ref import ContainerMeasurement, ContainerTracker
 from sloshid.tracking.overlay import draw_surface_overlay
 from sloshid.tracking.repeats import REPEAT_SHARE, repeated_share
 from sloshid.tracking.robust import median
-from sloshid.tracking.surface import SurfaceFinder
+from sloshid.tracking.surface import SurfaceFinder, SurfaceMeasurement
 from sloshid.video.colors import HsvRange
 
 VALID_QUALITY = 0.5
@@ -41,34 +41,55 @@ class SurfaceStep:
         self.previous_luma: tuple | None = None  # the last measurement's luma crop, for the repeat check
         self.repeated: list[bool] = []
         self.walls = ContainerTracker(roi) if settings.reference == "container" else None
+        self.pending: list[tuple] = []  # (frame in the span, measurement again with a held elevation, walls measured)
 
     def __call__(self, frame: np.ndarray, draw: bool) -> tuple[tuple, np.ndarray | None]:
         """(row, overlay frame or None): the track row's fields, then the raw surface geometry."""
         m = self.finder.measure(frame)
         self.liquid_frames += m.liquid
-        if m.found and self.walls is not None:
-            # the container's whole wall edges (rim to bottom) give its angle more precisely than the liquid's sides
-            cm = self.walls.measure(frame, m.x_px, m.y_px, 0.8 * m.width_px)
-            if cm.found:
-                tilt = math.radians(m.container_angle_deg - cm.angle_deg)  # the liquid's sides against the walls
-                seen = math.atan(m.rel_slope) + tilt
-                # the wall heights were read along the liquid's sides (their tilt is good to some 0.3 deg, the whole
-                # walls' to 0.02): on the walls' own axes each wall's height moves by half the width times the tilt
-                shift = 0.5 * m.width_px * math.tan(tilt)
-                m.left_w, m.right_w = m.left_w - shift, m.right_w + shift
-                m.rel_slope, m.container_angle_deg = math.tan(seen), cm.angle_deg
+        # the container's whole wall edges (rim to bottom) give its angle more precisely than the liquid's sides
+        cm = self.walls.measure(frame, m.x_px, m.y_px, 0.8 * m.width_px) if m.found and self.walls else None
         lumas = (m.luma, self.previous_luma)
         repeat = m.found and repeated_share(frame, self.previous, m.band, True, lumas) >= REPEAT_SHARE
         self.previous, self.previous_luma = frame, m.luma
+        if m.refit is not None:  # measured before the camera's elevation is held: again at the span's end
+            self.pending.append((len(self.repeated), m.refit, cm))
         self.repeated.append(bool(repeat))
+        row = self._row(m, cm)
+        drawn = (
+            draw_surface_overlay(frame, m, row[0], bool(row[6]), self.roi, self.settings.reference) if draw else None
+        )
+        return row, drawn
+
+    def _row(self, m: SurfaceMeasurement, cm: ContainerMeasurement | None) -> tuple:
+        """The track row's fields, then the raw surface geometry, of a measurement (turned onto the container's walls
+        `cm` when they were measured: `m` is changed)."""
+        if cm is not None and cm.found:
+            tilt = math.radians(m.container_angle_deg - cm.angle_deg)  # the liquid's sides against the walls
+            seen = math.atan(m.rel_slope) + tilt
+            # the wall heights were read along the liquid's sides (their tilt is good to some 0.3 deg, the whole
+            # walls' to 0.02): on the walls' own axes each wall's height moves by half the width times the tilt
+            shift = 0.5 * m.width_px * math.tan(tilt)
+            m.left_w, m.right_w = m.left_w - shift, m.right_w + shift
+            m.rel_slope, m.container_angle_deg = math.tan(seen), cm.angle_deg
         ok = m.found and m.quality >= VALID_QUALITY
         rel = math.degrees(math.atan(m.rel_slope)) if m.found else math.nan
         cang = m.container_angle_deg if self.settings.reference == "container" else 0.0
         angle = rel if self.settings.reference == "container" else rel + m.container_angle_deg
         row = (angle, rel + m.container_angle_deg, cang, m.x_px, m.y_px, m.quality, int(ok))
-        raw = (m.rel_slope, m.container_angle_deg, m.left_w, m.right_w, m.width_px, m.opening_px)
-        drawn = draw_surface_overlay(frame, m, angle, ok, self.roi, self.settings.reference) if draw else None
-        return row + raw, drawn
+        return (*row, m.rel_slope, m.container_angle_deg, m.left_w, m.right_w, m.width_px, m.opening_px)
+
+    def revise(self, rows: list[tuple]) -> None:
+        """Measure the span's first frames again, with the camera's elevation that was held after them (`rows`: this
+        span's, time first, changed in place): their own fits of it scatter, and on a yellow liquid with a strong
+        reflection a few tilted the line by a degree and moved a wall by 20 px. Their overlay frames show the first
+        measurement."""
+        held = self.finder.elevation()
+        for i, refit, cm in self.pending if held is not None else ():
+            m = refit(held)
+            if m.found:
+                rows[i] = (rows[i][0], *self._row(m, cm))
+        self.pending = []
 
     def merge(self, later: SurfaceStep) -> None:
         """Take in what the step of a later span of the same video found (for `nothing_found`)."""

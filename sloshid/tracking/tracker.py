@@ -298,6 +298,9 @@ class _FloatStep:
         row = (angle, float_angle, cm.angle_deg, fm.x_px, fm.y_px, fm.quality if cm.found else 0.0, int(ok))
         return row, draw_overlay(frame, fm, cm, angle, ok, self.roi) if draw else None
 
+    def revise(self, rows: list[tuple]) -> None:
+        """Nothing to measure again: every frame of the float is measured alike."""
+
     def merge(self, later: _FloatStep) -> None:
         """Take in what the step of a later span of the same video found (for `nothing_found`)."""
         self.found += later.found
@@ -451,6 +454,7 @@ def _track_frames(reader: FrameReader, step, tick: Callable[[int], object], writ
             writer.write(drawn, t)
         tick(1)
     step.previous = None  # the last picture: not needed any more, and it holds the decoder's buffers
+    step.revise(rows)
     return _Span(rows, step.repeated, step)
 
 
