@@ -65,6 +65,17 @@ BAND_BELOW = 12
 """While the container stands still, the liquid is mapped only down to this many pixels (or a twentieth of its width)
 plus twice the last frame's sinking below the last frame's lowest front-edge point, and in the ANCHOR_PX strip:
 the rest of the body is not read then."""
+COLOUR_EDGE_SCATTER = 0.6
+"""The front edge is placed on the colour alone, not refined on the luma, when in a span's first frames the luma
+edge scatters about its fit by more than LUMA_EDGE_SCATTER and the colour edge by less than this share of that
+(median rms): a dye whose luma is close to the background's (yellow on a pale wall) gives a luma edge that noise
+moves more than its colour does. Measured (colour / luma): such a clip (640x480, noise 9) 0.40, luma 0.76 px (angle
+RMSE 0.31 deg on luma, 0.11 on colour); a yellow dye with a strong reflection 1.96 (luma better: 0.099 against
+0.111 deg); seeded clips 1.7-3.7 (the luma edge halves their RMSE)."""
+LUMA_EDGE_SCATTER = 0.3
+"""A luma edge that scatters less than this (px, median rms about the fit) is kept whatever the colour edge does: at
+rest before a tap a flat surface's colour crossings fall on one row and fit to 0.003 px without being more accurate
+(a seeded clip: luma 0.075 px, and its angle RMSE 0.051 deg on luma, 0.056 on colour)."""
 LINE_SLOPE_OF_CUBIC = 0.6
 """Least-squares line slope of s^3 over s in [-1, 1]: the cubic's contribution to the best-fit line."""
 
@@ -99,9 +110,9 @@ class SurfaceMeasurement:
     """Lowest image row of the fitted front edge across the measured columns."""
     luma: tuple | None = None
     """(8-bit luma of the measured crop, frame (x, y) of its corner): the repeated-picture check reads it."""
-    refit: Callable[[float], SurfaceMeasurement] | None = None
-    """Before the camera's elevation is held: this frame's measurement again with a given elevation (k / R), so that
-    the first frames can be measured as the later ones once it is (their own fits of it scatter)."""
+    refit: Callable[[float, str], SurfaceMeasurement] | None = None
+    """Before the camera's elevation is held: this frame's measurement again with a given elevation (k / R) and edge
+    source ("luma" or "colour"), so that the first frames can be measured as the later ones once they are held."""
 
 
 def auto_liquid_range(frame: np.ndarray, roi: tuple[int, int, int, int]) -> HsvRange | None:
@@ -185,6 +196,8 @@ class SurfaceFinder:
         self._since_fit = 0
         self._k: list[float] = []  # k / R = sin(elevation) from the first frames
         self._held: float | None = None  # their median, once there are enough
+        self._scatter: list[tuple[float, float]] = []  # the first frames' edge scatter (rms px): on luma, on colour
+        self._edges: str | None = None  # the front edge's source, "luma" or "colour", held with the elevation
         # (body sides and bottom, axes in frame coordinates, frames they were used in, frames they may be used in)
         self._axes: tuple | None = None
         self._last: SurfaceMeasurement | None = None  # the last frame's, when found
@@ -212,12 +225,13 @@ class SurfaceFinder:
         self._last = m if m.found else None
         return m
 
-    def elevation(self) -> float | None:
-        """The camera's elevation as held (k / R = its sine), or the median of the frames' own fits of it when fewer
-        than HOLD_ELEVATION_AFTER were measured; None before any."""
-        if self._held is not None or not self._k:
-            return self._held
-        return median(np.array(self._k))
+    def settled(self) -> tuple[float | None, str]:
+        """The camera's elevation (k / R = its sine) and the front edge's source as held after the first frames, or
+        as the frames so far give them when fewer than HOLD_ELEVATION_AFTER were measured (elevation None before
+        any)."""
+        if self._held is not None:
+            return self._held, self._edges
+        return (median(np.array(self._k)) if self._k else None), self._edge_source()
 
     def _find_body(self, frame: np.ndarray) -> tuple[int, int, int, int] | None:
         """Box of the largest liquid-coloured region near the last one (or in the whole ROI after a loss)."""
@@ -360,33 +374,53 @@ class SurfaceFinder:
             return SurfaceMeasurement(False, liquid=True)
         span = slice(cols[0], cols[-1] + 1, cols[1] - cols[0])  # views, not copies: the columns are evenly spaced
         start = max(0, first - 1)  # no row above the top one crosses; one row of it keeps a crossing there found
-        front, ok = _crossings_first(body[start:, span], inside[start:, span], axis=0)
-        front = refine_on_luma(gray[:, span], front + start, ok)
-        du, dw = cols - ox, front - oy
-        u, wv = du * eux + dw * euy, du * ewx + dw * ewy
-        s = (u - uc) / half
-        ok &= _locally_consistent(wv, ok)
-        # the elevation is fitted in the first frames and then held (a static camera): slopes separate from it
+        colour, found = _crossings_first(body[start:, span], inside[start:, span], axis=0)
+        colour += start
+        # the elevation and the edge source are chosen in the first frames and then held (a static camera, one dye)
         if self._held is None and len(self._k) >= HOLD_ELEVATION_AFTER:
             self._held = median(np.array(self._k))  # np.median would import numpy.ma (40 ms) in every span worker
-        # the measurement from these edge points with a given elevation (k / R; None: fitted with them); a partial
-        # of a plain function, not a closure, so a span worker's step can still be sent back to the parent
-        fitted = partial(_fitted, s, wv, ok, max(10, len(cols) // 3), geom, (X0, Y0), (ytop, uL, uR, du, dw))
-        m = fitted(self._held)
+            self._edges = self._edge_source()
+        du, n = cols - ox, max(10, len(cols) // 3)
+        points = {}  # per edge source: s, w, usable columns, dw, the edge rows
+        for source in ("luma", "colour") if self._edges is None else (self._edges,):
+            front = refine_on_luma(gray[:, span], colour, found) if source == "luma" else colour
+            dw = front - oy
+            wv = du * ewx + dw * ewy
+            points[source] = ((du * eux + dw * euy - uc) / half, wv, found & _locally_consistent(wv, found), dw, front)
+        if self._edges is None:  # how much each source's edge scatters about a free fit of it
+            fits = [_fit_front(p[0][p[2]], p[1][p[2]], n) for p in (points["luma"], points["colour"])]
+            if all(fits):
+                self._scatter.append((fits[0][2], fits[1][2]))
+        # the measurement from these edge points with a given elevation (k / R; None: fitted with them) and edge
+        # source; a partial of a plain function, not a closure, so a span worker's step can be sent to the parent
+        fitted = partial(_fitted, points, n, geom, (X0, Y0), (ytop, uL, uR, du))
+        source = self._edges or "luma"
+        m = fitted(self._held, source)
         if m.found:
+            _, _, ok, _, front = points[source]
             m.band, m.luma = _band(front[ok], cols, (X0, Y0)), (gray, (X0, Y0))
             m.refit = fitted if self._held is None else None
         return m
 
+    def _edge_source(self) -> str:
+        """'colour' when the first frames' luma-refined front edges scattered about their fits by more than
+        LUMA_EDGE_SCATTER and those on the colour alone by less than COLOUR_EDGE_SCATTER times that (median rms),
+        else 'luma'."""
+        if not self._scatter:
+            return "luma"
+        luma, colour = (median(np.array(v)) for v in zip(*self._scatter))
+        return "colour" if luma > LUMA_EDGE_SCATTER and colour < COLOUR_EDGE_SCATTER * luma else "luma"
 
-def _fitted(s, wv, ok, min_points, geom, origin, where, held) -> SurfaceMeasurement:
-    """Robust fit of the front edge points (`_surface`'s) with the elevation `held` (k / R; None: fitted with
-    them), and the line, wall heights and overlay points from it."""
+
+def _fitted(points, min_points, geom, origin, where, held, source) -> SurfaceMeasurement:
+    """Robust fit of the front edge points (`_surface`'s, from `source`) with the elevation `held` (k / R; None:
+    fitted with them), and the line, wall heights and overlay points from it."""
     X0, Y0 = origin
     walls, o, e_u, e_w = geom
     (aL, _), (aR, _) = walls
     (ox, oy), (eux, euy), (ewx, ewy) = (map(float, v) for v in (o, e_u, e_w))
-    ytop, uL, uR, du, dw = where
+    ytop, uL, uR, du = where
+    s, wv, ok, dw, _ = points[source]
     half, uc = 0.5 * (uR - uL), 0.5 * (uR + uL)
     fit = _fit_front(s[ok], wv[ok], min_points, None if held is None else held * half)
     if fit is None:

@@ -80,13 +80,13 @@ class SurfaceStep:
         return (*row, m.rel_slope, m.container_angle_deg, m.left_w, m.right_w, m.width_px, m.opening_px)
 
     def revise(self, rows: list[tuple]) -> None:
-        """Measure the span's first frames again, with the camera's elevation that was held after them (`rows`: this
-        span's, time first, changed in place): their own fits of it scatter, and on a yellow liquid with a strong
-        reflection a few tilted the line by a degree and moved a wall by 20 px. Their overlay frames show the first
-        measurement."""
-        held = self.finder.elevation()
+        """Measure the span's first frames again, with the camera's elevation and the edge source that were held
+        after them (`rows`: this span's, time first, changed in place): their own fits of the elevation scatter, and
+        on a yellow liquid with a strong reflection a few tilted the line by a degree and moved a wall by 20 px.
+        Their overlay frames show the first measurement."""
+        held, source = self.finder.settled()
         for i, refit, cm in self.pending if held is not None else ():
-            m = refit(held)
+            m = refit(held, source)
             if m.found:
                 rows[i] = (rows[i][0], *self._row(m, cm))
         self.pending = []
