@@ -6,7 +6,8 @@ body membership of every pixel. The body's sides are the container's inner walls
 row, on the luma where every row has the contrast, robust straight lines) and its lower boundary is the inner
 bottom: together they fix the container's axes in every frame, so a container that moves and tilts in the picture
 is measured in its own coordinates.
-Per column, the body's upper boundary is the front edge of the surface, refined on the full-resolution luma. A
+Per column, the body's upper boundary is the front edge of the surface, refined on the full-resolution luma (or left
+on the colour, for a dye whose luma edge is noisy: chosen in the first frames with the elevation below). A
 camera slightly above the liquid sees the round surface as a thin ellipse: its front edge lies R sin(elevation)
 sqrt(1 - s^2) below the mid-line (s = -1..1 across the inner width), so the front edges are fitted with the
 mid-line (an antisymmetric cubic: first and second mode) minus that term. The fit is robust (a running median,
