@@ -66,17 +66,15 @@ BAND_BELOW = 12
 """While the container stands still, the liquid is mapped only down to this many pixels (or a twentieth of its width)
 plus twice the last frame's sinking below the last frame's lowest front-edge point, and in the ANCHOR_PX strip:
 the rest of the body is not read then."""
-COLOUR_EDGE_SCATTER = 0.6
-"""The front edge is placed on the colour alone, not refined on the luma, when in a span's first frames the luma
-edge scatters about its fit by more than LUMA_EDGE_SCATTER and the colour edge by less than this share of that
-(median rms): a dye whose luma is close to the background's (yellow on a pale wall) gives a luma edge that noise
-moves more than its colour does. Measured (colour / luma): such a clip (640x480, noise 9) 0.40, luma 0.76 px (angle
-RMSE 0.31 deg on luma, 0.11 on colour); a yellow dye with a strong reflection 1.96 (luma better: 0.099 against
-0.111 deg); seeded clips 1.7-3.7 (the luma edge halves their RMSE)."""
 LUMA_EDGE_SCATTER = 0.3
-"""A luma edge that scatters less than this (px, median rms about the fit) is kept whatever the colour edge does: at
-rest before a tap a flat surface's colour crossings fall on one row and fit to 0.003 px without being more accurate
-(a seeded clip: luma 0.075 px, and its angle RMSE 0.051 deg on luma, 0.056 on colour)."""
+"""The front edge is placed on the colour alone, not refined on the luma, when in a span's first frames the luma edge
+scatters about its fit by more than this (px, median rms) and the colour edge by less: a dye whose luma is close to
+the background's (yellow on a pale wall) gives a luma edge that noise moves more than its colour does. Measured
+(luma / colour scatter, angle RMSE on luma / on colour): 0.76 / 0.30 px, 0.31 / 0.11 deg (640x480, noise 9);
+0.54 / 0.47 px, 0.42 / 0.18 deg (H.264 CRF 24); a yellow dye with a strong reflection 0.49 / 0.97 px, luma better
+(0.099 / 0.111 deg). Below this the luma edge is kept whatever the colour edge does: at rest before a tap a flat
+surface's colour crossings fall on one row and fit to 0.003 px without being more accurate (a seeded clip: luma
+0.075 px, angle RMSE 0.051 deg on luma, 0.056 on colour); the seeded clips' luma edges scatter 0.06-0.2 px."""
 LINE_SLOPE_OF_CUBIC = 0.6
 """Least-squares line slope of s^3 over s in [-1, 1]: the cubic's contribution to the best-fit line."""
 
@@ -405,12 +403,11 @@ class SurfaceFinder:
 
     def _edge_source(self) -> str:
         """'colour' when the first frames' luma-refined front edges scattered about their fits by more than
-        LUMA_EDGE_SCATTER and those on the colour alone by less than COLOUR_EDGE_SCATTER times that (median rms),
-        else 'luma'."""
+        LUMA_EDGE_SCATTER and more than those on the colour alone (median rms), else 'luma'."""
         if not self._scatter:
             return "luma"
         luma, colour = (median(np.array(v)) for v in zip(*self._scatter))
-        return "colour" if luma > LUMA_EDGE_SCATTER and colour < COLOUR_EDGE_SCATTER * luma else "luma"
+        return "colour" if luma > max(LUMA_EDGE_SCATTER, colour) else "luma"
 
 
 def _fitted(points, min_points, geom, origin, where, held, source) -> SurfaceMeasurement:
