@@ -244,11 +244,16 @@ def main() -> None:
             "bound 0 and the run stays uncertain; no sub-window of the record decays either (zeta 0 in each, above). {}: the 3.97 Hz second mode of the "
             "data README beats with the first, and the first quiet stretch of the ring-down (18.86 s) was a beat's null; "
             "with two modes in the PSD the window is carried to the end of the ring-down, where the two-mode fit separates "
-            "them (second amplitude just above 3 standard errors: marginal, see the sweep). Its main-mode frequency hardly "
-            "depends on the second mode (single- and two-mode fits agree within 0.003 Hz, under one standard error, at every "
-            "window end) but falls as the "
-            "window grows (3.022 to 3.001 Hz): the large, nonlinear early swings ring faster than the small late ones.".format(
-                next(r for r in runs if r["run"] == "TRD_2D_0.3m_2.2s_270deg")["envelope_growth"], SECOND_MODE_RUN
+            "them (second amplitude {:.1f} standard errors there, see the sweep). Its main-mode frequency hardly "
+            "depends on the second mode (single- and two-mode fits agree within {:.4f} Hz at every window end) but falls "
+            "as the window grows ({:.3f} to {:.3f} Hz): the large, nonlinear early swings ring faster than the small late "
+            "ones.".format(
+                next(r for r in runs if r["run"] == "TRD_2D_0.3m_2.2s_270deg")["envelope_growth"],
+                SECOND_MODE_RUN,
+                sweep[-1]["second_amplitude_snr"],
+                max(abs(w["single_f_hz"] - w["two_mode_f1_hz"]) for w in sweep),
+                sweep[0]["single_f_hz"],
+                sweep[-1]["single_f_hz"],
             ),
         ]
     )

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from sloshid.identification.estimator import Identifier, IdentSettings, NotFittedError
-from sloshid.identification.pt2fit import encoder_hold
+from sloshid.identification.pt2fit import encoder_hold, zero_columns
 from sloshid.identification.signals import load_signal, make_signal
 from sloshid.model.pendulum import TABLE_I, SloshParams
 from sloshid.synthetic.decays import free_decay, free_decay_signal, tracker_noise
@@ -269,6 +269,50 @@ def test_drift_option_recovers_a_creeping_zero():
     assert res.parameters["f_hz"].value == pytest.approx(3.0, rel=0.002)
     assert res.parameters["zeta"].value == pytest.approx(0.02, rel=0.1)
     assert res.to_dict()["fit"]["per_signal"][0]["drift_per_s"] == pytest.approx(0.4, abs=0.03)
+
+
+def _tap_with_sway(sway_deg: float, sway_hz: float, seed: int):
+    """A 3 Hz, zeta 0.03 tap test (tapped at 1 s, 12 s at 60 fps, 0.1 deg correlated noise) under a slow sinusoidal
+    sway of its zero (a container swaying in the picture), and the same record without the sway."""
+    t, y = free_decay(3.0, 0.03, 60, duration_s=11, amplitude=5, noise_std=0.1, rho=0.3, seed=seed, lead_in_s=1.0)
+    sway = sway_deg * np.sin(2 * np.pi * sway_hz * t + seed)
+    return make_signal(t, y + sway, "angle_deg", "deg", "swaying"), make_signal(t, y, "angle_deg", "deg", "still")
+
+
+@pytest.mark.parametrize("sway_deg,sway_hz,seed", [(0.6, 0.2, 1), (1.5, 0.4, 2), (3.0, 0.3, 3)])
+def test_a_slow_sway_of_the_zero_is_fitted_beside_the_mode(sway_deg, sway_hz, seed):
+    # a sway of 12-60 % of the tap's swing once counted as forcing until the end ("no free ring-down") or gave
+    # intervals 4-20 times wider; fitted as a spline zero, the result is that of the same record without it
+    swaying, still = _tap_with_sway(sway_deg, sway_hz, seed)
+    res, ref = Identifier().fit(swaying).result, Identifier().fit(still).result
+    assert ref.fit.slow_s is None  # a still zero keeps the constant
+    assert res.fit.slow_s == pytest.approx(2 / 3.0, rel=0.01)  # knots two mode periods apart
+    assert 1.0 <= res.windows[0].t0_s < 1.35  # from the tap's first crests, not from before it
+    f, z = res.parameters["f_hz"], res.parameters["zeta"]
+    # truth within 3 reported standard errors, and the intervals no more than 1.5 times the still record's
+    assert abs(f.value - 3.0) < 3 * f.stderr and abs(z.value - 0.03) < 3 * z.stderr
+    assert f.stderr < 1.5 * ref.parameters["f_hz"].stderr and z.stderr < 1.5 * ref.parameters["zeta"].stderr
+    assert "zero: moves slowly" in res.summary() and any("sway" in n for n in res.notes)
+    assert res.to_dict()["fit"]["slow_zero"]["knot_spacing_s"] == pytest.approx(res.fit.slow_s)
+
+
+def test_the_spline_zero_holds_constants_and_reports_its_start():
+    # the JSON's "offset" is the spline's first coefficient: the zero at the window's start (clamped knots), and the
+    # splines sum to one, so a constant zero is still one coefficient repeated
+    t = np.linspace(0, 4.3, 300)
+    cols = zero_columns(t, False, 0.6)
+    assert cols.shape == (300, 8 + 3)  # ceil(4.3 / 0.6) = 8 knot intervals, cubic
+    assert np.allclose(cols.sum(axis=1), 1.0)
+    coef = np.linalg.lstsq(cols, 0.5 + 0.2 * np.sin(0.9 * t), rcond=None)[0]
+    assert coef[0] == pytest.approx(0.5, abs=1e-3)  # a 0.9 rad/s sway: knots every 0.6 s follow it to 1e-3
+
+
+def test_a_sway_in_a_window_the_user_gave_is_fitted_too():
+    # the user's window skips the automatic search; the constant-zero fit's residual still shows the sway
+    swaying, _ = _tap_with_sway(1.5, 0.4, 2)
+    res = Identifier(window_s=(1.0, 6.0)).fit(swaying).result
+    assert res.fit.slow_s is not None
+    assert abs(res.parameters["f_hz"].value - 3.0) < 3 * res.parameters["f_hz"].stderr
 
 
 @pytest.mark.parametrize("f0,z0", [(2.5, 0.02), (3.0, 0.05)])

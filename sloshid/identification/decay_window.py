@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy import ndimage
@@ -19,8 +19,26 @@ ACTIVE_FLOOR = 0.01
 """A segment counts as active only above this fraction of the strongest segment's spread (-40 dB): below it lie
 quantisation steps and tracker hold-levels, not a mode a fit could use (a ring-down is fitted to 3 noise sd)."""
 
+ROUGH_PROMINENCE = 30.0
+"""A segment's peak counts first for the rough mode frequency when it stands this many times above the median of the
+segment's spectrum: in a single 4-s periodogram noise alone reaches 10-13 times (its 100-250 bins), so a record
+whose quiet segments are active only through a slow sway does not hand the guess to a noise peak."""
+
 FORCED_RATIO = 0.5
 """A one-period mean that moves by more than this fraction of the oscillation amplitude means forced motion."""
+
+SLOW_ZERO_NOISE = 3.0
+"""A signal's zero counts as moving slowly when, after the ringing has faded, its one-period mean moves by more than
+this many noise standard deviations (white noise moves it by some 3 sd / sqrt(samples per period), tracker noise
+correlated from frame to frame up to twice that: 2 sd triggered on one of 60 clean random records, at 30 fps)
+and by more than ACTIVE_FLOOR of the largest swing (a tracker's hold levels, thousandths of a degree, do not count):
+the oscillation is then measured without that slow part, and the fit follows the zero with a spline."""
+
+SWAY_FACTOR = 2.0
+"""... and by more than this multiple of how far it moves once the ringing has faded: a slow motion that goes on
+after the ring-down (a container swaying on its stand, a camera that wobbles, a container tilting in the picture)
+is not what excited the mode, and it reaches as far during the ring-down as after it (twice its reach from the
+final level, which may sit at one end of the sway)."""
 
 START_SEARCH_PERIODS = 2
 """After the detected end of forced motion the window starts at the largest swing within this many periods:
@@ -57,6 +75,10 @@ class DecayWindow:
     excitation_end_s: float | None
     """Last time the record was driven (quasi-static offset larger than the ringing), None when never."""
     f_guess_hz: float
+    slow_motion: float = 0.0
+    """How far the signal's zero (its one-period mean, the mode averaged out) moves, when that counts as moving
+    (SLOW_ZERO_NOISE): from its final level once the ringing has faded, or in the residual of a constant-zero fit of
+    the window (`residual_wander`); 0 when it stays within noise."""
 
     @property
     def duration_s(self) -> float:
@@ -80,14 +102,16 @@ def rough_mode_frequency(sig: Signal, f_range_hz: tuple[float, float]) -> float:
     active = np.flatnonzero(stds >= max(3 * stds.min(), ACTIVE_FLOOR * stds.max()))
     if active.size == 0:
         active = np.arange(len(starts))
-    peaks = []  # (frequency, is a resonance) of each active segment, last first
+    peaks = []  # (frequency, is a resonance, prominence) of each active segment, last first
     for k in active[::-1]:
         if f_range_hz[0] < u.fs_hz / 2:  # the band has frequencies below Nyquist
             part = slice(starts[k], starts[k] + n_seg)
             spec = welch_spectrum(u.t_s[part], u.value[part], f_range_hz, nperseg=n_seg, per_octave=True)
-            peaks.append((spec.peak_f_hz, spec.resonant))
-    # the last segments whose peak is a resonance; without any (pure noise), the last ones as they are
-    freqs = [f for f, resonant in peaks if resonant][:3] or [f for f, _ in peaks[:3]]
+            peaks.append((spec.peak_f_hz, spec.resonant, spec.prominence))
+    # the last segments whose peak is a resonance well above noise, else any resonance; without any (pure noise), the
+    # last ones as they are
+    strong = [f for f, resonant, p in peaks if resonant and p >= ROUGH_PROMINENCE][:3]
+    freqs = strong or [f for f, resonant, _ in peaks if resonant][:3] or [f for f, _, _ in peaks[:3]]
     if not freqs:
         raise UserError(f"{sig.source}: no frequency in the search range {f_range_hz[0]:g}-{f_range_hz[1]:g} Hz.")
     return float(np.median(freqs))
@@ -107,16 +131,13 @@ def find_decay_window(sig: Signal, f_guess_hz: float, noise_std: float, drift: b
     Forced motion shows as a one-period running mean (which cancels the mode and its harmonics) that departs from
     the final resting level by more than half the ringing amplitude and by more than the noise.
     """
-    u = to_uniform(sig.t_s, sig.value)
-    n = max(3, round(u.fs_hz / f_guess_hz))
-    slow = period_mean(u.t_s, u.value, 1.0 / f_guess_hz)
-    amp = _swing(u.value, n)
-    if drift:  # a zero that creeps steadily is not forcing: measure departures from its straight line
-        slow = slow - np.polyval(np.polyfit(u.t_s, slow, 1), u.t_s)
-    rest = float(np.median(slow[-max(n, slow.size // 5) :]))
-    dev = np.abs(slow - rest)
-    # an offset counts as forcing only if it is large against the noise, the record's biggest swing and its offsets
-    floor = max(0.2 * float(dev.max()), 0.1 * float(amp.max()), 5 * noise_std / np.sqrt(n))
+    u, n, amp, rest, dev = _levels(sig, f_guess_hz, drift)
+    slow, free, reach, moving = _zero_motion(u, n, amp, dev, f_guess_hz, noise_std)
+    # an offset counts as forcing only if it is large against the noise, the record's biggest swing and its offsets,
+    # and against the slow motion that goes on after the ring-down
+    floor = max(0.2 * float(dev.max()), 0.1 * float(amp.max()), 5 * noise_std / np.sqrt(n), SWAY_FACTOR * reach)
+    if moving:  # the zero sways: the oscillation is judged without it
+        amp = free
     forced = np.flatnonzero(dev > np.maximum(FORCED_RATIO * amp, floor))
     forced = forced[(forced >= n) & (forced < dev.size - n)]  # running means are padded at the edges: no evidence
     if forced.size:
@@ -128,13 +149,88 @@ def find_decay_window(sig: Signal, f_guess_hz: float, noise_std: float, drift: b
         excitation_end = None
         peak = int(np.argmax(amp[: max(1, amp.size - 3 * n)]))
         lo = max(0, peak - n)  # the running measures lag the onset; step back to the first large sample
-        swing = np.abs(u.value[lo : peak + 1] - rest)
-        i0 = lo + int(np.argmax(swing > ONSET_FRACTION * swing.max()))
+        if moving:  # the largest swing about the swaying zero: its running mean reaches a period ahead into the
+            # ring-down, so the samples before the onset stray from it too, if less than the first crests do
+            i0 = lo + int(np.argmax(np.abs(u.value - slow)[lo : peak + 1]))
+        else:
+            swing = np.abs(u.value[lo : peak + 1] - rest)
+            i0 = lo + int(np.argmax(swing > ONSET_FRACTION * swing.max()))
     quiet = (amp[i0:] <= END_NOISE_FACTOR * noise_std).astype(int)
     run = np.convolve(quiet, np.ones(QUIET_PERIODS * n, int), mode="valid")  # quiet samples in each stretch
     fades = np.flatnonzero(run == QUIET_PERIODS * n)
     i1 = min(i0 + int(fades[0]) + n // 2, u.value.size - 1) if fades.size else u.value.size - 1
-    return DecayWindow(float(u.t_s[i0]), float(u.t_s[i1]), "auto", excitation_end, f_guess_hz)
+    return DecayWindow(float(u.t_s[i0]), float(u.t_s[i1]), "auto", excitation_end, f_guess_hz, reach * moving)
+
+
+def _levels(sig: Signal, f_guess_hz: float, drift: bool):
+    """The signal on a uniform grid, samples per period n, the oscillation's swing per sample, the final resting level
+    of its one-period mean (which cancels the mode) and that mean's distance from it (from its straight line with
+    `drift`)."""
+    u = to_uniform(sig.t_s, sig.value)
+    n = max(3, round(u.fs_hz / f_guess_hz))
+    slow = period_mean(u.t_s, u.value, 1.0 / f_guess_hz)
+    if drift:  # a zero that creeps steadily is not forcing: measure departures from its straight line
+        slow = slow - np.polyval(np.polyfit(u.t_s, slow, 1), u.t_s)
+    rest = float(np.median(slow[-max(n, slow.size // 5) :]))
+    return u, n, _swing(u.value, n), rest, np.abs(slow - rest)
+
+
+def _zero_motion(u, n: int, amp: np.ndarray, dev: np.ndarray, f_guess_hz: float, noise_std: float):
+    """The signal's slow part (`_slow_part`), the swing about it, how far the zero moves once the ringing has faded,
+    and whether that counts as moving (SLOW_ZERO_NOISE), from `_levels`' grid, period, swing and distances. Below
+    that count the reach still bounds what forcing must exceed: the noise estimate of a short record runs high."""
+    slow = _slow_part(u.t_s, u.value, 1.0 / f_guess_hz)
+    free = _swing(u.value - slow, n)
+    reach = _reach_after_fade(dev, free, n, noise_std)
+    return slow, free, reach, reach > _moving_floor(noise_std, float(amp.max()))
+
+
+def _moving_floor(noise_std: float, swing: float) -> float:
+    """How far a zero must move to count as moving (SLOW_ZERO_NOISE)."""
+    return max(SLOW_ZERO_NOISE * noise_std, ACTIVE_FLOOR * swing)
+
+
+def moving_zero(win: DecayWindow) -> bool:
+    """The signal's zero moves slowly (a sway after the ring-down), beyond noise and hold levels (SLOW_ZERO_NOISE)."""
+    return win.slow_motion > 0
+
+
+def residual_wander(t_s: np.ndarray, resid: np.ndarray, f_hz: float, noise_std: float, swing: float) -> float:
+    """How far the slow part (`_slow_part`, away from the padded ends) of a constant-zero fit's residual strays from
+    its median, when that counts as a moving zero (SLOW_ZERO_NOISE; `swing`: the mode's fitted amplitude), else 0:
+    a window without a quiet tail, or one the user gave, can still hold a moving zero (a sway; on wall heights, the
+    mean level that large, nonlinear swings lift and that sinks as they decay)."""
+    u = to_uniform(t_s, resid)
+    n = max(3, round(u.fs_hz / f_hz))
+    slow = _slow_part(u.t_s, u.value, 1.0 / f_hz)[n:-n]
+    wander = float(np.abs(slow - np.median(slow)).max()) if slow.size else 0.0
+    return wander if wander > _moving_floor(noise_std, swing) else 0.0
+
+
+def without_slow_motion(sig: Signal, f_hz: float) -> Signal:
+    """`sig` minus its slow part (`_slow_part`): a slow motion of its zero taken out, for spectra and starting values."""
+    return replace(sig, value=sig.value - _slow_part(sig.t_s, sig.value, 1.0 / f_hz))
+
+
+def _slow_part(t: np.ndarray, y: np.ndarray, period_s: float) -> np.ndarray:
+    """The one-period running mean, twiced (2 m - mean of m): a mean alone keeps only 97 % of a sway at an eighth of
+    the mode's frequency (on a 2-deg sway that leaves 0.05 deg, near a quiet tail's noise), twicing 99.9 %; the mode
+    and its harmonics still cancel, and a decaying mode leaves a small copy of itself in quadrature (about zeta of
+    its swing), which does not move its frequency."""
+    m = period_mean(t, y, period_s)
+    return 2 * m - period_mean(t, m, period_s)
+
+
+def _reach_after_fade(dev: np.ndarray, free: np.ndarray, n: int, noise_std: float) -> float:
+    """How far the one-period mean (`dev`: its distance from the final level) moves after the oscillation (`free`:
+    its swing without the slow motion) last stood well above the fade level (RISE_FACTOR times it: noise correlated
+    from frame to frame crosses the fade level itself now and then); 0 without such a tail of QUIET_PERIODS periods
+    (the record ends ringing, or never rings)."""
+    loud = np.flatnonzero(free[: dev.size - n] > RISE_FACTOR * END_NOISE_FACTOR * noise_std)
+    if loud.size == 0:
+        return 0.0
+    tail = dev[int(loud[-1]) + n : dev.size - n]  # running means are padded at the edges: no evidence
+    return float(tail.max()) if tail.size >= QUIET_PERIODS * n else 0.0
 
 
 def _swing(y: np.ndarray, n: int) -> np.ndarray:
@@ -153,11 +249,12 @@ def extend_tail(sig: Signal, win: DecayWindow, f_hz: float, decay_rate_1_s: floa
     rise = np.flatnonzero(amp[i1:] > RISE_FACTOR * END_NOISE_FACTOR * noise_std)
     stop = u.t_s[min(i1 + int(rise[0]) - n, u.t_s.size - 1)] if rise.size else u.t_s[-1]
     t1 = min(win.t1_s + TAIL_TIME_CONSTANTS / max(decay_rate_1_s, 1e-9), float(stop))
-    return DecayWindow(win.t0_s, max(win.t1_s, t1), win.chosen_by, win.excitation_end_s, win.f_guess_hz)
+    return replace(win, t1_s=max(win.t1_s, t1))
 
 
-def user_window(sig: Signal, t0: float, t1: float, f_guess_hz: float) -> DecayWindow:
-    """A window given by the user, checked to lie inside the data."""
+def user_window(sig: Signal, t0: float, t1: float, f_guess_hz: float, noise_std: float) -> DecayWindow:
+    """A window given by the user, checked to lie inside the data (and the record's slow motion, as for the
+    automatic window)."""
     lo, hi = float(sig.t_s[0]), float(sig.t_s[-1])
     if not t0 < t1:
         raise SettingError("window_s", f"{{name}} start {t0:g} s must be before its end {t1:g} s.")
@@ -165,4 +262,6 @@ def user_window(sig: Signal, t0: float, t1: float, f_guess_hz: float) -> DecayWi
         raise SettingError(
             "window_s", f"{{name}} {t0:g},{t1:g} s lies outside the data of {sig.source} ({lo:g} to {hi:g} s)."
         )
-    return DecayWindow(float(t0), float(t1), "user", None, f_guess_hz)
+    u, n, amp, _, dev = _levels(sig, f_guess_hz, False)
+    _, _, reach, moving = _zero_motion(u, n, amp, dev, f_guess_hz, noise_std)
+    return DecayWindow(float(t0), float(t1), "user", None, f_guess_hz, reach * moving)

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -22,8 +22,11 @@ from sloshid.identification.decay_window import (
     DecayWindow,
     extend_tail,
     find_decay_window,
+    moving_zero,
+    residual_wander,
     rough_mode_frequency,
     user_window,
+    without_slow_motion,
 )
 from sloshid.identification.pt2fit import Z95, PT2Fit, WindowData, autocorrelation, fit_pt2, fit_pt2_hold
 from sloshid.identification.second_mode import SecondMode, resolve_second_mode, strong_peaks
@@ -39,6 +42,9 @@ from sloshid.model.pendulum import (
 )
 
 MIN_PERIODS_ERROR = 3.0
+SLOW_KNOT_PERIODS = 2.0
+"""Knot spacing of that spline in mode periods: it follows a sway up to about a quarter of the mode's frequency, and
+cubic splines on knots two periods apart take in next to nothing of the mode itself."""
 NO_MODE_SNR = 5.0
 """A window whose PSD shows no clear resonance is still accepted when the fitted decay stands this many standard
 errors out and reaches the minimum fit % (short, strongly damped ring-downs give coarse Welch spectra);
@@ -207,7 +213,7 @@ class IdentResult:
                     "amplitude": self.fit.amplitude(i),
                     "amplitude_stderr": self.fit.amplitude_se(i),
                     "offset": float(self.fit.linear[i][2]),
-                    "drift_per_s": float(self.fit.linear[i][3]) if self.fit.drift else None,
+                    "drift_per_s": float(self.fit.linear[i][3]) if self.fit.drift and not self.fit.slow_s else None,
                     "rms_residual": float(np.sqrt(np.mean(self.fit.residuals[i] ** 2))),
                     "ljung_box_p": self.ljung_box[i],
                     "ljung_box_lags": self.lb_lags[i],
@@ -242,8 +248,12 @@ class IdentResult:
             },
             "second_mode": self.second_mode.to_dict() if self.second_mode is not None else None,
             "fit": {
-                "model": "a exp(-zeta omega t) cos(omega sqrt(1-zeta^2) t + phase) + offset"
-                + (" + drift t" if self.fit.drift else "")
+                "model": "a exp(-zeta omega t) cos(omega sqrt(1-zeta^2) t + phase) + "
+                + (
+                    _spline_zero(self.fit.slow_s)
+                    if self.fit.slow_s
+                    else "offset" + (" + drift t" if self.fit.drift else "")
+                )
                 + (" + a2 exp(-zeta2 omega2 t) cos(omega2 sqrt(1-zeta2^2) t + phase2)" if self.fit.second else ""),
                 "fit_percent": float(np.mean([self.fit_percent(i) for i in range(len(self.signals))])),
                 "ljung_box_p": float(min(self.ljung_box)),
@@ -266,6 +276,13 @@ class IdentResult:
                     "plain_fit_stderr": dict(
                         zip(("omega_rad_s", "zeta"), np.sqrt(np.diag(self.fit.hold.plain_cov)).tolist())
                     ),
+                },
+                "slow_zero": None
+                if self.fit.slow_s is None
+                else {
+                    "knot_spacing_s": self.fit.slow_s,
+                    "moves_by": [w.slow_motion for w in self.windows],
+                    "unit": self.signals[0].unit,
                 },
                 "stderr_inflation_vs_white": inflation,
                 "n_starts": self.fit.n_starts,
@@ -298,6 +315,8 @@ class IdentResult:
             lines.append(f"  {self.second_mode.summary()}")
         fits = ", ".join(f"{self.fit_percent(i):.1f}" for i in range(len(self.signals)))
         lines.append(f"  fit % (NRMSE): {fits}")
+        if self.fit.slow_s:
+            lines.append(f"  zero: moves slowly, fitted as {_spline_zero(self.fit.slow_s)}")
         if self.fit.hold is not None:
             h = self.fit.hold
             shift_f, shift_z = 100 * h.shift / np.array([self.fit.omega_rad_s, self.fit.zeta or 1.0])
@@ -460,7 +479,13 @@ class Identifier:
         )
         windows, spectra, fullspec = map(list, zip(*(self._window(sig, f_range) for sig in bar)))
         parts = [s.between(w.t0_s, w.t1_s) for s, w in zip(sigs, windows)]
-        hp0 = [half_power(p.t_s, p.value, sp.peak_f_hz) for p, sp in zip(parts, spectra)]
+        moving = [moving_zero(w) for w in windows]
+        # a zero that moves slowly in any signal is fitted as a spline in all of them (it costs a little precision)
+        slow_s = SLOW_KNOT_PERIODS / float(np.median([w.f_guess_hz for w in windows])) if any(moving) else None
+        hp0 = [
+            half_power(p.t_s, (without_slow_motion(p, sp.peak_f_hz) if m else p).value, sp.peak_f_hz)
+            for p, sp, m in zip(parts, spectra, moving)
+        ]
         omega_starts = [2 * math.pi * float(np.median([sp.peak_f_hz for sp in spectra]))]
         omega_starts += [2 * math.pi * h.f_hz for h in hp0]
         zeta_hints = [h.zeta for h in hp0 if math.isfinite(h.zeta)]
@@ -470,7 +495,17 @@ class Identifier:
             omega_starts,
             float(np.median(zeta_hints)) if zeta_hints else None,
             st.drift,
+            slow_s,
         )
+        f_fit = fit.omega_rad_s / (2 * math.pi)
+        wander = [
+            residual_wander(p.t_s, fit.residuals[i], f_fit, fs.noise_std, fit.amplitude(i))
+            for i, (p, fs) in enumerate(zip(parts, fullspec))
+        ]
+        if slow_s is None and any(wander):  # the zero moves within the window: fitted again with a spline zero
+            windows = [replace(w, slow_motion=v) for w, v in zip(windows, wander)]
+            slow_s = SLOW_KNOT_PERIODS / f_fit
+            fit = fit_pt2(wdata, [fit.omega_rad_s, *omega_starts[1:]], fit.zeta or None, st.drift, slow_s)
         for i, (sig, spec, part) in enumerate(zip(sigs, spectra, parts)):
             snr = fit.amplitude(i) / fit.amplitude_se(i)
             explained = fit.fit_percent(i, part.value)
@@ -491,9 +526,9 @@ class Identifier:
             if any(a.t1_s > b.t1_s + 1 / f_fit for a, b in zip(longer, windows)):  # at least a period more
                 windows = longer
                 parts = [s.between(w.t0_s, w.t1_s) for s, w in zip(sigs, windows)]
-                spectra = [welch_spectrum(p.t_s, p.value, f_range) for p in parts]
+                spectra = [_window_spectrum(p, w, f_range) for p, w in zip(parts, windows)]
                 wdata = [WindowData(p.t_s, p.value, w.t0_s, p.hold_restarts()) for p, w in zip(parts, windows)]
-                fit = fit_pt2(wdata, [fit.omega_rad_s, *omega_starts[1:]], fit.zeta or None, st.drift)
+                fit = fit_pt2(wdata, [fit.omega_rad_s, *omega_starts[1:]], fit.zeta or None, st.drift, slow_s)
         second = resolve_second_mode(wdata, fit, spectra, st.second_mode_ratio, AMPLITUDE_SNR)
         if second is not None and second.separated:
             fit = second.fit
@@ -512,7 +547,7 @@ class Identifier:
         f_guess = rough_mode_frequency(sig, f_range)
         whole = welch_spectrum(sig.t_s, sig.value, f_range)
         if st.window_s is not None:
-            win = user_window(sig, *st.window_s, f_guess)
+            win = user_window(sig, *st.window_s, f_guess, whole.noise_std)
         else:
             win = find_decay_window(sig, f_guess, whole.noise_std, st.drift)
         part = sig.between(win.t0_s, win.t1_s)
@@ -539,7 +574,7 @@ class Identifier:
             )
         if part.t_s.size < 16:
             raise UserError(f"{sig.source}: the window {win.t0_s:g}-{win.t1_s:g} s holds only {part.t_s.size} samples.")
-        spec = welch_spectrum(part.t_s, part.value, f_range)
+        spec = _window_spectrum(part, win, f_range)
         periods = win.duration_s * spec.peak_f_hz
         if spec.prominence >= MIN_PROMINENCE and periods < MIN_PERIODS_ERROR:
             raise UserError(
@@ -586,6 +621,13 @@ class Identifier:
             )
         )
         notes = verdict.notes + [w for s in sigs for w in s.warnings]
+        if fit.slow_s:
+            notes.append(
+                f"the signal's zero moves slowly (its mean over a period moves by up to "
+                f"{max(w.slow_motion for w in windows):.3g} {sigs[0].unit}: a sway, or a mean level that large swings "
+                f"lift): it was fitted beside the mode as {_spline_zero(fit.slow_s)}, so it is neither taken for "
+                "forcing nor left in the residual."
+            )
         if fit.hold is not None:
             notes.append(
                 "tracked from video: the mode was fitted as seen through the encoder's hold of slowly moving edges, "
@@ -619,13 +661,26 @@ class Identifier:
         return self.result_
 
 
+def _spline_zero(knot_spacing_s: float) -> str:
+    """How the report names a slow zero's model."""
+    return f"a cubic spline (knots every {knot_spacing_s:.3g} s, {SLOW_KNOT_PERIODS:g} mode periods)"
+
+
+def _window_spectrum(part: Signal, win: DecayWindow, f_range: tuple[float, float]) -> Spectrum:
+    """Welch spectrum of a window; of the window without its slow motion when its zero moves (a sway's leakage below
+    the band would otherwise outweigh the mode)."""
+    if moving_zero(win):
+        part = without_slow_motion(part, win.f_guess_hz)
+    return welch_spectrum(part.t_s, part.value, f_range)
+
+
 def _cross_checks(sigs, windows, parts, noise_std, fit: PT2Fit) -> tuple[list, list[float], list[int]]:
-    """Per signal: the independent estimates (on the window minus offset, drift and any fitted second mode) and
+    """Per signal: the independent estimates (on the window minus its fitted zero and any fitted second mode) and
     the Ljung-Box whiteness test of the residual with its lag count."""
     omega = fit.omega_rad_s
     checks, lb, lb_lags = [], [], []
     for i, p in enumerate(parts):
-        base = fit.linear[i][2] + (fit.linear[i][3] * (p.t_s - windows[i].t0_s) if fit.drift else 0.0)
+        base = fit.zero_fitted[i]
         if fit.second:  # the cross-checks judge the main mode, so the fitted second mode is taken out first
             base = base + fit.second_fitted[i]
         clean = p.value - base

@@ -2,7 +2,8 @@
 with a second damped mode beside it (shared omega2, zeta2) when the spectrum shows one.
 
 Model per window (t' = t - window start):  y = exp(-zeta omega t') (a cos(omega_d t') + b sin(omega_d t')) + c [+ r t']
-[+ exp(-zeta2 omega2 t') (a2 cos(omega2_d t') + b2 sin(omega2_d t'))], omega_d = omega sqrt(1 - zeta^2).
+[+ exp(-zeta2 omega2 t') (a2 cos(omega2_d t') + b2 sin(omega2_d t'))], omega_d = omega sqrt(1 - zeta^2); for a zero
+that moves slowly (a sway) the constant c [+ r t'] is a cubic spline with knots some mode periods apart instead.
 Standard errors come from a Newey-West (Bartlett kernel) sandwich covariance, which stays honest when residuals are
 serially correlated (video tracking noise, unmodelled harmonics).
 """
@@ -10,10 +11,11 @@ serially correlated (video tracking noise, unmodelled harmonics).
 from __future__ import annotations
 
 import itertools
+import math
 from dataclasses import dataclass, replace
 
 import numpy as np
-from scipy import optimize, stats
+from scipy import interpolate, optimize, stats
 
 Z95 = float(stats.norm.ppf(0.975))
 """Two-sided 95 % normal quantile used for every interval."""
@@ -89,6 +91,10 @@ class PT2Fit:
     """Per window: the second mode's part of `fitted` (empty without a second mode)."""
     hold: HoldFit | None = None
     """Video-tracked signals: the encoder hold fitted with the mode (None for other signals)."""
+    slow_s: float | None = None
+    """Knot spacing (s) of the spline fitted as the signal's zero when it moves slowly; None: a constant [+ drift]."""
+    zero_fitted: tuple[np.ndarray, ...] = ()
+    """Per window: the fitted zero (offset [+ drift], or the slow spline) at the window's samples."""
 
     def fit_percent(self, i: int, values: np.ndarray) -> float:
         """NRMSE fit in percent (100 = perfect, 0 = no better than the mean) of window i."""
@@ -153,11 +159,23 @@ def _damped(t_rel: np.ndarray, omega: float, zeta: float) -> tuple[np.ndarray, n
     return e * np.cos(wd * t_rel), e * np.sin(wd * t_rel)
 
 
-def _basis(t_rel: np.ndarray, modes: np.ndarray, drift: bool) -> np.ndarray:
-    """Columns multiplying the linear parameters (a, b, c[, r][, a2, b2]) for given modes [(omega, zeta), ...]."""
-    cols = [*_damped(t_rel, *modes[0]), np.ones_like(t_rel)]
-    if drift:
-        cols.append(t_rel)
+def zero_columns(t_rel: np.ndarray, drift: bool, slow_s: float | None) -> np.ndarray:
+    """Columns of a window's zero (its resting level): a constant [and t' for a drift], or, with `slow_s`, the clamped
+    cubic B-splines with knots evenly spaced at most slow_s apart over the window. The splines hold constants and
+    lines, follow a zero that moves slowly (a container swaying in the picture), and with knots two or more mode
+    periods apart they cannot take in the mode; their first coefficient is the zero at the window's start."""
+    if slow_s is None:
+        return np.column_stack([np.ones_like(t_rel), t_rel] if drift else [np.ones_like(t_rel)])
+    span = float(t_rel[-1])
+    inner = np.linspace(0.0, span, max(1, math.ceil(span / slow_s)) + 1)
+    knots = np.concatenate([[0.0] * 3, inner, [span] * 3])
+    return interpolate.BSpline.design_matrix(np.clip(t_rel, 0.0, span), knots, 3).toarray()
+
+
+def _basis(t_rel: np.ndarray, modes: np.ndarray, zero: np.ndarray) -> np.ndarray:
+    """Columns multiplying the linear parameters (a, b, zero's[, a2, b2]) for given modes [(omega, zeta), ...] and
+    the window's `zero_columns`."""
+    cols = [*_damped(t_rel, *modes[0]), zero]
     for omega, zeta in modes[1:]:
         cols += _damped(t_rel, omega, zeta)
     return np.column_stack(cols)
@@ -169,15 +187,19 @@ class _JointModel:
     n_extra = 0
     """Number of parameters after the linear ones (the hold's width in _HeldModel)."""
 
-    def __init__(self, windows: list[WindowData], drift: bool, n_modes: int = 1):
+    def __init__(self, windows: list[WindowData], drift: bool, n_modes: int = 1, slow_s: float | None = None):
         self.t = [w.t_s - w.t0_s for w in windows]
         self.y = [w.value for w in windows]
         self.restarts = [w.restarts for w in windows]
         self.n_modes = n_modes
         self.nq = 2 * n_modes
         """Number of nonlinear parameters (omega, zeta per mode)."""
-        self.nl = (4 if drift else 3) + 2 * (n_modes - 1)
-        self.drift = drift
+        self.drift, self.slow_s = drift, slow_s
+        self.zero = [zero_columns(t, drift, slow_s) for t in self.t]
+        self.nl = [2 + z.shape[1] + 2 * (n_modes - 1) for z in self.zero]
+        """Number of linear parameters of each window."""
+        self.offsets = self.nq + np.cumsum([0, *self.nl[:-1]])
+        """Where each window's linear parameters start in the stacked vector."""
         ends = np.cumsum([0] + [t.size for t in self.t])
         self.blocks = [slice(a, b) for a, b in itertools.pairwise(ends)]
         """Rows of each window in the stacked residual vector."""
@@ -188,11 +210,11 @@ class _JointModel:
 
     def split(self, x: np.ndarray) -> list[np.ndarray]:
         """Per-window linear parameters from the stacked vector."""
-        return [x[self.nq + k * self.nl : self.nq + (k + 1) * self.nl] for k in range(len(self.t))]
+        return [x[o : o + nl] for o, nl in zip(self.offsets, self.nl)]
 
     def fitted(self, x: np.ndarray) -> list[np.ndarray]:
         """Model values per window."""
-        return [_basis(t, self.modes(x), self.drift) @ lin for t, lin in zip(self.t, self.split(x))]
+        return [_basis(t, self.modes(x), z) @ lin for t, z, lin in zip(self.t, self.zero, self.split(x))]
 
     def residuals(self, x: np.ndarray) -> np.ndarray:
         """Model minus data, all windows stacked."""
@@ -204,7 +226,7 @@ class _JointModel:
         jac = np.zeros((self.blocks[-1].stop, x.size))
         for k, (t, lin, rows) in enumerate(zip(self.t, self.split(x), self.blocks)):
             for m, (omega, zeta) in enumerate(modes):
-                a, b = lin[_mode_cols(m, self.nl)]
+                a, b = lin[_mode_cols(m, self.nl[k])]
                 root = np.sqrt(max(1 - zeta * zeta, 1e-12))
                 sigma, wd = zeta * omega, omega * root
                 e = np.exp(-sigma * t)
@@ -213,13 +235,13 @@ class _JointModel:
                 d_wd = e * t * (-a * s + b * c)
                 jac[rows, 2 * m] = d_sigma * zeta + d_wd * root
                 jac[rows, 2 * m + 1] = d_sigma * omega - d_wd * omega * zeta / root
-            jac[rows, self.nq + k * self.nl : self.nq + (k + 1) * self.nl] = _basis(t, modes, self.drift)
+            jac[rows, self.offsets[k] : self.offsets[k] + self.nl[k]] = _basis(t, modes, self.zero[k])
         return jac
 
     def linear_start(self, q: tuple[float, ...]) -> np.ndarray:
         """Best linear parameters for fixed nonlinear ones q (variable projection), stacked behind q."""
         modes = np.reshape(q[: self.nq], (self.n_modes, 2))
-        lins = [np.linalg.lstsq(_basis(t, modes, self.drift), y, rcond=None)[0] for t, y in zip(self.t, self.y)]
+        lins = [np.linalg.lstsq(_basis(t, modes, z), y, rcond=None)[0] for t, z, y in zip(self.t, self.zero, self.y)]
         return np.concatenate([q[: self.nq], *lins, q[self.nq :]])
 
     def cost(self, q: tuple[float, ...]) -> float:
@@ -326,7 +348,7 @@ def _solve(
     cost, and attach the corrected covariance. Starts and bounds cover the nonlinear parameters and then any extra
     one (a _HeldModel's width, whose HoldFit compares with the `plain` fit)."""
     nq, ne = model.nq, model.n_extra
-    npar = nq + len(model.t) * model.nl + ne
+    npar = nq + sum(model.nl) + ne
     lower, upper = np.full(npar, -np.inf), np.full(npar, np.inf)
     nonlinear = [*range(nq), *range(npar - ne, npar)]
     lower[nonlinear], upper[nonlinear] = lower_q, upper_q
@@ -367,7 +389,8 @@ def _solve(
     if model.n_modes == 2:
         second = ModeFit(float(x[2]), float(x[3]), cov[2:4, 2:4])
         second_fitted = tuple(
-            np.column_stack(_damped(t, x[2], x[3])) @ lin[_mode_cols(1, model.nl)] for t, lin in zip(model.t, lins)
+            np.column_stack(_damped(t, x[2], x[3])) @ lin[_mode_cols(1, nl)]
+            for t, lin, nl in zip(model.t, lins, model.nl)
         )
     return PT2Fit(
         float(x[0]),
@@ -392,16 +415,23 @@ def _solve(
             np.array([x[0] - plain.omega_rad_s, x[1] - plain.zeta]),
             plain.cov,
         ),
+        model.slow_s,
+        tuple(z @ lin[2 : 2 + z.shape[1]] for z, lin in zip(model.zero, lins)),
     )
 
 
 def fit_pt2(
-    windows: list[WindowData], omega_starts: list[float], zeta_hint: float | None = None, drift: bool = False
+    windows: list[WindowData],
+    omega_starts: list[float],
+    zeta_hint: float | None = None,
+    drift: bool = False,
+    slow_s: float | None = None,
 ) -> PT2Fit:
     """Fit the free response jointly to all windows from several starts; keep the lowest cost.
 
-    The first of omega_starts (the spectral estimate) centres the +-25 % search interval for omega."""
-    model = _JointModel(windows, drift)
+    The first of omega_starts (the spectral estimate) centres the +-25 % search interval for omega; `drift` and
+    `slow_s` choose the zero's model (`zero_columns`)."""
+    model = _JointModel(windows, drift, slow_s=slow_s)
     omega0 = omega_starts[0]
     lo_w, hi_w = omega0 * (1 - OMEGA_SPAN), omega0 * (1 + OMEGA_SPAN)
     zetas = sorted({*ZETA_STARTS, *([float(np.clip(zeta_hint, 1e-3, 0.9))] if zeta_hint else [])})
@@ -415,7 +445,7 @@ def fit_two_modes(windows: list[WindowData], first: PT2Fit, omega2_start: float)
 
     Each mode's omega may move at most half-way toward the other's start, so the two cannot swap or merge; a mode
     that ends on that bound was not separated by the data."""
-    model = _JointModel(windows, first.drift, n_modes=2)
+    model = _JointModel(windows, first.drift, n_modes=2, slow_s=first.slow_s)
     w1 = first.omega_rad_s
     half = abs(omega2_start - w1) / 2
     lower = (max(w1 - half, w1 * (1 - OMEGA_SPAN)), ZETA_BOUNDS[0], omega2_start - half, ZETA_BOUNDS[0])
@@ -436,7 +466,7 @@ def fit_pt2_hold(windows: list[WindowData], plain: PT2Fit) -> PT2Fit:
     enters omega's and zeta's through the joint Newey-West covariance. A codec is no perfect hold, so the shift from
     the plain fit is added as a systematic standard error: the distance between the two models is what is known
     about the model's own error (on rendered clips the hold explains most, not all, of the tracking error)."""
-    model = _HeldModel(windows, plain.drift, 2 if plain.second else 1)
+    model = _HeldModel(windows, plain.drift, 2 if plain.second else 1, plain.slow_s)
     modes = [(plain.omega_rad_s, plain.zeta)] + (
         [(plain.second.omega_rad_s, plain.second.zeta)] if plain.second else []
     )
