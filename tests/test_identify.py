@@ -296,6 +296,18 @@ def test_a_slow_sway_of_the_zero_is_fitted_beside_the_mode(sway_deg, sway_hz, se
     assert res.to_dict()["fit"]["slow_zero"]["knot_spacing_s"] == pytest.approx(res.fit.slow_s)
 
 
+def test_a_noise_free_trace_with_a_sway_is_identified():
+    # a simulation's (or the renderer's truth) trace has no noise level to fade to: the ring-down's quiet tail is
+    # where it stays under 1 % of its largest swing; the twiced running mean's edge effect must not count as ringing
+    # (30 s: a long quiet tail drives the noise estimate toward zero, as in a rendered clip's truth)
+    t, y = free_decay(3.0, 0.03, 60, duration_s=30, amplitude=5, noise_std=0.0, seed=4, lead_in_s=1.0)
+    res = Identifier().fit(make_signal(t, y + 2 * np.sin(2 * np.pi * 0.4 * t), "angle_deg", "deg", "exact")).result
+    assert res.fit.slow_s is not None
+    # the spline follows the 0.4 Hz sway to a few thousandths of a degree: f to 0.01 %, zeta to 0.3 %
+    assert res.parameters["f_hz"].value == pytest.approx(3.0, rel=1e-4)
+    assert res.parameters["zeta"].value == pytest.approx(0.03, rel=3e-3)
+
+
 def test_the_spline_zero_holds_constants_and_reports_its_start():
     # the JSON's "offset" is the spline's first coefficient: the zero at the window's start (clamped knots), and the
     # splines sum to one, so a constant zero is still one coefficient repeated

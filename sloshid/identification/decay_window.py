@@ -224,9 +224,11 @@ def _slow_part(t: np.ndarray, y: np.ndarray, period_s: float) -> np.ndarray:
 def _reach_after_fade(dev: np.ndarray, free: np.ndarray, n: int, noise_std: float) -> float:
     """How far the one-period mean (`dev`: its distance from the final level) moves after the oscillation (`free`:
     its swing without the slow motion) last stood well above the fade level (RISE_FACTOR times it: noise correlated
-    from frame to frame crosses the fade level itself now and then); 0 without such a tail of QUIET_PERIODS periods
-    (the record ends ringing, or never rings)."""
-    loud = np.flatnonzero(free[: dev.size - n] > RISE_FACTOR * END_NOISE_FACTOR * noise_std)
+    from frame to frame crosses the fade level itself now and then) and above ACTIVE_FLOOR of its largest swing (a
+    noise-free trace has no noise level to fade to); 0 without such a tail of QUIET_PERIODS periods (the record ends
+    ringing, or never rings)."""
+    level = max(RISE_FACTOR * END_NOISE_FACTOR * noise_std, ACTIVE_FLOOR * float(free.max()))
+    loud = np.flatnonzero(free[: dev.size - 2 * n] > level)  # the twiced mean and the swing reach 2 periods
     if loud.size == 0:
         return 0.0
     tail = dev[int(loud[-1]) + n : dev.size - n]  # running means are padded at the edges: no evidence
