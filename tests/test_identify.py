@@ -325,6 +325,10 @@ def test_a_sway_in_a_window_the_user_gave_is_fitted_too():
     res = Identifier(window_s=(1.0, 6.0)).fit(swaying).result
     assert res.fit.slow_s is not None
     assert abs(res.parameters["f_hz"].value - 3.0) < 3 * res.parameters["f_hz"].stderr
+    # the fit plot shows the zero the mode rides on; it follows the sway to within the noise (0.1 deg)
+    zero = next(line for line in res.plot_fit(0).get_lines() if line.get_label() == "fitted slow zero")
+    t = zero.get_xdata()
+    assert np.sqrt(np.mean((zero.get_ydata() - 1.5 * np.sin(2 * np.pi * 0.4 * t + 2)) ** 2)) < 0.1
 
 
 @pytest.mark.parametrize("f0,z0", [(2.5, 0.02), (3.0, 0.05)])

@@ -397,6 +397,8 @@ class IdentResult:
             win.t_s, self.fit.fitted[i], color="tab:orange", lw=1, label=f"{what} ({self.fit_percent(i):.1f} % fit)"
         )
         ax.plot(win.t_s, self.fit.residuals[i], color="tab:red", lw=0.5, alpha=0.6, label="residual")
+        if self.fit.slow_s:  # the zero the mode rides on, where a user checks that it is slow and not the mode
+            ax.plot(win.t_s, self.fit.zero_fitted[i], "--", color="tab:blue", lw=1, label="fitted slow zero")
         ax.set_xlabel("t (s)")
         ax.set_ylabel(_ylabel(self.signals[i]))
         ax.legend(fontsize=8, loc="upper right")
