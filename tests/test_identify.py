@@ -269,6 +269,9 @@ def test_drift_option_recovers_a_creeping_zero():
     assert res.parameters["f_hz"].value == pytest.approx(3.0, rel=0.002)
     assert res.parameters["zeta"].value == pytest.approx(0.02, rel=0.1)
     assert res.to_dict()["fit"]["per_signal"][0]["drift_per_s"] == pytest.approx(0.4, abs=0.03)
+    # with a window of the user's too: the straight line is the drift, not a moving zero for a spline
+    res = Identifier(drift=True, window_s=(0.0, 8.0)).fit(sig).result
+    assert res.fit.slow_s is None and res.fit.linear[0][3] == pytest.approx(0.4, abs=0.03)
 
 
 def _tap_with_sway(sway_deg: float, sway_hz: float, seed: int):

@@ -24,6 +24,9 @@ ZETA_BOUNDS = (0.0, 0.95)
 OMEGA_SPAN = 0.25
 """omega is searched within +-25 % of the spectral estimate (the PSD is good to a fraction of a bin)."""
 ZETA_STARTS = (0.003, 0.02, 0.08, 0.3)
+SPLINE_SAMPLES = 8
+"""A slow zero's spline gets at most one knot interval per this many samples of its window, so that each of its
+coefficients rests on data (a 16-sample window at 30 fps holds two)."""
 HOLD_STARTS = (0.0, 0.5, 1.0, 2.0)
 """Starting hold half-widths, in residual rms of the plain fit (a perfect play leaves about 0.4 of its width)."""
 
@@ -76,7 +79,7 @@ class PT2Fit:
     cov_naive: np.ndarray
     """2x2 covariance assuming white residuals (s^2 (J'J)^-1), kept to show how much the correction widened it."""
     linear: tuple[np.ndarray, ...]
-    """Per window: (a, b, c[, r][, a2, b2])."""
+    """Per window: (a, b, zero's[, a2, b2]): the zero's are c[, r], or the spline coefficients (`zero_columns`)."""
     linear_se: tuple[np.ndarray, ...]
     fitted: tuple[np.ndarray, ...]
     residuals: tuple[np.ndarray, ...]
@@ -161,13 +164,17 @@ def _damped(t_rel: np.ndarray, omega: float, zeta: float) -> tuple[np.ndarray, n
 
 def zero_columns(t_rel: np.ndarray, drift: bool, slow_s: float | None) -> np.ndarray:
     """Columns of a window's zero (its resting level): a constant [and t' for a drift], or, with `slow_s`, the clamped
-    cubic B-splines with knots evenly spaced at most slow_s apart over the window. The splines hold constants and
-    lines, follow a zero that moves slowly (a container swaying in the picture), and with knots two or more mode
-    periods apart they cannot take in the mode; their first coefficient is the zero at the window's start."""
+    cubic B-splines with knots evenly spaced at most slow_s apart over the window (0.5-1 slow_s), and at least
+    SPLINE_SAMPLES samples per knot interval. The splines hold constants and lines and follow a zero that moves
+    slowly (a container swaying in the picture); their first coefficient is the zero at the window's start. They
+    could represent part of a decaying mode too (most in the first interval, where the clamped end splines are
+    free), but the mode is fitted beside them: that costs precision (about 2 % of f's standard error with knots
+    1-2 mode periods apart), not accuracy."""
     if slow_s is None:
         return np.column_stack([np.ones_like(t_rel), t_rel] if drift else [np.ones_like(t_rel)])
     span = float(t_rel[-1])
-    inner = np.linspace(0.0, span, max(1, math.ceil(span / slow_s)) + 1)
+    intervals = min(math.ceil(span / slow_s), t_rel.size // SPLINE_SAMPLES)
+    inner = np.linspace(0.0, span, max(1, intervals) + 1)
     knots = np.concatenate([[0.0] * 3, inner, [span] * 3])
     return interpolate.BSpline.design_matrix(np.clip(t_rel, 0.0, span), knots, 3).toarray()
 
