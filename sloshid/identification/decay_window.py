@@ -34,8 +34,16 @@ correlated from frame to frame up to twice that: 2 sd triggered on one of 60 cle
 and by more than ACTIVE_FLOOR of the largest swing (a tracker's hold levels, thousandths of a degree, do not count):
 the oscillation is then measured without that slow part, and the fit follows the zero with a spline."""
 
-SLOW_CUTOFF = 0.3
-"""The zero's slow part is the signal below this fraction of the mode's frequency (`_slow_part`)."""
+SLOW_CUTOFF = 0.5
+"""The swing about a moving zero is measured on the signal minus its part below this fraction of the mode's
+frequency (`_slow_part`): that keeps a sway and its harmonics up to 0.35 f (98.6 %; 94 % at 0.4 f: a cutoff of 0.3 f
+let a tilting container's harmonics pass for ringing) and passes 0.02 % of the mode and 0.6 % of a second mode at
+0.77 f (a tilted container's), where a running mean over one period would take in half of one."""
+
+SPLINE_CUTOFF = 0.2
+"""A constant-zero fit's residual shows a moving zero when its part below this fraction of the mode's frequency moves:
+what the spline zero can follow (it leaves 3 % of a sway at 0.15 f, 17 % at 0.2 f); faster leftovers (a swirl, the
+nonlinear crests of wall heights) are not a zero a spline could fit."""
 
 SWAY_FACTOR = 2.0
 """... and by more than this multiple of how far it moves once the ringing has faded: a slow motion that goes on
@@ -192,7 +200,7 @@ def _zero_motion(u, n: int, amp: np.ndarray, dev: np.ndarray, f_guess_hz: float,
     and whether that counts as moving (SLOW_ZERO_NOISE), from `_levels`' grid, period, swing and distances. Below
     that count nothing changes: a reach the noise could explain is no evidence of a sway (a window chosen with it
     then, about a final level the sway has shifted, started before the tap or in the tail, rated good)."""
-    slow = _slow_part(u.value, u.fs_hz, f_guess_hz)
+    slow = _slow_part(u.value, u.fs_hz, SLOW_CUTOFF * f_guess_hz)
     free = _swing(u.value - slow, n)
     reach = _reach_after_fade(dev, free, n, noise_std)
     return slow, free, reach, reach > _moving_floor(noise_std, float(amp.max()))
@@ -216,7 +224,7 @@ def residual_wander(t_s: np.ndarray, resid: np.ndarray, f_hz: float, noise_std: 
     mode left in the residual does not count: it lies far above the slow part's band."""
     u = to_uniform(t_s, resid)
     n = max(3, round(u.fs_hz / f_hz))
-    slow = _slow_part(u.value, u.fs_hz, f_hz)[2 * n : -2 * n]
+    slow = _slow_part(u.value, u.fs_hz, SPLINE_CUTOFF * f_hz)[2 * n : -2 * n]
     wander = float(np.abs(slow - np.median(slow)).max()) if slow.size else 0.0
     return wander if wander > _moving_floor(noise_std, swing) else 0.0
 
@@ -225,19 +233,16 @@ def without_slow_motion(sig: Signal, f_hz: float) -> Signal:
     """`sig` minus its slow part (`_slow_part`): a slow motion of its zero taken out, for spectra and starting values
     (computed on a uniform grid and read back at the signal's own times)."""
     u = to_uniform(sig.t_s, sig.value)
-    return replace(sig, value=sig.value - np.interp(sig.t_s, u.t_s, _slow_part(u.value, u.fs_hz, f_hz)))
+    return replace(sig, value=sig.value - np.interp(sig.t_s, u.t_s, _slow_part(u.value, u.fs_hz, SLOW_CUTOFF * f_hz)))
 
 
-def _slow_part(y: np.ndarray, fs_hz: float, f_hz: float) -> np.ndarray:
-    """The part of uniformly sampled `y` below SLOW_CUTOFF of the mode's frequency `f_hz`: a zero-phase 6th-order
-    Butterworth low-pass (SciPy's sosfiltfilt), padded by six mode periods of odd reflection so that its ends settle.
-    It keeps 99.98 % of a sway at 0.15 f and 99.2 % at 0.2 f, passes 5e-7 of the mode, and keeps a second mode near
-    the first (a tilted container's, at 0.8-1.3 f) out of it, where a running mean over one period would take in half
-    of one at 0.77 f."""
-    sos = sps.butter(6, min(SLOW_CUTOFF * f_hz, 0.45 * fs_hz), fs=fs_hz, output="sos")
+def _slow_part(y: np.ndarray, fs_hz: float, cutoff_hz: float) -> np.ndarray:
+    """The part of uniformly sampled `y` below `cutoff_hz`: a zero-phase 6th-order Butterworth low-pass (SciPy's
+    sosfiltfilt), padded by three cutoff periods of odd reflection so that its ends settle."""
+    sos = sps.butter(6, min(cutoff_hz, 0.45 * fs_hz), fs=fs_hz, output="sos")
     if y.size <= 3 * (2 * len(sos) + 1):  # too short for sosfiltfilt's edge padding: its mean
         return np.full(y.shape, float(np.mean(y)))
-    return sps.sosfiltfilt(sos, y, padlen=min(y.size - 1, round(6 * fs_hz / f_hz)))
+    return sps.sosfiltfilt(sos, y, padlen=min(y.size - 1, round(3 * fs_hz / cutoff_hz)))
 
 
 def _reach_after_fade(dev: np.ndarray, free: np.ndarray, n: int, noise_std: float) -> float:
