@@ -10,8 +10,9 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
+from sloshid.core.errors import UserError
 from sloshid.identification.estimator import Identifier, IdentSettings, NotFittedError
-from sloshid.identification.pt2fit import encoder_hold, zero_columns
+from sloshid.identification.pt2fit import WindowData, encoder_hold, fit_pt2, zero_columns
 from sloshid.identification.signals import load_signal, make_signal
 from sloshid.model.pendulum import TABLE_I, SloshParams
 from sloshid.synthetic.decays import free_decay, free_decay_signal, tracker_noise
@@ -320,6 +321,15 @@ def test_the_spline_zero_holds_constants_and_reports_its_start():
     assert np.allclose(cols.sum(axis=1), 1.0)
     coef = np.linalg.lstsq(cols, 0.5 + 0.2 * np.sin(0.9 * t), rcond=None)[0]
     assert coef[0] == pytest.approx(0.5, abs=1e-3)  # a 0.9 rad/s sway: knots every 0.6 s follow it to 1e-3
+
+
+def test_a_fit_with_no_more_samples_than_parameters_is_refused():
+    # 6 samples for 2 + 2 + 4 parameters (mode, amplitude and phase, the fewest spline coefficients: one interval)
+    # would fit exactly and report a standard error of 0
+    t = np.arange(6) / 30.0
+    window = WindowData(t, np.cos(2 * np.pi * 3.0 * t), 0.0)
+    with pytest.raises(UserError, match="6 samples for 8 parameters"):
+        fit_pt2([window], [2 * np.pi * 3.0], slow_s=0.05)
 
 
 def test_a_sway_in_a_window_the_user_gave_is_fitted_too():

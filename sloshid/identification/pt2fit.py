@@ -17,6 +17,8 @@ from dataclasses import dataclass, replace
 import numpy as np
 from scipy import interpolate, optimize, stats
 
+from sloshid.core.errors import UserError
+
 Z95 = float(stats.norm.ppf(0.975))
 """Two-sided 95 % normal quantile used for every interval."""
 
@@ -356,6 +358,11 @@ def _solve(
     one (a _HeldModel's width, whose HoldFit compares with the `plain` fit)."""
     nq, ne = model.nq, model.n_extra
     npar = nq + sum(model.nl) + ne
+    if model.blocks[-1].stop <= npar:  # as many parameters as samples: a perfect fit with no error left to estimate
+        raise UserError(
+            f"the fit windows hold {model.blocks[-1].stop} samples for {npar} parameters; a fit needs more samples "
+            "than parameters (a longer window)."
+        )
     lower, upper = np.full(npar, -np.inf), np.full(npar, np.inf)
     nonlinear = [*range(nq), *range(npar - ne, npar)]
     lower[nonlinear], upper[nonlinear] = lower_q, upper_q
