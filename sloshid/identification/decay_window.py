@@ -187,7 +187,7 @@ def _levels(sig: Signal, f_guess_hz: float, drift: bool):
     of its one-period mean (which cancels the mode) and that mean's distance from it (from its straight line with
     `drift`)."""
     u = to_uniform(sig.t_s, sig.value)
-    n = max(3, round(u.fs_hz / f_guess_hz))
+    n = _period_samples(u.fs_hz, f_guess_hz)
     slow = period_mean(u.t_s, u.value, 1.0 / f_guess_hz)
     if drift:  # a zero that creeps steadily is not forcing: measure departures from its straight line
         slow = slow - np.polyval(np.polyfit(u.t_s, slow, 1), u.t_s)
@@ -223,7 +223,7 @@ def residual_wander(t_s: np.ndarray, resid: np.ndarray, f_hz: float, noise_std: 
     sway; on wall heights, the mean level that large, nonlinear swings lift and that sinks as they decay). A second
     mode left in the residual does not count: it lies far above the slow part's band."""
     u = to_uniform(t_s, resid)
-    n = max(3, round(u.fs_hz / f_hz))
+    n = _period_samples(u.fs_hz, f_hz)
     slow = _slow_part(u.value, u.fs_hz, SPLINE_CUTOFF * f_hz)[2 * n : -2 * n]
     wander = float(np.abs(slow - np.median(slow)).max()) if slow.size else 0.0
     return wander if wander > _moving_floor(noise_std, swing) else 0.0
@@ -259,6 +259,11 @@ def _reach_after_fade(dev: np.ndarray, free: np.ndarray, n: int, noise_std: floa
     return float(tail.max()) if tail.size >= QUIET_PERIODS * n else 0.0
 
 
+def _period_samples(fs_hz: float, f_hz: float) -> int:
+    """Samples in one mode period (at least 3): the length of every running measure here."""
+    return max(3, round(fs_hz / f_hz))
+
+
 def _swing(y: np.ndarray, n: int) -> np.ndarray:
     """Oscillation amplitude per sample: half the max-min range over one period (n samples), smoothed over one more."""
     span = ndimage.maximum_filter1d(y, n, mode="nearest") - ndimage.minimum_filter1d(y, n, mode="nearest")
@@ -269,7 +274,7 @@ def extend_tail(sig: Signal, win: DecayWindow, f_hz: float, decay_rate_1_s: floa
     """The automatic window carried TAIL_TIME_CONSTANTS decay time constants past its fade, stopping early before the
     signal swings well above the fade level again (a later disturbance) and at the end of the data."""
     u = to_uniform(sig.t_s, sig.value)
-    n = max(3, round(u.fs_hz / f_hz))
+    n = _period_samples(u.fs_hz, f_hz)
     amp = _swing(u.value, n)
     i1 = int(np.searchsorted(u.t_s, win.t1_s))
     rise = np.flatnonzero(amp[i1:] > RISE_FACTOR * END_NOISE_FACTOR * noise_std)

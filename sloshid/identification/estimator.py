@@ -500,9 +500,7 @@ class Identifier:
             slow_s,
         )
         fit, windows, slow_s = _moving_zero_refit(fit, parts, windows, wdata, fullspec, omega_starts, st.drift, slow_s)
-        spectra = [
-            _window_spectrum(p, w, f_range) if moving_zero(w) else sp for p, w, sp in zip(parts, windows, spectra)
-        ]
+        spectra = [_window_spectrum(p, w, f_range) for p, w in zip(parts, windows)]
         for i, (sig, spec, part) in enumerate(zip(sigs, spectra, parts)):
             snr = fit.amplitude(i) / fit.amplitude_se(i)
             explained = fit.fit_percent(i, part.value)
