@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from sloshid.synthetic.render import SynthSettings, render_video
-from sloshid.tracking.robust import median, robust_polyfit
+from sloshid.tracking.robust import masked_median, median, robust_line, robust_lines
 from sloshid.video.frames import FrameReader, Picture
 from sloshid.video.keyframes import key_frame_times
 
@@ -94,11 +94,42 @@ def test_robust_line_is_the_least_squares_line_of_its_inliers():
     x = 0.05 * y + 100 + rng.normal(0, 0.2, y.size)
     x[60:75] += 5.0
     x[3] = np.nan
-    coef, keep = robust_polyfit(y, x, 1, 0.3)
+    coef, keep = robust_line(y, x, 0.3)
     assert not keep[60:75].any() and not keep[3] and keep.sum() > 120
     np.testing.assert_allclose(coef, np.polyfit(y[keep], x[keep], 1), rtol=1e-9)
     assert coef[0] == pytest.approx(0.05, abs=0.01)
-    assert robust_polyfit(np.full(20, 3.0), np.arange(20.0), 1, 0.3) is None  # one column: no line
+    assert robust_line(np.full(20, 3.0), np.arange(20.0), 0.3) is None  # one column: no line
+
+
+def test_robust_lines_fit_each_row_as_alone():
+    # the batched fit (the container walls' four edges at once) gives each row the line and inliers it gets alone,
+    # whatever the other rows hold: outliers, masked points, too few points (NaN), all at one t (NaN)
+    rng = np.random.default_rng(10)
+    t = np.arange(0.0, 120.0)
+    v = np.stack([0.02 * t + 50, -0.04 * t + 80, 0.01 * t + 5, np.full(t.size, 7.0)]) + rng.normal(0, 0.2, (4, t.size))
+    v[0, 30:45] += 6.0
+    ok = np.ones(v.shape, bool)
+    ok[1, ::3] = False
+    ok[2, 9:] = False  # nine points left: too few
+    ok[3] = t == 40  # every usable point at one t
+    coef, keep = robust_lines(t, v, ok, 0.3)
+    for row in range(2):
+        alone = robust_line(t[ok[row]], v[row, ok[row]], 0.3)
+        np.testing.assert_allclose(coef[row], alone[0], rtol=1e-9)
+        np.testing.assert_array_equal(keep[row, ok[row]], alone[1])
+    assert not keep[0, 30:45].any() and coef[0, 0] == pytest.approx(0.02, abs=0.002)
+    assert np.isnan(coef[2:]).all()
+
+
+def test_masked_median_matches_numpy():
+    rng = np.random.default_rng(11)
+    values = rng.normal(size=(5, 31))
+    mask = rng.random(values.shape) < 0.6
+    mask[4] = False
+    got = masked_median(values, mask)
+    for row in range(4):
+        assert got[row] == pytest.approx(float(np.median(values[row, mask[row]])), abs=1e-15)
+    assert np.isnan(got[4])
 
 
 def test_median_matches_numpy():

@@ -17,6 +17,7 @@ from sloshid.identification.estimator import Identifier
 from sloshid.identification.signals import load_signal, make_signal, signal_from_track
 from sloshid.synthetic.render import SynthSettings, frame_times, relative_angle_rad, render_frames, render_video
 from sloshid.tracking import tracker
+from sloshid.tracking.container_ref import STEADY_DEG, ContainerTracker
 from sloshid.tracking.smooth import smooth_angle
 from sloshid.tracking.surface import SurfaceFinder, _container_axes
 from sloshid.tracking.tracker import TRACK_COLUMNS, TrackResult, TrackSettings, track_video
@@ -608,6 +609,37 @@ def test_band_frames_stop_when_the_container_moves(still_surface_video, move):
     # the picture as it was: the band measures it; moved by a pixel or tilted: the whole body must be measured
     assert finder._measure_band(frames[k - 1]) is not None
     assert finder._measure_band(move(frames[k - 1])) is None
+
+
+def test_walls_are_held_over_still_frames_and_measured_when_they_turn(still_surface_video, monkeypatch):
+    # the container reference's walls, told the container stood still, are measured in every HOLD_FRAMES-th frame
+    # once two measurements agree; a turn faster than STEADY_DEG per HOLD_FRAMES - 1 frames is measured every frame,
+    # a slower one is held within STEADY_DEG of what measuring every frame gives
+    path, _ = still_surface_video
+    still = np.asarray(next(iter(FrameReader(path, False, pictures=True)))[2])
+    m = SurfaceFinder(PRESETS["green"].hsv, (0, 0, still.shape[1], still.shape[0])).measure(still)
+    centre = (still.shape[1] / 2, still.shape[0] / 2)
+    held, every = (ContainerTracker((0, 0, still.shape[1], still.shape[0])) for _ in range(2))
+    measure, measured = held._measure, []
+    monkeypatch.setattr(held, "_measure", lambda *a: measured.append(1) or measure(*a))
+
+    def run(degrees):
+        """Container angles, held and measured in every frame, as the picture turns; how many were measured."""
+        first, angles = len(measured), []
+        for deg in degrees:
+            frame = cv2.warpAffine(still, cv2.getRotationMatrix2D(centre, deg, 1.0), still.shape[1::-1])
+            pose = (m.x_px, m.y_px, 0.8 * m.width_px)
+            angles.append((held.measure(frame, *pose, still=True).angle_deg, every.measure(frame, *pose).angle_deg))
+        return np.array(angles), len(measured) - first
+
+    level, n = run(np.zeros(18))
+    assert n == 2 + 4 and np.ptp(level) == 0  # two that agree, then every fourth of the other 16
+    fast, n = run(0.03 * np.arange(1, 13))  # 0.09 deg per three frames (measured as 0.07)
+    assert n == 12 - 3  # the hold runs out at the first three: from then on, every frame
+    assert np.abs(fast[3:, 0] - fast[3:, 1]).max() < 0.005  # measured: equal
+    slow, n = run(0.36 + 0.002 * np.arange(1, 25))  # 0.006 deg per three frames
+    assert n < 24 - 8
+    assert np.abs(slow[:, 0] - slow[:, 1]).max() < STEADY_DEG  # measured 0.011, 6 of 24 measured
 
 
 @pytest.mark.parametrize("contrast_rows", [slice(0, 0), slice(0, None), slice(0, 75)])

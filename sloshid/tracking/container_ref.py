@@ -17,10 +17,21 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from sloshid.tracking.robust import median, robust_polyfit
+from sloshid.tracking.robust import masked_median, robust_lines
 
 BAND_PX = 9
 """Half-width of the band searched around a predicted wall line, pixels."""
+HOLD_FRAMES = 4
+"""While the caller vouches that the container stands still (the surface tracker's band frames: the liquid's sides
+and bottom have not moved), the walls are measured in every HOLD_FRAMES-th frame and held in between, as long as
+they turned by less than STEADY_DEG per HOLD_FRAMES - 1 frames between their last two measurements (and shifted
+by less than STEADY_PX): a tilt too slow to move the liquid's bottom by half a pixel is then held with an error
+below STEADY_DEG."""
+STEADY_DEG = 0.02
+"""Largest error of a held container angle: about 3 standard deviations of the difference of two measurements
+HOLD_FRAMES apart (0.005 deg each on a two-minute 640x480 H.264 clip)."""
+STEADY_PX = 0.1
+"""Largest sideways shift of the walls between two measurements of walls that stand still, pixels."""
 
 
 @dataclass
@@ -53,61 +64,34 @@ class ContainerMeasurement:
     edges: tuple[EdgeLine, ...] = ()
 
 
-def _band_gray(frame: np.ndarray, line: EdgeLine) -> tuple[tuple[int, int], np.ndarray]:
-    """Grey levels (float32: edge profiles are differenced) of the box the band around `line` covers, and the box's
-    top-left corner (x, y): only that part of the frame is converted (a wall's band, not the container between)."""
-    h, w = frame.shape[:2]
-    y0, y1 = max(0, line.y0), min(h, line.y1)
-    xs = [line.x_at(y) for y in (y0, y1)]
-    x0, x1 = max(0, int(min(xs)) - BAND_PX - 2), min(w, int(max(xs)) + BAND_PX + 3)
-    if x1 <= x0 or y1 <= y0:
-        return (0, 0), np.zeros((0, 0), np.float32)
-    return (x0, y0), cv2.cvtColor(frame[y0:y1, x0:x1], cv2.COLOR_BGR2GRAY).astype(np.float32)
+def _band_luma(frame: np.ndarray, ys: np.ndarray, cols: np.ndarray) -> np.ndarray:
+    """Grey levels (float32: edge profiles are differenced) of the pixels (ys, cols[k]) of each wall k (`cols`: walls
+    x rows x band columns, inside the picture): only the box each wall's band spans is converted, not the container
+    between them."""
+    grey = np.empty(cols.shape, np.float32)
+    rows = (ys - ys[0])[:, None]
+    for k, c in enumerate(cols):
+        x0 = int(c.min())
+        box = cv2.cvtColor(frame[ys[0] : ys[-1] + 1, x0 : int(c.max()) + 1], cv2.COLOR_BGR2GRAY)
+        grey[k] = box[rows, c - x0]
+    return grey
 
 
-def _band_profiles(
-    gray: np.ndarray, origin: tuple[int, int], predicted: EdgeLine
-) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
-    """Rows, columns and rising-edge gradient (central difference, index j <-> column j+1) of the band around
-    `predicted`, in the rows whose band lies inside `gray` (whose top-left pixel is `origin`); None under 10 rows."""
-    ox, oy = origin
-    h, w = gray.shape
-    ys = np.arange(max(predicted.y0, oy), min(predicted.y1, oy + h))
-    if len(ys) < 10:
-        return None
-    xc = np.rint(predicted.x_at(ys)).astype(int)
-    offs = np.arange(-BAND_PX, BAND_PX + 1)
-    cols = xc[:, None] + offs[None, :]
-    inside = (cols.min(axis=1) >= ox) & (cols.max(axis=1) < ox + w)
-    ys, cols = ys[inside], cols[inside]
-    if len(ys) < 10:
-        return None
-    prof = gray[ys[:, None] - oy, cols - ox]
-    return ys, cols, (prof[:, 2:] - prof[:, :-2]) * 0.5
-
-
-def _fit_edge(ys: np.ndarray, cols: np.ndarray, grad: np.ndarray) -> EdgeLine | None:
-    """Sub-pixel points of the edge whose gradient (`_band_profiles`', signed for its polarity) peaks in each row,
-    and their robust line fit (frame coordinates)."""
-    j = np.argmax(grad, axis=1)
-    ok = (j > 0) & (j < grad.shape[1] - 1)
-    rows = np.arange(len(ys))
-    g0, g1, g2 = grad[rows, np.clip(j - 1, 0, None)], grad[rows, j], grad[rows, np.clip(j + 1, None, grad.shape[1] - 1)]
-    strength = g1
-    ok &= strength > max(4.0, 0.35 * median(strength[ok]) if ok.any() else 4.0)
+def _edge_points(grad: np.ndarray, usable: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Per row of each edge's gradient profiles (`grad`: edges, rows, columns; signed so that the edge's polarity
+    is positive), the sub-pixel column where the gradient peaks (parabola through the peak and its neighbours,
+    unbiased for any edge contrast), and whether the row has a clear peak: inside the profile, strong (above 4 grey
+    levels and 0.35 of the edge's median peak) and curved. `usable`: rows whose profile lies in the picture."""
+    width = grad.shape[2]
+    j = np.argmax(grad, axis=2)
+    flat = grad.reshape(-1)  # the peak and its neighbours by flat index: a third of take_along_axis' cost
+    at = np.arange(0, flat.size, width).reshape(j.shape) + j
+    g0, g1, g2 = flat[np.maximum(at - 1, 0)], flat[at], flat[np.minimum(at + 1, flat.size - 1)]
+    ok = usable & (j > 0) & (j < width - 1)
+    typical = np.nan_to_num(masked_median(g1, ok), nan=0.0)
     denom = g0 - 2 * g1 + g2
-    ok &= denom < 0
-    if ok.sum() < 10:
-        return None
-    frac = 0.5 * (g0[ok] - g2[ok]) / denom[ok]
-    x = cols[ok, 0] + 1 + j[ok] + frac
-    y = ys[ok].astype(float)
-    fit = robust_polyfit(y, x, 1, 0.3)
-    if fit is None:
-        return None
-    (a, b), keep = fit
-    rms = float(np.sqrt(np.mean((x[keep] - (a * y[keep] + b)) ** 2)))
-    return EdgeLine(float(a), float(b), int(y[keep].min()), int(y[keep].max()) + 1, rms, int(keep.sum()))
+    ok &= (g1 > np.maximum(4.0, 0.35 * typical)[:, None]) & (denom < 0)
+    return j + 0.5 * (g0 - g2) / np.where(ok, denom, -1.0), ok
 
 
 def detect_walls(
@@ -153,12 +137,30 @@ class ContainerTracker:
     def __init__(self, roi: tuple[int, int, int, int]) -> None:
         self.roi = roi
         self._walls: list[EdgeLine] = []
-        self._shift = 0.0  # last frame-to-frame horizontal motion of the walls, px
+        self._shift = 0.0  # horizontal motion of the walls between their last two measurements, px
+        self._last = ContainerMeasurement(False)  # the last measurement
+        self._steady = False  # it agreed with the one before (STEADY_DEG, STEADY_PX)
+        self._held = 0  # frames it has been held for since
 
-    def measure(self, frame: np.ndarray, float_x: float, float_y: float, float_len: float) -> ContainerMeasurement:
-        """Container angle in this frame; re-detects the walls with Hough when following them fails."""
+    def measure(
+        self, frame: np.ndarray, float_x: float, float_y: float, float_len: float, still: bool = False
+    ) -> ContainerMeasurement:
+        """Container angle in this frame; re-detects the walls with Hough when following them fails. `still`: the
+        caller has seen that the container did not move since the last frame (see HOLD_FRAMES)."""
         if not np.isfinite(float_x):
             return ContainerMeasurement(False)
+        if still and self._steady and self._held < HOLD_FRAMES - 1:
+            self._held += 1
+            return self._last
+        m = self._measure(frame, float_x, float_y, float_len)
+        before, frames = self._last, self._held + 1
+        turn = abs(m.angle_deg - before.angle_deg) * (HOLD_FRAMES - 1) / frames if m.found and before.found else 1.0
+        self._steady = turn < STEADY_DEG and abs(self._shift) < STEADY_PX
+        self._last, self._held = m, 0
+        return m
+
+    def _measure(self, frame: np.ndarray, float_x: float, float_y: float, float_len: float) -> ContainerMeasurement:
+        """The walls followed from their last lines, or found anew."""
         rows = (int(float_y - 1.5 * float_len), int(float_y + 1.5 * float_len))
         if self._walls:
             m = self._follow(frame, rows)
@@ -168,29 +170,50 @@ class ContainerTracker:
         return self._follow(frame, rows) if self._walls else ContainerMeasurement(False)
 
     def _follow(self, frame: np.ndarray, rows: tuple[int, int]) -> ContainerMeasurement:
-        """Refit every wall edge near its predicted position (last line moved by the last shift)."""
-        preds = [EdgeLine(w.a, w.b + self._shift, rows[0], rows[1], w.rms_px, w.rows) for w in self._walls]
+        """Refit every wall edge near its predicted position (last line moved by the last shift): the rising and the
+        falling edge (e.g. the wall's outer and inner face) of every wall, from one read of their bands' luma."""
+        h, w = frame.shape[:2]
+        ys = np.arange(max(0, rows[0]), min(h, rows[1]))
+        if len(ys) < 10:
+            self._walls = []
+            return ContainerMeasurement(False)
+        n = len(self._walls)
+        a = np.array([[wall.a] for wall in self._walls])
+        b = np.array([[wall.b + self._shift] for wall in self._walls])
+        xc = np.rint(a * ys + b).astype(np.intp)  # walls x rows
+        usable = (xc >= BAND_PX) & (xc < w - BAND_PX)  # the band lies in the picture
+        cols = np.clip(xc, BAND_PX, w - 1 - BAND_PX)[..., None] + np.arange(-BAND_PX, BAND_PX + 1)
+        profile = _band_luma(frame, ys, cols)
+        grad = (profile[..., 2:] - profile[..., :-2]) * 0.5  # central difference: index j <-> column j + 1
+        x, ok = _edge_points(np.concatenate([grad, -grad]), np.concatenate([usable, usable]))
+        x += np.concatenate([cols[..., 0], cols[..., 0]]) + 1
+        coef, keep = robust_lines(ys.astype(float), x, ok, 0.3)
         fitted: list[EdgeLine] = []
         wall_angles: list[float] = []
         new_walls: list[EdgeLine] = []
-        for pred in preds:
-            origin, gray = _band_gray(frame, pred)
-            band = _band_profiles(gray, origin, pred)
-            # the rising and the falling edge (e.g. the wall's outer and inner face) from the same profiles
-            edges = () if band is None else (_fit_edge(*band[:2], band[2]), _fit_edge(*band[:2], -band[2]))
-            fits = [f for f in edges if f is not None and f.rms_px < 1.0]
+        for i in range(n):
+            fits = []
+            for k in (i, i + n):  # the wall's rising and falling edge
+                if np.isnan(coef[k, 0]):
+                    continue
+                yk, xk = ys[keep[k]], x[k, keep[k]]
+                rms = float(np.sqrt(np.mean((xk - (coef[k, 0] * yk + coef[k, 1])) ** 2)))
+                if rms < 1.0:
+                    fits.append(
+                        EdgeLine(float(coef[k, 0]), float(coef[k, 1]), int(yk[0]), int(yk[-1]) + 1, rms, yk.size)
+                    )
             if not fits:
                 continue
             fitted.extend(fits)
             wall_angles.append(_weighted_angle(fits))
-            mid_a = float(np.mean([f.a for f in fits]))
-            mid_b = float(np.mean([f.b for f in fits]))
+            mid_a = sum(f.a for f in fits) / len(fits)
+            mid_b = sum(f.b for f in fits) / len(fits)
             new_walls.append(EdgeLine(mid_a, mid_b, rows[0], rows[1], 0.0, 0))
-        if len(new_walls) < len(self._walls) or not fitted:
+        if len(new_walls) < n:
             self._walls = []
             return ContainerMeasurement(False)
         yc = 0.5 * (rows[0] + rows[1])
-        self._shift = float(np.mean([nw.x_at(yc) - ow.x_at(yc) for nw, ow in zip(new_walls, self._walls)]))
+        self._shift = sum(nw.x_at(yc) - ow.x_at(yc) for nw, ow in zip(new_walls, self._walls)) / n
         self._walls = new_walls
         # each wall counts once, so a tapered glass (walls leaning in opposite directions) reads as upright
-        return ContainerMeasurement(True, float(np.mean(wall_angles)), tuple(fitted))
+        return ContainerMeasurement(True, sum(wall_angles) / n, tuple(fitted))

@@ -27,7 +27,7 @@ import cv2
 import numpy as np
 
 from sloshid.tracking.float_angle import fit_colour_model, hsv_mask, membership_map
-from sloshid.tracking.robust import median, normal_solve, robust_polyfit
+from sloshid.tracking.robust import median, normal_solve, robust_line, robust_lines
 from sloshid.video.colors import PRESETS, HsvRange
 
 MIN_LIQUID_SHARE = 0.005
@@ -107,6 +107,8 @@ class SurfaceMeasurement:
     """Box (x0, y0, x1, y1) around the measured front edge: where a repeated picture shows."""
     low: float = math.nan
     """Lowest image row of the fitted front edge across the measured columns."""
+    still: bool = False
+    """Measured in a band: the container's sides and bottom stood still since the last frame."""
     luma: tuple | None = None
     """(8-bit luma of the measured crop, frame (x, y) of its corner): the repeated-picture check reads it."""
     refit: Callable[[float, str], SurfaceMeasurement] | None = None
@@ -306,6 +308,7 @@ class SurfaceFinder:
             return None
         self._box = (x0, Y0 + top, x1, y1)
         self._axes = (key, geom, used + 1, self._axes[3])
+        m.still = True
         return m
 
     def _measure_body(self, frame: np.ndarray, box: tuple[int, int, int, int], follow: bool) -> SurfaceMeasurement:
@@ -620,16 +623,17 @@ def _container_axes(
         left = both[:n]
     if np.array_equal(good[n:], okr):
         right = both[n:]
-    fl = robust_polyfit(rows[okl].astype(float), left[okl], 1, 0.3, min_points=max(10, len(rows) // 3))
-    fr = robust_polyfit(rows[okr].astype(float), right[okr], 1, 0.3, min_points=max(10, len(rows) // 3))
-    if fl is None or fr is None:
+    walls, _ = robust_lines(
+        rows.astype(float), np.stack([left, right]), np.stack([okl, okr]), 0.3, min_points=max(10, n // 3)
+    )
+    if np.isnan(walls).any():
         return None
-    (aL, bL), (aR, bR) = fl[0], fr[0]
+    (aL, bL), (aR, bR) = walls
     c0, c1 = int(0.2 * (x1 - x0)) + x0 - X0, int(0.8 * (x1 - x0)) + x0 - X0
     cols = np.arange(c0, c1)
     bottom, okb = _crossings_first(body[::-1, c0:c1], inside[::-1, c0:c1], axis=0)
     bottom = body.shape[0] - 1 - bottom
-    fb = robust_polyfit(cols[okb].astype(float), bottom[okb], 1, 0.3, min_points=max(10, len(cols) // 3))
+    fb = robust_line(cols[okb].astype(float), bottom[okb], 0.3, min_points=max(10, len(cols) // 3))
     if fb is None:
         return None
     a = 0.5 * (aL + aR)

@@ -48,7 +48,7 @@ class SurfaceStep:
         m = self.finder.measure(frame)
         self.liquid_frames += m.liquid
         # the container's whole wall edges (rim to bottom) give its angle more precisely than the liquid's sides
-        cm = self.walls.measure(frame, m.x_px, m.y_px, 0.8 * m.width_px) if m.found and self.walls else None
+        cm = self.walls.measure(frame, m.x_px, m.y_px, 0.8 * m.width_px, m.still) if m.found and self.walls else None
         lumas = (m.luma, self.previous_luma)
         repeat = m.found and repeated_share(frame, self.previous, m.band, True, lumas) >= REPEAT_SHARE
         self.previous, self.previous_luma = frame, m.luma
