@@ -12,7 +12,7 @@ so a tapered glass, whose walls lean in opposite directions, reads upright.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import cv2
 import numpy as np
@@ -23,13 +23,13 @@ BAND_PX = 9
 """Half-width of the band searched around a predicted wall line, pixels."""
 HOLD_FRAMES = 4
 """While the caller vouches that the container stands still (the surface tracker's band frames: the liquid's sides
-and bottom have not moved), the walls are measured in every HOLD_FRAMES-th frame and held in between, as long as
-they turned by less than STEADY_DEG per HOLD_FRAMES - 1 frames between their last two measurements (and shifted
-by less than STEADY_PX): a tilt too slow to move the liquid's bottom by half a pixel is then held with an error
-below STEADY_DEG."""
+and bottom have not moved), the walls are measured in every HOLD_FRAMES-th frame and the last measurement is
+returned, marked held, in between, as long as they turned by less than STEADY_DEG per HOLD_FRAMES - 1 frames between
+their last two measurements (and shifted by less than STEADY_PX): a tilt too slow to move the liquid's bottom by half
+a pixel. The caller interpolates the held frames between the measurements around them."""
 STEADY_DEG = 0.02
-"""Largest error of a held container angle: about 3 standard deviations of the difference of two measurements
-HOLD_FRAMES apart (0.005 deg each on a two-minute 640x480 H.264 clip)."""
+"""Largest turn of walls held over HOLD_FRAMES - 1 frames: about 3 standard deviations of the difference of two
+measurements (0.005 deg each on a two-minute 640x480 H.264 clip)."""
 STEADY_PX = 0.1
 """Largest sideways shift of the walls between two measurements of walls that stand still, pixels."""
 
@@ -62,6 +62,8 @@ class ContainerMeasurement:
     found: bool
     angle_deg: float = math.nan
     edges: tuple[EdgeLine, ...] = ()
+    held: bool = False
+    """Not measured in this frame: the last measurement, returned again (see HOLD_FRAMES)."""
 
 
 def _band_luma(frame: np.ndarray, ys: np.ndarray, cols: np.ndarray) -> np.ndarray:
@@ -151,7 +153,7 @@ class ContainerTracker:
             return ContainerMeasurement(False)
         if still and self._steady and self._held < HOLD_FRAMES - 1:
             self._held += 1
-            return self._last
+            return replace(self._last, held=True)
         m = self._measure(frame, float_x, float_y, float_len)
         before, frames = self._last, self._held + 1
         turn = abs(m.angle_deg - before.angle_deg) * (HOLD_FRAMES - 1) / frames if m.found and before.found else 1.0

@@ -9,6 +9,7 @@ the wall heights to millimetres when the container's inner diameter is given (th
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -42,6 +43,10 @@ class SurfaceStep:
         self.repeated: list[bool] = []
         self.walls = ContainerTracker(roi) if settings.reference == "container" else None
         self.pending: list[tuple] = []  # (frame in the span, measurement again with a held elevation, walls measured)
+        self.walls_at: list[
+            tuple[int, float]
+        ] = []  # (frame in the span, container angle) where the walls were measured
+        self.walls_held: list[tuple[int, SurfaceMeasurement]] = []  # frames whose walls were held, their measurement
 
     def __call__(self, frame: np.ndarray, draw: bool) -> tuple[tuple, np.ndarray | None]:
         """(row, overlay frame or None): the track row's fields, then the raw surface geometry."""
@@ -54,6 +59,11 @@ class SurfaceStep:
         self.previous, self.previous_luma = frame, m.luma
         if m.refit is not None:  # measured before the camera's elevation is held: again at the span's end
             self.pending.append((len(self.repeated), m.refit, cm))
+        if cm is not None and cm.found:  # held walls are interpolated at the span's end (`_row` changes `m`)
+            if cm.held:
+                self.walls_held.append((len(self.repeated), replace(m, luma=None, refit=None)))
+            else:
+                self.walls_at.append((len(self.repeated), cm.angle_deg))
         self.repeated.append(bool(repeat))
         row = self._row(m, cm)
         drawn = (
@@ -83,13 +93,21 @@ class SurfaceStep:
         """Measure the span's first frames again, with the camera's elevation and the edge source that were held
         after them (`rows`: this span's, time first, changed in place): their own fits of the elevation scatter, and
         on a yellow liquid with a strong reflection a few tilted the line by a degree and moved a wall by 20 px.
-        Their overlay frames show the first measurement."""
+        And turn the frames whose container walls were held onto the container angle interpolated between the
+        measurements around them (the last one after the span's last measurement). Overlay frames show the first
+        measurement."""
+        walls = {}
+        if self.walls_held:  # the container angle of frames whose walls were held: linear between the measured ones
+            at, angle = (np.array(v) for v in zip(*self.walls_at))
+            for i, m in self.walls_held:
+                walls[i] = ContainerMeasurement(True, float(np.interp(i, at, angle)))
+                rows[i] = (rows[i][0], *self._row(m, walls[i]))
         held, source = self.finder.settled()
         for i, refit, cm in self.pending if held is not None else ():
             m = refit(held, source)
             if m.found:
-                rows[i] = (rows[i][0], *self._row(m, cm))
-        self.pending = []
+                rows[i] = (rows[i][0], *self._row(m, walls.get(i, cm)))
+        self.pending, self.walls_at, self.walls_held = [], [], []
 
     def merge(self, later: SurfaceStep) -> None:
         """Take in what the step of a later span of the same video found (for `nothing_found`)."""
