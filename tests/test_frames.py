@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from sloshid.synthetic.render import SynthSettings, render_video
-from sloshid.tracking.robust import masked_median, median, robust_line, robust_lines
+from sloshid.tracking.robust import masked_median, median, robust_lines
 from sloshid.video.frames import FrameReader, Picture
 from sloshid.video.keyframes import key_frame_times
 
@@ -94,11 +94,12 @@ def test_robust_line_is_the_least_squares_line_of_its_inliers():
     x = 0.05 * y + 100 + rng.normal(0, 0.2, y.size)
     x[60:75] += 5.0
     x[3] = np.nan
-    coef, keep = robust_line(y, x, 0.3)
+    (coef,), (keep,) = robust_lines(y, x[None], np.ones((1, y.size), bool), 0.3)
     assert not keep[60:75].any() and not keep[3] and keep.sum() > 120
     np.testing.assert_allclose(coef, np.polyfit(y[keep], x[keep], 1), rtol=1e-9)
     assert coef[0] == pytest.approx(0.05, abs=0.01)
-    assert robust_line(np.full(20, 3.0), np.arange(20.0), 0.3) is None  # one column: no line
+    one_column = robust_lines(np.full(20, 3.0), np.arange(20.0)[None], np.ones((1, 20), bool), 0.3)[0]
+    assert np.isnan(one_column).all()  # no line
 
 
 def test_robust_lines_fit_each_row_as_alone():
@@ -114,11 +115,18 @@ def test_robust_lines_fit_each_row_as_alone():
     ok[3] = t == 40  # every usable point at one t
     coef, keep = robust_lines(t, v, ok, 0.3)
     for row in range(2):
-        alone = robust_line(t[ok[row]], v[row, ok[row]], 0.3)
-        np.testing.assert_allclose(coef[row], alone[0], rtol=1e-9)
-        np.testing.assert_array_equal(keep[row, ok[row]], alone[1])
+        alone = robust_lines(t[ok[row]], v[row, ok[row]][None], np.ones((1, ok[row].sum()), bool), 0.3)
+        np.testing.assert_allclose(coef[row], alone[0][0], rtol=1e-9)
+        np.testing.assert_array_equal(keep[row, ok[row]], alone[1][0])
     assert not keep[0, 30:45].any() and coef[0, 0] == pytest.approx(0.02, abs=0.002)
     assert np.isnan(coef[2:]).all()
+    # a free variable per row (the walls over rows, the bottom over columns) and a minimum count per row
+    shifted, fewer = np.stack([t, t + 300, t, t]), np.array([10, 10, 9, 10])
+    coef2, _ = robust_lines(shifted, v, ok, 0.3, min_points=fewer)
+    alone = robust_lines(t[ok[1]] + 300, v[1, ok[1]][None], np.ones((1, ok[1].sum()), bool), 0.3)
+    np.testing.assert_allclose(coef2[1], alone[0][0], rtol=1e-9)
+    np.testing.assert_allclose(coef2[0], coef[0], rtol=1e-9)
+    assert np.isfinite(coef2[2]).all() and np.isnan(coef2[3]).all()  # nine points are enough for that row
 
 
 def test_masked_median_matches_numpy():

@@ -27,7 +27,7 @@ import cv2
 import numpy as np
 
 from sloshid.tracking.float_angle import fit_colour_model, hsv_mask, membership_map
-from sloshid.tracking.robust import median, normal_solve, robust_line, robust_lines
+from sloshid.tracking.robust import median, normal_solve, robust_lines
 from sloshid.video.colors import PRESETS, HsvRange
 
 MIN_LIQUID_SHARE = 0.005
@@ -623,24 +623,23 @@ def _container_axes(
         left = both[:n]
     if np.array_equal(good[n:], okr):
         right = both[n:]
-    walls, _ = robust_lines(
-        rows.astype(float), np.stack([left, right]), np.stack([okl, okr]), 0.3, min_points=max(10, n // 3)
-    )
-    if np.isnan(walls).any():
-        return None
-    (aL, bL), (aR, bR) = walls
     c0, c1 = int(0.2 * (x1 - x0)) + x0 - X0, int(0.8 * (x1 - x0)) + x0 - X0
-    cols = np.arange(c0, c1)
     bottom, okb = _crossings_first(body[::-1, c0:c1], inside[::-1, c0:c1], axis=0)
     bottom = body.shape[0] - 1 - bottom
-    fb = robust_line(cols[okb].astype(float), bottom[okb], 0.3, min_points=max(10, len(cols) // 3))
-    if fb is None:
+    # the walls (x over the rows) and the bottom (y over its columns) in one robust fit, padded to one length
+    length, m = max(n, c1 - c0), c1 - c0
+    t, v, ok = np.zeros((3, length)), np.zeros((3, length)), np.zeros((3, length), bool)
+    t[:2, :n], t[2, :m] = rows, np.arange(c0, c1)
+    v[0, :n], v[1, :n], v[2, :m] = left, right, bottom
+    ok[0, :n], ok[1, :n], ok[2, :m] = okl, okr, okb
+    lines, _ = robust_lines(t, v, ok, 0.3, min_points=np.array([max(10, n // 3)] * 2 + [max(10, m // 3)]))
+    if np.isnan(lines).any():
         return None
+    (aL, bL), (aR, bR), (k, d) = lines
     a = 0.5 * (aL + aR)
     n = math.hypot(1, a)
     e_w, e_u = np.array([-a, -1.0]) / n, np.array([1.0, -a]) / n
     # the bottom line y = k x + d meets the centre line between the walls
-    k, d = fb[0]
     xm_at = lambda y: 0.5 * ((aL + aR) * y + bL + bR)  # noqa: E731
     y_b = d
     for _ in range(3):
