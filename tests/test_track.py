@@ -17,9 +17,10 @@ from sloshid.identification.estimator import Identifier
 from sloshid.identification.signals import load_signal, make_signal, signal_from_track
 from sloshid.synthetic.render import SynthSettings, frame_times, relative_angle_rad, render_frames, render_video
 from sloshid.tracking import container_ref, tracker
-from sloshid.tracking.container_ref import STEADY_DEG, ContainerTracker
+from sloshid.tracking.container_ref import STEADY_DEG, ContainerMeasurement, ContainerTracker
 from sloshid.tracking.smooth import smooth_angle
-from sloshid.tracking.surface import SurfaceFinder, _container_axes
+from sloshid.tracking.surface import SurfaceFinder, SurfaceMeasurement, _container_axes
+from sloshid.tracking.surface_track import SurfaceStep
 from sloshid.tracking.tracker import TRACK_COLUMNS, TrackResult, TrackSettings, track_video
 from sloshid.video.colors import PRESETS
 from sloshid.video.frames import FrameReader, VideoInfo, VideoWriter
@@ -663,6 +664,20 @@ def test_held_walls_are_interpolated_between_their_measurements(still_surface_vi
     assert np.abs(res.angle_deg - every.angle_deg)[ok].max() < STEADY_DEG  # measured 0.009
     err = [_rmse((r.angle_deg - truth["surface_angle_deg"])[ok]) for r in (res, every)]
     assert err[0] < 1.05 * err[1]  # measured 0.0860 and 0.0857 deg
+
+
+def test_held_walls_are_interpolated_only_across_their_hold():
+    # frames 1-3 were held between measurements at 0 and 4: linear between them; frames 5-7 were held after the
+    # measurement at 4, and the walls were lost at 8 and found again only at 49 after a turn: they keep the held
+    # angle, not a share of that turn
+    step = SurfaceStep(TrackSettings(target="surface", reference="container"), (0, 0, 640, 480))
+    m = SurfaceMeasurement(True, True, 0.0, 0.0, 10.0, 10.0, 100.0, 0.0, 320.0, 240.0, 1.0)
+    step.walls_at = [(0, 0.0), (4, 0.4), (49, 2.0)]
+    step.walls_held = [(i, replace(m)) for i in (1, 2, 3, 5, 6, 7)]
+    rows = [(i / 30, *step._row(replace(m), ContainerMeasurement(True, 0.0))) for i in range(50)]
+    step.revise(rows)
+    container = np.array([r[3] for r in rows])  # the container_angle_deg field, after the time
+    np.testing.assert_allclose(container[[1, 2, 3, 5, 6, 7]], [0.1, 0.2, 0.3, 0.4, 0.4, 0.4], atol=1e-12)
 
 
 @pytest.mark.parametrize("contrast_rows", [slice(0, 0), slice(0, None), slice(0, 75)])

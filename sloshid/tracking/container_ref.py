@@ -31,7 +31,7 @@ STEADY_DEG = 0.02
 """Largest turn of walls held over HOLD_FRAMES - 1 frames: about 3 standard deviations of the difference of two
 measurements (0.005 deg each on a two-minute 640x480 H.264 clip)."""
 STEADY_PX = 0.1
-"""Largest sideways shift of the walls between two measurements of walls that stand still, pixels."""
+"""Largest sideways shift of walls held over HOLD_FRAMES - 1 frames, pixels."""
 
 
 @dataclass
@@ -139,41 +139,44 @@ class ContainerTracker:
     def __init__(self, roi: tuple[int, int, int, int]) -> None:
         self.roi = roi
         self._walls: list[EdgeLine] = []
-        self._shift = 0.0  # horizontal motion of the walls between their last two measurements, px
+        self._shift = 0.0  # horizontal motion of the walls per frame between their last two measurements, px
         self._last = ContainerMeasurement(False)  # the last measurement
-        self._steady = False  # it agreed with the one before (STEADY_DEG, STEADY_PX)
+        self._steady = False  # the walls moved slowly enough to be held since the measurement before (STEADY_DEG, _PX)
         self._held = 0  # frames it has been held for since
 
     def measure(
         self, frame: np.ndarray, float_x: float, float_y: float, float_len: float, still: bool = False
     ) -> ContainerMeasurement:
         """Container angle in this frame; re-detects the walls with Hough when following them fails. `still`: the
-        caller has seen that the container did not move since the last frame (see HOLD_FRAMES)."""
+        caller has seen no motion of the container (see HOLD_FRAMES)."""
         if not np.isfinite(float_x):
             return ContainerMeasurement(False)
         if still and self._steady and self._held < HOLD_FRAMES - 1:
             self._held += 1
             return replace(self._last, held=True)
-        m = self._measure(frame, float_x, float_y, float_len)
         before, frames = self._last, self._held + 1
-        turn = abs(m.angle_deg - before.angle_deg) * (HOLD_FRAMES - 1) / frames if m.found and before.found else 1.0
-        self._steady = turn < STEADY_DEG and abs(self._shift) < STEADY_PX
+        m = self._measure(frame, float_x, float_y, float_len, frames)
+        turn = abs(m.angle_deg - before.angle_deg) / frames if m.found and before.found else math.inf
+        self._steady = max(turn / STEADY_DEG, abs(self._shift) / STEADY_PX) * (HOLD_FRAMES - 1) < 1
         self._last, self._held = m, 0
         return m
 
-    def _measure(self, frame: np.ndarray, float_x: float, float_y: float, float_len: float) -> ContainerMeasurement:
-        """The walls followed from their last lines, or found anew."""
+    def _measure(
+        self, frame: np.ndarray, float_x: float, float_y: float, float_len: float, frames: int = 1
+    ) -> ContainerMeasurement:
+        """The walls followed from their last lines (`frames` ago), or found anew."""
         rows = (int(float_y - 1.5 * float_len), int(float_y + 1.5 * float_len))
         if self._walls:
-            m = self._follow(frame, rows)
+            m = self._follow(frame, rows, frames)
             if m.found:
                 return m
         self._walls, self._shift = detect_walls(frame, float_x, float_y, float_len, self.roi), 0.0
         return self._follow(frame, rows) if self._walls else ContainerMeasurement(False)
 
-    def _follow(self, frame: np.ndarray, rows: tuple[int, int]) -> ContainerMeasurement:
-        """Refit every wall edge near its predicted position (last line moved by the last shift): the rising and the
-        falling edge (e.g. the wall's outer and inner face) of every wall, from one read of their bands' luma."""
+    def _follow(self, frame: np.ndarray, rows: tuple[int, int], frames: int = 1) -> ContainerMeasurement:
+        """Refit every wall edge near its predicted position (last line moved on at the last shift per frame for
+        `frames` frames): the rising and the falling edge (e.g. the wall's outer and inner face) of every wall, from
+        one read of their bands' luma."""
         h, w = frame.shape[:2]
         ys = np.arange(max(0, rows[0]), min(h, rows[1]))
         if len(ys) < 10:
@@ -181,7 +184,7 @@ class ContainerTracker:
             return ContainerMeasurement(False)
         n = len(self._walls)
         a = np.array([[wall.a] for wall in self._walls])
-        b = np.array([[wall.b + self._shift] for wall in self._walls])
+        b = np.array([[wall.b + self._shift * frames] for wall in self._walls])
         xc = np.rint(a * ys + b).astype(np.intp)  # walls x rows
         usable = (xc >= BAND_PX) & (xc < w - BAND_PX)  # the band lies in the picture
         cols = np.clip(xc, BAND_PX, w - 1 - BAND_PX)[..., None] + np.arange(-BAND_PX, BAND_PX + 1)
@@ -215,7 +218,7 @@ class ContainerTracker:
             self._walls = []
             return ContainerMeasurement(False)
         yc = 0.5 * (rows[0] + rows[1])
-        self._shift = sum(nw.x_at(yc) - ow.x_at(yc) for nw, ow in zip(new_walls, self._walls)) / n
+        self._shift = sum(nw.x_at(yc) - ow.x_at(yc) for nw, ow in zip(new_walls, self._walls)) / (n * frames)
         self._walls = new_walls
         # each wall counts once, so a tapered glass (walls leaning in opposite directions) reads as upright
         return ContainerMeasurement(True, sum(wall_angles) / n, tuple(fitted))

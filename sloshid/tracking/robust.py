@@ -23,40 +23,40 @@ def robust_lines(
     stayed or all stood at one t, and the inlier masks. The rows share every array operation: a tracker fits several
     edges per frame, where per-call overhead dominates.
     """
-    centre = t.mean(axis=-1, keepdims=True)
-    tc = t - centre  # centred t: the closed form below stays well conditioned
+    t = np.broadcast_to(t, v.shape)
     finite = ok & np.isfinite(v)
+    count = finite.sum(axis=1)
+    centre = np.where(finite, t, 0.0).sum(axis=1) / np.maximum(count, 1)
+    tc = t - centre[:, None]  # centred on the usable points: the closed form below stays well conditioned
     values = np.where(finite, v, 0.0)
-    keep = finite
+    keep, alive = finite, count >= min_points
     for passes in range(iterations + 1):
         w = keep.astype(float)
         wt = w * tc
-        n, st, stt, sv, stv = (
-            w.sum(axis=1),
-            wt.sum(axis=1),
-            (wt * tc).sum(axis=1),
-            (w * values).sum(axis=1),
-            (wt * values).sum(axis=1),
-        )
+        n, st, stt = w.sum(axis=1), wt.sum(axis=1), (wt * tc).sum(axis=1)
+        sv, stv = (w * values).sum(axis=1), (wt * values).sum(axis=1)
         det = n * stt - st * st
-        good = (det > 1e-12 * np.maximum(n * stt, 1.0)) & (n >= min_points)  # n < 2 or all at one t: no line
-        slope = (n * stv - st * sv) / np.where(good, det, 1.0)
+        alive &= det > 1e-12 * np.maximum(n * stt, 1.0)  # all points at one t: no line
+        slope = (n * stv - st * sv) / np.where(alive, det, 1.0)
         intercept = (sv - slope * st) / np.maximum(n, 1.0)
         if passes == iterations:
             break
         res = np.abs(values - intercept[:, None] - slope[:, None] * tc)
         new = finite & (res < np.maximum(3 * 1.4826 * masked_median(res, keep), floor)[:, None])
+        alive &= new.sum(axis=1) >= min_points  # a row once short of points stays without a line
+        new[~alive] = keep[~alive]
         if not (new ^ keep).any():  # converged: further passes would repeat these fits
             break
         keep = new
     coef = np.empty((v.shape[0], 2))
-    coef[:, 0], coef[:, 1] = slope, intercept - slope * centre[..., 0]  # back from centred t
-    coef[~good] = np.nan
+    coef[:, 0], coef[:, 1] = slope, intercept - slope * centre  # back from centred t
+    coef[~alive] = np.nan
     return coef, keep
 
 
 def masked_median(values: np.ndarray, mask: np.ndarray) -> np.ndarray:
-    """The median of each row of `values` over its `mask`ed entries (NaN for a row with none), by one sort."""
+    """The median of each row of `values` over its `mask`ed entries (NaN for a row with none), by one sort; the
+    masked entries must not be NaN."""
     count = np.count_nonzero(mask, axis=1)
     ordered = np.sort(np.where(mask, values, np.inf), axis=1).ravel()
     first = np.arange(0, ordered.size, values.shape[1])

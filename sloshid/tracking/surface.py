@@ -108,7 +108,8 @@ class SurfaceMeasurement:
     low: float = math.nan
     """Lowest image row of the fitted front edge across the measured columns."""
     still: bool = False
-    """Measured in a band: the container's sides and bottom stood still since the last frame."""
+    """Measured in a band: the liquid's sides and bottom are where they were in the last whole-body frame (within
+    ANCHOR_PX), so the container did not move, but for a tilt of a few tenths of a degree."""
     luma: tuple | None = None
     """(8-bit luma of the measured crop, frame (x, y) of its corner): the repeated-picture check reads it."""
     refit: Callable[[float, str], SurfaceMeasurement] | None = None
