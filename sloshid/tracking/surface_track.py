@@ -59,9 +59,11 @@ class SurfaceStep:
         self.previous, self.previous_luma = frame, m.luma
         if m.refit is not None:  # measured before the camera's elevation is held: again at the span's end
             self.pending.append((len(self.repeated), m.refit, cm))
-        if cm is not None and cm.found:  # held walls are interpolated at the span's end (`_row` changes `m`)
+        if (
+            cm is not None and cm.found
+        ):  # held walls are interpolated at the span's end: what `_row` reads (it changes `m`)
             if cm.held:
-                self.walls_held.append((len(self.repeated), replace(m, luma=None, refit=None)))
+                self.walls_held.append((len(self.repeated), replace(m, walls=(), ends=(), luma=None, refit=None)))
             else:
                 self.walls_at.append((len(self.repeated), cm.angle_deg))
         self.repeated.append(bool(repeat))
