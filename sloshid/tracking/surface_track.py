@@ -59,9 +59,8 @@ class SurfaceStep:
         self.previous, self.previous_luma = frame, m.luma
         if m.refit is not None:  # measured before the camera's elevation is held: again at the span's end
             self.pending.append((len(self.repeated), m.refit, cm))
-        if (
-            cm is not None and cm.found
-        ):  # held walls are interpolated at the span's end: what `_row` reads (it changes `m`)
+        # held walls are interpolated at the span's end, from a copy of what `_row` reads (it changes `m`)
+        if cm is not None and cm.found:
             if cm.held:
                 self.walls_held.append((len(self.repeated), replace(m, walls=(), ends=(), luma=None, refit=None)))
             else:
