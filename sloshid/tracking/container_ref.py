@@ -23,7 +23,7 @@ BAND_PX = 9
 """Half-width of the band searched around a predicted wall line, pixels."""
 HOLD_FRAMES = 4
 """While the caller vouches that the container stands still (the surface tracker's band frames: the liquid's sides
-and bottom have not moved), the walls are measured in every HOLD_FRAMES-th frame and the last measurement is
+and bottom are where they were in the last whole-body frame), the walls are measured in every HOLD_FRAMES-th frame and the last measurement is
 returned, marked held, in between, as long as they turned by less than STEADY_DEG per HOLD_FRAMES - 1 frames between
 their last two measurements (and shifted by less than STEADY_PX): a tilt too slow to move the liquid's bottom by half
 a pixel. The caller interpolates the held frames between the measurements around them."""
