@@ -7,8 +7,8 @@ one run so machine load affects both alike; the headline ratio is the median of 
 test, noise 5, blur 1, H.264 CRF 23, 30 fps, two minutes) are rendered once by `sloshid synth` into
 out/benchmarks/ and reused.
 Issue 12 times whole commands, start-up included, as the target is stated: `sloshid track VIDEO -o CSV --target T`
-for the float and for a dyed-liquid surface video of the same size and length (a still container, also with
-`--reference container`, and one that tilts all video long), each against a bare decode loop run as its own Python process on the same file, alternately; wall-clock and CPU-time ratios, load noted.
+for the float (also with `--reference container`) and for a dyed-liquid surface video of the same size and length
+(a still container, also with `--reference container`, and one that tilts all video long), each against a bare decode loop run as its own Python process on the same file, alternately; wall-clock and CPU-time ratios, load noted.
 Since long videos are tracked in spans side by side (one process per core), the in-process figures count the span
 workers' and the smoother's CPU time too. Writes reports/benchmarks/track_speed.{json,md}. Run from the repository root: python3 benchmarks/track_speed.py
 """
@@ -74,6 +74,7 @@ BARE_LOOP = "import cv2,sys\ncap=cv2.VideoCapture(sys.argv[1],cv2.CAP_FFMPEG)\nw
 SURFACE_LOOK = ["--scene", "surface", "--specular", "0.3", "--meniscus", "1"]
 SCENES = {
     "float": ("float", [], []),
+    "float_container": ("float", [], ["--reference", "container"]),
     "surface": ("surface", SURFACE_LOOK, []),
     "surface_container": ("surface", SURFACE_LOOK, ["--reference", "container"]),
     "surface_tilting": ("surface", [*SURFACE_LOOK, "--tilt", "2"], []),
@@ -81,7 +82,8 @@ SCENES = {
 """The whole commands: name -> (`--target`, `sloshid synth` options beyond the common 120 s, 640x480, 30 fps, H.264,
 further `sloshid track` options). The tilting container (2 deg at the default --tilt-hz, all video long) is read as a
 whole body in every frame: the slowest case of the surface tracker, where band frames do not apply. With
-`--reference container` the whole wall edges are measured in every frame as well."""
+`--reference container` the whole wall edges are measured as well: in every frame for the float, in every 4th band
+frame for the still liquid's container (interpolated between)."""
 
 
 def timed_process(cmd: list[str]) -> tuple[float, float]:
