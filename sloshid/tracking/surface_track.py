@@ -43,10 +43,10 @@ class SurfaceStep:
         self.repeated: list[bool] = []
         self.walls = ContainerTracker(roi) if settings.reference == "container" else None
         self.pending: list[tuple] = []  # (frame in the span, measurement again with a held elevation, walls measured)
-        self.walls_at: list[
-            tuple[int, float]
-        ] = []  # (frame in the span, container angle) where the walls were measured
-        self.walls_held: list[tuple[int, SurfaceMeasurement]] = []  # frames whose walls were held, their measurement
+        # (frame in the span, container angle) where the walls were measured; frames whose walls were held, with
+        # their measurement
+        self.walls_at: list[tuple[int, float]] = []
+        self.walls_held: list[tuple[int, SurfaceMeasurement]] = []
 
     def __call__(self, frame: np.ndarray, draw: bool) -> tuple[tuple, np.ndarray | None]:
         """(row, overlay frame or None): the track row's fields, then the raw surface geometry."""
