@@ -17,7 +17,8 @@ from sloshid.identification.estimator import Identifier
 from sloshid.identification.signals import load_signal, make_signal, signal_from_track
 from sloshid.synthetic.render import SynthSettings, frame_times, relative_angle_rad, render_frames, render_video
 from sloshid.tracking import container_ref, tracker
-from sloshid.tracking.container_ref import STEADY_DEG, ContainerMeasurement, ContainerTracker
+from sloshid.tracking.container_ref import STEADY_DEG, ContainerMeasurement, ContainerTracker, held_angles
+from sloshid.tracking.float_angle import FloatFinder
 from sloshid.tracking.smooth import smooth_angle
 from sloshid.tracking.surface import SurfaceFinder, SurfaceMeasurement, _container_axes
 from sloshid.tracking.surface_track import SurfaceStep
@@ -643,17 +644,15 @@ def test_walls_are_held_over_still_frames_and_measured_when_they_turn(still_surf
     assert np.abs(slow[:, 0] - slow[:, 1]).max() < STEADY_DEG  # measured 0.011, 6 of 24 measured
 
 
-def test_held_walls_are_interpolated_between_their_measurements(still_surface_video, monkeypatch):
-    # a still container's band frames hold its walls (measured in every fourth frame): those frames get the container
-    # angle interpolated between the measurements around them, and track as if every frame had been measured
-    path, truth = still_surface_video
-    settings = TrackSettings(target="surface", reference="container", smooth=False)
+def _held_and_every(path: Path, settings: TrackSettings, want: np.ndarray, monkeypatch):
+    """Track with the walls held where they may be, checking that the held frames got the container angle interpolated
+    between the measured ones; then measuring the walls in every frame. Returns the first track, the share of frames
+    held, the largest angle difference between the two tracks and each one's angle RMSE against `want`."""
     calls, measure = [], ContainerTracker.measure
     monkeypatch.setattr(ContainerTracker, "measure", lambda self, *a: calls.append(measure(self, *a)) or calls[-1])
     res = track_video(path, settings, multithreaded=False)
-    assert len(calls) == len(res.t_s)  # the surface was found in every frame
+    assert len(calls) == len(res.t_s)  # the target was found in every frame
     held = np.array([c.held for c in calls])
-    assert 0.5 < held.mean() < 0.8  # measured 0.72: 3 of 4 band frames
     at = np.flatnonzero(~held)
     measured = np.array([calls[i].angle_deg for i in at])
     np.testing.assert_allclose(res.container_angle_deg[at], measured, atol=1e-12)
@@ -661,8 +660,18 @@ def test_held_walls_are_interpolated_between_their_measurements(still_surface_vi
     monkeypatch.setattr(container_ref, "HOLD_FRAMES", 1)
     every = track_video(path, settings, multithreaded=False)
     ok = res.valid.astype(bool) & every.valid.astype(bool)
-    assert np.abs(res.angle_deg - every.angle_deg)[ok].max() < STEADY_DEG  # measured 0.009
-    err = [_rmse((r.angle_deg - truth["surface_angle_deg"])[ok]) for r in (res, every)]
+    err = [_rmse((r.angle_deg - want)[ok]) for r in (res, every)]
+    return res, held.mean(), np.abs(res.angle_deg - every.angle_deg)[ok].max(), err
+
+
+def test_held_walls_are_interpolated_between_their_measurements(still_surface_video, monkeypatch):
+    # a still container's band frames hold its walls (measured in every fourth frame): those frames get the container
+    # angle interpolated between the measurements around them, and track as if every frame had been measured
+    path, truth = still_surface_video
+    settings = TrackSettings(target="surface", reference="container", smooth=False)
+    _, held, most, err = _held_and_every(path, settings, truth["surface_angle_deg"], monkeypatch)
+    assert 0.5 < held < 0.8  # measured 0.72: 3 of 4 band frames
+    assert most < STEADY_DEG  # measured 0.009
     assert err[0] < 1.05 * err[1]  # measured 0.0860 and 0.0857 deg
 
 
@@ -678,6 +687,74 @@ def test_held_walls_are_interpolated_only_across_their_hold():
     step.revise(rows)
     container = np.array([r[3] for r in rows])  # the container_angle_deg field, after the time
     np.testing.assert_allclose(container[[1, 2, 3, 5, 6, 7]], [0.1, 0.2, 0.3, 0.4, 0.4, 0.4], atol=1e-12)
+
+
+def test_held_angles_interpolate_only_across_a_hold_and_the_float_rows_follow():
+    # frames 1-3 were held between measurements at 0 and 4: linear between them; 5-7 after the one at 4, with the
+    # walls lost at 8 and found again at 49 after a turn: the held angle. The float's rows subtract what they get.
+    np.testing.assert_allclose(
+        held_angles([(0, 0.0), (4, 0.4), (49, 2.0)], [1, 2, 3, 5, 6, 7]), [0.1, 0.2, 0.3, 0.4, 0.4, 0.4], atol=1e-12
+    )
+    step = tracker._FloatStep(TrackSettings(reference="container"), (0, 0, 640, 480))
+    step.walls_at, step.walls_held = [(0, 0.0), (4, 0.4)], [1, 2, 3]
+    rows = [(k / 30, 5.0, 5.0, 0.0, 320.0, 240.0, 1.0, 1) for k in range(5)]  # t, angle, float, container, ...
+    step.revise(rows)
+    np.testing.assert_allclose([r[3] for r in rows], [0.0, 0.1, 0.2, 0.3, 0.0], atol=1e-12)
+    np.testing.assert_allclose([r[1] for r in rows], [5.0, 4.9, 4.8, 4.7, 5.0], atol=1e-12)
+
+
+@pytest.fixture(scope="module")
+def still_float_video(tmp_path_factory):
+    """A 3 s H.264 tap test of a float in a container that stands still (camera rolled 1 deg), and its truth."""
+    path = tmp_path_factory.mktemp("still_float") / "still.mp4"
+    truth = render_video(path, SynthSettings(**{**SMALL, "duration_s": 3.0}, camera_roll_deg=1.0, amplitude_deg=6.0))
+    return path, truth
+
+
+def test_float_walls_are_held_until_their_ends_move(still_float_video):
+    # with the float, nothing else says the container stands still: the walls' own ends do. On a still picture
+    # (fresh noise in every frame) the walls are measured in every fourth frame; a jolt of 0.4 px or a turn of
+    # 0.3 deg about the picture's centre (0.4-0.6 px at the walls' ends) is measured in the frame it happens
+    path, _ = still_float_video
+    still = np.asarray(next(iter(FrameReader(path, False, pictures=True)))[2])
+    h, w = still.shape[:2]
+    fm = FloatFinder(TrackSettings().hsv, (0, 0, w, h)).measure(still)
+    walls, rng = ContainerTracker((0, 0, w, h)), np.random.default_rng(5)
+
+    def seen(matrix=None):
+        """The picture (moved by `matrix`) with fresh noise, as the float tracker hands it to the walls."""
+        frame = still if matrix is None else cv2.warpAffine(still, matrix, (w, h), flags=cv2.INTER_LINEAR)
+        noisy = frame.astype(np.float32) + rng.normal(0, 2.0, frame.shape)
+        return np.clip(noisy, 0, 255).astype(np.uint8)
+
+    def run(frames):
+        """Whether each frame's walls were held."""
+        return [walls.measure(f, fm.x_px, fm.y_px, fm.length_px, None).held for f in frames]
+
+    held = run([seen() for _ in range(18)])
+    assert held.count(False) == 2 + 4  # two that agree, then every fourth of the other 16
+    jolt = np.float32([[1, 0, 0.4], [0, 1, 0]])
+    turn = cv2.getRotationMatrix2D((w / 2, h / 2), 0.3, 1.0) @ np.vstack([jolt, [0, 0, 1]])
+    for before, moved in ((None, jolt), (jolt, turn)):
+        held = run([seen(before) for _ in range(8)])  # steady: held again
+        assert held[-4:].count(True) == 3
+        if held[-1]:  # the next frame would be held: the move comes then
+            assert run([seen(moved)]) == [False]
+        else:
+            assert run([seen(before), seen(moved)]) == [True, False]
+
+
+def test_float_track_holds_a_still_containers_walls(still_float_video, monkeypatch):
+    # tracked with --reference container, a still container's walls are measured in about every fourth frame; the
+    # held frames get the container angle interpolated between the measurements around them (and the float's angle
+    # against it) and track as if every frame had been measured
+    path, truth = still_float_video
+    settings = TrackSettings(reference="container", smooth=False)
+    res, held, most, err = _held_and_every(path, settings, truth["rel_angle_deg"], monkeypatch)
+    np.testing.assert_allclose(res.angle_deg, res.float_angle_deg - res.container_angle_deg, atol=1e-12)
+    assert 0.5 < held < 0.76  # measured 0.73: at most three of four frames
+    assert most < STEADY_DEG  # measured 0.008
+    assert err[0] < 1.05 * err[1]  # measured 0.0920 and 0.0917 deg
 
 
 @pytest.mark.parametrize("contrast_rows", [slice(0, 0), slice(0, None), slice(0, 75)])

@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from sloshid.core.errors import SettingError, UserError
-from sloshid.tracking.container_ref import HOLD_FRAMES, ContainerMeasurement, ContainerTracker
+from sloshid.tracking.container_ref import ContainerMeasurement, ContainerTracker, held_angles
 from sloshid.tracking.overlay import draw_surface_overlay
 from sloshid.tracking.repeats import REPEAT_SHARE, repeated_share
 from sloshid.tracking.robust import median
@@ -98,16 +98,9 @@ class SurfaceStep:
         measurements that began and ended the hold (the held one when the walls were lost at its end, or the span
         ended). Overlay frames show the first measurement."""
         walls = {}
-        if self.walls_held:  # the container angle of frames whose walls were held: linear between the measured ones
-            at, angle = (np.array(v) for v in zip(*self.walls_at))
-            for i, m in self.walls_held:
-                k = int(np.searchsorted(at, i))  # at[k - 1] < i < at[k]: the measurements before and after
-                # the held measurement itself when the next one is not the hold's end (the walls were lost) or none
-                value = (
-                    np.interp(i, at[k - 1 : k + 1], angle[k - 1 : k + 1])
-                    if k < at.size and at[k] - at[k - 1] <= HOLD_FRAMES
-                    else angle[k - 1]
-                )
+        if self.walls_held:
+            angles = held_angles(self.walls_at, [i for i, _ in self.walls_held])
+            for (i, m), value in zip(self.walls_held, angles):
                 walls[i] = ContainerMeasurement(True, float(value))
                 rows[i] = (rows[i][0], *self._row(m, walls[i]))
         held, source = self.finder.settled()

@@ -28,7 +28,7 @@ from sloshid.core.atomic import atomic_path
 from sloshid.core.errors import SettingError, UserError
 from sloshid.core.parallel import die_with_parent, signals_held
 from sloshid.core.tables import to_pandas, write_csv
-from sloshid.tracking.container_ref import ContainerMeasurement, ContainerTracker
+from sloshid.tracking.container_ref import ContainerMeasurement, ContainerTracker, held_angles
 from sloshid.tracking.float_angle import FloatFinder
 from sloshid.tracking.overlay import draw_overlay
 from sloshid.tracking.repeats import REPEAT_SHARE, repeated_share, stale_repeats
@@ -279,6 +279,9 @@ class _FloatStep:
         self.found = 0
         self.previous: np.ndarray | None = None
         self.repeated: list[bool] = []
+        # (frame in the span, container angle) where the walls were measured; frames where they were held
+        self.walls_at: list[tuple[int, float]] = []
+        self.walls_held: list[int] = []
 
     def __call__(self, frame: np.ndarray, draw: bool) -> tuple[tuple, np.ndarray | None]:
         """(row, overlay frame or None) of one frame."""
@@ -286,10 +289,16 @@ class _FloatStep:
         self.found += fm.found
         repeat = fm.found and repeated_share(frame, self.previous, fm.bbox, dy_only=False) >= REPEAT_SHARE
         self.previous = frame
-        self.repeated.append(bool(repeat))
         cm = ContainerMeasurement(True, 0.0)
-        if self.walls is not None:
-            cm = self.walls.measure(frame, fm.x_px, fm.y_px, fm.length_px) if fm.found else ContainerMeasurement(False)
+        if self.walls is not None:  # the walls' own ends tell whether the container stood still (held walls)
+            cm = ContainerMeasurement(False)
+            if fm.found:
+                cm = self.walls.measure(frame, fm.x_px, fm.y_px, fm.length_px, None)
+            if cm.held:
+                self.walls_held.append(len(self.repeated))
+            elif cm.found:
+                self.walls_at.append((len(self.repeated), cm.angle_deg))
+        self.repeated.append(bool(repeat))
         float_angle = _unwrap(fm.angle_deg, self.last_angle) if fm.found else math.nan
         ok = fm.found and cm.found and fm.quality >= VALID_QUALITY
         if ok:
@@ -299,7 +308,13 @@ class _FloatStep:
         return row, draw_overlay(frame, fm, cm, angle, ok, self.roi) if draw else None
 
     def revise(self, rows: list[tuple]) -> None:
-        """Nothing to measure again: every frame of the float is measured alike."""
+        """Turn the frames whose container walls were held onto the container angle interpolated between the
+        measurements around them (`held_angles`; `rows`: this span's, time first, changed in place)."""
+        if self.walls_held:
+            for i, value in zip(self.walls_held, held_angles(self.walls_at, self.walls_held)):
+                t, _, float_angle, _, *rest = rows[i]
+                rows[i] = (t, float_angle - value, float_angle, float(value), *rest)
+        self.walls_at, self.walls_held = [], []
 
     def merge(self, later: _FloatStep) -> None:
         """Take in what the step of a later span of the same video found (for `nothing_found`)."""

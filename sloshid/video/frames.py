@@ -96,6 +96,13 @@ class Picture:
         self._last = (Y0, X0, Y1, X1, bgr)
         return bgr[y0 - Y0 : y1 - Y0, x0 - X0 : x1 - X0]
 
+    @property
+    def luma(self) -> np.ndarray:
+        """The luma plane as decoded (a read-only view): grey levels for comparing pictures, converting nothing."""
+        view = self._y.view()
+        view.flags.writeable = False
+        return view
+
     def __array__(self, dtype=None, copy=None) -> np.ndarray:
         """The whole picture as a new, writable BGR array."""
         return np.array(self[:, :], dtype=dtype)
