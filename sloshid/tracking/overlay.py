@@ -82,8 +82,9 @@ def draw_surface_overlay(
 
 
 def _canvas(frame: np.ndarray, roi: tuple[int, int, int, int]) -> tuple[np.ndarray, int]:
-    """A copy of the frame with the ROI drawn (when it is not the whole frame), and the line thickness for its size."""
-    out = frame.copy()
+    """A copy of the frame (BGR, or a Picture converted) with the ROI drawn (when it is not the whole frame), and the line
+    thickness for its size."""
+    out = np.array(frame)
     h, w = out.shape[:2]
     x, y, rw, rh = roi
     if (rw, rh) != (w, h):

@@ -36,7 +36,7 @@ from sloshid.tracking.smooth import smoothing_worker
 from sloshid.tracking.surface import auto_liquid_range
 from sloshid.tracking.surface_track import SurfaceStep
 from sloshid.video.colors import DEFAULT_FLOAT_COLOR, HsvRange, preset
-from sloshid.video.frames import FrameReader, VideoInfo, VideoWriter, lost_share
+from sloshid.video.frames import FrameReader, Picture, VideoInfo, VideoWriter, lost_share
 from sloshid.video.keyframes import key_frame_times
 
 TRACK_COLUMNS = (
@@ -461,8 +461,8 @@ def _track_frames(reader: FrameReader, step, tick: Callable[[int], object], writ
     """Measure every frame the reader yields with `step` (drawing the overlay into `writer`); tick(1) per frame."""
     rows: list[tuple] = []
     for _, t, frame in reader:
-        if writer is not None:  # the overlay is drawn on the whole picture: convert it all once
-            frame = np.asarray(frame)
+        if writer is not None and isinstance(frame, Picture):  # the overlay is drawn on the whole picture
+            frame.convert_all()
         row, drawn = step(frame, writer is not None)
         rows.append((t, *row))
         if writer is not None:

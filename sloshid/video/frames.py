@@ -96,6 +96,11 @@ class Picture:
         self._last = (Y0, X0, Y1, X1, bgr)
         return bgr[y0 - Y0 : y1 - Y0, x0 - X0 : x1 - X0]
 
+    def convert_all(self) -> None:
+        """Convert the whole picture now, so that every slice after is a view of it (a picture an overlay is drawn on:
+        the tracker reads the same pixels as without one)."""
+        self[:, :]
+
     @property
     def luma(self) -> np.ndarray:
         """The luma plane as decoded (a read-only view): grey levels for comparing pictures, converting nothing."""
