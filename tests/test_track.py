@@ -649,7 +649,9 @@ def _held_and_every(path: Path, settings: TrackSettings, want: np.ndarray, monke
     between the measured ones; then measuring the walls in every frame. Returns the first track, the share of frames
     held, the largest angle difference between the two tracks and each one's angle RMSE against `want`."""
     calls, measure = [], ContainerTracker.measure
-    monkeypatch.setattr(ContainerTracker, "measure", lambda self, *a: calls.append(measure(self, *a)) or calls[-1])
+    monkeypatch.setattr(
+        ContainerTracker, "measure", lambda self, *a, **k: calls.append(measure(self, *a, **k)) or calls[-1]
+    )
     res = track_video(path, settings, multithreaded=False)
     assert len(calls) == len(res.t_s)  # the target was found in every frame
     held = np.array([c.held for c in calls])
@@ -675,32 +677,37 @@ def test_held_walls_are_interpolated_between_their_measurements(still_surface_vi
     assert err[0] < 1.05 * err[1]  # measured 0.0860 and 0.0857 deg
 
 
-def test_held_walls_are_interpolated_only_across_their_hold():
-    # frames 1-3 were held between measurements at 0 and 4: linear between them; frames 5-7 were held after the
-    # measurement at 4, and the walls were lost at 8 and found again only at 49 after a turn: they keep the held
-    # angle, not a share of that turn
-    step = SurfaceStep(TrackSettings(target="surface", reference="container"), (0, 0, 640, 480))
+# Measured container angles (frame, deg, walls' ends unmoved since the measurement before) around holds: 0 -> 4 a
+# slow tilt (the ends stayed within GUARD_PX), 4 -> 8 a turn the ends saw at the hold's end, then the walls were lost
+# at 12 and found again only at 49 after a turn
+MEASURED = [(0, 0.0, False), (4, 0.012, True), (8, 0.512, False), (49, 2.0, True)]
+HELD = [1, 2, 3, 5, 6, 7, 9, 10, 11]
+HELD_ANGLES = [0.003, 0.006, 0.009, 0.012, 0.012, 0.012, 0.512, 0.512, 0.512]
+"""Linear across the slow tilt's hold; the held angle where the turn came after the held frames or the walls were
+lost."""
+
+
+def test_held_angles_interpolate_only_holds_whose_walls_ends_stayed_put():
+    np.testing.assert_allclose(held_angles(MEASURED, HELD), HELD_ANGLES, atol=1e-12)
+    with pytest.raises(ValueError, match="before the walls' first measurement"):
+        held_angles(MEASURED[1:], [1])
+
+
+def test_held_walls_give_both_targets_rows_their_interpolated_angles():
+    # the surface's rows are turned onto the interpolated container angle, the float's angle is taken against it
+    surface = SurfaceStep(TrackSettings(target="surface", reference="container"), (0, 0, 640, 480))
     m = SurfaceMeasurement(True, True, 0.0, 0.0, 10.0, 10.0, 100.0, 0.0, 320.0, 240.0, 1.0)
-    step.walls_at = [(0, 0.0), (4, 0.4), (49, 2.0)]
-    step.walls_held = [(i, replace(m)) for i in (1, 2, 3, 5, 6, 7)]
-    rows = [(i / 30, *step._row(replace(m), ContainerMeasurement(True, 0.0))) for i in range(50)]
-    step.revise(rows)
-    container = np.array([r[3] for r in rows])  # the container_angle_deg field, after the time
-    np.testing.assert_allclose(container[[1, 2, 3, 5, 6, 7]], [0.1, 0.2, 0.3, 0.4, 0.4, 0.4], atol=1e-12)
-
-
-def test_held_angles_interpolate_only_across_a_hold_and_the_float_rows_follow():
-    # frames 1-3 were held between measurements at 0 and 4: linear between them; 5-7 after the one at 4, with the
-    # walls lost at 8 and found again at 49 after a turn: the held angle. The float's rows subtract what they get.
-    np.testing.assert_allclose(
-        held_angles([(0, 0.0), (4, 0.4), (49, 2.0)], [1, 2, 3, 5, 6, 7]), [0.1, 0.2, 0.3, 0.4, 0.4, 0.4], atol=1e-12
-    )
-    step = tracker._FloatStep(TrackSettings(reference="container"), (0, 0, 640, 480))
-    step.walls_at, step.walls_held = [(0, 0.0), (4, 0.4)], [1, 2, 3]
-    rows = [(k / 30, 5.0, 5.0, 0.0, 320.0, 240.0, 1.0, 1) for k in range(5)]  # t, angle, float, container, ...
-    step.revise(rows)
-    np.testing.assert_allclose([r[3] for r in rows], [0.0, 0.1, 0.2, 0.3, 0.0], atol=1e-12)
-    np.testing.assert_allclose([r[1] for r in rows], [5.0, 4.9, 4.8, 4.7, 5.0], atol=1e-12)
+    surface.walls_at, surface.walls_held = MEASURED, [(i, replace(m)) for i in HELD]
+    rows = [(i / 30, *surface._row(replace(m), ContainerMeasurement(True, 0.0))) for i in range(50)]
+    surface.revise(rows)
+    np.testing.assert_allclose([rows[i][3] for i in HELD], HELD_ANGLES, atol=1e-12)  # container_angle_deg
+    floats = tracker._FloatStep(TrackSettings(reference="container"), (0, 0, 640, 480))
+    floats.walls_at, floats.walls_held = MEASURED, HELD
+    rows = [(i / 30, 5.0, 5.0, 0.0, 320.0, 240.0, 1.0, 1) for i in range(50)]  # t, angle, float, container, ...
+    floats.revise(rows)
+    np.testing.assert_allclose([rows[i][3] for i in HELD], HELD_ANGLES, atol=1e-12)
+    np.testing.assert_allclose([rows[i][1] for i in HELD], 5.0 - np.array(HELD_ANGLES), atol=1e-12)
+    assert [r[1] for r in rows[12:]] == [5.0] * 38  # measured rows are left as they were
 
 
 @pytest.fixture(scope="module")
@@ -713,8 +720,10 @@ def still_float_video(tmp_path_factory):
 
 def test_float_walls_are_held_until_their_ends_move(still_float_video):
     # with the float, nothing else says the container stands still: the walls' own ends do. On a still picture
-    # (fresh noise in every frame) the walls are measured in every fourth frame; a jolt of 0.4 px or a turn of
-    # 0.3 deg about the picture's centre (0.4-0.6 px at the walls' ends) is measured in the frame it happens
+    # (fresh noise in every frame) the walls are measured in every fourth frame; a jolt of 0.4 px, a turn of 0.3 deg
+    # about the picture's centre (0.4 px at the walls' lower ends) or a jolt of 7 px with a turn of 1 deg (which one
+    # Lucas-Kanade step reads as a small shift) is measured in the frame it happens, and the frames held before it
+    # keep the angle measured before them instead of a share of the turn
     path, _ = still_float_video
     still = np.asarray(next(iter(FrameReader(path, False, pictures=True)))[2])
     h, w = still.shape[:2]
@@ -727,21 +736,39 @@ def test_float_walls_are_held_until_their_ends_move(still_float_video):
         noisy = frame.astype(np.float32) + rng.normal(0, 2.0, frame.shape)
         return np.clip(noisy, 0, 255).astype(np.uint8)
 
+    measured: list[tuple[int, float]] = []
+    held_frames: list[int] = []
+
     def run(frames):
         """Whether each frame's walls were held."""
-        return [walls.measure(f, fm.x_px, fm.y_px, fm.length_px, None).held for f in frames]
+        held = []
+        for f in frames:
+            m = walls.measure(f, fm.x_px, fm.y_px, fm.length_px, still=True)
+            frame = len(measured) + len(held_frames)
+            if m.held:
+                held_frames.append(frame)
+            else:
+                measured.append((frame, m.angle_deg, m.unmoved))
+            held.append(m.held)
+        return held
 
     held = run([seen() for _ in range(18)])
     assert held.count(False) == 2 + 4  # two that agree, then every fourth of the other 16
     jolt = np.float32([[1, 0, 0.4], [0, 1, 0]])
     turn = cv2.getRotationMatrix2D((w / 2, h / 2), 0.3, 1.0) @ np.vstack([jolt, [0, 0, 1]])
-    for before, moved in ((None, jolt), (jolt, turn)):
+    big = cv2.getRotationMatrix2D((w / 2, h / 2), 1.3, 1.0) @ np.vstack(
+        [np.float32([[1, 0, 7.4], [0, 1, 0]]), [0, 0, 1]]
+    )
+    for before, moved in ((None, jolt), (jolt, turn), (turn, big)):
         held = run([seen(before) for _ in range(8)])  # steady: held again
         assert held[-4:].count(True) == 3
         if held[-1]:  # the next frame would be held: the move comes then
             assert run([seen(moved)]) == [False]
         else:
             assert run([seen(before), seen(moved)]) == [True, False]
+        at, angle, _ = measured[-2]  # the measurement before the move, and the frames held after it
+        since = [i for i in held_frames if i > at]
+        np.testing.assert_allclose(held_angles(measured, since), angle, atol=0.01)  # measured 0.003 deg
 
 
 def test_float_track_holds_a_still_containers_walls(still_float_video, monkeypatch, tmp_path):

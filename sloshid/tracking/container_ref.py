@@ -26,9 +26,9 @@ HOLD_FRAMES = 4
 """While the container stands still, the walls are measured in every HOLD_FRAMES-th frame and the last measurement is
 returned, marked held, in between, as long as they turned by less than STEADY_DEG per HOLD_FRAMES - 1 frames between
 their last two measurements (and shifted by less than STEADY_PX): a tilt too slow to move the liquid's bottom by half
-a pixel. Standing still is the caller's word (the surface tracker's band frames: the liquid's sides and bottom are
-where they were in the last whole-body frame) or, for the float, the walls' own ends (GUARD_PX). The caller
-interpolates the held frames between the measurements around them (`held_angles`)."""
+a pixel. A frame is held when the caller saw nothing move (the surface tracker: a band frame, the liquid's sides and
+bottom where they were in the last whole-body frame; the float tracker cannot tell) and the walls' own ends confirm
+it (GUARD_PX). The caller gives the held frames their angles from the measurements around them (`held_angles`)."""
 STEADY_DEG = 0.02
 """Largest turn of walls held over HOLD_FRAMES - 1 frames: about 3 standard deviations of the difference of two
 measurements (0.005 deg each on a two-minute 640x480 H.264 clip)."""
@@ -37,12 +37,13 @@ STEADY_PX = 0.1
 GUARD_ROWS = 8
 """Rows at each end of a wall's band that a frame compares with the last measurement's (GUARD_PX)."""
 GUARD_PX = 0.25
-"""Without the caller's word, a frame is held only when each wall's two ends (GUARD_ROWS rows at the top and at the
-bottom of its band) moved by less than this since the walls were measured: a Lucas-Kanade shift of their grey
-profiles against the measured frame's luma. On ten seeded 5-s float clips (30-120 fps, H.264 and MPEG-4, noise 3-7)
+"""A frame is held only when each wall's two ends (GUARD_ROWS rows at the top and at the bottom of the edges followed)
+moved by less than this since the walls were measured: a Lucas-Kanade shift of their grey profiles against the
+measured frame's luma (and their edges' centroid by less than a pixel: one step misreads larger moves). On ten seeded 5-s float clips (30-120 fps, H.264 and MPEG-4, noise 3-7)
 a still container's ends moved by less than 0.15 px in 99 % of the frames (0.23 px at most, at 120 fps with noise 7):
 more is a jolt or a turn (0.3 deg about the picture's centre moves the walls' lower ends in a 320x240 test clip by
-0.4 px), measured at once; a slower turn shows in the next measurement (STEADY_DEG) and is interpolated."""
+0.4 px), measured at once; a slower turn shows in the next measurement (STEADY_DEG). The surface's band frames
+watch the container's bottom, which a turn of tenths of a degree can escape: the ends see it."""
 
 
 @dataclass
@@ -75,6 +76,9 @@ class ContainerMeasurement:
     edges: tuple[EdgeLine, ...] = ()
     held: bool = False
     """Not measured in this frame: the last measurement, returned again (see HOLD_FRAMES)."""
+    unmoved: bool = False
+    """Measured at the end of a hold, with the walls' ends where the measurement before saw them (GUARD_PX): the held
+    frames between may be interpolated (`held_angles`)."""
 
 
 def _band_luma(frame: np.ndarray, ys: np.ndarray, cols: np.ndarray) -> np.ndarray:
@@ -98,27 +102,44 @@ def _grey_at(frame: np.ndarray | Picture, ys: np.ndarray, cols: np.ndarray) -> n
     return _band_luma(frame, ys, cols)
 
 
-def _band_shift(reference: np.ndarray, now: np.ndarray) -> np.ndarray:
-    """The sideways shift (px) of each block of grey profiles from `reference` to `now` (blocks, e.g. a wall's end,
-    x rows x band columns): one Lucas-Kanade step over the block's rows, each row's mean change removed (exposure);
-    NaN where the reference has no edge."""
-    grad = 0.5 * (reference[..., 2:] - reference[..., :-2])
+def _edges_of(grey: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Of each block of grey profiles (blocks, e.g. a wall's end, x rows x band columns): the gradient along the
+    columns (central differences: column j + 1), its energy and the energy's centroid column."""
+    grad = 0.5 * (grey[..., 2:] - grey[..., :-2])
+    per_column = np.einsum("brc,brc->bc", grad, grad)
+    energy = per_column.sum(axis=1)
+    return grad, energy, per_column @ np.arange(grad.shape[2]) / np.maximum(energy, 1.0)
+
+
+def _band_shift(reference: np.ndarray, edges: tuple, now: np.ndarray) -> np.ndarray:
+    """The sideways shift (px) of each block of grey profiles from `reference` (its `_edges_of`) to `now`: one
+    Lucas-Kanade step over the block's rows, each row's mean change removed (exposure). NaN where the reference has
+    no edge, or where the edges moved by a pixel or more (their energy's centroid): one step reads a thin wall moved
+    by several pixels as a small shift (6 px as 0.07 px)."""
+    grad, energy, centroid = edges
     change = (now - reference)[..., 1:-1]
     change -= change.mean(axis=2, keepdims=True)
-    energy = np.einsum("brc,brc->b", grad, grad)
-    return np.where(energy > 1.0, -np.einsum("brc,brc->b", grad, change) / np.maximum(energy, 1.0), np.nan)
+    shift = -np.einsum("brc,brc->b", grad, change) / np.maximum(energy, 1.0)
+    return np.where((energy > 1.0) & (np.abs(_edges_of(now)[2] - centroid) < 1.0), shift, np.nan)
 
 
-def held_angles(measured: list[tuple[int, float]], held: list[int]) -> np.ndarray:
-    """Container angles of the held frames `held` (frame numbers) from the measured ones (frame number, angle; in
-    order): linear between the measurements that began and ended each frame's hold, or the held value when the next
-    measurement is not its hold's end (the walls were lost, then found again after a turn) or there is none."""
-    at, angle = (np.array(v) for v in zip(*measured))
-    k = np.searchsorted(at, held)  # at[k - 1] < frame < at[k]: the measurements before and after
+def held_angles(measured: list[tuple[int, float, bool]], held: list[int]) -> np.ndarray:
+    """Container angles of the held frames `held` (frame numbers, each after a measurement) from the measured ones
+    (frame number, angle, `ContainerMeasurement.unmoved`; in order): linear between the measurements that began and
+    ended a frame's hold when the walls' ends at its end were where they were at its start (a slow tilt); else the
+    held value: the turn or jolt came at the hold's end, after the frames held. The held value too when the next
+    measurement is not the hold's end (the walls were lost) or there is none."""
+    at, angle, unmoved = (np.array(v) for v in zip(*measured))
+    frames = np.asarray(held)
+    k = np.searchsorted(at, frames)  # at[k - 1] < frame < at[k]: the measurements before and after
+    if (k == 0).any():
+        raise ValueError("a held frame comes before the walls' first measurement")
     after = np.minimum(k, at.size - 1)
-    ends = (k < at.size) & (at[after] - at[k - 1] <= HOLD_FRAMES)
-    share = np.where(ends, (np.asarray(held) - at[k - 1]) / np.maximum(at[after] - at[k - 1], 1), 0.0)
-    return angle[k - 1] + share * (angle[after] - angle[k - 1])
+    gap = at[after] - at[k - 1]
+    smooth = (k < at.size) & (gap <= HOLD_FRAMES) & unmoved[after]
+    return angle[k - 1] + np.where(smooth, (frames - at[k - 1]) / np.maximum(gap, 1), 0.0) * (
+        angle[after] - angle[k - 1]
+    )
 
 
 def _edge_points(grad: np.ndarray, usable: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -185,21 +206,27 @@ class ContainerTracker:
         self._last = ContainerMeasurement(False)  # the last measurement
         self._steady = False  # the walls moved slowly enough to be held since the measurement before (STEADY_DEG, _PX)
         self._held = 0  # frames it has been held for since
-        self._ends: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None  # the measured frame's rows, columns, grey
+        self._ends: tuple | None = None  # the measured frame's wall ends: rows, columns, grey, `_edges_of` the grey
 
     def measure(
-        self, frame: np.ndarray, float_x: float, float_y: float, float_len: float, still: bool | None = False
+        self, frame: np.ndarray, float_x: float, float_y: float, float_len: float, still: bool = False
     ) -> ContainerMeasurement:
         """Container angle in this frame; re-detects the walls with Hough when following them fails. `still`: the
-        caller has seen no motion of the container (True), may have (False: measured in every frame), or cannot tell
-        (None: the walls' ends judge, GUARD_PX); see HOLD_FRAMES."""
+        caller saw no motion of the container (or cannot tell), so the walls may be held if their ends agree (see
+        HOLD_FRAMES); False: measured in this frame."""
         if not np.isfinite(float_x):
             return ContainerMeasurement(False)
-        if self._steady and self._held < HOLD_FRAMES - 1 and (self._unmoved(frame) if still is None else still):
-            self._held += 1
-            return replace(self._last, held=True)
+        unmoved = None  # the walls' ends where the last measurement saw them: asked when a hold may go on or ends
+        if still and self._steady and self._held < HOLD_FRAMES - 1:
+            unmoved = self._unmoved(frame)
+            if unmoved:
+                self._held += 1
+                return replace(self._last, held=True)
+        if self._held and unmoved is None:
+            unmoved = self._unmoved(frame)
         before, frames = self._last, self._held + 1
         m = self._measure(frame, float_x, float_y, float_len, frames)
+        m.unmoved = bool(unmoved)
         turn = abs(m.angle_deg - before.angle_deg) / frames if m.found and before.found else math.inf
         self._steady = max(turn / STEADY_DEG, abs(self._shift) / STEADY_PX) * (HOLD_FRAMES - 1) < 1
         self._last, self._held = m, 0
@@ -209,9 +236,8 @@ class ContainerTracker:
         """Both ends of every wall are within GUARD_PX of where the last measurement saw them."""
         if self._ends is None:
             return False
-        ys, cols, grey = self._ends
-        ends = (-1, GUARD_ROWS, cols.shape[2])  # walls x both ends, rows, band columns
-        shifts = _band_shift(grey.reshape(ends), _grey_at(frame, ys, cols).reshape(ends))
+        ys, cols, grey, edges = self._ends
+        shifts = _band_shift(grey, edges, _grey_at(frame, ys, cols).reshape(grey.shape))
         return bool(np.all(np.abs(shifts) < GUARD_PX))
 
     def _measure(
@@ -279,6 +305,8 @@ class ContainerTracker:
         self._ends = None
         if hi - lo >= 4 * GUARD_ROWS:
             ends = np.r_[lo : lo + GUARD_ROWS, hi - GUARD_ROWS : hi]
-            self._ends = (ys[ends], cols[:, ends], _grey_at(frame, ys[ends], cols[:, ends]))
+            # as blocks of GUARD_ROWS rows: walls x both ends
+            grey = _grey_at(frame, ys[ends], cols[:, ends]).reshape(-1, GUARD_ROWS, cols.shape[2])
+            self._ends = (ys[ends], cols[:, ends], grey, _edges_of(grey))
         # each wall counts once, so a tapered glass (walls leaning in opposite directions) reads as upright
         return ContainerMeasurement(True, sum(wall_angles) / n, tuple(fitted))

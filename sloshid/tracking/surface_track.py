@@ -43,9 +43,9 @@ class SurfaceStep:
         self.repeated: list[bool] = []
         self.walls = ContainerTracker(roi) if settings.reference == "container" else None
         self.pending: list[tuple] = []  # (frame in the span, measurement again with a held elevation, walls measured)
-        # (frame in the span, container angle) where the walls were measured; frames whose walls were held, with
-        # their measurement
-        self.walls_at: list[tuple[int, float]] = []
+        # (frame in the span, container angle, unmoved) where the walls were measured; frames whose walls were held,
+        # with their measurement
+        self.walls_at: list[tuple[int, float, bool]] = []
         self.walls_held: list[tuple[int, SurfaceMeasurement]] = []
 
     def __call__(self, frame: np.ndarray, draw: bool) -> tuple[tuple, np.ndarray | None]:
@@ -64,7 +64,7 @@ class SurfaceStep:
             if cm.held:
                 self.walls_held.append((len(self.repeated), replace(m, walls=(), ends=(), luma=None, refit=None)))
             else:
-                self.walls_at.append((len(self.repeated), cm.angle_deg))
+                self.walls_at.append((len(self.repeated), cm.angle_deg, cm.unmoved))
         self.repeated.append(bool(repeat))
         row = self._row(m, cm)
         drawn = (

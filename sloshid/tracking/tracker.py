@@ -279,8 +279,8 @@ class _FloatStep:
         self.found = 0
         self.previous: np.ndarray | None = None
         self.repeated: list[bool] = []
-        # (frame in the span, container angle) where the walls were measured; frames where they were held
-        self.walls_at: list[tuple[int, float]] = []
+        # (frame in the span, container angle, unmoved) where the walls were measured; frames where they were held
+        self.walls_at: list[tuple[int, float, bool]] = []
         self.walls_held: list[int] = []
 
     def __call__(self, frame: np.ndarray, draw: bool) -> tuple[tuple, np.ndarray | None]:
@@ -290,14 +290,14 @@ class _FloatStep:
         repeat = fm.found and repeated_share(frame, self.previous, fm.bbox, dy_only=False) >= REPEAT_SHARE
         self.previous = frame
         cm = ContainerMeasurement(True, 0.0)
-        if self.walls is not None:  # the walls' own ends tell whether the container stood still (held walls)
+        if self.walls is not None:  # nothing here tells whether the container moved: its walls' ends judge
             cm = ContainerMeasurement(False)
             if fm.found:
-                cm = self.walls.measure(frame, fm.x_px, fm.y_px, fm.length_px, None)
+                cm = self.walls.measure(frame, fm.x_px, fm.y_px, fm.length_px, still=True)
             if cm.held:
                 self.walls_held.append(len(self.repeated))
             elif cm.found:
-                self.walls_at.append((len(self.repeated), cm.angle_deg))
+                self.walls_at.append((len(self.repeated), cm.angle_deg, cm.unmoved))
         self.repeated.append(bool(repeat))
         float_angle = _unwrap(fm.angle_deg, self.last_angle) if fm.found else math.nan
         ok = fm.found and cm.found and fm.quality >= VALID_QUALITY
