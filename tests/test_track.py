@@ -17,7 +17,7 @@ from sloshid.identification.estimator import Identifier
 from sloshid.identification.signals import load_signal, make_signal, signal_from_track
 from sloshid.synthetic.render import SynthSettings, frame_times, relative_angle_rad, render_frames, render_video
 from sloshid.tracking import container_ref, tracker
-from sloshid.tracking.container_ref import STEADY_DEG, ContainerMeasurement, ContainerTracker, held_angles
+from sloshid.tracking.container_ref import HOLD_FRAMES, STEADY_DEG, ContainerMeasurement, ContainerTracker, held_angles
 from sloshid.tracking.float_angle import FloatFinder
 from sloshid.tracking.smooth import smooth_angle
 from sloshid.tracking.surface import SurfaceFinder, SurfaceMeasurement, _container_axes
@@ -626,21 +626,21 @@ def test_walls_are_held_over_still_frames_and_measured_when_they_turn(still_surf
     monkeypatch.setattr(held, "_measure", lambda *a: measured.append(1) or measure(*a))
 
     def run(degrees):
-        """Container angles, held and measured in every frame, as the picture turns; how many were measured."""
+        """Container angles, held and measured in every frame, as the picture turns; whether each was measured."""
         first, angles = len(measured), []
         for deg in degrees:
             frame = cv2.warpAffine(still, cv2.getRotationMatrix2D(centre, deg, 1.0), still.shape[1::-1])
             pose = (m.x_px, m.y_px, 0.8 * m.width_px)
             angles.append((held.measure(frame, *pose, still=True).angle_deg, every.measure(frame, *pose).angle_deg))
-        return np.array(angles), len(measured) - first
+        return np.array(angles), measured[first:]
 
     level, n = run(np.zeros(18))
-    assert n == 2 + 4 and np.ptp(level) == 0  # two that agree, then every fourth of the other 16
-    fast, n = run(0.03 * np.arange(1, 13))  # 0.09 deg per three frames (measured as 0.07)
-    assert n == 12 - 3  # the hold runs out at the first three: from then on, every frame
-    assert np.abs(fast[3:, 0] - fast[3:, 1]).max() < 0.005  # measured: equal
-    slow, n = run(0.36 + 0.002 * np.arange(1, 25))  # 0.006 deg per three frames
-    assert n < 24 - 8
+    assert len(n) == 2 + 16 // HOLD_FRAMES and np.ptp(level) == 0  # two that agree, then every HOLD_FRAMES-th
+    fast, n = run(0.03 * np.arange(1, 19))  # 0.15 deg per five frames (measured as 0.07 per three)
+    assert len(n) >= 18 - (HOLD_FRAMES - 1)  # the hold may run out over the first frames: from then on, every frame
+    assert np.abs(fast[HOLD_FRAMES:, 0] - fast[HOLD_FRAMES:, 1]).max() < 0.005  # measured: equal
+    slow, n = run(0.36 + 0.002 * np.arange(1, 25))  # 0.01 deg per five frames
+    assert len(n) < 24 - 8
     assert np.abs(slow[:, 0] - slow[:, 1]).max() < STEADY_DEG  # measured 0.011, 6 of 24 measured
 
 
@@ -667,14 +667,14 @@ def _held_and_every(path: Path, settings: TrackSettings, want: np.ndarray, monke
 
 
 def test_held_walls_are_interpolated_between_their_measurements(still_surface_video, monkeypatch):
-    # a still container's band frames hold its walls (measured in every fourth frame): those frames get the container
+    # a still container's band frames hold its walls (measured in every HOLD_FRAMES-th): those frames get the container
     # angle interpolated between the measurements around them, and track as if every frame had been measured
     path, truth = still_surface_video
     settings = TrackSettings(target="surface", reference="container", smooth=False)
     _, held, most, err = _held_and_every(path, settings, truth["surface_angle_deg"], monkeypatch)
-    assert 0.5 < held < 0.8  # measured 0.72: 3 of 4 band frames
-    assert most < STEADY_DEG  # measured 0.009
-    assert err[0] < 1.05 * err[1]  # measured 0.0860 and 0.0857 deg
+    assert 0.5 < held <= (HOLD_FRAMES - 1) / HOLD_FRAMES  # measured 0.81
+    assert most < STEADY_DEG  # measured 0.018 (0.009 holding 3 frames of 4)
+    assert err[0] < 1.05 * err[1]  # measured 0.0861 and 0.0857 deg
 
 
 # Measured container angles (frame, deg, walls' ends unmoved since the measurement before) around holds: 0 -> 4 a
@@ -720,7 +720,7 @@ def still_float_video(tmp_path_factory):
 
 def test_float_walls_are_held_until_their_ends_move(still_float_video):
     # with the float, nothing else says the container stands still: the walls' own ends do. On a still picture
-    # (fresh noise in every frame) the walls are measured in every fourth frame; a jolt of 0.4 px, a turn of 0.3 deg
+    # (fresh noise in every frame) the walls are measured in every HOLD_FRAMES-th; a jolt of 0.4 px, a turn of 0.3 deg
     # about the picture's centre (0.4 px at the walls' lower ends) or a jolt of 7 px with a turn of 1 deg (which one
     # Lucas-Kanade step reads as a small shift) is measured in the frame it happens, and the frames held before it
     # keep the angle measured before them instead of a share of the turn
@@ -753,15 +753,15 @@ def test_float_walls_are_held_until_their_ends_move(still_float_video):
         return held
 
     held = run([seen() for _ in range(18)])
-    assert held.count(False) == 2 + 4  # two that agree, then every fourth of the other 16
+    assert held.count(False) == 2 + 16 // HOLD_FRAMES  # two that agree, then every HOLD_FRAMES-th of the other 16
     jolt = np.float32([[1, 0, 0.4], [0, 1, 0]])
     turn = cv2.getRotationMatrix2D((w / 2, h / 2), 0.3, 1.0) @ np.vstack([jolt, [0, 0, 1]])
     big = cv2.getRotationMatrix2D((w / 2, h / 2), 1.3, 1.0) @ np.vstack(
         [np.float32([[1, 0, 7.4], [0, 1, 0]]), [0, 0, 1]]
     )
     for before, moved in ((None, jolt), (jolt, turn), (turn, big)):
-        held = run([seen(before) for _ in range(8)])  # steady: held again
-        assert held[-4:].count(True) == 3
+        held = run([seen(before) for _ in range(2 * HOLD_FRAMES)])  # steady: held again
+        assert held[-HOLD_FRAMES:].count(True) == HOLD_FRAMES - 1
         if held[-1]:  # the next frame would be held: the move comes then
             assert run([seen(moved)]) == [False]
         else:
@@ -772,7 +772,7 @@ def test_float_walls_are_held_until_their_ends_move(still_float_video):
 
 
 def test_float_track_holds_a_still_containers_walls(still_float_video, monkeypatch, tmp_path):
-    # tracked with --reference container, a still container's walls are measured in about every fourth frame; the
+    # tracked with --reference container, a still container's walls are measured in about every HOLD_FRAMES-th; the
     # held frames get the container angle interpolated between the measurements around them (and the float's angle
     # against it) and track as if every frame had been measured. Drawing an overlay (every picture converted whole)
     # gives the same table: the walls' ends are compared on the decoded luma either way
@@ -783,8 +783,8 @@ def test_float_track_holds_a_still_containers_walls(still_float_video, monkeypat
     for name, column in res.columns().items():
         np.testing.assert_array_equal(drawn.columns()[name], column, err_msg=name)
     np.testing.assert_allclose(res.angle_deg, res.float_angle_deg - res.container_angle_deg, atol=1e-12)
-    assert 0.5 < held < 0.76  # measured 0.73: at most three of four frames
-    assert most < STEADY_DEG  # measured 0.008
+    assert 0.5 < held <= (HOLD_FRAMES - 1) / HOLD_FRAMES  # measured 0.82
+    assert most < STEADY_DEG  # measured 0.011
     assert err[0] < 1.05 * err[1]  # measured 0.0920 and 0.0917 deg
 
 

@@ -4,7 +4,7 @@ The float is found by colour (an OpenCV HSV range or a named preset) and its ang
 fraction of a degree from the grey-level moments of a soft colour-membership map. With
 --reference image the angle is against the image horizontal; with --reference container it is
 relative to the container's side walls (static camera, moving container): measured in every frame while the
-container moves, in every 4th while it stands still (the frames between interpolated).
+container moves, in every 6th while it stands still (the frames between interpolated).
 Timestamps are the video's own presentation times. Angles are degrees, counter-clockwise positive as
 seen. Columns: frame, t_s, angle_deg, float_angle_deg, container_angle_deg, x_px, y_px, quality (0..1),
 valid (0/1), angle_smoothed_deg (Kalman + RTS smoother on the real timestamps, bridges valid = 0 rows),
@@ -57,7 +57,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         choices=("image", "container"),
         default="image",
         help="angle against the image horizontal, or against the container's side walls (measured in every frame "
-        "while the container moves, in every 4th while it stands still)",
+        "while the container moves, in every 6th while it stands still)",
     )
     parser.add_argument(
         "--overlay",

@@ -22,7 +22,7 @@ from sloshid.video.frames import Picture
 
 BAND_PX = 9
 """Half-width of the band searched around a predicted wall line, pixels."""
-HOLD_FRAMES = 4
+HOLD_FRAMES = 6
 """While the container stands still, the walls are measured in every HOLD_FRAMES-th frame and the last measurement is
 returned, marked held, in between, as long as they turned by less than STEADY_DEG per HOLD_FRAMES - 1 frames between
 their last two measurements (and shifted by less than STEADY_PX): a tilt too slow to move the liquid's bottom by half
