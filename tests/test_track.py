@@ -769,6 +769,13 @@ def test_float_walls_are_held_until_their_ends_move(still_float_video):
         at, angle, _ = measured[-2]  # the measurement before the move, and the frames held after it
         since = [i for i in held_frames if i > at]
         np.testing.assert_allclose(held_angles(measured, since), angle, atol=0.01)  # measured 0.003 deg
+    # a hold that ends with the walls found anew (following them failed): not interpolated, whatever the ends say
+    run([seen(big) for _ in range(2 * HOLD_FRAMES)])
+    walls._held = HOLD_FRAMES - 1  # the next frame ends the hold
+    follow = walls._follow
+    walls._follow = lambda *a: walls.__dict__.pop("_follow") and ContainerMeasurement(False)  # fails once
+    ends = walls.measure(seen(big), fm.x_px, fm.y_px, fm.length_px, still=True)
+    assert ends.found and not ends.unmoved and walls._follow == follow
 
 
 def test_float_track_holds_a_still_containers_walls(still_float_video, monkeypatch, tmp_path):

@@ -225,8 +225,8 @@ class ContainerTracker:
         if self._held and unmoved is None:
             unmoved = self._unmoved(frame)
         before, frames = self._last, self._held + 1
-        m = self._measure(frame, float_x, float_y, float_len, frames)
-        m.unmoved = bool(unmoved)
+        m, anew = self._measure(frame, float_x, float_y, float_len, frames)
+        m.unmoved = bool(unmoved) and not anew  # walls found anew may sit elsewhere than the ends watched
         turn = abs(m.angle_deg - before.angle_deg) / frames if m.found and before.found else math.inf
         self._steady = max(turn / STEADY_DEG, abs(self._shift) / STEADY_PX) * (HOLD_FRAMES - 1) < 1
         self._last, self._held = m, 0
@@ -242,15 +242,15 @@ class ContainerTracker:
 
     def _measure(
         self, frame: np.ndarray, float_x: float, float_y: float, float_len: float, frames: int = 1
-    ) -> ContainerMeasurement:
-        """The walls followed from their last lines (`frames` ago), or found anew."""
+    ) -> tuple[ContainerMeasurement, bool]:
+        """The walls followed from their last lines (`frames` ago), or found anew (then True)."""
         rows = (int(float_y - 1.5 * float_len), int(float_y + 1.5 * float_len))
         if self._walls:
             m = self._follow(frame, rows, frames)
             if m.found:
-                return m
+                return m, False
         self._walls, self._shift = detect_walls(frame, float_x, float_y, float_len, self.roi), 0.0
-        return self._follow(frame, rows) if self._walls else ContainerMeasurement(False)
+        return (self._follow(frame, rows) if self._walls else ContainerMeasurement(False)), True
 
     def _follow(self, frame: np.ndarray, rows: tuple[int, int], frames: int = 1) -> ContainerMeasurement:
         """Refit every wall edge near its predicted position (last line moved on at the last shift per frame for
