@@ -17,7 +17,14 @@ from sloshid.identification.estimator import Identifier
 from sloshid.identification.signals import load_signal, make_signal, signal_from_track
 from sloshid.synthetic.render import SynthSettings, frame_times, relative_angle_rad, render_frames, render_video
 from sloshid.tracking import container_ref, tracker
-from sloshid.tracking.container_ref import HOLD_FRAMES, STEADY_DEG, ContainerMeasurement, ContainerTracker, held_angles
+from sloshid.tracking.container_ref import (
+    HOLD_FRAMES,
+    STEADY_DEG,
+    ContainerMeasurement,
+    ContainerTracker,
+    WallsRecord,
+    held_angles,
+)
 from sloshid.tracking.float_angle import FloatFinder
 from sloshid.tracking.smooth import smooth_angle
 from sloshid.tracking.surface import SurfaceFinder, SurfaceMeasurement, _container_axes
@@ -697,12 +704,13 @@ def test_held_walls_give_both_targets_rows_their_interpolated_angles():
     # the surface's rows are turned onto the interpolated container angle, the float's angle is taken against it
     surface = SurfaceStep(TrackSettings(target="surface", reference="container"), (0, 0, 640, 480))
     m = SurfaceMeasurement(True, True, 0.0, 0.0, 10.0, 10.0, 100.0, 0.0, 320.0, 240.0, 1.0)
-    surface.walls_at, surface.walls_held = MEASURED, [(i, replace(m)) for i in HELD]
+    surface.walls_record = WallsRecord(list(MEASURED), list(HELD))
+    surface.held_surfaces = {i: replace(m) for i in HELD}
     rows = [(i / 30, *surface._row(replace(m), ContainerMeasurement(True, 0.0))) for i in range(50)]
     surface.revise(rows)
     np.testing.assert_allclose([rows[i][3] for i in HELD], HELD_ANGLES, atol=1e-12)  # container_angle_deg
     floats = tracker._FloatStep(TrackSettings(reference="container"), (0, 0, 640, 480))
-    floats.walls_at, floats.walls_held = MEASURED, HELD
+    floats.walls_record = WallsRecord(list(MEASURED), list(HELD))
     rows = [(i / 30, 5.0, 5.0, 0.0, 320.0, 240.0, 1.0, 1) for i in range(50)]  # t, angle, float, container, ...
     floats.revise(rows)
     np.testing.assert_allclose([rows[i][3] for i in HELD], HELD_ANGLES, atol=1e-12)

@@ -12,7 +12,7 @@ so a tapered glass, whose walls lean in opposite directions, reads upright.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import cv2
 import numpy as np
@@ -141,6 +141,29 @@ def held_angles(measured: list[tuple[int, float, bool]], held: list[int]) -> np.
     return angle[k - 1] + np.where(smooth, (frames - at[k - 1]) / np.maximum(gap, 1), 0.0) * (
         angle[after] - angle[k - 1]
     )
+
+
+@dataclass
+class WallsRecord:
+    """A span's wall measurements by frame, from which its held frames get their angles at its end (`held_angles`)."""
+
+    measured: list[tuple[int, float, bool]] = field(default_factory=list)
+    """(frame, container angle, `ContainerMeasurement.unmoved`) of the frames whose walls were measured."""
+    held: list[int] = field(default_factory=list)
+    """The frames whose walls were held."""
+
+    def add(self, frame: int, cm: ContainerMeasurement) -> None:
+        """Note frame `frame`'s walls: measured, held, or (not found) nothing."""
+        if cm.held:
+            self.held.append(frame)
+        elif cm.found:
+            self.measured.append((frame, cm.angle_deg, cm.unmoved))
+
+    def held_angles(self) -> dict[int, float]:
+        """The held frames' container angles (`held_angles`); the record starts afresh."""
+        angles = dict(zip(self.held, map(float, held_angles(self.measured, self.held)))) if self.held else {}
+        self.measured, self.held = [], []
+        return angles
 
 
 def _edge_points(grad: np.ndarray, usable: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from sloshid.core.errors import SettingError, UserError
-from sloshid.tracking.container_ref import ContainerMeasurement, ContainerTracker, held_angles
+from sloshid.tracking.container_ref import ContainerMeasurement, ContainerTracker, WallsRecord
 from sloshid.tracking.overlay import draw_surface_overlay
 from sloshid.tracking.repeats import REPEAT_SHARE, repeated_share
 from sloshid.tracking.robust import median
@@ -43,10 +43,8 @@ class SurfaceStep:
         self.repeated: list[bool] = []
         self.walls = ContainerTracker(roi) if settings.reference == "container" else None
         self.pending: list[tuple] = []  # (frame in the span, measurement again with a held elevation, walls measured)
-        # (frame in the span, container angle, unmoved) where the walls were measured; frames whose walls were held,
-        # with their measurement
-        self.walls_at: list[tuple[int, float, bool]] = []
-        self.walls_held: list[tuple[int, SurfaceMeasurement]] = []
+        self.walls_record = WallsRecord()  # by frame in the span
+        self.held_surfaces: dict[int, SurfaceMeasurement] = {}  # the frames whose walls were held: their surface
 
     def __call__(self, frame: np.ndarray, draw: bool) -> tuple[tuple, np.ndarray | None]:
         """(row, overlay frame or None): the track row's fields, then the raw surface geometry."""
@@ -60,11 +58,10 @@ class SurfaceStep:
         if m.refit is not None:  # measured before the camera's elevation is held: again at the span's end
             self.pending.append((len(self.repeated), m.refit, cm))
         # held walls are interpolated at the span's end, from a copy of what `_row` reads (it changes `m`)
-        if cm is not None and cm.found:
+        if cm is not None:
+            self.walls_record.add(len(self.repeated), cm)
             if cm.held:
-                self.walls_held.append((len(self.repeated), replace(m, walls=(), ends=(), luma=None, refit=None)))
-            else:
-                self.walls_at.append((len(self.repeated), cm.angle_deg, cm.unmoved))
+                self.held_surfaces[len(self.repeated)] = replace(m, walls=(), ends=(), luma=None, refit=None)
         self.repeated.append(bool(repeat))
         row = self._row(m, cm)
         drawn = (
@@ -98,17 +95,15 @@ class SurfaceStep:
         measurements that began and ended the hold (the held one when the walls were lost at its end, or the span
         ended). Overlay frames show the first measurement."""
         walls = {}
-        if self.walls_held:
-            angles = held_angles(self.walls_at, [i for i, _ in self.walls_held])
-            for (i, m), value in zip(self.walls_held, angles):
-                walls[i] = ContainerMeasurement(True, float(value))
-                rows[i] = (rows[i][0], *self._row(m, walls[i]))
+        for i, value in self.walls_record.held_angles().items():
+            walls[i] = ContainerMeasurement(True, value)
+            rows[i] = (rows[i][0], *self._row(self.held_surfaces[i], walls[i]))
         held, source = self.finder.settled()
         for i, refit, cm in self.pending if held is not None else ():
             m = refit(held, source)
             if m.found:
                 rows[i] = (rows[i][0], *self._row(m, walls.get(i, cm)))
-        self.pending, self.walls_at, self.walls_held = [], [], []
+        self.pending, self.held_surfaces = [], {}
 
     def merge(self, later: SurfaceStep) -> None:
         """Take in what the step of a later span of the same video found (for `nothing_found`)."""

@@ -28,7 +28,7 @@ from sloshid.core.atomic import atomic_path
 from sloshid.core.errors import SettingError, UserError
 from sloshid.core.parallel import die_with_parent, signals_held
 from sloshid.core.tables import to_pandas, write_csv
-from sloshid.tracking.container_ref import ContainerMeasurement, ContainerTracker, held_angles
+from sloshid.tracking.container_ref import ContainerMeasurement, ContainerTracker, WallsRecord
 from sloshid.tracking.float_angle import FloatFinder
 from sloshid.tracking.overlay import draw_overlay
 from sloshid.tracking.repeats import REPEAT_SHARE, repeated_share, stale_repeats
@@ -279,9 +279,7 @@ class _FloatStep:
         self.found = 0
         self.previous: np.ndarray | None = None
         self.repeated: list[bool] = []
-        # (frame in the span, container angle, unmoved) where the walls were measured; frames where they were held
-        self.walls_at: list[tuple[int, float, bool]] = []
-        self.walls_held: list[int] = []
+        self.walls_record = WallsRecord()  # by frame in the span
 
     def __call__(self, frame: np.ndarray, draw: bool) -> tuple[tuple, np.ndarray | None]:
         """(row, overlay frame or None) of one frame."""
@@ -294,10 +292,7 @@ class _FloatStep:
             cm = ContainerMeasurement(False)
             if fm.found:
                 cm = self.walls.measure(frame, fm.x_px, fm.y_px, fm.length_px, still=True)
-            if cm.held:
-                self.walls_held.append(len(self.repeated))
-            elif cm.found:
-                self.walls_at.append((len(self.repeated), cm.angle_deg, cm.unmoved))
+            self.walls_record.add(len(self.repeated), cm)
         self.repeated.append(bool(repeat))
         float_angle = _unwrap(fm.angle_deg, self.last_angle) if fm.found else math.nan
         ok = fm.found and cm.found and fm.quality >= VALID_QUALITY
@@ -310,11 +305,9 @@ class _FloatStep:
     def revise(self, rows: list[tuple]) -> None:
         """Turn the frames whose container walls were held onto the container angle interpolated between the
         measurements around them (`held_angles`; `rows`: this span's, time first, changed in place)."""
-        if self.walls_held:
-            for i, value in zip(self.walls_held, held_angles(self.walls_at, self.walls_held)):
-                t, _, float_angle, _, *rest = rows[i]
-                rows[i] = (t, float_angle - value, float_angle, float(value), *rest)
-        self.walls_at, self.walls_held = [], []
+        for i, value in self.walls_record.held_angles().items():
+            t, _, float_angle, _, *rest = rows[i]
+            rows[i] = (t, float_angle - value, float_angle, value, *rest)
 
     def merge(self, later: _FloatStep) -> None:
         """Take in what the step of a later span of the same video found (for `nothing_found`)."""
