@@ -493,6 +493,17 @@ def test_surface_bad_input_is_one_sentence_and_leaves_nothing(surface_video, tmp
     assert not out.exists()
 
 
+def test_surface_target_on_a_float_video_is_a_user_error(tmp_path, run_cli):
+    # a float video has no dyed liquid: the pale water (the dye the automatic choice finds) has no straight inner
+    # walls inside the picture, and walls fitted to its ragged sides once left the mapped box (a crash)
+    path = tmp_path / "float.mp4"
+    render_video(path, SynthSettings(**{**SMALL, "width": 640, "height": 480}))
+    out = tmp_path / "a.csv"
+    code, _, err = run_cli("track", path, "-o", out, "--target", "surface")
+    assert code == 2 and "not the container's inner walls" in err and "Traceback" not in err
+    assert not out.exists()
+
+
 # A container that stands still is measured in a band of rows around the surface (plus two strips that watch the
 # walls and the bottom) instead of the whole liquid body.
 STILL_SURFACE = dict(SURFACE, container_tilt_deg=0.0, duration_s=3.0, seed=23)

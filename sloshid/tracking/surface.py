@@ -373,7 +373,9 @@ class SurfaceFinder:
         margin = max(4.0, WALL_MARGIN * 2 * half)
         lo_col, hi_col = math.ceil(aL * ytop + bL + margin), int(aR * ytop + bR - margin)
         cols = np.arange(lo_col, hi_col, max(1, -(-(hi_col - lo_col) // MAX_COLUMNS)))
-        if half < 10 or len(cols) < 12:
+        # walls that leave the mapped box at the liquid's top lean far more than a container's (another object
+        # of the dye's colour): no container
+        if half < 10 or len(cols) < 12 or lo_col < 0 or hi_col > body.shape[1]:
             return SurfaceMeasurement(False, liquid=True)
         span = slice(cols[0], cols[-1] + 1, cols[1] - cols[0])  # views, not copies: the columns are evenly spaced
         start = max(0, first - 1)  # no row above the top one crosses; one row of it keeps a crossing there found
