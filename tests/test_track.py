@@ -335,7 +335,7 @@ def bad_files(tmp_path_factory):
         ("text.mp4", [], "is not a video"),
         ("empty.mp4", [], "contains no video frames"),
         ("full.mp4", ["--float-color", "yellow"], "no float found in any of the 60 frames"),
-        ("full.mp4", ["--roi", "300,200,50,50"], "lies outside the 320x240 frame"),
+        ("full.mp4", ["--roi", "300,200,50,50"], "reaches beyond the 320x240 frame"),
         ("full.mp4", ["--float-hsv-low", "10,20", "--float-hsv-high", "30,255,255"], "three whole numbers"),
         ("full.mp4", ["--float-hsv-low", "0,x,0", "--float-hsv-high", "30,255,255"], "three whole numbers"),
         ("full.mp4", ["--float-hsv-low", "200,50,50", "--float-hsv-high", "30,255,255"], "outside H 0..179"),
@@ -482,6 +482,13 @@ def test_surface_csv_identifies_like_its_truth(surface_video, tmp_path, run_cli)
         (["--target", "surface", "--roi", "110,40,100,150"], "not the container's inner walls"),
         (["--container-diameter-m", "0.1"], "only --target surface measures"),
         (["--target", "surface", "--liquid-hsv-low", "40,100,60"], "together"),
+        # an option of the other target would be ignored: refused
+        (["--rest-frames", "10"], "--rest-frames applies only to --target surface"),
+        (["--liquid-color", "blue"], "--liquid-color applies only to --target surface"),
+        (["--target", "surface", "--float-color", "blue"], "--float-color applies only to --target float"),
+        # a diameter in millimetres would scale the heights a thousandfold
+        (["--target", "surface", "--container-diameter-m", "100"], "up to 10 (0.1 for 100 mm)"),
+        (["--target", "surface", "--liquid-hsv-low", "100,140,60", "--liquid-hsv-high", "125,300,255"], "-high: HSV"),
     ],
 )
 def test_surface_bad_input_is_one_sentence_and_leaves_nothing(surface_video, tmp_path, run_cli, extra, message):

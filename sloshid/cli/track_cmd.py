@@ -76,7 +76,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     g.add_argument(
         "--liquid-color", metavar="NAME", help="dye colour preset (default: the one covering most of frame 0)"
     )
-    g.add_argument("--liquid-hsv-low", metavar="H,S,V", help="lower corner of the dye colour in OpenCV HSV")
+    g.add_argument(
+        "--liquid-hsv-low",
+        metavar="H,S,V",
+        help="lower corner of the dye colour in OpenCV HSV; overrides --liquid-color; give with --liquid-hsv-high",
+    )
     g.add_argument("--liquid-hsv-high", metavar="H,S,V", help="upper corner of the dye colour in OpenCV HSV")
     g.add_argument(
         "--rest-frames", type=int, metavar="N", help="the first N frames define rest (default: first second)"

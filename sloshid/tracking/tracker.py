@@ -70,6 +70,15 @@ VALID_QUALITY = 0.5
 """Frames whose quality is below this are marked valid = 0 (not used by the smoother)."""
 
 
+SURFACE_ONLY = ("liquid_color", "liquid_hsv_low", "liquid_hsv_high", "rest_frames")
+"""Settings only the surface target reads (container_diameter_m too, refused with its own reason)."""
+FLOAT_ONLY = ("float_color", "float_hsv_low", "float_hsv_high")
+"""Settings only the float target reads (float_color counts when it is not the default)."""
+MAX_DIAMETER_M = 10.0
+"""Largest container_diameter_m taken: a diameter given in millimetres (100 for 100 mm) scales heights a
+thousandfold."""
+
+
 @dataclass(frozen=True)
 class TrackSettings:
     """What to measure (the float or the dyed liquid's surface), how to find it and what to measure against: the one
@@ -120,12 +129,23 @@ class TrackSettings:
                 "(the float target finds no walls to scale).",
                 "target",
             )
+        # an option of the other target would be ignored without a word: refused, as the scale above
+        other = SURFACE_ONLY if self.target == "float" else FLOAT_ONLY
+        given = [k for k in other if getattr(self, k) not in (None, DEFAULT_FLOAT_COLOR)]
+        if given:
+            raise SettingError(
+                given[0],
+                f"{{name}} applies only to {{target}} {'surface' if self.target == 'float' else 'float'}; "
+                f"the {self.target} target does not use it.",
+                "target",
+            )
         if self.container_diameter_m is not None and not (
-            math.isfinite(self.container_diameter_m) and self.container_diameter_m > 0
+            math.isfinite(self.container_diameter_m) and 0 < self.container_diameter_m <= MAX_DIAMETER_M
         ):
             raise SettingError(
                 "container_diameter_m",
-                f"{{name}} must be a positive number of metres, got {self.container_diameter_m}.",
+                f"{{name}} must be a positive number of metres up to {MAX_DIAMETER_M:g} (0.1 for 100 mm), "
+                f"got {self.container_diameter_m}.",
             )
         if self.rest_frames is not None and self.rest_frames < 1:
             raise SettingError("rest_frames", f"{{name}} must be at least 1, got {self.rest_frames}.")
@@ -139,7 +159,8 @@ class TrackSettings:
             try:
                 check()  # the colour names and HSV corners are valid now, before any frame is read
             except UserError as exc:
-                name = setting if "HSV" not in str(exc) else setting.replace("color", "hsv_low")
+                corner = "hsv_high" if "HSV high" in str(exc) else "hsv_low"
+                name = setting if "HSV" not in str(exc) else setting.replace("color", corner)
                 raise SettingError(name, f"{{name}}: {exc}") from None
 
     @property
@@ -257,7 +278,7 @@ def _roi_box(settings: TrackSettings, width: int, height: int) -> tuple[int, int
         return 0, 0, width, height
     x, y, w, h = settings.roi
     if x + w > width or y + h > height:
-        raise UserError(f"ROI {x},{y},{w},{h} lies outside the {width}x{height} frame.")
+        raise UserError(f"ROI {x},{y},{w},{h} reaches beyond the {width}x{height} frame.")
     return x, y, w, h
 
 
