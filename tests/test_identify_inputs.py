@@ -55,6 +55,24 @@ def test_few_nan_dropped_with_warning(tmp_path, decay, run_cli):
     assert "dropped 3 NaN/inf samples" in err
 
 
+def test_a_tracker_csvs_wall_column_is_read_on_its_valid_rows(tmp_path, decay):
+    # a surface track's wall heights are NaN (or stale) where valid == 0, as its angle is: any measured column is read
+    # on the valid rows; the smoothed angle, which bridges the others, is read whole
+    t, y = decay
+    valid = np.ones(t.size, int)
+    valid[[3, 50, 51, 52, 300]] = 0
+    wall = np.where(valid == 1, 2 * y, np.nan)
+    wall[[50, 51, 52]] = 2 * y[49]  # a repeated picture: the last fresh value again, stale
+    header = "frame,t_s,angle_deg,angle_smoothed_deg,quality,valid,left_wall_px"
+    rows = [f"{k},{a:.6f},{b:.6f},{b:.6f},1.0,{v},{w:.6f}" for k, (a, b, v, w) in enumerate(zip(t, y, valid, wall))]
+    path = tmp_path / "track.csv"
+    path.write_text("\n".join([header, *rows]) + "\n")
+    sig = load_signal(path, value_col="left_wall_px")
+    assert sig.t_s.size == t.size - 5 and np.isfinite(sig.value).all() and sig.tracked
+    np.testing.assert_allclose(sig.value, 2 * y[valid == 1], atol=1e-5)
+    assert load_signal(path, value_col="angle_smoothed_deg").t_s.size == t.size
+
+
 def _bad_cases(tmp_path, decay):
     """(name, argv tail, expected message fragment) for every bad input the issue names."""
     t, y = decay

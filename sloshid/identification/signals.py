@@ -13,6 +13,9 @@ from sloshid.core.tables import read_table
 
 TRACKER_COLUMNS = ("t_s", "angle_deg", "valid")
 """Columns that mark a `sloshid track` CSV; its value is `angle_deg` on rows with valid == 1."""
+WHOLE_TRACKER_COLUMNS = ("frame", "t_s", "angle_smoothed_deg", "quality", "valid", "key_frame")
+"""Columns of a `sloshid track` CSV that hold a value in every frame (the smoothed angle bridges the others): read
+whole when chosen; any other column (the angle, the wall heights, ...) is read on rows with valid == 1 only."""
 
 TIME_NAMES = ("t_s", "time_s", "t", "time", "times", "timestamp", "slosh_times")
 """Column/variable names taken as the time axis (seconds) when none is given."""
@@ -216,8 +219,8 @@ def _column_index(spec: str, header: list[str] | None, ncols: int, p: Path, role
 
 
 def _load_csv(p: Path, time_col: str | None, value_col: str | None, progress: bool = False) -> Signal:
-    """Read a tracker CSV (angle_deg where valid == 1) or any CSV with chosen time and value columns; only those
-    columns are kept, so a long file costs little memory."""
+    """Read a tracker CSV (angle_deg, or the chosen column, where valid == 1) or any CSV with chosen time and value
+    columns; only those columns are kept, so a long file costs little memory."""
     chosen: dict[str, int] = {}
 
     def pick(header: list[str] | None, ncols: int) -> list[int]:
@@ -241,7 +244,7 @@ def _load_csv(p: Path, time_col: str | None, value_col: str | None, progress: bo
                 )
         chosen["t"] = _column_index(tcol, header, ncols, p, "time")
         chosen["v"] = _column_index(vcol, header, ncols, p, "value")
-        if is_tracker and header[chosen["v"]] == "angle_deg":
+        if is_tracker and header[chosen["v"]] not in WHOLE_TRACKER_COLUMNS:
             chosen["valid"] = header.index("valid")
             if "key_frame" in header:  # written since the tracker reports key frames; older files lack it
                 chosen["key"] = header.index("key_frame")
@@ -254,7 +257,7 @@ def _load_csv(p: Path, time_col: str | None, value_col: str | None, progress: bo
     keep = table.data[:, 2] == 1 if "valid" in chosen else np.ones(t.size, bool)
     dropped = int((~keep).sum())
     if "valid" in chosen and not keep.any():
-        raise UserError(f"{p}: no tracker frame is valid (valid == 1), so there is no angle to identify from.")
+        raise UserError(f"{p}: no tracker frame is valid (valid == 1), so there is no measurement to identify from.")
     header = table.header or []
     label = header[chosen["v"]] if header else f"column {chosen['v']}"
     tracked = ("surface" if "surface_angle_deg" in header else "float") if set(TRACKER_COLUMNS) <= set(header) else ""
