@@ -12,6 +12,7 @@ import cv2
 import numpy as np
 import pytest
 
+from sloshid.core.errors import SettingError
 from sloshid.core.tables import read_csv
 from sloshid.identification.estimator import Identifier
 from sloshid.identification.signals import load_signal, make_signal, signal_from_track
@@ -521,6 +522,29 @@ def still_surface_video(tmp_path_factory):
     """A still container's surface video, and its truth."""
     path = tmp_path_factory.mktemp("still") / "still.mp4"
     return path, render_video(path, SynthSettings(**STILL_SURFACE))
+
+
+def test_a_rest_window_without_a_measurement_is_said_and_one_covering_the_video_refused(
+    still_surface_video, monkeypatch
+):
+    # the wall heights are heights above rest: the median of the rest window's valid frames (the first second). A
+    # window with none falls back on every valid frame, which a warning says; one covering the video is refused
+    path, truth = still_surface_video
+    frames = len(truth["t_s"])
+    with pytest.raises(SettingError, match=f"rest_frames {frames} covers the whole video, which has {frames} frames"):
+        track_video(path, TrackSettings(target="surface", rest_frames=frames, smooth=False), multithreaded=False)
+    measure, calls = SurfaceFinder.measure, [0]
+
+    def late(self, frame):
+        """The surface found only from the 40th frame on (past the first second at 30 fps)."""
+        calls[0] += 1
+        return measure(self, frame) if calls[0] > 40 else SurfaceMeasurement(False, liquid=True)
+
+    monkeypatch.setattr(SurfaceFinder, "measure", late)
+    res = track_video(path, TrackSettings(target="surface", smooth=False), multithreaded=False)
+    assert [w for w in res.warnings if "none of the first second (the rest window)" in w]
+    left = res.columns()["left_wall_px"][res.valid.astype(bool)]
+    assert left.size > 30 and abs(np.median(left)) < 1e-9  # above the median of every valid frame
 
 
 def _tracked_with_band(path: Path, band: bool, monkeypatch) -> tuple[TrackResult, int]:

@@ -148,8 +148,18 @@ class SurfaceStep:
         container = self.settings.reference == "container"
         angle = rel if container else rel + cang
         body = [(*r[:2], a, rv + c, *r[4:9]) for r, a, rv, c in zip(rows, angle, rel, cang)]
-        rest = valid & (np.arange(len(t)) < self.settings.rest_frames if self.settings.rest_frames else t < t[0] + 1.0)
-        rest = rest if rest.any() else valid
+        n_rest = self.settings.rest_frames
+        check_rest_frames(n_rest, len(t))
+        rest = valid & (np.arange(len(t)) < n_rest if n_rest else t < t[0] + 1.0)
+        notes = [] if container else _tilt_notes(cang[valid])
+        if not rest.any():  # heights from the median of every valid frame: said, as they are not above rest
+            window = f"the first {n_rest} frames" if n_rest else "the first second"
+            notes.append(
+                f"the surface was measured in none of {window} (the rest window), so left/right_wall_px and _mm are "
+                "heights above the median of all valid frames, not above rest; give --rest-frames for frames where "
+                "the surface was at rest and measured."
+            )
+            rest = valid
         walls = {}
         for name, w in (("left_wall", left), ("right_wall", right)):
             walls[f"{name}_px"] = np.where(valid, (w - median(w[rest])) / cos_e, np.nan)
@@ -160,7 +170,17 @@ class SurfaceStep:
         )
         for name in ("left_wall", "right_wall"):
             walls[f"{name}_mm"] = walls[f"{name}_px"] * mm_per_px
-        return body, walls, [] if container else _tilt_notes(cang[valid])
+        return body, walls, notes
+
+
+def check_rest_frames(n_rest: int | None, frames: int) -> None:
+    """Refuse a rest window (`--rest-frames`) that covers the whole video of `frames` frames (0: not known yet)."""
+    if n_rest and frames and n_rest >= frames:
+        raise SettingError(
+            "rest_frames",
+            f"{{name}} {n_rest} covers the whole video, which has {frames} frames; give the frames before the tap "
+            "or move.",
+        )
 
 
 def _tilt_notes(cang: np.ndarray) -> list[str]:

@@ -34,7 +34,7 @@ from sloshid.tracking.overlay import draw_overlay
 from sloshid.tracking.repeats import REPEAT_SHARE, repeated_share, stale_repeats
 from sloshid.tracking.smooth import smoothing_worker
 from sloshid.tracking.surface import auto_liquid_range
-from sloshid.tracking.surface_track import SurfaceStep
+from sloshid.tracking.surface_track import SurfaceStep, check_rest_frames
 from sloshid.video.colors import DEFAULT_FLOAT_COLOR, HsvRange, preset
 from sloshid.video.frames import FrameReader, Picture, VideoInfo, VideoWriter, lost_share
 from sloshid.video.keyframes import key_frame_times
@@ -377,6 +377,7 @@ def track_video(
         if smoother is not None:
             workers.callback(smoother.close)
         reader = FrameReader(Path(path), multithreaded, pictures=True)
+        check_rest_frames(settings.rest_frames, reader.info.frame_count)  # as declared; the frames read: at the end
         width, height = reader.frame_size
         roi = _roi_box(settings, width, height)
         key_times = key_frame_times(path)
