@@ -27,6 +27,7 @@ from sloshid.tracking.container_ref import (
     held_angles,
 )
 from sloshid.tracking.float_angle import FloatFinder
+from sloshid.tracking.repeats import stale_repeats
 from sloshid.tracking.smooth import smooth_angle
 from sloshid.tracking.surface import SurfaceFinder, SurfaceMeasurement, _container_axes
 from sloshid.tracking.surface_track import SurfaceStep
@@ -499,6 +500,22 @@ def test_surface_bad_input_is_one_sentence_and_leaves_nothing(surface_video, tmp
     assert code == 2 and message in err
     assert err.count("\n") == 1 and "Traceback" not in err
     assert not out.exists()
+
+
+def test_repeats_are_stale_when_they_held_motion_not_when_a_still_object_was_copied():
+    # a still start copied by the encoder until the tap: the motion began at the run's end, the copies are right
+    tap = np.r_[np.zeros(36), 0.4, 1.2, 2.2, 3.0]
+    rep = [False] + [True] * 35 + [False] * 4
+    assert not stale_repeats(tap, np.ones(40, bool), rep).any()
+    # a run inside a steady motion (0.1 deg per frame): the fresh frame after it jumps by the run's length of motion
+    ramp = 0.1 * np.arange(20)
+    ramp[10:14] = ramp[9]
+    rep = [False] * 10 + [True] * 4 + [False] * 6
+    np.testing.assert_array_equal(np.flatnonzero(stale_repeats(ramp, np.ones(20, bool), rep)), [10, 11, 12, 13])
+    # at rest before, then a step hidden in the run (the frames after it barely move): when it came is unknown
+    step = np.r_[0.02 * (-1) ** np.arange(10), 0.0, 0.0, 0.0, 0.5, 0.52, 0.5]
+    rep = [False] * 10 + [True] * 3 + [False] * 3
+    np.testing.assert_array_equal(np.flatnonzero(stale_repeats(step, np.ones(16, bool), rep)), [10, 11, 12])
 
 
 def test_surface_target_on_a_float_video_is_a_user_error(tmp_path, run_cli):

@@ -20,6 +20,9 @@ REPEAT_SHARE = 0.5
 MOVED_DEG = 0.15
 """A run of repeats hides motion when the fresh angles around it differ by more than this (about 2 sigma of the
 difference of two measurements at the tracker's 0.05 deg noise)."""
+LOOKBACK_FRAMES = 10
+"""A run of repeats whose object stood still over this many frames before it (its fresh angles there within
+MOVED_DEG) and moved only after it is a copy of an object at rest (a tap after a still start)."""
 
 
 def repeated_share(
@@ -70,7 +73,8 @@ def _box_of(luma: tuple | None, box: tuple[int, int, int, int]) -> np.ndarray | 
 
 
 def stale_repeats(angle: np.ndarray, valid: np.ndarray, repeated: list[bool]) -> np.ndarray:
-    """Repeated frames inside runs across which the object moved: the frames whose measurement is out of date."""
+    """Repeated frames inside runs across which the object moved: the frames whose measurement is out of date. A run
+    whose object was at rest before it, and moved only after it, is a still picture copied: its frames are not."""
     rep = np.asarray(repeated, bool)
     fresh = np.flatnonzero(valid & ~rep)
     stale = np.zeros(len(rep), bool)
@@ -84,6 +88,20 @@ def stale_repeats(angle: np.ndarray, valid: np.ndarray, repeated: list[bool]) ->
             end += 1
         before, after = fresh[fresh < k], fresh[fresh >= end]
         if before.size and after.size and abs(angle[after[0]] - angle[before[-1]]) > MOVED_DEG:
-            stale[k:end] = True
+            stale[k:end] = not _still_until(angle, before, after, k)
         k = end
     return stale
+
+
+def _still_until(angle: np.ndarray, before: np.ndarray, after: np.ndarray, start: int) -> bool:
+    """The object stood still up to a run of repeats starting at `start` and began to move at its end (`before`,
+    `after`: the fresh frames around the run): the jump across the run is no larger than two frames of the motion
+    that follows it (a run that held motion jumps by its length of it), and the fresh angles in the LOOKBACK_FRAMES
+    before the run, when three lie there, span no more than MOVED_DEG."""
+    if after.size < 2:
+        return False
+    jump = abs(angle[after[0]] - angle[before[-1]])
+    if jump > 2 * abs(angle[after[1]] - angle[after[0]]) / (after[1] - after[0]):
+        return False
+    recent = angle[before[before >= start - LOOKBACK_FRAMES]]
+    return recent.size < 3 or float(recent.max() - recent.min()) <= MOVED_DEG
