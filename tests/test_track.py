@@ -518,6 +518,22 @@ def test_repeats_are_stale_when_they_held_motion_not_when_a_still_object_was_cop
     np.testing.assert_array_equal(np.flatnonzero(stale_repeats(step, np.ones(16, bool), rep)), [10, 11, 12])
 
 
+def test_a_run_that_finds_nothing_keeps_an_overlay_already_there(surface_video, tmp_path, run_cli):
+    # the overlay of a run that finds nothing is its diagnosis: written to a new path, never over an existing file
+    path, _ = surface_video
+    old, new = tmp_path / "old.mp4", tmp_path / "new.mp4"
+    old.write_bytes(b"an earlier overlay")
+    errors = []
+    for overlay in (old, new):
+        args = ["-o", tmp_path / "a.csv", "--target", "surface", "--liquid-color", "red", "--overlay", overlay]
+        code, _, err = run_cli("track", path, *args)
+        assert code == 2 and err.count("\n") == 1
+        errors.append(err)
+    assert f"{old} was kept" in errors[0] and f"see the overlay {new}" in errors[1]
+    assert old.read_bytes() == b"an earlier overlay" and new.stat().st_size > 1000
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["new.mp4", "old.mp4"]  # no CSV, no temporary file
+
+
 def test_surface_target_on_a_float_video_is_a_user_error(tmp_path, run_cli):
     # a float video has no dyed liquid: the pale water (the dye the automatic choice finds) has no straight inner
     # walls inside the picture, and walls fitted to its ragged sides once left the mapped box (a crash)

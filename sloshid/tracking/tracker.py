@@ -387,6 +387,8 @@ def track_video(
         if settings.target == "surface" and liquid is None:  # one automatic dye colour for every span: the first's
             liquid = auto_liquid_range(reader.first_picture(), roi)
         parallel = multithreaded and overlay is None and len(spans) > 1 and _can_fork()
+        # a run that finds nothing writes its overlay as the diagnosis, but does not replace one already there
+        kept = overlay if overlay is not None and Path(overlay).exists() else None
         with contextlib.ExitStack() as stack:
             writer = None
             if overlay is not None:
@@ -402,10 +404,13 @@ def track_video(
                 for job in jobs[1:]:
                     span_reader = FrameReader(job[0], multithreaded, pictures=True, start_s=job[4][0], end_s=job[4][1])
                     parts.append(_track_frames(span_reader, _step(settings, roi, liquid), bar.update, writer))
-        step = parts[0].step
-        for part in parts[1:]:
-            step.merge(part.step)
-        rows = [(index, *row) for index, row in enumerate(row for part in parts for row in part.rows)]
+            step = parts[0].step
+            for part in parts[1:]:
+                step.merge(part.step)
+            rows = [(index, *row) for index, row in enumerate(row for part in parts for row in part.rows)]
+            if kept is not None and not any(r[8] for r in rows):  # raised here, the new overlay is not put in place
+                hint = f"{kept} was kept; write the overlay to a new path ({{overlay}}) to see what was searched"
+                raise step.nothing_found(len(rows), path, hint)
         # raised after the overlay is finished: when nothing is found, the overlay is the user's diagnosis
         if not any(r[8] for r in rows):
             hint = (
