@@ -57,6 +57,9 @@ def test_cache_skips_unchanged_and_reruns_changed_stage_downstream_only(video, t
     assert code == 0 and second != first
     assert _statuses(second) == {"track": "cached", "identify": "cached"}
     assert (second / "identify" / "params.json").read_text() == (first / "identify" / "params.json").read_text()
+    # what identify read is named by the cached track outputs, not by the first run's folder, which may go
+    sources = json.loads((second / "identify" / "params.json").read_text())["sources"]
+    assert sources and all(".cache" in s and str(first) not in s and Path(s).exists() for s in sources)
 
     _write(pipe, f'[track]\nvideos = ["{video}"]\n\n[identify]\nmass_kg = 1.0\n')
     code, out, _ = run_cli("run", pipe, "--output-dir", tmp_path / "runs", "--quiet")

@@ -63,7 +63,7 @@ class StageContext:
     out_dir: Path
     """Empty directory for this stage's outputs (renamed into place only if the stage succeeds)."""
     upstream: dict[str, Path]
-    """Output directories of the earlier stages of this run, by stage name."""
+    """Output directories of the earlier stages of this run, by stage name (their cache folders)."""
     run: RunSettings
 
 
@@ -237,6 +237,7 @@ def run_pipeline(
     root, run_dir, run_id = _new_run_dir(pipeline, output_dir)
     input_hashes: dict[str, str] = {}
     keys: dict[str, str] = {}
+    caches: dict[str, Path] = {}  # each stage's content-addressed outputs: what later stages read
     records: list[StageRecord] = []
     failed: set[str] = set()
     present = {s.name for s, _ in pipeline.stages}
@@ -252,8 +253,11 @@ def run_pipeline(
             {"settings": _settings_json(settings), "files": files, "upstream": upstream, "version": __version__}
         )[:16]
         keys[stage.name] = key
-        ctx = StageContext(run_dir / stage.name, {n: run_dir / n for n in needs}, pipeline.run)
-        records.append(_run_stage(stage, settings, key, root / ".cache" / stage.name / key, ctx, log))
+        caches[stage.name] = root / ".cache" / stage.name / key
+        # later stages read the cached outputs, not this run's copies: what they record of their inputs (identify's
+        # sources, its input warnings) is then the same in every run that reuses them, and outlives this run folder
+        ctx = StageContext(run_dir / stage.name, {n: caches[n] for n in needs}, pipeline.run)
+        records.append(_run_stage(stage, settings, key, caches[stage.name], ctx, log))
         if records[-1].status == "failed":
             failed.add(stage.name)
     manifest = {
