@@ -29,7 +29,14 @@ from sloshid.tracking.container_ref import (
 from sloshid.tracking.float_angle import FloatFinder
 from sloshid.tracking.repeats import stale_repeats
 from sloshid.tracking.smooth import smooth_angle
-from sloshid.tracking.surface import SurfaceFinder, SurfaceMeasurement, _container_axes
+from sloshid.tracking.surface import (
+    SurfaceFinder,
+    SurfaceMeasurement,
+    _container_axes,
+    _crossings_first,
+    _inside,
+    _sustained,
+)
 from sloshid.tracking.surface_track import SurfaceStep
 from sloshid.tracking.tracker import TRACK_COLUMNS, TrackResult, TrackSettings, track_video
 from sloshid.video.colors import PRESETS
@@ -532,6 +539,21 @@ def test_a_run_that_finds_nothing_keeps_an_overlay_already_there(surface_video, 
     assert f"{old} was kept" in errors[0] and f"see the overlay {new}" in errors[1]
     assert old.read_bytes() == b"an earlier overlay" and new.stat().st_size > 1000
     assert sorted(p.name for p in tmp_path.iterdir()) == ["new.mp4", "old.mp4"]  # no CSV, no temporary file
+
+
+def test_the_front_edge_is_the_crossing_into_the_body_not_a_pale_band_above_it():
+    # a yellow dye's surface ellipse, seen from slightly above, is a pale band whose membership hovers about 0.5
+    # (measured 0.38-0.51 over 8-10 rows, at most two rows at 0.5 or more): in some columns it crosses 0.5 near the
+    # band's top, the ellipse's back edge. The front edge is where the solid body begins (row 15.5 in every column)
+    body = np.zeros((30, 40))
+    body[10:15, 0::2] = np.array([0.42, 0.49, 0.51, 0.50, 0.46])[:, None]  # a measured column: two rows at 0.5
+    body[10:15, 1::2] = np.array([0.40, 0.45, 0.49, 0.48, 0.46])[:, None]  # and one that stays below
+    body[15], body[16], body[17:] = 0.4, 0.6, 1.0
+    inside = _inside(body)
+    plain, _ = _crossings_first(body, inside, axis=0)
+    edge, found = _crossings_first(body, _sustained(inside), axis=0)
+    assert (plain < 15).any()  # the bare 0.5 crossing lands on the band in some columns
+    assert found.all() and np.allclose(edge, 15.5)
 
 
 def test_surface_target_on_a_float_video_is_a_user_error(tmp_path, run_cli):

@@ -75,6 +75,8 @@ the background's (yellow on a pale wall) gives a luma edge that noise moves more
 (0.099 / 0.111 deg). Below this the luma edge is kept whatever the colour edge does: at rest before a tap a flat
 surface's colour crossings fall on one row and fit to 0.003 px without being more accurate (a seeded clip: luma
 0.075 px, angle RMSE 0.051 deg on luma, 0.056 on colour); the seeded clips' luma edges scatter 0.06-0.2 px."""
+SUSTAIN_ROWS = 3
+"""A column's front edge is its first crossing of 0.5 into at least this many rows of liquid (`_sustained`)."""
 LINE_SLOPE_OF_CUBIC = 0.6
 """Least-squares line slope of s^3 over s in [-1, 1]: the cubic's contribution to the best-fit line."""
 
@@ -379,7 +381,7 @@ class SurfaceFinder:
             return SurfaceMeasurement(False, liquid=True)
         span = slice(cols[0], cols[-1] + 1, cols[1] - cols[0])  # views, not copies: the columns are evenly spaced
         start = max(0, first - 1)  # no row above the top one crosses; one row of it keeps a crossing there found
-        colour, found = _crossings_first(body[start:, span], inside[start:, span], axis=0)
+        colour, found = _crossings_first(body[start:, span], _sustained(inside[start:, span]), axis=0)
         colour += start
         # the elevation and the edge source are chosen in the first frames and then held (a static camera, one dye)
         if self._held is None and len(self._k) >= HOLD_ELEVATION_AFTER:
@@ -496,6 +498,17 @@ def _inside(body: np.ndarray) -> np.ndarray:
     """True where the membership map is at least 0.5: the crossings and the body's box read it (NumPy's argmax finds
     the first liquid pixel of each row or column of a bool map several times faster than of a 0/255 one)."""
     return body >= 0.5
+
+
+def _sustained(inside: np.ndarray) -> np.ndarray:
+    """Where a column's membership is at least 0.5 in this row and the SUSTAIN_ROWS - 1 rows below (`inside` as
+    `_inside` gives it): the body below the surface's front edge is solid, while the surface ellipse seen from above
+    (a pale band over a yellow dye) can hover about 0.5 and cross it in some columns only, a back edge 2k above."""
+    held = inside.copy()
+    for k in range(1, SUSTAIN_ROWS):
+        held[:-k] &= inside[k:]
+        held[-k:] = False
+    return held
 
 
 def _body_box(inside: np.ndarray, origin: tuple[int, int]) -> tuple[int, int, int, int] | None:
