@@ -114,6 +114,9 @@ def test_cli_writes_video_and_truth(run_cli, tmp_path):
         (["--vfr-jitter", "0.6"], "vfr jitter"),
         (["--f-hz", "3"], "give f_hz and zeta together"),
         (["--noise", "-1"], "noise and blur"),
+        # a look of the other scene would be rendered nowhere
+        (["--elevation", "5"], "a camera elevation applies only to the surface scene"),
+        (["--scene", "surface", "--float-color", "green"], "the float colour applies only to the float scene"),
     ],
 )
 def test_cli_rejects_bad_settings_without_output(run_cli, tmp_path, args, message):

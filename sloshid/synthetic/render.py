@@ -165,6 +165,13 @@ class SynthSettings:
         for ok, message in checks:
             if not ok:
                 raise UserError(f"{message}.")
+        # a look of the other scene would be rendered nowhere: refused, not ignored
+        other = "surface" if self.scene == "float" else "float"
+        for name, label in SCENE_ONLY[other].items():
+            if getattr(self, name) != getattr(SynthSettings, name):
+                raise UserError(
+                    f"{label} applies only to the {other} scene (--scene {other}), not the {self.scene} one."
+                )
         preset(self.float_color)
         preset(self.liquid_color)
         _ = self.params  # validates m, l, d
@@ -193,6 +200,28 @@ class Truth:
     def to_csv(self, path: str | Path) -> None:
         """Write the truth table atomically as CSV (full float precision)."""
         write_csv(path, self.columns)
+
+
+SCENE_ONLY = {
+    "surface": {
+        "liquid_color": "the dye colour",
+        "elevation_deg": "a camera elevation",
+        "meniscus_px": "a meniscus",
+        "meniscus_dark": "a dark meniscus",
+        "specular": "highlight stripes",
+        "reflection": "a wall reflection",
+        "second_mode": "a second mode",
+        "container_diameter_m": "the container diameter",
+    },
+    "float": {
+        "float_color": "the float colour",
+        "float_rounded": "a rounded float",
+        "float_bend_px": "a bent float",
+        "float_specular": "a specular spot on the float",
+        "float_submerged": "a submerged float",
+    },
+}
+"""SynthSettings fields that only one scene renders, with how a message names them."""
 
 
 def frame_times(s: SynthSettings) -> np.ndarray:
