@@ -62,6 +62,15 @@ def test_batch_records_failure_and_skips_finished_videos_on_rerun(videos, tmp_pa
     assert statuses == {"tap_0.mp4": "ok", "tap_1.mp4": "cached"}
     assert "1 unchanged, skipped" in stdout
 
+    # other settings: written beside the earlier results, which stay as they were
+    before = {p: (p / "params.json").read_bytes() for p in (out / "videos").iterdir() if p.name.startswith("tap_")}
+    cfg = tmp_path / "c.toml"
+    cfg.write_text("[identify]\nmass_kg = 1.0\n")
+    code, _, _ = run_cli("batch", *good, "--config", cfg, "--out", out, "--workers", "1")
+    assert code == 0 and {r["status"] for r in _rows(out / "summary.csv")} == {"ok"}
+    assert all((p / "params.json").read_bytes() == text for p, text in before.items())
+    assert len([p for p in (out / "videos").iterdir() if p.name.startswith("tap_")]) == 2 * len(before)
+
 
 def test_batch_bad_input(videos, tmp_path, run_cli):
     good, _ = videos

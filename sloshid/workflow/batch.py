@@ -74,9 +74,11 @@ def process_video(video: str, config: BatchConfig, out_root: str) -> dict[str, A
         video_hash = file_sha256(video)
     except OSError as exc:
         return {**row, "status": "failed", "reasons": f"cannot read the file ({exc.strerror or exc})."}
-    out = Path(out_root) / "videos" / f"{Path(video).stem}-{video_hash[:10]}"
+    settings = config_hash(config)
+    # named by the video and the settings: a re-run with other settings writes beside the earlier results, not over
+    out = Path(out_root) / "videos" / f"{Path(video).stem}-{video_hash[:10]}-{settings[:6]}"
     marker = out / "result.json"
-    key = {"video_sha256": video_hash, "config": config_hash(config)}
+    key = {"video_sha256": video_hash, "config": settings}
     if marker.exists():
         done = json.loads(marker.read_text())
         if done.get("key") == key:
