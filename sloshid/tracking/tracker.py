@@ -408,11 +408,12 @@ def track_video(
             for part in parts[1:]:
                 step.merge(part.step)
             rows = [(index, *row) for index, row in enumerate(row for part in parts for row in part.rows)]
-            if kept is not None and not any(r[8] for r in rows):  # raised here, the new overlay is not put in place
+            found = any(r[8] for r in rows)
+            if kept is not None and not found:  # raised here, the new overlay is not put in place
                 hint = f"{kept} was kept; write the overlay to a new path ({{overlay}}) to see what was searched"
                 raise step.nothing_found(len(rows), path, hint)
         # raised after the overlay is finished: when nothing is found, the overlay is the user's diagnosis
-        if not any(r[8] for r in rows):
+        if not found:
             hint = (
                 f"see the overlay {overlay}"
                 if overlay
