@@ -328,12 +328,21 @@ def test_compare_refuses_a_start_inside_an_obstacle_and_duplicate_methods(tmp_pa
     assert "'zvd' more than once" in err
 
 
-def test_cli_parsing_negative_values_unknown_options_and_help(tmp_path, run_cli):
+def test_cli_parsing_negative_values_unknown_options_and_help(tmp_path, run_cli, capsys):
     code, _, err = run_cli("track", SAMPLE, "-o", tmp_path / "a.csv", "--roi", "-5,0,10,10")
     _one_sentence(code, err)
     assert "--roi -5,0,10,10 must have x, y >= 0" in err
-    with pytest.raises(SystemExit):
-        run_cli("track", SAMPLE, "-o", tmp_path / "a.csv", "--bogus")
+    # argparse's own mistakes are one line too (not after the usage block), naming the command's --help
+    for args, message in [
+        (["--bogus"], "unrecognized arguments: --bogus"),
+        (["--rest-frames", "2.5"], "argument --rest-frames: invalid int value: '2.5'"),
+    ]:
+        with pytest.raises(SystemExit) as stop:
+            run_cli("track", SAMPLE, "-o", tmp_path / "a.csv", *args)
+        err = capsys.readouterr().err
+        _one_sentence(stop.value.code, err)
+        assert message in err and "`sloshid track --help`" in err and "usage:" not in err
+    assert not (tmp_path / "a.csv").exists()
     from sloshid.cli.app import _Formatter, _subparser, build_parser
 
     for command in ("track", "identify", "plan", "compare", "batch", "run", "synth"):

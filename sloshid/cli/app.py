@@ -10,6 +10,7 @@ import re
 import signal
 import sys
 from collections.abc import Sequence
+from typing import NoReturn
 
 from sloshid.core.errors import SettingError, UserError
 
@@ -43,6 +44,13 @@ class _Version(argparse.Action):
         parser.exit()
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse with a mistake reported as one line like every other error, not after the whole usage block."""
+
+    def error(self, message: str) -> NoReturn:
+        self.exit(2, f"sloshid: error: {message} (`{self.prog} --help` lists the options).\n")
+
+
 class _Formatter(argparse.RawDescriptionHelpFormatter):
     """Keep the description's line breaks; show a default only where there is one worth showing."""
 
@@ -57,7 +65,7 @@ class _Formatter(argparse.RawDescriptionHelpFormatter):
 
 def build_parser(only: str | None = None) -> argparse.ArgumentParser:
     """The top-level parser; only the command module `only` is imported, which keeps start-up fast."""
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="sloshid",
         description="Measure liquid sloshing from video, identify its pendulum model and plan slosh-free "
         "robot moves. Units are SI; angles in files are degrees, counter-clockwise positive as seen.",
