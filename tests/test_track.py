@@ -1054,3 +1054,36 @@ def test_spans_start_at_key_frames_far_enough_apart():
     assert tracker._spans(info, np.array([0.0])) == [(None, None)]
     assert tracker._spans(replace(info, timed=False), keys) == [(None, None)]
     assert tracker._spans(replace(info, frame_count=500), keys) == [(None, None)]  # 16.7 s: too short for two
+
+
+@pytest.mark.parametrize(
+    "look",
+    [
+        {},
+        {"float_length_frac": 0.05, "width": 640, "height": 480},
+        {"float_rounded": True, "float_bend_px": 6.0, "float_submerged": 0.5, "float_specular": 0.5},
+        {"float_color": "green", "camera_roll_deg": 5.0, "container_tilt_deg": 3.0, "motion_blur": 0.5},
+        {"scene": "surface", "liquid_color": "blue"},
+        {"scene": "surface", "liquid_color": "red", "elevation_deg": 4.0, "meniscus_px": 1.0, "specular": 0.3},
+        {"scene": "surface", "liquid_color": "green", "width": 640, "height": 480, "container_tilt_deg": 3.0},
+    ],
+)
+def test_dyed_liquid_is_told_from_a_float(look):
+    # a dyed liquid tracked as a float "succeeds" with the body's principal axis as its angle: the surface tracker
+    # finds the liquid's straight walls, bottom and surface in it, and never in a float of any look (mid-swing)
+    s = SynthSettings(**{**SMALL, "duration_s": 1.0, "tap_s": 0.2, **look})
+    colour = s.liquid_color if s.scene == "surface" else s.float_color
+    hsv = TrackSettings(float_color=colour).hsv
+    frames = [frame for k, (_, frame) in enumerate(render_frames(s)) if k in (0, 12)]
+    widths = [tracker._liquid_width(f, hsv, (0, 0, s.width, s.height)) for f in frames]
+    if s.scene == "float":
+        assert widths == [0.0, 0.0]
+    else:  # the rendered container's inner width is 0.375 of the frame's (120 px at 320x240)
+        assert all(0.36 * s.width < w < 0.39 * s.width for w in widths), widths
+
+
+def test_a_dyed_liquid_tracked_as_a_float_is_warned_of(surface_video, tmp_path, run_cli):
+    out = tmp_path / "a.csv"
+    code, _, err = run_cli("track", surface_video[0], "-o", out, "--float-color", "green")
+    assert code == 0 and out.exists(), err
+    assert "looks like dyed liquid in its container" in err and "use --target surface" in err

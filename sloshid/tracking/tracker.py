@@ -33,7 +33,7 @@ from sloshid.tracking.float_angle import FloatFinder
 from sloshid.tracking.overlay import draw_overlay
 from sloshid.tracking.repeats import REPEAT_SHARE, repeated_share, stale_repeats
 from sloshid.tracking.smooth import smoothing_worker
-from sloshid.tracking.surface import auto_liquid_range
+from sloshid.tracking.surface import SurfaceFinder, auto_liquid_range
 from sloshid.tracking.surface_track import SurfaceStep, check_rest_frames
 from sloshid.video.colors import DEFAULT_FLOAT_COLOR, HsvRange, preset
 from sloshid.video.frames import FrameReader, Picture, VideoInfo, VideoWriter, lost_share
@@ -301,11 +301,14 @@ class _FloatStep:
         self.previous: np.ndarray | None = None
         self.repeated: list[bool] = []
         self.walls_record = WallsRecord()  # by frame in the span
+        self.liquid_width: float | None = None  # `_liquid_width` of the first frame the float was found in
 
     def __call__(self, frame: np.ndarray, draw: bool) -> tuple[tuple, np.ndarray | None]:
         """(row, overlay frame or None) of one frame."""
         fm = self.finder.measure(frame)
         self.found += fm.found
+        if fm.found and self.liquid_width is None:
+            self.liquid_width = _liquid_width(frame, self.settings.hsv, self.roi)
         repeat = fm.found and repeated_share(frame, self.previous, fm.bbox, dy_only=False) >= REPEAT_SHARE
         self.previous = frame
         cm = ContainerMeasurement(True, 0.0)
@@ -331,8 +334,24 @@ class _FloatStep:
             rows[i] = (t, float_angle - value, float_angle, value, *rest)
 
     def merge(self, later: _FloatStep) -> None:
-        """Take in what the step of a later span of the same video found (for `nothing_found`)."""
+        """Take in what the step of a later span of the same video found (for `nothing_found` and `finish`)."""
         self.found += later.found
+        if self.liquid_width is None:
+            self.liquid_width = later.liquid_width
+
+    def finish(self, rows: list[tuple]) -> tuple[list[tuple], dict[str, np.ndarray], list[str]]:
+        """The table's rows as measured, no wall columns, and the warning when the 'float' is dyed liquid."""
+        if not self.liquid_width:
+            return [r[:9] for r in rows], {}, []
+        return (
+            [r[:9] for r in rows],
+            {},
+            [
+                f"what was tracked as the float looks like dyed liquid in its container (a body {self.liquid_width:.0f}"
+                " px wide between straight side walls, with a surface across them): angle_deg is then that body's "
+                "principal axis, not the surface's angle; for a dyed liquid use --target surface."
+            ],
+        )
 
     def nothing_found(self, n: int, path: Path, hint: str) -> UserError:
         """The one-sentence error when no frame was valid."""
@@ -420,9 +439,7 @@ def track_video(
                 else "write an overlay video ({overlay}) to see what was searched"
             )
             raise step.nothing_found(len(rows), path, hint)
-        body, walls, notes = [r[:9] for r in rows], {}, []
-        if settings.target == "surface":
-            body, walls, notes = step.finish(rows)
+        body, walls, notes = step.finish(rows)
         flags = [flag for part in parts for flag in part.repeated]
         repeated = stale_repeats(np.array([r[2] for r in body]), np.array([r[8] for r in body], bool), flags)
         body = [(*r[:8], int(r[8] and not rep)) for r, rep in zip(body, repeated)]
@@ -433,6 +450,14 @@ def track_video(
     res.warnings.extend(notes)
     res.key_frame = _at_key_frames(res.t_s, key_times)
     return res
+
+
+def _liquid_width(frame: np.ndarray, hsv: HsvRange, roi: tuple[int, int, int, int]) -> float:
+    """Width (px) of a liquid body of the float's colour with the container's walls, a bottom and a surface, as the
+    surface tracker finds it in `frame`, or 0.0: a float has no straight side walls and is never found so (checked on
+    rendered floats of every look and size), while a dyed liquid's body is."""
+    m = SurfaceFinder(hsv, roi).measure(frame)
+    return m.width_px if m.found and m.quality >= VALID_QUALITY else 0.0
 
 
 def _at_key_frames(t_s: np.ndarray, key_times: np.ndarray) -> np.ndarray:
