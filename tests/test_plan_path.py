@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import re
 from pathlib import Path
 
 import numpy as np
@@ -145,3 +146,24 @@ def test_path_through_an_obstacle_is_reported_not_avoided(run_cli, tmp_path):
     code, _out, err = run_cli("plan", sc, "-o", tmp_path / "t.csv")
     assert code == 2 and "runs through obstacle 1" in err and err.count("\n") == 1
     assert not (tmp_path / "t.csv").exists()
+
+
+def test_a_path_plan_draws_its_report(arc_plan, tmp_path):
+    # a path plan knew no scenario, so `--report` (and a pipeline's [plan] on a path) failed after writing the CSV
+    page = arc_plan.report(tmp_path / "rep")
+    text = page.read_text()
+    assert page.name == "index.html" and "Optimal states" in text and "path_arc.toml" in text
+
+
+def test_plan_never_writes_over_its_path_csv(run_cli, tmp_path):
+    # the [path] points_csv is an input of the run like the scenario: -o or --joints naming it is refused first
+    a = np.linspace(0, math.pi / 2, 40)
+    pts = tmp_path / "pts.csv"
+    pts.write_text("x_m,y_m,z_m\n" + "\n".join(f"{0.4 + 0.2 * math.cos(v):.6f},{0.2 * math.sin(v):.6f},0.3" for v in a))
+    before = pts.read_bytes()
+    text = re.sub(r"\[path\].*?\n\n", '[path]\npoints_csv = "pts.csv"\n\n', PATH_ARC.read_text(), count=1, flags=re.S)
+    sc = tmp_path / "s.toml"
+    sc.write_text(text)
+    code, _out, err = run_cli("plan", sc, "-o", pts)
+    assert code == 2 and "is also an input of this run" in err and err.count("\n") == 1
+    assert pts.read_bytes() == before

@@ -70,13 +70,14 @@ def run(args: argparse.Namespace) -> int:
     from sloshid.planning.planner import plan
     from sloshid.planning.scenario import load_scenario, resolve_liquid
 
-    outputs = Outputs([p for p in (args.scenario, args.params) if p])
+    if args.fit_joints and not args.joints:
+        raise UserError("--fit-joints needs --joints JOINTS.csv.")
+    scenario = load_scenario(args.scenario)
+    path_csv = [scenario.path.source] if scenario.path is not None and scenario.path_table.points_csv else []
+    outputs = Outputs([p for p in (args.scenario, args.params, *path_csv) if p])
     output = outputs.file(args.output, "-o", (".csv",))
     joints = outputs.file(args.joints, "--joints", (".csv",)) if args.joints else None
     report_dir = outputs.report_dir(args.report, "--report") if args.report else None
-    if args.fit_joints and joints is None:
-        raise UserError("--fit-joints needs --joints JOINTS.csv.")
-    scenario = load_scenario(args.scenario)
     if joints is not None and scenario.arm is None:
         raise UserError(
             '--joints needs a [robot] table with model = "panda" (and base_xyz_m, q_start) in the scenario.'
@@ -87,13 +88,16 @@ def run(args: argparse.Namespace) -> int:
     fit = []
     if joints is not None:
         result, fit = _check_joints(result, scenario, params, args.fit_joints)
+    page = None
+    if report_dir is not None:  # drawn before anything is written
+        source = f"identify's {args.params}" if args.params else f"the [liquid] table of {args.scenario}"
+        csv = os.path.relpath(os.path.abspath(output), os.path.abspath(report_dir))
+        page = result.report_page({"trajectory CSV": csv}, liquid_source=source)
     result.trajectory.to_csv(output)
     if joints is not None:
         result.joints.write_csv(joints)
-    if report_dir is not None:
-        source = f"identify's {args.params}" if args.params else f"the [liquid] table of {args.scenario}"
-        csv = os.path.relpath(os.path.abspath(output), os.path.abspath(report_dir))
-        result.report(report_dir, {"trajectory CSV": csv}, liquid_source=source)
+    if page is not None:
+        page.save(report_dir)
     _warnings(result, fit)
     if args.json:
         summary = result.to_dict()

@@ -219,6 +219,7 @@ def plan_path(scenario: Scenario, params: SloshParams, *, progress: bool = False
         verify_during_deg=lim.rel_angle_max_deg,
         max_path_deviation_m=deviation,
         path_tolerance_m=scenario.path_table.path_tolerance_m,
+        scenario=scenario,
     )
 
 

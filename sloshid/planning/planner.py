@@ -192,11 +192,16 @@ class PlanResult:
     def report(self, directory: str | Path, links: dict[str, str] | None = None, liquid_source: str = "") -> Path:
         """Write the plan report (states, 3-D path, limits, verification) to directory/index.html; `links` (text ->
         relative href) are shown at the top, `liquid_source` says where the liquid's parameters came from."""
+        return self.report_page(links, liquid_source).save(directory)
+
+    def report_page(self, links: dict[str, str] | None = None, liquid_source: str = ""):
+        """The plan report, drawn but not written (`.save(directory)` writes it): a command draws it before it writes
+        any file, so a report that cannot be drawn leaves the trajectory CSV untouched."""
         from sloshid.planning.report import plan_report
 
         if self.scenario is None:
             raise UserError("this plan does not know its scenario, so no report can be drawn.")
-        return plan_report(self, self.scenario, liquid_source, links).save(directory)
+        return plan_report(self, self.scenario, liquid_source, links)
 
 
 def check_feasible(scenario: Scenario) -> None:
