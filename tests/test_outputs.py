@@ -328,6 +328,26 @@ def test_compare_refuses_a_start_inside_an_obstacle_and_duplicate_methods(tmp_pa
     assert "'zvd' more than once" in err
 
 
+def test_a_file_or_folder_the_user_may_not_access_is_one_sentence(tmp_path, run_cli, decay_csv, monkeypatch):
+    # an unreadable input, a folder without search permission (shared lab drives): PermissionError, not a traceback
+    from sloshid.cli import identify_cmd
+
+    def refused(args):
+        raise PermissionError(13, "Permission denied", str(decay_csv))
+
+    monkeypatch.setattr(identify_cmd, "run", refused)
+    code, _, err = run_cli("identify", decay_csv, "-o", tmp_path / "p.json")
+    _one_sentence(code, err)
+    assert f"permission denied for {decay_csv}" in err
+
+
+def test_a_report_folder_named_like_another_output_is_refused_before_the_work(tmp_path, run_cli, decay_csv):
+    out = tmp_path / "res.json"
+    code, _, err = run_cli("identify", decay_csv, "-o", out, "--report", out)
+    _one_sentence(code, err)
+    assert "both name" in err and not out.exists()
+
+
 def test_cli_parsing_negative_values_unknown_options_and_help(tmp_path, run_cli, capsys):
     code, _, err = run_cli("track", SAMPLE, "-o", tmp_path / "a.csv", "--roi", "-5,0,10,10")
     _one_sentence(code, err)

@@ -157,6 +157,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         return _fail(str(exc.named(lambda setting: flag_for(setting, flags))))
     except UserError as exc:
         return _fail(str(exc))
+    except PermissionError as exc:  # a file or folder of the user's that this user may not read or enter
+        what = f" {exc.filename}" if exc.filename else ""
+        return _fail(f"permission denied for{what}: this user may not read or write it, or enter its folder.")
     except OSError as exc:
         if exc.errno in (errno.ENOSPC, errno.EPIPE, errno.EIO) and exc.filename is None:  # standard output failed
             os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())  # so the exit-time flush cannot fail

@@ -77,5 +77,6 @@ class Outputs:
                 f"{role} {p} already holds an index.html that sloshid did not write; choose another folder."
             )
         writable_folder(p, role, index)
+        self._claim(p, role)  # the folder's own name too: `-o x.json --report x.json` would make x.json a folder
         self._claim(index, role)
         return p
