@@ -394,3 +394,20 @@ def test_parameter_files_without_a_vertical_gain_still_read(tmp_path):
     new.write_text(json.dumps({"parameters": {**base, "vertical_gain": {"value": 1.4}}}))
     assert load_model(old).vertical_gain == 1.0
     assert load_model(new).vertical_gain == 1.4
+
+
+def test_a_pose_log_with_a_dropped_stretch_is_resampled_not_refused():
+    # a logger that dropped 0.2 s of a 500 Hz log (uneven steps): the uniform grid's last time, computed as start +
+    # k * step, came out a rounding error past the log's end and Slerp refused it (a traceback in predict/validate)
+    pose = move_pose()
+    keep = np.ones(pose.t_s.size, bool)
+    keep[600:700] = False  # 1.2-1.4 s, mid-move
+    gap = PoseLog(pose.t_s[keep], pose.pos_m[keep], pose.rot[keep], "gap")
+    exc = excitation(gap)
+    assert exc.t_s[0] == 0.0 and exc.t_s[-1] == gap.t_s[-1] and np.all(np.diff(exc.t_s) > 0)
+    assert np.allclose(np.diff(exc.t_s)[:-1], 0.002)  # the median step, up to the end
+    # outside the gap (and the smoothing window around it) the acceleration is the full log's
+    full = excitation(pose)
+    far = (exc.t_s < 1.1) | (exc.t_s > 1.5)
+    n = min(exc.t_s.size, full.t_s.size)
+    assert np.abs(exc.acc_m_s2[:n][far[:n]] - full.acc_m_s2[:n][far[:n]]).max() < 1e-6

@@ -90,6 +90,7 @@ class PoseLog:
         if np.allclose(np.diff(self.t_s), dt, rtol=1e-3, atol=1e-9):
             return self
         t = self.t_s[0] + dt * np.arange(math.floor((self.t_s[-1] - self.t_s[0]) / dt + 1e-9) + 1)
+        t = np.minimum(t, self.t_s[-1])  # the last step's rounding may pass the log's end, where Slerp refuses
         pos = np.column_stack([np.interp(t, self.t_s, self.pos_m[:, i]) for i in range(3)])
         return PoseLog(t, pos, Slerp(self.t_s, self.rot)(t), self.source)
 
