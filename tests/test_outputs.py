@@ -261,6 +261,28 @@ def test_settings_errors_name_what_the_user_typed(tmp_path, run_cli, decay_csv):
     assert "[identify].mass_kg must be a positive number" in err and "--mass" not in err
 
 
+@pytest.mark.parametrize(
+    "edit, message",
+    [
+        (("start = [0.3, -0.27, 0.2]", "start = [0.3, nan, 0.2]"), "[move].start[1] is nan"),
+        (("[solver]", "[solver]\nkappa_T = nan"), "[solver].kappa_T is nan"),
+        (("[solver]", "[[obstacles]]\ncenter = [nan, 0.0, 0.2]\nradius = 0.03\n\n[solver]"), "center[0] is nan"),
+    ],
+)
+def test_nan_in_a_toml_file_is_named(tmp_path, run_cli, edit, message):
+    # TOML has a nan literal: every comparison with it is False, so range checks passed it on (a traceback for a nan
+    # start, a silently ignored obstacle, a nan kappa_T planned with)
+    text = (ROOT / "data" / "scenarios" / "paper_1d.toml").read_text()
+    assert edit[0] in text
+    sc = tmp_path / "s.toml"
+    sc.write_text(text.replace(edit[0], edit[1], 1))
+    for command in (["plan", sc, "-o", tmp_path / "t.csv"], ["compare", sc]):
+        code, _, err = run_cli(*command)
+        _one_sentence(code, err)
+        assert message in err
+    assert not (tmp_path / "t.csv").exists()
+
+
 def test_a_toml_with_a_byte_order_mark_is_read(tmp_path):
     from sloshid.core.settings import load_toml
 

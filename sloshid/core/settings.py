@@ -80,6 +80,8 @@ def _check(value: Any, tp: Any, where: str) -> Any:
     if tp is float:
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             raise UserError(f"{where} must be a number, got {value!r}.")
+        if value != value:  # TOML's nan: every comparison with it is False, so range checks would let it through
+            raise UserError(f"{where} is nan; give a number.")
         return float(value)
     if tp is int:
         if isinstance(value, bool) or not isinstance(value, int):
