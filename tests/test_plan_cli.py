@@ -7,8 +7,10 @@ import json
 import re
 from pathlib import Path
 
+import numpy as np
 import pytest
 
+from sloshid.core.tables import read_csv
 from sloshid.model.trajectory import CSV_COLUMNS
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -175,3 +177,18 @@ def test_params_json_from_identify_overrides_the_scenario_liquid(run_cli, tmp_pa
     assert code == 0, stderr
     summary = json.loads(stdout)
     assert summary["liquid"]["f_hz"] == pytest.approx(2.0, rel=1e-4) and summary["verification"]["ok"]
+
+
+def test_a_plan_past_the_scenarios_own_limits_says_so(run_cli, tmp_path):
+    # the solver holds [limits] at its grid points; a move riding vel_max = 0.1 m/s passed it by 4.8 % between them
+    # (measured at N = 100) and the plan said "robot limits ok", limits_ok true, since only the robot's were checked
+    sc = tmp_path / "slow.toml"
+    sc.write_text(PAPER_1D.read_text().replace("vel_max = [1.7, 1.7, 1.7]", "vel_max = [0.1, 0.1, 0.1]"))
+    code, out, err = run_cli("plan", sc, "-o", tmp_path / "t.csv", "--json")
+    assert code == 0
+    summary = json.loads(out)
+    vel = next(u for u in summary["move_limits"] if u["quantity"] == "vel_max")
+    peak = np.abs(read_csv(tmp_path / "t.csv")["vy_m_s"]).max()
+    assert vel["peak"] == pytest.approx(peak) and 0.1001 < peak < 0.11 and not vel["ok"]
+    assert not summary["limits_ok"] and "[limits].vel_max exceeded" in err
+    assert all(u["ok"] for u in summary["limits"])  # the robot's own limits hold

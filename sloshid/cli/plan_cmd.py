@@ -148,6 +148,14 @@ def _warnings(result, fit: list) -> None:
                 f"at t = {usage.t_peak_s:.3f} s.",
                 file=sys.stderr,
             )
+    for usage in result.move_limits:
+        if not usage.ok:
+            print(
+                f"sloshid: warning: [limits].{usage.quantity} exceeded: peak {usage.peak:.4g} > {usage.limit:.4g} at "
+                f"t = {usage.t_peak_s:.3f} s (the solver holds it at its grid points; a larger [solver].N holds it "
+                "closer).",
+                file=sys.stderr,
+            )
     v = result.verification
     if not result.verification_ok:
         print(

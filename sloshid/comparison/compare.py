@@ -28,7 +28,7 @@ from sloshid.core.errors import UserError
 from sloshid.core.tables import to_pandas
 from sloshid.model.pendulum import SloshParams
 from sloshid.model.simulate import LiquidResponse, simulate_liquid
-from sloshid.model.trajectory import RobotLimits, Trajectory, check_limits
+from sloshid.model.trajectory import RobotLimits, Trajectory, check_limits, check_move_limits, tilt_profiles
 from sloshid.planning.planner import check_feasible
 
 METHODS: dict[str, str] = {
@@ -184,29 +184,16 @@ class MoveLimits:
     """sloshid.planning.path.PathGeometry of a [path] scenario (deviations are scored against it), else None."""
 
 
-def tilt_profiles(traj: Trajectory) -> tuple[np.ndarray, np.ndarray]:
-    """Container tilt from upright (deg) and angular speed (deg/s) at every sample."""
-    tilt = np.degrees(np.arccos(np.clip(traj.z_axis[:, 2], -1.0, 1.0)))
-    return tilt, np.degrees(np.linalg.norm(traj.omega_rad_s, axis=1))
-
-
 def score(traj: Trajectory, params: SloshParams, limits: MoveLimits, settle_s: float) -> tuple[Score, LiquidResponse]:
     """Score a trajectory: nonlinear slosh relative to the container, tilt, robot and move limits, clearance."""
     resp = simulate_liquid(traj, params, settle_s=settle_s)
     tilt, rate = tilt_profiles(traj)
     failed = [f"robot {u.quantity} {u.peak:.3g} > {u.limit:.3g}" for u in check_limits(traj, limits.robot) if not u.ok]
     robot_ok = not failed
-    slack = 1.001  # sampling round-off, as in LimitUsage.ok
-    checks = {
-        "acc_max": (np.abs(traj.acc_m_s2).max(axis=0), np.asarray(limits.task.acc_max_m_s2)),
-        "vel_max": (np.abs(traj.vel_m_s).max(axis=0), np.asarray(limits.task.vel_max_m_s)),
-        "tilt_max_deg": (np.array([tilt.max()]), np.array([limits.tilt_max_deg])),
-        "tilt_rate_max_deg_s": (np.array([rate.max()]), np.array([limits.tilt_rate_max_deg_s])),
-    }
-    for name, (peak, bound) in checks.items():
-        if (peak > bound * slack).any():
-            i = int(np.argmax(peak / bound))
-            failed.append(f"move {name} {peak[i]:.3g} > {bound[i]:.3g}")
+    move = check_move_limits(
+        traj, limits.task.acc_max_m_s2, limits.task.vel_max_m_s, limits.tilt_max_deg, limits.tilt_rate_max_deg_s
+    )
+    failed += [f"move {u.quantity} {u.peak:.3g} > {u.limit:.3g}" for u in move if not u.ok]
     clearance = None
     if limits.obstacles:
         clearance = float(min(np.min(o.clearance(traj.pos_m, limits.container_radius_m)) for o in limits.obstacles))

@@ -221,3 +221,28 @@ def check_limits(traj: Trajectory, limits: RobotLimits = RobotLimits()) -> list[
         i = int(np.argmax(profile))
         usages.append(LimitUsage(key, float(profile[i]), getattr(limits, key), float(traj.t_s[i])))
     return usages
+
+
+def tilt_profiles(traj: Trajectory) -> tuple[np.ndarray, np.ndarray]:
+    """Container tilt from upright (deg) and angular speed (deg/s) at every sample."""
+    tilt = np.degrees(np.arccos(np.clip(traj.z_axis[:, 2], -1.0, 1.0)))
+    return tilt, np.degrees(np.linalg.norm(traj.omega_rad_s, axis=1))
+
+
+def check_move_limits(
+    traj: Trajectory, acc_max, vel_max, tilt_max_deg: float, tilt_rate_max_deg_s: float
+) -> list[LimitUsage]:
+    """Peaks against a move's own limits (a scenario's [limits]): per-axis acceleration and velocity (the axis
+    closest to its bound), tilt from upright and tilt rate; quantities named as the [limits] keys."""
+    tilt, rate = tilt_profiles(traj)
+    checks = {
+        "acc_max": (np.abs(traj.acc_m_s2), np.asarray(acc_max, float)),
+        "vel_max": (np.abs(traj.vel_m_s), np.asarray(vel_max, float)),
+        "tilt_max_deg": (tilt[:, None], np.array([tilt_max_deg])),
+        "tilt_rate_max_deg_s": (rate[:, None], np.array([tilt_rate_max_deg_s])),
+    }
+    usages = []
+    for name, (values, bound) in checks.items():
+        k, axis = np.unravel_index(int(np.argmax(values / bound)), values.shape)
+        usages.append(LimitUsage(name, float(values[k, axis]), float(bound[axis]), float(traj.t_s[k])))
+    return usages

@@ -20,7 +20,7 @@ from sloshid.core.errors import UserError
 from sloshid.model.conventions import steady_tilt
 from sloshid.model.pendulum import SloshParams
 from sloshid.model.simulate import simulate_liquid
-from sloshid.model.trajectory import EXPORT_RATE_HZ, Trajectory, check_limits
+from sloshid.model.trajectory import EXPORT_RATE_HZ, Trajectory
 from sloshid.planning.ocp import OK_STATUSES, SegmentResult, bang_bang_time, ipopt_options
 from sloshid.planning.path_problem import (
     CON,
@@ -171,7 +171,7 @@ def _as_segment(scenario: Scenario, traj: Trajectory, T, status, iters, elapsed,
 
 def plan_path(scenario: Scenario, params: SloshParams, *, progress: bool = False):
     """Solve the [path] scenario for liquid `params` (PlanResult); raises UserError for bad paths and failures."""
-    from sloshid.planning.planner import PlanResult
+    from sloshid.planning.planner import PlanResult, limit_usages
 
     t_wall = time.perf_counter()
     check_path(scenario)
@@ -199,7 +199,7 @@ def plan_path(scenario: Scenario, params: SloshParams, *, progress: bool = False
         )
     T, X, U = ms.split(np.asarray(sol["x"]).ravel())
     traj = sample_path(scenario, T, X, U, mesh)
-    usages = check_limits(traj, scenario.robot)
+    usages, move = limit_usages(traj, scenario)
     verification = simulate_liquid(traj, params)
     deviation = float(scenario.path.deviation(traj.pos_m).max())
     seg = _as_segment(scenario, traj, T, status, iters, elapsed, mesh, X, U)
@@ -211,7 +211,7 @@ def plan_path(scenario: Scenario, params: SloshParams, *, progress: bool = False
         iterations=iters,
         segments=[seg],
         limits=usages,
-        limits_ok=all(u.ok for u in usages),
+        limits_ok=all(u.ok for u in usages + move),
         verification=verification,
         params=params,
         min_clearance_m=_clearance(scenario, traj),
@@ -220,6 +220,7 @@ def plan_path(scenario: Scenario, params: SloshParams, *, progress: bool = False
         max_path_deviation_m=deviation,
         path_tolerance_m=scenario.path_table.path_tolerance_m,
         scenario=scenario,
+        move_limits=move,
     )
 
 
