@@ -66,6 +66,33 @@ def signals_held() -> Iterator[None]:
             signal.raise_signal(signum)
 
 
+@contextlib.contextmanager
+def solver_interruptible() -> Iterator[None]:
+    """Ctrl-C (or SIGTERM) during a CasADi solve, raised again once the solver has returned (main thread).
+
+    CasADi stops IPOPT on the exception a signal handler raises, but swallows it and reports a failed solve
+    (NonIpopt_Exception_Thrown), which a command would blame on the limits; the signal is delivered again to the
+    handler it had when the block ends."""
+    wanted = (signal.SIGINT, signal.SIGTERM)
+    if threading.current_thread() is not threading.main_thread() or None in map(signal.getsignal, wanted):
+        yield
+        return
+    caught: list[int] = []
+
+    def stop(signum: int, frame: object) -> None:
+        caught.append(signum)
+        raise KeyboardInterrupt  # what makes CasADi end the solve
+
+    previous = {s: signal.signal(s, stop) for s in wanted}
+    try:
+        yield
+    finally:
+        for s, handler in previous.items():
+            signal.signal(s, handler)
+    if caught:
+        signal.raise_signal(caught[0])
+
+
 def check_workers(workers: int, what: str = "workers") -> int:
     """A local worker count this machine can start: at least 1, at most MAX_WORKERS_PER_CORE per core."""
     cores = os.cpu_count() or 1

@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 
+from sloshid.core.parallel import solver_interruptible
 from sloshid.model.pendulum import SloshParams
 from sloshid.model.trajectory import RobotLimits
 from sloshid.planning.problem import (
@@ -172,7 +173,8 @@ class SegmentSolver:
         if warm:
             args.update(lam_x0=warm["lam_x"], lam_g0=warm["lam_g"])
         t0 = time.perf_counter()
-        sol = self.nlp(**args)
+        with solver_interruptible():
+            sol = self.nlp(**args)
         elapsed = time.perf_counter() - t0
         stats = self.nlp.stats()
         w = np.asarray(sol["x"]).ravel()

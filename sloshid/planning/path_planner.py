@@ -17,6 +17,7 @@ import casadi as ca
 import numpy as np
 
 from sloshid.core.errors import UserError
+from sloshid.core.parallel import solver_interruptible
 from sloshid.model.conventions import steady_tilt
 from sloshid.model.pendulum import SloshParams
 from sloshid.model.simulate import simulate_liquid
@@ -188,7 +189,8 @@ def plan_path(scenario: Scenario, params: SloshParams, *, progress: bool = False
     lbg, ubg = constraint_bounds(ms.kinds, sv)
     p = np.concatenate([path_parameters(lim, scenario.robot, sv, params), mesh])
     t0 = time.perf_counter()
-    sol = nlp(x0=_guess(scenario, ms, mesh, T0), lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg, p=p)
+    with solver_interruptible():
+        sol = nlp(x0=_guess(scenario, ms, mesh, T0), lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg, p=p)
     elapsed = time.perf_counter() - t0
     stats = nlp.stats()
     status, iters = str(stats.get("return_status", "unknown")), int(stats.get("iter_count", 0))
