@@ -261,10 +261,23 @@ def test_bad_input_is_one_sentence_and_exit_2_with_nothing_written(tmp_path, run
     measured_csv(tmp_path / "meas.csv", pose)
     short = np.loadtxt(tmp_path / "meas.csv", delimiter=",", skiprows=1)[:150]  # 2.5 s: ends before the move does
     np.savetxt(tmp_path / "short.csv", short, delimiter=",", header="t_s,height_mm", comments="")
+    meas = np.loadtxt(tmp_path / "meas.csv", delimiter=",", skiprows=1)
+    # a constant record (NaN scores and invalid JSON before) and one whose time column is in milliseconds (it said the
+    # 11990 s record was "too short to align")
+    np.savetxt(tmp_path / "flat.csv", np.c_[meas[:, 0], 0 * meas[:, 1] + 2], delimiter=",", header="t_s,height_mm")
+    np.savetxt(tmp_path / "ms.csv", np.c_[1000 * meas[:, 0], meas[:, 1]], delimiter=",", header="t_ms,height_mm")
     out = tmp_path / "out.csv"
     params_out = tmp_path / "out.json"  # identify writes a parameter JSON
     radius = ("--container-radius-m", 0.05)
     cases = [
+        (
+            ("validate", "--trajectory", good, "--measured", tmp_path / "flat.csv", "--params", params, *radius),
+            "constant",
+        ),
+        (
+            ("validate", "--trajectory", good, "--measured", tmp_path / "ms.csv", "--params", params, *radius),
+            "milliseconds",
+        ),
         (("predict", tmp_path / "badq.csv", "-o", out, "--params", params, *radius), "not 1"),
         (("predict", tmp_path / "badt.csv", "-o", out, "--params", params, *radius), "does not increase"),
         (("predict", good, "-o", out, "--params", params), "radius"),

@@ -49,9 +49,11 @@ MIN_SAMPLES_PER_PERIOD = 4.0
 def check_sampling(sig: Signal, f_range_hz: tuple[float, float]) -> None:
     """Refuse a signal sampled too slowly for the searched band, the usual sign of a time column not in seconds."""
     if sig.rate_hz < MIN_SAMPLES_PER_PERIOD * f_range_hz[0]:
+        lo, hi = f_range_hz
+        band = f"{lo:g} Hz" if lo == hi else f"{lo:g}-{hi:g} Hz"
         raise UserError(
             f"{sig.source}: the samples are {1 / sig.rate_hz:.4g} time units apart, too coarse for a mode in "
-            f"{f_range_hz[0]:g}-{f_range_hz[1]:g} Hz; the time column must be in seconds (is it in milliseconds?)."
+            f"{band}; the time column must be in seconds (is it in milliseconds?)."
         )
 
 

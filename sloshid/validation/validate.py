@@ -17,6 +17,7 @@ import numpy as np
 from sloshid.core.errors import SettingError, UserError
 from sloshid.core.tables import to_pandas
 from sloshid.identification.signals import Signal
+from sloshid.identification.stage import check_sampling
 from sloshid.model.pose import PoseLog
 from sloshid.validation.predict import LiquidModel, predict
 from sloshid.validation.scoring import LEAD_IN_S, Alignment, PhaseScore, align, baseline, score
@@ -113,6 +114,11 @@ class ValidationRun:
 
 def validate_run(pose: PoseLog, sig: Signal, model: LiquidModel, name: str = "") -> ValidationRun:
     """Predict the move, align by cross-correlation over it, subtract the lead-in baseline, score per phase."""
+    if np.ptp(sig.value) == 0:  # no correlation to align by, scores of 0 / 0
+        raise UserError(
+            f"{sig.source}: '{sig.label}' is constant, so there is no slosh to compare the prediction with."
+        )
+    check_sampling(sig, (model.params.f_hz, model.params.f_hz))
     kind = measured_kind(sig, model)
     y_all = measured_magnitude(sig, kind)
     resp = predict(pose, model, settle_s=float(sig.t_s[-1] - sig.t_s[0]) + 1.0, rtol=FIT_RTOL)
