@@ -279,6 +279,19 @@ def test_settings_errors_name_what_the_user_typed(tmp_path, run_cli, decay_csv):
     assert "[identify].mass_kg must be a positive number" in err and "--mass" not in err
 
 
+def test_a_pipelines_compare_table_is_checked_before_any_stage_runs(tmp_path, run_cli):
+    # only the compare stage reads the scenario's [compare] table: a bad one failed the run after plan had solved
+    sc = tmp_path / "s.toml"
+    sc.write_text((ROOT / "data" / "scenarios" / "paper_1d.toml").read_text() + "\n[compare]\nmethods = []\n")
+    pipe = tmp_path / "p.toml"
+    pipe.write_text(
+        f'[plan]\nscenario = "{ROOT / "data" / "scenarios" / "paper_1d.toml"}"\n[compare]\nscenario = "{sc}"\n'
+    )
+    code, _, err = run_cli("run", pipe, "--output-dir", tmp_path / "runs")
+    _one_sentence(code, err)
+    assert "[compare].methods is empty" in err and not (tmp_path / "runs").exists()
+
+
 @pytest.mark.parametrize(
     "edit, message",
     [

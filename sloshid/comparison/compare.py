@@ -250,14 +250,21 @@ def compare_scenario(
     return compare(replace(from_scenario(scenario, params, f_interval_hz), plan=plan), progress=progress)
 
 
-def from_scenario(scenario: Any, params: SloshParams, f_interval_hz: tuple[float, float] | None = None) -> CompareInput:
-    """The comparison's input from a loaded sloshid.planning.scenario.Scenario (and the identified frequency
-    interval when the liquid was identified); the [compare] table is validated here."""
+def compare_settings(scenario: Any) -> CompareSettings:
+    """The scenario's [compare] table, validated (UserError naming the key); a [path] scenario's default methods are
+    the path methods."""
     from sloshid.core.settings import from_dict
 
     settings = from_dict(CompareSettings, scenario.compare, "[compare]")
     if getattr(scenario, "path", None) is not None and "methods" not in scenario.compare:
         settings = replace(settings, methods=list(PATH_METHODS))
+    return settings
+
+
+def from_scenario(scenario: Any, params: SloshParams, f_interval_hz: tuple[float, float] | None = None) -> CompareInput:
+    """The comparison's input from a loaded sloshid.planning.scenario.Scenario (and the identified frequency
+    interval when the liquid was identified); the [compare] table is validated here."""
+    settings = compare_settings(scenario)
     lim = scenario.limits
     task = MoveTask(tuple(tuple(map(float, p)) for p in scenario.waypoints), tuple(lim.acc_max), tuple(lim.vel_max))
     limits = MoveLimits(

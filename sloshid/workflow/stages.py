@@ -7,7 +7,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from sloshid.comparison.compare import compare_scenario
+from sloshid.comparison.compare import compare_scenario, compare_settings
 from sloshid.core.atomic import atomic_path, write_json
 from sloshid.core.errors import UserError
 from sloshid.core.parallel import parallel_map
@@ -80,6 +80,11 @@ def _check_track(opts: TrackOptions) -> None:
 def _check_scenario(opts: PlanOptions | CompareOptions) -> None:
     """The scenario file is a valid scenario (loading it validates every table)."""
     load_scenario(opts.scenario)
+
+
+def _check_compare(opts: CompareOptions) -> None:
+    """The scenario is valid and so is its [compare] table, which only the compare stage reads."""
+    compare_settings(load_scenario(opts.scenario))
 
 
 def run_identify(opts: IdentifyOptions, ctx: StageContext) -> dict[str, Any]:
@@ -205,7 +210,7 @@ COMPARE = Stage(
     run_compare,
     input_files=lambda o: [o.scenario],
     needs=_compare_needs,
-    check=_check_scenario,
+    check=_check_compare,
 )
 
 REGISTRY: dict[str, Stage] = {"track": TRACK, "identify": IDENTIFY, "plan": PLAN, "compare": COMPARE}
