@@ -109,3 +109,25 @@ def test_progress_bar_is_drawn_on_a_terminal_only_when_asked(tmp_path, monkeypat
         err = stderr_as(terminal=True)
         read_table(p, progress=progress)
         assert ("read long.csv" in err.getvalue()) is progress
+
+
+def test_comment_lines_are_skipped_and_a_commented_header_is_read(tmp_path, small_chunks):
+    # a DAQ's notes above the header, a note inside the data (past a chunk border), and NumPy's savetxt header
+    # '# t_s;a;b;angle_deg': comments were read as the header or as data ("has only one column")
+    rows = np.random.default_rng(2).normal(size=(2500, 4))
+    p = tmp_path / "c.csv"
+    write_rows(p, rows)
+    lines = p.read_text().splitlines()
+    lines.insert(1500, "# operator paused here")
+    p.write_text("# logged by DAQ v2\n# fs = 100 Hz\n" + "\n".join(lines) + "\n")
+    table = read_table(p)
+    assert table.header == ["t_s", "a", "b", "angle_deg"]
+    np.testing.assert_allclose(table.data, rows, rtol=1e-8)
+    saved = tmp_path / "saved.csv"
+    np.savetxt(saved, rows, delimiter=";", header="t_s;a;b;angle_deg")
+    table = read_table(saved)
+    assert table.header == ["t_s", "a", "b", "angle_deg"]
+    np.testing.assert_allclose(table.data, rows)
+    (tmp_path / "notes.csv").write_text("# nothing but notes\n")
+    with pytest.raises(UserError, match="only comment lines"):
+        read_table(tmp_path / "notes.csv")

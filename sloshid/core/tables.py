@@ -79,7 +79,9 @@ def read_table(p: Path, pick: Pick | None = None, progress: bool = False) -> Tab
     """Numeric columns of a CSV (`,` `;` tab or whitespace, sniffed; header optional) read in chunks by NumPy's C
     parser, so that a million rows take seconds and little memory; `pick` keeps only the columns it names.
 
-    A cell that is not a number, or a row with another number of cells, is refused with its line number."""
+    A cell that is not a number, or a row with another number of cells, is refused with its line number. Lines that
+    start with `#` are comments (a logger's notes); the last one before headerless data is its header when it names
+    as many columns (NumPy's savetxt writes the header so)."""
     bar = tqdm(
         total=p.stat().st_size,
         unit="B",
@@ -94,10 +96,15 @@ def read_table(p: Path, pick: Pick | None = None, progress: bool = False) -> Tab
         first_line, lines = next(chunks, (1, []))
         if not any(line.strip() for line in lines):
             raise UserError(f"{p} is empty.")
-        delimiter = _delimiter(lines[:200])
-        first_row = next(cells for line in lines if (cells := _split([line], delimiter)[0]))
+        body = [line for line in lines if not _comment(line)]
+        if not any(line.strip() for line in body):
+            raise UserError(f"{p} holds only comment lines (starting with #), no data.")
+        delimiter = _delimiter(body[:200])
+        first_row = next(cells for line in body if (cells := _split([line], delimiter)[0]))
         header = None if all(_is_number(c) for c in first_row if c) else first_row
-        data_lines = _data_lines(lines, first_line, header is not None)
+        if header is None:
+            header = _commented_header(lines, delimiter, len(first_row))
+        data_lines = _data_lines(lines, first_line, header is not None and header is first_row)
         ncols = len(_split([data_lines[0][1]], delimiter)[0]) if data_lines else len(first_row)
         cols = tuple(pick(header, ncols)) if pick is not None else tuple(range(ncols))
         blocks = [_parse(data_lines, delimiter, cols, ncols, p, header)]
@@ -142,9 +149,29 @@ def _split(lines: Sequence[str], delimiter: str) -> list[list[str]]:
     return [[c.strip() for c in row] for row in csv.reader(lines, delimiter=delimiter)]
 
 
+def _comment(line: str) -> bool:
+    """A comment line: its first non-blank character is `#`."""
+    return line.lstrip().startswith("#")
+
+
+def _commented_header(lines: list[str], delimiter: str, ncols: int) -> list[str] | None:
+    """The last comment line before the first data line as column names, when it has `ncols` cells, not all
+    numbers (`# t_s,angle_deg`, as NumPy's savetxt writes a header); else None."""
+    last = None
+    for line in lines:
+        if _comment(line):
+            last = line
+        elif line.strip():
+            break
+    if last is None:
+        return None
+    cells = _split([last.lstrip()[1:].strip()], delimiter)[0]
+    return cells if len(cells) == ncols and not all(_is_number(c) for c in cells if c) else None
+
+
 def _data_lines(lines: list[str], first_line: int, skip_header: bool) -> list[tuple[int, str]]:
-    """(line number, text) of the non-blank lines, without the header line when it is among them."""
-    numbered = [(k, line) for k, line in enumerate(lines, start=first_line) if line.strip()]
+    """(line number, text) of the non-blank, non-comment lines, without the header line when it is among them."""
+    numbered = [(k, line) for k, line in enumerate(lines, start=first_line) if line.strip() and not _comment(line)]
     return numbered[1:] if skip_header else numbered
 
 
