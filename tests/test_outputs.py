@@ -266,6 +266,11 @@ def test_the_same_file_twice_is_refused(tmp_path, run_cli, decay_csv):
     code, _, err = run_cli("identify", decay_csv, decay_csv, "-o", tmp_path / "p.json")
     _one_sentence(code, err)
     assert "more than once" in err
+    copy = tmp_path / "copy.csv"  # the same recording under another name narrowed every interval by sqrt(2)
+    copy.write_bytes(decay_csv.read_bytes())
+    code, _, err = run_cli("identify", decay_csv, copy, "-o", tmp_path / "p.json")
+    _one_sentence(code, err)
+    assert "holds the same samples as" in err and not (tmp_path / "p.json").exists()
 
 
 def test_settings_errors_name_what_the_user_typed(tmp_path, run_cli, decay_csv):

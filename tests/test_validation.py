@@ -304,6 +304,10 @@ def test_bad_input_is_one_sentence_and_exit_2_with_nothing_written(tmp_path, run
             "one --trajectory per",
         ),
         (("identify", tmp_path / "meas.csv", "-o", params_out, "--trajectory", good), "radius"),
+        (
+            ("identify", tmp_path / "meas.csv", "-o", params_out, "--axis-offset-m", 0.05),
+            "applies only with --trajectory",
+        ),
     ]
     for args, phrase in cases:
         code, _, err = run_cli(*args)

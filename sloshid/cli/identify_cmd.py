@@ -8,6 +8,10 @@ from __future__ import annotations
 import argparse
 import sys
 
+from sloshid.core.errors import UserError
+
+TRAJECTORY_ONLY = {"--axis-offset-m": "axis_offset_m", "--pose-columns": "pose_columns", "--smooth-s": "smooth_s"}
+"""Options of input-output identification, refused without --trajectory (they would be ignored)."""
 FLAGS = {"mass_kg": "--mass", "window_s": "--window", "f_range_hz": "--f-range", "min_fit_percent": "--min-fit"}
 """Library setting -> option name, where they differ (errors name the option the user typed)."""
 
@@ -53,8 +57,18 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="PERCENT",
         help="NRMSE fit %% below which the verdict is 'uncertain'",
     )
-    parser.add_argument("--time-col", metavar="NAME|INDEX", help="CSV time column in seconds (name or 0-based index)")
-    parser.add_argument("--value-col", metavar="NAME|INDEX", help="CSV signal column (name or 0-based index)")
+    parser.add_argument(
+        "--time-col",
+        metavar="NAME|INDEX",
+        help="CSV time column in seconds (name or 0-based index; default: the column named t_s, time_s, t, time, "
+        "times or timestamp, else the first)",
+    )
+    parser.add_argument(
+        "--value-col",
+        metavar="NAME|INDEX",
+        help="CSV signal column (name or 0-based index; default: a track CSV's angle_deg, the second of two "
+        "columns; needed for more)",
+    )
     parser.add_argument("--time-var", metavar="NAME", help=".mat variable holding the time in seconds")
     parser.add_argument("--value-var", metavar="NAME", help=".mat variable holding the signal")
     parser.add_argument("--container-radius-m", type=float, metavar="M", help="cylinder radius in m (geometric prior)")
@@ -66,9 +80,24 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="input-output identification: the trajectory or pose log that caused each signal (once per signal, same "
         "order); fits f, zeta and the input gain to the whole records (see `sloshid predict` for the pose options)",
     )
-    parser.add_argument("--axis-offset-m", type=float, default=0.0, metavar="M", help="with --trajectory: pivot offset")
-    parser.add_argument("--pose-columns", metavar="NAMES", help="with --trajectory: a headerless log's column names")
-    parser.add_argument("--smooth-s", type=float, default=0.1, metavar="S", help="with --trajectory: smoothing window")
+    parser.add_argument(
+        "--axis-offset-m",
+        type=float,
+        metavar="M",
+        help="with --trajectory: distance in m along the container axis from the logged point up to the pendulum "
+        "pivot (about the liquid surface at rest; default 0)",
+    )
+    parser.add_argument(
+        "--pose-columns",
+        metavar="NAMES",
+        help="with --trajectory: a headerless log's column names in order (see `sloshid predict --help`)",
+    )
+    parser.add_argument(
+        "--smooth-s",
+        type=float,
+        metavar="S",
+        help="with --trajectory: Savitzky-Golay window in s for the pose log's accelerations (default 0.1)",
+    )
 
 
 def run(args: argparse.Namespace) -> int:
@@ -88,6 +117,10 @@ def run(args: argparse.Namespace) -> int:
         container_radius_m=args.container_radius_m if args.trajectory is None or args.fill_height_m else None,
         fill_height_m=args.fill_height_m,
     )
+    given = [f for f, v in TRAJECTORY_ONLY.items() if getattr(args, v) is not None]
+    if args.trajectory is None and given:
+        verb = "applies" if len(given) == 1 else "apply"
+        raise UserError(f"{' and '.join(given)} {verb} only with --trajectory (input-output identification).")
     outputs = Outputs([*args.signals, *(args.trajectory or [])])
     output = outputs.file(args.output, "-o", (".json",))
     report_dir = outputs.report_dir(args.report, "--report") if args.report else None
@@ -97,6 +130,7 @@ def run(args: argparse.Namespace) -> int:
         print(f"sloshid: warning: {text}", file=sys.stderr)
 
     if args.trajectory is not None:  # input-output: the whole record, forced response and free decay
+        from sloshid.model.pose import SMOOTH_S
         from sloshid.validation.iofit import fit_io_files
 
         signals = [to_signal(p, columns, progress=True) for p in args.signals]
@@ -108,8 +142,8 @@ def run(args: argparse.Namespace) -> int:
             signals,
             settings,
             args.container_radius_m,
-            args.axis_offset_m,
-            args.smooth_s,
+            args.axis_offset_m or 0.0,
+            SMOOTH_S if args.smooth_s is None else args.smooth_s,
             args.pose_columns,
         )
     else:

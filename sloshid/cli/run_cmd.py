@@ -19,7 +19,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of `sloshid run`."""
     parser.add_argument("pipeline", type=Path, metavar="PIPELINE.toml", help="pipeline file (see pipelines/)")
     parser.add_argument(
-        "--output-dir", type=Path, metavar="DIR", help="write runs under DIR/<pipeline>/ instead of [run].output_dir"
+        "--output-dir",
+        type=Path,
+        metavar="DIR",
+        help="write runs under DIR/<pipeline>/ instead of [run].output_dir (default: reports, relative to the current "
+        "folder)",
     )
     parser.add_argument("--quiet", action="store_true", help="print only the path of index.html")
 

@@ -7,6 +7,8 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
+import numpy as np
+
 from sloshid.core.errors import UserError
 from sloshid.identification.estimator import Identifier, IdentResult, IdentSettings
 from sloshid.identification.signals import Signal, TracedAngles, load_signal, signal_from_track
@@ -66,7 +68,8 @@ def identify_sources(
 ) -> IdentResult:
     """Identify the sloshing mode jointly over every source (shared frequency and damping, own amplitude each).
 
-    The same file named twice is refused: it would count its evidence twice and narrow every interval by sqrt(2).
+    The same file named twice, or a copy of it, is refused: it would count its evidence twice and narrow every interval
+    by sqrt(2).
     `warn` receives what the user should know about the inputs (dropped frames, uneven timestamps); `progress` shows
     bars while long files are read and fitted."""
     files = [Path(s).resolve() for s in sources if isinstance(s, (str, Path))]
@@ -76,6 +79,10 @@ def identify_sources(
     if not sources:
         raise UserError("nothing to identify: give at least one signal.")
     signals = [to_signal(s, columns, progress) for s in sources]
+    for i, a in enumerate(signals):  # a copy under another name counts the same evidence twice as well
+        for b in signals[:i]:
+            if np.array_equal(a.t_s, b.t_s) and np.array_equal(a.value, b.value):
+                raise UserError(f"{a.source} holds the same samples as {b.source}; each recording may count only once.")
     settings = settings or IdentSettings()
     for sig in signals:
         check_sampling(sig, settings.f_range_hz)
