@@ -247,10 +247,18 @@ def test_files_that_are_not_what_identify_reads(tmp_path, run_cli, content, mess
     assert message in err
 
 
-def test_a_video_given_to_identify_points_to_track(tmp_path, run_cli):
+def test_a_video_given_to_identify_points_to_track(tmp_path, run_cli, decay_csv):
     code, _, err = run_cli("identify", SAMPLE, "-o", tmp_path / "p.json")
     _one_sentence(code, err)
     assert "run `sloshid track` on it first" in err
+    # a video given as predict's pose log was read as text ("not UTF-8 text")
+    params = tmp_path / "p.json"
+    assert run_cli("identify", decay_csv, "-o", params)[0] == 0
+    code, _, err = run_cli(
+        "predict", SAMPLE, "-o", tmp_path / "x.csv", "--params", params, "--container-radius-m", 0.05
+    )
+    _one_sentence(code, err)
+    assert "is a video, not a table" in err and not (tmp_path / "x.csv").exists()
 
 
 def test_a_matlab_73_file_says_hdf5_and_how_to_resave(tmp_path, run_cli):
@@ -538,3 +546,20 @@ def test_sigkill_of_sloshid_ends_its_workers_at_once(tmp_path):
         time.sleep(0.01)
     assert not [pid for pid in workers if _alive(pid)]
     assert not (tmp_path / "a.csv").exists()
+
+
+def test_a_key_in_the_wrong_case_and_a_bad_solver_number_are_named(tmp_path, run_cli, decay_csv):
+    text = (ROOT / "data" / "scenarios" / "paper_1d.toml").read_text()
+    for edit, message in [
+        (("N = 100", "n = 100"), "unknown key '[solver].n' (did you mean 'N'?)"),
+        (("[solver]", "[solver]\ntol = -1"), "[solver].tol must be positive, got -1"),
+    ]:
+        assert edit[0] in text
+        sc = tmp_path / "s.toml"
+        sc.write_text(text.replace(edit[0], edit[1], 1))
+        code, _, err = run_cli("plan", sc, "-o", tmp_path / "t.csv")
+        _one_sentence(code, err)
+        assert message in err
+    code, _, err = run_cli("identify", decay_csv, "-o", tmp_path / "p.json", "--window", "nan,30")
+    _one_sentence(code, err)
+    assert "--window must be two numbers of seconds" in err

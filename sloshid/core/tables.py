@@ -75,6 +75,10 @@ class Table:
     """Float matrix, one row per data line; blank, nan and inf cells are NaN/inf."""
 
 
+VIDEO_LIKE = (".mp4", ".mov", ".m4v", ".avi", ".mkv", ".webm")
+"""Suffixes that mark a video given where a table (a signal, a pose log) was expected."""
+
+
 def read_table(p: Path, pick: Pick | None = None, progress: bool = False) -> Table:
     """Numeric columns of a CSV (`,` `;` tab or whitespace, sniffed; header optional) read in chunks by NumPy's C
     parser, so that a million rows take seconds and little memory; `pick` keeps only the columns it names.
@@ -82,6 +86,8 @@ def read_table(p: Path, pick: Pick | None = None, progress: bool = False) -> Tab
     A cell that is not a number, or a row with another number of cells, is refused with its line number. Lines that
     start with `#` are comments (a logger's notes); the last one before headerless data is its header when it names
     as many columns (NumPy's savetxt writes the header so)."""
+    if p.suffix.lower() in VIDEO_LIKE:
+        raise UserError(f"{p} is a video, not a table; `sloshid track` measures a video into a CSV.")
     bar = tqdm(
         total=p.stat().st_size,
         unit="B",

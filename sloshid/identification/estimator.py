@@ -84,6 +84,8 @@ class IdentSettings:
     def __post_init__(self) -> None:
         if self.mass_kg is not None and not (math.isfinite(self.mass_kg) and self.mass_kg > 0):
             raise SettingError("mass_kg", f"{{name}} must be a positive number of kg, got {self.mass_kg!r}.")
+        if self.window_s is not None and not all(map(math.isfinite, self.window_s)):
+            raise SettingError("window_s", f"{{name}} must be two numbers of seconds, got {self.window_s!r}.")
         if self.window_s is not None and not self.window_s[0] < self.window_s[1]:
             w0, w1 = self.window_s
             raise SettingError("window_s", f"{{name}} start {w0:g} s must be before its end {w1:g} s.")

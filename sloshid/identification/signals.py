@@ -9,7 +9,7 @@ from typing import Protocol
 import numpy as np
 
 from sloshid.core.errors import SettingError, UserError
-from sloshid.core.tables import read_table
+from sloshid.core.tables import VIDEO_LIKE, read_table
 
 TRACKER_COLUMNS = ("t_s", "angle_deg", "valid")
 """Columns that mark a `sloshid track` CSV; its value is `angle_deg` on rows with valid == 1."""
@@ -26,8 +26,6 @@ MAT_DEFAULTS = {"slosh_times": ("slosh_heights", "mm")}
 UNIT_SUFFIXES = {"_deg": "deg", "_rad": "rad", "_mm": "mm", "_m": "m", "_px": "px", "_n": "N"}
 """Units read off a column name's suffix (design.md: names carry their unit)."""
 
-VIDEO_LIKE = (".mp4", ".mov", ".m4v", ".avi", ".mkv", ".webm")
-"""Suffixes that mark a video given where a signal was expected."""
 
 MAX_BAD_FRACTION = 0.2
 """Above this fraction of NaN/inf samples a signal is refused instead of cleaned."""
@@ -170,7 +168,7 @@ def load_signal(
     if p.suffix.lower() == ".mat":
         return _load_mat(p, time_var, value_var)
     if p.suffix.lower() in VIDEO_LIKE:
-        raise UserError(f"{p} is a video; run `sloshid track` on it first and identify the CSV it writes.")
+        raise UserError(f"{p} is a video; run `sloshid track` on it first and use the CSV it writes.")
     return _load_csv(p, time_col, value_col, progress)
 
 

@@ -207,8 +207,9 @@ class SolverSettings:
             raise UserError("[solver].robust_omega_factors must be positive numbers.")
         if not self.clearance_margin_m >= 0:
             raise UserError(f"[solver].clearance_margin_m must be zero or positive, got {self.clearance_margin_m}.")
-        if not self.robust_max_rel_deg > 0 or not self.tol > 0 or not self.max_iter > 0:
-            raise UserError("[solver].robust_max_rel_deg, tol and max_iter must be positive.")
+        for name in ("robust_max_rel_deg", "tol", "max_iter"):
+            if not getattr(self, name) > 0:
+                raise UserError(f"[solver].{name} must be positive, got {getattr(self, name)!r}.")
 
 
 @dataclass(frozen=True)
