@@ -18,13 +18,27 @@ from sloshid.core.errors import UserError
 
 
 def table_to_csv(columns: dict[str, np.ndarray]) -> str:
-    """CSV text of equally long columns: whole numbers without decimals, floats with 9 significant digits."""
+    """CSV text of equally long columns: whole numbers without decimals, floats with 9 significant digits, and the
+    time column `t_s` in the shortest form that reads back to the same bits: analyses compare timestamps exactly (key
+    frames, window ends), so `identify` of a written track CSV equals `identify` of the TrackResult it came from."""
     names = list(columns)
     cols = [np.asarray(columns[n]) for n in names]
-    fmt = ["%d" if np.issubdtype(c.dtype, np.integer) or c.dtype == bool else "%.9g" for c in cols]
+    fmt = [
+        "%d".__mod__
+        if np.issubdtype(c.dtype, np.integer) or c.dtype == bool
+        else _exact
+        if n == "t_s"
+        else "%.9g".__mod__
+        for n, c in zip(names, cols)
+    ]
     lines = [",".join(names)]
-    lines.extend(",".join(f % v for f, v in zip(fmt, row)) for row in zip(*cols))
+    lines.extend(",".join(f(v) for f, v in zip(fmt, row)) for row in zip(*cols))
     return "\n".join(lines) + "\n"
+
+
+def _exact(value: float) -> str:
+    """The shortest decimal that reads back as this float (Python's repr of it)."""
+    return repr(float(value))
 
 
 def write_csv(path: str | Path, columns: dict[str, np.ndarray]) -> None:
