@@ -239,11 +239,21 @@ def test_validate_scores_the_truth_model_near_perfect(tmp_path, run_cli):
         tmp_path / "rep",
     )
     assert code == 0, err
-    run = json.loads(out[out.index("{") :])["runs"][0]
+    doc = json.loads(out[out.index("{") :])
+    run = doc["runs"][0]
     assert run["lag_s"] == pytest.approx(LAG, abs=1 / 60)
     assert run["scores"]["all"]["fit_percent"] > 90
     assert abs(run["scores"]["during"]["peak_error_percent"]) < 3
     assert (tmp_path / "rep" / "index.html").stat().st_size > 10_000
+    assert doc["warnings"] == [] and "warning" not in err
+    # a record of noise instead of this move got a table (r 0.2, a lag anywhere) and no word that it did not align
+    meas = np.loadtxt(tmp_path / "meas.csv", delimiter=",", skiprows=1)
+    noise = np.random.default_rng(5).normal(0, 1, meas.shape[0])
+    np.savetxt(tmp_path / "noise.csv", np.c_[meas[:, 0], noise], delimiter=",", header="t_s,height_mm", comments="")
+    code, out, err = run_cli(
+        "validate", "--trajectory", tmp_path / "log.csv", "--measured", tmp_path / "noise.csv", "--params", params
+    )
+    assert code == 0 and "correlates weakly with the measurement" in err
 
 
 def test_bad_input_is_one_sentence_and_exit_2_with_nothing_written(tmp_path, run_cli):

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 
 from sloshid.cli.predict_cmd import add_geometry_arguments
 from sloshid.core.errors import UserError
@@ -46,6 +47,8 @@ def run(args: argparse.Namespace) -> int:
         )
     poses = [load_pose_log(t, args.pose_columns) for t in args.trajectory]
     result = validate(poses, [load_signal(m) for m in args.measured], model)
+    for warning in result.warnings:
+        print(f"sloshid: warning: {warning}", file=sys.stderr)
     if report_dir is not None:
         print(f"report written to {result.report(report_dir)}")
     print(json.dumps(result.to_dict(), indent=2) if args.json else result.summary())

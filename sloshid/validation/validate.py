@@ -27,6 +27,11 @@ FIT_RTOL = 1e-7
 """Integrator tolerance for validation: within 1e-4 deg of the 1e-9 default on the shared runs, 3x faster."""
 
 
+WEAK_ALIGNMENT = 0.5
+"""A run whose best-lag Pearson correlation is below this draws a warning: the shared real runs align at 0.9 and more,
+white noise against a move at about 0.2."""
+
+
 def measured_kind(sig: Signal, model: LiquidModel) -> str:
     """'wall_height_mm' for a height in mm (needs the radius), 'rel_angle_deg' for an angle; else one sentence."""
     if sig.unit == "mm":
@@ -223,9 +228,21 @@ class Validation:
         """The score table with the median row (what `sloshid validate` prints)."""
         return table_text(self.runs)
 
+    @property
+    def warnings(self) -> list[str]:
+        """Runs whose prediction correlates weakly with the measurement at the best lag (WEAK_ALIGNMENT): the lag, and
+        every score after it, may be wrong (a measurement of another move, or noise)."""
+        return [
+            f"run {r.name}: the prediction correlates weakly with the measurement (r = {r.alignment.correlation:.2f} "
+            f"at a lag of {r.alignment.lag_s:.2f} s), so the alignment and the scores may be wrong; check that the "
+            "measurement records this move."
+            for r in self.runs
+            if r.alignment.correlation < WEAK_ALIGNMENT
+        ]
+
     def to_dict(self) -> dict[str, Any]:
-        """The `--json` content: every run's scores and the medians."""
-        return {"runs": [r.to_dict() for r in self.runs], "medians": medians(self.runs)}
+        """The `--json` content: every run's scores, the medians and the warnings."""
+        return {"runs": [r.to_dict() for r in self.runs], "medians": medians(self.runs), "warnings": self.warnings}
 
     def plot(self, ax=None):
         """Measured and predicted of the first run (with its residual when no axes are given); returns the figure."""
