@@ -23,7 +23,14 @@ from sloshid.core.tables import to_pandas
 from sloshid.model.conventions import steady_tilt
 from sloshid.model.pendulum import SloshParams
 from sloshid.model.simulate import LiquidResponse, simulate_liquid
-from sloshid.model.trajectory import EXPORT_RATE_HZ, LimitUsage, Trajectory, check_limits, check_move_limits
+from sloshid.model.trajectory import (
+    EXPORT_RATE_HZ,
+    LimitUsage,
+    Trajectory,
+    check_limits,
+    check_move_limits,
+    tilt_profiles,
+)
 from sloshid.planning.ocp import (
     OK_STATUSES,
     SegmentResult,
@@ -95,19 +102,26 @@ class PlanResult:
         """True for free moves, and for [path] plans within the path tolerance."""
         return self.max_path_deviation_m is None or self.max_path_deviation_m <= self.path_tolerance_m
 
+    def segment_of_samples(self) -> np.ndarray:
+        """The segment of every 1 kHz sample (each segment's samples follow the last one's)."""
+        return segment_of_samples(self.segments, len(self.trajectory.t_s))
+
     @property
     def max_tilt_deg(self) -> float:
         """Largest tilt of the container's z-axis from vertical."""
-        return float(np.degrees(np.arccos(np.clip(self.trajectory.z_axis[:, 2], -1, 1))).max())
+        return float(tilt_profiles(self.trajectory)[0].max())
 
     @property
     def max_tilt_rate_deg_s(self) -> float:
         """Largest angular speed of the container."""
-        return float(np.degrees(np.linalg.norm(self.trajectory.omega_rad_s, axis=1)).max())
+        return float(tilt_profiles(self.trajectory)[1].max())
 
     def to_dict(self) -> dict:
-        """The `--json` content: timing, solver status, tilt, limits, verification, per-segment figures."""
+        """The `--json` content: timing, solver status, tilt, limits, verification, per-segment figures (the tilt's
+        on the 1 kHz samples of each segment, as the whole move's)."""
         v = self.verification
+        tilt, rate = tilt_profiles(self.trajectory)
+        seg_of = self.segment_of_samples()
         return {
             "T_s": self.T_s,
             "solve_time_s": self.solve_time_s,
@@ -146,10 +160,10 @@ class PlanResult:
                     "iterations": s.iterations,
                     "solve_time_s": s.solve_time_s,
                     "model": "1-D" if s.axis is not None else "3-D",
-                    "max_tilt_deg": float(np.degrees(np.abs(s.angles).max())),
-                    "max_tilt_rate_deg_s": float(np.degrees(np.abs(s.rates).max())),
+                    "max_tilt_deg": float(tilt[seg_of == k].max()),
+                    "max_tilt_rate_deg_s": float(rate[seg_of == k].max()),
                 }
-                for s in self.segments
+                for k, s in enumerate(self.segments)
             ],
         }
 
@@ -501,11 +515,16 @@ def _assemble(scenario, params, ordered, traj, clearance, robust, t_wall: float)
     )
 
 
+def segment_of_samples(segments: Sequence[SegmentResult], n: int) -> np.ndarray:
+    """The segment index of each of `n` 1 kHz samples of the joined segments (as sample_segments joins them)."""
+    edges = np.cumsum([math.ceil(s.T_s * EXPORT_RATE_HZ - 1e-9) for s in segments])
+    return np.searchsorted(edges, np.arange(n), side="left").clip(0, len(segments) - 1)
+
+
 def _clearance(scenario: Scenario, segments: list[SegmentResult], traj: Trajectory) -> tuple[np.ndarray, np.ndarray]:
     """Smallest clearance (m) of each 1 kHz sample to any inflated obstacle, and the segment of each sample."""
     n = len(traj.t_s)
-    edges = np.cumsum([math.ceil(s.T_s * EXPORT_RATE_HZ - 1e-9) for s in segments])
-    seg_of = np.searchsorted(edges, np.arange(n), side="left").clip(0, len(segments) - 1)
+    seg_of = segment_of_samples(segments, n)
     if not scenario.obstacles:
         return np.full(n, np.inf), seg_of
     clear = np.min([o.clearance(traj.pos_m, scenario.container_radius_m) for o in scenario.obstacles], axis=0)
