@@ -37,6 +37,22 @@ def die_with_parent(parent_pid: int) -> None:
 
 
 @contextlib.contextmanager
+def _stop_signals_handled_by(handler: Callable[[int, object], None]) -> Iterator[None]:
+    """SIGINT and SIGTERM go to `handler` within the block, and back to the handlers they had after it; left alone
+    outside the main thread, or where a handler set outside Python could not be put back."""
+    wanted = (signal.SIGINT, signal.SIGTERM)
+    if threading.current_thread() is not threading.main_thread() or None in map(signal.getsignal, wanted):
+        yield
+        return
+    previous = {s: signal.signal(s, handler) for s in wanted}
+    try:
+        yield
+    finally:
+        for s, old in previous.items():
+            signal.signal(s, old)
+
+
+@contextlib.contextmanager
 def signals_held() -> Iterator[None]:
     """Hold SIGINT and SIGTERM back until the block ends, then deliver them to the handlers they had (main thread).
 
@@ -44,10 +60,6 @@ def signals_held() -> Iterator[None]:
     thread that `is_alive` does not report or a pool that nothing stops. The handlers are swapped, not the signal
     mask: a masked signal still reaches FFmpeg's own threads, whose C handler makes Python run the handler here
     anyway. A process forked inside the block ends on them, as with no handler (it has not set its own yet)."""
-    wanted = (signal.SIGINT, signal.SIGTERM)
-    if threading.current_thread() is not threading.main_thread() or None in map(signal.getsignal, wanted):
-        yield  # not ours to swap: a handler set outside Python could not be put back
-        return
     caught: list[int] = []
     here = os.getpid()
 
@@ -56,12 +68,10 @@ def signals_held() -> Iterator[None]:
             os._exit(128 + signum)
         caught.append(signum)
 
-    previous = {s: signal.signal(s, hold) for s in wanted}
     try:
-        yield
+        with _stop_signals_handled_by(hold):
+            yield
     finally:
-        for s, handler in previous.items():
-            signal.signal(s, handler)
         for signum in caught:
             signal.raise_signal(signum)
 
@@ -73,22 +83,14 @@ def solver_interruptible() -> Iterator[None]:
     CasADi stops IPOPT on the exception a signal handler raises, but swallows it and reports a failed solve
     (NonIpopt_Exception_Thrown), which a command would blame on the limits; the signal is delivered again to the
     handler it had when the block ends."""
-    wanted = (signal.SIGINT, signal.SIGTERM)
-    if threading.current_thread() is not threading.main_thread() or None in map(signal.getsignal, wanted):
-        yield
-        return
     caught: list[int] = []
 
     def stop(signum: int, frame: object) -> None:
         caught.append(signum)
         raise KeyboardInterrupt  # what makes CasADi end the solve
 
-    previous = {s: signal.signal(s, stop) for s in wanted}
-    try:
+    with _stop_signals_handled_by(stop):
         yield
-    finally:
-        for s, handler in previous.items():
-            signal.signal(s, handler)
     if caught:
         signal.raise_signal(caught[0])
 
