@@ -247,6 +247,14 @@ def test_files_that_are_not_what_identify_reads(tmp_path, run_cli, content, mess
     assert message in err
 
 
+def test_the_time_column_given_as_the_signal_is_named(tmp_path, run_cli, decay_csv):
+    # --value-col 0 fitted the time ramp and said "a fitted decay explains only 100 %"
+    for column in ("0", "t_s"):
+        code, _, err = run_cli("identify", decay_csv, "-o", tmp_path / "p.json", "--value-col", column)
+        _one_sentence(code, err)
+        assert "the time and the signal would be the same column" in err
+
+
 def test_a_video_given_to_identify_points_to_track(tmp_path, run_cli, decay_csv):
     code, _, err = run_cli("identify", SAMPLE, "-o", tmp_path / "p.json")
     _one_sentence(code, err)

@@ -509,10 +509,14 @@ class Identifier:
             if (spec.prominence < MIN_PROMINENCE or not spec.resonant) and (
                 not snr >= NO_MODE_SNR or explained < st.min_fit_percent
             ):
+                weak = (
+                    [f"a fitted decay's amplitude is only {snr:.1f} standard errors"] if not snr >= NO_MODE_SNR else []
+                )
+                if explained < st.min_fit_percent:
+                    weak.append(f"it explains only {explained:.0f} % of the signal")
                 raise UserError(
                     f"{sig.source}: no oscillatory mode found; the PSD shows no resonance standing 10 dB above the "
-                    f"noise in {f_range[0]:g}-{f_range[1]:g} Hz, and a fitted decay explains only "
-                    f"{explained:.0f} % ({snr:.1f} standard errors)."
+                    f"noise in {f_range[0]:g}-{f_range[1]:g} Hz, and {' and '.join(weak)}."
                 )
         if st.window_s is None and any(strong_peaks(sp, st.second_mode_ratio) for sp in spectra):
             # two modes beat, so the first quiet stretch may be a beat's null rather than the fade: now that the decay

@@ -242,6 +242,8 @@ def _load_csv(p: Path, time_col: str | None, value_col: str | None, progress: bo
                 )
         chosen["t"] = _column_index(tcol, header, ncols, p, "time")
         chosen["v"] = _column_index(vcol, header, ncols, p, "value")
+        if chosen["t"] == chosen["v"]:
+            raise UserError(f"{p}: the time and the signal would be the same column ({vcol}); choose the signal's.")
         if is_tracker and header[chosen["v"]] not in WHOLE_TRACKER_COLUMNS:
             chosen["valid"] = header.index("valid")
             if "key_frame" in header:  # written since the tracker reports key frames; older files lack it
