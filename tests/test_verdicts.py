@@ -8,11 +8,13 @@ import json
 import numpy as np
 import pytest
 
+from sloshid.core.errors import UserError
+from sloshid.core.spectrum import welch_spectrum
 from sloshid.identification.decay_window import rough_mode_frequency
 from sloshid.identification.estimator import Identifier
-from sloshid.identification.signals import make_signal
+from sloshid.identification.signals import Signal, make_signal
 from sloshid.model.pendulum import XI_CYLINDER_SECOND, cylinder_first_mode_omega
-from sloshid.synthetic.decays import free_decay, free_decay_signal
+from sloshid.synthetic.decays import free_decay, free_decay_signal, tracker_noise
 
 R_M, H_M = 0.049, 0.078  # the shared measured setup: first mode 3.047 Hz, second azimuthal mode 3.94 Hz
 
@@ -120,3 +122,44 @@ def test_misfit_that_fades_with_the_mode_doubts_the_damping_only():
     assert any("fades with the oscillation" in r for r in res.groups["damping"].reasons)
     coloured = Identifier().fit(free_decay_signal(3.0, 0.02, 60, amplitude=8, rho=0.6, seed=2)).result
     assert coloured.quality == "good", coloured.reasons
+
+
+def _red_record(seed: int, amplitude: float) -> Signal:
+    """A 1-deg ring-down (3 Hz, zeta 0.01, 100 Hz, 15 s) in pure AR(1) noise of 0.23 deg correlated 0.9 per sample:
+    noise whose density rises toward low frequencies, where the broadband median reads it three times too low."""
+    t, y = free_decay(3.0, 0.01, 100, duration_s=15, amplitude=amplitude, noise_std=0.0, seed=seed, phase=0.0)
+    y = y + tracker_noise(np.random.default_rng(100 + seed), t.size, 0.23, 0.9, share=1.0)
+    return make_signal(t, y, "angle_deg", "deg", f"red {seed}")
+
+
+def test_noise_levels_near_the_mode_and_in_the_period_mean():
+    # white noise: both readings agree with the broadband one (within the scatter of a Welch median of a 15 s
+    # record); AR(1) 0.9: the near-mode level finds the true 0.23 deg where the broadband median reads ~0.075
+    t = np.arange(1500) / 100
+    for seed in range(5):
+        ring = np.exp(-0.19 * t) * np.cos(2 * np.pi * 3 * t)
+        white = welch_spectrum(t, ring + tracker_noise(np.random.default_rng(seed), t.size, 0.23, 0.0), (0.5, 30))
+        assert white.noise_near_mode() == pytest.approx(white.noise_std, rel=0.15)
+        assert white.period_mean_noise(3.0) == pytest.approx(0.23 * np.sqrt(3 / 100), rel=0.35)  # 5 bins below f/2
+        red = welch_spectrum(t, ring + tracker_noise(np.random.default_rng(seed), t.size, 0.23, 0.9, 1.0), (0.5, 30))
+        assert red.noise_std < 0.1
+        assert red.noise_near_mode() == pytest.approx(0.23, rel=0.15)
+        assert red.period_mean_noise(3.0) > 2 * 0.23 * np.sqrt(3 / 100)
+
+
+def test_clear_decay_in_correlated_noise_is_identified_and_doubted():
+    # refused before ("driven until 14.9 s"): the noise's slow wander passed for forcing against the broadband level
+    res = Identifier().fit(_red_record(10, 1.0)).result
+    assert res.windows[0].near_mode_noise == pytest.approx(0.23, rel=0.15)
+    assert res.windows[0].t0_s < 1.0  # the ring-down from the start, not the record's noisy tail
+    assert res.parameters["f_hz"].value == pytest.approx(3.0, rel=0.01)  # 0.4 % here; up to 1.2 % over 30 seeds
+    for group in ("frequency", "damping"):
+        assert res.groups[group].quality == "uncertain"
+        assert any("correlated from sample to sample" in r for r in res.groups[group].reasons)
+
+
+@pytest.mark.parametrize("seed", [0, 1, 3, 4])
+def test_correlated_noise_alone_is_still_refused(seed):
+    # the second search against the near-mode level makes no mode out of noise: these records stay refused
+    with pytest.raises(UserError):
+        Identifier().fit(_red_record(seed, 0.0))

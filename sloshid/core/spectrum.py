@@ -15,6 +15,10 @@ MAX_PADDED_NFFT = 1 << 20
 """Zero-padding stops growing at this FFT length (16 MB per segment): a segment this long already resolves a
 bin finer than any mode's width, and padding a million-sample record 16-fold would take gigabytes."""
 
+NEAR_MODE_OCTAVES = 2.0
+"""`Spectrum.noise_near_mode` reads the noise floor this many octaves either side of the mode (its main lobe, a
+quarter of its frequency wide, left out)."""
+
 SECONDARY_MIN_RATIO = 0.02
 """Secondary peaks weaker than this fraction of the dominant peak (-17 dB) are not listed."""
 
@@ -80,6 +84,26 @@ class Spectrum:
     resonant: bool
     """The dominant peak is a true resonance: inside the search band the PSD falls below half of it on both
     sides (red noise or drift only rises toward the band's lower edge)."""
+
+    def noise_near_mode(self) -> float:
+        """Noise standard deviation implied by the median density within NEAR_MODE_OCTAVES of the dominant peak, its
+        main lobe left out (white-noise scaling, as `noise_std`): for noise correlated from sample to sample (red),
+        whose density rises toward the mode and below it, the broadband median reads several times too low."""
+        f0 = self.peak_f_hz
+        span = 2.0**NEAR_MODE_OCTAVES
+        near = (self.f_hz > f0 / span) & (self.f_hz < f0 * span) & (np.abs(self.f_hz - f0) > 0.25 * f0)
+        if not near.any():
+            return self.noise_std
+        return float(np.sqrt(np.median(self.psd[near]) * self.fs_hz / 2))
+
+    def period_mean_noise(self, f_hz: float) -> float:
+        """Standard deviation that noise leaves in a running mean over one period of `f_hz`, from the median density
+        below half that frequency (the mean passes a band of f_hz / 2): white noise's noise_std / sqrt(samples per
+        period), several times more for noise correlated over many samples."""
+        slow = (self.f_hz > 0) & (self.f_hz < f_hz / 2)
+        if not slow.any():
+            return self.noise_std * float(np.sqrt(f_hz / self.fs_hz))
+        return float(np.sqrt(np.median(self.psd[slow]) * f_hz / 2))
 
     def to_dict(self) -> dict:
         """The summary numbers (not the arrays) with unit-named keys."""

@@ -96,6 +96,9 @@ class DecayWindow:
     """How far the signal's zero (its one-period mean, the mode averaged out) moves, when that counts as moving
     (SLOW_ZERO_NOISE): from its final level once the ringing has faded, or in the residual of a constant-zero fit of
     the window (`residual_wander`); 0 when it stays within noise."""
+    near_mode_noise: float = 0.0
+    """The noise level (standard deviation) near the mode the window was chosen against, when the broadband level
+    found no ring-down in noise correlated from sample to sample (`Spectrum.noise_near_mode`); 0 otherwise."""
 
     @property
     def duration_s(self) -> float:
@@ -142,19 +145,21 @@ def period_mean(t: np.ndarray, y: np.ndarray, period_s: float) -> np.ndarray:
     return (np.interp(lo + period_s, t, integral) - np.interp(lo, t, integral)) / period_s
 
 
-def find_decay_window(sig: Signal, f_guess_hz: float, noise_std: float, drift: bool = False) -> DecayWindow:
+def find_decay_window(
+    sig: Signal, f_guess_hz: float, noise_std: float, drift: bool = False, mean_noise: float | None = None
+) -> DecayWindow:
     """Automatic window: from the largest swing just after the last forced motion (or in the record) to where it fades.
 
     Forced motion shows as a one-period running mean (which cancels the mode and its harmonics) that departs from
-    the final resting level by more than half the ringing amplitude and by more than the noise.
+    the final resting level by more than half the ringing amplitude and by more than the noise: 5 times `mean_noise`,
+    the spread noise leaves in that mean (white noise's by default, noise_std / sqrt(samples per period)).
     """
     u, n, amp, rest, dev = _levels(sig, f_guess_hz, drift)
+    mean_noise = noise_std / np.sqrt(n) if mean_noise is None else mean_noise
     slow, free, reach, moving = _zero_motion(u, n, amp, dev, f_guess_hz, noise_std)
     # an offset counts as forcing only if it is large against the noise, the record's biggest swing and its offsets,
     # and against the slow motion that goes on after the ring-down
-    floor = max(
-        0.2 * float(dev.max()), 0.1 * float(amp.max()), 5 * noise_std / np.sqrt(n), SWAY_FACTOR * reach * moving
-    )
+    floor = max(0.2 * float(dev.max()), 0.1 * float(amp.max()), 5 * mean_noise, SWAY_FACTOR * reach * moving)
     if moving:  # the zero sways: the oscillation is judged without it
         amp = free
     forced = np.flatnonzero(dev > np.maximum(FORCED_RATIO * amp, floor))

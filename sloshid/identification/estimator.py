@@ -42,6 +42,10 @@ from sloshid.model.pendulum import (
 )
 
 MIN_PERIODS_ERROR = 3.0
+CORRELATED_NOISE_RATIO = 2.0
+"""Noise near the mode at least this many times its broadband level (`Spectrum.noise_near_mode`) is correlated: an
+automatic window that found no ring-down is then sought against it. White noise's ratio scatters about 1 (a Welch
+median over dozens of bins: a few percent); noise correlated over ten samples (AR(1), 0.9) gives about 3."""
 SLOW_KNOT_PERIODS = 2.0
 """Largest knot spacing of a slow zero's spline, in mode periods (`zero_columns` spaces them evenly, 1-2 periods): it
 follows a sway well up to about a seventh of the mode's frequency (it leaves 0.4 % of a sway at 0.1 f, 3 % at 0.15 f,
@@ -547,7 +551,10 @@ class Identifier:
 
     def _window(self, sig: Signal, f_range: tuple[float, float]) -> tuple[DecayWindow, Spectrum, Spectrum]:
         """The free-decay window of one signal, its Welch spectrum and that of the whole record; refuses a signal
-        without a ring-down of MIN_PERIODS_ERROR periods."""
+        without a ring-down of MIN_PERIODS_ERROR periods. An automatic window that finds none is sought again against
+        the noise near the mode, and in the period mean, when the noise near the mode is CORRELATED_NOISE_RATIO times
+        its broadband level: correlated (red) noise's slow wander otherwise passes for forcing and its swing for
+        ringing, and a clear ring-down was refused."""
         st = self.settings
         f_guess = rough_mode_frequency(sig, f_range)
         whole = welch_spectrum(sig.t_s, sig.value, f_range)
@@ -555,6 +562,11 @@ class Identifier:
             win = user_window(sig, *st.window_s, f_guess, whole.noise_std, st.drift)
         else:
             win = find_decay_window(sig, f_guess, whole.noise_std, st.drift)
+            near = whole.noise_near_mode()
+            if not _ring_down(sig, win, f_guess) and near > CORRELATED_NOISE_RATIO * whole.noise_std:
+                again = find_decay_window(sig, f_guess, near, st.drift, whole.period_mean_noise(f_guess))
+                if _ring_down(sig, again, f_guess):
+                    win, whole = replace(again, near_mode_noise=near), replace(whole, noise_std=near)
         part = sig.between(win.t0_s, win.t1_s)
         whole_periods = (sig.t_s[-1] - sig.t_s[0]) * f_guess
         if whole_periods < MIN_PERIODS_ERROR:
@@ -562,7 +574,7 @@ class Identifier:
                 f"{sig.source}: the signal lasts only {whole_periods:.1f} periods of the {f_guess:.3g} Hz mode; "
                 f"at least {MIN_PERIODS_ERROR:g} are needed."
             )
-        if win.chosen_by == "auto" and (part.t_s.size < 16 or win.duration_s * f_guess < MIN_PERIODS_ERROR):
+        if win.chosen_by == "auto" and not _ring_down(sig, win, f_guess):
             driven = win.excitation_end_s
             if driven is not None and (sig.t_s[-1] - driven) * f_guess < MIN_PERIODS_ERROR:
                 # driven to the end: a slow motion larger than the swing (a container moving in the picture)
@@ -687,6 +699,11 @@ def _moving_zero_refit(fit: PT2Fit, parts, windows, wdata, fullspec, omega_start
 def _spline_zero(knot_spacing_s: float) -> str:
     """How the report names a slow zero's model."""
     return f"a cubic spline (knots at most {knot_spacing_s:.3g} s, {SLOW_KNOT_PERIODS:g} mode periods, apart)"
+
+
+def _ring_down(sig: Signal, win: DecayWindow, f_guess_hz: float) -> bool:
+    """An automatic window holds a ring-down to fit: at least 16 samples and MIN_PERIODS_ERROR periods."""
+    return sig.between(win.t0_s, win.t1_s).t_s.size >= 16 and win.duration_s * f_guess_hz >= MIN_PERIODS_ERROR
 
 
 def _window_spectrum(part: Signal, win: DecayWindow, f_range: tuple[float, float]) -> Spectrum:

@@ -173,6 +173,15 @@ def _judge_signal(inp: VerdictInput, i: int, name: str, f: float, f2: float | No
             f"{name}: strong second mode at {p.f_hz:.3g} Hz ({100 * p.relative:.0f} % of the main peak's PSD)"
             + (f" that a two-mode fit could not separate ({why})." if why else "."),
         )
+    if inp.windows[i].near_mode_noise:
+        doubts.add(
+            BOTH,
+            "uncertain",
+            f"{name}: the noise is correlated from sample to sample ({inp.windows[i].near_mode_noise:.3g} standard "
+            "deviation near the mode, several times its broadband level): the window was chosen against that level, "
+            "and the fit, which assumes little correlation, can be off by more than its intervals; check the window "
+            "in the report or give it yourself (--window).",
+        )
     snr = fit.amplitude(i) / fit.amplitude_se(i)
     if snr < AMPLITUDE_SNR:
         doubts.add(BOTH, "uncertain", f"{name}: the fitted amplitude is only {snr:.1f} standard errors above zero.")
