@@ -147,12 +147,14 @@ def test_noise_levels_near_the_mode_and_in_the_period_mean():
         assert red.period_mean_noise(3.0) > 2 * 0.23 * np.sqrt(3 / 100)
 
 
-def test_clear_decay_in_correlated_noise_is_identified_and_doubted():
-    # refused before ("driven until 14.9 s"): the noise's slow wander passed for forcing against the broadband level
-    res = Identifier().fit(_red_record(10, 1.0)).result
+@pytest.mark.parametrize("seed", [9, 10, 19])
+def test_clear_decay_in_correlated_noise_is_identified_and_doubted(seed):
+    # the noise's slow wander passed for forcing against the broadband level until 13-15 s: seed 10 was refused
+    # ("driven until 14.9 s"), seeds 9 and 19 were fitted in the noisy tail after it (f 6 % off, rated good)
+    res = Identifier().fit(_red_record(seed, 1.0)).result
     assert res.windows[0].near_mode_noise == pytest.approx(0.23, rel=0.15)
     assert res.windows[0].t0_s < 1.0  # the ring-down from the start, not the record's noisy tail
-    assert res.parameters["f_hz"].value == pytest.approx(3.0, rel=0.01)  # 0.4 % here; up to 1.2 % over 30 seeds
+    assert res.parameters["f_hz"].value == pytest.approx(3.0, rel=0.01)  # 0.9 % at most here; 1.2 % over 30 seeds
     for group in ("frequency", "damping"):
         assert res.groups[group].quality == "uncertain"
         assert any("correlated from sample to sample" in r for r in res.groups[group].reasons)

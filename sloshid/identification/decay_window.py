@@ -288,6 +288,16 @@ def extend_tail(sig: Signal, win: DecayWindow, f_hz: float, decay_rate_1_s: floa
     return replace(win, t1_s=max(win.t1_s, t1))
 
 
+def rings_above(sig: Signal, win: DecayWindow, f_hz: float, noise_std: float) -> bool:
+    """The window's ring-down starts above the fade level: its largest swing in the window's first two periods exceeds
+    END_NOISE_FACTOR times `noise_std` (pure noise shows about 1.7 on this measure)."""
+    u = to_uniform(sig.t_s, sig.value)
+    n = _period_samples(u.fs_hz, f_hz)
+    i0 = int(np.searchsorted(u.t_s, win.t0_s))
+    first = _swing(u.value, n)[i0 : i0 + 2 * n]
+    return bool(first.size) and float(first.max()) > END_NOISE_FACTOR * noise_std
+
+
 def user_window(sig: Signal, t0: float, t1: float, f_guess_hz: float, noise_std: float, drift: bool) -> DecayWindow:
     """A window given by the user, checked to lie inside the data (and the record's slow motion, as for the
     automatic window)."""

@@ -24,6 +24,7 @@ from sloshid.identification.decay_window import (
     find_decay_window,
     moving_zero,
     residual_wander,
+    rings_above,
     rough_mode_frequency,
     user_window,
     without_slow_motion,
@@ -551,10 +552,11 @@ class Identifier:
 
     def _window(self, sig: Signal, f_range: tuple[float, float]) -> tuple[DecayWindow, Spectrum, Spectrum]:
         """The free-decay window of one signal, its Welch spectrum and that of the whole record; refuses a signal
-        without a ring-down of MIN_PERIODS_ERROR periods. An automatic window that finds none is sought again against
-        the noise near the mode, and in the period mean, when the noise near the mode is CORRELATED_NOISE_RATIO times
-        its broadband level: correlated (red) noise's slow wander otherwise passes for forcing and its swing for
-        ringing, and a clear ring-down was refused."""
+        without a ring-down of MIN_PERIODS_ERROR periods. When the noise near the mode is CORRELATED_NOISE_RATIO
+        times its broadband level, an automatic window that holds no ring-down, or one after forcing whose start does
+        not ring above that noise, is sought again against it (and the period mean's own noise): correlated (red)
+        noise's slow wander otherwise passes for forcing, which refused clear ring-downs or left the record's noisy
+        tail to fit. The first window stays when the second search finds none."""
         st = self.settings
         f_guess = rough_mode_frequency(sig, f_range)
         whole = welch_spectrum(sig.t_s, sig.value, f_range)
@@ -563,9 +565,9 @@ class Identifier:
         else:
             win = find_decay_window(sig, f_guess, whole.noise_std, st.drift)
             near = whole.noise_near_mode()
-            if not _ring_down(sig, win, f_guess) and near > CORRELATED_NOISE_RATIO * whole.noise_std:
+            if near > CORRELATED_NOISE_RATIO * whole.noise_std and not _ring_down(sig, win, f_guess, near):
                 again = find_decay_window(sig, f_guess, near, st.drift, whole.period_mean_noise(f_guess))
-                if _ring_down(sig, again, f_guess):
+                if _ring_down(sig, again, f_guess, near):
                     win, whole = replace(again, near_mode_noise=near), replace(whole, noise_std=near)
         part = sig.between(win.t0_s, win.t1_s)
         whole_periods = (sig.t_s[-1] - sig.t_s[0]) * f_guess
@@ -701,9 +703,13 @@ def _spline_zero(knot_spacing_s: float) -> str:
     return f"a cubic spline (knots at most {knot_spacing_s:.3g} s, {SLOW_KNOT_PERIODS:g} mode periods, apart)"
 
 
-def _ring_down(sig: Signal, win: DecayWindow, f_guess_hz: float) -> bool:
-    """An automatic window holds a ring-down to fit: at least 16 samples and MIN_PERIODS_ERROR periods."""
-    return sig.between(win.t0_s, win.t1_s).t_s.size >= 16 and win.duration_s * f_guess_hz >= MIN_PERIODS_ERROR
+def _ring_down(sig: Signal, win: DecayWindow, f_guess_hz: float, noise_std: float | None = None) -> bool:
+    """An automatic window holds a ring-down to fit: at least 16 samples and MIN_PERIODS_ERROR periods, and, with
+    `noise_std`, a window after forcing starts ringing above its fade level (`rings_above`): correlated noise's wander
+    can pass for forcing until the record's noisy tail."""
+    if sig.between(win.t0_s, win.t1_s).t_s.size < 16 or win.duration_s * f_guess_hz < MIN_PERIODS_ERROR:
+        return False
+    return noise_std is None or win.excitation_end_s is None or rings_above(sig, win, f_guess_hz, noise_std)
 
 
 def _window_spectrum(part: Signal, win: DecayWindow, f_range: tuple[float, float]) -> Spectrum:
