@@ -72,7 +72,7 @@ def test_planner_model_settles_at_steady_tilt(u):
     )
     solver = get_solver(s)
     sc = load_scenario(ROOT / "data" / "scenarios" / "paper_1d.toml")
-    p = solver.parameters(RobotLimits(), sc.solver, liquid, (), (), 0.0)
+    p = solver.parameters(sc.limits, RobotLimits(), sc.solver, liquid, (), (), 0.0)
     sol = solve_ivp(
         lambda t, x: np.asarray(solver.rhs(x, u, p)).ravel(), (0, 6), np.zeros(s.nx), rtol=1e-10, atol=1e-12
     )
@@ -201,3 +201,24 @@ def test_warm_start_reuses_the_solution(paper_1d, plan_1d):
     again = plan(paper_1d, paper_1d.liquid, warm_from=plan_1d)
     assert again.T_s == pytest.approx(plan_1d.T_s, rel=1e-5)  # both stop at IPOPT tol 1e-6
     assert again.iterations < plan_1d.iterations
+
+
+def test_tilt_limits_bound_the_tilt_from_upright_on_a_diagonal_move():
+    # a 45 deg diagonal: both angles lean at once. Each angle was held to tilt_max_deg, so the container tilted by
+    # 7.07 deg from upright against a 5 deg limit and turned at 126 deg/s against 120; both bound the container's
+    # tilt and angular speed now, as the 1 kHz check reads them (between grid points by 1 % at most, N = 30)
+    sc = scenario_from_dict(
+        {
+            "move": {"start": [0.4, -0.2, 0.3], "goal": [0.7, 0.1, 0.3]},
+            "limits": {"acc_max": [2.0, 2.0, 2.0], "vel_max": [1.0, 1.0, 1.0], "tilt_max_deg": 5},
+            "solver": {"N": 30},
+            "liquid": {"m_kg": 0.5, "l_m": 0.021, "d_ns_per_m": 1.51},
+        }
+    )
+    res = plan(sc, sc.liquid)
+    tilt = np.degrees(np.arccos(res.trajectory.z_axis[:, 2].clip(-1, 1)))
+    rate = np.degrees(np.linalg.norm(res.trajectory.omega_rad_s, axis=1))
+    assert tilt.max() <= 5 * 1.01
+    assert tilt.max() >= 5 * 0.95  # the limit is what shapes this move
+    assert rate.max() <= 120 * 1.01
+    assert res.verification_ok

@@ -167,3 +167,18 @@ def test_plan_never_writes_over_its_path_csv(run_cli, tmp_path):
     code, _out, err = run_cli("plan", sc, "-o", pts)
     assert code == 2 and "is also an input of this run" in err and err.count("\n") == 1
     assert pts.read_bytes() == before
+
+
+def test_path_plan_bounds_the_tilt_from_upright_on_a_diagonal():
+    # a straight diagonal path: both angles lean at once. Each was held to tilt_max_deg, so the container tilted by up
+    # to sqrt(2) times the limit from upright; the tilt from upright is bounded now (between grid points by 1 %)
+    sc = scenario_from_dict(
+        {
+            **BASE,
+            "limits": {"acc_max": [2.0, 2.0, 2.0], "vel_max": [1.0, 1.0, 1.0], "tilt_max_deg": 10},
+            "path": {"waypoints": [[0.4, -0.2, 0.3], [0.55, -0.05, 0.3], [0.7, 0.1, 0.3]]},
+        }
+    )
+    res = plan(sc, sc.liquid)
+    tilt = np.degrees(np.arccos(res.trajectory.z_axis[:, 2].clip(-1, 1)))
+    assert 10 * 0.95 <= tilt.max() <= 10 * 1.01

@@ -167,7 +167,7 @@ class SegmentSolver:
         """Run IPOPT; returns (status, iterations, wall time, optimal w, warm-start data)."""
         lbx, ubx = self.bounds(start, goal, limits, robot, T_bounds)
         lbg, ubg = constraint_bounds(self.kinds, solver)
-        params = parameter_values(robot, solver, liquid, robust, obstacles, inflate_m)
+        params = parameter_values(limits, robot, solver, liquid, robust, obstacles, inflate_m)
         mesh = np.ones(self.s.N) if mesh is None else np.asarray(mesh, dtype=float)
         args = dict(x0=guess, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg, p=np.concatenate([params, mesh]))
         if warm:

@@ -18,7 +18,7 @@ import numpy as np
 
 from sloshid.core.errors import UserError
 from sloshid.core.parallel import solver_interruptible
-from sloshid.model.conventions import steady_tilt
+from sloshid.model.conventions import G, steady_tilt
 from sloshid.model.pendulum import SloshParams
 from sloshid.model.simulate import simulate_liquid
 from sloshid.model.trajectory import EXPORT_RATE_HZ, Trajectory
@@ -98,7 +98,10 @@ def _time_estimate(scenario: Scenario) -> tuple[float, float]:
     acc = min(float(np.linalg.norm(lim.acc_max)), scenario.robot.acc_m_s2)
     vel = min(float(np.linalg.norm(lim.vel_max)), scenario.robot.vel_m_s)
     lower = bang_bang_time(L, acc, vel)
-    guess = max(lower * 1.2, math.sqrt(5.77 * L / min(lim.acc_max)))  # min-jerk profile at the smallest axis limit
+    # a min-jerk profile at the smallest axis limit, or at the acceleration whose quasi-static tilt is tilt_max_deg
+    # (a guess that leans past the tilt limit kept IPOPT from converging on a 5 deg diagonal)
+    usable = min(*lim.acc_max, G * math.tan(math.radians(lim.tilt_max_deg)))
+    guess = max(lower * 1.2, math.sqrt(5.77 * L / usable))
     return lower, guess
 
 

@@ -25,7 +25,7 @@ import numpy as np
 from sloshid.model.pendulum import SloshParams, pendulum_rhs_3d
 from sloshid.model.trajectory import RobotLimits
 from sloshid.planning.path import PathGeometry
-from sloshid.planning.problem import ROBOT_MARGIN
+from sloshid.planning.problem import ROBOT_MARGIN, tilt_rate_limit
 from sloshid.planning.scenario import Limits, SolverSettings
 
 BETWEEN_POINTS = 3
@@ -115,7 +115,8 @@ def build_path_problem(s: PathStructure, geo: PathGeometry) -> PathProblem:
     x, u = ca.SX.sym("x", NX), ca.SX.sym("u", NU)
     liquid = ca.SX.sym("liquid", 2)  # l, d/m
     weights = ca.SX.sym("w", 2)  # kappa_r (path acceleration), kappa_j (path jerk)
-    lim = ca.SX.sym("lim", 15)  # vel box 3, acc box 3, jerk box 3, robot vel, acc, rot vel, rot acc, rel max, -
+    # vel box 3, acc box 3, jerk box 3, robot vel, acc, tilt rate, rot acc, rel max, tilt max
+    lim = ca.SX.sym("lim", 15)
     poly, knots, jumps = ca.DM(geo.poly.ravel()), ca.DM(geo.knots), ca.DM(geo.jumps)
     p = ca.vertcat(liquid, weights, lim)
     sigma, sd, sdd = x[SIG], x[SD], x[SDD]
@@ -140,6 +141,7 @@ def build_path_problem(s: PathStructure, geo: PathGeometry) -> PathProblem:
         (ca.sumsqr(x[CON_RATE]) / lim[11] ** 2, "norm"),
         (ca.sumsqr(x[CON_ACC]) / lim[12] ** 2, "norm"),
         (ca.sumsqr(rel) / lim[13] ** 2, "norm"),
+        (ca.sumsqr(x[CON]) / lim[14] ** 2, "norm"),  # the tilt from upright (a bound on it), not each angle
     ]
     sig = ca.SX.sym("sigma")
     geometry = ca.Function("curve", [sig], list(_curve(sig, poly, knots, jumps)))
@@ -152,9 +154,9 @@ def path_parameters(limits: Limits, robot: RobotLimits, solver: SolverSettings, 
     acc = [min(a, robot.acc_m_s2) * PATH_LIMIT_MARGIN for a in limits.acc_max]
 
     jerk = [min(j, robot.jerk_m_s3) for j in limits.jerk_max]
-    rate = min(math.radians(limits.tilt_rate_max_deg_s), robot.rot_vel_rad_s * ROBOT_MARGIN)
+    rate = tilt_rate_limit(limits, robot)
     lim = [*vel, *acc, *jerk, robot.vel_m_s, robot.acc_m_s2, rate, robot.rot_acc_rad_s2 * ROBOT_MARGIN]
-    lim += [math.radians(limits.rel_angle_max_deg) * PATH_REL_MARGIN, 0.0]
+    lim += [math.radians(limits.rel_angle_max_deg) * PATH_REL_MARGIN, math.radians(limits.tilt_max_deg)]
     return np.array([liquid.l_m, liquid.damping_rate_1_s, solver.kappa_r, solver.kappa_j, *lim])
 
 

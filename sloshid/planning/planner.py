@@ -251,7 +251,6 @@ def _structure(scenario: Scenario, start, goal, obstacles, n_robust: int, warm: 
     lim, robot, sv = scenario.limits, scenario.robot, scenario.solver
     axis = segment_axis(start, goal, len(obstacles))
     three = axis is None
-    rate = math.radians(lim.tilt_rate_max_deg_s)
     return Structure(
         axis=axis,
         jerk_limited=sv.jerk_limited,
@@ -263,7 +262,7 @@ def _structure(scenario: Scenario, start, goal, obstacles, n_robust: int, warm: 
         n_robust=n_robust,
         vel_norm=three and float(np.linalg.norm(lim.vel_max)) > robot.vel_m_s,
         acc_norm=three and float(np.linalg.norm(lim.acc_max)) > robot.acc_m_s2,
-        rot_vel_norm=three and math.sqrt(2) * rate > robot.rot_vel_rad_s,
+        rot_vel_norm=three,  # the tilt rate is a bound on the angular speed, not on each angle's rate
         max_iter=sv.max_iter,
         tol=sv.tol,
         warm=warm,

@@ -164,7 +164,9 @@ def _symbols(s: Structure) -> SimpleNamespace:
     sph, cyl = ca.SX.sym("sph", 4 * s.n_spheres), ca.SX.sym("cyl", 5 * s.n_cylinders)
     n.spheres = [sph[4 * i : 4 * i + 4] for i in range(s.n_spheres)]
     n.cylinders = [cyl[5 * i : 5 * i + 5] for i in range(s.n_cylinders)]
-    n.robot = ca.SX.sym("robot", 5)  # vel, acc, rot_vel, rot_acc, rot_jerk: normalise the norm constraints to O(1)
+    # vel, acc, tilt rate (the move's or the robot's), rot_acc, rot_jerk, tilt_max: normalise the norm
+    # constraints to O(1)
+    n.robot = ca.SX.sym("robot", 6)
     n.p = ca.vertcat(n.l, n.c, n.k_r, n.k_j, n.k_b, n.k_z, n.robot, n.factors, sph, cyl)
     # a robust copy with omega*f and the same zeta has l/f^2 and damping rate c*f
     n.liquids = [SimpleNamespace(l_m=n.l, damping_rate_1_s=n.c)]
@@ -205,6 +207,8 @@ def _path_constraints(s: Structure, lay: StateLayout, x, u, f: ca.Function, sym)
         add_norm(acc, rl[1])
     if s.rot_vel_norm:
         add_norm(x[rate_n], rl[2])
+    if s.axis is None:  # the tilt from upright, acos(cos(phi) cos(theta)), is at most the norm of the two angles
+        add_norm(x[ang_n], rl[5])
     if s.jerk_limited:
         xdot = f(x, u, sym.p)
         alpha = xdot[rate_n]  # depends on the state only here, so its time derivative is exact
@@ -230,7 +234,14 @@ def build_problem(s: Structure) -> SegmentProblem:
     )
 
 
+def tilt_rate_limit(limits: Limits, robot: RobotLimits) -> float:
+    """The container's largest angular speed (rad/s): the move's tilt rate or the robot's rotation speed (at
+    ROBOT_MARGIN), whichever is lower; a bound on the norm of the roll and pitch rates, as the 1 kHz check reads it."""
+    return min(math.radians(limits.tilt_rate_max_deg_s), robot.rot_vel_rad_s * ROBOT_MARGIN)
+
+
 def parameter_values(
+    limits: Limits,
     robot: RobotLimits,
     solver: SolverSettings,
     liquid: SloshParams,
@@ -238,13 +249,14 @@ def parameter_values(
     obstacles: Sequence[Obstacle],
     inflate_m: float,
 ) -> list[float]:
-    """Numeric p: liquid, weights, robot limits, robust factors, inflated obstacles (order of `_symbols`)."""
+    """Numeric p: liquid, weights, robot and tilt limits, robust factors, inflated obstacles (order of `_symbols`)."""
     robot_p = [
         robot.vel_m_s,
         robot.acc_m_s2,
-        robot.rot_vel_rad_s * ROBOT_MARGIN,
+        tilt_rate_limit(limits, robot),
         robot.rot_acc_rad_s2 * ROBOT_MARGIN,
         robot.rot_jerk_rad_s3 * ROBOT_MARGIN,
+        math.radians(limits.tilt_max_deg),
     ]
     params = [
         liquid.l_m,
@@ -280,8 +292,7 @@ def box_bounds(
         lo[:, 2], hi[:, 2] = limits.z_range
     if s.jerk_limited:
         lo[:, lay.acc], hi[:, lay.acc] = -np.array(amax), amax
-    tilt = math.radians(limits.tilt_max_deg)
-    rate = min(math.radians(limits.tilt_rate_max_deg_s), robot.rot_vel_rad_s * ROBOT_MARGIN)
+    tilt, rate = math.radians(limits.tilt_max_deg), tilt_rate_limit(limits, robot)
     ang_n, rate_n = lay.copies[0]
     lo[:, ang_n], hi[:, ang_n] = -tilt, tilt
     lo[:, rate_n], hi[:, rate_n] = -rate, rate
