@@ -27,9 +27,14 @@ def track(
     are TrackSettings fields (float_color, float_hsv_low, float_hsv_high, roi, reference, smooth, target,
     liquid_color, liquid_hsv_low, liquid_hsv_high, rest_frames, container_diameter_m). `overlay` also writes the
     annotated video."""
+    from sloshid.core.outputs import Outputs
     from sloshid.tracking.tracker import TrackSettings, track_video
+    from sloshid.video.frames import VIDEO_SUFFIXES
 
-    return track_video(video, from_dict(TrackSettings, settings), overlay=overlay, progress=progress)
+    track_settings = from_dict(TrackSettings, settings)
+    if overlay is not None:  # the command line's check: never over the video, and a video the overlay writer makes
+        overlay = Outputs([video]).file(overlay, "overlay", VIDEO_SUFFIXES)
+    return track_video(video, track_settings, overlay=overlay, progress=progress)
 
 
 def identify(*sources: Source, **settings: Any) -> IdentResult:

@@ -12,7 +12,7 @@ import cv2
 import numpy as np
 import pytest
 
-from sloshid.core.errors import SettingError
+from sloshid.core.errors import SettingError, UserError
 from sloshid.core.tables import read_csv
 from sloshid.identification.estimator import Identifier
 from sloshid.identification.signals import load_signal, make_signal, signal_from_track
@@ -1103,3 +1103,31 @@ def test_a_written_track_csv_identifies_like_the_result_it_was_written_from(tmp_
         assert csv.parameters[key].value == pytest.approx(mem.parameters[key].value, rel=1e-5)
         assert csv.parameters[key].ci95 == pytest.approx(mem.parameters[key].ci95, rel=1e-4)
     assert csv.fit.hold.width == pytest.approx(mem.fit.hold.width, rel=1e-3, abs=1e-4)
+
+
+def test_python_api_keeps_the_command_lines_output_guards(decay_video, tmp_path):
+    # the API wrote the overlay over its own input video, the table into a video file, and a report over a page the
+    # user wrote; the command line refused all three, and so does the API now, leaving every file as it was
+    import sloshid
+
+    path, _ = decay_video
+    video = tmp_path / "a.mp4"
+    video.write_bytes(path.read_bytes())
+    with pytest.raises(UserError, match="also an input of this run"):
+        sloshid.track(video, overlay=video)
+    with pytest.raises(UserError, match=r"must end in \.mp4"):
+        sloshid.track(video, overlay=tmp_path / "o.avi")
+    assert video.read_bytes() == path.read_bytes() and not (tmp_path / "o.avi").exists()
+    res = sloshid.track(video)
+    other = tmp_path / "b.mp4"
+    other.write_bytes(b"a video")
+    for target in (video, other):
+        with pytest.raises(UserError, match=r"must end in \.csv"):
+            res.to_csv(target)
+    assert video.read_bytes() == path.read_bytes() and other.read_bytes() == b"a video"
+    page = tmp_path / "rep" / "index.html"
+    page.parent.mkdir()
+    page.write_text("<html>my own page</html>")
+    with pytest.raises(UserError, match=r"index\.html that sloshid did not write"):
+        sloshid.identify(res).report(page.parent)
+    assert page.read_text() == "<html>my own page</html>"

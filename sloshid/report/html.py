@@ -14,7 +14,7 @@ from typing import Any
 
 from sloshid import __version__
 from sloshid.core.atomic import write_text
-from sloshid.core.outputs import REPORT_MARK
+from sloshid.core.outputs import REPORT_MARK, Outputs
 
 _CSS = """
 body{font-family:system-ui,-apple-system,Segoe UI,Roboto,sans-serif;max-width:1100px;margin:2em auto;
@@ -105,7 +105,8 @@ class Report:
         )
 
     def save(self, directory: str | Path) -> Path:
-        """Write `directory/index.html` atomically and return its path."""
-        path = Path(directory) / "index.html"
+        """Write `directory/index.html` atomically and return its path; never over an index.html sloshid did not
+        write (`Outputs.report_dir`: the command line checks it before the work, every caller here)."""
+        path = Outputs().report_dir(directory, "the report folder") / "index.html"
         write_text(path, self.to_html())
         return path

@@ -26,6 +26,7 @@ from tqdm import tqdm
 
 from sloshid.core.atomic import atomic_path
 from sloshid.core.errors import SettingError, UserError
+from sloshid.core.outputs import Outputs
 from sloshid.core.parallel import die_with_parent, signals_held
 from sloshid.core.tables import to_pandas, write_csv
 from sloshid.tracking.container_ref import ContainerMeasurement, ContainerTracker, WallsRecord
@@ -220,8 +221,8 @@ class TrackResult:
         return {name: named[name] if name in named else getattr(self, name) for name in SURFACE_COLUMNS}
 
     def to_csv(self, path: str | Path) -> None:
-        """Write the table atomically as CSV."""
-        write_csv(path, self.columns())
+        """Write the table atomically as CSV (a .csv file, never over the tracked video)."""
+        write_csv(Outputs([self.video]).file(path, "the track table", (".csv",)), self.columns())
 
     def summary(self) -> str:
         """One line: frames, valid frames, duration (what `sloshid track` prints)."""
