@@ -8,6 +8,8 @@ from html import escape as html_escape
 
 import pytest
 
+from sloshid.core.errors import UserError
+
 SCENARIO = """
 [move]
 start = [0.3, 0.0, 0.2]
@@ -118,6 +120,14 @@ def test_bad_compare_table_is_one_sentence_and_writes_nothing(tmp_path, run_cli,
     code, out, err = run_cli("compare", path, "--report", report)
     assert code == 2 and message in err and err.count("\n") == 1 and out == ""
     assert not report.exists()
+
+
+def test_a_settling_time_of_terabytes_is_refused():
+    # [compare] settle_s = 1e9 asked simulate_liquid for 7 TiB of samples: a traceback
+    from sloshid.comparison.compare import CompareSettings
+
+    with pytest.raises(UserError, match=r"\[compare\]\.settle_s must be at most 600 s"):
+        CompareSettings(settle_s=1e9)
 
 
 def test_bad_method_name_suggests_the_right_one(tmp_path, run_cli):

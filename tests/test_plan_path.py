@@ -131,6 +131,8 @@ BASE = {
         ({"waypoints": [[0.4, 0.0, 0.3]], "points_csv": "x.csv"}, {}, r"either waypoints or points_csv"),
         ({"points_csv": "missing.csv"}, {}, r"does not exist"),
         ({"waypoints": [[0.4, 0.0, 0.3], [0.5, 0.0, 0.3]], "spline": "linear"}, {}, r"spline"),
+        # in mm: splined at 0.2 mm steps over kilometres, it ran a 24 GB machine out of memory
+        ({"waypoints": [[400, 0, 300], [500, 100, 300], [600, 200, 300]]}, {}, r"1000 times too large"),
         ({"waypoints": [[0.4, 0, 0.3], [0.5, 0, 0.3]]}, {"move": {"start": [0, 0, 0.3], "goal": [1, 0, 0.3]}}, r"both"),
     ],
 )

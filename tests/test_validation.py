@@ -268,6 +268,10 @@ def test_bad_input_is_one_sentence_and_exit_2_with_nothing_written(tmp_path, run
     bad_t[200, 0] = bad_t[199, 0]
     np.savetxt(tmp_path / "badq.csv", bad_q, delimiter=";")
     np.savetxt(tmp_path / "badt.csv", bad_t, delimiter=";")
+    # a pose log whose time column is in milliseconds: predicted as a move of minutes with no slosh, exit 0
+    in_ms = rows.copy()
+    in_ms[:, 0] *= 1000
+    np.savetxt(tmp_path / "logms.csv", in_ms, delimiter=";")
     measured_csv(tmp_path / "meas.csv", pose)
     short = np.loadtxt(tmp_path / "meas.csv", delimiter=",", skiprows=1)[:150]  # 2.5 s: ends before the move does
     np.savetxt(tmp_path / "short.csv", short, delimiter=",", header="t_s,height_mm", comments="")
@@ -291,6 +295,9 @@ def test_bad_input_is_one_sentence_and_exit_2_with_nothing_written(tmp_path, run
         (("predict", tmp_path / "badq.csv", "-o", out, "--params", params, *radius), "not 1"),
         (("predict", tmp_path / "badt.csv", "-o", out, "--params", params, *radius), "does not increase"),
         (("predict", good, "-o", out, "--params", params), "radius"),
+        (("predict", tmp_path / "logms.csv", "-o", out, "--params", params, *radius), "milliseconds"),
+        # 1e9 s of settling asked for terabytes (a traceback)
+        (("predict", good, "-o", out, "--params", params, *radius, "--settle-s", "1e9"), "between 0 and 600"),
         (
             ("validate", "--trajectory", good, "--measured", tmp_path / "short.csv", "--params", params, *radius),
             "too short",

@@ -52,14 +52,15 @@ def run(args: argparse.Namespace) -> int:
     """Load and check everything, predict, write the CSV atomically, print the peaks."""
     from sloshid.core.outputs import Outputs
     from sloshid.model.pose import load_pose_log
+    from sloshid.model.simulate import MAX_SETTLE_S
     from sloshid.validation.predict import load_model, predict, write_prediction
 
     output = Outputs([args.trajectory, args.params]).file(args.output, "-o", (".csv",))
     model = load_model(args.params).with_geometry(args.container_radius_m, args.axis_offset_m, args.smooth_s)
     if model.radius_m is None:
         raise UserError("the wall height needs the container radius: give --container-radius-m (m).")
-    if not args.settle_s >= 0:
-        raise UserError(f"--settle-s must be zero or positive, got {args.settle_s:g}.")
+    if not 0 <= args.settle_s <= MAX_SETTLE_S:
+        raise UserError(f"--settle-s must lie between 0 and {MAX_SETTLE_S:g} s, got {args.settle_s:g}.")
     pose = load_pose_log(args.trajectory, args.pose_columns)
     resp = predict(pose, model, args.settle_s)
     write_prediction(output, resp, model)

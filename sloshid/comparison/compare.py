@@ -27,7 +27,7 @@ from sloshid.comparison.shapers import shaped_constant_acceleration
 from sloshid.core.errors import UserError
 from sloshid.core.tables import to_pandas
 from sloshid.model.pendulum import SloshParams
-from sloshid.model.simulate import LiquidResponse, simulate_liquid
+from sloshid.model.simulate import MAX_SETTLE_S, LiquidResponse, simulate_liquid
 from sloshid.model.trajectory import RobotLimits, Trajectory, check_limits, check_move_limits, tilt_profiles
 from sloshid.planning.planner import check_feasible
 
@@ -109,6 +109,8 @@ class CompareSettings:
         for name in positive:
             if not getattr(self, name) > 0:
                 raise UserError(f"[compare].{name} must be positive, got {getattr(self, name)!r}.")
+        if not self.settle_s <= MAX_SETTLE_S:
+            raise UserError(f"[compare].settle_s must be at most {MAX_SETTLE_S:g} s, got {self.settle_s!r}.")
         if not 0 <= self.frequency_margin < 1:
             raise UserError(f"[compare].frequency_margin must lie in [0, 1), got {self.frequency_margin!r}.")
         if self.jerk_max_m_s3 is not None and not self.jerk_max_m_s3 > 0:

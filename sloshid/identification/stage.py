@@ -48,13 +48,14 @@ MIN_SAMPLES_PER_PERIOD = 4.0
 """Samples per period of the slowest searched frequency below which no mode can be resolved (Nyquist is 2)."""
 
 
-def check_sampling(sig: Signal, f_range_hz: tuple[float, float]) -> None:
-    """Refuse a signal sampled too slowly for the searched band, the usual sign of a time column not in seconds."""
-    if sig.rate_hz < MIN_SAMPLES_PER_PERIOD * f_range_hz[0]:
+def check_sampling(source: str, rate_hz: float, f_range_hz: tuple[float, float]) -> None:
+    """Refuse samples (a signal's, a pose log's) too slow for the searched band, the usual sign of a time column not in
+    seconds."""
+    if rate_hz < MIN_SAMPLES_PER_PERIOD * f_range_hz[0]:
         lo, hi = f_range_hz
         band = f"{lo:g} Hz" if lo == hi else f"{lo:g}-{hi:g} Hz"
         raise UserError(
-            f"{sig.source}: the samples are {1 / sig.rate_hz:.4g} time units apart, too coarse for a mode in "
+            f"{source}: the samples are {1 / rate_hz:.4g} time units apart, too coarse for a mode in "
             f"{band}; the time column must be in seconds (is it in milliseconds?)."
         )
 
@@ -85,7 +86,7 @@ def identify_sources(
                 raise UserError(f"{a.source} holds the same samples as {b.source}; each recording may count only once.")
     settings = settings or IdentSettings()
     for sig in signals:
-        check_sampling(sig, settings.f_range_hz)
+        check_sampling(sig.source, sig.rate_hz, settings.f_range_hz)
     if warn is not None:
         for sig in signals:
             for w in sig.warnings:

@@ -100,6 +100,11 @@ def integrate_pendulums(
     return out
 
 
+MAX_SETTLE_S = 600.0
+"""Longest time the liquid is followed after a move ends (s): ten minutes at the trajectory's 1 kHz is 600 000
+samples; a liquid rings down in seconds, and 1e9 s asked for terabytes."""
+
+
 def simulate_liquid(
     traj: Trajectory, params: SloshParams, settle_s: float = 3.0, rtol: float = 1e-9, atol: float = 1e-12
 ) -> LiquidResponse:

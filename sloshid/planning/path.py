@@ -36,6 +36,10 @@ REFERENCE_STEP_M = 2e-4
 """Spacing of the dense samples of the user's curve that deviations are measured against (m)."""
 MIN_CSV_POINTS = 4
 """A cubic smoothing spline needs at least this many points."""
+MAX_REACH_M = 5.0
+"""A path point farther than this from the scenario's origin is refused: no lab arm reaches that far, and a
+path given in millimetres (1000 times too large) would otherwise be splined at 0.2 mm steps over kilometres until
+the memory ran out."""
 
 
 @dataclass(frozen=True)
@@ -75,6 +79,13 @@ def check_points(points: np.ndarray, where: str, minimum: int) -> None:
         raise UserError(f"{where} has {len(points)} point(s); a path needs at least {minimum}.")
     if not np.isfinite(points).all():
         raise UserError(f"{where} contains a value that is not a finite number.")
+    reach = np.linalg.norm(points, axis=1)
+    if reach.max() > MAX_REACH_M:
+        i = int(np.argmax(reach))
+        raise UserError(
+            f"{where}: point {i} {[round(float(v), 6) for v in points[i]]} lies {reach[i]:g} m from the origin, "
+            f"beyond any arm's reach ({MAX_REACH_M:g} m); positions are in metres (a path in millimetres is 1000 times too large)."
+        )
     for i, (a, b) in enumerate(itertools.pairwise(points)):
         if math.dist(a, b) < 1e-6:
             raise UserError(f"{where}: points {i} and {i + 1} repeat {list(map(float, a))}; remove the duplicate.")

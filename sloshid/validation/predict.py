@@ -11,6 +11,7 @@ import numpy as np
 
 from sloshid.core.errors import UserError
 from sloshid.core.tables import write_csv
+from sloshid.identification.stage import check_sampling
 from sloshid.model.pendulum import SloshParams
 from sloshid.model.pose import SMOOTH_S, PoseLog, PoseResponse, excitation, respond
 
@@ -105,7 +106,10 @@ def load_model(path: str | Path) -> LiquidModel:
 
 
 def predict(pose: PoseLog, model: LiquidModel, settle_s: float = 3.0, rtol: float = 1e-9) -> PoseResponse:
-    """The liquid's response to the logged motion, held at the last pose for settle_s after the log ends."""
+    """The liquid's response to the logged motion, held at the last pose for settle_s after the log ends; a log
+    sampled too slowly for the liquid's mode (a time column in milliseconds) is refused."""
+    f_hz = model.params.f_hz
+    check_sampling(pose.source, 1.0 / float(np.median(np.diff(pose.t_s))), (f_hz, f_hz))
     exc = excitation(pose, model.axis_offset_m, model.smooth_s)
     return respond(exc, model.params, model.input_gain, settle_s, rtol, rtol * 1e-3, model.vertical_gain)
 

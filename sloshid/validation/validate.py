@@ -123,7 +123,7 @@ def validate_run(pose: PoseLog, sig: Signal, model: LiquidModel, name: str = "")
         raise UserError(
             f"{sig.source}: '{sig.label}' is constant, so there is no slosh to compare the prediction with."
         )
-    check_sampling(sig, (model.params.f_hz, model.params.f_hz))
+    check_sampling(sig.source, sig.rate_hz, (model.params.f_hz, model.params.f_hz))
     kind = measured_kind(sig, model)
     y_all = measured_magnitude(sig, kind)
     resp = predict(pose, model, settle_s=float(sig.t_s[-1] - sig.t_s[0]) + 1.0, rtol=FIT_RTOL)
