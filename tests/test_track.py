@@ -442,6 +442,23 @@ def surface_video(tmp_path_factory):
     return path, render_video(path, SynthSettings(**SURFACE))
 
 
+def test_a_tracked_tables_column_is_chosen_as_in_its_csv(surface_video, tmp_path):
+    # value_col was ignored for a TrackResult (API, pipelines, batch): the angle was fitted, and a misspelt column
+    # passed silently. The chosen column now comes from the table, on the same rows as from the written CSV
+    from sloshid.identification.stage import SignalColumns, to_signal
+
+    path, _ = surface_video
+    res = track_video(path, TrackSettings(target="surface", container_diameter_m=0.1))
+    res.to_csv(tmp_path / "s.csv")
+    for column in ("left_wall_mm", "angle_smoothed_deg"):  # read on the valid rows, and on every row
+        mem = to_signal(res, SignalColumns(value_col=column))
+        csv = load_signal(tmp_path / "s.csv", value_col=column)
+        assert mem.label == csv.label == column
+        assert np.allclose(mem.t_s, csv.t_s, rtol=0, atol=1e-9) and np.allclose(mem.value, csv.value, atol=1e-6)
+    with pytest.raises(UserError, match="has no value column 'left_wall'; available: frame, t_s"):
+        to_signal(res, SignalColumns(value_col="left_wall"))
+
+
 @pytest.mark.parametrize("reference, column", [("image", "surface_angle_deg"), ("container", "rel_angle_deg")])
 def test_surface_angle_and_wall_heights_match_truth(surface_video, reference, column):
     path, truth = surface_video

@@ -124,17 +124,31 @@ class TracedAngles(Protocol):
 
     video: Path
     t_s: np.ndarray
-    angle_deg: np.ndarray
     valid: np.ndarray
     target: str
     key_frame: np.ndarray
 
+    def columns(self) -> dict[str, np.ndarray]:
+        """The table `sloshid track` writes, by column name."""
 
-def signal_from_track(track: TracedAngles) -> Signal:
-    """The tracked angle of the valid frames, as the tracker CSV would give it (no file round trip)."""
-    ok = np.asarray(track.valid).astype(bool)
+
+def signal_from_track(track: TracedAngles, time_col: str | None = None, value_col: str | None = None) -> Signal:
+    """A column of the tracker's table (angle_deg by default; by name or 0-based index) over time (t_s by default),
+    on the valid frames unless the column holds a value in every frame: as the tracker CSV would give it, with no file
+    round trip."""
+    table = track.columns()
+    header, where = list(table), Path(f"the track of {track.video}")
+    t_i = _column_index(time_col or "t_s", header, len(header), where, "time")
+    v_i = _column_index(value_col or "angle_deg", header, len(header), where, "value")
+    if t_i == v_i:
+        raise UserError(
+            f"{where}: the time and the signal would be the same column ({header[v_i]}); choose the signal's."
+        )
+    label = header[v_i]
+    ok = np.asarray(track.valid).astype(bool) if label not in WHOLE_TRACKER_COLUMNS else np.ones(track.t_s.size, bool)
     dropped = int((~ok).sum())
-    sig = make_signal(track.t_s[ok], track.angle_deg[ok], "angle_deg", "deg", str(track.video), n_dropped=dropped)
+    t, y = np.asarray(table[header[t_i]], float), np.asarray(table[label], float)
+    sig = make_signal(t[ok], y[ok], label, unit_from_name(label), str(track.video), n_dropped=dropped)
     sig = replace(sig, tracked=track.target, key_t_s=track.t_s[np.asarray(track.key_frame, bool)])
     if dropped:
         sig = replace(sig, warnings=(*sig.warnings, f"{track.video}: skipped {dropped} tracker frames with valid = 0."))

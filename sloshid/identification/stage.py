@@ -36,11 +36,11 @@ def to_signal(source: Source, columns: SignalColumns | None = None, progress: bo
     file round trip."""
     if isinstance(source, Signal):
         return source
+    c = columns or SignalColumns()
     if isinstance(source, (str, Path)):
-        c = columns or SignalColumns()
         return load_signal(source, c.time_col, c.value_col, c.time_var, c.value_var, progress)
-    if all(hasattr(source, name) for name in ("t_s", "angle_deg", "valid")):
-        return signal_from_track(source)
+    if all(hasattr(source, name) for name in ("t_s", "columns", "valid")):
+        return signal_from_track(source, c.time_col, c.value_col)
     raise TypeError(f"cannot identify from a {type(source).__name__}; give a file path, a Signal or a TrackResult.")
 
 

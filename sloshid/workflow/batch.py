@@ -92,7 +92,7 @@ def process_video(video: str, config: BatchConfig, out_root: str) -> dict[str, A
         tracked.to_csv(out / "angles.csv")
         row.update(frames=len(tracked.t_s), valid_share=round(float(tracked.valid.mean()), 4))
         table = "[identify]"
-        doc = identify_sources([tracked], config.identify.ident_settings()).to_dict()
+        doc = identify_sources([tracked], config.identify.ident_settings(), config.identify.columns()).to_dict()
         write_json(out / "params.json", doc)
     except SettingError as exc:  # named as the config file's key, the place the user can change it
         return {**row, "status": "failed", "reasons": str(exc.named(lambda setting: f"{table}.{setting}"))}

@@ -34,9 +34,9 @@ class IdentifyOptions(IdentSettings):
     signals: list[Path] = field(default_factory=list)
     """Extra signal files (tracker CSV, CSV, .mat) relative to the pipeline file; tracked videos are added."""
     time_col: str | None = None
-    """CSV time column (seconds) for `signals`, by name or 0-based index."""
+    """CSV time column (seconds), by name or 0-based index, of `signals` and the tracked videos' tables."""
     value_col: str | None = None
-    """CSV value column for `signals`."""
+    """CSV value column of `signals` and the tracked videos' tables (`sloshid batch` too)."""
     time_var: str | None = None
     """.mat time variable for `signals`."""
     value_var: str | None = None
@@ -47,7 +47,7 @@ class IdentifyOptions(IdentSettings):
         return IdentSettings(**{f.name: getattr(self, f.name) for f in dataclasses.fields(IdentSettings)})
 
     def columns(self) -> SignalColumns:
-        """Which columns or variables of the `signals` files to read."""
+        """Which columns or variables of the sources to read (.mat variables: of the `signals` files)."""
         return SignalColumns(self.time_col, self.value_col, self.time_var, self.value_var)
 
 

@@ -91,7 +91,8 @@ def run_identify(opts: IdentifyOptions, ctx: StageContext) -> dict[str, Any]:
     """Joint identification of the tracked angles and the listed signal files; JSON and HTML report. What the
     inputs' reading noticed (dropped frames, NaN samples) goes into the summary and the index."""
     tracked = sorted((ctx.upstream["track"]).glob("*.csv")) if "track" in ctx.upstream else []
-    signals = [to_signal(p) for p in tracked] + [to_signal(p, opts.columns()) for p in opts.signals]
+    # the columns apply to every source, the tracked tables too (value_col = "left_wall_mm" fits the wall height)
+    signals = [to_signal(p, opts.columns()) for p in [*tracked, *opts.signals]]
     result = identify_sources(signals, opts.ident_settings())
     doc = result.to_dict()
     write_json(ctx.out_dir / "params.json", doc)
