@@ -76,6 +76,11 @@ TAIL_TIME_CONSTANTS = 2.0
 constants 1/(zeta omega) past it: for a ring-down starting at 20 noise sd about 30 % of the Fisher information on
 the decay rate lies beyond the 3-noise-sd fade, and two time constants further on only about 2 % remains."""
 
+GAP_PERIODS = 0.25
+"""A gap in the samples (lost frames) this many mode periods long or longer is no evidence of forcing or of a fade:
+the uniform grid's straight line across it moves the running period mean and has no swing. On a tracked 2.5 Hz decay
+a 0.3 s gap at 4 s started the window after it (4.63 instead of 0.90 s, f's interval ten times wider)."""
+
 RISE_FACTOR = 2.0
 """The tail extension stops where the swing climbs above this multiple of the fade level (END_NOISE_FACTOR noise sd):
 a new disturbance, not the ring-down's own low tail that hovers around the fade level."""
@@ -162,8 +167,11 @@ def find_decay_window(
     floor = max(0.2 * float(dev.max()), 0.1 * float(amp.max()), 5 * mean_noise, SWAY_FACTOR * reach * moving)
     if moving:  # the zero sways: the oscillation is judged without it
         amp = free
+    gap = _in_gaps(sig.t_s, u.t_s, 1.0 / f_guess_hz)
     forced = np.flatnonzero(dev > np.maximum(FORCED_RATIO * amp, floor))
     forced = forced[(forced >= n) & (forced < dev.size - n)]  # running means are padded at the edges: no evidence
+    # nor are they across a gap (lost frames), where the grid holds a straight line: its mean strays, its swing is 0
+    forced = forced[~_near(gap, n)[forced]]
     if forced.size:
         i_end = int(forced[-1])
         excitation_end = float(u.t_s[i_end])
@@ -180,11 +188,39 @@ def find_decay_window(
         else:
             swing = np.abs(u.value[lo : peak + 1] - rest)
             i0 = lo + int(np.argmax(swing > ONSET_FRACTION * swing.max()))
-    quiet = (amp[i0:] <= END_NOISE_FACTOR * noise_std).astype(int)
+    quiet = amp <= END_NOISE_FACTOR * noise_std
+    quiet = (quiet & ~_near(gap & ~_quiet_around(gap, quiet), n))[i0:].astype(int)
     run = np.convolve(quiet, np.ones(QUIET_PERIODS * n, int), mode="valid")  # quiet samples in each stretch
     fades = np.flatnonzero(run == QUIET_PERIODS * n)
     i1 = min(i0 + int(fades[0]) + n // 2, u.value.size - 1) if fades.size else u.value.size - 1
     return DecayWindow(float(u.t_s[i0]), float(u.t_s[i1]), "auto", excitation_end, f_guess_hz, reach * moving)
+
+
+def _in_gaps(t: np.ndarray, grid: np.ndarray, period_s: float) -> np.ndarray:
+    """Which points of the uniform `grid` lie inside a gap of the samples `t` (lost frames: a step over 1.5 times the
+    median and over GAP_PERIODS of the mode's period), where `to_uniform` interpolated a straight line. A frame or
+    two dropped here and there (an encoder's repeated pictures) leave steps too short to bend the running measures."""
+    dt = np.diff(t)
+    k = np.clip(np.searchsorted(t, grid, side="right") - 1, 0, dt.size - 1)
+    long = dt[k] > max(1.5 * float(np.median(dt)), GAP_PERIODS * period_s)
+    return long & (grid > t[k]) & (grid < t[k] + dt[k])
+
+
+def _quiet_around(gap: np.ndarray, quiet: np.ndarray) -> np.ndarray:
+    """The gap points whose gap is quiet on both sides (the grid points just before and after it): a still float the
+    encoder repeats, whose frames are invalid; a gap in a ringing signal (a float hidden for a while) is not a fade."""
+    edges = np.flatnonzero(np.diff(gap.astype(np.int8)))  # the last point before a change
+    out = np.zeros_like(gap)
+    starts = edges[gap[edges + 1]] + 1 if edges.size else edges
+    for a in starts:
+        b = a + int(np.argmin(gap[a:])) if not gap[a:].all() else gap.size
+        out[a:b] = quiet[max(a - 1, 0)] and quiet[min(b, gap.size - 1)]
+    return out
+
+
+def _near(mask: np.ndarray, n: int) -> np.ndarray:
+    """The mask widened by n samples each way: the running measures over one period (n samples) see that far."""
+    return ndimage.maximum_filter1d(mask.astype(np.uint8), 2 * n + 1, mode="constant").astype(bool)
 
 
 def _levels(sig: Signal, f_guess_hz: float, drift: bool):
