@@ -161,6 +161,11 @@ class SynthSettings:
             (0 <= self.specular <= 1 and 0 <= self.reflection <= 1, "specular and reflection must be 0..1"),
             (abs(self.second_mode) <= 1, "second mode must be within -1..1 of the first"),
             (self.container_diameter_m > 0, "container diameter must be positive"),
+            (
+                # the encoders' own ranges: PyAV raised (a traceback) outside them or clipped without a word
+                self.quality is None or (0 <= self.quality <= 51 if self.codec == "h264" else 1 <= self.quality <= 31),
+                "quality must be an H.264 CRF of 0..51, or an MPEG-4 qscale of 1..31",
+            ),
         ]
         for ok, message in checks:
             if not ok:
