@@ -222,3 +222,18 @@ def test_tilt_limits_bound_the_tilt_from_upright_on_a_diagonal_move():
     assert tilt.max() >= 5 * 0.95  # the limit is what shapes this move
     assert rate.max() <= 120 * 1.01
     assert res.verification_ok
+
+
+def test_report_names_the_scenario_limit_that_was_passed(paper_1d):
+    # the report said "Robot limits are EXCEEDED (see the table)" over a robot table of yeses, and the scenario's
+    # [limits] table was nowhere; vel_max = 0.1 on the seed's move is passed between grid points by a few percent
+    from sloshid.planning.report import plan_report, plan_verdict
+
+    sc = dataclasses.replace(paper_1d, limits=dataclasses.replace(paper_1d.limits, vel_max=(0.1, 0.1, 0.1)))
+    res = plan(sc, sc.liquid)
+    assert all(u.ok for u in res.limits) and not res.limits_ok
+    text, css = plan_verdict(res)
+    assert "Robot limits hold" in text and "The scenario's [limits] are EXCEEDED: vel_max" in text
+    assert css == "verdict-uncertain"
+    page = plan_report(res, sc).to_html()
+    assert "The scenario&#x27;s own [limits]" in page or "The scenario's own [limits]" in page

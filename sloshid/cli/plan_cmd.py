@@ -84,6 +84,12 @@ def run(args: argparse.Namespace) -> int:
         )
     params = resolve_liquid(scenario, args.params)
     _warn_on_doubtful_frequency(args.params)
+    if args.params:
+        from sloshid.validation.predict import planning_note
+
+        note = planning_note(args.params, str(output))
+        if note:
+            print(f"sloshid: note: {note}", file=sys.stderr)
     result = plan(scenario, params, progress=sys.stderr.isatty())
     fit = []
     if joints is not None:
@@ -160,7 +166,8 @@ def _warnings(result, fit: list) -> None:
     if not result.verification_ok:
         print(
             f"sloshid: warning: verification failed: liquid-container angle {v.peak_during_deg:.3g} deg during the "
-            f"move (limit {result.verify_during_deg:g}) and {v.residual_deg:.3g} deg after (limit {VERIFY_AFTER_DEG}).",
+            f"move (limit {result.verify_during_deg:g}) and {v.residual_deg:.3g} deg after (limit {VERIFY_AFTER_DEG}); "
+            "a finer grid ([solver].N, e.g. 400 for a long move) usually verifies.",
             file=sys.stderr,
         )
     if result.max_path_deviation_m is not None and not result.path_ok:

@@ -7,6 +7,7 @@ acceleration, the surface angles relative to the container and the wall height R
 from __future__ import annotations
 
 import argparse
+import sys
 
 from sloshid.core.errors import UserError
 
@@ -18,7 +19,8 @@ def add_geometry_arguments(parser: argparse.ArgumentParser) -> None:
         type=float,
         metavar="M",
         help="distance along the container axis from the logged point up to the pendulum pivot (about the liquid "
-        "surface at rest); default: the value stored in the parameters, else 0",
+        "surface at rest); default: the value stored in the parameters, else 0 (predict: 0 for a sloshid "
+        "trajectory, whose point is the pivot)",
     )
     parser.add_argument(
         "--container-radius-m", type=float, metavar="M", help="container radius R in m (default: from the parameters)"
@@ -53,15 +55,18 @@ def run(args: argparse.Namespace) -> int:
     from sloshid.core.outputs import Outputs
     from sloshid.model.pose import load_pose_log
     from sloshid.model.simulate import MAX_SETTLE_S
-    from sloshid.validation.predict import load_model, predict, write_prediction
+    from sloshid.validation.predict import load_model, pivot_for, predict, write_prediction
 
     output = Outputs([args.trajectory, args.params]).file(args.output, "-o", (".csv",))
-    model = load_model(args.params).with_geometry(args.container_radius_m, args.axis_offset_m, args.smooth_s)
+    model = load_model(args.params).with_geometry(args.container_radius_m, None, args.smooth_s)
     if model.radius_m is None:
         raise UserError("the wall height needs the container radius: give --container-radius-m (m).")
     if not 0 <= args.settle_s <= MAX_SETTLE_S:
         raise UserError(f"--settle-s must lie between 0 and {MAX_SETTLE_S:g} s, got {args.settle_s:g}.")
     pose = load_pose_log(args.trajectory, args.pose_columns)
+    model, note = pivot_for(pose, model, args.axis_offset_m)
+    if note:
+        print(f"sloshid: note: {note}", file=sys.stderr)
     resp = predict(pose, model, args.settle_s)
     write_prediction(output, resp, model)
     move = resp.move_span_s

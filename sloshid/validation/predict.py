@@ -105,6 +105,37 @@ def load_model(path: str | Path) -> LiquidModel:
     return LiquidModel(params, gain, radius, offset, smooth, out_gain, crest, vertical)
 
 
+def planning_note(path: str | Path, trajectory: str = "TRAJ.csv") -> str | None:
+    """For `plan` and `compare` with an input-output model (`identify --trajectory`, gains other than 1): they plan
+    and score with its f and zeta alone, as a pendulum; the sentence says so and how to check the plan with the whole
+    model (None for a plain model)."""
+    model = load_model(path)
+    if model.input_gain == 1 and model.vertical_gain == 1:
+        return None
+    return (
+        f"{path} is an input-output model (input gain {model.input_gain:.3g}, vertical gain {model.vertical_gain:.3g}); "
+        f"the plan uses its f and zeta alone, as a pendulum with gains of 1, so by the whole model the liquid moves "
+        f"during the move (on a user's 1-D plan 0.77 deg where the pendulum said 0.0014): check the plan with "
+        f"`sloshid predict {trajectory} --params {path}`."
+    )
+
+
+def pivot_for(pose: PoseLog, model: LiquidModel, axis_offset_m: float | None) -> tuple[LiquidModel, str | None]:
+    """The model with the pivot offset for this motion: the one given; else, for a sloshid trajectory, whose point is
+    the liquid surface's centre (the pivot the planner moved), none instead of the stored one (fitted to robot logs
+    of another point), with a note saying so; else the stored one."""
+    if axis_offset_m is not None:
+        return model.with_geometry(axis_offset_m=axis_offset_m), None
+    if pose.acc_m_s2 is None or model.axis_offset_m == 0:
+        return model, None
+    note = (
+        f"{pose.source} is a sloshid trajectory, whose point is the pivot (the liquid surface's centre), so the "
+        f"parameters' axis offset of {model.axis_offset_m:g} m (from the robot logs they were fitted to) is not "
+        "applied; give --axis-offset-m to apply one."
+    )
+    return model.with_geometry(axis_offset_m=0.0), note
+
+
 def predict(pose: PoseLog, model: LiquidModel, settle_s: float = 3.0, rtol: float = 1e-9) -> PoseResponse:
     """The liquid's response to the logged motion, held at the last pose for settle_s after the log ends; a log
     sampled too slowly for the liquid's mode (a time column in milliseconds) is refused."""
