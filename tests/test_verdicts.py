@@ -180,3 +180,14 @@ def test_a_gap_in_the_samples_does_not_move_the_window(gap):
     assert res.windows[0].t1_s >= whole.windows[0].t1_s - 0.5  # not ended at the gap
     assert res.parameters["f_hz"].stderr < 1.5 * whole.parameters["f_hz"].stderr
     assert res.parameters["f_hz"].value == pytest.approx(2.5, rel=0.003)
+
+
+@pytest.mark.parametrize("band", [(3.0, 10.0), (1.0, 2.2)])
+def test_a_fit_outside_the_searched_band_is_unreliable(band):
+    # --f-range 3,10 on a 2.5 Hz decay returned f = 2.498 Hz rated good: the band only seeds the fit
+    sig = free_decay_signal(2.5, 0.03, 60, duration_s=8, amplitude=6, noise_std=0.1, seed=2)
+    res = Identifier(f_range_hz=band).fit(sig).result
+    assert res.parameters["f_hz"].value == pytest.approx(2.5, rel=0.01)
+    assert res.groups["frequency"].quality == "unreliable"
+    assert any("outside the searched band" in r for r in res.groups["frequency"].reasons)
+    assert Identifier().fit(sig).result.groups["frequency"].quality == "good"

@@ -637,6 +637,7 @@ class Identifier:
                 st.second_mode_ratio,
                 second,
                 prior,
+                search_band(st, prior),
             )
         )
         notes = verdict.notes + [w for s in sigs for w in s.warnings]

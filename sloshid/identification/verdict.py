@@ -90,6 +90,8 @@ class VerdictInput:
     second: SecondMode | None = None
     prior: dict[str, float] = field(default_factory=dict)
     """The geometric prior (empty without container geometry); its presence settles which peak is the first mode."""
+    band_hz: tuple[float, float] | None = None
+    """The band searched for the mode (--f-range, narrowed by the prior)."""
 
 
 class _Doubts:
@@ -255,8 +257,17 @@ def _judge_bounds(inp: VerdictInput, doubts: _Doubts, notes: list[str]) -> None:
 
 
 def _judge_mode_choice(inp: VerdictInput, f: float, f2: float | None, doubts: _Doubts) -> None:
-    """Is the identified mode the first one? With geometry the prior's band decides; without it, a strong mode
-    below the reported one competes (the first sloshing mode is the lowest)."""
+    """Is the identified mode the first one, and the one searched for? With geometry the prior's band decides;
+    without it, a fit outside the searched band followed another mode, and a strong mode below the reported one
+    competes (the first sloshing mode is the lowest)."""
+    if not inp.prior and inp.band_hz is not None and not inp.band_hz[0] <= f <= inp.band_hz[1]:
+        lo, hi = inp.band_hz
+        doubts.add(
+            ("frequency",),
+            "unreliable",
+            f"f = {f:.4g} Hz lies outside the searched band {lo:g}-{hi:g} Hz (--f-range): the fit found a mode outside "
+            "it, not one inside (to fit a mode beside a stronger one, give --window where it rings alone).",
+        )
     if inp.prior:
         lo, hi = inp.prior["band_hz"]
         if not lo <= f <= hi:
