@@ -1148,3 +1148,15 @@ def test_python_api_keeps_the_command_lines_output_guards(decay_video, tmp_path)
     with pytest.raises(UserError, match=r"index\.html that sloshid did not write"):
         sloshid.identify(res).report(page.parent)
     assert page.read_text() == "<html>my own page</html>"
+
+
+def test_a_float_that_never_moves_draws_a_warning(decay_video, tmp_path):
+    # a static label of the float's colour was tracked as the float, valid in every frame, without a word (its angle
+    # spanned 0.02 deg); identify then blamed a container moving in the picture. A tapped float spans degrees.
+    still = tmp_path / "still.mp4"
+    render_video(still, SynthSettings(**{**SMALL, "duration_s": 1.0}, amplitude_deg=0.0))
+    res = track_video(still, TrackSettings())
+    assert res.valid.mean() > 0.9
+    assert any("nothing moved it" in w and "--overlay" in w for w in res.warnings), res.warnings
+    moving = track_video(decay_video[0], TrackSettings())
+    assert not any("nothing moved it" in w for w in moving.warnings)

@@ -470,6 +470,11 @@ def _at_key_frames(t_s: np.ndarray, key_times: np.ndarray) -> np.ndarray:
     return (key_times[at] == t_s).astype(int)
 
 
+STILL_SPAN_DEG = 0.2
+"""A tracked angle that spans less than this (1st to 99th percentile of the valid frames) draws a warning that nothing
+moved: a float on still liquid spanned 0.08 deg, a static label of the float's colour tracked as the float 0.02 deg,
+a tapped float 12.6 deg."""
+
 SPAN_S = 10.0
 """A video is tracked in spans that start at key frames at least this far apart (none within this of the end).
 Decoding a span needs nothing from before its key frame, and the trackers' state (where the float or the liquid
@@ -630,6 +635,16 @@ def _result(
             f"{video} looks truncated: only {len(rows)} of {declared} frames decoded "
             f"({100 * lost_share:.1f} % lost); tracked what decoded."
         )
+    still = np.sort(angle[valid.astype(bool)].astype(float))
+    if still.size >= 10:
+        span = still[int(0.99 * (still.size - 1))] - still[int(0.01 * (still.size - 1))]
+        if span < STILL_SPAN_DEG:
+            other = "something of the float's colour that is not the float" if target == "float" else "not its surface"
+            res.warnings.append(
+                f"the {target}'s angle spans only {span:.3f} deg over the valid frames (1st to 99th percentile): "
+                f"nothing moved it. A liquid at rest, or what was measured is {other}: check with --overlay, or "
+                "narrow --roi."
+            )
     lost, repeats = int(np.sum((valid == 0) & ~repeated)), int(repeated.sum())
     if lost > 0:
         res.warnings.append(
