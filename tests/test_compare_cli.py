@@ -122,6 +122,13 @@ def test_bad_compare_table_is_one_sentence_and_writes_nothing(tmp_path, run_cli,
     assert not report.exists()
 
 
+def test_when_no_method_applies_the_recommendation_says_so(tmp_path, run_cli):
+    # TOPP-RA alone on a [move] scenario: "No method stays slosh-free (...) over 2.88-3.18 Hz (...): ." was printed
+    code, out, err = run_cli("compare", write_scenario(tmp_path, methods='["toppra"]'))
+    assert code == 0, err
+    assert "No method of [compare].methods applies to this scenario" in out and "): ." not in out
+
+
 def test_a_settling_time_of_terabytes_is_refused():
     # [compare] settle_s = 1e9 asked simulate_liquid for 7 TiB of samples: a traceback
     from sloshid.comparison.compare import CompareSettings

@@ -146,7 +146,7 @@ def test_bad_scenarios_fail_cleanly(run_cli, tmp_path, name, text, message):
         ),
         (
             json.dumps({"parameters": {"omega_rad_s": {"value": -3}, "zeta": {"value": 0.07}}}),
-            r"omega must be positive",
+            r"omega_rad_s.value must be positive",
         ),
     ],
 )

@@ -272,6 +272,9 @@ def test_bad_input_is_one_sentence_and_exit_2_with_nothing_written(tmp_path, run
     in_ms = rows.copy()
     in_ms[:, 0] *= 1000
     np.savetxt(tmp_path / "logms.csv", in_ms, delimiter=";")
+    np.savetxt(tmp_path / "one.csv", rows[:1], delimiter=";")  # said "time does not increase at sample 0"
+    negative = tmp_path / "neg.json"  # said "d_ns_per_m must be zero or positive, got -11.2"
+    negative.write_text(json.dumps({"parameters": {"omega_rad_s": {"value": 20.0}, "zeta": {"value": -0.5}}}))
     measured_csv(tmp_path / "meas.csv", pose)
     short = np.loadtxt(tmp_path / "meas.csv", delimiter=",", skiprows=1)[:150]  # 2.5 s: ends before the move does
     np.savetxt(tmp_path / "short.csv", short, delimiter=",", header="t_s,height_mm", comments="")
@@ -296,6 +299,8 @@ def test_bad_input_is_one_sentence_and_exit_2_with_nothing_written(tmp_path, run
         (("predict", tmp_path / "badt.csv", "-o", out, "--params", params, *radius), "does not increase"),
         (("predict", good, "-o", out, "--params", params), "radius"),
         (("predict", tmp_path / "logms.csv", "-o", out, "--params", params, *radius), "milliseconds"),
+        (("predict", tmp_path / "one.csv", "-o", out, "--params", params, *radius), "at least 2 samples; it has 1"),
+        (("predict", good, "-o", out, "--params", negative, *radius), "parameters.zeta.value must lie in [0, 1)"),
         # 1e9 s of settling asked for terabytes (a traceback)
         (("predict", good, "-o", out, "--params", params, *radius, "--settle-s", "1e9"), "between 0 and 600"),
         (

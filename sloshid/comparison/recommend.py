@@ -124,6 +124,8 @@ def recommend(
     reason = (
         f"No method stays slosh-free (residual <= {settings.residual_ok_deg:g} deg, peak <= "
         f"{settings.peak_ok_deg:g} deg) over {band[0]:.3g}-{band[1]:.3g} Hz ({source}): " + "; ".join(losers) + "."
+        if losers
+        else "No method of [compare].methods applies to this scenario (the table says why), so none is recommended."
     )
     return Recommendation(None, "none", band, source, reason, "unreliable", checks)
 

@@ -97,6 +97,11 @@ class SloshParams:
                 f"parameter file {path} lacks parameters.omega_rad_s.value and parameters.zeta.value; "
                 "write it with `sloshid identify`."
             ) from None
+        # named as the file names them: checked later, a negative zeta read as a negative d_ns_per_m
+        if not (math.isfinite(omega) and omega > 0):
+            raise UserError(f"parameter file {path}: parameters.omega_rad_s.value must be positive, got {omega!r}.")
+        if not (math.isfinite(zeta) and 0 <= zeta < 1):
+            raise UserError(f"parameter file {path}: parameters.zeta.value must lie in [0, 1), got {zeta!r}.")
         return cls.from_modal(omega, zeta, m)
 
 

@@ -67,8 +67,10 @@ class PoseLog:
     """The logged point's exact acceleration when the file carries it (sloshid trajectory CSV); else None."""
 
     def __post_init__(self) -> None:
-        if self.t_s.size < 2 or np.any(np.diff(self.t_s) <= 0):
-            k = int(np.argmax(np.diff(self.t_s) <= 0)) + 1 if self.t_s.size >= 2 else 0
+        if self.t_s.size < 2:
+            raise UserError(f"{self.source}: a pose log needs at least 2 samples; it has {self.t_s.size}.")
+        if np.any(np.diff(self.t_s) <= 0):
+            k = int(np.argmax(np.diff(self.t_s) <= 0)) + 1
             raise UserError(f"{self.source}: the pose log's time does not increase at sample {k}.")
 
     @property
