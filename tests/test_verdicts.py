@@ -191,3 +191,14 @@ def test_a_fit_outside_the_searched_band_is_unreliable(band):
     assert res.groups["frequency"].quality == "unreliable"
     assert any("outside the searched band" in r for r in res.groups["frequency"].reasons)
     assert Identifier().fit(sig).result.groups["frequency"].quality == "good"
+
+
+@pytest.mark.parametrize("seed", [1, 4, 5])
+def test_a_liquid_at_rest_is_no_mode_not_a_driven_signal(seed):
+    # a float on still liquid (a slow wander and tracker noise, no tap) was refused as "driven ... until 11 s", with
+    # advice about containers moving in the picture; with no resonance anywhere the record holds no mode
+    t = np.arange(360) / 30
+    rng = np.random.default_rng(seed)
+    y = 0.03 * np.sin(2 * np.pi * 0.25 * t + seed) + tracker_noise(rng, t.size, 0.01, 0.6)
+    with pytest.raises(UserError, match="no oscillatory mode found"):
+        Identifier().fit(make_signal(t, y, "angle_deg", "deg", f"still {seed}"))

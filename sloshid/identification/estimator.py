@@ -578,7 +578,8 @@ class Identifier:
             )
         if win.chosen_by == "auto" and not _ring_down(sig, win, f_guess):
             driven = win.excitation_end_s
-            if driven is not None and (sig.t_s[-1] - driven) * f_guess < MIN_PERIODS_ERROR:
+            # driven to the end, unless the record shows no resonance at all (a liquid at rest: its wander is no move)
+            if driven is not None and (sig.t_s[-1] - driven) * f_guess < MIN_PERIODS_ERROR and whole.resonant:
                 # driven to the end: a slow motion larger than the swing (a container moving in the picture)
                 raise SettingError(
                     "window_s",
