@@ -40,7 +40,8 @@ def track(
 def identify(*sources: Source, **settings: Any) -> IdentResult:
     """Identify the sloshing mode jointly from signal files, Signals or TrackResults; keywords are IdentSettings
     fields (mass_kg, window_s, f_range_hz, drift, min_fit_percent, container_radius_m, fill_height_m, ...) and
-    the SignalColumns fields for files (time_col, value_col, time_var, value_var)."""
+    the SignalColumns fields (time_col, value_col, time_var, value_var): the files' columns, or, when every source is
+    a TrackResult, the tracked tables' (value_col="left_wall_mm")."""
     from sloshid.identification.estimator import IdentSettings
     from sloshid.identification.stage import SignalColumns, identify_sources
 

@@ -1160,3 +1160,21 @@ def test_a_float_that_never_moves_draws_a_warning(decay_video, tmp_path):
     assert any("nothing moved it" in w and "--overlay" in w for w in res.warnings), res.warnings
     moving = track_video(decay_video[0], TrackSettings())
     assert not any("nothing moved it" in w for w in moving.warnings)
+
+
+def test_columns_beside_a_sensor_file_are_the_files(surface_video, tmp_path):
+    # value_col names a sensor CSV's column beside a tracker result: the result keeps its angle (a pipeline with
+    # tracked videos and a "height" sensor file failed on the tracked table once the columns reached it)
+    import sloshid
+
+    path, _ = surface_video
+    res = track_video(path, TrackSettings(target="surface", reference="container", container_diameter_m=0.1))
+    sensor = tmp_path / "sensor.csv"
+    ok = res.valid.astype(bool)
+    np.savetxt(sensor, np.c_[res.t_s[ok], res.columns()["left_wall_mm"][ok] + 0.01], delimiter=",",
+               header="time_s,height", comments="")  # fmt: skip
+    both = sloshid.identify(res, sensor, value_col="height")
+    assert [s.label for s in both.signals] == ["angle_deg", "height"]
+    assert sloshid.identify(res, value_col="left_wall_mm").signals[0].label == "left_wall_mm"
+    with pytest.raises(UserError, match="has no value column 'height'"):
+        sloshid.identify(res, value_col="height")

@@ -145,11 +145,18 @@ def signal_from_track(track: TracedAngles, time_col: str | None = None, value_co
             f"{where}: the time and the signal would be the same column ({header[v_i]}); choose the signal's."
         )
     label = header[v_i]
-    ok = np.asarray(track.valid).astype(bool) if label not in WHOLE_TRACKER_COLUMNS else np.ones(track.t_s.size, bool)
+    whole = label in WHOLE_TRACKER_COLUMNS
+    ok = np.ones(track.t_s.size, bool) if whole else np.asarray(track.valid).astype(bool)
+    if not ok.any():
+        raise UserError(
+            f"{where}: no tracker frame is valid (valid == 1), so there is no measurement to identify from."
+        )
     dropped = int((~ok).sum())
     t, y = np.asarray(table[header[t_i]], float), np.asarray(table[label], float)
     sig = make_signal(t[ok], y[ok], label, unit_from_name(label), str(track.video), n_dropped=dropped)
-    sig = replace(sig, tracked=track.target, key_t_s=track.t_s[np.asarray(track.key_frame, bool)])
+    # the key frames' times, as the CSV path reads them: for a column read on the valid frames, in the time column
+    keys = None if whole else t[np.asarray(track.key_frame, bool)]
+    sig = replace(sig, tracked=track.target, key_t_s=keys)
     if dropped:
         sig = replace(sig, warnings=(*sig.warnings, f"{track.video}: skipped {dropped} tracker frames with valid = 0."))
     return sig

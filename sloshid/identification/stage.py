@@ -19,7 +19,8 @@ Source = str | Path | Signal | TracedAngles
 
 @dataclass(frozen=True)
 class SignalColumns:
-    """Which columns (CSV) or variables (.mat) of a signal file hold the time in seconds and the signal."""
+    """Which columns (CSV) or variables (.mat) of a signal file hold the time in seconds and the signal; the columns
+    of a tracker result's table too when every source is one (`identify_sources`)."""
 
     time_col: str | None = None
     """CSV time column, by name or 0-based index; default: a column named like a time (t_s, time, ...)."""
@@ -33,19 +34,24 @@ class SignalColumns:
 
 def to_signal(source: Source, columns: SignalColumns | None = None, progress: bool = False) -> Signal:
     """One source as a Signal: files are read (with a progress bar when asked), tracker results converted without a
-    file round trip."""
+    file round trip (their table's columns chosen as a tracker CSV's)."""
     if isinstance(source, Signal):
         return source
     c = columns or SignalColumns()
     if isinstance(source, (str, Path)):
         return load_signal(source, c.time_col, c.value_col, c.time_var, c.value_var, progress)
-    if all(hasattr(source, name) for name in ("t_s", "columns", "valid")):
+    if _tracked(source):
         return signal_from_track(source, c.time_col, c.value_col)
     raise TypeError(f"cannot identify from a {type(source).__name__}; give a file path, a Signal or a TrackResult.")
 
 
 MIN_SAMPLES_PER_PERIOD = 4.0
 """Samples per period of the slowest searched frequency below which no mode can be resolved (Nyquist is 2)."""
+
+
+def _tracked(source: Source) -> bool:
+    """A tracker result (sloshid.tracking's TrackResult), not a file or a Signal."""
+    return not isinstance(source, (str, Path, Signal)) and all(hasattr(source, n) for n in ("t_s", "columns", "valid"))
 
 
 def check_sampling(source: str, rate_hz: float, f_range_hz: tuple[float, float]) -> None:
@@ -79,7 +85,10 @@ def identify_sources(
         raise UserError(f"{twice[0]} is given more than once; each recording may count only once.")
     if not sources:
         raise UserError("nothing to identify: give at least one signal.")
-    signals = [to_signal(s, columns, progress) for s in sources]
+    # the columns name every source's when all are tracker results; beside files they are the files' (a sensor
+    # CSV's "height"), and the tracker results keep their angle
+    mixed = not all(_tracked(s) for s in sources)
+    signals = [to_signal(s, SignalColumns() if mixed and _tracked(s) else columns, progress) for s in sources]
     for i, a in enumerate(signals):  # a copy under another name counts the same evidence twice as well
         for b in signals[:i]:
             if np.array_equal(a.t_s, b.t_s) and np.array_equal(a.value, b.value):

@@ -34,9 +34,9 @@ class IdentifyOptions(IdentSettings):
     signals: list[Path] = field(default_factory=list)
     """Extra signal files (tracker CSV, CSV, .mat) relative to the pipeline file; tracked videos are added."""
     time_col: str | None = None
-    """CSV time column (seconds), by name or 0-based index, of `signals` and the tracked videos' tables."""
+    """CSV time column (seconds), by name or 0-based index, of `signals`; without signals, of the tracked tables."""
     value_col: str | None = None
-    """CSV value column of `signals` and the tracked videos' tables (`sloshid batch` too)."""
+    """CSV value column of `signals`; without signals, of the tracked videos' tables (`sloshid batch` too)."""
     time_var: str | None = None
     """.mat time variable for `signals`."""
     value_var: str | None = None

@@ -91,8 +91,9 @@ def run_identify(opts: IdentifyOptions, ctx: StageContext) -> dict[str, Any]:
     """Joint identification of the tracked angles and the listed signal files; JSON and HTML report. What the
     inputs' reading noticed (dropped frames, NaN samples) goes into the summary and the index."""
     tracked = sorted((ctx.upstream["track"]).glob("*.csv")) if "track" in ctx.upstream else []
-    # the columns apply to every source, the tracked tables too (value_col = "left_wall_mm" fits the wall height)
-    signals = [to_signal(p, opts.columns()) for p in [*tracked, *opts.signals]]
+    # the columns are the signal files'; without any, the tracked tables' (value_col = "left_wall_mm": the wall height)
+    tracked_columns = opts.columns() if not opts.signals else None
+    signals = [to_signal(p, tracked_columns) for p in tracked] + [to_signal(p, opts.columns()) for p in opts.signals]
     result = identify_sources(signals, opts.ident_settings())
     doc = result.to_dict()
     write_json(ctx.out_dir / "params.json", doc)
