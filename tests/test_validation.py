@@ -503,3 +503,4 @@ def test_plan_notes_an_input_output_models_gains(tmp_path):
     assert planning_note(plain) is None
     note = planning_note(io, "t.csv")
     assert "input gain 0.92, vertical gain 1.38" in note and f"sloshid predict t.csv --params {io}" in note
+    assert "plans and scores use its f and zeta alone" in note

@@ -14,6 +14,7 @@ import argparse
 import json
 import sys
 
+from sloshid.cli.plan_cmd import note_io_model
 from sloshid.core.outputs import Outputs
 
 
@@ -50,12 +51,7 @@ def run(args: argparse.Namespace) -> int:
     report_dir = outputs.report_dir(args.report, "--report") if args.report is not None else None
     scenario = load_scenario(args.scenario)
     params = resolve_liquid(scenario, args.params)
-    if args.params:
-        from sloshid.validation.predict import planning_note
-
-        note = planning_note(args.params, "the plan's trajectory")
-        if note:
-            print(f"sloshid: note: {note}", file=sys.stderr)
+    note_io_model(args.params, "TRAJ.csv")
     interval = IdentifiedFrequency.from_identify_json(args.params).ci95_hz if args.params else None
     comp = compare_scenario(scenario, params, f_interval_hz=interval, progress=sys.stderr.isatty())
     if report_dir is not None:

@@ -84,12 +84,7 @@ def run(args: argparse.Namespace) -> int:
         )
     params = resolve_liquid(scenario, args.params)
     _warn_on_doubtful_frequency(args.params)
-    if args.params:
-        from sloshid.validation.predict import planning_note
-
-        note = planning_note(args.params, str(output))
-        if note:
-            print(f"sloshid: note: {note}", file=sys.stderr)
+    note_io_model(args.params, str(output))
     result = plan(scenario, params, progress=sys.stderr.isatty())
     fit = []
     if joints is not None:
@@ -117,6 +112,16 @@ def run(args: argparse.Namespace) -> int:
         print(f"sloshid: not executable on the Panda: {result.joints.reason()}{hint}", file=sys.stderr)
         return 1
     return 0
+
+
+def note_io_model(params_path: str | None, trajectory: str) -> None:
+    """One stderr note when the parameters are an input-output model, whose gains plan and compare do not use."""
+    if params_path:
+        from sloshid.validation.predict import planning_note
+
+        note = planning_note(params_path, trajectory)
+        if note:
+            print(f"sloshid: note: {note}", file=sys.stderr)
 
 
 def _warn_on_doubtful_frequency(params_path: str | None) -> None:

@@ -16,8 +16,8 @@ MAX_PADDED_NFFT = 1 << 20
 bin finer than any mode's width, and padding a million-sample record 16-fold would take gigabytes."""
 
 NEAR_MODE_OCTAVES = 2.0
-"""`Spectrum.noise_near_mode` reads the noise floor this many octaves either side of the mode (its main lobe, a
-quarter of its frequency wide, left out)."""
+"""`Spectrum.noise_near_mode` reads the noise floor this many octaves either side of the mode (its peak left out:
+a quarter of its frequency, or two resolution bins, each side, whichever is wider)."""
 
 SECONDARY_MIN_RATIO = 0.02
 """Secondary peaks weaker than this fraction of the dominant peak (-17 dB) are not listed."""
@@ -91,7 +91,8 @@ class Spectrum:
         whose density rises toward the mode and below it, the broadband median reads several times too low."""
         f0 = self.peak_f_hz
         span = 2.0**NEAR_MODE_OCTAVES
-        near = (self.f_hz > f0 / span) & (self.f_hz < f0 * span) & (np.abs(self.f_hz - f0) > 0.25 * f0)
+        lobe = max(0.25 * f0, 2 * self.resolution_hz)  # a short record's main lobe is wider than a quarter of f
+        near = (self.f_hz > f0 / span) & (self.f_hz < f0 * span) & (np.abs(self.f_hz - f0) > lobe)
         if not near.any():
             return self.noise_std
         return float(np.sqrt(np.median(self.psd[near]) * self.fs_hz / 2))

@@ -77,7 +77,7 @@ constants 1/(zeta omega) past it: for a ring-down starting at 20 noise sd about 
 the decay rate lies beyond the 3-noise-sd fade, and two time constants further on only about 2 % remains."""
 
 GAP_PERIODS = 0.25
-"""A gap in the samples (lost frames) this many mode periods long or longer is no evidence of forcing or of a fade:
+"""A gap in the samples (lost frames) longer than this many mode periods is no evidence of forcing or of a fade:
 the uniform grid's straight line across it moves the running period mean and has no swing. On a tracked 2.5 Hz decay
 a 0.3 s gap at 4 s started the window after it (4.63 instead of 0.90 s, f's interval ten times wider)."""
 

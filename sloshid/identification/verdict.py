@@ -258,9 +258,10 @@ def _judge_bounds(inp: VerdictInput, doubts: _Doubts, notes: list[str]) -> None:
 
 def _judge_mode_choice(inp: VerdictInput, f: float, f2: float | None, doubts: _Doubts) -> None:
     """Is the identified mode the first one, and the one searched for? With geometry the prior's band decides;
-    without it, a fit outside the searched band followed another mode, and a strong mode below the reported one
-    competes (the first sloshing mode is the lowest)."""
-    if not inp.prior and inp.band_hz is not None and not inp.band_hz[0] <= f <= inp.band_hz[1]:
+    without it, a fit whose interval lies outside the searched band followed another mode, and a strong mode below
+    the reported one competes (the first sloshing mode is the lowest)."""
+    ci = inp.parameters["f_hz"].ci95  # a mode at the band's edge may be fitted a hair beyond it
+    if not inp.prior and inp.band_hz is not None and (ci[1] < inp.band_hz[0] or ci[0] > inp.band_hz[1]):
         lo, hi = inp.band_hz
         doubts.add(
             ("frequency",),

@@ -304,8 +304,9 @@ def _guess(
     # the guess tilts at the steady angle of the horizontal acceleration (1-D: the angle that tilts toward +u)
     if s.axis is not None:
         ang = np.clip(steady_tilt(acc[:, ax], 0.0)[1], -tilt, tilt)
-    else:
-        ang = np.clip(np.column_stack(steady_tilt(acc[:, 0], acc[:, 1])), -tilt, tilt)
+    else:  # scaled into the bound on the norm of the two angles (the tilt from upright), not clipped per angle
+        ang = np.column_stack(steady_tilt(acc[:, 0], acc[:, 1]))
+        ang *= np.minimum(1.0, tilt / np.maximum(np.linalg.norm(ang, axis=1), 1e-12))[:, None]
     cols = [pos[:, ax], vel[:, ax]] + ([acc[:, ax]] if s.jerk_limited else [])
     cols += [ang, np.zeros_like(ang)] * (1 + s.n_robust)
     mid = (jerk[:-1] + jerk[1:]) / 2 if s.jerk_limited else (acc[:-1] + acc[1:]) / 2

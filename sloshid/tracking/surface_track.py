@@ -18,7 +18,7 @@ from sloshid.core.errors import SettingError, UserError
 from sloshid.tracking.container_ref import ContainerMeasurement, ContainerTracker, WallsRecord
 from sloshid.tracking.overlay import draw_surface_overlay
 from sloshid.tracking.repeats import REPEAT_SHARE, repeated_share
-from sloshid.tracking.robust import median
+from sloshid.tracking.robust import median, percentile_span
 from sloshid.tracking.surface import SurfaceFinder, SurfaceMeasurement
 from sloshid.video.colors import HsvRange
 
@@ -185,8 +185,7 @@ def check_rest_frames(n_rest: int | None, frames: int) -> None:
 
 def _tilt_notes(cang: np.ndarray) -> list[str]:
     """The warning that the container turned in the picture (`cang`: its angle in the valid frames, deg), if it did."""
-    c = np.sort(cang[np.isfinite(cang)])  # np.percentile would import numpy.ma at the end of every run
-    span = c[int(0.99 * (c.size - 1))] - c[int(0.01 * (c.size - 1))] if c.size else 0.0
+    span = percentile_span(cang)
     if span <= TILT_NOTE_DEG:
         return []
     return [

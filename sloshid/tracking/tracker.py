@@ -33,6 +33,7 @@ from sloshid.tracking.container_ref import ContainerMeasurement, ContainerTracke
 from sloshid.tracking.float_angle import FloatFinder
 from sloshid.tracking.overlay import draw_overlay
 from sloshid.tracking.repeats import REPEAT_SHARE, repeated_share, stale_repeats
+from sloshid.tracking.robust import percentile_span
 from sloshid.tracking.smooth import smoothing_worker
 from sloshid.tracking.surface import SurfaceFinder, auto_liquid_range
 from sloshid.tracking.surface_track import SurfaceStep, check_rest_frames
@@ -635,9 +636,8 @@ def _result(
             f"{video} looks truncated: only {len(rows)} of {declared} frames decoded "
             f"({100 * lost_share:.1f} % lost); tracked what decoded."
         )
-    still = np.sort(angle[valid.astype(bool)].astype(float))
-    if still.size >= 10:
-        span = still[int(0.99 * (still.size - 1))] - still[int(0.01 * (still.size - 1))]
+    if valid.sum() >= 10:
+        span = percentile_span(angle[valid.astype(bool)].astype(float))
         if span < STILL_SPAN_DEG:
             other = "something of the float's colour that is not the float" if target == "float" else "not its surface"
             res.warnings.append(

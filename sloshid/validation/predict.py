@@ -114,8 +114,8 @@ def planning_note(path: str | Path, trajectory: str = "TRAJ.csv") -> str | None:
         return None
     return (
         f"{path} is an input-output model (input gain {model.input_gain:.3g}, vertical gain {model.vertical_gain:.3g}); "
-        f"the plan uses its f and zeta alone, as a pendulum with gains of 1, so by the whole model the liquid moves "
-        f"during the move (on a user's 1-D plan 0.77 deg where the pendulum said 0.0014): check the plan with "
+        f"plans and scores use its f and zeta alone, as a pendulum with gains of 1, so by the whole model the liquid "
+        f"moves during a plan (on a user's 1-D plan 0.77 deg where the pendulum said 0.0014): check a plan with "
         f"`sloshid predict {trajectory} --params {path}`."
     )
 
