@@ -185,3 +185,14 @@ def test_welch_peak_refined_beyond_its_bin_and_uniform_grid_exact_for_lines():
     t = np.sort(rng.uniform(0, 5, 300))  # uneven timestamps: interpolation must be exact for a straight line
     u = to_uniform(t, 2 * t + 1)
     assert np.allclose(u.value, 2 * u.t_s + 1) and "interpolated" in u.note
+
+
+def test_an_empty_smoothed_column_names_no_smooth(tmp_path, run_cli):
+    # identify --value-col angle_smoothed_deg on a `track --no-smooth` CSV said only "240 of 240 samples ... are NaN"
+    t = np.arange(240) / 30
+    cols = {"frame": np.arange(240), "t_s": t, "angle_deg": np.sin(2 * np.pi * 2.5 * t), "valid": np.ones(240)}
+    cols["angle_smoothed_deg"] = np.full(240, np.nan)
+    path = tmp_path / "nosmooth.csv"
+    path.write_text(",".join(cols) + "\n" + "\n".join(",".join(f"{c[i]:g}" for c in cols.values()) for i in range(240)))
+    code, _, err = run_cli("identify", path, "-o", tmp_path / "p.json", "--value-col", "angle_smoothed_deg")
+    assert code == 2 and "--no-smooth` leaves it empty" in err and not (tmp_path / "p.json").exists()

@@ -104,8 +104,10 @@ def make_signal(t, y, label: str, unit: str = "", source: str = "array", n_dropp
     bad = ~(np.isfinite(t) & np.isfinite(y))
     notes: list[str] = []
     if bad.sum() > MAX_BAD_FRACTION * max(t.size, 1):
+        why = " (`sloshid track --no-smooth` leaves it empty)" if label == "angle_smoothed_deg" and bad.all() else ""
         raise UserError(
-            f"{source}: {bad.sum()} of {t.size} samples of '{label}' are NaN or infinite, too many to identify from."
+            f"{source}: {bad.sum()} of {t.size} samples of '{label}' are NaN or infinite{why}, too many to identify "
+            "from."
         )
     if bad.any():
         notes.append(f"{source}: dropped {int(bad.sum())} NaN/inf samples of {t.size}.")
