@@ -167,7 +167,10 @@ d_ns_per_m = 1.51
         ('model = "panda"\nq_start = [0, 0, 0]', r"q_start must give 7 joint angles"),
         ('model = "panda"\nq_start = [0, 0, 0, 0, 0, 0, 0]', r"joint 4 = 0 rad lies outside"),
         ('model = "panda"\nbase_xyz_m = [3.0, 0.0, 0.0]', r"out of the Panda's reach"),
-        ("", r"--joints needs a \[robot\] table"),
+        (
+            "",
+            r"--joints needs a \[robot\] table with model = \"panda\" in the scenario \(base_xyz_m and q_start are optional\)",
+        ),
     ],
 )
 def test_bad_robot_input_is_one_sentence_exit_2(run_cli, tmp_path, robot, message):

@@ -80,7 +80,7 @@ def run(args: argparse.Namespace) -> int:
     report_dir = outputs.report_dir(args.report, "--report") if args.report else None
     if joints is not None and scenario.arm is None:
         raise UserError(
-            '--joints needs a [robot] table with model = "panda" (and base_xyz_m, q_start) in the scenario.'
+            '--joints needs a [robot] table with model = "panda" in the scenario (base_xyz_m and q_start are optional).'
         )
     params = resolve_liquid(scenario, args.params)
     _warn_on_doubtful_frequency(args.params)
