@@ -7,6 +7,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import signal as sps
 
+from sloshid.core.tables import GAP_STEP_FACTOR
+
 MIN_PROMINENCE = 10.0
 """Dominant peak / median PSD below this (10 dB) means no oscillatory mode stands out of the noise.
 For white noise a Welch PSD with 3 averages exceeds 10x its median with probability ~1e-10 per bin."""
@@ -42,7 +44,7 @@ def to_uniform(t: np.ndarray, y: np.ndarray) -> Uniform:
         return Uniform(t, y, 1.0 / step, "samples already uniform, used as they are")
     n = int(np.floor((t[-1] - t[0]) / step)) + 1
     tu = t[0] + step * np.arange(n)
-    gaps = int(np.sum(dt > 1.5 * step))
+    gaps = int(np.sum(dt > GAP_STEP_FACTOR * step))
     note = (
         f"timestamps uneven (max step deviation {100 * jitter:.0f} % of {1000 * step:.2f} ms, {gaps} gaps): "
         f"linearly interpolated onto a uniform {1 / step:.2f} Hz grid"

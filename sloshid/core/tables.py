@@ -66,6 +66,10 @@ def to_pandas(columns: dict[str, Any]):
     return pd.DataFrame(columns)
 
 
+GAP_STEP_FACTOR = 1.5
+"""A time step longer than this many median steps is a gap (lost frames, dropped samples): the one rule that
+`to_uniform`, `Signal.n_gaps` and the decay window's gap handling share."""
+
 CHUNK_LINES = 65536
 """Lines parsed at a time: reading holds the kept columns plus one chunk of text, however long the file."""
 

@@ -10,6 +10,7 @@ from scipy import signal as sps
 
 from sloshid.core.errors import SettingError, UserError
 from sloshid.core.spectrum import to_uniform, welch_spectrum
+from sloshid.core.tables import GAP_STEP_FACTOR
 from sloshid.identification.signals import Signal
 
 SEGMENT_S = 4.0
@@ -202,7 +203,7 @@ def _in_gaps(t: np.ndarray, grid: np.ndarray, period_s: float) -> np.ndarray:
     two dropped here and there (an encoder's repeated pictures) leave steps too short to bend the running measures."""
     dt = np.diff(t)
     k = np.clip(np.searchsorted(t, grid, side="right") - 1, 0, dt.size - 1)
-    long = dt[k] > max(1.5 * float(np.median(dt)), GAP_PERIODS * period_s)
+    long = dt[k] > max(GAP_STEP_FACTOR * float(np.median(dt)), GAP_PERIODS * period_s)
     return long & (grid > t[k]) & (grid < t[k] + dt[k])
 
 

@@ -9,7 +9,7 @@ from typing import Protocol
 import numpy as np
 
 from sloshid.core.errors import SettingError, UserError
-from sloshid.core.tables import VIDEO_LIKE, read_table
+from sloshid.core.tables import GAP_STEP_FACTOR, VIDEO_LIKE, read_table
 
 TRACKER_COLUMNS = ("t_s", "angle_deg", "valid")
 """Columns that mark a `sloshid track` CSV; its value is `angle_deg` on rows with valid == 1."""
@@ -62,14 +62,14 @@ class Signal:
     def jitter_s(self) -> float:
         """Timestamp jitter: standard deviation of the time steps that are not gaps."""
         dt = np.diff(self.t_s)
-        regular = dt[dt < 1.5 * np.median(dt)]
+        regular = dt[dt < GAP_STEP_FACTOR * np.median(dt)]
         return float(np.std(regular)) if regular.size else 0.0
 
     @property
     def n_gaps(self) -> int:
         """Number of time steps longer than 1.5 nominal steps (dropped or missing frames)."""
         dt = np.diff(self.t_s)
-        return int(np.sum(dt > 1.5 * np.median(dt)))
+        return int(np.sum(dt > GAP_STEP_FACTOR * np.median(dt)))
 
     def sampling(self) -> dict[str, float | int]:
         """Sampling facts for reports and JSON."""
