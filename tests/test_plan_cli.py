@@ -61,12 +61,13 @@ def test_plan_writes_csv_report_and_json(run_cli, tmp_path):
             assert "reaches" in html, u
 
 
-def test_plan_warns_when_robot_limits_are_exceeded(run_cli, tmp_path):
+def test_plan_warns_and_exits_1_when_robot_limits_are_exceeded(run_cli, tmp_path):
     # the seed's piecewise-constant acceleration exceeds the Panda's angular acceleration: said, not hidden
     path = _scenario(tmp_path, BASE.replace("N = 30", "N = 30\njerk_limited = false"))
     code, stdout, stderr = run_cli("plan", path, "-o", tmp_path / "t.csv", "--json")
-    assert code == 0 and "warning: robot limit rot_acc_rad_s2 exceeded" in stderr
-    assert json.loads(stdout)["limits_ok"] is False
+    # exit code 1, so that a script does not send it to the robot; the CSV is still written for inspection
+    assert code == 1 and "warning: robot limit rot_acc_rad_s2 exceeded" in stderr
+    assert json.loads(stdout)["limits_ok"] is False and (tmp_path / "t.csv").stat().st_size > 0
 
 
 BAD = [
@@ -185,7 +186,7 @@ def test_a_plan_past_the_scenarios_own_limits_says_so(run_cli, tmp_path):
     sc = tmp_path / "slow.toml"
     sc.write_text(PAPER_1D.read_text().replace("vel_max = [1.7, 1.7, 1.7]", "vel_max = [0.1, 0.1, 0.1]"))
     code, out, err = run_cli("plan", sc, "-o", tmp_path / "t.csv", "--json")
-    assert code == 0
+    assert code == 1  # past a limit: not for a script to run
     summary = json.loads(out)
     vel = next(u for u in summary["move_limits"] if u["quantity"] == "vel_max")
     peak = np.abs(read_csv(tmp_path / "t.csv")["vy_m_s"]).max()

@@ -1,6 +1,8 @@
 """Plan a time-optimal, slosh-free container move (seed section III, CasADi + IPOPT) and write it as a 1 kHz
 robot trajectory CSV. The container follows the liquid's surface, so the liquid never moves relative to it.
 The plan is checked against the robot's Cartesian limits and verified by simulating the liquid independently.
+Exit code 1 when a limit is exceeded, the verification fails, the path is left or the arm cannot follow: the files are
+written for inspection, but a script that runs plans should stop there.
 """
 
 from __future__ import annotations
@@ -66,7 +68,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Check every output, load, plan, then write the CSV, joints and report only after everything succeeded;
-    exit code 1 when the arm cannot follow (the files are still written, for inspection)."""
+    exit code 1 when the arm cannot follow, a limit is exceeded, the verification fails or the path is left (the
+    files are still written, for inspection)."""
     from sloshid.planning.planner import plan
     from sloshid.planning.scenario import load_scenario, resolve_liquid
 
@@ -111,7 +114,8 @@ def run(args: argparse.Namespace) -> int:
         hint = "" if args.fit_joints else " (--fit-joints re-plans slower until it can)"
         print(f"sloshid: not executable on the Panda: {result.joints.reason()}{hint}", file=sys.stderr)
         return 1
-    return 0
+    # a plan past a limit, unverified or off its path is written for inspection, but a script must not run it
+    return 0 if result.limits_ok and result.verification_ok and result.path_ok else 1
 
 
 def note_io_model(params_path: str | None, trajectory: str) -> None:
