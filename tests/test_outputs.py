@@ -119,6 +119,16 @@ def test_unwritable_outputs_fail_before_the_work(tmp_path, run_cli, decay_csv, c
     assert str(target.name) in err or "plain" in err
 
 
+@pytest.mark.skipif(not Path("/proc/self").is_dir(), reason="needs Linux's /proc")
+def test_a_folder_that_takes_no_files_fails_before_the_work(run_cli, decay_csv):
+    # /proc grants write permission (to root) but makes no files: the run failed only when it came to write
+    code, _, err = run_cli("identify", decay_csv, "-o", "/proc/out.json")
+    _one_sentence(code, err)
+    assert (
+        "cannot write -o /proc/out.json: the folder /proc" in err
+    )  # "takes no new files", or (not root) "is not writable"
+
+
 def test_a_full_disk_is_one_sentence_and_leaves_nothing(tmp_path, monkeypatch):
     import errno
 

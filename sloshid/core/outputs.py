@@ -5,6 +5,7 @@ with one sentence instead of after minutes of work."""
 from __future__ import annotations
 
 import os
+import tempfile
 from collections.abc import Iterable
 from pathlib import Path
 
@@ -25,6 +26,13 @@ def writable_folder(folder: Path, role: str, path: Path) -> None:
         raise UserError(f"cannot write {role} {path}: {probe} is a file, not a folder.")
     if not os.access(probe, os.W_OK | os.X_OK):
         raise UserError(f"cannot write {role} {path}: the folder {probe} is not writable.")
+    # permissions say yes on file systems that refuse new files all the same (/proc, /sys, some mounts): try one
+    try:
+        fd, name = tempfile.mkstemp(dir=probe, prefix=".sloshid-probe-")
+    except OSError as e:
+        raise UserError(f"cannot write {role} {path}: the folder {probe} takes no new files ({e.strerror}).") from None
+    os.close(fd)
+    os.unlink(name)
 
 
 def is_sloshid_page(path: Path) -> bool:
