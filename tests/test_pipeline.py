@@ -73,8 +73,10 @@ def test_failing_stage_keeps_finished_results(video, tmp_path, run_cli):
     # a constant signal has no oscillatory mode: identify must fail, track's outputs must stay
     flat = _write(tmp_path / "flat.csv", "t_s,y\n" + "".join(f"{i / 50},1.0\n" for i in range(500)))
     pipe = _write(tmp_path / "p.toml", f'[track]\nvideos = ["{video}"]\n[identify]\nsignals = ["{flat}"]\n')
-    code, out, err = run_cli("run", pipe, "--output-dir", tmp_path / "runs", "--quiet")
+    code, out, err = run_cli("run", pipe, "--output-dir", tmp_path / "runs")
     assert code == 1 and "stage [identify] failed" in err
+    assert err.count("is constant") == 1, err  # the reason once, not in the progress log too
+    out = out.strip().splitlines()[-1]
     run_dir = Path(out.strip()).parent
     assert _statuses(run_dir) == {"track": "ran", "identify": "failed"}
     assert (run_dir / "track" / "tap.csv").exists() and not (run_dir / "identify").exists()

@@ -219,7 +219,7 @@ def _run_stage(stage: Stage, settings: Any, key: str, cache: Path, ctx: StageCon
                 write_text(tmp / "summary.json", json.dumps(summary, indent=2, default=str))
         except Exception as exc:  # recorded, so the run still gets its manifest and index
             error = _stage_error(exc, stage.name)
-            log(f"[{stage.name}] failed: {error}")
+            log(f"[{stage.name}] failed")  # the reason is the record's, which the command prints once at the end
             return StageRecord(stage.name, key, "failed", time.perf_counter() - start, error=error)
         status = "ran"
     _copy_tree(cache, ctx.out_dir)
