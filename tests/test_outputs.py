@@ -4,6 +4,7 @@ left behind."""
 
 from __future__ import annotations
 
+import json
 import os
 import signal
 import subprocess
@@ -240,6 +241,23 @@ def test_a_time_column_in_milliseconds_is_named(tmp_path, run_cli):
     code, _, err = run_cli("identify", path, "-o", tmp_path / "p.json")
     _one_sentence(code, err)
     assert "milliseconds" in err
+
+
+def test_a_search_band_past_nyquist_is_said(tmp_path, run_cli):
+    # 60 Hz samples: a band up to 40 Hz reaches past the 30 Hz Nyquist frequency (searched below it, with a warning);
+    # a band wholly above 15 Hz (4 samples per period) is refused, naming the highest frequency the samples allow
+    t = np.arange(0, 8, 1 / 60)
+    path = tmp_path / "s.csv"
+    y = np.exp(-0.9 * t) * np.sin(6 * np.pi * t)
+    np.savetxt(path, np.column_stack([t, y]), delimiter=",", header="t_s,v", comments="")
+    code, _, err = run_cli("identify", path, "--f-range", "0.5,40", "-o", tmp_path / "p.json")
+    assert code == 0 and "past the Nyquist frequency 30 Hz" in err
+    assert json.loads((tmp_path / "p.json").read_text())["parameters"]["f_hz"]["value"] == pytest.approx(
+        3.0034, rel=1e-3
+    )  # natural f
+    code, _, err = run_cli("identify", path, "--f-range", "20,40", "-o", tmp_path / "q.json")
+    _one_sentence(code, err)
+    assert "at most 15 Hz" in err and not (tmp_path / "q.json").exists()
 
 
 @pytest.mark.parametrize(

@@ -62,8 +62,22 @@ def check_sampling(source: str, rate_hz: float, f_range_hz: tuple[float, float])
         band = f"{lo:g} Hz" if lo == hi else f"{lo:g}-{hi:g} Hz"
         raise UserError(
             f"{source}: the samples are {1 / rate_hz:.4g} time units apart, too coarse for a mode in "
-            f"{band}; the time column must be in seconds (is it in milliseconds?)."
+            f"{band} (at most {rate_hz / MIN_SAMPLES_PER_PERIOD:.3g} Hz at {MIN_SAMPLES_PER_PERIOD:g} samples per "
+            "period); the time column must be in seconds (is it in milliseconds?), and the band below that."
         )
+
+
+def past_nyquist(source: str, rate_hz: float, f_range_hz: tuple[float, float]) -> str | None:
+    """The warning for a search band the user chose that reaches past the samples' Nyquist frequency (none can be found
+    there), or None. The default band is cut to what the samples allow without a word: it reaches past a 30 fps
+    video's."""
+    if f_range_hz[1] <= 0.5 * rate_hz or f_range_hz == IdentSettings().f_range_hz:
+        return None
+    return (
+        f"{source}: the search band reaches {f_range_hz[1]:g} Hz, past the Nyquist frequency "
+        f"{0.5 * rate_hz:.3g} Hz of its samples; only the band below it is searched, and a mode above it would "
+        "show there as an alias."
+    )
 
 
 def identify_sources(
@@ -98,6 +112,7 @@ def identify_sources(
         check_sampling(sig.source, sig.rate_hz, settings.f_range_hz)
     if warn is not None:
         for sig in signals:
-            for w in sig.warnings:
-                warn(w)
+            for w in [*sig.warnings, past_nyquist(sig.source, sig.rate_hz, settings.f_range_hz)]:
+                if w:
+                    warn(w)
     return Identifier(settings).fit(signals, progress).result
