@@ -321,6 +321,20 @@ def test_roi_restricts_the_search(decay_video, tmp_path, run_cli):
     assert code == 2 and "no float found" in err  # the float lies outside that ROI
 
 
+def test_a_float_cut_by_the_roi_is_not_valid(decay_video, tmp_path, run_cli):
+    # the float spans x = 112-208 around 160: a ROI ending at x = 175 shows part of it, whose axis passed for the
+    # float's in every frame (exit 0, 39 valid rows); now those frames are found but not valid, and said
+    path, _truth = decay_video
+    code, _, err = run_cli("track", path, "-o", tmp_path / "c.csv", "--roi", "0,0,175,240")
+    assert code == 2 and "always at the edge of the searched region" in err and "--roi" in err
+    assert not (tmp_path / "c.csv").exists()
+    # a ROI whose lower edge the float's lower corner reaches at the largest tilts: those frames only
+    res = track_video(path, TrackSettings(roi=(0, 0, 320, 140)))
+    cut = res.quality == 0
+    note = next(w for w in res.warnings if "reached the edge of the searched region" in w)
+    assert 0 < cut.sum() < 10 and f"in {cut.sum()} of 60 frames" in note and not res.valid[cut].any()
+
+
 @pytest.fixture(scope="module")
 def bad_files(tmp_path_factory):
     """Files a user might wrongly pass: text named .mp4, a video without frames, a truncated video."""

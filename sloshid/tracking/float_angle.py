@@ -41,6 +41,9 @@ class FloatMeasurement:
     """Length of the float's long axis (rectangle equivalent, sqrt(12 * major variance))."""
     bbox: tuple[int, int, int, int] | None = None
     """Blob box (x0, y0, x1, y1), exclusive end, in frame coordinates."""
+    cut: bool = False
+    """The blob reaches the edge of the ROI (or of the picture): part of the float lies outside what was searched, so
+    its axis is not the float's; measured with quality 0."""
 
 
 def hsv_mask(bgr: np.ndarray, hsv: HsvRange) -> np.ndarray:
@@ -184,9 +187,13 @@ class FloatFinder:
         if areas[k] < MIN_AREA_PX:
             return FloatMeasurement(False)
         bx, by, bw, bh = stats[k + 1, :4]
-        if local and (bx == 0 or by == 0 or bx + bw == x1 - x0 or by + bh == y1 - y0):
+        cut = bx == 0 or by == 0 or bx + bw == x1 - x0 or by + bh == y1 - y0
+        if local and cut:
             return FloatMeasurement(False)  # cut by the window: measure on the whole ROI instead
-        return self._refine(frame, labels == k + 1, (x0, y0), (bx, by, bw, bh))
+        m = self._refine(frame, labels == k + 1, (x0, y0), (bx, by, bw, bh))
+        if cut and m.found:  # cut by the ROI itself
+            m.cut, m.quality = True, 0.0
+        return m
 
     def _refine(
         self, frame: np.ndarray, blob_full: np.ndarray, origin: tuple[int, int], stat: tuple[int, int, int, int]

@@ -300,6 +300,7 @@ class _FloatStep:
         self.walls = ContainerTracker(roi) if settings.reference == "container" else None
         self.last_angle = math.nan
         self.found = 0
+        self.cut = 0  # frames where the float reached the ROI's edge
         self.previous: np.ndarray | None = None
         self.repeated: list[bool] = []
         self.walls_record = WallsRecord()  # by frame in the span
@@ -309,6 +310,7 @@ class _FloatStep:
         """(row, overlay frame or None) of one frame."""
         fm = self.finder.measure(frame)
         self.found += fm.found
+        self.cut += fm.cut
         if fm.found and self.liquid_width is None:
             self.liquid_width = _liquid_width(frame, self.settings.hsv, self.roi)
         repeat = fm.found and repeated_share(frame, self.previous, fm.bbox, dy_only=False) >= REPEAT_SHARE
@@ -338,25 +340,36 @@ class _FloatStep:
     def merge(self, later: _FloatStep) -> None:
         """Take in what the step of a later span of the same video found (for `nothing_found` and `finish`)."""
         self.found += later.found
+        self.cut += later.cut
         if self.liquid_width is None:
             self.liquid_width = later.liquid_width
 
     def finish(self, rows: list[tuple]) -> tuple[list[tuple], dict[str, np.ndarray], list[str]]:
-        """The table's rows as measured, no wall columns, and the warning when the 'float' is dyed liquid."""
-        if not self.liquid_width:
-            return [r[:9] for r in rows], {}, []
-        return (
-            [r[:9] for r in rows],
-            {},
-            [
+        """The table's rows as measured, no wall columns, and the warnings: a float cut by the ROI, a 'float' that is
+        dyed liquid."""
+        notes = []
+        if self.cut:
+            notes.append(
+                f"the float reached the edge of the searched region (--roi, or the picture) in {self.cut} of "
+                f"{len(rows)} frames: part of it was outside, so those frames have valid = 0; widen --roi."
+            )
+        if self.liquid_width:
+            notes.append(
                 f"what was tracked as the float looks like dyed liquid in its container (a body {self.liquid_width:.0f}"
                 " px wide between straight side walls, with a surface across them): angle_deg is then that body's "
                 "principal axis, not the surface's angle; for a dyed liquid use --target surface."
-            ],
-        )
+            )
+        return [r[:9] for r in rows], {}, notes
 
     def nothing_found(self, n: int, path: Path, hint: str) -> UserError:
         """The one-sentence error when no frame was valid."""
+        if self.cut and self.cut == self.found:
+            return SettingError(
+                "roi",
+                f"the float was found in {self.found} of {n} frames of {path} but always at the edge of the searched "
+                f"region, partly outside it; {hint} and widen {{name}}.",
+                "overlay",
+            )
         if self.walls is not None and self.found:
             return SettingError(
                 "reference",
