@@ -120,6 +120,33 @@ def test_unwritable_outputs_fail_before_the_work(tmp_path, run_cli, decay_csv, c
     assert str(target.name) in err or "plain" in err
 
 
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (["predict", "{decay}", "-o", "{tmp}/p.csv", "--params", "{dir}"], "parameter file {dir} is a folder"),
+        (["plan", str(DEMO), "-o", "{tmp}/t.csv", "--params", "{dir}"], "parameter file {dir} is a folder"),
+        (["compare", str(DEMO), "--params", "{dir}"], "parameter file {dir} is a folder"),
+        (["validate", "--trajectory", "{dir}", "--measured", "{decay}", "--params", "{dir}"], "is a folder"),
+        (["identify", "{dir}", "-o", "{tmp}/i.json"], "signal file {dir} is a folder"),
+        (["run", "{tmp}/pipe.toml"], "[identify].signals: {dir} is a folder"),
+    ],
+)
+def test_a_folder_given_as_an_input_file_is_one_sentence(tmp_path, run_cli, decay_csv, args, message):
+    # predict, validate, compare and plan with --params naming a folder ended in an IsADirectoryError traceback, as
+    # did a folder among a pipeline's signals
+    folder = tmp_path / "folder"
+    folder.mkdir()
+    (tmp_path / "pipe.toml").write_text(f'[identify]\nsignals = ["{folder}"]\n')
+    fill = {"{tmp}": str(tmp_path), "{dir}": str(folder), "{decay}": str(decay_csv)}
+    for k, v in fill.items():
+        args = [a.replace(k, v) for a in args]
+        message = message.replace(k, v)
+    code, _, err = run_cli(*args)
+    _one_sentence(code, err)
+    assert message in err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["folder", "pipe.toml", "sig.csv"]  # nothing written
+
+
 @pytest.mark.skipif(not Path("/proc/self").is_dir(), reason="needs Linux's /proc")
 def test_a_folder_that_takes_no_files_fails_before_the_work(run_cli, decay_csv):
     # /proc grants write permission (to root) but makes no files: the run failed only when it came to write

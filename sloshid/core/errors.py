@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import os
 from collections.abc import Callable
+from pathlib import Path
 
 
 class UserError(Exception):
@@ -34,3 +36,16 @@ class SettingError(UserError):
         fn = (lambda s: rename if s == self.setting else s) if isinstance(rename, str) else rename
         err.args = (self._render(fn),)
         return err
+
+
+def input_file(path: str | os.PathLike, what: str) -> Path:
+    """`path` as a Path when it names a file that can be read, else the one-sentence UserError (missing, a folder,
+    unreadable), naming it as `what` ("parameter file", "trajectory file", ...)."""
+    p = Path(path)
+    if p.is_dir():
+        raise UserError(f"{what} {p} is a folder, not a file.")
+    if not p.is_file():
+        raise UserError(f"{what} {p} does not exist.")
+    if not os.access(p, os.R_OK):
+        raise UserError(f"{what} {p} cannot be read (permission denied).")
+    return p

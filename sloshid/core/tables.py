@@ -14,7 +14,7 @@ import numpy as np
 from tqdm import tqdm
 
 from sloshid.core.atomic import write_text
-from sloshid.core.errors import UserError
+from sloshid.core.errors import UserError, input_file
 
 
 def table_to_csv(columns: dict[str, np.ndarray]) -> str:
@@ -48,9 +48,7 @@ def write_csv(path: str | Path, columns: dict[str, np.ndarray]) -> None:
 
 def read_csv(path: str | Path) -> dict[str, np.ndarray]:
     """Read a numeric CSV with a header (as write_csv writes it) into float columns keyed by header name."""
-    p = Path(path)
-    if not p.is_file():
-        raise UserError(f"{p} does not exist.")
+    p = input_file(path, "table")
     table = read_table(p)
     if table.header is None:
         raise UserError(f"{p} has no header row naming its columns.")

@@ -8,7 +8,7 @@ from typing import Protocol
 
 import numpy as np
 
-from sloshid.core.errors import SettingError, UserError
+from sloshid.core.errors import SettingError, UserError, input_file
 from sloshid.core.tables import GAP_STEP_FACTOR, VIDEO_LIKE, read_table
 
 TRACKER_COLUMNS = ("t_s", "angle_deg", "valid")
@@ -183,11 +183,7 @@ def load_signal(
 ) -> Signal:
     """Read one signal from a tracker CSV, a generic CSV or a MATLAB .mat file (format from suffix and columns);
     `progress` shows a bar while a long CSV is read."""
-    p = Path(path)
-    if not p.exists():
-        raise UserError(f"signal file {p} does not exist.")
-    if p.is_dir():
-        raise UserError(f"{p} is a directory, not a signal file.")
+    p = input_file(path, "signal file")
     if p.suffix.lower() == ".mat":
         return _load_mat(p, time_var, value_var)
     if p.suffix.lower() in VIDEO_LIKE:

@@ -20,7 +20,7 @@ import numpy as np
 from scipy.signal import savgol_coeffs, savgol_filter
 from scipy.spatial.transform import Rotation, Slerp
 
-from sloshid.core.errors import SettingError, UserError
+from sloshid.core.errors import SettingError, UserError, input_file
 from sloshid.core.tables import read_table
 from sloshid.model.pendulum import SloshParams
 from sloshid.model.simulate import simulate_liquid
@@ -211,9 +211,7 @@ def load_pose_log(path: str | Path, columns: str | None = None) -> PoseLog:
 
     `columns` names a headerless file's columns in order, comma-separated (`_` skips one), e.g.
     `t,x,y,z,qx,qy,qz,qw` (the default for 8 columns) or `t,x,y,z,roll_deg,pitch_deg,yaw_deg`."""
-    p = Path(path)
-    if not p.is_file():
-        raise UserError(f"trajectory file {p} does not exist.")
+    p = input_file(path, "trajectory file")
     table = read_table(p)
     header, data = table.header, table.data
     if header is not None and all(c in header for c in CSV_COLUMNS) and columns is None:

@@ -20,7 +20,7 @@ from typing import Any, Literal
 
 from sloshid import __version__
 from sloshid.core.atomic import atomic_dir, write_text
-from sloshid.core.errors import SettingError, UserError
+from sloshid.core.errors import SettingError, UserError, input_file
 from sloshid.core.hashing import file_sha256, json_sha256
 from sloshid.core.outputs import writable_folder
 from sloshid.core.parallel import check_workers
@@ -121,11 +121,9 @@ def resolve_paths(settings: Any, base: Path, where: str) -> Any:
 
 
 def _existing(path: Path, where: str) -> Path:
-    """The resolved path, or a UserError naming the key when it does not exist."""
-    path = path.resolve()
-    if not path.exists():
-        raise UserError(f"{where}: {path} does not exist.")
-    return path
+    """The resolved path, or a UserError naming the key when it is not a readable file (videos, signals and
+    scenarios are all files)."""
+    return input_file(path.resolve(), f"{where}:")
 
 
 @dataclass
