@@ -239,7 +239,8 @@ def test_validate_scores_the_truth_model_near_perfect(tmp_path, run_cli):
         tmp_path / "rep",
     )
     assert code == 0, err
-    doc = json.loads(out[out.index("{") :])
+    doc = json.loads(out)  # stdout is the JSON alone (it began with "report written to"); that line is on stderr
+    assert "report written to" in err
     run = doc["runs"][0]
     assert run["lag_s"] == pytest.approx(LAG, abs=1 / 60)
     assert run["scores"]["all"]["fit_percent"] > 90

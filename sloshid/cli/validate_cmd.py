@@ -52,6 +52,6 @@ def run(args: argparse.Namespace) -> int:
     for warning in result.warnings:
         print(f"sloshid: warning: {warning}", file=sys.stderr)
     if report_dir is not None:
-        print(f"report written to {result.report(report_dir)}")
+        print(f"report written to {result.report(report_dir)}", file=sys.stderr)  # stdout: the table or JSON alone
     print(json.dumps(result.to_dict(), indent=2) if args.json else result.summary())
     return 0
