@@ -84,6 +84,32 @@ def test_batch_bad_input(videos, tmp_path, run_cli):
     assert code == 2 and "--workers" in err
 
 
+def test_batch_keeps_the_users_files_and_names_folders(videos, tmp_path, run_cli):
+    good, _ = videos
+    # a summary.csv of the user's in --out was replaced without a word
+    own = tmp_path / "own"
+    own.mkdir()
+    (own / "summary.csv").write_text("my,precious,data\n")
+    code, _, err = run_cli("batch", good[0], "--out", own)
+    assert code == 2 and "holds a summary.csv that sloshid batch did not write" in err
+    assert (own / "summary.csv").read_text() == "my,precious,data\n" and not (own / "videos").exists()
+    # a folder among the videos was said not to exist
+    code, _, err = run_cli("batch", tmp_path, "--out", tmp_path / "o")
+    assert code == 2 and "is a folder, not a video" in err and not (tmp_path / "o").exists()
+
+
+def test_batch_says_when_a_video_is_truncated(videos, tmp_path, run_cli):
+    # a cut-off file decodes a prefix: tracked and identified as far as it goes, but it was "ok", "good", exit 0
+    good, _ = videos
+    cut = tmp_path / "cut.mp4"
+    data = good[1].read_bytes()
+    cut.write_bytes(data[: int(0.8 * len(data))])
+    code, out, _ = run_cli("batch", cut, "--out", tmp_path / "o", "--workers", "1")
+    row = _rows(tmp_path / "o" / "summary.csv")[0]
+    assert row["status"] == "ok" and float(row["lost_share"]) > 0.05 and "looks truncated" in row["warnings"]
+    assert code == 1 and "truncated: " in out and "looks truncated" in (tmp_path / "o" / "summary.html").read_text()
+
+
 @pytest.mark.slow
 def test_unreachable_scheduler_is_one_clear_error(videos, tmp_path, run_cli):
     good, _ = videos

@@ -45,11 +45,15 @@ def run(args: argparse.Namespace) -> int:
     from sloshid.core.errors import UserError
     from sloshid.core.outputs import Outputs
     from sloshid.core.parallel import check_workers
+    from sloshid.tracking.tracker import LOST_NOTE
     from sloshid.workflow.batch import run_batch
     from sloshid.workflow.options import BatchConfig, IdentifyOptions, TrackOptions
 
     if args.scheduler is None:
         check_workers(args.workers)
+    folders = [str(v) for v in args.videos if v.is_dir()]
+    if folders:
+        raise UserError(f"{folders[0]} is a folder, not a video; give the videos in it (e.g. {folders[0]}/*.mp4).")
     missing = [str(v) for v in args.videos if not v.is_file()]
     if missing:
         raise UserError(f"{len(missing)} video(s) do not exist: {', '.join(missing[:5])}.")
@@ -65,5 +69,9 @@ def run(args: argparse.Namespace) -> int:
     print(f"{done} of {len(result.rows)} videos done ({cached} unchanged, skipped), {len(result.failures)} failed.")
     for row in result.failures:
         print(f"  failed: {row['file']}: {row['reasons']}")
+    # a video that decoded only in part was tracked as far as it went: said, and the exit code is 1, as for `track`
+    truncated = [r for r in result.rows if r["status"] != "failed" and float(r.get("lost_share") or 0) > LOST_NOTE]
+    for row in truncated:
+        print(f"  truncated: {row['file']}: {100 * float(row['lost_share']):.1f} % of its frames did not decode")
     print(f"summary: {result.summary_csv}\nopen: {result.summary_html}")
-    return 1 if result.failures else 0
+    return 1 if result.failures or truncated else 0

@@ -24,7 +24,7 @@ from pathlib import Path
 
 from sloshid.core.errors import UserError
 from sloshid.core.outputs import Outputs
-from sloshid.tracking.tracker import TrackSettings, track_video
+from sloshid.tracking.tracker import LOST_NOTE, TrackSettings, track_video
 from sloshid.video.colors import DEFAULT_FLOAT_COLOR, PRESETS, format_hsv, parse_hsv
 from sloshid.video.frames import VIDEO_SUFFIXES
 
@@ -127,4 +127,4 @@ def run(args: argparse.Namespace) -> int:
     for warning in result.warnings:
         print(f"sloshid: warning: {warning}", file=sys.stderr)
     print(result.summary() + f"; wrote {output}" + (f" and {overlay}" if overlay else ""))
-    return 1 if result.lost_share > 0.005 else 0
+    return 1 if result.lost_share > LOST_NOTE else 0

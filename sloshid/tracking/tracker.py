@@ -489,6 +489,10 @@ STILL_SPAN_DEG = 0.2
 moved: a float on still liquid spanned 0.08 deg, a static label of the float's colour tracked as the float 0.02 deg,
 a tapped float 12.6 deg."""
 
+LOST_NOTE = 0.005
+"""A video that decodes fewer frames than it declares by more than this share is called truncated: a warning, and
+exit code 1 from `track` and `batch` (what decoded is still tracked and written)."""
+
 SPAN_S = 10.0
 """A video is tracked in spans that start at key frames at least this far apart (none within this of the end).
 Decoding a span needs nothing from before its key frame, and the trackers' state (where the float or the liquid
@@ -644,7 +648,7 @@ def _result(
         smoothed,
         lost_share,
     )
-    if lost_share > 0.005:
+    if lost_share > LOST_NOTE:
         res.warnings.append(
             f"{video} looks truncated: only {len(rows)} of {declared} frames decoded "
             f"({100 * lost_share:.1f} % lost); tracked what decoded."

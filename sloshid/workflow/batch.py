@@ -19,6 +19,7 @@ from typing import Any
 from sloshid.core.atomic import write_json, write_text
 from sloshid.core.errors import SettingError, UserError
 from sloshid.core.hashing import file_sha256, json_sha256
+from sloshid.core.outputs import is_sloshid_page
 from sloshid.core.parallel import dask_client
 from sloshid.report.html import Report
 from sloshid.workflow.options import BatchConfig
@@ -42,6 +43,8 @@ SUMMARY_COLUMNS = (
     "d_hi_ns_per_m",
     "quality",
     "reasons",
+    "lost_share",
+    "warnings",
     "outputs",
 )
 
@@ -90,7 +93,12 @@ def process_video(video: str, config: BatchConfig, out_root: str) -> dict[str, A
         overlay = out / "overlay.mp4" if config.track.overlay else None
         tracked = track_video(video, config.track.track_settings(), overlay=overlay, multithreaded=False)
         tracked.to_csv(out / "angles.csv")
-        row.update(frames=len(tracked.t_s), valid_share=round(float(tracked.valid.mean()), 4))
+        row.update(
+            frames=len(tracked.t_s),
+            valid_share=round(float(tracked.valid.mean()), 4),
+            lost_share=round(float(tracked.lost_share), 4),
+            warnings=" ".join(tracked.warnings),  # a truncated video, repeated pictures, ...: as `track` says them
+        )
         table = "[identify]"
         doc = identify_sources([tracked], config.identify.ident_settings(), config.identify.columns()).to_dict()
         write_json(out / "params.json", doc)
@@ -137,6 +145,24 @@ def _write_csv(path: Path, columns: tuple[str, ...], rows: list[dict[str, Any]])
     write_text(path, buf.getvalue())
 
 
+OWN_FILES = {"summary.csv": "file,status,", "failures.csv": "file,reasons"}
+"""The batch's table files in its output folder and how their header starts: a file of that name that starts otherwise
+is the user's, and the batch refuses the folder instead of replacing it (summary.html: sloshid's page mark)."""
+
+
+def check_out_dir(out: Path) -> None:
+    """Refuse an output folder holding a summary.csv, failures.csv or summary.html that a batch did not write."""
+    for name, head in OWN_FILES.items():
+        path = out / name
+        if path.is_file():
+            with open(path, encoding="utf-8", errors="replace") as fh:
+                ours = fh.readline().startswith(head)
+            if not ours:
+                raise UserError(f"--out {out} holds a {name} that sloshid batch did not write; choose another folder.")
+    if (out / "summary.html").is_file() and not is_sloshid_page(out / "summary.html"):
+        raise UserError(f"--out {out} holds a summary.html that sloshid batch did not write; choose another folder.")
+
+
 def run_batch(
     videos: list[str | Path],
     config: BatchConfig,
@@ -154,6 +180,7 @@ def run_batch(
     if twice:
         raise UserError(f"{twice[0]} is listed more than once; each video is processed once.")
     out = Path(out_dir)
+    check_out_dir(out)
     out.mkdir(parents=True, exist_ok=True)
     rows: dict[str, dict[str, Any]] = {}
     with dask_client(workers, scheduler) as client:
@@ -209,6 +236,7 @@ def batch_report(result: BatchResult) -> Report:
             "l (m) [95 %]",
             "quality",
             "reasons",
+            "tracking warnings",
         ],
         [
             [
@@ -221,6 +249,7 @@ def batch_report(result: BatchResult) -> Report:
                 _with_interval(r, "l_m", "l_lo_m", "l_hi_m"),
                 r.get("quality", ""),
                 r.get("reasons", ""),
+                r.get("warnings", ""),
             ]
             for r in result.rows
         ],
