@@ -69,6 +69,29 @@ def test_cache_skips_unchanged_and_reruns_changed_stage_downstream_only(video, t
     assert params["m_kg"]["value"] == 1.0
 
 
+def test_a_run_folder_is_its_own_and_a_damaged_cache_runs_again(video, tmp_path, run_cli):
+    # run folders were hard links into the cache: a line added to one run's CSV changed every run and the cache, and a
+    # deleted cache file was "unchanged, reusing", leaving the next run without it
+    pipe = _write(tmp_path / "p.toml", f'[track]\nvideos = ["{video}"]\n')
+    runs = []
+    for _ in range(2):
+        code, out, _ = run_cli("run", pipe, "--output-dir", tmp_path / "runs", "--quiet")
+        assert code == 0
+        runs.append(Path(out.strip()).parent)
+    first, second = (r / "track" / "tap.csv" for r in runs)
+    text = first.read_text()
+    with open(second, "a") as fh:
+        fh.write("999,9,9\n")
+    assert first.read_text() == text
+    cached = next((tmp_path / "runs" / "p" / ".cache" / "track").glob("*/tap.csv"))
+    assert cached.read_text() == text
+    cached.unlink()
+    code, out, err = run_cli("run", pipe, "--output-dir", tmp_path / "runs")
+    third = Path(out.strip().splitlines()[-1]).parent
+    assert code == 0 and "tap.csv is missing" in err and _statuses(third) == {"track": "ran"}
+    assert (third / "track" / "tap.csv").read_text() == text and cached.read_text() == text
+
+
 def test_failing_stage_keeps_finished_results(video, tmp_path, run_cli):
     # a constant signal has no oscillatory mode: identify must fail, track's outputs must stay
     flat = _write(tmp_path / "flat.csv", "t_s,y\n" + "".join(f"{i / 50},1.0\n" for i in range(500)))

@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import dataclasses
 import json
-import os
 import shutil
 import time
 from collections.abc import Callable
@@ -175,12 +174,38 @@ def _settings_json(settings: Any) -> dict[str, Any]:
 
 
 def _copy_tree(src: Path, dst: Path) -> None:
-    """Copy a finished stage's outputs into a run, hard-linking files where the file system allows."""
+    """Copy a finished stage's outputs into a run: copies, not links, so that editing a file in one run's folder
+    changes neither the cache nor any other run."""
+    shutil.copytree(src, dst, ignore=shutil.ignore_patterns(FILES_JSON))
+
+
+FILES_JSON = ".files.json"
+"""In each cached stage folder: the SHA-256 of every file the stage wrote, checked before the folder is reused."""
+
+
+def _file_hashes(folder: Path) -> dict[str, str]:
+    """SHA-256 of every file under `folder` but FILES_JSON, by path relative to it."""
+    return {
+        p.relative_to(folder).as_posix(): file_sha256(p)
+        for p in sorted(folder.rglob("*"))
+        if p.is_file() and p.name != FILES_JSON
+    }
+
+
+def _cache_damage(cache: Path) -> str | None:
+    """What changed in a cached stage folder since the stage wrote it (a file missing, edited or added), or None."""
     try:
-        shutil.copytree(src, dst, copy_function=os.link)
-    except OSError:
-        shutil.rmtree(dst, ignore_errors=True)
-        shutil.copytree(src, dst)
+        written = json.loads((cache / FILES_JSON).read_text())
+    except (OSError, ValueError):
+        return f"{FILES_JSON} is missing"
+    now = _file_hashes(cache)
+    for name, digest in written.items():
+        if name not in now:
+            return f"{name} is missing"
+        if now[name] != digest:
+            return f"{name} was changed"
+    extra = sorted(set(now) - set(written))
+    return f"{extra[0]} was added" if extra else None
 
 
 def _stage_error(exc: Exception, stage: str) -> str:
@@ -206,6 +231,10 @@ def _new_run_dir(pipeline: Pipeline, output_dir: str | Path | None) -> tuple[Pat
 def _run_stage(stage: Stage, settings: Any, key: str, cache: Path, ctx: StageContext, log) -> StageRecord:
     """Run one stage into its cache folder (or reuse it) and record what happened; a failure is recorded."""
     start = time.perf_counter()
+    damage = _cache_damage(cache) if (cache / "summary.json").exists() else None
+    if damage is not None:  # run again, not reused with a file lost or edited (a run's folder once linked into it)
+        log(f"[{stage.name}] its cached outputs differ from what it wrote ({damage}), running it again")
+        shutil.rmtree(cache)
     if (cache / "summary.json").exists():
         log(f"[{stage.name}] unchanged, reusing {cache}")
         status = "cached"
@@ -215,6 +244,7 @@ def _run_stage(stage: Stage, settings: Any, key: str, cache: Path, ctx: StageCon
             with atomic_dir(cache) as tmp:
                 summary = stage.run(settings, replace(ctx, out_dir=tmp))
                 write_text(tmp / "summary.json", json.dumps(summary, indent=2, default=str))
+                write_text(tmp / FILES_JSON, json.dumps(_file_hashes(tmp), indent=1))
         except Exception as exc:  # recorded, so the run still gets its manifest and index
             error = _stage_error(exc, stage.name)
             log(f"[{stage.name}] failed")  # the reason is the record's, which the command prints once at the end
