@@ -92,6 +92,18 @@ def test_a_run_folder_is_its_own_and_a_damaged_cache_runs_again(video, tmp_path,
     assert (third / "track" / "tap.csv").read_text() == text and cached.read_text() == text
 
 
+def test_a_truncated_video_is_said_by_the_pipeline(video, tmp_path, run_cli):
+    # `track` warns and exits 1 on a cut-off file; the pipeline ran it with exit 0 and the warning only in its manifest
+    cut = tmp_path / "cut.mp4"
+    data = video.read_bytes()
+    cut.write_bytes(data[: int(0.8 * len(data))])
+    pipe = _write(tmp_path / "p.toml", f'[track]\nvideos = ["{cut}"]\n')
+    code, out, err = run_cli("run", pipe, "--output-dir", tmp_path / "runs")
+    index = Path(out.strip().splitlines()[-1])
+    assert code == 1 and "looks truncated" in err and "looks truncated" in index.read_text()
+    assert _statuses(index.parent) == {"track": "ran"}
+
+
 def test_failing_stage_keeps_finished_results(video, tmp_path, run_cli):
     # a constant signal has no oscillatory mode: identify must fail, track's outputs must stay
     flat = _write(tmp_path / "flat.csv", "t_s,y\n" + "".join(f"{i / 50},1.0\n" for i in range(500)))

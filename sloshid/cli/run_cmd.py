@@ -30,6 +30,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Load and validate the pipeline, run it, print the index path."""
+    from sloshid.tracking.tracker import LOST_NOTE
     from sloshid.workflow.index import write_index
     from sloshid.workflow.pipeline import Pipeline, run_pipeline
     from sloshid.workflow.stages import REGISTRY
@@ -39,8 +40,13 @@ def run(args: argparse.Namespace) -> int:
     result = run_pipeline(
         pipeline, args.output_dir, lambda d, recs: write_index(d, recs, pipeline.report.title), log=log
     )
+    truncated = False
     for rec in result.stages:
         if rec.status == "failed":
             print(f"sloshid: error: stage [{rec.name}] failed: {rec.error}", file=sys.stderr)
+        for video in rec.summary.get("videos", []) if rec.name == "track" else ():  # as `track` warns of them
+            for warning in video.get("warnings", []):
+                print(f"sloshid: warning: {warning}", file=sys.stderr)
+            truncated |= video.get("lost_share", 0.0) > LOST_NOTE
     print(result.index_html)
-    return 0 if result.ok else 1
+    return 0 if result.ok and not truncated else 1

@@ -45,6 +45,9 @@ def _track(report: Report, run_dir: Path, s: dict[str, Any]) -> None:
     report.add_html(
         "<table><tr><th>video</th><th>frames</th><th>valid</th><th>files</th></tr>" + "".join(rows) + "</table>"
     )
+    for v in s.get("videos", []):  # what `track` warns of: a truncated file, repeated pictures, a float cut by the ROI
+        if v.get("warnings"):
+            report.add_text(f"{Path(v['video']).name}: " + " ".join(v["warnings"]))
 
 
 def _identify(report: Report, run_dir: Path, s: dict[str, Any]) -> None:
