@@ -175,7 +175,7 @@ def main() -> None:
         "Predicting unseen real runs: decay-only vs input-output vs fixed physics",
         ["run", "split", "decay-only", "input-output", "fixed physics"],
         table,
-        "Cells: fit % / peak error % during the move, on runs the split did not fit; Tilt_TRD rows: never fitted. "
+        "Cells: fit % over the whole record / peak error % during the move, on runs the split did not fit; Tilt_TRD rows: never fitted. "
         + ". ".join(notes)
         + ".",
     )
