@@ -274,6 +274,13 @@ def test_bad_input_is_one_sentence_and_exit_2_with_nothing_written(tmp_path, run
     in_ms[:, 0] *= 1000
     np.savetxt(tmp_path / "logms.csv", in_ms, delimiter=";")
     np.savetxt(tmp_path / "one.csv", rows[:1], delimiter=";")  # said "time does not increase at sample 0"
+    # positions in millimetres (predicted 163 deg from 4821 m/s2) and quaternions as w, x, y, z (an upside-down
+    # start, 180 deg): both predicted with exit 0
+    in_mm, wxyz = rows.copy(), rows.copy()
+    in_mm[:, 1:4] *= 1000
+    wxyz[:, 4:8] = rows[:, [7, 4, 5, 6]]
+    np.savetxt(tmp_path / "mm.csv", in_mm, delimiter=";")
+    np.savetxt(tmp_path / "wxyz.csv", wxyz, delimiter=";")
     negative = tmp_path / "neg.json"  # said "d_ns_per_m must be zero or positive, got -11.2"
     negative.write_text(json.dumps({"parameters": {"omega_rad_s": {"value": 20.0}, "zeta": {"value": -0.5}}}))
     measured_csv(tmp_path / "meas.csv", pose)
@@ -301,6 +308,8 @@ def test_bad_input_is_one_sentence_and_exit_2_with_nothing_written(tmp_path, run
         (("predict", good, "-o", out, "--params", params), "radius"),
         (("predict", tmp_path / "logms.csv", "-o", out, "--params", params, *radius), "milliseconds"),
         (("predict", tmp_path / "one.csv", "-o", out, "--params", params, *radius), "at least 2 samples; it has 1"),
+        (("predict", tmp_path / "mm.csv", "-o", out, "--params", params, *radius), "positions in millimetres"),
+        (("predict", tmp_path / "wxyz.csv", "-o", out, "--params", params, *radius), "quaternion order x, y, z, w"),
         (("predict", good, "-o", out, "--params", negative, *radius), "parameters.zeta.value must lie in [0, 1)"),
         # 1e9 s of settling asked for terabytes (a traceback)
         (("predict", good, "-o", out, "--params", params, *radius, "--settle-s", "1e9"), "between 0 and 600"),

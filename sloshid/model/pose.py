@@ -22,6 +22,7 @@ from scipy.spatial.transform import Rotation, Slerp
 
 from sloshid.core.errors import SettingError, UserError, input_file
 from sloshid.core.tables import read_table
+from sloshid.model.conventions import G
 from sloshid.model.pendulum import SloshParams
 from sloshid.model.simulate import simulate_liquid
 from sloshid.model.trajectory import CSV_COLUMNS, Trajectory
@@ -145,7 +146,32 @@ def excitation(pose: PoseLog, axis_offset_m: float = 0.0, smooth_s: float = SMOO
         acc = pose.acc_m_s2 + second_derivative(axis_offset_m * axis)
     else:
         acc = second_derivative(pose.pos_m + axis_offset_m * axis)
+    _check_plausible(pose.source, acc, axis[0])
     return Excitation(pose.t_s, acc, pose.rot, pose.move_span_s, smooth_s, axis_offset_m)
+
+
+MAX_ACCEL_M_S2 = 100.0
+"""A pose log whose point accelerates faster than this (about 10 g; a Franka Panda reaches 13 m/s2, fast industrial
+arms some 50) is refused: positions in millimetres read as metres give a thousand times the acceleration."""
+MAX_START_TILT_DEG = 90.0
+"""A container that starts tilted further than this from upright holds no liquid: a quaternion read in the wrong
+order (w, x, y, z as x, y, z, w) turns an upright start upside down. Refused."""
+
+
+def _check_plausible(source: str, acc: np.ndarray, start_axis: np.ndarray) -> None:
+    """Refuse a pose log in the wrong units (millimetres) or orientation convention (quaternion order)."""
+    peak = float(np.max(np.linalg.norm(acc, axis=1)))
+    if peak > MAX_ACCEL_M_S2:
+        raise UserError(
+            f"{source}: the logged point accelerates at up to {peak:.4g} m/s2 ({peak / G:.0f} g), beyond any robot "
+            "carrying an open liquid; are its positions in millimetres? They must be in metres."
+        )
+    tilt = math.degrees(math.acos(float(np.clip(start_axis[2], -1.0, 1.0))))
+    if tilt > MAX_START_TILT_DEG:
+        raise UserError(
+            f"{source}: the container starts tilted {tilt:.0f} deg from upright (180: upside down), where it holds no "
+            "liquid; is the quaternion order x, y, z, w (w last; --pose-columns names it)?"
+        )
 
 
 @dataclass
