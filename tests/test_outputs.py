@@ -333,6 +333,17 @@ def test_a_matlab_73_file_says_hdf5_and_how_to_resave(tmp_path, run_cli):
     assert "v7.3 (HDF5)" in err and "-v7" in err
 
 
+def test_a_csv_column_option_for_a_mat_file_is_refused(tmp_path, run_cli):
+    # --value-col 3 on a .mat file was ignored without a word: its variables are chosen with --value-var
+    import scipy.io
+
+    t = np.arange(0, 8, 0.01)
+    scipy.io.savemat(tmp_path / "run.mat", {"slosh_times": t, "slosh_heights": np.exp(-t) * np.sin(20 * t)})
+    code, _, err = run_cli("identify", tmp_path / "run.mat", "--value-col", "3", "-o", tmp_path / "p.json")
+    _one_sentence(code, err)
+    assert "--value-col chooses a CSV column" in err and "--value-var" in err
+
+
 def test_the_same_file_twice_is_refused(tmp_path, run_cli, decay_csv):
     code, _, err = run_cli("identify", decay_csv, decay_csv, "-o", tmp_path / "p.json")
     _one_sentence(code, err)

@@ -255,6 +255,14 @@ def test_validate_scores_the_truth_model_near_perfect(tmp_path, run_cli):
         "validate", "--trajectory", tmp_path / "log.csv", "--measured", tmp_path / "noise.csv", "--params", params
     )
     assert code == 0 and "correlates weakly with the measurement" in err
+    # a measured CSV of several columns: validate told the user to choose with --value-col, which it did not have
+    np.savetxt(tmp_path / "three.csv", np.c_[meas, noise], delimiter=",", header="t_s,height_mm,other", comments="")
+    base = ("validate", "--trajectory", tmp_path / "log.csv", "--measured", tmp_path / "three.csv", "--params", params)
+    code, _, err = run_cli(*base)
+    assert code == 2 and "choose the signal with --value-col" in err
+    code, out, err = run_cli(*base, "--value-col", "height_mm", "--json")
+    assert code == 0, err
+    assert json.loads(out)["runs"][0]["scores"]["all"]["fit_percent"] == run["scores"]["all"]["fit_percent"]
 
 
 def test_bad_input_is_one_sentence_and_exit_2_with_nothing_written(tmp_path, run_cli):

@@ -57,20 +57,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="PERCENT",
         help="NRMSE fit %% below which the verdict is 'uncertain'",
     )
-    parser.add_argument(
-        "--time-col",
-        metavar="NAME|INDEX",
-        help="CSV time column in seconds (name or 0-based index; default: the column named t_s, time_s, t, time, "
-        "times or timestamp, else the first)",
-    )
-    parser.add_argument(
-        "--value-col",
-        metavar="NAME|INDEX",
-        help="CSV signal column (name or 0-based index; default: a track CSV's angle_deg, the second of two "
-        "columns; needed for more)",
-    )
-    parser.add_argument("--time-var", metavar="NAME", help=".mat variable holding the time in seconds")
-    parser.add_argument("--value-var", metavar="NAME", help=".mat variable holding the signal")
+    add_column_arguments(parser)
     parser.add_argument("--container-radius-m", type=float, metavar="M", help="cylinder radius in m (geometric prior)")
     parser.add_argument("--fill-height-m", type=float, metavar="M", help="liquid fill height in m (geometric prior)")
     parser.add_argument(
@@ -98,6 +85,25 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="S",
         help="with --trajectory: Savitzky-Golay window in s for the pose log's accelerations (default 0.1)",
     )
+
+
+def add_column_arguments(parser: argparse.ArgumentParser) -> None:
+    """Which column (CSV) or variable (.mat) of a signal file holds the time and the signal: identify's and
+    validate's measured files."""
+    parser.add_argument(
+        "--time-col",
+        metavar="NAME|INDEX",
+        help="CSV time column in seconds (name or 0-based index; default: the column named t_s, time_s, t, time, "
+        "times or timestamp, else the first)",
+    )
+    parser.add_argument(
+        "--value-col",
+        metavar="NAME|INDEX",
+        help="CSV signal column (name or 0-based index; default: a track CSV's angle_deg, the second of two "
+        "columns; needed for more)",
+    )
+    parser.add_argument("--time-var", metavar="NAME", help=".mat variable holding the time in seconds")
+    parser.add_argument("--value-var", metavar="NAME", help=".mat variable holding the signal")
 
 
 def run(args: argparse.Namespace) -> int:

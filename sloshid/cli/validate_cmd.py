@@ -13,6 +13,7 @@ import argparse
 import json
 import sys
 
+from sloshid.cli.identify_cmd import add_column_arguments
 from sloshid.cli.predict_cmd import add_geometry_arguments
 from sloshid.core.errors import UserError
 
@@ -29,6 +30,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--report", metavar="DIR", help="write the HTML report to DIR/index.html")
     parser.add_argument("--json", action="store_true", help="print the scores as JSON instead of the table")
     add_geometry_arguments(parser)
+    add_column_arguments(parser)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -48,7 +50,8 @@ def run(args: argparse.Namespace) -> int:
             f"{len(args.measured)} measurements."
         )
     poses = [load_pose_log(t, args.pose_columns) for t in args.trajectory]
-    result = validate(poses, [load_signal(m) for m in args.measured], model)
+    columns = (args.time_col, args.value_col, args.time_var, args.value_var)
+    result = validate(poses, [load_signal(m, *columns) for m in args.measured], model)
     for warning in result.warnings:
         print(f"sloshid: warning: {warning}", file=sys.stderr)
     if report_dir is not None:
