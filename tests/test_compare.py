@@ -12,7 +12,7 @@ from sloshid.comparison.compare import camera_seen_peak
 from sloshid.comparison.feedback import FeedbackSettings, run_feedback
 from sloshid.comparison.profiles import MoveTask, constant_acceleration
 from sloshid.comparison.robot_tracking import closed_loop_response
-from sloshid.comparison.robustness import Replay, sweep
+from sloshid.comparison.robustness import Replay, RobustnessResult, sweep
 from sloshid.comparison.ruckig_moves import jerk_limited
 from sloshid.comparison.shapers import design_shaper, shaped_constant_acceleration
 from sloshid.model.pendulum import TABLE_I, G, SloshParams
@@ -151,6 +151,12 @@ def test_robustness_ordering_at_and_around_the_nominal_point():
         assert r["zvd"][i] < 0.5 * r["zv"][i] < 0.5 * r["const"][i]
     assert rob.tolerance_band("zvd", 0.3) == (0.85, 1.15) and rob.tolerance_band("zv", 0.3) == (1.0, 1.0)
     assert rob.tolerance_band("const", 0.3) is None
+    # 15 % apart the points are said as points: between them the residual was not simulated (a trial's ZV move held
+    # at -10 % and 0 % left 0.73 deg at -5 %, while the report said "-10 % .. +0 %" was tolerated)
+    assert rob.describe_band("zvd", 0.3) == "at -15 %, +0 %, +15 % (swept points; not simulated between them)"
+    assert rob.describe_band("zv", 0.3) == "+0 % .. +0 %" and rob.describe_band("const", 0.3) == "none"
+    dense = RobustnessResult(np.array([0.95, 1.0, 1.05]), np.array([1.0]), {"m": np.array([0.1, 0.0, 0.2])}, {})
+    assert dense.describe_band("m", 0.3) == "-5 % .. +5 %"
 
 
 def test_scaled_truth_changes_the_feedback_loop_only():

@@ -579,7 +579,7 @@ def verdict(comp: Comparison) -> str:
     for r in ok:
         band = comp.robustness.tolerance_band(r.label, limit)
         if band and r.key in ("zv", "zvd", "sloshid", "sloshid_robust"):
-            bands.append(f"{r.label} {100 * (band[0] - 1):+.0f}..{100 * (band[1] - 1):+.0f} %")
+            bands.append(f"{r.label} {comp.robustness.describe_band(r.label, limit)}")
     if bands:
         parts.append(f"Frequency error tolerated with residual <= {limit:g} deg: " + ", ".join(bands) + ".")
     nominal, rob = comp.result("sloshid"), comp.result("sloshid_robust")

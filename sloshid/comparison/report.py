@@ -243,10 +243,7 @@ def _robustness_section(rep: Report, comp: Comparison) -> None:
     bands = []
     for r in comp.results:
         if r.applicable:
-            band = comp.robustness.tolerance_band(r.label, s.residual_ok_deg)
-            bands.append(
-                [r.label, "none" if band is None else f"{100 * (band[0] - 1):+.0f} % .. {100 * (band[1] - 1):+.0f} %"]
-            )
+            bands.append([r.label, comp.robustness.describe_band(r.label, s.residual_ok_deg)])
     rep.add_table(("method", f"frequency error with residual <= {s.residual_ok_deg:g} deg"), bands)
 
 

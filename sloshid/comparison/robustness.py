@@ -61,6 +61,11 @@ def band_responses(
     return {label: np.array(flat[i * n : (i + 1) * n]) for i, label in enumerate(replays)}
 
 
+DENSE_STEP = 0.05
+"""Frequency factors at most this far apart (the default sweep's step) are read as covering the range between them;
+coarser ones are named as points (a ZV move held at -10 % and 0 % left 0.73 deg at -5 %)."""
+
+
 @dataclass
 class RobustnessResult:
     """Residual slosh (deg) per method against the true/model frequency ratio and damping ratio."""
@@ -84,6 +89,18 @@ class RobustnessResult:
         while hi < len(f) - 1 and r[hi + 1] <= limit_deg:
             hi += 1
         return float(f[lo]), float(f[hi])
+
+    def describe_band(self, label: str, limit_deg: float) -> str:
+        """`tolerance_band` in words: a range when the swept points lie at most DENSE_STEP apart in it, else the
+        points themselves, since between coarse points the residual was not simulated and can exceed the limit
+        (a ZV move held at -10 % and 0 % left 0.73 deg at -5 %)."""
+        band = self.tolerance_band(label, limit_deg)
+        if band is None:
+            return "none"
+        f = self.omega_factors[(self.omega_factors >= band[0]) & (self.omega_factors <= band[1])]
+        if f.size < 2 or np.max(np.diff(f)) <= DENSE_STEP + 1e-9:
+            return f"{100 * (band[0] - 1):+.0f} % .. {100 * (band[1] - 1):+.0f} %"
+        return "at " + ", ".join(f"{100 * (x - 1):+.0f} %" for x in f) + " (swept points; not simulated between them)"
 
     def to_dict(self) -> dict:
         """JSON-ready form (lists)."""
