@@ -3,6 +3,11 @@
 from __future__ import annotations
 
 import csv
+import os
+import signal
+import subprocess
+import sys
+import time
 
 import pytest
 
@@ -117,3 +122,27 @@ def test_unreachable_scheduler_is_one_clear_error(videos, tmp_path, run_cli):
     code, _, err = run_cli("batch", good[0], "--out", tmp_path / "o", "--scheduler", "tcp://127.0.0.1:9")
     assert code == 2 and "could not reach the Dask scheduler" in err
     assert not (tmp_path / "o" / "summary.csv").exists()
+
+
+@pytest.mark.slow
+def test_ctrl_c_from_a_terminal_stops_the_batch_without_worker_tracebacks(videos, tmp_path):
+    # a terminal sends Ctrl-C to the whole process group: every Dask worker printed its own KeyboardInterrupt
+    # traceback (5 in a trial) while the batch itself stopped cleanly
+    good, _ = videos
+    out = tmp_path / "out"
+    cmd = [sys.executable, "-m", "sloshid", "batch", *map(str, good), "--out", str(out), "--workers", "2"]
+    proc = subprocess.Popen(
+        cmd,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        start_new_session=True,
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),  # as a terminal's foreground job has it
+    )
+    deadline = time.monotonic() + 60
+    while not (out / "videos").exists() and proc.poll() is None and time.monotonic() < deadline:
+        time.sleep(0.05)  # the workers are tracking once the first video's folder exists
+    os.killpg(proc.pid, signal.SIGINT)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 130 and "interrupted" in err
+    assert "Traceback" not in err and "KeyboardInterrupt" not in err, err

@@ -119,10 +119,25 @@ def dask_client(workers: int, scheduler: str | None = None):
         except (OSError, TimeoutError, ValueError, TypeError) as exc:
             raise UserError(f"could not reach the Dask scheduler at {scheduler} ({exc}).") from None
     check_workers(workers)
-    # a client that starts its own local cluster also shuts it down when closed
-    return Client(
-        n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None, silence_logs=logging.ERROR
-    )
+    # a client that starts its own local cluster also shuts it down when closed. Its worker processes start with
+    # Ctrl-C ignored (a new Python keeps an ignored SIGINT): a terminal's Ctrl-C reaches the whole process group, and
+    # each worker printed its own KeyboardInterrupt traceback while this process stopped the batch and the cluster
+    # (a Ctrl-C in the second the cluster takes to start is lost: press it again)
+    main = threading.current_thread() is threading.main_thread()
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN) if main else None
+    try:
+        return Client(
+            # the workers' own log is silent: a failing video is the batch's row, and a stop (Ctrl-C, SIGTERM) made
+            # them log tracebacks of the scheduler going away before them
+            n_workers=workers,
+            threads_per_worker=1,
+            processes=True,
+            dashboard_address=None,
+            silence_logs=logging.CRITICAL,
+        )
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGINT, previous)
 
 
 def parallel_map(
