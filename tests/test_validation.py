@@ -155,6 +155,10 @@ def test_io_fit_recovers_known_parameters_from_a_noisy_500_hz_pose_log(tmp_path,
     assert c == pytest.approx(TRUE_OUTPUT_GAIN, rel=0.1) and q == pytest.approx(TRUE_CREST, abs=0.6)
     assert data["fit"]["per_signal"][0]["lag_s"] == pytest.approx(LAG, abs=0.02)
     assert data["method"] == "input-output" and "window_s" in data  # the identify schema plus the extras
+    # per-parameter verdicts as identify's JSON has them (they were null), and the decay-only start's remarks named as
+    # its own (a trial read "zeta = 0.0019 cannot be told from zero" beside a fitted 0.0153)
+    assert all(v["quality"] in ("good", "uncertain") for k, v in p.items() if k != "m_kg")
+    assert all(note.startswith("decay-only start: ") for note in data["notes"])
     assert data["geometry"]["axis_offset_m"] == OFFSET
     assert "decay-only" in stdout
     assert "input_gain" in (tmp_path / "rep" / "index.html").read_text()

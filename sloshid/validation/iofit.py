@@ -123,6 +123,13 @@ class IOFit:
             out.append(f"the median fit over the runs is only {fit:.1f} %.")
         return out
 
+    def _verdict(self, name: str) -> dict[str, Any]:
+        """A parameter's verdict and reasons, as identify's JSON gives them: 'uncertain' when it (or, for omega and l,
+        f) ended on its search bound or the median fit is low, else 'good'."""
+        own = {"omega_rad_s": "f_hz", "l_m": "f_hz"}.get(name, name)
+        reasons = [r for r in self.reasons if not r.endswith("ended on its search bound.") or r.startswith(own + " ")]
+        return {"quality": "uncertain" if reasons else "good", "reasons": reasons}
+
     def comparison(self) -> dict[str, Any]:
         """Median scores of the input-output model against the decay-only one on the fitted runs."""
         io, decay = medians(self.runs), medians(self.decay_runs)
@@ -155,7 +162,7 @@ class IOFit:
         """The `identify` JSON schema (the decay-only fit's keys) with the input-output parameters and extras."""
         base = self.decay.to_dict()
         num, den = linear_tf_coeffs(self.model.params)
-        params = {k: v.to_dict() for k, v in self.parameters.items()}
+        params = {k: {**v.to_dict(), **self._verdict(k)} for k, v in self.parameters.items()}
         if self.decay.mass_kg is not None:
             params["m_kg"] = {"value": self.decay.mass_kg}
         per_signal = []
@@ -174,6 +181,8 @@ class IOFit:
             "method": "input-output",
             "quality": self.quality,
             "reasons": self.reasons,
+            # the decay-only start's remarks are about its own estimates, not these
+            "notes": [f"decay-only start: {note}" for note in base["notes"]],
             "parameters": params,
             "decay_only_parameters": base["parameters"],
             "transfer_function": {**base["transfer_function"], "num": [self.model.input_gain * num[0]], "den": den},
@@ -205,7 +214,7 @@ class IOFit:
         lines.append(f"  decay-only start: f = {d['f_hz'].value:.4g} Hz, zeta = {d['zeta'].value:.3g}")
         for name, run, lag, dec in zip(self.names, self.runs, self.lags_s, self.decay_runs):
             lines.append(
-                f"  {name}: lag {lag:.3f} s, fit {run.scores['all'].fit_percent:.1f} % (decay-only "
+                f"  {name}: fitted lag {lag:.3f} s, fit {run.scores['all'].fit_percent:.1f} % (decay-only "
                 f"{dec.scores['all'].fit_percent:.1f} %), peak error {run.scores['during'].peak_error_percent:+.1f} % "
                 f"(decay-only {dec.scores['during'].peak_error_percent:+.1f} %)"
             )
