@@ -344,6 +344,17 @@ def test_a_csv_column_option_for_a_mat_file_is_refused(tmp_path, run_cli):
     assert "--value-col chooses a CSV column" in err and "--value-var" in err
 
 
+def test_a_mass_far_from_the_geometrys_water_is_said(tmp_path, run_cli, decay_csv):
+    # --mass 590 (grams) beside R = 49 mm, h = 78 mm (0.588 kg of water) passed without a word: d came out 1000x
+    geometry = ("--container-radius-m", "0.049", "--fill-height-m", "0.078")
+    code, _, err = run_cli("identify", decay_csv, "--mass", "590", *geometry, "-o", tmp_path / "p.json")
+    note = "the mass 590 kg is 1003 times the 0.588 kg of water"
+    assert code == 0 and note in err
+    assert any(note in n for n in json.loads((tmp_path / "p.json").read_text())["notes"])
+    code, _, err = run_cli("identify", decay_csv, "--mass", "0.59", *geometry, "-o", tmp_path / "q.json")
+    assert code == 0 and "of water" not in err
+
+
 def test_the_same_file_twice_is_refused(tmp_path, run_cli, decay_csv):
     code, _, err = run_cli("identify", decay_csv, decay_csv, "-o", tmp_path / "p.json")
     _one_sentence(code, err)

@@ -656,6 +656,9 @@ class Identifier:
                 "on rendered H.264 floats zeta came out up to 8 % high, outside its interval, with a good verdict; "
                 "film at a high bit rate (README: identify, video-tracked signals)."
             )
+        mass_note = mass_against_geometry(st)
+        if mass_note:
+            notes.append(mass_note)
         return IdentResult(
             sigs,
             windows,
@@ -759,6 +762,27 @@ def search_band(st: IdentSettings, prior: dict[str, Any]) -> tuple[float, float]
             f"mode band {prior['band_hz'][0]:.3g}-{prior['band_hz'][1]:.3g} Hz."
         )
     return lo, hi
+
+
+WATER_KG_M3 = 1000.0
+"""Density the mass is checked against: sloshing liquids lie within a factor of 3 of water's (oils 0.9, syrups 1.4)."""
+
+
+def mass_against_geometry(st: IdentSettings) -> str | None:
+    """The note when the given mass is more than 3 times off the water a cylinder of the given radius and fill height
+    holds (a mass in grams read as kg is a thousand times), or None."""
+    if st.mass_kg is None or st.container_radius_m is None:
+        return None
+    water = WATER_KG_M3 * math.pi * st.container_radius_m**2 * st.fill_height_m
+    ratio = st.mass_kg / water
+    if 1 / 3 <= ratio <= 3:
+        return None
+    times = f"{ratio:.0f}" if ratio >= 10 else f"{ratio:.2g}"
+    return (
+        f"the mass {st.mass_kg:g} kg is {times} times the {water:.3g} kg of water that a cylinder of radius "
+        f"{st.container_radius_m:g} m filled to {st.fill_height_m:g} m holds: the mass is in kg (grams read as kg are "
+        "a thousand times too much), and d scales with it."
+    )
 
 
 def geometric_prior(st: IdentSettings) -> dict[str, Any]:

@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from sloshid.core.errors import UserError
-from sloshid.identification.estimator import Identifier, IdentResult, IdentSettings
+from sloshid.identification.estimator import Identifier, IdentResult, IdentSettings, mass_against_geometry
 from sloshid.identification.signals import Signal, TracedAngles, load_signal, signal_from_track
 
 Source = str | Path | Signal | TracedAngles
@@ -115,4 +115,6 @@ def identify_sources(
             for w in [*sig.warnings, past_nyquist(sig.source, sig.rate_hz, settings.f_range_hz)]:
                 if w:
                     warn(w)
+        if mass_against_geometry(settings):  # also among the result's notes
+            warn(mass_against_geometry(settings))
     return Identifier(settings).fit(signals, progress).result
