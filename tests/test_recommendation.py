@@ -8,8 +8,8 @@ from pathlib import Path
 
 import pytest
 
-from sloshid.comparison.compare import CompareSettings
-from sloshid.comparison.recommend import frequency_band
+from sloshid.comparison.compare import CompareSettings, MethodResult, Score
+from sloshid.comparison.recommend import _static_failure, frequency_band
 from sloshid.core.errors import UserError
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -24,6 +24,17 @@ linearity_acc_m_s2 = [0.5]
 settle_s = 1.0
 workers = 1
 """
+
+
+def test_a_plan_past_its_move_limits_between_grid_points_points_to_the_grid():
+    # a trial's plan rode tilt_rate_max_deg_s = 120 and passed it by 1 % between grid points: compare ruled it out
+    # ("No method stays slosh-free") with nothing on the cure; other methods' failures are said as before
+    score = Score(2.0, 0.1, 0.004, 5.0, 121.3, True, ["move tilt_rate_max_deg_s 121 > 120"], False)
+    plan = MethodResult("sloshid", "sloshid plan", score=score)
+    assert _static_failure(plan).endswith("a larger [solver].N holds it closer")
+    assert _static_failure(MethodResult("zv", "ZV shaped", score=score)) == (
+        "breaks a limit (move tilt_rate_max_deg_s 121 > 120)"
+    )
 
 
 def test_band_is_the_interval_widened_by_the_margin():

@@ -82,7 +82,11 @@ def _static_failure(r: MethodResult) -> str:
     if s.min_clearance_m is not None and s.min_clearance_m < 0:
         return "collides with an obstacle"
     if s.limits_failed:
-        return "breaks a limit (" + s.limits_failed[0] + ")"
+        why = "breaks a limit (" + s.limits_failed[0] + ")"
+        if r.key in ("sloshid", "sloshid_robust") and s.limits_failed[0].startswith("move "):
+            # the solver holds [limits] at its grid points only: a plan riding one passes it a little between them
+            why += ", between the planner's grid points: a larger [solver].N holds it closer"
+        return why
     return ""
 
 
