@@ -342,6 +342,27 @@ def test_a_csv_column_option_for_a_mat_file_is_refused(tmp_path, run_cli):
     code, _, err = run_cli("identify", tmp_path / "run.mat", "--value-col", "3", "-o", tmp_path / "p.json")
     _one_sentence(code, err)
     assert "--value-col chooses a CSV column" in err and "--value-var" in err
+    # beside a CSV the option chooses that CSV's column, and the .mat file keeps its variables
+    t2 = np.arange(0, 8, 1 / 60)
+    y2 = np.c_[t2, 0 * t2, np.exp(-t2) * np.sin(20 * t2 + 1)]
+    np.savetxt(tmp_path / "two.csv", y2, delimiter=",", header="t_s,other,height", comments="")
+    code, _, err = run_cli(
+        "identify", tmp_path / "run.mat", tmp_path / "two.csv", "--value-col", "height", "-o", tmp_path / "q.json"
+    )
+    assert code == 0, err
+
+
+@pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="needs named pipes")
+def test_a_pipe_is_read_as_an_input_file(tmp_path):
+    # `identify <(cat sig.csv)` and `--params /dev/stdin` are pipes, which exist without being regular files: they
+    # were said "not to exist"
+    from sloshid.core.errors import UserError, input_file
+
+    fifo = tmp_path / "pipe"
+    os.mkfifo(fifo)
+    assert input_file(fifo, "signal file") == fifo
+    with pytest.raises(UserError, match="does not exist"):
+        input_file(tmp_path / "nope.csv", "signal file")
 
 
 def test_a_mass_far_from_the_geometrys_water_is_said(tmp_path, run_cli, decay_csv):

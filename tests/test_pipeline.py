@@ -90,6 +90,16 @@ def test_a_run_folder_is_its_own_and_a_damaged_cache_runs_again(video, tmp_path,
     third = Path(out.strip().splitlines()[-1]).parent
     assert code == 0 and "tap.csv is missing" in err and _statuses(third) == {"track": "ran"}
     assert (third / "track" / "tap.csv").read_text() == text and cached.read_text() == text
+    # a lost summary.json (the stage then failed on every run: its folder existed) and unreadable hashes run it again
+    for damage in ("summary", "hashes"):
+        entry = cached.parent
+        if damage == "summary":
+            (entry / "summary.json").unlink()
+        else:
+            (entry / ".files.json").write_text("null")  # valid JSON, no hashes: it was an AttributeError
+        code, out, err = run_cli("run", pipe, "--output-dir", tmp_path / "runs")
+        assert code == 0 and "running it again" in err, err
+        assert _statuses(Path(out.strip().splitlines()[-1]).parent) == {"track": "ran"}
 
 
 def test_a_truncated_video_is_said_by_the_pipeline(video, tmp_path, run_cli):

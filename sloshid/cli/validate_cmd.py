@@ -36,7 +36,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     """Load and check all inputs first (nothing is written on bad input), validate each run, print, report."""
     from sloshid.core.outputs import Outputs
-    from sloshid.identification.signals import load_signal
+    from sloshid.identification.signals import check_csv_options, load_signal
     from sloshid.model.pose import load_pose_log
     from sloshid.validation.predict import load_model
     from sloshid.validation.validate import validate
@@ -50,6 +50,7 @@ def run(args: argparse.Namespace) -> int:
             f"{len(args.measured)} measurements."
         )
     poses = [load_pose_log(t, args.pose_columns) for t in args.trajectory]
+    check_csv_options(args.measured, args.time_col, args.value_col)
     columns = (args.time_col, args.value_col, args.time_var, args.value_var)
     result = validate(poses, [load_signal(m, *columns) for m in args.measured], model)
     for warning in result.warnings:

@@ -39,12 +39,12 @@ class SettingError(UserError):
 
 
 def input_file(path: str | os.PathLike, what: str) -> Path:
-    """`path` as a Path when it names a file that can be read, else the one-sentence UserError (missing, a folder,
-    unreadable), naming it as `what` ("parameter file", "trajectory file", ...)."""
+    """`path` as a Path when it names a file (or a pipe) that can be read, else the one-sentence UserError (missing, a
+    folder, unreadable), naming it as `what` ("parameter file", "trajectory file", ...)."""
     p = Path(path)
     if p.is_dir():
         raise UserError(f"{what} {p} is a folder, not a file.")
-    if not p.is_file():
+    if not p.exists():  # a pipe (`<(cat x.csv)`, /dev/stdin) exists without being a regular file: it is read
         raise UserError(f"{what} {p} does not exist.")
     if not os.access(p, os.R_OK):
         raise UserError(f"{what} {p} cannot be read (permission denied).")

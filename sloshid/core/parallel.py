@@ -123,8 +123,8 @@ def dask_client(workers: int, scheduler: str | None = None):
     # Ctrl-C ignored (a new Python keeps an ignored SIGINT): a terminal's Ctrl-C reaches the whole process group, and
     # each worker printed its own KeyboardInterrupt traceback while this process stopped the batch and the cluster
     # (a Ctrl-C in the second the cluster takes to start is lost: press it again)
-    main = threading.current_thread() is threading.main_thread()
-    previous = signal.signal(signal.SIGINT, signal.SIG_IGN) if main else None
+    owned = threading.current_thread() is threading.main_thread() and signal.getsignal(signal.SIGINT) is not None
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN) if owned else None
     try:
         return Client(
             # the workers' own log is silent: a failing video is the batch's row, and a stop (Ctrl-C, SIGTERM) made

@@ -185,19 +185,24 @@ def load_signal(
     `progress` shows a bar while a long CSV is read."""
     p = input_file(path, "signal file")
     if p.suffix.lower() == ".mat":
-        column = "value_col" if value_col is not None else "time_col" if time_col is not None else None
-        if column:  # a CSV's option given for a .mat file was ignored without a word
-            raise SettingError(
-                column,
-                f"{{name}} chooses a CSV column, but {p} is a .mat file: its variables are chosen with {{value_var}} "
-                "and {time_var}.",
-                "value_var",
-                "time_var",
-            )
         return _load_mat(p, time_var, value_var)
     if p.suffix.lower() in VIDEO_LIKE:
         raise UserError(f"{p} is a video; run `sloshid track` on it first and use the CSV it writes.")
     return _load_csv(p, time_col, value_col, progress)
+
+
+def check_csv_options(paths: list[str | Path], time_col: str | None, value_col: str | None) -> None:
+    """Refuse a CSV column option when every file is a .mat file, for which it would be ignored without a word (beside
+    a CSV it chooses that CSV's column)."""
+    column = "value_col" if value_col is not None else "time_col" if time_col is not None else None
+    if column and paths and all(Path(p).suffix.lower() == ".mat" for p in paths):
+        raise SettingError(
+            column,
+            f"{{name}} chooses a CSV column, but {paths[0]} is a .mat file: its variables are chosen with {{value_var}} "
+            "and {time_var}.",
+            "value_var",
+            "time_var",
+        )
 
 
 def _load_mat(p: Path, time_var: str | None, value_var: str | None) -> Signal:

@@ -11,7 +11,7 @@ import numpy as np
 
 from sloshid.core.errors import UserError
 from sloshid.identification.estimator import Identifier, IdentResult, IdentSettings, mass_against_geometry
-from sloshid.identification.signals import Signal, TracedAngles, load_signal, signal_from_track
+from sloshid.identification.signals import Signal, TracedAngles, check_csv_options, load_signal, signal_from_track
 
 Source = str | Path | Signal | TracedAngles
 """Anything identification reads: a signal file, a Signal, or a tracker result."""
@@ -102,6 +102,8 @@ def identify_sources(
     # the columns name every source's when all are tracker results; beside files they are the files' (a sensor
     # CSV's "height"), and the tracker results keep their angle
     mixed = not all(_tracked(s) for s in sources)
+    files = [s for s in sources if isinstance(s, (str, Path))]
+    check_csv_options(files, (columns or SignalColumns()).time_col, (columns or SignalColumns()).value_col)
     signals = [to_signal(s, SignalColumns() if mixed and _tracked(s) else columns, progress) for s in sources]
     for i, a in enumerate(signals):  # a copy under another name counts the same evidence twice as well
         for b in signals[:i]:

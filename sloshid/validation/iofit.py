@@ -126,8 +126,8 @@ class IOFit:
     def _verdict(self, name: str) -> dict[str, Any]:
         """A parameter's verdict and reasons, as identify's JSON gives them: 'uncertain' when it (or, for omega and l,
         f) ended on its search bound or the median fit is low, else 'good'."""
-        own = {"omega_rad_s": "f_hz", "l_m": "f_hz"}.get(name, name)
-        reasons = [r for r in self.reasons if not r.endswith("ended on its search bound.") or r.startswith(own + " ")]
+        own = {"omega_rad_s": ("f_hz",), "l_m": ("f_hz",), "d_ns_per_m": ("f_hz", "zeta")}.get(name, (name,))
+        reasons = [r for r in self.reasons if not r.endswith("ended on its search bound.") or r.split(" ", 1)[0] in own]
         return {"quality": "uncertain" if reasons else "good", "reasons": reasons}
 
     def comparison(self) -> dict[str, Any]:
@@ -161,6 +161,7 @@ class IOFit:
     def to_dict(self) -> dict[str, Any]:
         """The `identify` JSON schema (the decay-only fit's keys) with the input-output parameters and extras."""
         base = self.decay.to_dict()
+        inputs = {w for sig in self.decay.signals for w in sig.warnings}
         num, den = linear_tf_coeffs(self.model.params)
         params = {k: {**v.to_dict(), **self._verdict(k)} for k, v in self.parameters.items()}
         if self.decay.mass_kg is not None:
@@ -181,8 +182,10 @@ class IOFit:
             "method": "input-output",
             "quality": self.quality,
             "reasons": self.reasons,
-            # the decay-only start's remarks are about its own estimates, not these
-            "notes": [f"decay-only start: {note}" for note in base["notes"]],
+            # the decay-only start's remarks on its own estimates are marked; those on the inputs stay as they are
+            "notes": [
+                n if n in inputs or n.startswith("the mass ") else f"decay-only start: {n}" for n in base["notes"]
+            ],
             "parameters": params,
             "decay_only_parameters": base["parameters"],
             "transfer_function": {**base["transfer_function"], "num": [self.model.input_gain * num[0]], "den": den},

@@ -197,7 +197,9 @@ def _cache_damage(cache: Path) -> str | None:
     try:
         written = json.loads((cache / FILES_JSON).read_text())
     except (OSError, ValueError):
-        return f"{FILES_JSON} is missing"
+        written = None
+    if not isinstance(written, dict):
+        return "it has no readable file hashes (an older sloshid wrote none)"
     now = _file_hashes(cache)
     for name, digest in written.items():
         if name not in now:
@@ -231,7 +233,7 @@ def _new_run_dir(pipeline: Pipeline, output_dir: str | Path | None) -> tuple[Pat
 def _run_stage(stage: Stage, settings: Any, key: str, cache: Path, ctx: StageContext, log) -> StageRecord:
     """Run one stage into its cache folder (or reuse it) and record what happened; a failure is recorded."""
     start = time.perf_counter()
-    damage = _cache_damage(cache) if (cache / "summary.json").exists() else None
+    damage = _cache_damage(cache) if cache.is_dir() else None
     if damage is not None:  # run again, not reused with a file lost or edited (a run's folder once linked into it)
         log(f"[{stage.name}] its cached outputs differ from what it wrote ({damage}), running it again")
         shutil.rmtree(cache)
