@@ -259,9 +259,15 @@ def test_validate_scores_the_truth_model_near_perfect(tmp_path, run_cli):
         "validate", "--trajectory", tmp_path / "log.csv", "--measured", tmp_path / "noise.csv", "--params", params
     )
     assert code == 0 and "correlates weakly with the measurement" in err
+    base = ("validate", "--trajectory", tmp_path / "log.csv", "--measured", tmp_path / "three.csv", "--params", params)
+    # the table shows the peak error after the move too (only --json had it): the truth model's is small
+    code, out, err = run_cli(*base[:4], tmp_path / "meas.csv", "--params", params)
+    header, row = out.splitlines()[:2]
+    assert header.split()[-1] == "peak_after_err_%" and code == 0
+    assert float(row.split()[-1]) == pytest.approx(run["scores"]["after"]["peak_error_percent"], abs=0.05)
+    assert abs(float(row.split()[-1])) < 10
     # a measured CSV of several columns: validate told the user to choose with --value-col, which it did not have
     np.savetxt(tmp_path / "three.csv", np.c_[meas, noise], delimiter=",", header="t_s,height_mm,other", comments="")
-    base = ("validate", "--trajectory", tmp_path / "log.csv", "--measured", tmp_path / "three.csv", "--params", params)
     code, _, err = run_cli(*base)
     assert code == 2 and "choose the signal with --value-col" in err
     code, out, err = run_cli(*base, "--value-col", "height_mm", "--json")

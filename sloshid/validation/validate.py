@@ -158,20 +158,24 @@ def _nanmedian(values: list[float]) -> float:
 
 def table_text(runs: list[ValidationRun]) -> str:
     """Aligned plain-text table of the runs, with the median row when there are several."""
-    head = f"{'run':34s} {'lag_s':>7s} {'r':>5s} {'fit_%':>6s} {'fit_move_%':>10s} {'fit_after_%':>11s} {'peak_err_%':>10s}"
+    head = (
+        f"{'run':34s} {'lag_s':>7s} {'r':>5s} {'fit_%':>6s} {'fit_move_%':>10s} {'fit_after_%':>11s} {'peak_err_%':>10s} "
+        f"{'peak_after_err_%':>16s}"
+    )
     lines = [head]
     for r in runs:
         s = r.scores
         lines.append(
             f"{r.name[:34]:34s} {r.alignment.lag_s:7.2f} {r.alignment.correlation:5.2f} {s['all'].fit_percent:6.1f} "
-            f"{s['during'].fit_percent:10.1f} {s['after'].fit_percent:11.1f} {s['during'].peak_error_percent:+10.1f}"
+            f"{s['during'].fit_percent:10.1f} {s['after'].fit_percent:11.1f} {s['during'].peak_error_percent:+10.1f} "
+            f"{s['after'].peak_error_percent:+16.1f}"
         )
     if len(runs) > 1:
         m = medians(runs)
         lines.append(
             f"{'median (|peak error|)':34s} {'':7s} {'':5s} {m['all']['fit_percent']:6.1f} "
             f"{m['during']['fit_percent']:10.1f} {m['after']['fit_percent']:11.1f} "
-            f"{m['during']['abs_peak_error_percent']:10.1f}"
+            f"{m['during']['abs_peak_error_percent']:10.1f} {m['after']['abs_peak_error_percent']:16.1f}"
         )
     return "\n".join(lines)
 
@@ -193,7 +197,8 @@ def build_report(runs: list[ValidationRun], model: LiquidModel, title: str = "sl
     rep.add_html(f"<pre>{table_text(runs)}</pre>")
     rep.add_text(
         "fit % = 100 (1 - |y - yhat| / |y - mean y|) over the whole scored record (from 1 s before the move), during "
-        "the move and after it; peak error % = predicted peak over measured peak during the move, minus 1; lag: "
+        "the move and after it; peak error % = predicted peak over measured peak during the move, minus 1 (after it: "
+        "peak_after_err_%, where a model that leaves the liquid at rest reads -100 %); lag: "
         "measured time minus trajectory time, from the cross-correlation over the move (r)."
     )
     rep.add_heading("Measured and predicted")
