@@ -15,7 +15,7 @@ from sloshid.identification.estimator import IdentSettings
 from sloshid.identification.signals import load_signal
 from sloshid.model.pendulum import G, SloshParams
 from sloshid.model.pose import PoseLog, excitation, load_pose_log, respond, savgol_acceleration_response
-from sloshid.validation.iofit import fit_io
+from sloshid.validation.iofit import IOFit, fit_io
 from sloshid.validation.predict import load_model, plane_series, read_out
 from sloshid.validation.validate import validate_run
 
@@ -162,6 +162,20 @@ def test_io_fit_recovers_known_parameters_from_a_noisy_500_hz_pose_log(tmp_path,
     assert data["geometry"]["axis_offset_m"] == OFFSET
     assert "decay-only" in stdout
     assert "input_gain" in (tmp_path / "rep" / "index.html").read_text()
+
+
+def test_io_parameter_verdicts_follow_the_parameters_they_derive_from():
+    # d = 2 m omega zeta: a bound on f or zeta makes d uncertain too (it was 'good' beside an uncertain zeta); a
+    # bound on another parameter leaves it good; a low median fit makes every parameter uncertain
+    from types import SimpleNamespace
+
+    def verdict(reasons, name):
+        return IOFit._verdict(SimpleNamespace(reasons=reasons), name)["quality"]
+
+    assert verdict(["zeta ended on its search bound."], "d_ns_per_m") == "uncertain"
+    assert verdict(["f_hz ended on its search bound."], "l_m") == "uncertain"
+    assert verdict(["crest_coeff ended on its search bound."], "d_ns_per_m") == "good"
+    assert verdict(["the median fit over the runs is only 9.0 %."], "input_gain") == "uncertain"
 
 
 @pytest.mark.slow
