@@ -117,6 +117,7 @@ def identify_sources(
             for w in [*sig.warnings, past_nyquist(sig.source, sig.rate_hz, settings.f_range_hz)]:
                 if w:
                     warn(w)
-        if mass_against_geometry(settings):  # also among the result's notes
-            warn(mass_against_geometry(settings))
+        mass_note = mass_against_geometry(settings)  # also among the result's notes
+        if mass_note:
+            warn(mass_note)
     return Identifier(settings).fit(signals, progress).result
