@@ -17,6 +17,7 @@ from sloshid import __version__
 from sloshid.core.errors import SettingError, UserError
 from sloshid.core.spectrum import MIN_PROMINENCE, Spectrum, welch_spectrum
 from sloshid.core.tables import PROGRESS_DELAY_S, to_pandas
+from sloshid.identification.between import BetweenSignals, between_signals
 from sloshid.identification.crosschecks import CrossCheck, half_power, hilbert_envelope, log_decrement
 from sloshid.identification.decay_window import (
     DecayWindow,
@@ -174,6 +175,8 @@ class IdentResult:
     """The two-mode fit tried for a strong second PSD peak (None when no PSD showed one)."""
     groups: dict[str, GroupVerdict] = field(default_factory=dict)
     """Verdict per parameter group: 'frequency' (f, omega, l) and 'damping' (zeta, d); `quality` is the worst."""
+    between: BetweenSignals | None = None
+    """Several signals: whether they agree on f and zeta when fitted alone (the intervals are widened when not)."""
 
     def parameter_verdict(self, name: str) -> GroupVerdict | None:
         """The verdict of the group parameter `name` belongs to (None for given values such as the mass)."""
@@ -292,6 +295,7 @@ class IdentResult:
                     "moves_by": [w.slow_motion for w in self.windows],
                 },
                 "stderr_inflation_vs_white": inflation,
+                "between_signals": self.between.to_dict() if self.between else None,
                 "n_starts": self.fit.n_starts,
                 "per_signal": per_signal,
             },
@@ -322,6 +326,8 @@ class IdentResult:
             lines.append(f"  {self.second_mode.summary()}")
         fits = ", ".join(f"{self.fit_percent(i):.1f}" for i in range(len(self.signals)))
         lines.append(f"  fit % (NRMSE): {fits}")
+        if self.between is not None:
+            lines.append(f"  {self.between.summary()}")
         if self.fit.slow_s:
             lines.append(f"  zero: moves slowly, fitted as {_spline_zero(self.fit.slow_s)}")
         if self.fit.hold is not None:
@@ -544,8 +550,9 @@ class Identifier:
             fit = second.fit
         if any(s.tracked for s in sigs):  # a video encoder's hold distorts every tracked target alike
             fit = fit_pt2_hold(wdata, fit)
+        fit, between = between_signals(wdata, fit)
         self.result_ = self._assemble(
-            sigs, windows, parts, spectra, [s.noise_std for s in fullspec], fit, second, prior
+            sigs, windows, parts, spectra, [s.noise_std for s in fullspec], fit, second, prior, between
         )
         self.params_ = self.result_.params
         return self
@@ -604,7 +611,16 @@ class Identifier:
         return win, spec, whole
 
     def _assemble(
-        self, sigs, windows, parts, spectra, noise_std, fit: PT2Fit, second: SecondMode | None, prior: dict
+        self,
+        sigs,
+        windows,
+        parts,
+        spectra,
+        noise_std,
+        fit: PT2Fit,
+        second: SecondMode | None,
+        prior: dict,
+        between: BetweenSignals | None = None,
     ) -> IdentResult:
         """Derived parameters with delta-method errors, cross-checks and the verdict."""
         st = self.settings
@@ -656,9 +672,9 @@ class Identifier:
                 "on rendered H.264 floats zeta came out up to 8 % high, outside its interval, with a good verdict; "
                 "film at a high bit rate (README: identify, video-tracked signals)."
             )
-        mass_note = mass_against_geometry(st)
-        if mass_note:
-            notes.append(mass_note)
+        for note in (between.note([Path(s.source).name for s in sigs]) if between else None, mass_against_geometry(st)):
+            if note:
+                notes.append(note)
         return IdentResult(
             sigs,
             windows,
@@ -675,6 +691,7 @@ class Identifier:
             lb_lags,
             second,
             verdict.groups,
+            between,
         )
 
     @property

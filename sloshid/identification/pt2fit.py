@@ -440,21 +440,22 @@ def fit_pt2(
     zeta_hint: float | None = None,
     drift: bool = False,
     slow_s: float | None = None,
+    keep: int = 5,
 ) -> PT2Fit:
     """Fit the free response jointly to all windows from several starts; keep the lowest cost.
 
     The first of omega_starts (the spectral estimate) centres the +-25 % search interval for omega; `drift` and
-    `slow_s` choose the zero's model (`zero_columns`)."""
+    `slow_s` choose the zero's model (`zero_columns`); the `keep` starts of lowest cost are polished."""
     model = _JointModel(windows, drift, slow_s=slow_s)
     omega0 = omega_starts[0]
     lo_w, hi_w = omega0 * (1 - OMEGA_SPAN), omega0 * (1 + OMEGA_SPAN)
     zetas = sorted({*ZETA_STARTS, *([float(np.clip(zeta_hint, 1e-3, 0.9))] if zeta_hint else [])})
     omegas = [float(np.clip(w * f, lo_w, hi_w)) for w in omega_starts for f in (1.0, 0.99, 1.01)]
     starts = [(w, z) for z in zetas for w in omegas]
-    return _solve(model, starts, (lo_w, ZETA_BOUNDS[0]), (hi_w, ZETA_BOUNDS[1]))
+    return _solve(model, starts, (lo_w, ZETA_BOUNDS[0]), (hi_w, ZETA_BOUNDS[1]), keep)
 
 
-def fit_two_modes(windows: list[WindowData], first: PT2Fit, omega2_start: float) -> PT2Fit:
+def fit_two_modes(windows: list[WindowData], first: PT2Fit, omega2_start: float, keep: int = 3) -> PT2Fit:
     """Fit the main mode and a second damped mode together (second started at the PSD's secondary peak).
 
     Each mode's omega may move at most half-way toward the other's start, so the two cannot swap or merge; a mode
@@ -466,10 +467,10 @@ def fit_two_modes(windows: list[WindowData], first: PT2Fit, omega2_start: float)
     upper = (min(w1 + half, w1 * (1 + OMEGA_SPAN)), ZETA_BOUNDS[1], omega2_start + half, ZETA_BOUNDS[1])
     # the main mode starts where the single-mode fit put it; the second from the PSD peak, with several dampings
     starts = [(w1, first.zeta, omega2_start * f2, z2) for z2 in ZETA_STARTS for f2 in (1.0, 0.99, 1.01)]
-    return _solve(model, starts, lower, upper, keep=3)
+    return _solve(model, starts, lower, upper, keep)
 
 
-def fit_pt2_hold(windows: list[WindowData], plain: PT2Fit) -> PT2Fit:
+def fit_pt2_hold(windows: list[WindowData], plain: PT2Fit, keep: int = len(HOLD_STARTS)) -> PT2Fit:
     """The mode (and any second mode) refitted as seen through an encoder hold whose half-width is fitted with it,
     started from the plain fit; for signals tracked in video (`encoder_hold`).
 
@@ -492,7 +493,7 @@ def fit_pt2_hold(windows: list[WindowData], plain: PT2Fit) -> PT2Fit:
     widest = 0.5 * min(plain.amplitude(i) for i in range(len(windows)))
     rms = float(np.sqrt(np.mean(np.concatenate(plain.residuals) ** 2)))
     starts = [(*np.ravel(modes), min(f * rms, widest)) for f in HOLD_STARTS]
-    fit = _solve(model, starts, (*lower, 0.0), (*upper, widest), keep=len(starts), plain=plain)
+    fit = _solve(model, starts, (*lower, 0.0), (*upper, widest), keep, plain=plain)
     return replace(
         fit,
         hold=replace(fit.hold, restarts=sum(int(np.sum(w.restarts)) for w in windows if w.restarts is not None)),
