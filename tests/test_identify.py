@@ -429,3 +429,22 @@ def test_tracked_signal_without_a_hold_is_left_alone():
         a, b = plain.parameters[key], tracked.parameters[key]
         assert abs(a.value - b.value) < 0.1 * a.stderr, key
     assert "hold" not in tracked.fit.at_bound and tracked.quality == plain.quality
+
+
+def test_estimates_show_digits_down_to_their_error():
+    # f = 1.9996 +- 0.0002 Hz read "2" and its interval "1.999 .. 2" in the report's 4-digit table
+    from sloshid.identification.estimator import estimate
+
+    f = estimate(1.9996, 0.0002)
+    assert f.shown() == "1.9996" and f.shown(f.ci95[0]) == "1.99921"  # 1.9996 - 1.96 * 0.0002, to 0.00001
+    assert estimate(3.44, 0.5).shown() == "3.44"  # at least 5 significant digits, trailing zeros dropped
+    assert estimate(0.070123456, 0.0000123).shown() == "0.070123"  # down to 0.000001, the error's 2nd digit
+
+
+def test_the_report_table_keeps_the_digits_the_error_allows(tmp_path):
+    sig = free_decay_signal(2.0, 0.03, 120, amplitude=8, seed=11, duration_s=20)
+    res = Identifier().fit(sig).result
+    f = res.parameters["f_hz"]
+    assert f.stderr < 0.001  # a long clean decay: the table must show the 4th decimal
+    html = res.report(tmp_path / "rep").read_text()
+    assert f"<td>{f.shown()}</td>" in html and len(f.shown()) >= 6

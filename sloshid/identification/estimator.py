@@ -124,6 +124,15 @@ class Estimate:
         """{"value", "stderr", "ci95": [lo, hi]}."""
         return {"value": self.value, "stderr": self.stderr, "ci95": list(self.ci95)}
 
+    def shown(self, x: float | None = None) -> str:
+        """The value (or `x`, e.g. an interval bound) with digits down to the standard error's second significant one,
+        at least 5: f = 1.9996 +- 0.0002 Hz must not read 2."""
+        x = self.value if x is None else x
+        digits = 5
+        if x != 0 and math.isfinite(x) and self.stderr > 0 and math.isfinite(self.stderr):
+            digits = max(5, math.floor(math.log10(abs(x))) - math.floor(math.log10(self.stderr)) + 2)
+        return f"{x:.{min(digits, 12)}g}"
+
 
 def estimate(value: float, se: float, floor: float | None = None) -> Estimate:
     """Normal 95 % interval, clipped at `floor` for quantities that cannot be negative."""
@@ -312,8 +321,8 @@ class IdentResult:
         units = {"f_hz": "Hz", "omega_rad_s": "rad/s", "zeta": "", "l_m": "m", "d_ns_per_m": "N s/m"}
         for key, est in self.parameters.items():
             lines.append(
-                f"  {key:<12} = {est.value:.5g} ± {est.stderr:.2g} {units.get(key, '')}  "
-                f"(95 % CI {est.ci95[0]:.5g} .. {est.ci95[1]:.5g})"
+                f"  {key:<12} = {est.shown()} ± {est.stderr:.2g} {units.get(key, '')}  "
+                f"(95 % CI {est.shown(est.ci95[0])} .. {est.shown(est.ci95[1])})"
             )
         if self.mass_kg is not None:
             lines.append(f"  {'m_kg':<12} = {self.mass_kg:g} kg (given)")

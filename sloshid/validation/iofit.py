@@ -211,7 +211,8 @@ class IOFit:
         lines = [f"sloshid identify (input-output): {len(self.runs)} run(s)"]
         for key, est in self.parameters.items():
             lines.append(
-                f"  {key:<13} = {est.value:.5g} ± {est.stderr:.2g}  (95 % CI {est.ci95[0]:.5g} .. {est.ci95[1]:.5g})"
+                f"  {key:<13} = {est.shown()} ± {est.stderr:.2g}  (95 % CI {est.shown(est.ci95[0])} .. "
+                f"{est.shown(est.ci95[1])})"
             )
         d = self.decay.parameters
         lines.append(f"  decay-only start: f = {d['f_hz'].value:.4g} Hz, zeta = {d['zeta'].value:.3g}")
