@@ -61,6 +61,7 @@ def load_scenario(path: str | Path) -> Scenario:
 def _scenario_and_liquid(scenario: Scenario | str | Path, params: Any) -> tuple[Scenario, SloshParams, Any]:
     """The scenario (loaded if a path), the liquid and the identified 95 % interval of f (None when unknown).
     `params` is SloshParams, an IdentResult, an identify JSON path, or None for the scenario's own [liquid]."""
+    from sloshid.core.errors import UserError
     from sloshid.model.pendulum import IdentifiedFrequency, SloshParams
     from sloshid.planning.scenario import resolve_liquid
 
@@ -70,8 +71,14 @@ def _scenario_and_liquid(scenario: Scenario | str | Path, params: Any) -> tuple[
         return scenario, params, None
     if hasattr(params, "params") and isinstance(params.params, SloshParams):  # an IdentResult
         return scenario, params.params, params.parameters["f_hz"].ci95
+    if params is not None and not isinstance(params, (str, Path)):
+        raise UserError(
+            "params must be SloshParams, an IdentResult, the path of a `sloshid identify` JSON or None (the "
+            f"scenario's [liquid]), got {type(params).__name__}."
+        )
+    liquid = resolve_liquid(scenario, params)  # reads and checks the file first: the interval's reader does not
     interval = IdentifiedFrequency.from_identify_json(params).ci95_hz if params is not None else None
-    return scenario, resolve_liquid(scenario, params), interval
+    return scenario, liquid, interval
 
 
 def plan(scenario: Scenario | str | Path, params: Any = None, *, progress: bool = False) -> PlanResult:

@@ -11,6 +11,8 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
+from sloshid.comparison.compare import compare_scenario
+from sloshid.core.errors import UserError
 from sloshid.model.conventions import G, steady_tilt
 from sloshid.model.pendulum import SloshParams
 from sloshid.model.simulate import simulate_liquid
@@ -237,3 +239,46 @@ def test_report_names_the_scenario_limit_that_was_passed(paper_1d):
     assert css == "verdict-uncertain"
     page = plan_report(res, sc).to_html()
     assert "The scenario&#x27;s own [limits]" in page or "The scenario's own [limits]" in page
+
+
+def test_plan_result_to_csv_keeps_the_scenario_and_wants_a_csv(plan_1d, tmp_path):
+    # from Python, result.trajectory.to_csv("p1.toml") turned the user's scenario into a CSV
+    scenario = tmp_path / "p1.toml"
+    scenario.write_text((ROOT / "data" / "scenarios" / "paper_1d.toml").read_text())
+    result = dataclasses.replace(plan_1d, scenario=dataclasses.replace(plan_1d.scenario, source=str(scenario)))
+    before = scenario.read_bytes()
+    for target in (scenario, tmp_path / "x.txt"):
+        with pytest.raises(UserError, match=r"must end in \.csv"):
+            result.to_csv(target)
+        with pytest.raises(UserError, match=r"must end in \.csv"):
+            result.trajectory.to_csv(target)
+    assert scenario.read_bytes() == before and not (tmp_path / "x.txt").exists()
+    result.to_csv(tmp_path / "t.csv")
+    assert Trajectory.from_csv(tmp_path / "t.csv").duration_s == pytest.approx(plan_1d.T_s, abs=1e-3)
+
+
+def test_compare_refuses_a_plan_of_another_move(plan_1d, paper_1d):
+    # a plan of paper_3d was scored as the 1-D scenario's sloshid row, beside its constant-acceleration move
+    shifted = dataclasses.replace(paper_1d, waypoints=[(x + 0.2, y, z) for x, y, z in paper_1d.waypoints])
+    with pytest.raises(UserError, match="made for another move"):
+        compare_scenario(shifted, paper_1d.liquid, plan=plan_1d)
+
+
+@pytest.mark.parametrize(
+    "params, message",
+    [
+        ({"f_hz": 3.0}, "params must be SloshParams, an IdentResult, the path"),
+        (123, "got int"),
+        ("missing.json", "does not exist"),
+        ("bad.json", "is not valid JSON"),
+    ],
+)
+def test_api_refuses_bad_params_with_one_sentence(paper_1d, tmp_path, monkeypatch, params, message):
+    # the API raised FileNotFoundError, JSONDecodeError or TypeError where the command line says one sentence
+    import sloshid
+
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "bad.json").write_text("[move]\n")
+    for call in (sloshid.plan, sloshid.compare):
+        with pytest.raises(UserError, match=message):
+            call(paper_1d, params)

@@ -248,8 +248,18 @@ def compare_scenario(
     `f_interval_hz`, the identified 95 % interval of f, sets the band the recommendation must hold over."""
     if plan is not None and plan.params != params:
         raise UserError("the plan given to compare was made for another liquid; plan again or drop it.")
+    if plan is not None and plan.scenario is not None and _move(plan.scenario) != _move(scenario):
+        raise UserError(
+            f"the plan given to compare was made for another move ({plan.scenario.source or 'another scenario'}: its "
+            "waypoints, path, limits, obstacles or container differ); plan this scenario or drop the plan."
+        )
     check_feasible(scenario)  # the same refusals as `plan` (start inside an obstacle, ...) before any work
     return compare(replace(from_scenario(scenario, params, f_interval_hz), plan=plan), progress=progress)
+
+
+def _move(scenario: Any) -> tuple:
+    """What makes a scenario's move: a plan of another one must not be scored as this one's."""
+    return scenario.waypoints, scenario.limits, scenario.obstacles, scenario.path_table, scenario.container_radius_m
 
 
 def compare_settings(scenario: Any) -> CompareSettings:

@@ -13,6 +13,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from sloshid.core.errors import UserError
+from sloshid.core.outputs import Outputs
 from sloshid.core.tables import read_csv, write_csv
 
 EXPORT_RATE_HZ = 1000.0
@@ -114,9 +115,9 @@ class Trajectory:
         """The robot-ready table keyed by CSV_COLUMNS."""
         return dict(zip(CSV_COLUMNS, self.table().T))
 
-    def to_csv(self, path: str | Path) -> None:
-        """Write the robot-ready CSV (columns CSV_COLUMNS) atomically."""
-        write_csv(path, self.columns())
+    def to_csv(self, path: str | Path, inputs: tuple[str | Path, ...] = ()) -> None:
+        """Write the robot-ready CSV (columns CSV_COLUMNS) atomically: a .csv file, never over one of `inputs`."""
+        write_csv(Outputs(inputs).file(path, "the trajectory", (".csv",)), self.columns())
 
     @classmethod
     def from_csv(cls, path: str | Path, name: str = "") -> Trajectory:

@@ -116,6 +116,10 @@ class PlanResult:
         """Largest angular speed of the container."""
         return float(tilt_profiles(self.trajectory)[1].max())
 
+    def to_csv(self, path: str | Path) -> None:
+        """Write the 1 kHz trajectory CSV (`Trajectory.to_csv`), never over the scenario it was planned from."""
+        self.trajectory.to_csv(path, (self.scenario.source,) if self.scenario and self.scenario.source else ())
+
     def to_dict(self) -> dict:
         """The `--json` content: timing, solver status, tilt, limits, verification, per-segment figures (the tilt's
         on the 1 kHz samples of each segment, as the whole move's)."""
