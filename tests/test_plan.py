@@ -18,7 +18,7 @@ from sloshid.model.pendulum import SloshParams
 from sloshid.model.simulate import simulate_liquid
 from sloshid.model.trajectory import RobotLimits, Trajectory, check_limits
 from sloshid.planning.ocp import Structure, bang_bang_time, get_solver
-from sloshid.planning.planner import plan
+from sloshid.planning.planner import _plan_free, plan
 from sloshid.planning.scenario import Scenario, load_scenario, scenario_from_dict
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -129,6 +129,7 @@ def test_limits_check_flags_the_seed_formulation_and_a_sped_up_plan(plan_1d, pap
     usage = {u.quantity: u for u in seed.limits}
     # an acceleration step of 1 m/s^2 turns the pendulum's angular acceleration by 1/l = 48 rad/s^2 at once
     assert not seed.limits_ok and not usage["rot_acc_rad_s2"].ok
+    assert seed.tightened == {}  # 3.3 times the limit is no grid-point effect: not solved again with it lowered
     # the default plan replayed 3x faster (velocities x3, accelerations x9) breaks the robot's rotation limits
     tr = plan_1d.trajectory
     fast = Trajectory(tr.t_s / 3, tr.pos_m, tr.vel_m_s * 3, tr.acc_m_s2 * 9, tr.euler_rad, tr.euler_rate_rad_s * 3)
@@ -232,7 +233,7 @@ def test_report_names_the_scenario_limit_that_was_passed(paper_1d):
     from sloshid.planning.report import plan_report, plan_verdict
 
     sc = dataclasses.replace(paper_1d, limits=dataclasses.replace(paper_1d.limits, vel_max=(0.1, 0.1, 0.1)))
-    res = plan(sc, sc.liquid)
+    res = _plan_free(sc, sc.liquid, None, False, None)  # one solve: `plan` would solve again with vel_max lowered
     assert all(u.ok for u in res.limits) and not res.limits_ok
     text, css = plan_verdict(res)
     assert "Robot limits hold" in text and "The scenario's [limits] are EXCEEDED: vel_max" in text

@@ -167,8 +167,8 @@ def _warnings(result, fit: list) -> None:
         if not usage.ok:
             print(
                 f"sloshid: warning: [limits].{usage.quantity} exceeded: peak {usage.peak:.4g} > {usage.limit:.4g} at "
-                f"t = {usage.t_peak_s:.3f} s (the solver holds it at its grid points; a larger [solver].N holds it "
-                "closer).",
+                f"t = {usage.t_peak_s:.3f} s (the solver holds it at its grid points, and solving again with it "
+                "lowered did not bring the peak under it; a larger [solver].N holds it closer).",
                 file=sys.stderr,
             )
     v = result.verification

@@ -90,6 +90,9 @@ class PlanResult:
     move_limits: list[LimitUsage] = field(default_factory=list)
     """The scenario's own [limits] (per-axis acceleration and velocity, tilt, tilt rate) on the 1 kHz trajectory: the
     solver holds them at its grid points, and between them a move riding a bound can pass it by a few per cent."""
+    tightened: dict[str, float] = field(default_factory=dict)
+    """Limits the solver was given below the scenario's (share of it, e.g. {"[limits].tilt_max_deg": 0.92}) because
+    a first solve passed them between its grid points; empty when it did not."""
 
     @property
     def verification_ok(self) -> bool:
@@ -138,6 +141,7 @@ class PlanResult:
             "limits_ok": self.limits_ok,
             "limits": [_usage_dict(u) for u in self.limits],
             "move_limits": [_usage_dict(u) for u in self.move_limits],
+            "limits_lowered_for_solver": dict(self.tightened),
             "verification": {
                 "peak_during_deg": v.peak_during_deg,
                 "residual_deg": v.residual_deg,
@@ -181,6 +185,13 @@ class PlanResult:
             f"{'' if all(u.ok for u in self.move_limits) else '; [limits] EXCEEDED'}; liquid-container angle "
             f"{v.peak_during_deg:.4f} deg "
             f"during, {v.residual_deg:.4f} deg after"
+            + (
+                "; re-planned with "
+                + ", ".join(f"{k} at {100 * share:.1f} %" for k, share in self.tightened.items())
+                + " (passed between the solver's grid points)"
+                if self.tightened
+                else ""
+            )
         )
 
     def to_pandas(self):
@@ -434,11 +445,94 @@ def plan(
     that must also end at rest and stay within [solver].robust_max_rel_deg of the container (robust variant);
     None takes [solver].robust_omega_factors. warm_from: a previous result of the same scenario shape to
     warm-start IPOPT from.
+
+    The solver holds the limits at its grid points; between them a move riding a bound passes it (a 1 deg tilt
+    limit by 8 %). A free move that does is solved again with the passed limits lowered by LIMIT_SAFETY * limit /
+    peak (at most LIMIT_TRIES times, while it helps, and only for overshoots up to LIMIT_GRID_OVERSHOOT), and always
+    checked against the scenario's own limits
+    (`PlanResult.tightened` says what the solver was given).
     """
     if scenario.path is not None:
         from sloshid.planning.path_planner import plan_path
 
         return plan_path(scenario, params, progress=progress)
+    result = _plan_free(scenario, params, robust_omega_factors, progress, warm_from)
+    solver_scenario, worst = scenario, _worst_overshoot(result)
+    for _ in range(LIMIT_TRIES):
+        if not 1.0 < worst <= LIMIT_GRID_OVERSHOOT:
+            break
+        solver_scenario = _tightened(solver_scenario, result)
+        again = _plan_free(solver_scenario, params, robust_omega_factors, progress, result)
+        usages, move = limit_usages(again.trajectory, scenario)  # judged by the user's limits, not the lowered ones
+        again = dataclasses.replace(
+            again,
+            limits=usages,
+            move_limits=move,
+            limits_ok=all(u.ok for u in usages + move),
+            scenario=scenario,
+            tightened=_ratios(solver_scenario, scenario),
+            solve_time_s=again.solve_time_s + result.solve_time_s,
+            wall_time_s=again.wall_time_s + result.wall_time_s,
+        )
+        if _worst_overshoot(again) >= worst:  # lowering that limit does not lower the peak: the solver does not hold it
+            break
+        result, worst = again, _worst_overshoot(again)
+    return result
+
+
+LIMIT_TRIES = 3
+"""Re-plans with lowered limits when the 1 kHz trajectory passes a limit between the solver's grid points."""
+LIMIT_GRID_OVERSHOOT = 1.5
+"""A limit passed by more than this share is not one the solver holds (the seed's piecewise-constant acceleration jumps,
+so its angular jerk is unbounded): no re-plan."""
+LIMIT_SAFETY = 0.995
+"""Share of limit / peak a passed limit is lowered to for the next solve."""
+
+
+def _worst_overshoot(result: PlanResult) -> float:
+    """Largest peak / limit of the limits the trajectory passes (1.0 when it passes none)."""
+    return max([u.peak / u.limit for u in result.limits + result.move_limits if not u.ok], default=1.0)
+
+
+def _tightened(scenario: Scenario, result: PlanResult) -> Scenario:
+    """The scenario with every limit the result passed lowered to LIMIT_SAFETY * limit / peak of its current value
+    (robot limits by their field, [limits] per key: every axis of a per-axis one)."""
+    robot = {
+        u.quantity: getattr(scenario.robot, u.quantity) * LIMIT_SAFETY * u.limit / u.peak
+        for u in result.limits
+        if not u.ok
+    }
+    limits = {}
+    for u in result.move_limits:
+        if not u.ok:
+            value, factor = getattr(scenario.limits, u.quantity), LIMIT_SAFETY * u.limit / u.peak
+            limits[u.quantity] = tuple(v * factor for v in value) if isinstance(value, tuple) else value * factor
+    return dataclasses.replace(
+        scenario,
+        robot=dataclasses.replace(scenario.robot, **robot),
+        limits=dataclasses.replace(scenario.limits, **limits),
+    )
+
+
+def _ratios(solver: Scenario, user: Scenario) -> dict[str, float]:
+    """The limits the solver was given as shares of the user's, for those that differ (`[limits].key` or `robot.key`)."""
+    out = {}
+    for table, a, b in (("[limits]", solver.limits, user.limits), ("robot", solver.robot, user.robot)):
+        for f in dataclasses.fields(b):
+            mine, theirs = np.atleast_1d(getattr(a, f.name)), np.atleast_1d(getattr(b, f.name))
+            if not np.array_equal(mine, theirs):
+                out[f"{table}.{f.name}"] = float(np.min(mine / theirs))
+    return out
+
+
+def _plan_free(
+    scenario: Scenario,
+    params: SloshParams,
+    robust_omega_factors: Sequence[float] | None,
+    progress: bool,
+    warm_from: PlanResult | None,
+) -> PlanResult:
+    """One solve of a free move (waypoints, obstacles) at the scenario's limits, with the clearance retries."""
     t_wall = time.perf_counter()
     check_feasible(scenario)
     factors = scenario.solver.robust_omega_factors if robust_omega_factors is None else robust_omega_factors

@@ -174,6 +174,12 @@ def plan_verdict(result: PlanResult) -> tuple[str, str]:
             + ", ".join(f"{u.quantity} {u.peak:.4g} > {u.limit:.4g}" for u in over)
             + " (between the solver's grid points; a larger [solver].N holds them closer)"
         )
+    if result.tightened:
+        limits += (
+            ". Solved again with "
+            + ", ".join(f"{k} at {100 * share:.1f} % of the scenario's" for k, share in result.tightened.items())
+            + ": the first solve passed them between its grid points"
+        )
     clearance = (
         f" The container stays {1e3 * result.min_clearance_m:.1f} mm clear of the inflated obstacles."
         if result.min_clearance_m is not None
