@@ -336,8 +336,8 @@ def rings_above(sig: Signal, win: DecayWindow, f_hz: float, noise_std: float) ->
 
 
 def user_window(sig: Signal, t0: float, t1: float, f_guess_hz: float, noise_std: float, drift: bool) -> DecayWindow:
-    """A window given by the user, checked to lie inside the data (and the record's slow motion, as for the
-    automatic window)."""
+    """A window given by the user, checked to lie inside the data, with the record's slow motion and the end of its
+    forced motion as the automatic search finds them (a window that starts before that end is judged uncertain)."""
     lo, hi = float(sig.t_s[0]), float(sig.t_s[-1])
     if not t0 < t1:
         raise SettingError("window_s", f"{{name}} start {t0:g} s must be before its end {t1:g} s.")
@@ -345,6 +345,5 @@ def user_window(sig: Signal, t0: float, t1: float, f_guess_hz: float, noise_std:
         raise SettingError(
             "window_s", f"{{name}} {t0:g},{t1:g} s lies outside the data of {sig.source} ({lo:g} to {hi:g} s)."
         )
-    u, n, amp, _, dev = _levels(sig, f_guess_hz, drift)
-    _, _, reach, moving = _zero_motion(u, n, amp, dev, f_guess_hz, noise_std)
-    return DecayWindow(float(t0), float(t1), "user", None, f_guess_hz, reach * moving)
+    auto = find_decay_window(sig, f_guess_hz, noise_std, drift)
+    return DecayWindow(float(t0), float(t1), "user", auto.excitation_end_s, f_guess_hz, auto.slow_motion)

@@ -184,6 +184,15 @@ def _judge_signal(inp: VerdictInput, i: int, name: str, f: float, f2: float | No
             "and the fit, which assumes little correlation, can be off by more than its intervals; check the window "
             "in the report or give it yourself (--window).",
         )
+    w = inp.windows[i]
+    if w.chosen_by == "user" and w.excitation_end_s is not None and w.t0_s < w.excitation_end_s:
+        doubts.add(
+            BOTH,
+            "uncertain",
+            f"{name}: the given window starts at {w.t0_s:g} s, before the forced motion ends (at about "
+            f"{w.excitation_end_s:.2f} s): the fit reads a driven response as a free decay; start it after that "
+            "(--window).",
+        )
     snr = fit.amplitude(i) / fit.amplitude_se(i)
     if snr < AMPLITUDE_SNR:
         doubts.add(BOTH, "uncertain", f"{name}: the fitted amplitude is only {snr:.1f} standard errors above zero.")
