@@ -33,6 +33,9 @@ SG_ORDER = 5
 """Savitzky-Golay polynomial order: flat to 0.1 % at 3 Hz with the 0.1 s window (order 3 would lose 6 %)."""
 UNIT_TOL = 1e-3
 """A quaternion whose norm differs from 1 by more than this is refused (logs round to ~1e-6)."""
+REST_SPEED_M_S = 5e-3
+"""A log whose mean speed over its first (last) tenth of a smoothing window is below this starts (ends) at rest; a
+robot log's position noise of some 10 um reads as 1 mm/s over 10 ms."""
 MOVE_TOL_M = 1e-5
 """Pose change (m of position, or rad of rotation times 1 m) that counts as the container moving."""
 DEFAULT_COLUMNS = ("t", "x", "y", "z", "qx", "qy", "qz", "qw")
@@ -138,16 +141,34 @@ def excitation(pose: PoseLog, axis_offset_m: float = 0.0, smooth_s: float = SMOO
         raise UserError(f"{pose.source}: {pose.t_s.size} samples are fewer than the {n}-sample smoothing window.")
     axis = pose.rot.apply([0.0, 0.0, 1.0])
 
+    # a log that starts (ends) at rest is continued at rest for a window before (after) it, and the excitation runs
+    # over that rest too: the ends' polynomial, extrapolated across a move that starts at the first sample, read
+    # 0.47 m/s2 there instead of 0, and a smoothed deceleration cut at the log's end stepped to zero (a 0.12 deg slosh
+    # predicted for a slosh-free plan); a log that starts or stops mid-move keeps the extrapolation
+    point = pose.pos_m + axis_offset_m * axis
+    k = max(1, n // 10)  # the mean speed over the first (last) tenth of a window: the ends' own polynomials err
+    speed = [np.linalg.norm(point[k] - point[0]) / (k * dt), np.linalg.norm(point[-1] - point[-1 - k]) / (k * dt)]
+    before, after = (n if v < REST_SPEED_M_S else 0 for v in speed)
+
+    def rest(x: np.ndarray) -> np.ndarray:
+        """`x` (one row per sample) continued by its first row before and its last row after."""
+        return np.concatenate([np.repeat(x[:1], before, axis=0), x, np.repeat(x[-1:], after, axis=0)])
+
     def second_derivative(x: np.ndarray) -> np.ndarray:
-        """SG acceleration; at the ends the window's polynomial is extrapolated (a log may stop mid-move)."""
-        return savgol_filter(x, n, SG_ORDER, deriv=2, delta=dt, axis=0, mode="interp")
+        """SG acceleration of `x` continued at rest; the window's polynomial extrapolated at the ends."""
+        return savgol_filter(rest(x), n, SG_ORDER, deriv=2, delta=dt, axis=0, mode="interp")
 
     if pose.acc_m_s2 is not None:  # exact point acceleration from the file; only the offset's part is smoothed
-        acc = pose.acc_m_s2 + second_derivative(axis_offset_m * axis)
+        acc = second_derivative(axis_offset_m * axis)
+        acc[before : before + pose.t_s.size] += pose.acc_m_s2
     else:
-        acc = second_derivative(pose.pos_m + axis_offset_m * axis)
+        acc = second_derivative(point)
     _check_plausible(pose.source, acc, axis[0])
-    return Excitation(pose.t_s, acc, pose.rot, pose.move_span_s, smooth_s, axis_offset_m)
+    t = np.concatenate(
+        [pose.t_s[0] - dt * np.arange(before, 0, -1), pose.t_s, pose.t_s[-1] + dt * np.arange(1, after + 1)]
+    )
+    rot = Rotation.from_quat(rest(pose.rot.as_quat()))
+    return Excitation(t, acc, rot, pose.move_span_s, smooth_s, axis_offset_m)
 
 
 MAX_ACCEL_M_S2 = 100.0
