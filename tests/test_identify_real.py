@@ -99,3 +99,17 @@ def test_report_has_every_figure_and_table(antisloshing_dir, tmp_path, run_cli):
     assert set(data["parameters"]) == {"f_hz", "omega_rad_s", "zeta", "l_m", "d_ns_per_m", "m_kg"}
     assert data["prior"]["f_hz"] == pytest.approx(F_PHYS, abs=0.001)
     assert "f_hz" in stdout and "95 % CI" in stdout and "frequency (f, omega, l): good" in stdout
+
+
+def test_a_band_that_misses_the_mode_says_so_once(antisloshing_dir):
+    # --f-range 3.5,5 on a 3.0 Hz run: the fit left the band for the 3.01 Hz mode, and the verdict also called that
+    # same mode a "strong second mode at 3.01 Hz (13162 % of the main peak)" and "a strong mode below the reported
+    # 3.011 Hz", and fitted it as a second mode beside itself
+    sig = load_signal(antisloshing_dir / "slosh" / "LE_2D_0m_5s_900deg.mat")
+    res = Identifier(f_range_hz=(3.5, 5.0)).fit(sig).result
+    reasons = res.groups["frequency"].reasons
+    assert res.groups["frequency"].quality == "unreliable"
+    assert any("lies outside the searched band 3.5-5 Hz" in r for r in reasons)
+    f = res.parameters["f_hz"].value
+    assert not any(re.search(rf"mode at {f:.3g} Hz", r) or "lies below the reported" in r for r in reasons), reasons
+    assert res.second_mode is None or abs(res.second_mode.peak.f_hz - f) > 0.16  # not the fitted mode again

@@ -538,11 +538,12 @@ class Identifier:
                     f"{sig.source}: no oscillatory mode found; the PSD shows no resonance standing 10 dB above the "
                     f"noise in {f_range[0]:g}-{f_range[1]:g} Hz, and {' and '.join(weak)}."
                 )
-        if st.window_s is None and any(strong_peaks(sp, st.second_mode_ratio) for sp in spectra):
+        f_fit = fit.omega_rad_s / (2 * math.pi)
+        if st.window_s is None and any(strong_peaks(sp, st.second_mode_ratio, f_fit) for sp in spectra):
             # two modes beat, so the first quiet stretch may be a beat's null rather than the fade: now that the decay
             # rate is known, let the automatic windows take in the ring-down's tail (a single mode's envelope only
             # falls, so there the first quiet stretch is the fade and the window stays)
-            rate, f_fit = fit.zeta * fit.omega_rad_s, fit.omega_rad_s / (2 * math.pi)
+            rate = fit.zeta * fit.omega_rad_s
             longer = [extend_tail(s, w, f_fit, rate, fs.noise_std) for s, w, fs in zip(sigs, windows, fullspec)]
             if any(a.t1_s > b.t1_s + 1 / f_fit for a, b in zip(longer, windows)):  # at least a period more
                 windows = longer

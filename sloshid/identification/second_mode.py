@@ -80,16 +80,28 @@ class SecondMode:
         )
 
 
-def strong_peaks(spectrum: Spectrum, ratio: float) -> list[SpectralPeak]:
-    """Non-harmonic secondary PSD peaks stronger than `ratio` of the main peak, strongest first."""
-    return [p for p in spectrum.secondary if not p.harmonic and p.relative > ratio]
+def strong_peaks(spectrum: Spectrum, ratio: float, fitted_hz: float | None = None) -> list[SpectralPeak]:
+    """Non-harmonic secondary PSD peaks stronger than `ratio` of the main peak, strongest first; not those within a
+    resolution bin of the `fitted_hz` mode or of its harmonics, which are that mode (a fit that left the searched band
+    for a stronger mode beside it found that mode, not a second one)."""
+
+    def of_fitted(f: float) -> bool:
+        k = max(1, round(f / fitted_hz))
+        return abs(f - k * fitted_hz) <= spectrum.resolution_hz
+
+    return [
+        p
+        for p in spectrum.secondary
+        if not p.harmonic and p.relative > ratio and (fitted_hz is None or not of_fitted(p.f_hz))
+    ]
 
 
 def resolve_second_mode(
     windows: list[WindowData], single: PT2Fit, spectra: list[Spectrum], ratio: float, min_amplitude_snr: float
 ) -> SecondMode | None:
     """Fit two modes when some PSD shows a strong second peak (None when none does) and check separation."""
-    found = [(p.psd / s.peak_psd, i, p) for i, s in enumerate(spectra) for p in strong_peaks(s, ratio)[:1]]
+    f1 = single.omega_rad_s / (2 * math.pi)
+    found = [(p.psd / s.peak_psd, i, p) for i, s in enumerate(spectra) for p in strong_peaks(s, ratio, f1)[:1]]
     if not found:
         return None
     _, i, peak = max(found, key=lambda c: c[0])

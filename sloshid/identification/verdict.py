@@ -163,7 +163,7 @@ def _judge_signal(inp: VerdictInput, i: int, name: str, f: float, f2: float | No
     # a peak the fitted second mode accounts for (within one bin) is no longer a doubt; any other one is
     strong = [
         p
-        for p in strong_peaks(inp.spectra[i], inp.second_mode_ratio)
+        for p in strong_peaks(inp.spectra[i], inp.second_mode_ratio, f)
         if f2 is None or abs(p.f_hz - f2) > inp.spectra[i].resolution_hz
     ]
     if strong:
@@ -290,7 +290,7 @@ def _judge_mode_choice(inp: VerdictInput, f: float, f2: float | None, doubts: _D
         return
     lower = [f2] if f2 is not None and f2 < f else []
     for sp in inp.spectra:
-        lower += [p.f_hz for p in strong_peaks(sp, inp.second_mode_ratio) if p.f_hz < f]
+        lower += [p.f_hz for p in strong_peaks(sp, inp.second_mode_ratio, f) if p.f_hz < f]
     if lower:
         doubts.add(
             ("frequency",),
