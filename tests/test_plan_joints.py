@@ -187,3 +187,24 @@ def test_bad_robot_input_is_one_sentence_exit_2(run_cli, tmp_path, robot, messag
 def test_unknown_model_in_the_api():
     with pytest.raises(UserError, match="unknown"):
         ArmSettings(model="kuka")
+
+
+def test_a_q_start_away_from_the_moves_start_is_not_executable(run_cli, tmp_path):
+    # the move shifted 0.2 m along x with paper_1d's q_start kept: --fit-joints said executable, exit 0, while the
+    # first row of the joints CSV lay up to 0.556 rad from q_start (joint 4): the arm would have jumped at t = 0
+    sc = tmp_path / "shift.toml"
+    sc.write_text(
+        PAPER_1D.read_text().replace("[0.3, -0.27, 0.2]", "[0.5, -0.27, 0.2]").replace("[0.3, 0.27", "[0.5, 0.27")
+    )
+    code, out, err = run_cli(
+        "plan", sc, "-o", tmp_path / "t.csv", "--joints", tmp_path / "q.csv", "--fit-joints", "--json"
+    )
+    assert code == 1
+    joints = json.loads(out)["joints"]
+    assert not joints["executable"] and joints["start_offset_m"] == pytest.approx(0.2, abs=0.005)
+    assert joints["start_jump_rad"] > 0.3
+    assert "q_start holds the container 200 mm from the move's start" in err and "re-planned" not in err
+    # the shipped scenario's q_start holds the container at its start (rounded to 1e-4 rad)
+    code, out, err = run_cli("plan", PAPER_1D, "-o", tmp_path / "p.csv", "--joints", tmp_path / "p.csv.q.csv", "--json")
+    joints = json.loads(out)["joints"]
+    assert joints["start_offset_m"] < 1e-4 and joints["start_jump_rad"] < 1e-3

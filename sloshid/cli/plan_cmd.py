@@ -185,7 +185,7 @@ def _warnings(result, fit: list) -> None:
             f"than [path].path_tolerance_m = {result.path_tolerance_m * 1e3:g} mm.",
             file=sys.stderr,
         )
-    if fit:
+    if len(fit) > 1:
         print(
             f"sloshid: re-planned {len(fit) - 1} time(s) with lower Cartesian limits for the joints: T "
             + " -> ".join(f"{f.T_s:.3f}" for f in fit)

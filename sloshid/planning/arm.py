@@ -235,10 +235,21 @@ class JointCheck:
     """Largest distance between FK of the joints and the Cartesian trajectory (m)."""
     fk_angle_error_deg: float
     """Largest angle between the container axis by FK and the trajectory's (deg); its yaw about the axis is free."""
+    start_offset_m: float = 0.0
+    """Distance of the container at [robot].q_start from the trajectory's first point (m)."""
+    start_jump_rad: float = 0.0
+    """Largest joint change from q_start to the first sample's angles: the jump the arm would make at t = 0."""
+    start_m: np.ndarray | None = None
+    """The trajectory's first point (m)."""
+
+    @property
+    def starts_at_q_start(self) -> bool:
+        """q_start holds the container at the trajectory's start (a jump of at most START_JUMP_RAD)."""
+        return self.start_jump_rad <= START_JUMP_RAD
 
     @property
     def executable(self) -> bool:
-        return all(u.ok for u in self.usages)
+        return self.starts_at_q_start and all(u.ok for u in self.usages)
 
     @property
     def worst(self) -> JointUsage:
@@ -247,6 +258,12 @@ class JointCheck:
 
     def reason(self) -> str:
         """One sentence: why the arm cannot follow, naming the joint and the time."""
+        if not self.starts_at_q_start:
+            return (
+                f"[robot].q_start holds the container {1e3 * self.start_offset_m:.0f} mm from the move's start "
+                f"({np.round(self.start_m, 4).tolist()} m): the arm would jump by up to {self.start_jump_rad:.3g} rad "
+                "at t = 0; give a q_start that holds the container at the start (the joints CSV's first row does)."
+            )
         bad = [u for u in self.usages if not u.ok]
         if not bad:
             return "the Panda can follow the trajectory."
@@ -268,6 +285,8 @@ class JointCheck:
             "limits": [u.to_dict() for u in self.usages],
             "fk_position_error_m": self.fk_position_error_m,
             "fk_angle_error_deg": self.fk_angle_error_deg,
+            "start_offset_m": self.start_offset_m,
+            "start_jump_rad": self.start_jump_rad,
         }
 
     def write_csv(self, path) -> None:
@@ -320,12 +339,20 @@ def check_joints(traj: Trajectory, settings: ArmSettings, arm: Arm | None = None
         R, p = arm.tool_pose(q[i])
         pos_err = max(pos_err, float(np.linalg.norm(p - traj.pos_m[i])))
         ang_err = max(ang_err, math.acos(min(1.0, float(R[:, 2] @ z_goal[i]))))
-    return JointCheck(traj.t_s, q, joint_usages(traj.t_s, q), pos_err, math.degrees(ang_err))
+    q0 = np.asarray(settings.q_start, float)
+    offset = float(np.linalg.norm(arm.tool_pose(q0)[1] - traj.pos_m[0]))
+    jump = float(np.abs(q[0] - q0).max())
+    return JointCheck(
+        traj.t_s, q, joint_usages(traj.t_s, q), pos_err, math.degrees(ang_err), offset, jump, traj.pos_m[0]
+    )
 
 
 __all__ = ["Arm", "ArmSettings", "JointCheck", "arm_settings", "check_joints", "joint_usages"]
 
 
+START_JUMP_RAD = 1e-3
+"""Largest joint change from [robot].q_start to the first sample's angles for a trajectory the arm can start: the IK
+starts there, so a q_start that holds the container at the start gives the first sample's angles to its tolerance."""
 FIT_TRIES = 6
 """Re-plans at most this many times when fitting a plan to the joint limits."""
 FIT_SAFETY = 0.9
@@ -368,6 +395,8 @@ def fit_to_joints(scenario, params, first=None, check: JointCheck | None = None)
         if check.executable:
             break
         bad = [u for u in check.usages if not u.ok]
+        if not check.starts_at_q_start:  # no timing moves the start
+            break
         if any(u.quantity == "position_rad" for u in bad):
             steps[-1].reason += " Re-planning cannot fix a joint position limit: move the path, the base or q_start."
             break
