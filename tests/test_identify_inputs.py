@@ -141,6 +141,13 @@ def _bad_cases(tmp_path, decay):
         )
     )
     cases.append(("half prior", [ok, "--container-radius-m", "0.05"], "needs both"))
+    # millimetres typed as metres: the error was that the default band misses a 0.08-0.11 Hz "first mode"
+    mm = [ok, "--container-radius-m", "50", "--fill-height-m", "80"]
+    cases.append(("geometry in mm", mm, "--container-radius-m must be in metres, at most 10 (0.05 for 50 mm), got 50"))
+    # a band above what 60 fps samples resolve: the band's mistake, not the time column's (which was blamed)
+    cases.append(
+        ("band too high", [ok, "--f-range", "20,40"], "at most 15 Hz at 4 samples per period); lower --f-range")
+    )
     return cases
 
 
@@ -196,3 +203,14 @@ def test_an_empty_smoothed_column_names_no_smooth(tmp_path, run_cli):
     path.write_text(",".join(cols) + "\n" + "\n".join(",".join(f"{c[i]:g}" for c in cols.values()) for i in range(240)))
     code, _, err = run_cli("identify", path, "-o", tmp_path / "p.json", "--value-col", "angle_smoothed_deg")
     assert code == 2 and "--no-smooth` leaves it empty" in err and not (tmp_path / "p.json").exists()
+
+
+def test_an_empty_wall_mm_column_names_the_diameter(tmp_path, run_cli):
+    # identify --value-col left_wall_mm on a surface track without --container-diameter-m said only "NaN"
+    t = np.arange(240) / 30
+    cols = {"frame": np.arange(240), "t_s": t, "angle_deg": np.sin(2 * np.pi * 2.5 * t), "valid": np.ones(240)}
+    cols["left_wall_px"], cols["left_wall_mm"] = np.sin(2 * np.pi * 2.5 * t), np.full(240, np.nan)
+    path = tmp_path / "surface.csv"
+    path.write_text(",".join(cols) + "\n" + "\n".join(",".join(f"{c[i]:g}" for c in cols.values()) for i in range(240)))
+    code, _, err = run_cli("identify", path, "-o", tmp_path / "p.json", "--value-col", "left_wall_mm")
+    assert code == 2 and "only with --container-diameter-m" in err and not (tmp_path / "p.json").exists()

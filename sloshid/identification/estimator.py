@@ -110,6 +110,17 @@ class IdentSettings:
         if self.container_radius_m is not None and not (self.container_radius_m > 0 and self.fill_height_m > 0):
             bad = "container_radius_m" if not self.container_radius_m > 0 else "fill_height_m"
             raise SettingError(bad, f"{{name}} must be positive (m), got {getattr(self, bad):g}.")
+        for key in ("container_radius_m", "fill_height_m"):
+            if (getattr(self, key) or 0) > MAX_GEOMETRY_M:  # millimetres typed as metres move the prior a 30-fold
+                raise SettingError(
+                    key,
+                    f"{{name}} must be in metres, at most {MAX_GEOMETRY_M:g} (0.05 for 50 mm), got "
+                    f"{getattr(self, key):g}: is it in millimetres?",
+                )
+
+
+MAX_GEOMETRY_M = 10.0
+"""Largest container radius or fill height taken (m): a value in millimetres (50 for 50 mm) is refused."""
 
 
 @dataclass(frozen=True)

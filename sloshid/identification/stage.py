@@ -60,10 +60,17 @@ def check_sampling(source: str, rate_hz: float, f_range_hz: tuple[float, float])
     if rate_hz < MIN_SAMPLES_PER_PERIOD * f_range_hz[0]:
         lo, hi = f_range_hz
         band = f"{lo:g} Hz" if lo == hi else f"{lo:g}-{hi:g} Hz"
+        # a band the user chose above plausibly timed samples (a video's 30 fps) is the band's mistake, not the clock's
+        users_band = lo != hi and f_range_hz != IdentSettings().f_range_hz and rate_hz >= MIN_SAMPLES_PER_PERIOD
+        cure = (
+            "lower --f-range below that (or, if the time column is not in seconds, convert it)"
+            if users_band
+            else "the time column must be in seconds (is it in milliseconds?), and the band below that"
+        )
         raise UserError(
             f"{source}: the samples are {1 / rate_hz:.4g} time units apart, too coarse for a mode in "
             f"{band} (at most {rate_hz / MIN_SAMPLES_PER_PERIOD:.3g} Hz at {MIN_SAMPLES_PER_PERIOD:g} samples per "
-            "period); the time column must be in seconds (is it in milliseconds?), and the band below that."
+            f"period); {cure}."
         )
 
 
