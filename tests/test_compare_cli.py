@@ -161,3 +161,18 @@ def test_bad_files_and_options(tmp_path, run_cli):
     broken.write_text("[move\nstart = 1")
     code, _, err = run_cli("compare", broken)
     assert code == 2 and "not valid TOML" in err
+
+
+def test_a_method_that_collides_reads_collide_in_the_table(tmp_path, run_cli):
+    # the table said "ok" in the limits column for a straight move through an obstacle (min clearance -0.08 m); only
+    # the HTML report flagged it
+    extra = "[[obstacles]]\ncenter = [0.35, 0.0, 0.2]\nradius = 0.01\n[container]\nradius_m = 0.005\n"
+    path = tmp_path / "scenario.toml"
+    path.write_text(
+        SCENARIO.format(methods='["constant_acc"]', solver="", extra="").replace("[solver]", extra + "[solver]")
+    )
+    code, out, err = run_cli("compare", path)
+    assert code == 0, err
+    row = next(line for line in out.splitlines() if line.startswith("constant acceleration"))
+    assert row.split()[-1] == "COLLIDE"
+    assert "collides with an obstacle: constant acceleration" in out

@@ -283,3 +283,13 @@ def test_api_refuses_bad_params_with_one_sentence(paper_1d, tmp_path, monkeypatc
     for call in (sloshid.plan, sloshid.compare):
         with pytest.raises(UserError, match=message):
             call(paper_1d, params)
+
+
+def test_the_plan_figure_keeps_its_legend_and_labels_inside(plan_1d):
+    # the legend sat outside the figure, so a plain fig.savefig() cut it off with the x label
+    fig = plan_1d.plot()
+    fig.canvas.draw()
+    box = fig.bbox
+    for artist in (fig.legends[0], fig.axes[0].xaxis.label, fig.axes[1].yaxis.label):
+        extent = artist.get_window_extent()
+        assert box.x0 <= extent.x0 and extent.x1 <= box.x1 and box.y0 <= extent.y0 and extent.y1 <= box.y1, artist

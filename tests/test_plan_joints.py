@@ -208,3 +208,5 @@ def test_a_q_start_away_from_the_moves_start_is_not_executable(run_cli, tmp_path
     code, out, err = run_cli("plan", PAPER_1D, "-o", tmp_path / "p.csv", "--joints", tmp_path / "p.csv.q.csv", "--json")
     joints = json.loads(out)["joints"]
     assert joints["start_offset_m"] < 1e-4 and joints["start_jump_rad"] < 1e-3
+    position = next(u for u in joints["limits"] if u["quantity"] == "position_rad")
+    assert 0 < position["usage"] < 1  # |angle| over |nearer bound|: read -0.977 against a negative bound

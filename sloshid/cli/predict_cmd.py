@@ -23,7 +23,11 @@ def add_geometry_arguments(parser: argparse.ArgumentParser) -> None:
         "trajectory, whose point is the pivot)",
     )
     parser.add_argument(
-        "--container-radius-m", type=float, metavar="M", help="container radius R in m (default: from the parameters)"
+        "--container-radius-m",
+        type=float,
+        metavar="M",
+        help="container radius R in m, for the wall height (default: the radius the parameters were identified with, "
+        "when identify had --container-radius-m; otherwise required)",
     )
     parser.add_argument(
         "--pose-columns",

@@ -431,7 +431,8 @@ class Comparison:
                 lines.append(f"{r.label:34s} not applicable: {r.reason}")
                 continue
             sc = r.score
-            ok = "ok" if sc.robot_limits_ok and sc.move_limits_ok else "FAIL"
+            collides = sc.min_clearance_m is not None and sc.min_clearance_m < 0
+            ok = "COLLIDE" if collides else "ok" if sc.robot_limits_ok and sc.move_limits_ok else "FAIL"
             lines.append(
                 f"{r.label:34s} {sc.transfer_time_s:7.3f} {sc.peak_during_deg:9.3f} "
                 f"{sc.residual_deg:9.3f} {sc.peak_tilt_deg:8.2f} {ok:>7s}"
@@ -603,4 +604,7 @@ def verdict(comp: Comparison) -> str:
     broken = [r.label for r in ok if not r.score.robot_limits_ok]
     if broken:
         parts.append("Robot limits fail for: " + ", ".join(broken) + ".")
+    passed = [r.label for r in ok if not r.score.move_limits_ok]
+    if passed:
+        parts.append("The scenario's [limits] fail for: " + ", ".join(passed) + ".")
     return " ".join(parts)

@@ -221,7 +221,7 @@ class JointUsage:
         return abs(self.peak) <= self.limit * 1.001
 
     def to_dict(self) -> dict:
-        return {**vars(self), "ok": self.ok, "usage": abs(self.peak) / self.limit if self.limit else 0.0}
+        return {**vars(self), "ok": self.ok, "usage": abs(self.peak / self.limit) if self.limit else 0.0}
 
 
 @dataclass

@@ -202,7 +202,8 @@ class PlanResult:
         """Container speed and tilt over time (the tilt is the liquid surface's); returns the figure."""
         import matplotlib.pyplot as plt
 
-        if ax is None:
+        own = ax is None
+        if own:
             _, ax = plt.subplots(figsize=(9, 3.2))
         traj = self.trajectory
         ax.plot(traj.t_s, np.linalg.norm(traj.vel_m_s, axis=1), color="#36c", label="speed (m/s)")
@@ -211,7 +212,9 @@ class PlanResult:
         tilt.plot(traj.t_s, np.degrees(traj.euler_rad[:, 0]), color="tab:orange", lw=1, label="roll phi (deg)")
         tilt.plot(traj.t_s, np.degrees(traj.euler_rad[:, 1]), color="tab:green", lw=1, label="pitch theta (deg)")
         tilt.set_ylabel("container tilt = liquid surface (deg)")
-        ax.figure.legend(loc="upper left", bbox_to_anchor=(1.0, 0.95), fontsize=8)
+        ax.figure.legend(loc="upper right", bbox_to_anchor=(1.0, 1.0), fontsize=8, ncols=3)
+        if own:  # legend and labels inside the figure: a plain savefig keeps them
+            ax.figure.tight_layout(rect=(0, 0, 1, 0.9))
         return ax.figure
 
     def report(self, directory: str | Path, links: dict[str, str] | None = None, liquid_source: str = "") -> Path:
