@@ -38,13 +38,15 @@ def track(
 
 
 def identify(*sources: Source, **settings: Any) -> IdentResult:
-    """Identify the sloshing mode jointly from signal files, Signals or TrackResults; keywords are IdentSettings
-    fields (mass_kg, window_s, f_range_hz, drift, min_fit_percent, container_radius_m, fill_height_m, ...) and
+    """Identify the sloshing mode jointly from signal files, Signals or TrackResults (or one list of them); keywords
+    are IdentSettings fields (mass_kg, window_s, f_range_hz, drift, min_fit_percent, container_radius_m, ...) and
     the SignalColumns fields (time_col, value_col, time_var, value_var): the files' columns, or, when every source is
     a TrackResult, the tracked tables' (value_col="left_wall_mm")."""
     from sloshid.identification.estimator import IdentSettings
     from sloshid.identification.stage import SignalColumns, identify_sources
 
+    if len(sources) == 1 and isinstance(sources[0], (list, tuple)):  # identify(["a.csv", tracked]) as well
+        sources = tuple(sources[0])
     column_keys = {"time_col", "value_col", "time_var", "value_var"}
     columns = from_dict(SignalColumns, {k: v for k, v in settings.items() if k in column_keys})
     ident = from_dict(IdentSettings, {k: v for k, v in settings.items() if k not in column_keys})

@@ -1226,6 +1226,13 @@ def test_columns_beside_a_sensor_file_are_the_files(surface_video, tmp_path):
                header="time_s,height", comments="")  # fmt: skip
     both = sloshid.identify(res, sensor, value_col="height")
     assert [s.label for s in both.signals] == ["angle_deg", "height"]
+    # one list of sources, as a user collects them, raised a TypeError
+    listed = sloshid.identify([res, sensor], value_col="height")
+    assert listed.parameters["f_hz"].value == both.parameters["f_hz"].value
+    # the track page reads as a report, not a key dump, and says what the angle is of
+    html = res.report(tmp_path / "track_report").read_text()
+    assert "frames the encoder repeated (not valid)" in html and "dyed liquid&#x27;s surface" in html
+    assert "invalid_share" not in html and res.plot().axes[0].get_ylabel() == "surface angle (deg)"
     assert sloshid.identify(res, value_col="left_wall_mm").signals[0].label == "left_wall_mm"
     with pytest.raises(UserError, match="has no value column 'height'"):
         sloshid.identify(res, value_col="height")

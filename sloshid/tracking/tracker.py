@@ -256,10 +256,11 @@ class TrackResult:
         if ax is None:
             _, ax = plt.subplots(figsize=(9, 3.2))
         ok = self.valid == 1
+        what = "surface" if self.target == "surface" else "float"
         ax.plot(self.t_s[ok], self.angle_deg[ok], ".", ms=2, color="0.4", label="measured (valid frames)")
         ax.plot(self.t_s, self.angle_smoothed_deg, lw=1, color="tab:blue", label="Kalman/RTS smoothed")
-        ax.set(xlabel="time t (s)", ylabel="float angle (deg)", title=f"tracked float angle: {self.video.name}")
-        ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1), fontsize=8)
+        ax.set(xlabel="time t (s)", ylabel=f"{what} angle (deg)", title=f"tracked {what} angle: {self.video.name}")
+        ax.legend(loc="upper right", fontsize=8)  # inside the axes: a plain savefig keeps it
         return ax.figure
 
     def report(self, directory: str | Path) -> Path:
@@ -267,7 +268,19 @@ class TrackResult:
         from sloshid.report.html import Report
 
         page = Report(f"sloshid track: {self.video.name}")
-        page.add_table(["quantity", "value"], [[k, v] for k, v in self.to_dict().items() if k != "warnings"])
+        d, n = self.to_dict(), max(len(self.t_s), 1)
+        rows = [
+            ["video", d["video"]],
+            ["target", "dyed liquid's surface" if self.target == "surface" else "float"],
+            ["frames", f"{d['frames']} over {d['duration_s']:.2f} s"],
+            ["valid frames (measured, quality >= 0.5)", f"{d['valid_frames']} ({100 * d['valid_frames'] / n:.1f} %)"],
+            [
+                "frames the encoder repeated (not valid)",
+                f"{d['repeated_frames']} ({100 * d['repeated_frames'] / n:.1f} %)",
+            ],
+            ["declared frames that did not decode", f"{100 * d['lost_share']:.1f} %"],
+        ]
+        page.add_table(["quantity", "value"], rows)
         for warning in self.warnings:
             page.add_text(f"warning: {warning}")
         page.add_figure(self.plot(), "Measured angle of every valid frame and the smoothed trace that bridges gaps.")
