@@ -570,6 +570,12 @@ def test_repeats_are_stale_when_they_held_motion_not_when_a_still_object_was_cop
     tap = np.r_[np.zeros(36), 0.4, 1.2, 2.2, 3.0]
     rep = [False] + [True] * 35 + [False] * 4
     assert not stale_repeats(tap, np.ones(40, bool), rep).any()
+    # a tap whose first frame holds most of its rise (d5: 5.6 deg, then 2.3 deg a frame) after 18 copied frames of a
+    # still float: the jump is more than two frames of the motion after it, but spread over the run it is 0.3 deg a
+    # frame, an eighth of that motion: the run held none of it (its frames read stale before)
+    sharp = np.r_[np.zeros(19), 5.6, 7.95, 6.4]
+    rep = [False] + [True] * 18 + [False] * 3
+    assert not stale_repeats(sharp, np.ones(22, bool), rep).any()
     # a run inside a steady motion (0.1 deg per frame): the fresh frame after it jumps by the run's length of motion
     ramp = 0.1 * np.arange(20)
     ramp[10:14] = ramp[9]

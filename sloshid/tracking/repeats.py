@@ -96,12 +96,14 @@ def stale_repeats(angle: np.ndarray, valid: np.ndarray, repeated: list[bool]) ->
 def _still_until(angle: np.ndarray, before: np.ndarray, after: np.ndarray, start: int) -> bool:
     """The object stood still up to a run of repeats starting at `start` and began to move at its end (`before`,
     `after`: the fresh frames around the run): the jump across the run is no larger than two frames of the motion
-    that follows it (a run that held motion jumps by its length of it), and the fresh angles in the LOOKBACK_FRAMES
-    before the run, when three lie there, span no more than MOVED_DEG."""
+    that follows it, or spread over the run's frames it is less than half a frame of that motion (a run that held
+    motion jumps by its length of it; a tap's first frame can hold most of its rise: 5.6 deg, then 2.3 deg a frame),
+    and the fresh angles in the LOOKBACK_FRAMES before the run, when three lie there, span no more than MOVED_DEG."""
     if after.size < 2:
         return False
     jump = abs(angle[after[0]] - angle[before[-1]])
-    if jump > 2 * abs(angle[after[1]] - angle[after[0]]) / (after[1] - after[0]):
+    rate = abs(angle[after[1]] - angle[after[0]]) / (after[1] - after[0])
+    if jump > 2 * rate and jump / (after[0] - before[-1]) > 0.5 * rate:
         return False
     recent = angle[before[before >= start - LOOKBACK_FRAMES]]
     return recent.size < 3 or float(recent.max() - recent.min()) <= MOVED_DEG
