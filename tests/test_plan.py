@@ -293,3 +293,15 @@ def test_the_plan_figure_keeps_its_legend_and_labels_inside(plan_1d):
     for artist in (fig.legends[0], fig.axes[0].xaxis.label, fig.axes[1].yaxis.label):
         extent = artist.get_window_extent()
         assert box.x0 <= extent.x0 and extent.x1 <= box.x1 and box.y0 <= extent.y0 and extent.y1 <= box.y1, artist
+
+
+def test_a_replan_never_trades_a_held_limit_nor_fails_a_plan_that_stood(paper_1d):
+    # vel_max = 0.1 is passed by 4.8 % between grid points; solving again with it lowered pushed the robot's angular
+    # acceleration to 25.7 > 25 rad/s2 (a hardware limit traded for the move's), and with t_max_s = 5.75 the lowered
+    # limit made the move infeasible, so a plan that stood became an error
+    slow = dataclasses.replace(paper_1d, limits=dataclasses.replace(paper_1d.limits, vel_max=(0.1, 0.1, 0.1)))
+    res = plan(slow, slow.liquid)
+    assert all(u.ok for u in res.limits)  # the robot's limits, held by the first solve, still hold
+    tight = dataclasses.replace(slow, limits=dataclasses.replace(slow.limits, t_max_s=5.75))
+    kept = plan(tight, tight.liquid)
+    assert kept.T_s < 5.75 and kept.tightened == {} and not kept.limits_ok

@@ -451,8 +451,9 @@ def plan(
 
     The solver holds the limits at its grid points; between them a move riding a bound passes it (a 1 deg tilt
     limit by 8 %). A free move that does is solved again with the passed limits lowered by LIMIT_SAFETY * limit /
-    peak (at most LIMIT_TRIES times, while it helps, and only for overshoots up to LIMIT_GRID_OVERSHOOT), and always
-    checked against the scenario's own limits
+    peak (at most LIMIT_TRIES times, only for overshoots up to LIMIT_GRID_OVERSHOOT, and kept only while the peak falls
+    and every limit the last plan held still holds; a lowered limit that cannot be solved keeps the last plan), and
+    always checked against the scenario's own limits
     (`PlanResult.tightened` says what the solver was given).
     """
     if scenario.path is not None:
@@ -465,7 +466,10 @@ def plan(
         if not 1.0 < worst <= LIMIT_GRID_OVERSHOOT:
             break
         solver_scenario = _tightened(solver_scenario, result)
-        again = _plan_free(solver_scenario, params, robust_omega_factors, progress, result)
+        try:
+            again = _plan_free(solver_scenario, params, robust_omega_factors, progress, result)
+        except UserError:  # the lowered limits are infeasible (t_max_s) or do not solve: the last plan stands
+            break
         usages, move = limit_usages(again.trajectory, scenario)  # judged by the user's limits, not the lowered ones
         again = dataclasses.replace(
             again,
@@ -477,7 +481,10 @@ def plan(
             solve_time_s=again.solve_time_s + result.solve_time_s,
             wall_time_s=again.wall_time_s + result.wall_time_s,
         )
-        if _worst_overshoot(again) >= worst:  # lowering that limit does not lower the peak: the solver does not hold it
+        held = {u.quantity for u in result.limits + result.move_limits if u.ok}
+        newly = [u for u in again.limits + again.move_limits if u.quantity in held and not u.ok]
+        # the peak must fall, and no limit the last plan held may give (lowering vel_max pushed rot_acc past the robot's)
+        if newly or _worst_overshoot(again) >= worst:
             break
         result, worst = again, _worst_overshoot(again)
     return result
