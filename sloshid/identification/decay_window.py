@@ -151,15 +151,9 @@ def period_mean(t: np.ndarray, y: np.ndarray, period_s: float) -> np.ndarray:
     return (np.interp(lo + period_s, t, integral) - np.interp(lo, t, integral)) / period_s
 
 
-def find_decay_window(
-    sig: Signal, f_guess_hz: float, noise_std: float, drift: bool = False, mean_noise: float | None = None
-) -> DecayWindow:
-    """Automatic window: from the largest swing just after the last forced motion (or in the record) to where it fades.
-
-    Forced motion shows as a one-period running mean (which cancels the mode and its harmonics) that departs from
-    the final resting level by more than half the ringing amplitude and by more than the noise: 5 times `mean_noise`,
-    the spread noise leaves in that mean (white noise's by default, noise_std / sqrt(samples per period)).
-    """
+def _forcing(sig: Signal, f_guess_hz: float, noise_std: float, drift: bool, mean_noise: float | None):
+    """The record's levels and where it was driven: (uniform signal, samples per period, amplitude (without a swaying
+    zero), resting level, slow zero, its reach, whether it moves, samples in gaps, indices of forced samples)."""
     u, n, amp, rest, dev = _levels(sig, f_guess_hz, drift)
     mean_noise = noise_std / np.sqrt(n) if mean_noise is None else mean_noise
     slow, free, reach, moving = _zero_motion(u, n, amp, dev, f_guess_hz, noise_std)
@@ -173,6 +167,19 @@ def find_decay_window(
     forced = forced[(forced >= n) & (forced < dev.size - n)]  # running means are padded at the edges: no evidence
     # nor are they across a gap (lost frames), where the grid holds a straight line: its mean strays, its swing is 0
     forced = forced[~_near(gap, n)[forced]]
+    return u, n, amp, rest, slow, reach, moving, gap, forced
+
+
+def find_decay_window(
+    sig: Signal, f_guess_hz: float, noise_std: float, drift: bool = False, mean_noise: float | None = None
+) -> DecayWindow:
+    """Automatic window: from the largest swing just after the last forced motion (or in the record) to where it fades.
+
+    Forced motion shows as a one-period running mean (which cancels the mode and its harmonics) that departs from
+    the final resting level by more than half the ringing amplitude and by more than the noise: 5 times `mean_noise`,
+    the spread noise leaves in that mean (white noise's by default, noise_std / sqrt(samples per period)).
+    """
+    u, n, amp, rest, slow, reach, moving, gap, forced = _forcing(sig, f_guess_hz, noise_std, drift, mean_noise)
     if forced.size:
         i_end = int(forced[-1])
         excitation_end = float(u.t_s[i_end])
@@ -335,9 +342,18 @@ def rings_above(sig: Signal, win: DecayWindow, f_hz: float, noise_std: float) ->
     return bool(first.size) and float(first.max()) > END_NOISE_FACTOR * noise_std
 
 
-def user_window(sig: Signal, t0: float, t1: float, f_guess_hz: float, noise_std: float, drift: bool) -> DecayWindow:
-    """A window given by the user, checked to lie inside the data, with the record's slow motion and the end of its
-    forced motion as the automatic search finds them (a window that starts before that end is judged uncertain)."""
+def user_window(
+    sig: Signal,
+    t0: float,
+    t1: float,
+    f_guess_hz: float,
+    noise_std: float,
+    drift: bool,
+    mean_noise: float | None = None,
+) -> DecayWindow:
+    """A window given by the user, checked to lie inside the data, with the record's slow motion as for the automatic
+    window, and as `excitation_end_s` the last forced sample inside the window (None when it holds none: a window
+    that holds forcing is judged uncertain; a forcing before or after it, such as a second tap, does not count)."""
     lo, hi = float(sig.t_s[0]), float(sig.t_s[-1])
     if not t0 < t1:
         raise SettingError("window_s", f"{{name}} start {t0:g} s must be before its end {t1:g} s.")
@@ -345,5 +361,7 @@ def user_window(sig: Signal, t0: float, t1: float, f_guess_hz: float, noise_std:
         raise SettingError(
             "window_s", f"{{name}} {t0:g},{t1:g} s lies outside the data of {sig.source} ({lo:g} to {hi:g} s)."
         )
-    auto = find_decay_window(sig, f_guess_hz, noise_std, drift)
-    return DecayWindow(float(t0), float(t1), "user", auto.excitation_end_s, f_guess_hz, auto.slow_motion)
+    u, _, _, _, _, reach, moving, _, forced = _forcing(sig, f_guess_hz, noise_std, drift, mean_noise)
+    inside = u.t_s[forced][(u.t_s[forced] >= t0) & (u.t_s[forced] <= t1)]
+    end = float(inside.max()) if inside.size else None
+    return DecayWindow(float(t0), float(t1), "user", end, f_guess_hz, reach * moving)

@@ -589,7 +589,12 @@ class Identifier:
         f_guess = rough_mode_frequency(sig, f_range)
         whole = welch_spectrum(sig.t_s, sig.value, f_range)
         if st.window_s is not None:
-            win = user_window(sig, *st.window_s, f_guess, whole.noise_std, st.drift)
+            # forcing is judged as the automatic search judges it, against the noise near the mode when that is
+            # correlated (red noise's slow wander otherwise passes for forcing)
+            near = whole.noise_near_mode()
+            red = near > CORRELATED_NOISE_RATIO * whole.noise_std
+            noise, mean = (near, whole.period_mean_noise(f_guess)) if red else (whole.noise_std, None)
+            win = user_window(sig, *st.window_s, f_guess, noise, st.drift, mean)
         else:
             win = find_decay_window(sig, f_guess, whole.noise_std, st.drift)
             near = whole.noise_near_mode()

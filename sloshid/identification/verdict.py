@@ -189,7 +189,7 @@ def _judge_signal(inp: VerdictInput, i: int, name: str, f: float, f2: float | No
         doubts.add(
             BOTH,
             "uncertain",
-            f"{name}: the given window starts at {w.t0_s:g} s, before the forced motion ends (at about "
+            f"{name}: the given window starts at {w.t0_s:g} s, before the forced motion in it ends (at about "
             f"{w.excitation_end_s:.2f} s): the fit reads a driven response as a free decay; start it after that "
             "(--window).",
         )
