@@ -72,7 +72,8 @@ def _scenario_and_liquid(scenario: Scenario | str | Path, params: Any) -> tuple[
     if isinstance(params, SloshParams):
         return scenario, params, None
     if hasattr(params, "params") and isinstance(params.params, SloshParams):  # an IdentResult
-        return scenario, params.params, params.parameters["f_hz"].ci95
+        band = getattr(params, "frequency_band_hz", None) or params.parameters["f_hz"].ci95  # IdentResult, IOFit
+        return scenario, params.params, band
     if params is not None and not isinstance(params, (str, Path)):
         raise UserError(
             "params must be SloshParams, an IdentResult, the path of a `sloshid identify` JSON or None (the "

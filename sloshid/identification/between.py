@@ -5,8 +5,10 @@ A joint fit gives one f and one zeta with an interval from the pooled residual; 
 different frequencies (a nonlinear liquid at different amplitudes, a changed fill level, another container) still
 give a narrow joint interval that excludes most of them. The test asks whether the runs' own estimates scatter more
 than their standard errors allow; when they do (p < HETEROGENEITY_P), the between-run spread (DerSimonian-Laird tau)
-is added to each run's variance and the joint interval is widened to the random-effects interval of their mean, so
-that it says what the runs say: the plan, compare's robustness band and the report then read an honest interval.
+is added to each run's variance, and the joint interval is widened to the random-effects standard error of their
+mean, with the distance between that mean and the joint estimate added as a systematic error (as the encoder
+hold's shift is): the interval of the liquid's f says what the runs say. Where one more run may land is wider: the
+prediction interval (mean +- 1.96 sqrt(tau^2 + se^2)), which compare's robustness band takes.
 """
 
 from __future__ import annotations
@@ -17,7 +19,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 from scipy import stats
 
-from sloshid.identification.pt2fit import PT2Fit, WindowData, fit_pt2, fit_pt2_hold, fit_two_modes
+from sloshid.identification.pt2fit import Z95, PT2Fit, WindowData, fit_pt2, fit_pt2_hold, fit_two_modes
 
 HETEROGENEITY_P = 0.01
 """Below this p-value of Cochran's Q the signals disagree: the joint interval is widened to the random-effects one."""
@@ -40,6 +42,14 @@ class Agreement:
     """Between-signal standard deviation beyond the signals' own errors (DerSimonian-Laird; 0 when Q <= dof)."""
     stderr: float
     """Random-effects standard error of the signals' mean (the fixed-effect one when tau is 0)."""
+    mean: float = math.nan
+    """The random-effects mean (weights 1 / (se^2 + tau^2))."""
+
+    @property
+    def prediction95(self) -> tuple[float, float]:
+        """Where one more signal's value may land (95 %, normal quantile): mean +- 1.96 sqrt(tau^2 + stderr^2)."""
+        half = Z95 * math.sqrt(self.tau**2 + self.stderr**2)
+        return self.mean - half, self.mean + half
 
     @property
     def disagree(self) -> bool:
@@ -55,7 +65,9 @@ class Agreement:
             "dof": self.dof,
             "p": self.p,
             "tau": self.tau * scale,
+            "random_effects_mean": self.mean * scale,
             "random_effects_stderr": self.stderr * scale,
+            "prediction_interval95": [v * scale for v in self.prediction95],
             "disagree": self.disagree,
         }
 
@@ -84,15 +96,21 @@ class BetweenSignals:
                 f"{name} from {shown[0]:{fmt}}{unit} ({names[lo]}) to {shown[1]:{fmt}}{unit} ({names[hi]}), Cochran's "
                 f"Q = {a.q:.3g} on {a.dof} degree{'s' if a.dof > 1 else ''} of freedom (p = {a.p:.2g}), a spread of {a.tau * scale:.2g}{unit} "
                 "between signals beyond their own errors"
-                + (f"; its interval is widened {factor:.2g}-fold to the random-effects interval" if factor > 1 else "")
+                + (
+                    f"; its interval is widened {factor:.2g}-fold to take in the random-effects mean's"
+                    if factor > 1
+                    else ""
+                )
+                + "; one more run may land in {:{fmt}}-{:{fmt}}{} (95 % prediction interval)".format(
+                    *(max(v * scale, 0.0) for v in a.prediction95), unit, fmt=fmt
+                )
             )
         if not parts:
             return None
         return (
             f"fitted alone, the {len(names)} signals disagree beyond their own intervals: "
             + "; ".join(parts)
-            + ". The liquid rang differently from run to run (another amplitude, fill or container): a single run "
-            "may land anywhere in that spread."
+            + ". The liquid rang differently from run to run (another amplitude, fill or container)."
         )
 
     def summary(self) -> str:
@@ -126,6 +144,7 @@ def agreement(values: np.ndarray, stderrs: np.ndarray) -> Agreement:
     q = float(w @ (values - mean) ** 2)
     dof = values.size - 1
     tau2 = max(0.0, (q - dof) / (w.sum() - (w @ w) / w.sum()))
+    w_re = 1 / (stderrs**2 + tau2)
     return Agreement(
         tuple(map(float, values)),
         tuple(map(float, stderrs)),
@@ -133,7 +152,8 @@ def agreement(values: np.ndarray, stderrs: np.ndarray) -> Agreement:
         dof,
         float(stats.chi2.sf(q, dof)),
         math.sqrt(tau2),
-        float(1 / math.sqrt(np.sum(1 / (stderrs**2 + tau2)))),
+        float(1 / math.sqrt(w_re.sum())),
+        float(w_re @ values / w_re.sum()),
     )
 
 
@@ -158,7 +178,10 @@ def between_signals(windows: list[WindowData], joint: PT2Fit) -> tuple[PT2Fit, B
         return joint, None
     tests = [agreement(values[:, k], stderrs[:, k]) for k in range(2)]
     joint_se = np.sqrt(np.diag(joint.cov))
-    factor = np.array([max(1.0, t.stderr / s) if t.disagree and s > 0 else 1.0 for t, s in zip(tests, joint_se)])
+    joint_x = (joint.omega_rad_s, joint.zeta)
+    # the random-effects error of the mean, and how far that mean lies from the joint estimate, as a systematic error
+    wanted = [math.hypot(t.stderr, t.mean - x) for t, x in zip(tests, joint_x)]
+    factor = np.array([max(1.0, w / s) if t.disagree and s > 0 else 1.0 for t, w, s in zip(tests, wanted, joint_se)])
     test = BetweenSignals(*tests, tuple(map(float, factor)))
     if (factor == 1).all():
         return joint, test

@@ -204,6 +204,14 @@ class IdentResult:
         return self.groups.get(group) if group else None
 
     @property
+    def frequency_band_hz(self) -> tuple[float, float]:
+        """The band of f a move must hold over: the 95 % interval, or, when jointly identified runs disagreed, where
+        one more run may land (the between-signal prediction interval, as `IdentifiedFrequency` reads the JSON)."""
+        if self.between is not None and self.between.omega.disagree:
+            return tuple(v / (2 * math.pi) for v in self.between.omega.prediction95)
+        return self.parameters["f_hz"].ci95
+
+    @property
     def params(self) -> SloshParams:
         """The pendulum model for the planner (mass 1 kg when none was given; the dynamics only need d/m)."""
         return SloshParams.from_modal(self.fit.omega_rad_s, self.fit.zeta, self.mass_kg or 1.0)
@@ -254,6 +262,8 @@ class IdentResult:
                 }
             )
         inflation = math.sqrt(self.fit.cov[0, 0] / self.fit.cov_naive[0, 0]) if self.fit.cov_naive[0, 0] > 0 else None
+        if inflation is not None and self.between is not None:  # the residual's correction alone, not the runs' spread
+            inflation /= self.between.widened[0]
         return {
             "sloshid_version": __version__,
             "sources": [s.source for s in self.signals],

@@ -114,9 +114,15 @@ class IdentifiedFrequency:
 
     @classmethod
     def from_identify_json(cls, path: str | Path) -> IdentifiedFrequency:
-        """Read parameters.f_hz.{ci95, quality, reasons} (the file is checked by SloshParams.from_identify_json)."""
-        f = json.loads(Path(path).read_text(encoding="utf-8")).get("parameters", {}).get("f_hz", {})
+        """Read parameters.f_hz.{ci95, quality, reasons} (the file is checked by SloshParams.from_identify_json); when
+        jointly identified runs disagreed, the band is where one more run may land (fit.between_signals's prediction
+        interval), which is what a move must hold over."""
+        data = json.loads(Path(path).read_text(encoding="utf-8"))
+        f = data.get("parameters", {}).get("f_hz", {})
         ci = f.get("ci95")
+        between = ((data.get("fit") or {}).get("between_signals") or {}).get("f_hz") or {}
+        if between.get("disagree") and isinstance(between.get("prediction_interval95"), list):
+            ci = between["prediction_interval95"]
         interval = (float(ci[0]), float(ci[1])) if isinstance(ci, list) and len(ci) == 2 else None
         return cls(interval, f.get("quality"), tuple(f.get("reasons") or ()))
 
