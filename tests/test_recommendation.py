@@ -40,7 +40,7 @@ def test_a_plan_past_its_move_limits_between_grid_points_points_to_the_grid():
 def test_band_is_the_interval_widened_by_the_margin():
     band, source = frequency_band(3.44, (3.40, 3.48), 0.05)
     assert band == pytest.approx((3.40 * 0.95, 3.48 * 1.05))
-    assert "identified 95 % interval" in source
+    assert "identified band 3.4-3.48 Hz" in source  # an interval of f, or the runs' prediction interval
     band, source = frequency_band(3.44, None, 0.05)  # a scenario [liquid] table: nominal +-5 %
     assert band == pytest.approx((3.44 * 0.95, 3.44 * 1.05)) and "nominal" in source
     with pytest.raises(UserError, match="frequency_margin"):

@@ -67,12 +67,13 @@ class Recommendation:
 
 
 def frequency_band(f_hz: float, interval_hz: tuple[float, float] | None, margin: float) -> tuple[tuple, str]:
-    """((lo, hi), where it came from): the identified 95 % interval widened by `margin` (relative), or the nominal
+    """((lo, hi), where it came from): the identified band (the 95 % interval of f, or where one more run may land
+    when jointly identified runs disagreed) widened by `margin` (relative), or the nominal
     frequency widened by it when no interval is known (a scenario's [liquid] table)."""
     lo, hi = interval_hz if interval_hz is not None else (f_hz, f_hz)
     band = (min(lo, f_hz) * (1 - margin), max(hi, f_hz) * (1 + margin))
     if interval_hz is not None:
-        return band, f"the identified 95 % interval {lo:.4g}-{hi:.4g} Hz widened by {100 * margin:g} %"
+        return band, f"the identified band {lo:.4g}-{hi:.4g} Hz widened by {100 * margin:g} %"
     return band, f"the nominal {f_hz:.4g} Hz widened by {100 * margin:g} % (no identified interval)"
 
 

@@ -157,21 +157,25 @@ def agreement(values: np.ndarray, stderrs: np.ndarray) -> Agreement:
     )
 
 
-def fit_alone(window: WindowData, joint: PT2Fit) -> PT2Fit:
-    """One window fitted with the joint fit's model (second mode, encoder hold, zero), from the joint fit's values:
-    each step polishes only its best start, as the joint optimum lies close to each window's own."""
-    fit = fit_pt2([window], [joint.omega_rad_s], joint.zeta or None, joint.drift, joint.slow_s, keep=1)
+def fit_alone(window: WindowData, joint: PT2Fit, omega_rad_s: float) -> PT2Fit:
+    """One window fitted with the joint fit's model (second mode, encoder hold, zero), searched around its own
+    spectral peak `omega_rad_s` (a run of another liquid lies outside the joint fit's +-25 %) and the joint value;
+    each step polishes only its best start."""
+    starts = [omega_rad_s, joint.omega_rad_s]
+    fit = fit_pt2([window], starts, joint.zeta or None, joint.drift, joint.slow_s, keep=1)
     if joint.second is not None:
         fit = fit_two_modes([window], fit, joint.second.omega_rad_s, keep=1)
     return fit_pt2_hold([window], fit, keep=1) if joint.hold is not None else fit
 
 
-def between_signals(windows: list[WindowData], joint: PT2Fit) -> tuple[PT2Fit, BetweenSignals | None]:
-    """The joint fit with its covariance widened where the windows, fitted alone, disagree; and that test (None for
-    a single window, or when a window's fit has no finite error)."""
+def between_signals(
+    windows: list[WindowData], joint: PT2Fit, peaks_rad_s: list[float]
+) -> tuple[PT2Fit, BetweenSignals | None]:
+    """The joint fit with its covariance widened where the windows, fitted alone (each around its spectral peak in
+    `peaks_rad_s`), disagree; and that test (None for a single window, or when a window's fit has no finite error)."""
     if len(windows) < 2:
         return joint, None
-    alone = [fit_alone(w, joint) for w in windows]
+    alone = [fit_alone(w, joint, peak) for w, peak in zip(windows, peaks_rad_s)]
     values = np.array([[f.omega_rad_s, f.zeta] for f in alone])
     stderrs = np.sqrt(np.array([np.diag(f.cov) for f in alone]))
     if not (np.isfinite(stderrs).all() and (stderrs > 0).all()):

@@ -581,7 +581,7 @@ class Identifier:
             fit = second.fit
         if any(s.tracked for s in sigs):  # a video encoder's hold distorts every tracked target alike
             fit = fit_pt2_hold(wdata, fit)
-        fit, between = between_signals(wdata, fit)
+        fit, between = between_signals(wdata, fit, [2 * math.pi * sp.peak_f_hz for sp in spectra])
         self.result_ = self._assemble(
             sigs, windows, parts, spectra, [s.noise_std for s in fullspec], fit, second, prior, between
         )
@@ -691,6 +691,7 @@ class Identifier:
                 second,
                 prior,
                 search_band(st, prior),
+                between,
             )
         )
         notes = verdict.notes + [w for s in sigs for w in s.warnings]

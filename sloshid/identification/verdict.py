@@ -92,6 +92,8 @@ class VerdictInput:
     """The geometric prior (empty without container geometry); its presence settles which peak is the first mode."""
     band_hz: tuple[float, float] | None = None
     """The band searched for the mode (--f-range, narrowed by the prior)."""
+    between: Any = None
+    """Several signals: their agreement fitted alone (`between.BetweenSignals`), or None."""
 
 
 class _Doubts:
@@ -147,7 +149,37 @@ def judge(inp: VerdictInput) -> Verdict:
         _judge_signal(inp, i, Path(sig.source).name, f, f2, doubts, notes)
     _judge_bounds(inp, doubts, notes)
     _judge_mode_choice(inp, f, f2, doubts)
+    _judge_between(inp, f, doubts)
     return doubts.verdict(notes)
+
+
+RUN_SPREAD = 0.05
+"""Jointly identified runs whose 95 % prediction interval of f reaches more than this share of f either side make the
+frequency uncertain: a move planned for one f then meets liquids outside compare's default 5 % margin."""
+
+
+def _judge_between(inp: VerdictInput, f: float, doubts: _Doubts) -> None:
+    """Runs that ring at different frequencies when fitted alone: one joint damping fits none of them, and one joint
+    frequency is no liquid's when they spread widely."""
+    b = inp.between
+    if b is None or not b.omega.disagree:
+        return
+    lo, hi = (v / (2 * math.pi) for v in b.omega.prediction95)
+    f_lo, f_hi = (v / (2 * math.pi) for v in (min(b.omega.values), max(b.omega.values)))
+    doubts.add(
+        ("damping",),
+        "uncertain",
+        f"the signals ring at different frequencies when fitted alone ({f_lo:.4g}-{f_hi:.4g} Hz, beyond their own "
+        "intervals): one joint damping, fitted across them, fits none of them; identify them apart.",
+    )
+    if max(f - lo, hi - f) > RUN_SPREAD * f:
+        doubts.add(
+            ("frequency",),
+            "uncertain",
+            f"the signals ring at {f_lo:.4g}-{f_hi:.4g} Hz when fitted alone, and one more run may land in "
+            f"{lo:.4g}-{hi:.4g} Hz, more than {100 * RUN_SPREAD:g} % from the joint {f:.4g} Hz: different liquids or "
+            "fills? Identify them apart.",
+        )
 
 
 def _judge_signal(inp: VerdictInput, i: int, name: str, f: float, f2: float | None, doubts: _Doubts, notes) -> None:
