@@ -146,3 +146,12 @@ def test_ctrl_c_from_a_terminal_stops_the_batch_without_worker_tracebacks(videos
     _, err = proc.communicate(timeout=60)
     assert proc.returncode == 130 and "interrupted" in err
     assert "Traceback" not in err and "KeyboardInterrupt" not in err, err
+
+
+def test_videos_that_share_a_file_name_are_told_apart_in_the_summary(tmp_path):
+    # d1/x.mp4 and d2/x.mp4 both read "x.mp4" in summary.html (3.001 and 4.509 Hz side by side)
+    from sloshid.workflow.batch import video_labels
+
+    files = [str(tmp_path / "d1" / "x.mp4"), str(tmp_path / "d2" / "x.mp4"), str(tmp_path / "d2" / "copy.mp4")]
+    assert video_labels(files) == {files[0]: "d1/x.mp4", files[1]: "d2/x.mp4", files[2]: "copy.mp4"}
+    assert video_labels(files[1:]) == {files[1]: "x.mp4", files[2]: "copy.mp4"}  # unique names stay short

@@ -11,6 +11,7 @@ import csv
 import dataclasses
 import io
 import json
+import os
 import traceback
 from dataclasses import dataclass
 from pathlib import Path
@@ -210,9 +211,20 @@ def _with_interval(row: dict[str, Any], key: str, lo: str, hi: str) -> str:
     return f"{float(row[key]):.4g} [{float(row[lo]):.4g}, {float(row[hi]):.4g}]"
 
 
+def video_labels(files: list[str]) -> dict[str, str]:
+    """How the summary names each video: its file name, or, where two share one (d1/x.mp4, d2/x.mp4), its path below
+    the folder all the videos are in."""
+    names = [Path(f).name for f in files]
+    if len(set(names)) == len(names):
+        return dict(zip(files, names))
+    common = Path(os.path.commonpath([str(Path(f).resolve().parent) for f in files]))
+    return {f: str(Path(f).resolve().relative_to(common)) if names.count(n) > 1 else n for f, n in zip(files, names)}
+
+
 def batch_report(result: BatchResult) -> Report:
     """Summary page: how many videos succeeded, the distribution of identified frequencies, the table."""
     ok = [r for r in result.rows if r["status"] != "failed" and r["f_hz"] != ""]
+    labels = video_labels([r["file"] for r in result.rows])
     report = Report("sloshid batch summary")
     report.add_text(
         f"{len(result.rows)} videos: {len(ok)} identified, {len(result.failures)} failed "
@@ -220,7 +232,7 @@ def batch_report(result: BatchResult) -> Report:
     )
     if ok:
         report.add_figure(
-            _frequency_figure(ok),
+            _frequency_figure(ok, labels),
             "Left: how the identified frequencies spread over the batch. Right: each video's "
             "estimate with its 95 % interval; an interval far from the rest points at a bad video.",
         )
@@ -240,7 +252,7 @@ def batch_report(result: BatchResult) -> Report:
         ],
         [
             [
-                Path(r["file"]).name,
+                labels[r["file"]],
                 r["status"],
                 r.get("frames", ""),
                 r.get("valid_share", ""),
@@ -257,7 +269,7 @@ def batch_report(result: BatchResult) -> Report:
     return report
 
 
-def _frequency_figure(ok: list[dict[str, Any]]):
+def _frequency_figure(ok: list[dict[str, Any]], labels: dict[str, str]):
     """The spread of identified frequencies (histogram) and each video's estimate with its 95 % interval."""
     import matplotlib.pyplot as plt
     import numpy as np
@@ -281,5 +293,5 @@ def _frequency_figure(ok: list[dict[str, Any]]):
         capsize=2,
     )
     ax2.set(xlabel="video (sorted by f)", ylabel="f (Hz) with 95 % interval", title="per video")
-    ax2.set_xticks(np.arange(len(f)), [Path(ok[i]["file"]).name for i in order], rotation=60, ha="right")
+    ax2.set_xticks(np.arange(len(f)), [labels[ok[i]["file"]] for i in order], rotation=60, ha="right")
     return fig
