@@ -570,3 +570,18 @@ def test_a_log_that_starts_and_ends_with_the_move_predicts_as_one_with_rest_arou
     assert np.allclose(padded.t_s[at[inside]], bare.t_s[inside] + 0.5)
     assert np.max(np.abs(bare.rel_angle_deg[inside] - padded.rel_angle_deg[at[inside]])) < 1e-3
     assert padded.rel_angle_deg.max() > 0.1  # a move that sloshes: the agreement is not two zeros
+
+
+@pytest.mark.parametrize("after_s", [1.5, 1.9, 3.0])
+def test_a_record_that_ends_soon_after_the_move_is_still_aligned(after_s):
+    # a record cut 1.9 s after the move (the template runs 2 s past it) aligned at 4.88 s for 5.00 s, r = 0.79, without
+    # a warning: the template could not sit at its true lag; the record is now held at its last value beyond its end
+    from sloshid.validation.scoring import align
+
+    resp = respond(excitation(move_pose()), TRUTH, settle_s=6.0)
+    move, lag = resp.move_span_s, 5.0
+    t = resp.t_s + lag
+    keep = t <= move[1] + lag + after_s
+    noisy = resp.rel_angle_deg + np.random.default_rng(4).normal(0, 0.01, t.size)
+    al = align(t[keep], noisy[keep], resp.t_s, resp.rel_angle_deg, move)
+    assert al.lag_s == pytest.approx(lag, abs=0.005) and al.correlation > 0.95

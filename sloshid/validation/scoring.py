@@ -44,7 +44,9 @@ def align(
     tpl = tpl - tpl.mean()
     if not np.any(tpl):
         raise UserError("the prediction is flat over the move (no slosh), so there is nothing to align on.")
-    x = u.value
+    # the record held at its last value for the template's after-move part: a record that ends under 2 s after the
+    # move could not hold the template at its true lag, and the best full fit lay a ripple off (4.88 s for 5.00 s)
+    x = np.concatenate([u.value, np.full(round(TEMPLATE_PAD_S[1] / dt), u.value[-1])])
     num = np.correlate(x, tpl, mode="valid")  # sum over the window of x * template (template mean removed)
     c1, c2 = np.concatenate([[0.0], np.cumsum(x)]), np.concatenate([[0.0], np.cumsum(x * x)])
     var = (c2[m:] - c2[:-m]) - (c1[m:] - c1[:-m]) ** 2 / m
