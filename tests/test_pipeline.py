@@ -11,6 +11,8 @@ import pytest
 
 from sloshid.synthetic.render import SynthSettings, render_video
 
+ROOT = Path(__file__).resolve().parents[1]
+
 
 @pytest.fixture(scope="module")
 def video(tmp_path_factory) -> Path:
@@ -154,6 +156,11 @@ def test_identify_stage_keeps_what_reading_the_inputs_noticed(tmp_path, run_cli)
         ("[identify]\nmass_kg = 0.5\n", "[identify] needs a [track] section"),
         ("[run]\n", "declares no stage"),
         ("[track\n", "is not valid TOML"),
+        # asked for an identified liquid without an [identify] stage: it planned for the scenario's [liquid] silently
+        (
+            f'[plan]\nscenario = "{(ROOT / "data" / "scenarios" / "paper_1d.toml").as_posix()}"\nuse_identified = true\n',
+            "[plan].use_identified = true, but the pipeline has no [identify] stage",
+        ),
     ],
 )
 def test_malformed_pipeline_is_rejected_before_anything_runs(tmp_path, run_cli, text, message):

@@ -165,6 +165,13 @@ class Pipeline:
             for need in stage.needs(settings, present):
                 if need not in present:
                     raise UserError(f"{path}: [{stage.name}] needs a [{need}] section or its own input files.")
+            # asked for in so many words, an identified liquid without an [identify] stage would silently be the
+            # scenario's [liquid]
+            if raw[stage.name].get("use_identified") is True and "identify" not in present:
+                raise UserError(
+                    f"{path}: [{stage.name}].use_identified = true, but the pipeline has no [identify] stage; add "
+                    "one, or drop the key to plan for the scenario's [liquid]."
+                )
         return cls(path, run, report, stages)
 
 
