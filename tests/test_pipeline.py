@@ -168,3 +168,19 @@ def test_malformed_pipeline_is_rejected_before_anything_runs(tmp_path, run_cli, 
     code, _, err = run_cli("run", pipe, "--output-dir", tmp_path / "runs")
     assert code == 2 and message in err
     assert not (tmp_path / "runs").exists()
+
+
+def test_a_driven_signal_in_a_pipeline_names_the_pipelines_keys(tmp_path, run_cli):
+    # the identify stage told a pipeline user to run `sloshid track --reference container`: it names the pipeline's
+    # [identify].window_s and [track] reference key as well now
+    from sloshid.synthetic.decays import free_decay
+
+    t, ringing = free_decay(3.0, 0.005, 60, amplitude=5, seed=2)
+    sway = tmp_path / "sway.csv"
+    np.savetxt(sway, np.c_[t, ringing + 3 * np.sin(2 * np.pi * 0.4 * t)], delimiter=",", header="t_s,angle_deg",
+               comments="")  # fmt: skip
+    pipe = _write(tmp_path / "p.toml", f'[identify]\nsignals = ["{sway.as_posix()}"]\n')
+    code, out, err = run_cli("run", pipe, "--output-dir", tmp_path / "runs")
+    assert code != 0
+    text = out + err
+    assert "[identify].window_s" in text and 'reference = "container" in a pipeline\'s [track]' in text
