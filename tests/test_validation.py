@@ -287,6 +287,13 @@ def test_validate_scores_the_truth_model_near_perfect(tmp_path, run_cli):
     code, out, err = run_cli(*base, "--value-col", "height_mm", "--json")
     assert code == 0, err
     assert json.loads(out)["runs"][0]["scores"]["all"]["fit_percent"] == run["scores"]["all"]["fit_percent"]
+    # one measurement against two trajectories: both rows read "meas"; now each names its trajectory too
+    write_pose_csv(tmp_path / "other.csv", pose)
+    pairs = ["--trajectory", tmp_path / "log.csv", "--measured", tmp_path / "meas.csv"]
+    pairs += ["--trajectory", tmp_path / "other.csv", "--measured", tmp_path / "meas.csv"]
+    code, out, err = run_cli("validate", *pairs, "--params", params, "--json")
+    assert code == 0, err
+    assert [r["name"] for r in json.loads(out)["runs"]] == ["meas (log)", "meas (other)"]
 
 
 def test_bad_input_is_one_sentence_and_exit_2_with_nothing_written(tmp_path, run_cli):

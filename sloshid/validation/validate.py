@@ -273,4 +273,7 @@ def validate(poses: list[PoseLog], signals: list[Signal], model: LiquidModel) ->
             f"give one {{name}} per measurement, in the same order: {len(poses)} trajectories, "
             f"{len(signals)} measurements.",
         )
-    return Validation([validate_run(p, s, model) for p, s in zip(poses, signals)], model)
+    names = [Path(s.source).stem for s in signals]
+    # one measured file against several trajectories (or files of one name): each run named by both
+    names = [n if names.count(n) == 1 else f"{n} ({Path(p.source).stem})" for n, p in zip(names, poses)]
+    return Validation([validate_run(p, s, model, n) for p, s, n in zip(poses, signals, names)], model)
