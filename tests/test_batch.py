@@ -150,8 +150,8 @@ def test_ctrl_c_from_a_terminal_stops_the_batch_without_worker_tracebacks(videos
 
 def test_videos_that_share_a_file_name_are_told_apart_in_the_summary(tmp_path):
     # d1/x.mp4 and d2/x.mp4 both read "x.mp4" in summary.html (3.001 and 4.509 Hz side by side)
-    from sloshid.workflow.batch import video_labels
+    from sloshid.core.tables import distinct_names
 
     files = [str(tmp_path / "d1" / "x.mp4"), str(tmp_path / "d2" / "x.mp4"), str(tmp_path / "d2" / "copy.mp4")]
-    assert video_labels(files) == {files[0]: "d1/x.mp4", files[1]: "d2/x.mp4", files[2]: "copy.mp4"}
-    assert video_labels(files[1:]) == {files[1]: "x.mp4", files[2]: "copy.mp4"}  # unique names stay short
+    assert distinct_names(files) == ["d1/x.mp4", "d2/x.mp4", "copy.mp4"]
+    assert distinct_names(files[1:]) == ["x.mp4", "copy.mp4"]  # unique names stay short

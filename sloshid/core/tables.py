@@ -5,6 +5,7 @@ from __future__ import annotations
 import csv
 import itertools
 import math
+import os
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -15,6 +16,16 @@ from tqdm import tqdm
 
 from sloshid.core.atomic import write_text
 from sloshid.core.errors import UserError, input_file
+
+
+def distinct_names(paths: Sequence[str | os.PathLike]) -> list[str]:
+    """How a table names each file: its file name, or, where two share one (d1/x.mp4, d2/x.mp4; batch folders'
+    angles.csv), its path below the folder all the files are in."""
+    names = [Path(p).name for p in paths]
+    if len(set(names)) == len(names):
+        return names
+    common = Path(os.path.commonpath([str(Path(p).resolve().parent) for p in paths]))
+    return [str(Path(p).resolve().relative_to(common)) if names.count(n) > 1 else n for p, n in zip(paths, names)]
 
 
 def table_to_csv(columns: dict[str, np.ndarray]) -> str:

@@ -16,7 +16,7 @@ from tqdm import tqdm
 from sloshid import __version__
 from sloshid.core.errors import SettingError, UserError
 from sloshid.core.spectrum import MIN_PROMINENCE, Spectrum, welch_spectrum
-from sloshid.core.tables import PROGRESS_DELAY_S, to_pandas
+from sloshid.core.tables import PROGRESS_DELAY_S, distinct_names, to_pandas
 from sloshid.identification.between import BetweenSignals, between_signals
 from sloshid.identification.crosschecks import CrossCheck, half_power, hilbert_envelope, log_decrement
 from sloshid.identification.decay_window import (
@@ -710,7 +710,10 @@ class Identifier:
                 "on rendered H.264 floats zeta came out up to 8 % high, outside its interval, with a good verdict; "
                 "film at a high bit rate (README: identify, video-tracked signals)."
             )
-        for note in (between.note([Path(s.source).name for s in sigs]) if between else None, mass_against_geometry(st)):
+        for note in (
+            between.note(distinct_names([s.source for s in sigs])) if between else None,
+            mass_against_geometry(st),
+        ):
             if note:
                 notes.append(note)
         return IdentResult(

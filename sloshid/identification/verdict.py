@@ -6,13 +6,13 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 from scipy import stats
 
 from sloshid.core.spectrum import Spectrum
+from sloshid.core.tables import distinct_names
 from sloshid.identification.crosschecks import CrossCheck
 from sloshid.identification.decay_window import DecayWindow
 from sloshid.identification.pt2fit import PT2Fit, autocorrelation
@@ -145,8 +145,9 @@ def judge(inp: VerdictInput) -> Verdict:
             f"a second mode at {f2:.4g} Hz (zeta {fit.second.zeta:.2g}) was fitted beside the main one; "
             f"the main mode's numbers account for it."
         )
-    for i, sig in enumerate(inp.signals):
-        _judge_signal(inp, i, Path(sig.source).name, f, f2, doubts, notes)
+    names = distinct_names([sig.source for sig in inp.signals])
+    for i in range(len(inp.signals)):
+        _judge_signal(inp, i, names[i], f, f2, doubts, notes)
     _judge_bounds(inp, doubts, notes)
     _judge_mode_choice(inp, f, f2, doubts)
     _judge_between(inp, f, doubts)

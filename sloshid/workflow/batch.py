@@ -11,7 +11,6 @@ import csv
 import dataclasses
 import io
 import json
-import os
 import traceback
 from dataclasses import dataclass
 from pathlib import Path
@@ -22,6 +21,7 @@ from sloshid.core.errors import SettingError, UserError
 from sloshid.core.hashing import file_sha256, json_sha256
 from sloshid.core.outputs import is_sloshid_page
 from sloshid.core.parallel import dask_client
+from sloshid.core.tables import distinct_names
 from sloshid.report.html import Report
 from sloshid.workflow.options import BatchConfig
 
@@ -211,20 +211,10 @@ def _with_interval(row: dict[str, Any], key: str, lo: str, hi: str) -> str:
     return f"{float(row[key]):.4g} [{float(row[lo]):.4g}, {float(row[hi]):.4g}]"
 
 
-def video_labels(files: list[str]) -> dict[str, str]:
-    """How the summary names each video: its file name, or, where two share one (d1/x.mp4, d2/x.mp4), its path below
-    the folder all the videos are in."""
-    names = [Path(f).name for f in files]
-    if len(set(names)) == len(names):
-        return dict(zip(files, names))
-    common = Path(os.path.commonpath([str(Path(f).resolve().parent) for f in files]))
-    return {f: str(Path(f).resolve().relative_to(common)) if names.count(n) > 1 else n for f, n in zip(files, names)}
-
-
 def batch_report(result: BatchResult) -> Report:
     """Summary page: how many videos succeeded, the distribution of identified frequencies, the table."""
     ok = [r for r in result.rows if r["status"] != "failed" and r["f_hz"] != ""]
-    labels = video_labels([r["file"] for r in result.rows])
+    labels = dict(zip((r["file"] for r in result.rows), distinct_names([r["file"] for r in result.rows])))
     report = Report("sloshid batch summary")
     report.add_text(
         f"{len(result.rows)} videos: {len(ok)} identified, {len(result.failures)} failed "
