@@ -109,11 +109,7 @@ def test_runs_from_batch_folders_are_named_by_their_folder(tmp_path):
     # every batch output is videos/<name>-<hash>/angles.csv: the notes and reasons named all of them "angles.csv"
     from sloshid.identification.signals import make_signal
 
-    paths = []
-    for name, (f, s) in {"a1": (3.0, 5), "b1": (3.09, 6)}.items():
-        folder = tmp_path / "videos" / name
-        folder.mkdir(parents=True)
-        paths.append(folder / "angles.csv")
+    paths = [tmp_path / "videos" / name / "angles.csv" for name in ("a1", "b1")]
     sigs = [free_decay_signal(f, 0.04, 60, amplitude=8, seed=s, rho=0.2) for f, s in ((3.0, 5), (3.09, 6))]
     sigs = [make_signal(sig.t_s, sig.value, "angle_deg", "deg", str(p)) for sig, p in zip(sigs, paths)]
     note = next(n for n in Identifier().fit(sigs).result.notes if "disagree" in n)
