@@ -184,3 +184,26 @@ def test_a_driven_signal_in_a_pipeline_names_the_pipelines_keys(tmp_path, run_cl
     assert code != 0
     text = out + err
     assert "[identify].window_s" in text and 'reference = "container" in a pipeline\'s [track]' in text
+
+
+def test_the_index_says_whether_joint_signals_agree_and_keeps_fs_digits(tmp_path, run_cli):
+    # two signals of different liquids (3.0 and 3.3 Hz): the JSON said they disagree, the pipeline index did not; and
+    # the index's table showed 4 significant digits, as the identify report did (1.9996 read 2)
+    from sloshid.synthetic.decays import free_decay
+
+    files = []
+    for f, seed in ((3.0, 1), (3.3, 2)):
+        t, y = free_decay(f, 0.03, 100, amplitude=5, seed=seed)
+        files.append(
+            _write(tmp_path / f"s{seed}.csv", "t_s,angle_deg\n" + "".join(f"{a:.3f},{b:.6g}\n" for a, b in zip(t, y)))
+        )
+    pipe = _write(tmp_path / "p.toml", f"[identify]\nsignals = {[str(p) for p in files]}\n".replace("'", '"'))
+    code, out, err = run_cli("run", pipe, "--output-dir", tmp_path / "runs", "--quiet")
+    assert code == 0, err
+    run_dir = Path(out.strip()).parent
+    page = (run_dir / "index.html").read_text()
+    assert "Signals fitted alone: f 3.001-3.301 Hz" in page and "f disagree" in page
+    f = json.loads((run_dir / "manifest.json").read_text())["stages"][0]["summary"]["parameters"]["f_hz"]
+    from sloshid.identification.estimator import shown_with_error
+
+    assert f"<td>{shown_with_error(f['value'], f['stderr'])}</td>" in page

@@ -136,13 +136,17 @@ class Estimate:
         return {"value": self.value, "stderr": self.stderr, "ci95": list(self.ci95)}
 
     def shown(self, x: float | None = None) -> str:
-        """The value (or `x`, e.g. an interval bound) with digits down to the standard error's second significant one,
-        at least 5: f = 1.9996 +- 0.0002 Hz must not read 2."""
-        x = self.value if x is None else x
-        digits = 5
-        if x != 0 and math.isfinite(x) and self.stderr > 0 and math.isfinite(self.stderr):
-            digits = max(5, math.floor(math.log10(abs(x))) - math.floor(math.log10(self.stderr)) + 2)
-        return f"{x:.{min(digits, 12)}g}"
+        """The value (or `x`, e.g. an interval bound) as `shown_with_error` writes it."""
+        return shown_with_error(self.value if x is None else x, self.stderr)
+
+
+def shown_with_error(x: float, stderr: float | None) -> str:
+    """`x` with digits down to the standard error's second significant one, at least 5: f = 1.9996 +- 0.0002 Hz must
+    not read 2."""
+    digits = 5
+    if x != 0 and math.isfinite(x) and stderr and stderr > 0 and math.isfinite(stderr):
+        digits = max(5, math.floor(math.log10(abs(x))) - math.floor(math.log10(stderr)) + 2)
+    return f"{x:.{min(digits, 12)}g}"
 
 
 def estimate(value: float, se: float, floor: float | None = None) -> Estimate:

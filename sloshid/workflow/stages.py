@@ -106,6 +106,7 @@ def run_identify(opts: IdentifyOptions, ctx: StageContext) -> dict[str, Any]:
         "parameters": doc["parameters"],
         "n_signals": len(signals),
         "input_warnings": [w for sig in signals for w in sig.warnings],
+        "between": result.between.summary() if result.between else None,
     }
 
 
