@@ -18,7 +18,7 @@ from sloshid.model.pendulum import SloshParams
 from sloshid.model.simulate import simulate_liquid
 from sloshid.model.trajectory import RobotLimits, Trajectory, check_limits
 from sloshid.planning.ocp import Structure, bang_bang_time, get_solver
-from sloshid.planning.planner import _plan_free, plan
+from sloshid.planning.planner import _plan_free, plan, solve_segment
 from sloshid.planning.scenario import Scenario, load_scenario, scenario_from_dict
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -305,3 +305,15 @@ def test_a_replan_never_trades_a_held_limit_nor_fails_a_plan_that_stood(paper_1d
     tight = dataclasses.replace(slow, limits=dataclasses.replace(slow.limits, t_max_s=5.75))
     kept = plan(tight, tight.liquid)
     assert kept.T_s < 5.75 and kept.tightened == {} and not kept.limits_ok
+
+
+def test_warm_start_from_another_obstacle_set_solves_cold():
+    # A clearance retry solves a segment again with every obstacle, warm-started from the solve with the near ones
+    # only: the start has the same variables but other constraints, and IPOPT refused its multipliers (a user's
+    # 31-cylinder wall ended in a RuntimeError). Such a start is dropped; the segment solves as from cold.
+    sc = _small_3d([{"center": [0.4, 0.0, 0.3], "radius": 0.05}, {"center": [2.0, 2.0, 2.0], "radius": 0.05}])
+    near = solve_segment(sc, sc.liquid, 0)
+    cold = solve_segment(sc, sc.liquid, 0, all_obstacles=True)
+    again = solve_segment(sc, sc.liquid, 0, warm=near, all_obstacles=True)
+    assert len(near.warm["lam_g"]) != len(cold.warm["lam_g"])  # the two problems differ in their constraints
+    assert again.success and again.T_s == pytest.approx(cold.T_s, rel=1e-6)

@@ -148,6 +148,11 @@ class SegmentSolver:
         ubx = self.join(T_bounds[1], hi3[rows], np.tile(ulim, (s.N, 1)))
         return lbx, ubx
 
+    def fits(self, warm: dict, solver: SolverSettings) -> bool:
+        """A warm start (`solve`'s warm-start data) has this problem's numbers of variables and constraints."""
+        n_g = len(constraint_bounds(self.kinds, solver)[0])
+        return len(warm["x"]) == len(warm["lam_x"]) == self.nlp.size1_in("x0") and len(warm["lam_g"]) == n_g
+
     def solve(
         self,
         start: np.ndarray,

@@ -354,9 +354,12 @@ def solve_segment(
     inflate = scenario.container_radius_m + scenario.solver.clearance_margin_m + extra_margin_m
     use_warm = warm is not None and bool(warm.warm)
     s = _structure(scenario, start, goal, obstacles, len(robust), use_warm)
-    if use_warm and len(warm.warm["x"]) != (s.nx + 1) * (s.N + 1) + s.n_pos * s.N:
-        use_warm, s = False, _structure(scenario, start, goal, obstacles, len(robust), False)
     solver = get_solver(s)
+    # a start from a problem of another shape (grid, or obstacle set: a clearance retry takes in every obstacle) is
+    # no start: its variables or multipliers do not fit this one's
+    if use_warm and not solver.fits(warm.warm, scenario.solver):
+        use_warm, s = False, _structure(scenario, start, goal, obstacles, len(robust), False)
+        solver = get_solver(s)
     t_lb = time_lower_bound(start, goal, scenario.limits, scenario.solver.kappa_T)
     T_bounds = (t_lb, scenario.limits.t_max_s)
     sv = scenario.solver
