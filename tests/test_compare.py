@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from sloshid.comparison.compare import camera_seen_peak
+from sloshid.comparison.compare import MoveLimits, camera_seen_peak, score
 from sloshid.comparison.feedback import FeedbackSettings, run_feedback
 from sloshid.comparison.profiles import MoveTask, constant_acceleration
 from sloshid.comparison.robot_tracking import closed_loop_response
@@ -91,6 +91,19 @@ def test_ruckig_profile_respects_its_limits_on_a_3d_leg():
     d = np.subtract((0.5, 0.1, 0.3), (0.3, -0.2, 0.2))
     off_line = np.cross(traj.pos_m - (0.3, -0.2, 0.2), d / np.linalg.norm(d))
     assert np.abs(off_line).max() < 1e-9
+
+
+def test_a_move_is_scored_against_its_own_jerk_limit():
+    # [limits] jerk_max is the move's limit for every method, as for the plan: a bang-bang move steps its acceleration
+    # (+0.5 to -0.5 m/s^2 within one 1 ms sample: 1000 m/s^3), a ruckig profile at 2 m/s^3 holds it. Before, compare checked
+    # only acceleration, velocity and tilt, and recommended a ZV move at 503 m/s^3 against a limit of 2.
+    limits = MoveLimits(SHORT, jerk_max_m_s3=(2.0, 2.0, 2.0))
+    step, _ = score(constant_acceleration(SHORT), TABLE_I, limits, 1.0)
+    ramp, _ = score(jerk_limited(SHORT, 2.0), TABLE_I, limits, 1.0)
+    assert not step.move_limits_ok and step.limits_failed == ["move jerk_max 1e+03 > 2"]
+    assert ramp.move_limits_ok and not ramp.limits_failed
+    unlimited, _ = score(constant_acceleration(SHORT), TABLE_I, MoveLimits(SHORT), 1.0)  # no jerk limit given
+    assert unlimited.move_limits_ok
 
 
 def test_tilt_compensation_follows_the_steady_tilt():

@@ -67,12 +67,14 @@ def test_report_and_json_carry_every_method_and_the_verdict(tmp_path, run_cli):
     assert rows["sloshid"]["residual_deg"] < 0.05 and rows["constant_acc"]["residual_deg"] > 1.0
     assert rows["sloshid"]["transfer_time_s"] < rows["zvd"]["transfer_time_s"]
     # the headline is the recommendation over the nominal frequency +-5 % (no identified interval here): the nominal
-    # plan tolerates no frequency error and ZVD tilts the surface by ~a/g = 3 deg while moving, so none qualifies
+    # plan tolerates no frequency error and ZVD's acceleration steps break the move's own jerk limit ([limits]
+    # jerk_max, 100 m/s^3 by default, which the plan holds), so none qualifies
     rec = summary["recommendation"]
     assert rec["band_hz"] == pytest.approx([summary["liquid"]["f_hz"] * 0.95, summary["liquid"]["f_hz"] * 1.05])
     assert rec["method"] is None and rec["risk"] == "unreliable"
     assert summary["verdict"].startswith("No method stays slosh-free")
-    assert "sloshid plan leaves" in rec["reason"] and "ZVD shaped sloshes to" in rec["reason"]
+    assert "sloshid plan leaves" in rec["reason"] and "ZVD shaped breaks a limit (move jerk_max" in rec["reason"]
+    assert not rows["zvd"]["move_limits_ok"] and rows["sloshid"]["move_limits_ok"]
     assert max(rec["checks"]["sloshid"]["residual_deg"]) > 0.5
     html = (report / "index.html").read_text()
     for text in (

@@ -317,3 +317,12 @@ def test_warm_start_from_another_obstacle_set_solves_cold():
     again = solve_segment(sc, sc.liquid, 0, warm=near, all_obstacles=True)
     assert len(near.warm["lam_g"]) != len(cold.warm["lam_g"])  # the two problems differ in their constraints
     assert again.success and again.T_s == pytest.approx(cold.T_s, rel=1e-6)
+
+
+def test_the_plan_reports_its_jerk_limit_only_where_the_formulation_bounds_it(plan_1d, paper_1d):
+    # jerk_max bounds the jerk-limited formulation's input, so the plan reports it with the other [limits] (and holds
+    # it); the seed's piecewise-constant acceleration steps by design, with no jerk bound to report
+    jerk = {u.quantity: u for u in plan_1d.move_limits}["jerk_max"]
+    assert jerk.ok and jerk.limit == paper_1d.limits.jerk_max[0] and 0.5 < jerk.usage <= 1.001
+    seed = dataclasses.replace(paper_1d, solver=dataclasses.replace(paper_1d.solver, jerk_limited=False))
+    assert seed.move_jerk_max is None and paper_1d.move_jerk_max == paper_1d.limits.jerk_max

@@ -142,7 +142,7 @@ class Score:
     limits_failed: list[str]
     """Robot or move limits that do not hold, e.g. 'robot rot_acc_rad_s2 87.4 > 25'."""
     move_limits_ok: bool
-    """The scenario's own acceleration, velocity, tilt and tilt-rate limits hold."""
+    """The scenario's own acceleration, velocity, jerk, tilt and tilt-rate limits hold."""
     min_clearance_m: float | None = None
     """Smallest distance to an inflated obstacle (negative: collides); None without obstacles."""
     max_path_deviation_m: float | None = None
@@ -184,6 +184,8 @@ class MoveLimits:
     container_radius_m: float = 0.0
     path: Any = None
     """sloshid.planning.path.PathGeometry of a [path] scenario (deviations are scored against it), else None."""
+    jerk_max_m_s3: tuple[float, float, float] | None = None
+    """Per-axis jerk limit of the move ([limits].jerk_max with the jerk-limited formulation), else None."""
 
 
 def score(traj: Trajectory, params: SloshParams, limits: MoveLimits, settle_s: float) -> tuple[Score, LiquidResponse]:
@@ -193,7 +195,12 @@ def score(traj: Trajectory, params: SloshParams, limits: MoveLimits, settle_s: f
     failed = [f"robot {u.quantity} {u.peak:.3g} > {u.limit:.3g}" for u in check_limits(traj, limits.robot) if not u.ok]
     robot_ok = not failed
     move = check_move_limits(
-        traj, limits.task.acc_max_m_s2, limits.task.vel_max_m_s, limits.tilt_max_deg, limits.tilt_rate_max_deg_s
+        traj,
+        limits.task.acc_max_m_s2,
+        limits.task.vel_max_m_s,
+        limits.tilt_max_deg,
+        limits.tilt_rate_max_deg_s,
+        limits.jerk_max_m_s3,
     )
     failed += [f"move {u.quantity} {u.peak:.3g} > {u.limit:.3g}" for u in move if not u.ok]
     clearance = None
@@ -231,9 +238,13 @@ class CompareInput:
 
     @property
     def jerk_max_m_s3(self) -> float:
-        """Jerk limit of the ruckig methods: configured, or the largest axis acc_max times the slosh frequency."""
+        """Jerk limit of the ruckig methods: configured, or the largest axis acc_max times the slosh frequency, at
+        most the move's own jerk limit."""
         s = self.settings.jerk_max_m_s3
-        return s if s is not None else max(self.limits.task.acc_max_m_s2) * self.params.f_hz
+        if s is not None:
+            return s
+        own = min(self.limits.jerk_max_m_s3) if self.limits.jerk_max_m_s3 is not None else math.inf
+        return min(max(self.limits.task.acc_max_m_s2) * self.params.f_hz, own)
 
 
 def compare_scenario(
@@ -287,6 +298,7 @@ def from_scenario(scenario: Any, params: SloshParams, f_interval_hz: tuple[float
         list(scenario.obstacles),
         scenario.container_radius_m,
         getattr(scenario, "path", None),
+        scenario.move_jerk_max,
     )
     return CompareInput(limits, params, settings, scenario, f_interval_hz)
 

@@ -231,14 +231,16 @@ def tilt_profiles(traj: Trajectory) -> tuple[np.ndarray, np.ndarray]:
 
 
 def check_move_limits(
-    traj: Trajectory, acc_max, vel_max, tilt_max_deg: float, tilt_rate_max_deg_s: float
+    traj: Trajectory, acc_max, vel_max, tilt_max_deg: float, tilt_rate_max_deg_s: float, jerk_max=None
 ) -> list[LimitUsage]:
-    """Peaks against a move's own limits (a scenario's [limits]): per-axis acceleration and velocity (the axis
-    closest to its bound), tilt from upright and tilt rate; quantities named as the [limits] keys."""
+    """Peaks against a move's own limits (a scenario's [limits]): per-axis acceleration, velocity and, when given,
+    jerk (the axis closest to its bound; jerk as the robot's limits take it, between two samples), tilt from upright
+    and tilt rate; quantities named as the [limits] keys."""
     tilt, rate = tilt_profiles(traj)
     checks = {
         "acc_max": (np.abs(traj.acc_m_s2), np.asarray(acc_max, float)),
         "vel_max": (np.abs(traj.vel_m_s), np.asarray(vel_max, float)),
+        **({} if jerk_max is None else {"jerk_max": (np.abs(_rate(traj.acc_m_s2, traj.dt_s)), np.asarray(jerk_max))}),
         "tilt_max_deg": (tilt[:, None], np.array([tilt_max_deg])),
         "tilt_rate_max_deg_s": (rate[:, None], np.array([tilt_rate_max_deg_s])),
     }

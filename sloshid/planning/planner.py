@@ -587,7 +587,9 @@ def _plan_free(
 def limit_usages(traj: Trajectory, scenario: Scenario) -> tuple[list[LimitUsage], list[LimitUsage]]:
     """The robot's limits and the scenario's own [limits] on a planned 1 kHz trajectory."""
     lim = scenario.limits
-    move = check_move_limits(traj, lim.acc_max, lim.vel_max, lim.tilt_max_deg, lim.tilt_rate_max_deg_s)
+    move = check_move_limits(
+        traj, lim.acc_max, lim.vel_max, lim.tilt_max_deg, lim.tilt_rate_max_deg_s, scenario.move_jerk_max
+    )
     return check_limits(traj, scenario.robot), move
 
 

@@ -242,6 +242,12 @@ class Scenario:
     arm: Any = None
     """[robot] model = "panda" ...: the arm for joint-space checks (sloshid.planning.arm.ArmSettings), else None."""
 
+    @property
+    def move_jerk_max(self) -> Vec3 | None:
+        """[limits].jerk_max as a limit of the move (planned or compared), with the jerk-limited formulation (the
+        default); None with the seed's piecewise-constant acceleration, whose steps have no jerk bound."""
+        return self.limits.jerk_max if self.solver.jerk_limited else None
+
 
 _TABLES = ("move", "path", "limits", "obstacles", "container", "solver", "liquid", "robot", "compare")
 
