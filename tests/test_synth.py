@@ -117,6 +117,7 @@ def test_cli_writes_video_and_truth(run_cli, tmp_path):
         # a look of the other scene would be rendered nowhere
         (["--elevation", "5"], "a camera elevation applies only to the surface scene"),
         (["--scene", "surface", "--float-color", "green"], "the float colour applies only to the float scene"),
+        (["--scene", "surface", "--float-length", "0.1"], "the float length applies only to the float scene"),
         # outside the encoders' ranges: a traceback from PyAV (MPEG-4 0 and 0.5, H.264 -3), or clipped silently
         (["--codec", "mpeg4", "--quality", "0"], "MPEG-4 qscale of 1..31"),
         (["--quality", "-3"], "H.264 CRF of 0..51"),

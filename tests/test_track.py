@@ -429,8 +429,10 @@ def test_truncated_video_tracks_what_decodes_and_warns(bad_files, tmp_path, run_
 # A dyed liquid seen from 4 deg above (thin ellipse), with a bright meniscus, two highlight stripes, the surface's
 # image on the walls, a weak second mode, a container tilting +-2 deg and H.264 at 320x240: every effect at once,
 # at half the benchmark's size.
+SMALL_SURFACE = {k: v for k, v in SMALL.items() if k != "float_length_frac"}
+"""SMALL for a dyed-liquid scene, which has no float to size."""
 SURFACE = dict(
-    SMALL,
+    SMALL_SURFACE,
     scene="surface",
     duration_s=4.0,
     tap_s=1.0,
@@ -551,6 +553,9 @@ def test_surface_csv_identifies_like_its_truth(surface_video, tmp_path, run_cli)
         (["--rest-frames", "10"], "--rest-frames applies only to --target surface"),
         (["--liquid-color", "blue"], "--liquid-color applies only to --target surface"),
         (["--target", "surface", "--float-color", "blue"], "--float-color applies only to --target float"),
+        # also when they name the float's default colour, red (both were taken without a word)
+        (["--liquid-color", "red"], "--liquid-color applies only to --target surface"),
+        (["--target", "surface", "--float-color", "red"], "--float-color applies only to --target float"),
         # a diameter in millimetres would scale the heights a thousandfold
         (["--target", "surface", "--container-diameter-m", "100"], "up to 10 (0.1 for 100 mm)"),
         (["--target", "surface", "--liquid-hsv-low", "100,140,60", "--liquid-hsv-high", "125,300,255"], "-high: HSV"),
@@ -1133,7 +1138,8 @@ def test_spans_start_at_key_frames_far_enough_apart():
 def test_dyed_liquid_is_told_from_a_float(look):
     # a dyed liquid tracked as a float "succeeds" with the body's principal axis as its angle: the surface tracker
     # finds the liquid's straight walls, bottom and surface in it, and never in a float of any look (mid-swing)
-    s = SynthSettings(**{**SMALL, "duration_s": 1.0, "tap_s": 0.2, **look})
+    base = SMALL_SURFACE if look.get("scene") == "surface" else SMALL
+    s = SynthSettings(**{**base, "duration_s": 1.0, "tap_s": 0.2, **look})
     colour = s.liquid_color if s.scene == "surface" else s.float_color
     hsv = TrackSettings(float_color=colour).hsv
     frames = [frame for k, (_, frame) in enumerate(render_frames(s)) if k in (0, 12)]

@@ -36,9 +36,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     presets = ", ".join(f"{n} ({format_hsv(p.hsv.low)} .. {format_hsv(p.hsv.high)})" for n, p in PRESETS.items())
     parser.add_argument(
         "--float-color",
-        default=DEFAULT_FLOAT_COLOR,
         metavar="NAME",
-        help=f"named float colour preset (OpenCV HSV low .. high): {presets}",
+        help=f"named float colour preset (OpenCV HSV low .. high), default {DEFAULT_FLOAT_COLOR}: {presets}",
     )
     parser.add_argument(
         "--float-hsv-low",

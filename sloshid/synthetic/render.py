@@ -220,6 +220,7 @@ SCENE_ONLY = {
     },
     "float": {
         "float_color": "the float colour",
+        "float_length_frac": "the float length",
         "float_rounded": "a rounded float",
         "float_bend_px": "a bent float",
         "float_specular": "a specular spot on the float",

@@ -75,7 +75,7 @@ VALID_QUALITY = 0.5
 SURFACE_ONLY = ("liquid_color", "liquid_hsv_low", "liquid_hsv_high", "rest_frames")
 """Settings only the surface target reads (container_diameter_m too, refused with its own reason)."""
 FLOAT_ONLY = ("float_color", "float_hsv_low", "float_hsv_high")
-"""Settings only the float target reads (float_color counts when it is not the default)."""
+"""Settings only the float target reads."""
 MAX_DIAMETER_M = 10.0
 """Largest container_diameter_m taken: a diameter given in millimetres (100 for 100 mm) scales heights a
 thousandfold."""
@@ -87,8 +87,8 @@ class TrackSettings:
     settings object of the tracker, which `sloshid track` options, the pipeline's and batch's [track] table and
     `sloshid.track(...)` keywords all fill."""
 
-    float_color: str = DEFAULT_FLOAT_COLOR
-    """Named float colour preset (red, orange, yellow, green, blue, magenta)."""
+    float_color: str | None = None
+    """Named float colour preset (red, orange, yellow, green, blue, magenta); not given: red for the float target."""
     float_hsv_low: tuple[int, int, int] | None = None
     """Lower OpenCV HSV corner (H 0..179, S and V 0..255); overrides float_color, needs float_hsv_high. A hue
     low above the hue high wraps through red."""
@@ -133,7 +133,7 @@ class TrackSettings:
             )
         # an option of the other target would be ignored without a word: refused, as the scale above
         other = SURFACE_ONLY if self.target == "float" else FLOAT_ONLY
-        given = [k for k in other if getattr(self, k) not in (None, DEFAULT_FLOAT_COLOR)]
+        given = [k for k in other if getattr(self, k) is not None]
         if given:
             raise SettingError(
                 given[0],
@@ -141,6 +141,8 @@ class TrackSettings:
                 f"the {self.target} target does not use it.",
                 "target",
             )
+        if self.target == "float" and self.float_color is None:  # the default, filled in once nothing can be refused
+            object.__setattr__(self, "float_color", DEFAULT_FLOAT_COLOR)
         if self.container_diameter_m is not None and not (
             math.isfinite(self.container_diameter_m) and 0 < self.container_diameter_m <= MAX_DIAMETER_M
         ):
@@ -177,7 +179,7 @@ class TrackSettings:
         """The OpenCV HSV box searched for the float: the explicit corners, else the named preset's."""
         if self.float_hsv_low is not None:
             return HsvRange(tuple(self.float_hsv_low), tuple(self.float_hsv_high))
-        return preset(self.float_color).hsv
+        return preset(self.float_color or DEFAULT_FLOAT_COLOR).hsv
 
 
 @dataclass
