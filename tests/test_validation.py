@@ -592,3 +592,31 @@ def test_a_record_that_ends_soon_after_the_move_is_still_aligned(after_s):
     noisy = resp.rel_angle_deg + np.random.default_rng(4).normal(0, 0.01, t.size)
     al = align(t[keep], noisy[keep], resp.t_s, resp.rel_angle_deg, move)
     assert al.lag_s == pytest.approx(lag, abs=0.005) and al.correlation > 0.95
+
+
+def test_a_run_the_model_was_fitted_on_is_marked_and_left_out_of_the_medians(tmp_path, run_cli):
+    # validate scored a run that the params' own `sources` name as any other (a trial: the median of three runs was
+    # exactly the in-sample run's 63.1 %). It is marked, warned about and left out of the medians; a source is found
+    # as written or beside the JSON, as identify wrote it from another working directory.
+    pose = move_pose()
+    write_pose_csv(tmp_path / "log.csv", pose)
+    measured_csv(tmp_path / "fitted.csv", pose)
+    measured_csv(tmp_path / "held.csv", pose, noise_mm=0.5, seed=9)
+    params = {
+        "sources": ["fitted.csv"],
+        "parameters": {"omega_rad_s": {"value": TRUTH.omega_rad_s * 1.1}, "zeta": {"value": 0.03}},
+        "geometry": {"container_radius_m": RADIUS, "axis_offset_m": OFFSET},
+    }
+    (tmp_path / "p.json").write_text(json.dumps(params))
+    runs = []
+    for name in ("fitted", "held"):
+        runs += ["--trajectory", tmp_path / "log.csv", "--measured", tmp_path / f"{name}.csv"]
+    code, out, err = run_cli("validate", *runs, "--params", tmp_path / "p.json", "--json")
+    assert code == 0, err
+    doc = json.loads(out)
+    assert [r["in_sample"] for r in doc["runs"]] == [True, False]
+    held = doc["runs"][1]["scores"]["all"]["fit_percent"]
+    assert doc["medians"]["all"]["fit_percent"] == held != doc["runs"][0]["scores"]["all"]["fit_percent"]
+    assert "run fitted: the model was identified from this measurement" in err
+    code, out, _ = run_cli("validate", *runs, "--params", tmp_path / "p.json")
+    assert out.splitlines()[1].startswith("fitted *") and "the median leaves them out" in out

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import json
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -37,6 +37,9 @@ class LiquidModel:
     vertical_gain: float = 1.0
     """Scale of the vertical pivot acceleration in the effective gravity g + vertical_gain az (1 for a pendulum): how
     strongly vertical motion pumps the mode."""
+    fitted_on: tuple[Path, ...] = ()
+    """The measurement files the model was identified from (identify JSON `sources`, as found from here): a validate
+    run of one of them scores the fit, not a prediction."""
 
     def __post_init__(self) -> None:
         for name in ("input_gain", "output_gain", "vertical_gain"):
@@ -54,15 +57,11 @@ class LiquidModel:
         self, radius_m: float | None = None, axis_offset_m: float | None = None, smooth_s: float | None = None
     ) -> LiquidModel:
         """The same model with the given geometry values replacing the stored ones (None keeps them)."""
-        return LiquidModel(
-            self.params,
-            self.input_gain,
-            self.radius_m if radius_m is None else radius_m,
-            self.axis_offset_m if axis_offset_m is None else axis_offset_m,
-            self.smooth_s if smooth_s is None else smooth_s,
-            self.output_gain,
-            self.crest_coeff,
-            self.vertical_gain,
+        return replace(
+            self,
+            radius_m=self.radius_m if radius_m is None else radius_m,
+            axis_offset_m=self.axis_offset_m if axis_offset_m is None else axis_offset_m,
+            smooth_s=self.smooth_s if smooth_s is None else smooth_s,
         )
 
     def reading(self, resp: PoseResponse, kind: str) -> np.ndarray:
@@ -102,7 +101,18 @@ def load_model(path: str | Path) -> LiquidModel:
         raise UserError(
             f"parameter file {path}: a gain, the crest coefficient or the geometry is not a number."
         ) from None
-    return LiquidModel(params, gain, radius, offset, smooth, out_gain, crest, vertical)
+    sources = data.get("sources") if isinstance(data.get("sources"), list) else []
+    fitted = tuple(f for src in sources if isinstance(src, str) for f in [_found(src, Path(path).parent)] if f)
+    return LiquidModel(params, gain, radius, offset, smooth, out_gain, crest, vertical, fitted)
+
+
+def _found(source: str, beside: Path) -> Path | None:
+    """The file an identify JSON's source names, resolved: as written (from the working directory), else beside the
+    JSON; None when it is not there (an array, or a file moved away)."""
+    for candidate in (Path(source), beside / source):
+        if candidate.is_file():
+            return candidate.resolve()
+    return None
 
 
 def planning_note(path: str | Path, trajectory: str = "TRAJ.csv") -> str | None:

@@ -72,6 +72,8 @@ class ValidationRun:
     measured: np.ndarray
     predicted: np.ndarray
     scores: dict[str, PhaseScore]
+    in_sample: bool = False
+    """The model was identified from this very measurement: its scores show the fit, not a prediction."""
 
     @property
     def unit(self) -> str:
@@ -83,6 +85,7 @@ class ValidationRun:
         return {
             "name": self.name,
             "measured": self.kind,
+            "in_sample": self.in_sample,
             "lag_s": self.alignment.lag_s,
             "correlation": self.alignment.correlation,
             "baseline": self.baseline,
@@ -141,7 +144,9 @@ def validate_run(pose: PoseLog, sig: Signal, model: LiquidModel, name: str = "")
 
 
 def medians(runs: list[ValidationRun]) -> dict[str, dict[str, float]]:
-    """Median of each phase's fit % and |peak error| % over the runs."""
+    """Median of each phase's fit % and |peak error| % over the runs the model was not fitted on (over all of them
+    when it was fitted on every one)."""
+    runs = [r for r in runs if not r.in_sample] or runs
     out = {}
     for phase in PHASES:
         fits = [r.scores[phase].fit_percent for r in runs]
@@ -165,8 +170,9 @@ def table_text(runs: list[ValidationRun]) -> str:
     lines = [head]
     for r in runs:
         s = r.scores
+        name = f"{r.name[:32]} *" if r.in_sample else r.name[:34]
         lines.append(
-            f"{r.name[:34]:34s} {r.alignment.lag_s:7.2f} {r.alignment.correlation:5.2f} {s['all'].fit_percent:6.1f} "
+            f"{name:34s} {r.alignment.lag_s:7.2f} {r.alignment.correlation:5.2f} {s['all'].fit_percent:6.1f} "
             f"{s['during'].fit_percent:10.1f} {s['after'].fit_percent:11.1f} {s['during'].peak_error_percent:+10.1f} "
             f"{s['after'].peak_error_percent:+16.1f}"
         )
@@ -177,6 +183,9 @@ def table_text(runs: list[ValidationRun]) -> str:
             f"{m['during']['fit_percent']:10.1f} {m['after']['fit_percent']:11.1f} "
             f"{m['during']['abs_peak_error_percent']:10.1f} {m['after']['abs_peak_error_percent']:16.1f}"
         )
+    if any(r.in_sample for r in runs):
+        where = "" if all(r.in_sample for r in runs) else "; the median leaves them out"
+        lines.append(f"* the model was identified from this measurement: a fit, not a prediction{where}")
     return "\n".join(lines)
 
 
@@ -243,6 +252,16 @@ class Validation:
             "measurement records this move."
             for r in self.runs
             if r.alignment.correlation < WEAK_ALIGNMENT
+        ] + [
+            f"run {r.name}: the model was identified from this measurement, so its scores show how well it was fitted, "
+            "not how well it predicts"
+            + (
+                "; the medians leave it out."
+                if not all(q.in_sample for q in self.runs)
+                else "; validate it on a recorded move it was not fitted to."
+            )
+            for r in self.runs
+            if r.in_sample
         ]
 
     def to_dict(self) -> dict[str, Any]:
@@ -276,4 +295,7 @@ def validate(poses: list[PoseLog], signals: list[Signal], model: LiquidModel) ->
     names = [Path(s.source).stem for s in signals]
     # one measured file against several trajectories (or files of one name): each run named by both
     names = [n if names.count(n) == 1 else f"{n} ({Path(p.source).stem})" for n, p in zip(names, poses)]
-    return Validation([validate_run(p, s, model, n) for p, s, n in zip(poses, signals, names)], model)
+    runs = [validate_run(p, s, model, n) for p, s, n in zip(poses, signals, names)]
+    for run, sig in zip(runs, signals):
+        run.in_sample = Path(sig.source).is_file() and Path(sig.source).resolve() in model.fitted_on
+    return Validation(runs, model)
