@@ -214,3 +214,15 @@ def test_an_empty_wall_mm_column_names_the_diameter(tmp_path, run_cli):
     path.write_text(",".join(cols) + "\n" + "\n".join(",".join(f"{c[i]:g}" for c in cols.values()) for i in range(240)))
     code, _, err = run_cli("identify", path, "-o", tmp_path / "p.json", "--value-col", "left_wall_mm")
     assert code == 2 and "only with --container-diameter-m" in err and not (tmp_path / "p.json").exists()
+
+
+def test_the_window_identify_prints_can_be_given_back(tmp_path, decay, run_cli):
+    # identify prints its window to 0.01 s, so the end of a record that ends at 9.9833 s reads 9.98 or 9.99; given
+    # back with --window, a window ending beyond the data by less than one sample was refused as "outside the data"
+    t, y = decay
+    path = _csv(tmp_path / "d.csv", ["t_s", "angle_deg"], t, y)
+    end = t[-1]
+    code, _, err = run_cli("identify", path, "-o", tmp_path / "a.json", "--window", f"0.5,{end + 0.004:.3f}")
+    assert code == 0, err
+    code, _, err = run_cli("identify", path, "-o", tmp_path / "b.json", "--window", f"0.5,{end + 0.05:.2f}")
+    assert code == 2 and "lies outside the data" in err  # three samples beyond: a wrong window, still refused

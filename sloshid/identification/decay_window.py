@@ -357,6 +357,9 @@ def user_window(
     lo, hi = float(sig.t_s[0]), float(sig.t_s[-1])
     if not t0 < t1:
         raise SettingError("window_s", f"{{name}} start {t0:g} s must be before its end {t1:g} s.")
+    # a window that ends within a sample of the data ends with it: the one identify prints, rounded to 0.01 s, does
+    dt = float(np.median(np.diff(sig.t_s)))
+    t0, t1 = (lo if lo - dt <= t0 < lo else t0), (hi if hi < t1 <= hi + dt else t1)
     if t0 < lo - 1e-9 or t1 > hi + 1e-9:
         raise SettingError(
             "window_s", f"{{name}} {t0:g},{t1:g} s lies outside the data of {sig.source} ({lo:g} to {hi:g} s)."
