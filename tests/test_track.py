@@ -524,6 +524,9 @@ def test_surface_angle_and_wall_heights_match_truth(surface_video, reference, co
     # against the image the angle includes the container's +-2 deg tilt, and track says so (3.9 deg measured)
     turned = [w for w in res.warnings if "container turned by" in w]
     assert len(turned) == (reference == "image") and all("--reference container" in w for w in turned)
+    # the dye chosen automatically is named (a trial's orange robot link was tracked as the liquid without a word)
+    assert res.dye == f"{SURFACE['liquid_color']} (chosen from the first frame)" and res.to_dict()["dye"] == res.dye
+    assert res.summary().endswith(f", dye {res.dye}")
 
 
 def test_surface_csv_identifies_like_its_truth(surface_video, tmp_path, run_cli):

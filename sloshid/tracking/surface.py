@@ -119,17 +119,24 @@ class SurfaceMeasurement:
     source ("luma" or "colour"), so that the first frames can be measured as the later ones once they are held."""
 
 
-def auto_liquid_range(frame: np.ndarray, roi: tuple[int, int, int, int]) -> HsvRange | None:
-    """The preset whose colour covers the largest connected region of the ROI, or None when none covers enough."""
+def auto_liquid_preset(frame: np.ndarray, roi: tuple[int, int, int, int]) -> str | None:
+    """The name of the preset whose colour covers the largest connected region of the ROI, or None when none covers
+    enough."""
     x, y, w, h = roi
     crop = frame[y : y + h, x : x + w]
     best, best_area = None, MIN_LIQUID_SHARE * w * h
-    for p in PRESETS.values():
+    for name, p in PRESETS.items():
         n, _, stats, _ = cv2.connectedComponentsWithStats(hsv_mask(crop, p.hsv), connectivity=8)
         area = stats[1:, cv2.CC_STAT_AREA].max() if n > 1 else 0
         if area > best_area:
-            best, best_area = p.hsv, area
+            best, best_area = name, area
     return best
+
+
+def auto_liquid_range(frame: np.ndarray, roi: tuple[int, int, int, int]) -> HsvRange | None:
+    """The HSV box of `auto_liquid_preset`'s choice, or None."""
+    name = auto_liquid_preset(frame, roi)
+    return PRESETS[name].hsv if name else None
 
 
 def _crossings_first(m: np.ndarray, above: np.ndarray, axis: int) -> tuple[np.ndarray, np.ndarray]:

@@ -35,7 +35,7 @@ from sloshid.tracking.overlay import draw_overlay
 from sloshid.tracking.repeats import REPEAT_SHARE, repeated_share, stale_repeats
 from sloshid.tracking.robust import percentile_span
 from sloshid.tracking.smooth import smoothing_worker
-from sloshid.tracking.surface import SurfaceFinder, auto_liquid_range
+from sloshid.tracking.surface import SurfaceFinder, auto_liquid_preset
 from sloshid.tracking.surface_track import SurfaceStep, check_rest_frames
 from sloshid.video.colors import DEFAULT_FLOAT_COLOR, HsvRange, preset
 from sloshid.video.frames import FrameReader, Picture, VideoInfo, VideoWriter, lost_share
@@ -207,6 +207,8 @@ class TrackResult:
     repeated: np.ndarray = field(default_factory=lambda: np.zeros(0, bool))
     """Frames whose picture of the float/surface the encoder copied from the previous frame while it moved
     (valid = 0: an old picture is not a new measurement)."""
+    dye: str = ""
+    """Surface target: the dye colour measured (its preset, said when it was chosen automatically, or its HSV range)."""
     key_frame: np.ndarray = field(default_factory=lambda: np.zeros(0, int))
     """1 on the video's key frames (coded afresh, without earlier pictures): there the encoder's hold of slowly moving
     edges restarts, which identify models (pt2fit.encoder_hold)."""
@@ -231,7 +233,8 @@ class TrackResult:
         """One line: frames, valid frames, duration (what `sloshid track` prints)."""
         duration = self.t_s[-1] - self.t_s[0] if len(self.t_s) else 0.0
         repeated = f" ({int(self.repeated.sum())} repeated)" if self.repeated.any() else ""
-        return f"{self.video}: {len(self.t_s)} frames, {int(self.valid.sum())} valid{repeated}, {duration:.2f} s"
+        dye = f", dye {self.dye}" if self.dye else ""
+        return f"{self.video}: {len(self.t_s)} frames, {int(self.valid.sum())} valid{repeated}, {duration:.2f} s{dye}"
 
     def to_dict(self) -> dict:
         """JSON-safe summary of the run (the per-frame table is `to_csv`/`to_pandas`)."""
@@ -243,6 +246,7 @@ class TrackResult:
             "repeated_frames": int(self.repeated.sum()),
             "invalid_share": self.invalid_share,
             "lost_share": self.lost_share,
+            "dye": self.dye or None,
             "duration_s": float(self.t_s[-1] - self.t_s[0]) if len(self.t_s) else 0.0,
             "warnings": list(self.warnings),
         }
@@ -432,9 +436,13 @@ def track_video(
         key_times = key_frame_times(path)
         spans = _spans(reader.info, key_times)
         reader.end_s = spans[0][1]
-        liquid = settings.liquid_hsv
+        liquid, dye = settings.liquid_hsv, ""
         if settings.target == "surface" and liquid is None:  # one automatic dye colour for every span: the first's
-            liquid = auto_liquid_range(reader.first_picture(), roi)
+            name = auto_liquid_preset(reader.first_picture(), roi)
+            liquid = preset(name).hsv if name else None
+            dye = f"{name} (chosen from the first frame)" if name else ""
+        elif settings.target == "surface":
+            dye = settings.liquid_color or liquid.describe()
         parallel = multithreaded and overlay is None and len(spans) > 1 and _can_fork()
         # a run that finds nothing writes its overlay as the diagnosis, but does not replace one already there
         kept = overlay if overlay is not None and Path(overlay).exists() else None
@@ -476,7 +484,7 @@ def track_video(
         smooth = smoother.smooth if smoother is not None else None
         lost = lost_share(reader.info.frame_count, len(rows))
         res = _result(Path(path), body, lost, reader.info.frame_count, smooth, repeated, settings.target)
-    res.target, res.walls, res.repeated = settings.target, walls, repeated
+    res.target, res.walls, res.repeated, res.dye = settings.target, walls, repeated, dye
     res.warnings.extend(notes)
     res.key_frame = _at_key_frames(res.t_s, key_times)
     return res
