@@ -28,10 +28,11 @@ def distinct_names(paths: Sequence[str | os.PathLike]) -> list[str]:
     return [str(Path(p).resolve().relative_to(common)) if names.count(n) > 1 else n for p, n in zip(paths, names)]
 
 
-def table_to_csv(columns: dict[str, np.ndarray]) -> str:
-    """CSV text of equally long columns: whole numbers without decimals, floats with 9 significant digits, and the
-    time column `t_s` in the shortest form that reads back to the same bits: analyses compare timestamps exactly (key
-    frames, window ends), so `identify` of a written track CSV equals `identify` of the TrackResult it came from."""
+def table_to_csv(columns: dict[str, np.ndarray], digits: int = 9) -> str:
+    """CSV text of equally long columns: whole numbers without decimals, floats with `digits` significant digits, and
+    the time column `t_s` in the shortest form that reads back to the same bits: analyses compare timestamps exactly
+    (key frames, window ends), so `identify` of a written track CSV equals `identify` of the TrackResult it came
+    from."""
     names = list(columns)
     cols = [np.asarray(columns[n]) for n in names]
     fmt = [
@@ -39,7 +40,7 @@ def table_to_csv(columns: dict[str, np.ndarray]) -> str:
         if np.issubdtype(c.dtype, np.integer) or c.dtype == bool
         else _exact
         if n == "t_s"
-        else "%.9g".__mod__
+        else f"%.{digits}g".__mod__
         for n, c in zip(names, cols)
     ]
     lines = [",".join(names)]
@@ -52,9 +53,9 @@ def _exact(value: float) -> str:
     return repr(float(value))
 
 
-def write_csv(path: str | Path, columns: dict[str, np.ndarray]) -> None:
-    """Write columns to `path` atomically."""
-    write_text(path, table_to_csv(columns))
+def write_csv(path: str | Path, columns: dict[str, np.ndarray], digits: int = 9) -> None:
+    """Write columns to `path` atomically (floats with `digits` significant digits)."""
+    write_text(path, table_to_csv(columns, digits))
 
 
 def read_csv(path: str | Path) -> dict[str, np.ndarray]:
