@@ -204,6 +204,9 @@ def test_a_q_start_away_from_the_moves_start_is_not_executable(run_cli, tmp_path
     assert not joints["executable"] and joints["start_offset_m"] == pytest.approx(0.2, abs=0.005)
     assert joints["start_jump_rad"] > 0.3
     assert "q_start holds the container 200 mm from the move's start" in err and "re-planned" not in err
+    # without --fit-joints the refusal offered it, though a slower plan cannot move the start (a trial)
+    code, _, err = run_cli("plan", sc, "-o", tmp_path / "t2.csv", "--joints", tmp_path / "q2.csv")
+    assert code == 1 and "q_start holds the container" in err and "--fit-joints" not in err
     # the shipped scenario's q_start holds the container at its start (rounded to 1e-4 rad)
     code, out, err = run_cli("plan", PAPER_1D, "-o", tmp_path / "p.csv", "--joints", tmp_path / "p.csv.q.csv", "--json")
     joints = json.loads(out)["joints"]

@@ -111,7 +111,9 @@ def run(args: argparse.Namespace) -> int:
     else:
         print(f"{result.summary()}; wrote {output}" + (f" and {joints}" if joints is not None else ""))
     if result.joints is not None and not result.joints.executable:
-        hint = "" if args.fit_joints else " (--fit-joints re-plans slower until it can)"
+        # a slower plan cannot move the start: --fit-joints helps only an arm that starts where the move does
+        slower = not args.fit_joints and result.joints.starts_at_q_start
+        hint = " (--fit-joints re-plans slower until it can)" if slower else ""
         print(f"sloshid: not executable on the Panda: {result.joints.reason()}{hint}", file=sys.stderr)
         return 1
     # a plan past a limit, unverified or off its path is written for inspection, but a script must not run it
