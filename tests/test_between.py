@@ -10,6 +10,7 @@ import pytest
 
 from sloshid.identification.between import HETEROGENEITY_P, agreement
 from sloshid.identification.estimator import Identifier
+from sloshid.identification.pt2fit import Z95
 from sloshid.synthetic.decays import free_decay_signal
 
 
@@ -28,6 +29,12 @@ def test_agreement_matches_the_closed_form():
     assert (same.q, same.tau, same.p) == (0.0, 0.0, 1.0)
     assert same.stderr == pytest.approx(0.1 / math.sqrt(3))
     assert not same.disagree
+    # damping ratios that disagree: mean 0.0045, half-width 1.96 sqrt(tau^2 + se^2) past it; the JSON read -0.00079 for
+    # the lower end of the shared real runs', a negative damping ratio, while the text showed 0
+    low = agreement(np.array([0.002, 0.007]), np.array([0.0001, 0.0001]))
+    assert low.prediction95[0] == 0.0 and low.prediction95[1] == pytest.approx(
+        0.0045 + Z95 * math.hypot(low.tau, low.stderr)
+    )
 
 
 def test_runs_of_one_liquid_keep_the_joint_interval():

@@ -47,9 +47,10 @@ class Agreement:
 
     @property
     def prediction95(self) -> tuple[float, float]:
-        """Where one more signal's value may land (95 %, normal quantile): mean +- 1.96 sqrt(tau^2 + stderr^2)."""
+        """Where one more signal's value may land (95 %, normal quantile): mean +- 1.96 sqrt(tau^2 + stderr^2), from
+        0 up (a frequency or a damping ratio is positive)."""
         half = Z95 * math.sqrt(self.tau**2 + self.stderr**2)
-        return self.mean - half, self.mean + half
+        return max(self.mean - half, 0.0), self.mean + half
 
     @property
     def disagree(self) -> bool:
@@ -102,7 +103,7 @@ class BetweenSignals:
                     else ""
                 )
                 + "; one more run may land in {:{fmt}}-{:{fmt}}{} (95 % prediction interval)".format(
-                    *(max(v * scale, 0.0) for v in a.prediction95), unit, fmt=fmt
+                    *(v * scale for v in a.prediction95), unit, fmt=fmt
                 )
             )
         if not parts:
