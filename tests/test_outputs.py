@@ -350,6 +350,11 @@ def test_a_csv_column_option_for_a_mat_file_is_refused(tmp_path, run_cli):
         "identify", tmp_path / "run.mat", tmp_path / "two.csv", "--value-col", "height", "-o", tmp_path / "q.json"
     )
     assert code == 0, err
+    # the other way round, a .mat variable option for CSV files only was ignored too (a trial), in validate as well
+    code, _, err = run_cli("identify", tmp_path / "two.csv", "--time-var", "t", "-o", tmp_path / "r.json")
+    _one_sentence(code, err)
+    assert "--time-var chooses a .mat variable, but" in err and "--time-col" in err
+    assert not (tmp_path / "r.json").exists()
 
 
 @pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="needs named pipes")

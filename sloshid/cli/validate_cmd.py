@@ -50,7 +50,7 @@ def run(args: argparse.Namespace) -> int:
             f"{len(args.measured)} measurements."
         )
     poses = [load_pose_log(t, args.pose_columns) for t in args.trajectory]
-    check_csv_options(args.measured, args.time_col, args.value_col)
+    check_csv_options(args.measured, args.time_col, args.value_col, args.time_var, args.value_var)
     columns = (args.time_col, args.value_col, args.time_var, args.value_var)
     result = validate(poses, [load_signal(m, *columns) for m in args.measured], model)
     for warning in result.warnings:

@@ -195,17 +195,34 @@ def load_signal(
     return _load_csv(p, time_col, value_col, progress)
 
 
-def check_csv_options(paths: list[str | Path], time_col: str | None, value_col: str | None) -> None:
-    """Refuse a CSV column option when every file is a .mat file, for which it would be ignored without a word (beside
-    a CSV it chooses that CSV's column)."""
+def check_csv_options(
+    paths: list[str | Path],
+    time_col: str | None,
+    value_col: str | None,
+    time_var: str | None = None,
+    value_var: str | None = None,
+) -> None:
+    """Refuse a CSV column option when every file is a .mat file, and a .mat variable option when none is: either
+    would be ignored without a word (beside a file of the other kind it chooses in the files of its own)."""
     column = "value_col" if value_col is not None else "time_col" if time_col is not None else None
-    if column and paths and all(Path(p).suffix.lower() == ".mat" for p in paths):
+    mat = [Path(p).suffix.lower() == ".mat" for p in paths]
+    if column and paths and all(mat):
         raise SettingError(
             column,
             f"{{name}} chooses a CSV column, but {paths[0]} is a .mat file: its variables are chosen with {{value_var}} "
             "and {time_var}.",
             "value_var",
             "time_var",
+        )
+    variable = "value_var" if value_var is not None else "time_var" if time_var is not None else None
+    if variable and not any(mat):
+        what = f"{paths[0]} is not a .mat file" if paths else "no signal is a .mat file"
+        raise SettingError(
+            variable,
+            f"{{name}} chooses a .mat variable, but {what}: a CSV's columns are chosen with {{value_col}} and "
+            "{time_col}.",
+            "value_col",
+            "time_col",
         )
 
 
