@@ -9,6 +9,7 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
+import scipy.io
 from scipy.spatial.transform import Rotation
 
 from sloshid.identification.estimator import IdentSettings
@@ -330,6 +331,7 @@ def test_bad_input_is_one_sentence_and_exit_2_with_nothing_written(tmp_path, run
     # 11990 s record was "too short to align")
     np.savetxt(tmp_path / "flat.csv", np.c_[meas[:, 0], 0 * meas[:, 1] + 2], delimiter=",", header="t_s,height_mm")
     np.savetxt(tmp_path / "ms.csv", np.c_[1000 * meas[:, 0], meas[:, 1]], delimiter=",", header="t_ms,height_mm")
+    scipy.io.savemat(tmp_path / "run.mat", {"slosh_times": meas[:, 0], "slosh_heights": meas[:, 1]})
     out = tmp_path / "out.csv"
     params_out = tmp_path / "out.json"  # identify writes a parameter JSON
     radius = ("--container-radius-m", 0.05)
@@ -345,6 +347,8 @@ def test_bad_input_is_one_sentence_and_exit_2_with_nothing_written(tmp_path, run
         (("predict", tmp_path / "badq.csv", "-o", out, "--params", params, *radius), "not 1"),
         (("predict", tmp_path / "badt.csv", "-o", out, "--params", params, *radius), "does not increase"),
         (("predict", good, "-o", out, "--params", params), "radius"),
+        # a measurement given as the trajectory was read as text: "not UTF-8, re-save it as UTF-8"
+        (("predict", tmp_path / "run.mat", "-o", out, "--params", params, *radius), "is a .mat file, a measured"),
         (("predict", tmp_path / "logms.csv", "-o", out, "--params", params, *radius), "milliseconds"),
         (("predict", tmp_path / "one.csv", "-o", out, "--params", params, *radius), "at least 2 samples; it has 1"),
         (("predict", tmp_path / "mm.csv", "-o", out, "--params", params, *radius), "positions in millimetres"),

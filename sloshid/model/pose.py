@@ -259,6 +259,11 @@ def load_pose_log(path: str | Path, columns: str | None = None) -> PoseLog:
     `columns` names a headerless file's columns in order, comma-separated (`_` skips one), e.g.
     `t,x,y,z,qx,qy,qz,qw` (the default for 8 columns) or `t,x,y,z,roll_deg,pitch_deg,yaw_deg`."""
     p = input_file(path, "trajectory file")
+    if p.suffix.lower() == ".mat":  # read as text it is "not UTF-8", which sends the user to the wrong fix
+        raise UserError(
+            f"{p} is a .mat file, a measured signal: the trajectory is the robot's pose log or a sloshid trajectory "
+            "(CSV); a measurement goes to --measured (validate) or identify."
+        )
     table = read_table(p)
     header, data = table.header, table.data
     if header is not None and all(c in header for c in CSV_COLUMNS) and columns is None:
