@@ -44,6 +44,8 @@ def test_batch_records_failure_and_skips_finished_videos_on_rerun(videos, tmp_pa
     assert code == 1  # one video failed
     rows = {r["file"].rsplit("/", 1)[-1]: r for r in _rows(out / "summary.csv")}
     assert rows["corrupt.mp4"]["status"] == "failed" and rows["corrupt.mp4"]["reasons"]
+    # the corrupt video left an empty folder behind, named in its row (a trial): nothing of it is kept now
+    assert rows["corrupt.mp4"]["outputs"] == "" and not list((out / "videos").glob("corrupt-*"))
     for i, f in enumerate(FREQS_HZ):
         r = rows[f"tap_{i}.mp4"]
         assert r["status"] == "ok"

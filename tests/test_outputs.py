@@ -170,6 +170,13 @@ def test_a_full_disk_is_one_sentence_and_leaves_nothing(tmp_path, monkeypatch):
     with pytest.raises(UserError, match=r"could not write .*out\.json: No space left on device"):
         write_text(tmp_path / "out.json", "{}")
     assert not list(tmp_path.iterdir())
+    # a report's folders made for the write go again (a trial's `--report FULLDISK/rep` left an empty rep/); a folder
+    # that was there stays
+    (tmp_path / "mine").mkdir()
+    for folder in (tmp_path / "rep" / "sub", tmp_path / "mine"):
+        with pytest.raises(UserError, match="No space left"):
+            write_text(folder / "index.html", "<html>")
+    assert [p.name for p in tmp_path.iterdir()] == ["mine"] and not list((tmp_path / "mine").iterdir())
 
 
 def test_standard_output_that_cannot_be_written_is_one_sentence(decay_csv, tmp_path):

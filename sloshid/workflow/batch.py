@@ -87,6 +87,7 @@ def process_video(video: str, config: BatchConfig, out_root: str) -> dict[str, A
         done = json.loads(marker.read_text())
         if done.get("key") == key:
             return {**done["row"], "status": "cached"}
+    created = not out.exists()
     out.mkdir(parents=True, exist_ok=True)
     row["outputs"] = str(out)
     table = "[track]"
@@ -104,12 +105,12 @@ def process_video(video: str, config: BatchConfig, out_root: str) -> dict[str, A
         doc = identify_sources([tracked], config.identify.ident_settings(), config.identify.columns()).to_dict()
         write_json(out / "params.json", doc)
     except SettingError as exc:  # named as the config file's key, the place the user can change it
-        return {**row, "status": "failed", "reasons": str(exc.named(lambda setting: f"{table}.{setting}"))}
+        return _failed(row, out, created, str(exc.named(lambda setting: f"{table}.{setting}")))
     except UserError as exc:
-        return {**row, "status": "failed", "reasons": str(exc)}
+        return _failed(row, out, created, str(exc))
     except Exception as exc:
         detail = traceback.format_exception_only(type(exc), exc)[-1].strip()
-        return {**row, "status": "failed", "reasons": f"unexpected error: {detail}"}
+        return _failed(row, out, created, f"unexpected error: {detail}")
     p = doc["parameters"]
     row.update(
         zip(
@@ -120,6 +121,15 @@ def process_video(video: str, config: BatchConfig, out_root: str) -> dict[str, A
     row.update(status="ok", quality=doc["quality"], reasons="; ".join(doc["reasons"]))
     write_json(marker, {"key": key, "row": row})
     return row
+
+
+def _failed(row: dict[str, Any], out: Path, created: bool, reasons: str) -> dict[str, Any]:
+    """A failed video's row; the folder this run made for it goes again when nothing was written into it (a video
+    that did not decode), and the row then names no outputs."""
+    if created and out.is_dir() and not any(out.iterdir()):
+        out.rmdir()
+        row = {**row, "outputs": ""}
+    return {**row, "status": "failed", "reasons": reasons}
 
 
 @dataclass
