@@ -11,6 +11,8 @@ from typing import TYPE_CHECKING, Any
 from sloshid.core.settings import from_dict
 
 if TYPE_CHECKING:
+    from collections.abc import Sequence
+
     from sloshid.comparison.compare import Comparison
     from sloshid.identification.estimator import IdentResult
     from sloshid.identification.stage import Source
@@ -84,13 +86,20 @@ def _scenario_and_liquid(scenario: Scenario | str | Path, params: Any) -> tuple[
     return scenario, liquid, interval
 
 
-def plan(scenario: Scenario | str | Path, params: Any = None, *, progress: bool = False) -> PlanResult:
+def plan(
+    scenario: Scenario | str | Path,
+    params: Any = None,
+    *,
+    robust_omega_factors: Sequence[float] | None = None,
+    progress: bool = False,
+) -> PlanResult:
     """Plan the scenario's time-optimal slosh-free move for the liquid `params` (SloshParams, an IdentResult, an
-    identify JSON path, or None for the scenario's [liquid])."""
+    identify JSON path, or None for the scenario's [liquid]); `robust_omega_factors` (e.g. (0.9, 1.0, 1.1)) makes
+    it the robust variant, None takes the scenario's [solver].robust_omega_factors."""
     from sloshid.planning.planner import plan as solve
 
     scenario, liquid, _ = _scenario_and_liquid(scenario, params)
-    return solve(scenario, liquid, progress=progress)
+    return solve(scenario, liquid, robust_omega_factors=robust_omega_factors, progress=progress)
 
 
 def compare(

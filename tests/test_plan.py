@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
+import sloshid
 from sloshid.comparison.compare import compare_scenario
 from sloshid.core.errors import UserError
 from sloshid.model.conventions import G, steady_tilt
@@ -198,6 +199,9 @@ def test_robust_variant_keeps_residual_small_over_frequency_band(paper_1d):
         simulate_liquid(nominal.trajectory, paper_1d.liquid.scaled(0.9)).residual_deg
         > simulate_liquid(robust.trajectory, paper_1d.liquid.scaled(0.9)).residual_deg
     )
+    # the package's own sloshid.plan, from the scenario's file, gives the same robust plan (it had no such keyword)
+    api = sloshid.plan(ROOT / "data" / "scenarios" / "paper_1d.toml", robust_omega_factors=(0.9, 1.0, 1.1))
+    assert api.robust_omega_factors == (0.9, 1.1) and api.T_s == pytest.approx(robust.T_s, rel=1e-9)
 
 
 def test_warm_start_reuses_the_solution(paper_1d, plan_1d):
