@@ -111,9 +111,13 @@ def test_cli_writes_video_and_truth(run_cli, tmp_path):
 @pytest.mark.parametrize(
     "args, message",
     [
-        (["--vfr-jitter", "0.6"], "vfr jitter"),
-        (["--f-hz", "3"], "give f_hz and zeta together"),
-        (["--noise", "-1"], "noise and blur"),
+        # named as the option was given (they read "vfr jitter", "give f_hz and zeta together", "px_per_m")
+        (["--vfr-jitter", "0.6"], "--vfr-jitter must be between 0 and 0.45"),
+        (["--f-hz", "3"], "give --zeta with --f-hz (or neither)"),
+        (["--noise", "-1"], "--noise must not be negative"),
+        (["--fps", "0"], "--fps must be between 0.5 and 1000"),
+        (["--motion", "move", "--px-per-m", "-1"], "--px-per-m must be positive"),
+        (["--tilt", "45"], "--tilt must be within 30 degrees"),
         # a look of the other scene would be rendered nowhere
         (["--elevation", "5"], "a camera elevation applies only to the surface scene"),
         (["--scene", "surface", "--float-color", "green"], "the float colour applies only to the float scene"),

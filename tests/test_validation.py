@@ -347,6 +347,7 @@ def test_bad_input_is_one_sentence_and_exit_2_with_nothing_written(tmp_path, run
         (("predict", tmp_path / "badq.csv", "-o", out, "--params", params, *radius), "not 1"),
         (("predict", tmp_path / "badt.csv", "-o", out, "--params", params, *radius), "does not increase"),
         (("predict", good, "-o", out, "--params", params), "radius"),
+        (("predict", good, "-o", out, "--params", params, *radius, "--smooth-s", "0"), "window --smooth-s must be"),
         # a measurement given as the trajectory was read as text: "not UTF-8, re-save it as UTF-8"
         (("predict", tmp_path / "run.mat", "-o", out, "--params", params, *radius), "is a .mat file, a measured"),
         (("predict", tmp_path / "logms.csv", "-o", out, "--params", params, *radius), "milliseconds"),

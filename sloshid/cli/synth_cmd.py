@@ -22,6 +22,28 @@ from sloshid.video.colors import PRESETS
 _DEFAULTS = SynthSettings()
 
 
+FLAGS = {
+    "duration_s": "--duration",
+    "amplitude_deg": "--amplitude",
+    "tap_s": "--tap",
+    "accel_m_s2": "--accel",
+    "move_start_s": "--move-start",
+    "move_duration_s": "--move-duration",
+    "travel_px": "--travel",
+    "container_tilt_deg": "--tilt",
+    "container_tilt_hz": "--tilt-hz",
+    "camera_roll_deg": "--roll",
+    "float_length_frac": "--float-length",
+    "noise_sigma": "--noise",
+    "blur_px": "--blur",
+    "float_bend_px": "--float-bend",
+    "elevation_deg": "--elevation",
+    "meniscus_px": "--meniscus",
+    "container_diameter_m": "--container-diameter",
+}
+"""SynthSettings fields whose option is not --field-with-hyphens: how the command line names them in errors."""
+
+
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of `sloshid synth`, each with its unit (one argparse call per option: long, but read one entry
     at a time, so it is not split)."""

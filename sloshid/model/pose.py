@@ -127,7 +127,7 @@ def savgol_acceleration_response(f_hz: float, rate_hz: float, smooth_s: float = 
 def _window_samples(smooth_s: float, rate_hz: float) -> int:
     """Odd window length in samples for a window of smooth_s seconds (at least order + 2)."""
     if not smooth_s > 0:
-        raise UserError(f"the smoothing window must be positive, got {smooth_s!r} s.")
+        raise SettingError("smooth_s", f"the smoothing window {{name}} must be positive, got {smooth_s!r} s.")
     n = round(smooth_s * rate_hz) | 1
     return max(n, SG_ORDER + 2 | 1)
 

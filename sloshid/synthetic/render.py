@@ -22,7 +22,7 @@ import numpy as np
 from tqdm import tqdm
 
 from sloshid.core.atomic import atomic_path
-from sloshid.core.errors import UserError
+from sloshid.core.errors import SettingError, UserError
 from sloshid.core.tables import write_csv
 from sloshid.model.conventions import SEEN_SIGN
 from sloshid.model.pendulum import TABLE_I, SloshParams
@@ -129,47 +129,56 @@ class SynthSettings:
     """Surface scene: the container's inner diameter, which sets the millimetre scale of the wall-height truth."""
 
     def __post_init__(self) -> None:
+        # (holds, the setting at fault, the sentence naming it as {name} and any other setting as {that_one})
         checks = [
+            (16 <= self.width <= 7680, "width", "{name} must be 16..7680 pixels"),
+            (16 <= self.height <= 4320, "height", "{name} must be 16..4320 pixels"),
+            (0.5 <= self.fps <= 1000, "fps", "{name} must be between 0.5 and 1000 frames per second"),
+            (0 < self.duration_s <= 3600, "duration_s", "{name} must be between 0 and 3600 s"),
+            (0 <= self.vfr_jitter <= 0.45, "vfr_jitter", "{name} must be between 0 and 0.45 of a frame interval"),
+            (self.motion in ("decay", "move"), "motion", "{name} must be 'decay' or 'move'"),
+            (self.zeta is not None or self.f_hz is None, "zeta", "give {name} with {f_hz} (or neither)"),
+            (self.f_hz is not None or self.zeta is None, "f_hz", "give {name} with {zeta} (or neither)"),
+            (self.f_hz is None or self.f_hz > 0, "f_hz", "{name} must be positive"),
+            (self.zeta is None or 0 <= self.zeta < 1, "zeta", "{name} must be in [0, 1)"),
+            (abs(self.amplitude_deg) <= 40, "amplitude_deg", "{name} must be at most 40 degrees"),
+            (self.noise_sigma >= 0, "noise_sigma", "{name} must not be negative"),
+            (self.blur_px >= 0, "blur_px", "{name} must not be negative"),
+            (0 <= self.flicker < 0.5, "flicker", "{name} must be in [0, 0.5)"),
+            (abs(self.container_tilt_deg) <= 30, "container_tilt_deg", "{name} must be within 30 degrees"),
+            (abs(self.camera_roll_deg) <= 30, "camera_roll_deg", "{name} must be within 30 degrees"),
             (
-                16 <= self.width <= 7680 and 16 <= self.height <= 4320,
-                "width and height must be 16..7680 x 16..4320 pixels",
+                0.05 <= self.float_length_frac <= 0.3,
+                "float_length_frac",
+                "{name} must be 0.05..0.3 of the frame height",
             ),
-            (0.5 <= self.fps <= 1000, "fps must be between 0.5 and 1000 frames per second"),
-            (0 < self.duration_s <= 3600, "duration must be between 0 and 3600 s"),
-            (0 <= self.vfr_jitter <= 0.45, "vfr jitter must be between 0 and 0.45 of a frame interval"),
-            (self.motion in ("decay", "move"), "motion must be 'decay' or 'move'"),
-            ((self.f_hz is None) == (self.zeta is None), "give f_hz and zeta together (or neither)"),
+            (self.move_duration_s > 0, "move_duration_s", "{name} must be positive"),
+            (self.px_per_m > 0, "px_per_m", "{name} must be positive"),
+            (self.scene in ("float", "surface"), "scene", "{name} must be 'float' or 'surface'"),
+            (0 <= self.float_submerged <= 1, "float_submerged", "{name} must be 0..1"),
+            (0 <= self.float_specular <= 1, "float_specular", "{name} must be 0..1"),
+            (0 <= self.motion_blur <= 1, "motion_blur", "{name} must be 0..1 of the frame interval"),
             (
-                self.f_hz is None or self.zeta is None or (self.f_hz > 0 and 0 <= self.zeta < 1),
-                "f_hz must be positive and zeta in [0, 1)",
+                0 <= self.float_bend_px <= 0.2 * self.height,
+                "float_bend_px",
+                "{name} must be 0..0.2 of the frame height",
             ),
-            (abs(self.amplitude_deg) <= 40, "amplitude must be at most 40 degrees"),
-            (self.noise_sigma >= 0 and self.blur_px >= 0, "noise and blur must not be negative"),
-            (0 <= self.flicker < 0.5, "flicker must be in [0, 0.5)"),
-            (
-                abs(self.container_tilt_deg) <= 30 and abs(self.camera_roll_deg) <= 30,
-                "tilt and roll must be within 30 degrees",
-            ),
-            (0.05 <= self.float_length_frac <= 0.3, "float length must be 0.05..0.3 of the frame height"),
-            (self.move_duration_s > 0 and self.px_per_m > 0, "move duration and px_per_m must be positive"),
-            (self.scene in ("float", "surface"), "scene must be 'float' or 'surface'"),
-            (0 <= self.float_submerged <= 1 and 0 <= self.float_specular <= 1, "float submerged/specular must be 0..1"),
-            (0 <= self.motion_blur <= 1, "motion blur must be 0..1 of the frame interval"),
-            (0 <= self.float_bend_px <= 0.2 * self.height, "float bend must be 0..0.2 of the frame height"),
-            (0 <= self.elevation_deg <= 20, "camera elevation must be 0..20 degrees"),
-            (0 <= self.meniscus_px <= 10, "meniscus must be 0..10 pixels"),
-            (0 <= self.specular <= 1 and 0 <= self.reflection <= 1, "specular and reflection must be 0..1"),
-            (abs(self.second_mode) <= 1, "second mode must be within -1..1 of the first"),
-            (self.container_diameter_m > 0, "container diameter must be positive"),
+            (0 <= self.elevation_deg <= 20, "elevation_deg", "{name} must be 0..20 degrees"),
+            (0 <= self.meniscus_px <= 10, "meniscus_px", "{name} must be 0..10 pixels"),
+            (0 <= self.specular <= 1, "specular", "{name} must be 0..1"),
+            (0 <= self.reflection <= 1, "reflection", "{name} must be 0..1"),
+            (abs(self.second_mode) <= 1, "second_mode", "{name} must be within -1..1 of the first mode"),
+            (self.container_diameter_m > 0, "container_diameter_m", "{name} must be positive"),
             (
                 # the encoders' own ranges: PyAV raised (a traceback) outside them or clipped without a word
                 self.quality is None or (0 <= self.quality <= 51 if self.codec == "h264" else 1 <= self.quality <= 31),
-                "quality must be an H.264 CRF of 0..51, or an MPEG-4 qscale of 1..31",
+                "quality",
+                "{name} must be an H.264 CRF of 0..51, or an MPEG-4 qscale of 1..31",
             ),
         ]
-        for ok, message in checks:
+        for ok, setting, message in checks:
             if not ok:
-                raise UserError(f"{message}.")
+                raise SettingError(setting, f"{message}.", *("f_hz", "zeta"))
         # a look of the other scene would be rendered nowhere: refused, not ignored
         other = "surface" if self.scene == "float" else "float"
         for name, label in SCENE_ONLY[other].items():
