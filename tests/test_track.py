@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import subprocess
 import sys
 from dataclasses import replace
@@ -1251,3 +1252,23 @@ def test_columns_beside_a_sensor_file_are_the_files(surface_video, tmp_path):
     assert sloshid.identify(res, value_col="left_wall_mm").signals[0].label == "left_wall_mm"
     with pytest.raises(UserError, match="has no value column 'height'"):
         sloshid.identify(res, value_col="height")
+
+
+def test_a_surface_whose_centre_leaves_its_rest_level_is_not_valid():
+    # a move that slopped the liquid to the rim read a flat line there, 0.005 deg against 46 deg and both walls 115 px
+    # up, valid with quality 1 (a trial): a planar slosh keeps the mean of the wall heights at rest, so such a frame
+    # is dropped. Rows as the step keeps them: (frame, t, angle, angle vs image, container angle, x, y, quality,
+    # valid, slope, container angle, left, right, width, opening); a 200 px inner width sloshing +-10 px at its walls
+    step = SurfaceStep(TrackSettings(target="surface"), (0, 0, 320, 240))
+    rows = []
+    for k in range(60):
+        swing = 10 * math.sin(2 * math.pi * 2 * k / 30) if k >= 30 else 0.0
+        left, right = 100 - swing, 100 + swing
+        if k == 45:
+            left = right = 130  # both walls 30 px (0.15 of the width) up: the rim, not the surface
+        rows.append((k, k / 30, 0.0, 0.0, 0.0, 160, 120, 1.0, 1, swing / 100, 0.0, left, right, 200.0, 0.0))
+    body, walls, notes = step.finish(rows)
+    valid = np.array([b[-1] for b in body])
+    assert valid.sum() == 59 and valid[45] == 0
+    assert np.isnan(walls["left_wall_px"][45]) and walls["right_wall_px"][46] == pytest.approx(rows[46][12] - 100)
+    assert any("centre left its rest level" in n and "1 frame(s), first at 1.50 s" in n for n in notes)

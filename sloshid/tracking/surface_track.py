@@ -24,6 +24,10 @@ from sloshid.video.colors import HsvRange
 
 VALID_QUALITY = 0.5
 """Frames whose surface quality is below this are marked valid = 0."""
+CENTRE_SHARE = 0.05
+"""A frame whose surface centre (the mean of the two wall heights above rest) is further than this share of the inner
+width from its rest level is not valid: a planar slosh keeps the centre there. Rendered clips stay within 2 px (0.01
+of the width) up to 40 deg of slosh and 20 deg of camera elevation; a liquid reaching the rim read 115 px (0.5)."""
 TILT_NOTE_DEG = 1.0
 """With `--reference image`, a container that turns by more than this in the picture (its walls as the liquid's sides
 give them, 1st to 99th percentile of the valid frames) draws a warning: the angle includes its tilt. A still
@@ -163,6 +167,20 @@ class SurfaceStep:
         walls = {}
         for name, w in (("left_wall", left), ("right_wall", right)):
             walls[f"{name}_px"] = np.where(valid, (w - median(w[rest])) / cos_e, np.nan)
+        # the mid-line's centre (the mean of the wall heights) stays at rest for a planar slosh: the liquid's volume
+        centre = 0.5 * (walls["left_wall_px"] + walls["right_wall_px"])
+        off = valid & (np.abs(centre) > CENTRE_SHARE * median(width[valid]))
+        if off.any():
+            valid &= ~off
+            body = [(*b[:-1], 0) if o else b for b, o in zip(body, off)]
+            walls = {name: np.where(valid, w, np.nan) for name, w in walls.items()}
+            first = int(np.argmax(off))
+            notes.append(
+                f"the surface's centre left its rest level by more than {100 * CENTRE_SHARE:.0f} % of the inner width "
+                f"in {int(off.sum())} frame(s), first at {t[first]:.2f} s (up to {np.nanmax(np.abs(centre[off])):.0f} "
+                "px), where a slosh keeps it (the liquid's volume): what was measured there is not the surface (the "
+                "liquid at the rim or spilling, or another object); those rows have valid = 0."
+            )
         mm_per_px = (
             1000 * self.settings.container_diameter_m / median(width[valid])
             if self.settings.container_diameter_m
