@@ -1272,3 +1272,18 @@ def test_a_surface_whose_centre_leaves_its_rest_level_is_not_valid():
     assert valid.sum() == 59 and valid[45] == 0
     assert np.isnan(walls["left_wall_px"][45]) and walls["right_wall_px"][46] == pytest.approx(rows[46][12] - 100)
     assert any("centre left its rest level" in n and "1 frame(s), first at 1.50 s" in n for n in notes)
+
+
+def test_the_surface_is_measured_inside_the_roi_only(surface_video):
+    # with --roi cutting the container below the sloshing surface's reach, a trial's walls read up to 17 px above the
+    # ROI's top, valid: the frames where the liquid meets the ROI's top are now not measured (the float's rule). The
+    # ROI's top here is 2 px above the surface at rest; the walls rise up to 7.9 px. The surface seen as an ellipse
+    # from 4 deg above, in a container tilting +-2 deg, reaches the ROI's top up to 3 px before its walls' mid-line
+    path, truth = surface_video
+    full = track_video(path, TrackSettings(target="surface"))
+    top = int(np.median(full.y_px[:20])) - 2  # the surface centre at rest, before the tap at 1 s
+    cut = track_video(path, TrackSettings(target="surface", roi=(0, top, 320, 240 - top)))
+    reach = np.maximum(truth["left_wall_px"], truth["right_wall_px"])
+    ok = cut.valid.astype(bool)
+    assert ok.sum() > 20 and reach[ok].max() < 2 + 3
+    assert (reach > 2 + 3).sum() > 10 and not ok[reach > 2 + 3].any()

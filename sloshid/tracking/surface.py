@@ -272,10 +272,12 @@ class SurfaceFinder:
         self, box: tuple[int, int, int, int], shape: tuple, headroom: float = HEADROOM
     ) -> tuple[int, int, int, int]:
         """Frame box (X0, Y0, X1, Y1) mapped around a liquid body box: its sides and bottom with a margin, and
-        `headroom` (share of its width) above its top."""
+        `headroom` (share of its width) above its top; inside the ROI (the whole picture by default)."""
         x0, y0, x1, y1 = box
+        rx, ry, rw, rh = self.roi
         pad, up = 6 + int(0.03 * (x1 - x0)), 6 + int(headroom * (x1 - x0))
-        return max(0, x0 - pad), max(0, y0 - up), min(shape[1], x1 + pad), min(shape[0], y1 + pad)
+        X0, Y0 = max(0, rx, x0 - pad), max(0, ry, y0 - up)
+        return X0, Y0, min(shape[1], rx + rw, x1 + pad), min(shape[0], ry + rh, y1 + pad)
 
     def _band_ready(self) -> bool:
         """The next frame can be measured in a band: the container's axes are held (it stood still), the last frame
@@ -375,6 +377,8 @@ class SurfaceFinder:
         # the axes as plain numbers: the few points below cost a microsecond each this way, ten as arrays
         (ox, oy), (eux, euy), (ewx, ewy) = (map(float, v) for v in (o, e_u, e_w))
         first = int(np.argmax(inside.ravel())) // body.shape[1]  # the liquid's top row: its first pixel's
+        if first == 0 and max(self.roi[1], 0) == Y0:  # the ROI's (or the picture's) top cuts the liquid off
+            return SurfaceMeasurement(False, liquid=True)
         ytop = float(first)
         uL = (aL * ytop + bL - ox) * eux + (ytop - oy) * euy
         uR = (aR * ytop + bR - ox) * eux + (ytop - oy) * euy
