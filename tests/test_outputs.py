@@ -219,6 +219,9 @@ def test_ctrl_c_during_a_plan_is_an_interruption_not_a_solver_failure(tmp_path):
         [sys.executable, "-m", "sloshid", "plan", ROOT / "data" / "scenarios" / "paper_3d.toml", "-o", out],
         stderr=subprocess.PIPE,
         text=True,
+        # Ctrl-C as a terminal delivers it: a suite run in a script's background job passes SIGINT on ignored, and a
+        # process that ignores it rightly is not interrupted
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
     )
     time.sleep(2.0)  # imports done, segments solving
     if proc.poll() is not None:

@@ -12,7 +12,7 @@ import time
 import pytest
 
 from sloshid.core.errors import UserError
-from sloshid.core.parallel import check_workers, parallel_map, signals_held
+from sloshid.core.parallel import check_workers, parallel_map, signals_held, solver_interruptible
 
 
 def _square_and_pid(x: int) -> tuple[int, int]:
@@ -60,6 +60,19 @@ def test_signals_held_are_delivered_when_the_block_ends():
         assert signal.getsignal(signal.SIGTERM) is handler
     finally:
         signal.signal(signal.SIGTERM, previous)
+
+
+def test_an_ignored_ctrl_c_stays_ignored_during_a_solve():
+    # a plan started where SIGINT is ignored (nohup, a script's background job): the solve took it over anyway, so a
+    # SIGINT stopped IPOPT and plan printed "did not converge ... relax [limits]" with exit 2
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        with solver_interruptible():
+            os.kill(os.getpid(), signal.SIGINT)
+            time.sleep(0.05)  # a handler would have run (and raised KeyboardInterrupt) by now
+        assert signal.getsignal(signal.SIGINT) is signal.SIG_IGN
+    finally:
+        signal.signal(signal.SIGINT, previous)
 
 
 def _sleep_after(ready) -> None:

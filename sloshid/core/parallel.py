@@ -39,11 +39,14 @@ def die_with_parent(parent_pid: int) -> None:
 @contextlib.contextmanager
 def _stop_signals_handled_by(handler: Callable[[int, object], None]) -> Iterator[None]:
     """SIGINT and SIGTERM go to `handler` within the block, and back to the handlers they had after it; left alone
-    outside the main thread, or where a handler set outside Python could not be put back."""
+    outside the main thread, or where a handler set outside Python could not be put back. A signal the process ignores
+    stays ignored (a command started with nohup, or in the background by a script): a solve that ended on it reported
+    "did not converge" and carried on, where an interruption was never asked for."""
     wanted = (signal.SIGINT, signal.SIGTERM)
     if threading.current_thread() is not threading.main_thread() or None in map(signal.getsignal, wanted):
         yield
         return
+    wanted = tuple(s for s in wanted if signal.getsignal(s) is not signal.SIG_IGN)
     previous = {s: signal.signal(s, handler) for s in wanted}
     try:
         yield
