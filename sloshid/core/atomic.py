@@ -35,7 +35,7 @@ def atomic_path(path: str | os.PathLike) -> Iterator[Path]:
     """Yield a temporary path beside `path` (same suffix); it replaces `path` only if the block succeeds."""
     target = Path(path)
     tmp = _sibling(target, f".part{target.suffix}")
-    made = _missing_top(target.parent)
+    made = missing_top(target.parent)
     done = False
     try:
         target.parent.mkdir(parents=True, exist_ok=True)
@@ -49,10 +49,10 @@ def atomic_path(path: str | os.PathLike) -> Iterator[Path]:
         if tmp.exists():
             tmp.unlink()
         if not done and made is not None:  # a failed write leaves no empty folder it made (a report on a full disk)
-            _remove_empty(target.parent, made)
+            remove_empty(target.parent, made)
 
 
-def _missing_top(folder: Path) -> Path | None:
+def missing_top(folder: Path) -> Path | None:
     """The outermost folder on the way to `folder` (itself included) that does not exist yet, or None."""
     top = None
     for p in (folder, *folder.parents):
@@ -62,7 +62,7 @@ def _missing_top(folder: Path) -> Path | None:
     return top
 
 
-def _remove_empty(folder: Path, top: Path) -> None:
+def remove_empty(folder: Path, top: Path) -> None:
     """Remove `folder` and its parents up to `top` while they are empty folders."""
     for p in (folder, *folder.parents):
         with contextlib.suppress(OSError):  # not empty (another writer), or gone: leave it

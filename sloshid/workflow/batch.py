@@ -16,7 +16,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from sloshid.core.atomic import write_json, write_text
+from sloshid.core.atomic import remove_empty, write_json, write_text
 from sloshid.core.errors import SettingError, UserError
 from sloshid.core.hashing import file_sha256, json_sha256
 from sloshid.core.outputs import is_sloshid_page
@@ -126,8 +126,9 @@ def process_video(video: str, config: BatchConfig, out_root: str) -> dict[str, A
 def _failed(row: dict[str, Any], out: Path, created: bool, reasons: str) -> dict[str, Any]:
     """A failed video's row; the folder this run made for it goes again when nothing was written into it (a video
     that did not decode), and the row then names no outputs."""
-    if created and out.is_dir() and not any(out.iterdir()):
-        out.rmdir()
+    if created:
+        remove_empty(out, out)  # only the video's own folder: another worker may be making its own beside it
+    if not out.exists():
         row = {**row, "outputs": ""}
     return {**row, "status": "failed", "reasons": reasons}
 
