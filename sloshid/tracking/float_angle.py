@@ -57,11 +57,13 @@ def hsv_mask(bgr: np.ndarray, hsv: HsvRange) -> np.ndarray:
     return cv2.bitwise_or(upper, lower)
 
 
-def fit_colour_model(crop: np.ndarray, blob: np.ndarray) -> tuple[np.ndarray, float] | None:
+def fit_colour_model(crop: np.ndarray, blob: np.ndarray, greys: float = 0.0) -> tuple[np.ndarray, float] | None:
     """Least-squares linear colour model w.bgr + c ~ float membership, fitted to this crop's own pixels.
 
     `blob` (0/255) marks the float roughly: eroded blob pixels are 'float' (1), pixels beyond a dilated
-    blob are 'background' (0), whatever colours they have (air above, liquid below). Returns
+    blob are 'background' (0), whatever colours they have (air above, liquid below). `greys`: neutral greys from
+    black to white are background too, with this share of the background pixels' weight (for a colour whose range
+    holds no grey: a dark wall, a few pixels of the crop, is otherwise fitted as it falls). Returns
     (`membership_map`'s transform of the model, rms fit error) or None when the crop holds no background.
     """
     core = cv2.erode(blob, _KERNEL, iterations=2)
@@ -75,8 +77,13 @@ def fit_colour_model(crop: np.ndarray, blob: np.ndarray) -> tuple[np.ndarray, fl
     for k, plane in enumerate(cv2.split(crop)):  # per plane: NumPy selects 3-byte pixels ten times slower
         X[:, k] = plane.reshape(-1)[used]
     target = inside[used].astype(np.float64)
+    normal, right = X.T @ X, X.T @ target
+    if greys > 0:  # target 0, so they add to the normal matrix only
+        level = np.linspace(0.0, 255.0, 18)[:, None]  # black to white in steps of 15
+        grey = np.hstack([level, level, level, np.ones_like(level)])
+        normal += greys * (len(target) - np.count_nonzero(target)) / len(grey) * (grey.T @ grey)
     try:  # normal equations: 4 unknowns, thousands of rows, well conditioned when float and background differ
-        coef = np.linalg.solve(X.T @ X, X.T @ target)
+        coef = np.linalg.solve(normal, right)
     except np.linalg.LinAlgError:
         return None
     # the membership ramp (linear from 0.1 to 0.9) goes into the transform, once per fit: the blur is linear
