@@ -393,12 +393,14 @@ class SurfaceFinder:
         uR = (aR * ytop + bR - ox) * eux + (ytop - oy) * euy
         half, uc = 0.5 * (uR - uL), 0.5 * (uR + uL)
         margin = max(4.0, WALL_MARGIN * 2 * half)
-        lo_col, hi_col = math.ceil(aL * ytop + bL + margin), int(aR * ytop + bR - margin)
+        # the columns between the walls at the liquid's top, in the map: a container tilted in the picture has one
+        # wall's top beyond the liquid there (its columns hold no surface); `inner` keeps the margin along the walls
+        lo_col = max(0, math.ceil(aL * ytop + bL + margin))
+        hi_col = min(body.shape[1], int(aR * ytop + bR - margin))
         cols = np.arange(lo_col, hi_col, max(1, -(-(hi_col - lo_col) // MAX_COLUMNS)))
-        # walls that leave the mapped box at the liquid's top lean far more than a container's (another object
-        # of the dye's colour): no container
-        if half < 10 or len(cols) < 12 or lo_col < 0 or hi_col > body.shape[1]:
+        if half < 10 or len(cols) < 12:
             return SurfaceMeasurement(False, liquid=True)
+        inner = 1 - margin / half
         span = slice(cols[0], cols[-1] + 1, cols[1] - cols[0])  # views, not copies: the columns are evenly spaced
         start = max(0, first - 1)  # no row above the top one crosses; one row of it keeps a crossing there found
         colour, found = _crossings_first(body[start:, span], _sustained(inside[start:, span]), axis=0)
@@ -413,7 +415,9 @@ class SurfaceFinder:
             front = refine_on_luma(gray[:, span], colour, found) if source == "luma" else colour
             dw = front - oy
             wv = du * ewx + dw * ewy
-            points[source] = ((du * eux + dw * euy - uc) / half, wv, found & _locally_consistent(wv, found), dw, front)
+            sv = (du * eux + dw * euy - uc) / half
+            usable = found & (np.abs(sv) <= inner)
+            points[source] = (sv, wv, usable & _locally_consistent(wv, usable), dw, front)
         if self._edges is None:  # how much each source's edge scatters about a free fit of it
             fits = [_fit_front(p[0][p[2]], p[1][p[2]], n) for p in (points["luma"], points["colour"])]
             if all(fits):
@@ -640,18 +644,40 @@ def _on_wall(x: np.ndarray, ok: np.ndarray, inward: float) -> np.ndarray:
     wall into the upper rows read for it (29 deg at a 640x480 container: 50 of a wall's 110 rows), where the first
     liquid pixel is on the sloped surface, inside the wall (`inward`: +1 for the left wall, -1 for the right), and a
     fit through them turned the wall by tens of degrees. The wall's line is fitted on the lower half of the rows
-    (below the surface's reach); rows more than WALL_STEP_PX inside it are dropped when they are a tenth of the rows
+    (below the surface's reach; the lower half of the usable rows, which a tilted container's bottom corner may end
+    early); rows more than WALL_STEP_PX inside it are dropped when they are a tenth of the rows
     or more (the surface's run); a few such rows are left to the robust fit, as before."""
-    lower = ok.copy()
-    lower[: ok.size // 2] = False
-    if np.count_nonzero(lower) < 5:
+    usable = np.flatnonzero(ok)
+    if usable.size < 10:
         return ok
-    rows = np.flatnonzero(lower)
+    rows = usable[usable.size // 2 :]
+    lower = np.zeros_like(ok)
+    lower[rows] = True
     dr, dx = rows - rows.mean(), x[lower] - x[lower].mean()
     slope = (dr @ dx) / (dr @ dr)  # least squares, written out: np.polyfit costs four times as much per frame
     line = x[lower].mean() + slope * (np.arange(x.size) - rows.mean())
     on = inward * (x - line) < WALL_STEP_PX
     return on if np.count_nonzero(ok & ~on) >= 0.1 * x.size else ok
+
+
+CORNER_SHARE = 0.05
+"""Rows closer than this share of the liquid's width to the bottom (at a side's crossing) are not read for that wall:
+a container tilted in the picture raises one bottom corner into the rows read for the walls (12 deg at 640x480: 48 px),
+whose side crossings there lie on the bottom and had dropped the wall's true rows (two thirds of the frames lost). An
+upright container's rows end a tenth of its height above the bottom, beyond this."""
+
+
+def _bottom_at(cols: np.ndarray, bottom: np.ndarray, ok: np.ndarray, margin: float):
+    """The row `margin` above the bottom at given columns, as a function, from the bottom's crossings (`bottom` at
+    `cols`, where `ok`): a line through the medians of their outer thirds (a few stray columns move no median). None
+    when a third holds no crossing."""
+    third = cols.size // 3
+    ends = [(cols[s][ok[s]], bottom[s][ok[s]]) for s in (slice(None, third), slice(cols.size - third, None))]
+    if third < 2 or any(c.size == 0 for c, _ in ends):
+        return None
+    (xl, yl), (xr, yr) = ((median(c.astype(float)), median(b)) for c, b in ends)
+    slope = (yr - yl) / (xr - xl)
+    return lambda x: yl + slope * (x - xl) - margin
 
 
 def _container_axes(
@@ -672,8 +698,18 @@ def _container_axes(
     left, okl = _crossings_first(band, band_in, axis=1)
     right, okr = _crossings_first(band[:, ::-1], band_in[:, ::-1], axis=1)
     right = band.shape[1] - 1 - right
+    c0, c1 = int(0.2 * (x1 - x0)) + x0 - X0, int(0.8 * (x1 - x0)) + x0 - X0
+    bottom, okb = _crossings_first(body[::-1, c0:c1], inside[::-1, c0:c1], axis=0)
+    bottom = body.shape[0] - 1 - bottom
+    corner = _bottom_at(np.arange(c0, c1), bottom, okb, CORNER_SHARE * (x1 - x0))
+    n = len(rows)
+    wall_rows = [n, n]  # rows that may be a wall's: a third of them must be (robust_lines' min_points)
+    if corner is not None:  # a container tilted in the picture: its raised side's lower rows end on the bottom
+        above = rows < corner(left), rows < corner(right)
+        okl, okr = okl & above[0], okr & above[1]
+        wall_rows = [int(np.count_nonzero(a)) for a in above]
     okl, okr = okl & _on_wall(left, okl, 1.0), okr & _on_wall(right, okr, -1.0)
-    n = len(rows)  # both walls in one call: each row's luma is read at its left and at its right crossing
+    # both walls in one call: each row's luma is read at its left and at its right crossing
     both, good = _luma_crossings(
         gray[r0:r1].T, np.concatenate([left, right]), np.concatenate([okl, okr]), reach=2, cols=np.tile(np.arange(n), 2)
     )
@@ -684,16 +720,13 @@ def _container_axes(
         left = both[:n]
     if np.array_equal(good[n:], okr):
         right = both[n:]
-    c0, c1 = int(0.2 * (x1 - x0)) + x0 - X0, int(0.8 * (x1 - x0)) + x0 - X0
-    bottom, okb = _crossings_first(body[::-1, c0:c1], inside[::-1, c0:c1], axis=0)
-    bottom = body.shape[0] - 1 - bottom
     # the walls (x over the rows) and the bottom (y over its columns) in one robust fit, padded to one length
     length, m = max(n, c1 - c0), c1 - c0
     t, v, ok = np.zeros((3, length)), np.zeros((3, length)), np.zeros((3, length), bool)
     t[:2, :n], t[2, :m] = rows, np.arange(c0, c1)
     v[0, :n], v[1, :n], v[2, :m] = left, right, bottom
     ok[0, :n], ok[1, :n], ok[2, :m] = okl, okr, okb
-    lines, _ = robust_lines(t, v, ok, 0.3, min_points=np.array([max(10, n // 3)] * 2 + [max(10, m // 3)]))
+    lines, _ = robust_lines(t, v, ok, 0.3, min_points=np.array([max(10, k // 3) for k in (*wall_rows, m)]))
     if np.isnan(lines).any():
         return None
     (aL, bL), (aR, bR), (k, d) = lines
