@@ -157,3 +157,93 @@ def test_videos_that_share_a_file_name_are_told_apart_in_the_summary(tmp_path):
     files = [str(tmp_path / "d1" / "x.mp4"), str(tmp_path / "d2" / "x.mp4"), str(tmp_path / "d2" / "copy.mp4")]
     assert distinct_names(files) == ["d1/x.mp4", "d2/x.mp4", "copy.mp4"]
     assert distinct_names(files[1:]) == ["x.mp4", "copy.mp4"]  # unique names stay short
+
+
+def _config(**identify):
+    from sloshid.workflow.options import BatchConfig, IdentifyOptions, TrackOptions
+
+    return BatchConfig(TrackOptions(), IdentifyOptions(**identify))
+
+
+def test_a_cached_video_is_named_as_this_run_gives_it_and_checked_against_its_outputs(videos, tmp_path):
+    # a re-run replayed the stored row: a copy of a video in another folder (or a moved output folder) was listed
+    # under the first one's name and folder; a damaged result.json failed the video on every re-run with a JSON
+    # error, and a deleted params.json was never noticed (a trial)
+    import json
+    import shutil
+
+    from sloshid.workflow.batch import process_video
+
+    good, _ = videos
+    copies = []
+    for folder in ("a", "b"):
+        (tmp_path / folder).mkdir()
+        copies.append(str(shutil.copy(good[0], tmp_path / folder / "x.mp4")))
+    out, config = tmp_path / "out", _config(mass_kg=0.5)
+    first = process_video(copies[0], config, str(out))
+    assert first["status"] == "ok"
+    folder = first["outputs"]
+    second = process_video(copies[1], config, str(out))  # the same content and name: the same folder, finished
+    assert second["status"] == "cached" and second["file"] == copies[1] and second["outputs"] == folder
+    moved = tmp_path / "moved"
+    shutil.copytree(out, moved)
+    again = process_video(copies[0], config, str(moved))
+    assert again["status"] == "cached" and again["outputs"].startswith(str(moved)) and again["f_hz"] == first["f_hz"]
+    marker = json.loads((tmp_path / folder / "result.json").read_text())
+    assert marker["settings"]["identify"]["mass_kg"] == 0.5  # the settings themselves, not only their hash
+    for damage in (
+        lambda d: (d / "params.json").unlink(),
+        lambda d: (d / "angles.csv").write_text((d / "angles.csv").read_text()[:-40]),
+        lambda d: (d / "result.json").write_text('{"broken'),
+    ):
+        damage(moved / "videos" / (tmp_path / folder).name)
+        redone = process_video(copies[0], config, str(moved))
+        assert redone["status"] == "ok" and redone["f_hz"] == first["f_hz"]
+
+
+def test_an_unwritable_videos_folder_is_refused_before_any_work(videos, tmp_path, run_cli):
+    good, _ = videos
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "videos").write_text("not a folder")  # as a folder that takes no files: each video failed in turn
+    code, _, err = run_cli("batch", good[0], "--out", out)
+    assert code == 2 and "cannot write --out" in err and "is a file, not a folder" in err
+    assert sorted(p.name for p in out.iterdir()) == ["videos"]
+
+
+def test_the_summary_page_shows_every_interval_to_its_digits_and_the_damping_constant(tmp_path):
+    # 1.2 [1.2, 1.2] hid a 0.1 % interval, and d (with --mass) was missing from the page
+    from sloshid.workflow.batch import SUMMARY_COLUMNS, BatchResult, batch_report
+
+    row = {c: "" for c in SUMMARY_COLUMNS}
+    row.update(file=str(tmp_path / "v.mp4"), status="ok", f_hz=1.20031, f_lo_hz=1.19987, f_hi_hz=1.20075)
+    row.update(zeta=0.0101, zeta_lo=0.0099, zeta_hi=0.0103, d_ns_per_m=0.19, d_lo_ns_per_m=0.187, d_hi_ns_per_m=0.193)
+    html = batch_report(BatchResult([row], *(tmp_path / n for n in ("s.csv", "f.csv", "s.html")))).to_html()
+    assert "1.20031 [1.19987, 1.20075]" in html and "d (N s/m)" in html and "0.19 [0.187, 0.193]" in html
+
+
+def test_the_local_cluster_leaves_port_8787_alone(tmp_path):
+    # its dashboard (unused) took 8787, and with that port held Dask warned on stderr in the middle of a batch
+    import socket
+    import warnings
+
+    from sloshid.core.parallel import dask_client
+
+    holder = socket.socket()
+    try:
+        holder.bind(("127.0.0.1", 8787))
+    except OSError:
+        holder.close()
+        pytest.skip("port 8787 is taken already")
+    holder.listen()
+    try:
+        with warnings.catch_warnings(record=True) as seen:
+            warnings.simplefilter("always")
+            client = dask_client(1)
+            try:
+                assert client.submit(sum, [1, 2]).result() == 3
+            finally:
+                client.close()
+        assert not [w for w in seen if "8787" in str(w.message)]
+    finally:
+        holder.close()

@@ -135,7 +135,10 @@ def dask_client(workers: int, scheduler: str | None = None):
             n_workers=workers,
             threads_per_worker=1,
             processes=True,
-            dashboard_address=None,
+            # no dashboard; the scheduler's HTTP server (health, metrics) starts all the same: on a free local port,
+            # not on 8787, where another cluster's made Dask warn on stderr
+            dashboard_address="127.0.0.1:0",
+            scheduler_kwargs={"dashboard": False},
             silence_logs=logging.CRITICAL,
         )
     finally:

@@ -19,9 +19,10 @@ from typing import Any
 from sloshid.core.atomic import remove_empty, write_json, write_text
 from sloshid.core.errors import SettingError, UserError
 from sloshid.core.hashing import file_sha256, json_sha256
-from sloshid.core.outputs import is_sloshid_page
+from sloshid.core.outputs import is_sloshid_page, writable_folder
 from sloshid.core.parallel import dask_client
 from sloshid.core.tables import distinct_names
+from sloshid.identification.estimator import Z95, shown_with_error
 from sloshid.report.html import Report
 from sloshid.workflow.options import BatchConfig
 
@@ -83,10 +84,10 @@ def process_video(video: str, config: BatchConfig, out_root: str) -> dict[str, A
     out = Path(out_root) / "videos" / f"{Path(video).stem}-{video_hash[:10]}-{settings[:6]}"
     marker = out / "result.json"
     key = {"video_sha256": video_hash, "config": settings}
-    if marker.exists():
+    if _finished(marker, key):
         done = json.loads(marker.read_text())
-        if done.get("key") == key:
-            return {**done["row"], "status": "cached"}
+        # this run's names: the same video may sit in another folder, and the output folder may have been moved
+        return {**done["row"], "file": video, "outputs": str(out), "status": "cached"}
     created = not out.exists()
     out.mkdir(parents=True, exist_ok=True)
     row["outputs"] = str(out)
@@ -119,8 +120,26 @@ def process_video(video: str, config: BatchConfig, out_root: str) -> dict[str, A
         )
     )
     row.update(status="ok", quality=doc["quality"], reasons="; ".join(doc["reasons"]))
-    write_json(marker, {"key": key, "row": row})
+    written = {name: file_sha256(out / name) for name in OUTPUT_FILES if (out / name).exists()}
+    write_json(marker, {"key": key, "settings": dataclasses.asdict(config), "outputs": written, "row": row})
     return row
+
+
+OUTPUT_FILES = ("angles.csv", "params.json", "overlay.mp4")
+"""A video's outputs beside its result.json, which records their hashes: a re-run redoes a video whose outputs went
+missing or changed."""
+
+
+def _finished(marker: Path, key: dict[str, str]) -> bool:
+    """The video's result.json holds this video's and these settings' key, and every output it lists is there, as
+    written (a damaged result.json or output means: not finished)."""
+    try:
+        done = json.loads(marker.read_text())
+        return done.get("key") == key and all(
+            file_sha256(marker.parent / name) == digest for name, digest in done["outputs"].items()
+        )
+    except (OSError, ValueError, KeyError, TypeError, AttributeError):
+        return False
 
 
 def _failed(row: dict[str, Any], out: Path, created: bool, reasons: str) -> dict[str, Any]:
@@ -173,6 +192,7 @@ def check_out_dir(out: Path) -> None:
                 raise UserError(f"--out {out} holds a {name} that sloshid batch did not write; choose another folder.")
     if (out / "summary.html").is_file() and not is_sloshid_page(out / "summary.html"):
         raise UserError(f"--out {out} holds a summary.html that sloshid batch did not write; choose another folder.")
+    writable_folder(out / "videos", "--out", out)  # where every video's folder goes
 
 
 def run_batch(
@@ -216,10 +236,13 @@ def run_batch(
 
 
 def _with_interval(row: dict[str, Any], key: str, lo: str, hi: str) -> str:
-    """'value [lo, hi]' with 4 significant digits, or '-' when the video has no estimate."""
+    """'value [lo, hi]' with digits down to the interval's second significant one (as identify prints them: 1.2 [1.2,
+    1.2] hid a 0.1 % interval), or '-' when the video has no estimate."""
     if row.get(key, "") == "":
         return "-"
-    return f"{float(row[key]):.4g} [{float(row[lo]):.4g}, {float(row[hi]):.4g}]"
+    value, low, high = float(row[key]), float(row[lo]), float(row[hi])
+    se = (high - low) / (2 * Z95)
+    return f"{shown_with_error(value, se)} [{shown_with_error(low, se)}, {shown_with_error(high, se)}]"
 
 
 def batch_report(result: BatchResult) -> Report:
@@ -247,6 +270,7 @@ def batch_report(result: BatchResult) -> Report:
             "f (Hz) [95 %]",
             "zeta [95 %]",
             "l (m) [95 %]",
+            "d (N s/m) [95 %]",
             "quality",
             "reasons",
             "tracking warnings",
@@ -260,6 +284,7 @@ def batch_report(result: BatchResult) -> Report:
                 _with_interval(r, "f_hz", "f_lo_hz", "f_hi_hz"),
                 _with_interval(r, "zeta", "zeta_lo", "zeta_hi"),
                 _with_interval(r, "l_m", "l_lo_m", "l_hi_m"),
+                _with_interval(r, "d_ns_per_m", "d_lo_ns_per_m", "d_hi_ns_per_m"),
                 r.get("quality", ""),
                 r.get("reasons", ""),
                 r.get("warnings", ""),
