@@ -334,7 +334,7 @@ def test_bad_input_is_one_sentence_and_exit_2_with_nothing_written(tmp_path, run
     scipy.io.savemat(tmp_path / "run.mat", {"slosh_times": meas[:, 0], "slosh_heights": meas[:, 1]})
     out = tmp_path / "out.csv"
     params_out = tmp_path / "out.json"  # identify writes a parameter JSON
-    radius = ("--container-radius-m", 0.05)
+    radius, mm_radius = ("--container-radius-m", 0.05), ("--container-radius-m", 49)
     cases = [
         (
             ("validate", "--trajectory", good, "--measured", tmp_path / "flat.csv", "--params", params, *radius),
@@ -380,6 +380,16 @@ def test_bad_input_is_one_sentence_and_exit_2_with_nothing_written(tmp_path, run
             "one --trajectory per",
         ),
         (("identify", tmp_path / "meas.csv", "-o", params_out, "--trajectory", good), "radius"),
+        # a radius in millimetres: wall heights 1000 times too high (35 m) with exit 0, and an io fit of -4784 %
+        (("predict", good, "-o", out, "--params", params, *mm_radius), "is it in millimetres"),
+        (
+            ("validate", "--trajectory", good, "--measured", tmp_path / "meas.csv", "--params", params, *mm_radius),
+            "--container-radius-m must be in metres",
+        ),
+        (
+            ("identify", tmp_path / "meas.csv", "-o", params_out, "--trajectory", good, *mm_radius),
+            "is it in millimetres",
+        ),
         (
             ("identify", tmp_path / "meas.csv", "-o", params_out, "--axis-offset-m", 0.05),
             "applies only with --trajectory",

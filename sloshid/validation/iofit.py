@@ -30,6 +30,7 @@ from sloshid.identification.estimator import (
     Identifier,
     IdentResult,
     IdentSettings,
+    check_in_metres,
     estimate,
     estimates_table,
 )
@@ -416,6 +417,7 @@ def fit_io_files(
             f"give one {{name}} per signal, in the same order: {len(signals)} signal(s), "
             f"{len(trajectories)} trajectories.",
         )
+    check_in_metres("container_radius_m", radius_m)
     if radius_m is None and any(s.unit == "mm" for s in signals):
         raise SettingError("container_radius_m", "wall heights in mm need the container radius: give {name} (m).")
     poses = [load_pose_log(t, pose_columns) for t in trajectories]

@@ -11,6 +11,7 @@ import numpy as np
 
 from sloshid.core.errors import UserError
 from sloshid.core.tables import write_csv
+from sloshid.identification.estimator import check_in_metres
 from sloshid.identification.stage import check_sampling
 from sloshid.model.pendulum import SloshParams
 from sloshid.model.pose import SMOOTH_S, PoseLog, PoseResponse, excitation, respond
@@ -57,6 +58,7 @@ class LiquidModel:
         self, radius_m: float | None = None, axis_offset_m: float | None = None, smooth_s: float | None = None
     ) -> LiquidModel:
         """The same model with the given geometry values replacing the stored ones (None keeps them)."""
+        check_in_metres("container_radius_m", radius_m)
         return replace(
             self,
             radius_m=self.radius_m if radius_m is None else radius_m,
