@@ -8,6 +8,7 @@ import re
 
 import pytest
 
+from sloshid.core.hashing import file_sha256
 from sloshid.identification.estimator import Identifier
 from sloshid.identification.signals import load_signal
 from sloshid.identification.stage import identify_sources
@@ -97,6 +98,8 @@ def test_report_has_every_figure_and_table(antisloshing_dir, tmp_path, run_cli):
         "prior",
     }
     assert set(data["parameters"]) == {"f_hz", "omega_rad_s", "zeta", "l_m", "d_ns_per_m", "m_kg"}
+    # the measured file's content, by which validate knows a run the model was fitted on from any working directory
+    assert data["source_sha256"] == [file_sha256(data["sources"][0])]
     assert data["prior"]["f_hz"] == pytest.approx(F_PHYS, abs=0.001)
     assert "f_hz" in stdout and "95 % CI" in stdout and "frequency (f, omega, l): good" in stdout
 

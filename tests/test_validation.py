@@ -635,3 +635,15 @@ def test_a_run_the_model_was_fitted_on_is_marked_and_left_out_of_the_medians(tmp
     assert "run fitted: the model was identified from this measurement" in err
     code, out, _ = run_cli("validate", *runs, "--params", tmp_path / "p.json")
     assert out.splitlines()[1].startswith("fitted *") and "the median leaves them out" in out
+    # a source named from a working directory this run is not in, nor beside the JSON: it was scored as a
+    # prediction (a trial). Its content's hash, which identify now records, names it wherever it is
+    from sloshid.core.hashing import file_sha256
+
+    params["sources"] = ["data/fitted.csv"]
+    (tmp_path / "p.json").write_text(json.dumps(params))
+    code, out, err = run_cli("validate", *runs, "--params", tmp_path / "p.json", "--json")
+    assert [r["in_sample"] for r in json.loads(out)["runs"]] == [False, False]
+    params["source_sha256"] = [file_sha256(tmp_path / "fitted.csv")]
+    (tmp_path / "p.json").write_text(json.dumps(params))
+    code, out, err = run_cli("validate", *runs, "--params", tmp_path / "p.json", "--json")
+    assert code == 0 and [r["in_sample"] for r in json.loads(out)["runs"]] == [True, False]

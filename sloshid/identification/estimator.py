@@ -15,6 +15,7 @@ from tqdm import tqdm
 
 from sloshid import __version__
 from sloshid.core.errors import SettingError, UserError
+from sloshid.core.hashing import file_sha256
 from sloshid.core.spectrum import MIN_PROMINENCE, Spectrum, welch_spectrum
 from sloshid.core.tables import PROGRESS_DELAY_S, distinct_names, to_pandas
 from sloshid.identification.between import BetweenSignals, between_signals
@@ -281,6 +282,8 @@ class IdentResult:
         return {
             "sloshid_version": __version__,
             "sources": [s.source for s in self.signals],
+            # the files' contents too: validate tells a run the model was fitted on wherever the file is found from
+            "source_sha256": [file_sha256(s.source) if Path(s.source).is_file() else None for s in self.signals],
             "window_s": [[w.t0_s, w.t1_s] for w in self.windows],
             "window_chosen_by": [w.chosen_by for w in self.windows],
             "quality": self.quality,

@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from sloshid.core.errors import UserError
+from sloshid.core.hashing import file_sha256
 from sloshid.core.tables import write_csv
 from sloshid.identification.estimator import check_in_metres
 from sloshid.identification.stage import check_sampling
@@ -41,6 +42,17 @@ class LiquidModel:
     fitted_on: tuple[Path, ...] = ()
     """The measurement files the model was identified from (identify JSON `sources`, as found from here): a validate
     run of one of them scores the fit, not a prediction."""
+    fitted_sha256: tuple[str, ...] = ()
+    """Their contents' hashes (identify JSON `source_sha256`): the same file wherever it is now, or a copy."""
+
+    def fitted_to(self, source: str) -> bool:
+        """The measurement file `source` is one the model was identified from (by its path or its content)."""
+        path = Path(source)
+        if not path.is_file():
+            return False
+        return path.resolve() in self.fitted_on or (
+            bool(self.fitted_sha256) and file_sha256(path) in self.fitted_sha256
+        )
 
     def __post_init__(self) -> None:
         for name in ("input_gain", "output_gain", "vertical_gain"):
@@ -105,7 +117,9 @@ def load_model(path: str | Path) -> LiquidModel:
         ) from None
     sources = data.get("sources") if isinstance(data.get("sources"), list) else []
     fitted = tuple(f for src in sources if isinstance(src, str) for f in [_found(src, Path(path).parent)] if f)
-    return LiquidModel(params, gain, radius, offset, smooth, out_gain, crest, vertical, fitted)
+    hashes = data.get("source_sha256") if isinstance(data.get("source_sha256"), list) else []
+    digests = tuple(h for h in hashes if isinstance(h, str))
+    return LiquidModel(params, gain, radius, offset, smooth, out_gain, crest, vertical, fitted, digests)
 
 
 def _found(source: str, beside: Path) -> Path | None:

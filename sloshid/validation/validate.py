@@ -297,5 +297,5 @@ def validate(poses: list[PoseLog], signals: list[Signal], model: LiquidModel) ->
     names = [n if names.count(n) == 1 else f"{n} ({Path(p.source).stem})" for n, p in zip(names, poses)]
     runs = [validate_run(p, s, model, n) for p, s, n in zip(poses, signals, names)]
     for run, sig in zip(runs, signals):
-        run.in_sample = Path(sig.source).is_file() and Path(sig.source).resolve() in model.fitted_on
+        run.in_sample = model.fitted_to(sig.source)
     return Validation(runs, model)
