@@ -453,12 +453,14 @@ class IdentResult:
         win = self.window_signal(i)
         ax.plot(win.t_s, win.value, ".", ms=2, color="0.3", label="measured")
         what = "two-mode fit" if self.fit.second else "PT2 fit"
-        ax.plot(
-            win.t_s, self.fit.fitted[i], color="tab:orange", lw=1, label=f"{what} ({self.fit_percent(i):.1f} % fit)"
+        # the curves are the fit at the samples: broken where samples are missing, not drawn straight across
+        t, fitted, residual, zero = _gaps_broken(
+            win.t_s, self.fit.fitted[i], self.fit.residuals[i], self.fit.zero_fitted[i] if self.fit.slow_s else win.t_s
         )
-        ax.plot(win.t_s, self.fit.residuals[i], color="tab:red", lw=0.5, alpha=0.6, label="residual")
+        ax.plot(t, fitted, color="tab:orange", lw=1, label=f"{what} ({self.fit_percent(i):.1f} % fit)")
+        ax.plot(t, residual, color="tab:red", lw=0.5, alpha=0.6, label="residual")
         if self.fit.slow_s:  # the zero the mode rides on, where a user checks that it is slow and not the mode
-            ax.plot(win.t_s, self.fit.zero_fitted[i], "--", color="tab:blue", lw=1, label="fitted slow zero")
+            ax.plot(t, zero, "--", color="tab:blue", lw=1, label="fitted slow zero")
         ax.set_xlabel("t (s)")
         ax.set_ylabel(_ylabel(self.signals[i]))
         ax.legend(fontsize=8, loc="upper right")
@@ -468,7 +470,8 @@ class IdentResult:
         """Residual autocorrelation with the 95 % band of white noise."""
         ax = _axes(ax)
         r = self.fit.residuals[i]
-        lags = min(r.size - 1, max(3 * self.lb_lags[i], 20))
+        # out past the interval correction's reach, which is drawn: the correlation it corrects for is seen
+        lags = min(r.size - 1, max(3 * self.lb_lags[i], 20, int(1.2 * self.fit.hac_lags[i]) + 1))
         acf = autocorrelation(r, lags)
         dt = 1 / self.signals[i].rate_hz
         ax.vlines(np.arange(lags + 1) * dt, 0, acf, color="tab:blue", lw=1)
@@ -487,8 +490,12 @@ class IdentResult:
 
         if axes is None:
             _, axes = plt.subplots(2, 1, sharex=True, figsize=(7, 5))
-        w0 = self.fit.omega_rad_s
-        resp = control.frequency_response(self.tf, np.logspace(np.log10(w0 / 20), np.log10(w0 * 20), 400))
+        w0, zeta = self.fit.omega_rad_s, max(self.fit.zeta, 1e-6)
+        # dense within a few half-power widths of the resonance: 400 points over three decades drew a lightly damped
+        # peak at a fifth of its height (zeta 0.002)
+        near = w0 * (1 + 5 * zeta * np.linspace(-1, 1, 201))
+        grid = np.union1d(np.logspace(np.log10(w0 / 20), np.log10(w0 * 20), 400), near[near > 0])
+        resp = control.frequency_response(self.tf, grid)
         f = resp.omega / (2 * math.pi)
         axes[0].loglog(f, np.abs(resp.magnitude).ravel(), color="tab:blue")
         axes[0].axvline(w0 / (2 * math.pi), color="0.5", ls=":")
@@ -497,6 +504,19 @@ class IdentResult:
         axes[1].set_ylabel("phase (deg)")
         axes[1].set_xlabel("f (Hz)")
         return axes
+
+
+GAP_FACTOR = 3.0
+"""Plotted curves break where samples are further apart than this many typical steps (a lost stretch; a single
+repeated frame does not break them)."""
+
+
+def _gaps_broken(t: np.ndarray, *curves: np.ndarray) -> tuple[np.ndarray, ...]:
+    """`t` and the curves with a NaN between samples more than GAP_FACTOR typical steps apart, so that a line plot
+    leaves the gap empty."""
+    dt = np.diff(t)
+    at = np.flatnonzero(dt > GAP_FACTOR * np.median(dt)) + 1 if dt.size else np.array([], int)
+    return tuple(np.insert(np.asarray(c, float), at, np.nan) for c in (t, *curves))
 
 
 def _axes(ax):
