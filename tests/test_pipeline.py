@@ -170,6 +170,17 @@ def test_malformed_pipeline_is_rejected_before_anything_runs(tmp_path, run_cli, 
     assert not (tmp_path / "runs").exists()
 
 
+def test_a_mistake_in_a_stages_scenario_names_the_scenario_file(tmp_path, run_cli):
+    # '[compare].methods has unknown method' sent the user to the pipeline's own [compare] table (which has no such
+    # key), and the suggestion for 'zdv' was 'zv', not 'zvd' (a trial)
+    scenario = (ROOT / "data" / "scenarios" / "paper_1d.toml").read_text() + '\n[compare]\nmethods = ["zdv"]\n'
+    _write(tmp_path / "move.toml", scenario)
+    pipe = _write(tmp_path / "p.toml", '[compare]\nscenario = "move.toml"\nuse_identified = false\n')
+    code, _, err = run_cli("run", pipe, "--output-dir", tmp_path / "runs")
+    assert code == 2 and f"scenario {tmp_path / 'move.toml'}: " in err and "(did you mean 'zvd'?)" in err
+    assert not (tmp_path / "runs").exists()
+
+
 def test_a_driven_signal_in_a_pipeline_names_the_pipelines_keys(tmp_path, run_cli):
     # the identify stage told a pipeline user to run `sloshid track --reference container`: it names the pipeline's
     # [identify].window_s and [track] reference key as well now

@@ -35,11 +35,12 @@ def load_toml(path: str | Path) -> dict[str, Any]:
 
 
 def did_you_mean(word: str, choices: typing.Iterable[str]) -> str:
-    """' (did you mean X?)' for the closest choice (one that differs only in case first), or '' when nothing is
-    close."""
+    """' (did you mean X?)' for the closest choice (one that differs only in case first, then one with the same
+    letters in another order: 'zdv' is 'zvd' mistyped, not 'zv'), or '' when nothing is close."""
     choices = list(choices)
     same = [c for c in choices if c.lower() == word.lower()]
-    close = same or difflib.get_close_matches(word, choices, n=1, cutoff=0.6)
+    swapped = [c for c in choices if sorted(c.lower()) == sorted(word.lower())]
+    close = same or swapped or difflib.get_close_matches(word, choices, n=1, cutoff=0.6)
     return f" (did you mean '{close[0]}'?)" if close else ""
 
 

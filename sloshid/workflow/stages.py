@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import contextlib
 import pickle
+from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -77,14 +79,27 @@ def _check_track(opts: TrackOptions) -> None:
         raise UserError("[track].videos has two files with the same name; their CSVs would collide.")
 
 
+@contextlib.contextmanager
+def _in_scenario(path: Path) -> Iterator[None]:
+    """A problem found in a stage's scenario file names that file: the pipeline's own tables have keys of the same
+    names ([compare] in both), and '[compare].methods has unknown method' sent the user to the wrong file."""
+    try:
+        yield
+    except UserError as exc:
+        text = str(exc)
+        raise UserError(text if str(path) in text else f"scenario {path}: {text}") from None
+
+
 def _check_scenario(opts: PlanOptions | CompareOptions) -> None:
     """The scenario file is a valid scenario (loading it validates every table)."""
-    load_scenario(opts.scenario)
+    with _in_scenario(opts.scenario):
+        load_scenario(opts.scenario)
 
 
 def _check_compare(opts: CompareOptions) -> None:
     """The scenario is valid and so is its [compare] table, which only the compare stage reads."""
-    compare_settings(load_scenario(opts.scenario))
+    with _in_scenario(opts.scenario):
+        compare_settings(load_scenario(opts.scenario))
 
 
 def run_identify(opts: IdentifyOptions, ctx: StageContext) -> dict[str, Any]:
