@@ -115,7 +115,7 @@ def _bad_cases(tmp_path, decay):
         )
     )  # coarse guess from 0.75 s
     ok = _csv(tmp_path / "ok.csv", ["t_s", "angle_deg"], t, y)
-    cases.append(("window outside", [ok, "--window", "2,30"], "lies outside the data"))
+    cases.append(("window outside", [ok, "--window", "2,30"], "reaches beyond the data"))
     cases.append(("window reversed", [ok, "--window", "5,2"], "must be before its end"))
     cases.append(("zero mass", [ok, "--mass", "0"], "--mass must be a positive number"))
     cases.append(("negative mass", [ok, "--mass", "-0.5"], "--mass must be a positive number"))
@@ -225,4 +225,4 @@ def test_the_window_identify_prints_can_be_given_back(tmp_path, decay, run_cli):
     code, _, err = run_cli("identify", path, "-o", tmp_path / "a.json", "--window", f"0.5,{end + 0.004:.3f}")
     assert code == 0, err
     code, _, err = run_cli("identify", path, "-o", tmp_path / "b.json", "--window", f"0.5,{end + 0.05:.2f}")
-    assert code == 2 and "lies outside the data" in err  # three samples beyond: a wrong window, still refused
+    assert code == 2 and "reaches beyond the data" in err  # three samples beyond: a wrong window, still refused

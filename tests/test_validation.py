@@ -350,7 +350,10 @@ def test_bad_input_is_one_sentence_and_exit_2_with_nothing_written(tmp_path, run
         (("predict", good, "-o", out, "--params", params, *radius, "--smooth-s", "0"), "window --smooth-s must be"),
         # a measurement given as the trajectory was read as text: "not UTF-8, re-save it as UTF-8"
         (("predict", tmp_path / "run.mat", "-o", out, "--params", params, *radius), "is a .mat file, a measured"),
-        (("predict", tmp_path / "logms.csv", "-o", out, "--params", params, *radius), "milliseconds"),
+        (
+            ("predict", tmp_path / "logms.csv", "-o", out, "--params", params, *radius),
+            "(is it in milliseconds?).",
+        ),  # not "and the band below that": predict has none
         (("predict", tmp_path / "one.csv", "-o", out, "--params", params, *radius), "at least 2 samples; it has 1"),
         (("predict", tmp_path / "mm.csv", "-o", out, "--params", params, *radius), "positions in millimetres"),
         (("predict", tmp_path / "wxyz.csv", "-o", out, "--params", params, *radius), "quaternion order x, y, z, w"),

@@ -65,7 +65,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         action="append",
         metavar="TRAJECTORY",
         help="input-output identification: the trajectory or pose log that caused each signal (once per signal, same "
-        "order); fits f, zeta and the input gain to the whole records (see `sloshid predict` for the pose options)",
+        "order); fits f, zeta, the input, output and vertical gains, the crest coefficient and each run's lag and "
+        "offset to the whole records (see `sloshid predict` for the pose options)",
     )
     parser.add_argument(
         "--axis-offset-m",

@@ -2,7 +2,8 @@
 (time s, position m, orientation as a unit quaternion x,y,z,w or as roll/pitch/yaw; header or not; `,` or `;`).
 The pendulums live in the world frame and are driven by the acceleration of their pivot, `--axis-offset-m` up the
 container axis from the logged point (Savitzky-Golay, order 5, `--smooth-s` window); the output holds the pivot
-acceleration, the surface angles relative to the container and the wall height R tan(relative angle)."""
+acceleration, the surface angles relative to the container and the wall height: R tan(relative angle), times the
+output gain and (1 + crest coefficient x tan) that an input-output `identify --trajectory` fitted."""
 
 from __future__ import annotations
 

@@ -362,7 +362,7 @@ def user_window(
     t0, t1 = (lo if lo - dt <= t0 < lo else t0), (hi if hi < t1 <= hi + dt else t1)
     if t0 < lo - 1e-9 or t1 > hi + 1e-9:
         raise SettingError(
-            "window_s", f"{{name}} {t0:g},{t1:g} s lies outside the data of {sig.source} ({lo:g} to {hi:g} s)."
+            "window_s", f"{{name}} {t0:g},{t1:g} s reaches beyond the data of {sig.source} ({lo:g} to {hi:g} s)."
         )
     u, _, _, _, _, reach, moving, _, forced = _forcing(sig, f_guess_hz, noise_std, drift, mean_noise)
     inside = u.t_s[forced][(u.t_s[forced] >= t0) & (u.t_s[forced] <= t1)]

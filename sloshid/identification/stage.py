@@ -62,11 +62,11 @@ def check_sampling(source: str, rate_hz: float, f_range_hz: tuple[float, float])
         band = f"{lo:g} Hz" if lo == hi else f"{lo:g}-{hi:g} Hz"
         # a band the user chose above plausibly timed samples (a video's 30 fps) is the band's mistake, not the clock's
         users_band = lo != hi and f_range_hz != IdentSettings().f_range_hz and rate_hz >= MIN_SAMPLES_PER_PERIOD
-        cure = (
-            "lower --f-range below that (or, if the time column is not in seconds, convert it)"
-            if users_band
-            else "the time column must be in seconds (is it in milliseconds?), and the band below that"
-        )
+        cure = "the time column must be in seconds (is it in milliseconds?)"
+        if users_band:
+            cure = "lower --f-range below that (or, if the time column is not in seconds, convert it)"
+        elif lo != hi:  # identify's search band, which the user may also lower
+            cure += ", and the band below that"
         raise UserError(
             f"{source}: the samples are {1 / rate_hz:.4g} time units apart, too coarse for a mode in "
             f"{band} (at most {rate_hz / MIN_SAMPLES_PER_PERIOD:.3g} Hz at {MIN_SAMPLES_PER_PERIOD:g} samples per "
