@@ -116,6 +116,18 @@ def test_a_truncated_video_is_said_by_the_pipeline(video, tmp_path, run_cli):
     assert _statuses(index.parent) == {"track": "ran"}
 
 
+def test_warnings_of_a_track_stage_with_several_videos_name_their_video(tmp_path, run_cli):
+    # "the encoder repeated the moving float's previous picture in 28 of 300 frames", twice, with no file named (a
+    # trial); at 120 fps the encoder repeats pictures of a moving float
+    render_video(tmp_path / "a.mp4", SynthSettings(width=320, height=240, duration_s=4.0, fps=120, seed=3))
+    (tmp_path / "b.mp4").write_bytes((tmp_path / "a.mp4").read_bytes())
+    pipe = _write(tmp_path / "p.toml", '[track]\nvideos = ["a.mp4", "b.mp4"]\n')
+    code, _, err = run_cli("run", pipe, "--output-dir", tmp_path / "runs")
+    repeated = [line for line in err.splitlines() if "repeated the moving float's previous picture" in line]
+    assert code == 0 and len(repeated) == 2
+    assert repeated[0].startswith("sloshid: warning: a.mp4: ") and repeated[1].startswith("sloshid: warning: b.mp4: ")
+
+
 def test_failing_stage_keeps_finished_results(video, tmp_path, run_cli):
     # a constant signal has no oscillatory mode: identify must fail, track's outputs must stay
     flat = _write(tmp_path / "flat.csv", "t_s,y\n" + "".join(f"{i / 50},1.0\n" for i in range(500)))

@@ -44,9 +44,12 @@ def run(args: argparse.Namespace) -> int:
     for rec in result.stages:
         if rec.status == "failed":
             print(f"sloshid: error: stage [{rec.name}] failed: {rec.error}", file=sys.stderr)
-        for video in rec.summary.get("videos", []) if rec.name == "track" else ():  # as `track` warns of them
+        videos = rec.summary.get("videos", []) if rec.name == "track" else []
+        for video in videos:  # as `track` warns of them, named when the stage tracked several
+            name = Path(video.get("video", "")).name
             for warning in video.get("warnings", []):
-                print(f"sloshid: warning: {warning}", file=sys.stderr)
+                named = f"{name}: {warning}" if len(videos) > 1 and name not in warning else warning
+                print(f"sloshid: warning: {named}", file=sys.stderr)
             truncated |= video.get("lost_share", 0.0) > LOST_NOTE
     print(result.index_html)
     return 0 if result.ok and not truncated else 1
