@@ -55,6 +55,8 @@ def test_batch_records_failure_and_skips_finished_videos_on_rerun(videos, tmp_pa
         assert int(r["frames"]) == 120
     failures = _rows(out / "failures.csv")
     assert [r["file"].rsplit("/", 1)[-1] for r in failures] == ["corrupt.mp4"]
+    failed = [line for line in stdout.splitlines() if "failed: " in line]  # the path once (it was said twice)
+    assert len(failed) == 1 and failed[0].count("corrupt.mp4") == 1 and "is not a video" in failed[0]
     html = (out / "summary.html").read_text()
     # the frequency-distribution figure is embedded and every video has a table row
     assert html.count("data:image/png;base64,") == 1 and "identified frequencies spread" in html

@@ -341,6 +341,7 @@ def bad_files(tmp_path_factory):
     """Files a user might wrongly pass: text named .mp4, a video without frames, a truncated video."""
     d = tmp_path_factory.mktemp("bad")
     (d / "text.mp4").write_text("this is not a video\n")
+    (d / "zero.mp4").write_bytes(b"")  # was "not a video FFmpeg can decode (or it is cut off before its index)"
     empty = av.open(str(d / "empty.mp4"), "w")  # an MP4 with a video stream and zero frames
     stream = empty.add_stream("libx264", rate=30)
     stream.width, stream.height, stream.pix_fmt = 64, 48, "yuv420p"
@@ -357,6 +358,7 @@ def bad_files(tmp_path_factory):
     [
         ("missing.mp4", [], "does not exist"),
         ("text.mp4", [], "is not a video"),
+        ("zero.mp4", [], "is empty (0 bytes)"),
         ("empty.mp4", [], "contains no video frames"),
         ("full.mp4", ["--float-color", "yellow"], "no float found in any of the 60 frames"),
         ("full.mp4", ["--roi", "300,200,50,50"], "reaches beyond the 320x240 frame"),

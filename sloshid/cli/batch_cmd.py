@@ -67,8 +67,9 @@ def run(args: argparse.Namespace) -> int:
     done = sum(r["status"] in ("ok", "cached") for r in result.rows)
     cached = sum(r["status"] == "cached" for r in result.rows)
     print(f"{done} of {len(result.rows)} videos done ({cached} unchanged, skipped), {len(result.failures)} failed.")
-    for row in result.failures:
-        print(f"  failed: {row['file']}: {row['reasons']}")
+    for row in result.failures:  # the file once: most reasons start with it
+        reason = row["reasons"]
+        print(f"  failed: {reason}" if row["file"] in reason else f"  failed: {row['file']}: {reason}")
     # a video that decoded only in part was tracked as far as it went: said, and the exit code is 1, as for `track`
     truncated = [r for r in result.rows if r["status"] != "failed" and float(r.get("lost_share") or 0) > LOST_NOTE]
     for row in truncated:

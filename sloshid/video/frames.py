@@ -187,6 +187,8 @@ class FrameReader:
             raise UserError(f"video {self.path} does not exist.")
         if not self.path.is_file():
             raise UserError(f"video {self.path} is not a file.")
+        if self.path.stat().st_size == 0:
+            raise UserError(f"video {self.path} is empty (0 bytes).")
         try:
             self._container = av.open(str(self.path))
         except (av.FFmpegError, ValueError) as exc:
