@@ -91,6 +91,9 @@ def test_batch_bad_input(videos, tmp_path, run_cli):
     assert code == 2 and "did you mean 'float_color'" in err and not (tmp_path / "o").exists()
     code, _, err = run_cli("batch", good[0], "--out", tmp_path / "o", "--workers", "0")
     assert code == 2 and "--workers" in err
+    cfg.write_text('[identify]\nvalue_col = "left_wall_mm"\n')  # every video was tracked, then failed
+    code, _, err = run_cli("batch", good[0], "--config", cfg, "--out", tmp_path / "o")
+    assert code == 2 and "[identify].value_col 'left_wall_mm' is not a column" in err and not (tmp_path / "o").exists()
 
 
 def test_batch_keeps_the_users_files_and_names_folders(videos, tmp_path, run_cli):

@@ -182,6 +182,22 @@ def test_malformed_pipeline_is_rejected_before_anything_runs(tmp_path, run_cli, 
     assert not (tmp_path / "runs").exists()
 
 
+def test_a_column_the_tracked_tables_lack_is_refused_before_tracking(video, tmp_path, run_cli):
+    # value_col = "left_wall_mm" on a float video was found only after tracking, in a hidden cache file's name
+    pipe = _write(tmp_path / "p.toml", f'[track]\nvideos = ["{video}"]\n[identify]\nvalue_col = "left_wall_mm"\n')
+    code, _, err = run_cli("run", pipe, "--output-dir", tmp_path / "runs")
+    assert (
+        code == 2 and "[identify].value_col 'left_wall_mm' is not a column of the tracked tables (target float)" in err
+    )
+    assert not (tmp_path / "runs").exists()
+    pipe = _write(
+        tmp_path / "s.toml",
+        f'[track]\nvideos = ["{video}"]\ntarget = "surface"\n[identify]\nvalue_col = "left_wall_mm"\n',
+    )
+    code, _, err = run_cli("run", pipe, "--output-dir", tmp_path / "runs", "--quiet")
+    assert "is not a column" not in err  # the surface's tables have it (this video has no dye: exit 1 from tracking)
+
+
 def test_a_mistake_in_a_stages_scenario_names_the_scenario_file(tmp_path, run_cli):
     # '[compare].methods has unknown method' sent the user to the pipeline's own [compare] table (which has no such
     # key), and the suggestion for 'zdv' was 'zv', not 'zvd' (a trial)

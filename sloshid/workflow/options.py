@@ -6,11 +6,11 @@ import dataclasses
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from sloshid.core.errors import UserError
+from sloshid.core.errors import SettingError, UserError
 from sloshid.core.settings import from_dict, load_toml
 from sloshid.identification.estimator import IdentSettings
 from sloshid.identification.stage import SignalColumns
-from sloshid.tracking.tracker import TrackSettings
+from sloshid.tracking.tracker import SURFACE_COLUMNS, TRACK_COLUMNS, TrackSettings
 
 
 @dataclass(frozen=True)
@@ -51,6 +51,22 @@ class IdentifyOptions(IdentSettings):
         return SignalColumns(self.time_col, self.value_col, self.time_var, self.value_var)
 
 
+def check_tracked_columns(track: TrackOptions, ident: IdentifyOptions) -> None:
+    """An [identify] that reads the tracked tables (no `signals` of its own) names columns they have: a misspelt or
+    other-target `value_col` was found only after every video was tracked, in a hidden cache file's name."""
+    if ident.signals:
+        return
+    columns = SURFACE_COLUMNS if track.target == "surface" else TRACK_COLUMNS
+    for key in ("time_col", "value_col"):
+        name = getattr(ident, key)
+        if name is not None and not name.strip().isdigit() and name not in columns:
+            raise SettingError(
+                key,
+                f"{{name}} '{name}' is not a column of the tracked tables (target {track.target}): they have "
+                f"{', '.join(columns)}.",
+            )
+
+
 @dataclass(frozen=True)
 class BatchConfig:
     """A `sloshid batch --config` file: a [track] table and an optional [identify] table."""
@@ -71,4 +87,8 @@ class BatchConfig:
             raise UserError(
                 f"{path}: a batch takes its videos from the command line; remove [track].videos and [identify].signals."
             )
+        try:
+            check_tracked_columns(track, ident)
+        except SettingError as exc:
+            raise UserError(str(exc.named(lambda setting: f"{path}: [identify].{setting}"))) from None
         return cls(track, ident)

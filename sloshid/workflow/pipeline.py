@@ -79,6 +79,8 @@ class Stage:
     """Names of earlier stages whose outputs it consumes, given the stages present in the pipeline."""
     check: Callable[[Any], None] = lambda s: None
     """Validation that needs more than the settings' own types (files that must parse), run before any stage."""
+    check_with: Callable[[Any, dict[str, Any]], None] = lambda s, others: None
+    """Validation against the other stages' settings (by stage name), run before any stage."""
 
 
 @dataclass
@@ -161,6 +163,14 @@ class Pipeline:
         if not stages:
             raise UserError(f"{path} declares no stage; add one of {', '.join(f'[{n}]' for n in registry)}.")
         present = {s.name for s, _ in stages}
+        every = {s.name: settings for s, settings in stages}
+        for stage, settings in stages:
+            try:
+                stage.check_with(settings, every)
+            except SettingError as exc:
+                raise UserError(
+                    str(exc.named(lambda setting, name=stage.name: f"{path}: [{name}].{setting}"))
+                ) from None
         for stage, settings in stages:
             for need in stage.needs(settings, present):
                 if need not in present:

@@ -18,7 +18,7 @@ from sloshid.model.pendulum import IdentifiedFrequency
 from sloshid.planning.planner import plan
 from sloshid.planning.scenario import load_scenario, resolve_liquid
 from sloshid.tracking.tracker import track_video
-from sloshid.workflow.options import IdentifyOptions, TrackOptions
+from sloshid.workflow.options import IdentifyOptions, TrackOptions, check_tracked_columns
 from sloshid.workflow.pipeline import Stage, StageContext
 
 PLAN_PICKLE = "plan.pickle"
@@ -215,7 +215,12 @@ def run_compare(opts: CompareOptions, ctx: StageContext) -> dict[str, Any]:
 
 TRACK = Stage("track", TrackOptions, run_track, input_files=lambda o: list(o.videos), check=_check_track)
 IDENTIFY = Stage(
-    "identify", IdentifyOptions, run_identify, input_files=lambda o: list(o.signals), needs=_identify_needs
+    "identify",
+    IdentifyOptions,
+    run_identify,
+    input_files=lambda o: list(o.signals),
+    needs=_identify_needs,
+    check_with=lambda o, others: check_tracked_columns(others["track"], o) if "track" in others else None,
 )
 
 PLAN = Stage(
