@@ -499,3 +499,14 @@ def test_the_report_plots_draw_the_resonance_peak_and_leave_gaps_empty():
     inside = (tx > 4.05) & (tx < 4.55)
     assert not inside.any() and np.isnan(fy).sum() == 1  # one break, at the gap
     plt.close("all")
+
+
+def test_a_clipped_record_is_not_given_a_good_damping():
+    # a 3 Hz decay clipped at +-2 (a saturated sensor): 76 samples on the limits, zeta 31 % low with its interval
+    # excluding the truth and only "the model misfits the mode" said (a trial)
+    t, y = free_decay(3.0, 0.02, 60, duration_s=12, amplitude=5, noise_std=0.02, seed=3, lead_in_s=1.0)
+    res = Identifier().fit(make_signal(t, np.clip(y, -2, 2), "angle_deg", "deg", "clipped")).result
+    damping = res.groups["damping"]
+    assert damping.quality == "unreliable" and any("stop flat at 2 deg" in r for r in damping.reasons)
+    clean = Identifier().fit(make_signal(t, y, "angle_deg", "deg", "clean")).result
+    assert not any("stop flat" in r for g in clean.groups.values() for r in g.reasons)

@@ -183,6 +183,27 @@ def _judge_between(inp: VerdictInput, f: float, doubts: _Doubts) -> None:
         )
 
 
+CLIP_RUN = 3
+"""Samples in a row at the window's extreme value that make a peak flat: a clipped one. Real records reach their
+extreme once (a smooth peak holds its top value for a sample or two even when quantised); a saturated sensor holds it
+for many, at peak after peak."""
+
+
+def clipped_at(values: np.ndarray) -> tuple[float, int] | None:
+    """(level, peaks) when at least two peaks of `values` stop flat at its maximum or its minimum (CLIP_RUN samples in a
+    row exactly there), else None."""
+    if values.size == 0:
+        return None
+    for level in (float(values.max()), float(values.min())):
+        at = np.abs(values - level) <= 1e-9 * max(1.0, abs(level))
+        edges = np.diff(np.concatenate([[0], at.astype(np.int8), [0]]))
+        runs = np.flatnonzero(edges == -1) - np.flatnonzero(edges == 1)
+        peaks = int(np.count_nonzero(runs >= CLIP_RUN))
+        if peaks >= 2:
+            return level, peaks
+    return None
+
+
 def _judge_signal(inp: VerdictInput, i: int, name: str, f: float, f2: float | None, doubts: _Doubts, notes) -> None:
     """The doubts one signal's window raises."""
     fit = inp.fit
@@ -218,6 +239,17 @@ def _judge_signal(inp: VerdictInput, i: int, name: str, f: float, f2: float | No
             "in the report or give it yourself (--window).",
         )
     w = inp.windows[i]
+    sig = inp.signals[i]
+    clipped = clipped_at(sig.value[(sig.t_s >= w.t0_s) & (sig.t_s <= w.t1_s)])
+    if clipped is not None:
+        level, peaks = clipped
+        doubts.add(
+            ("damping",),
+            "unreliable",
+            f"{name}: {peaks} peaks stop flat at {level:.6g} {sig.unit}".rstrip()
+            + ": the signal is clipped (a saturated sensor, a float or surface at the end of its range), and a cut "
+            "swing decays more slowly than the mode does; fit a window after the clipping ends (--window).",
+        )
     if w.chosen_by == "user" and w.excitation_end_s is not None and w.t0_s < w.excitation_end_s:
         doubts.add(
             BOTH,
