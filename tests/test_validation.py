@@ -650,3 +650,23 @@ def test_a_run_the_model_was_fitted_on_is_marked_and_left_out_of_the_medians(tmp
     (tmp_path / "p.json").write_text(json.dumps(params))
     code, out, err = run_cli("validate", *runs, "--params", tmp_path / "p.json", "--json")
     assert code == 0 and [r["in_sample"] for r in json.loads(out)["runs"]] == [True, False]
+
+
+def test_a_move_without_vertical_motion_holds_the_vertical_gain_at_one(tmp_path):
+    # a purely horizontal move says nothing of the vertical gain: it was reported as 1.2456 +- 0 (95 % CI 1.2456 ..
+    # 1.2456), rated good, and predict would have applied it to any 3-D move (a trial)
+    t = np.arange(0, 2.5, 1 / 500)
+    s = smooth_step(t, 1.0, 1.2)
+    flat = PoseLog(t, np.column_stack([0.25 * s, 0 * s, 0 * s]), Rotation.identity(t.size), "flat")
+    measured_csv(tmp_path / "meas.csv", flat, noise_mm=0.05)
+    write_pose_csv(tmp_path / "log.csv", flat)
+    fit = fit_io(
+        [load_pose_log(tmp_path / "log.csv")],
+        [load_signal(tmp_path / "meas.csv")],
+        RADIUS,
+        OFFSET,
+        settings=IdentSettings(window_s=(5.7, 10.5)),
+    )
+    assert "vertical_gain" not in fit.parameters and fit.model.vertical_gain == pytest.approx(1.0, abs=1e-9)
+    assert "vertical_gain held at 1" in fit.summary() and any("held at 1" in n for n in fit.to_dict()["notes"])
+    assert fit.parameters["f_hz"].value == pytest.approx(3.2, rel=0.01)

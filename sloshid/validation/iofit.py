@@ -186,7 +186,8 @@ class IOFit:
             # the decay-only start's remarks on its own estimates are marked; those on the inputs stay as they are
             "notes": [
                 n if n in inputs or n.startswith("the mass ") else f"decay-only start: {n}" for n in base["notes"]
-            ],
+            ]
+            + ([] if "vertical_gain" in self.parameters else [HELD_VERTICAL]),
             "parameters": params,
             "decay_only_parameters": base["parameters"],
             "transfer_function": {**base["transfer_function"], "num": [self.model.input_gain * num[0]], "den": den},
@@ -215,6 +216,8 @@ class IOFit:
                 f"  {key:<13} = {est.shown()} ± {est.stderr:.2g}  (95 % CI {est.shown(est.ci95[0])} .. "
                 f"{est.shown(est.ci95[1])})"
             )
+        if "vertical_gain" not in self.parameters:
+            lines.append(f"  {HELD_VERTICAL}")
         d = self.decay.parameters
         lines.append(f"  decay-only start: f = {d['f_hz'].value:.4g} Hz, zeta = {d['zeta'].value:.3g}")
         for name, run, lag, dec in zip(self.names, self.runs, self.lags_s, self.decay_runs):
@@ -241,6 +244,24 @@ def _thin(exc: Excitation, rate_hz: float) -> Excitation:
     return replace(exc, t_s=exc.t_s[::step], acc_m_s2=exc.acc_m_s2[::step], rot=exc.rot[::step])
 
 
+VERTICAL_SHARE = 0.02
+"""The vertical gain is fitted only when some run's vertical pivot acceleration reaches this share of its horizontal
+one (RMS): a move without vertical motion gave it no information, and it was reported as 1.2456 +- 0, rated good."""
+
+
+HELD_VERTICAL = (
+    f"vertical_gain held at 1 (a pendulum's): no run moves the container vertically (its vertical acceleration stays "
+    f"below {100 * VERTICAL_SHARE:g} % of its horizontal one), so the data say nothing of it."
+)
+
+
+def _vertical_share(exc: Excitation) -> float:
+    """RMS of the pivot's vertical acceleration over that of its horizontal one."""
+    acc = exc.acc_m_s2
+    horizontal = float(np.sqrt(np.mean(np.sum(acc[:, :2] ** 2, axis=1))))
+    return float(np.sqrt(np.mean(acc[:, 2] ** 2))) / horizontal if horizontal > 0 else math.inf
+
+
 def _prepare(pose: PoseLog, sig: Signal, start: LiquidModel) -> _RunData:
     """Thin the excitation, align the start model's prediction with the measurement, subtract the baseline; later
     simulations run only as long as the aligned record needs (plus the lag's search span)."""
@@ -265,6 +286,7 @@ class _Problem:
 
     def __init__(self, data: list[_RunData], f0: float, zeta0: float, radius_m: float | None):
         self.data, self.f0, self.zeta0, self.radius_m = data, f0, zeta0, radius_m
+        self.vertical = any(_vertical_share(d.exc) >= VERTICAL_SHARE for d in data)
         self.lags = [d.lag0 for d in data]
         self.n_sim = 0
         self._sims: dict[tuple[float, float, float, float], list[tuple[np.ndarray, np.ndarray, np.ndarray]]] = {}
@@ -280,6 +302,8 @@ class _Problem:
         gain_lo, gain_hi = math.log(GAIN_BOUNDS[0]), math.log(GAIN_BOUNDS[1])
         lo = [-10 * F_SPAN, math.log(ZETA_BOUNDS[0] / self.zeta0), gain_lo, gain_lo, CREST_BOUNDS[0], gain_lo]
         hi = [10 * F_SPAN, math.log(ZETA_BOUNDS[1] / self.zeta0), gain_hi, gain_hi, CREST_BOUNDS[1], gain_hi]
+        if not self.vertical:  # nothing to fit the vertical gain on: held at 1 (a pendulum's)
+            lo[5], hi[5] = -1e-12, 1e-12
         return np.array(lo + [-LAG_SPAN] * n), np.array(hi + [LAG_SPAN] * n)
 
     def lags_at(self, x: np.ndarray) -> list[float]:
@@ -377,8 +401,9 @@ def fit_io(
         prob.residuals, x, bounds=(lo, hi), jac=prob.jacobian, x_scale="jac", max_nfev=MAX_NFEV, **TOLERANCES
     )
     f, zeta, k, c, q, kv = physical = prob.physical(sol.x)
-    at_bound = [nm for nm, v, a, b in zip(FITTED, sol.x, lo, hi) if min(v - a, b - v) < 1e-6]
-    params = _estimates(sol, prob, physical, settings.mass_kg)
+    held = () if prob.vertical else ("vertical_gain",)
+    at_bound = [nm for nm, v, a, b in zip(FITTED, sol.x, lo, hi) if min(v - a, b - v) < 1e-6 and nm not in held]
+    params = {k: v for k, v in _estimates(sol, prob, physical, settings.mass_kg).items() if k not in held}
     mass = settings.mass_kg or 1.0
     physics = SloshParams.from_modal(2 * math.pi * f, zeta, mass)
     model = LiquidModel(physics, k, radius_m, axis_offset_m, smooth_s, c, q, kv)
