@@ -213,9 +213,9 @@ def run_batch(
         raise UserError(f"{twice[0]} is listed more than once; each video is processed once.")
     out = Path(out_dir)
     check_out_dir(out)
-    out.mkdir(parents=True, exist_ok=True)
     rows: dict[str, dict[str, Any]] = {}
     with dask_client(workers, scheduler) as client:
+        out.mkdir(parents=True, exist_ok=True)  # once the cluster is there: an unreachable scheduler leaves no folder
         futures = {client.submit(process_video, v, config, str(out.resolve()), pure=False): v for v in names}
         bar = tqdm(total=len(futures), desc="videos", unit="video", disable=None if progress else True)
         for fut in as_completed(futures):
