@@ -111,7 +111,7 @@ def _bad_cases(tmp_path, decay):
         (
             "short",
             [_csv(tmp_path / "short.csv", ["t_s", "angle_deg"], t[short], y[short])],
-            "periods of the 2.95 Hz mode; at least 3 are needed",
+            "lasts only 2.15 periods of the 2.95 Hz mode; at least 3 are needed",  # two decimals, rounded down
         )
     )  # coarse guess from 0.75 s
     ok = _csv(tmp_path / "ok.csv", ["t_s", "angle_deg"], t, y)

@@ -506,6 +506,11 @@ class IdentResult:
         return axes
 
 
+def _fewer(periods: float) -> str:
+    """A count of periods short of a minimum, rounded down: 2.98 read "only 3.0 periods ...; at least 3 are needed"."""
+    return f"{math.floor(periods * 100) / 100:.2f}"
+
+
 GAP_FACTOR = 3.0
 """Plotted curves break where samples are further apart than this many typical steps (a lost stretch; a single
 repeated frame does not break them)."""
@@ -653,7 +658,7 @@ class Identifier:
         whole_periods = (sig.t_s[-1] - sig.t_s[0]) * f_guess
         if whole_periods < MIN_PERIODS_ERROR:
             raise UserError(
-                f"{sig.source}: the signal lasts only {whole_periods:.1f} periods of the {f_guess:.3g} Hz mode; "
+                f"{sig.source}: the signal lasts only {_fewer(whole_periods)} periods of the {f_guess:.3g} Hz mode; "
                 f"at least {MIN_PERIODS_ERROR:g} are needed."
             )
         if win.chosen_by == "auto" and not _ring_down(sig, win, f_guess):
@@ -679,7 +684,7 @@ class Identifier:
         periods = win.duration_s * spec.peak_f_hz
         if spec.prominence >= MIN_PROMINENCE and periods < MIN_PERIODS_ERROR:
             raise UserError(
-                f"{sig.source}: the window {win.t0_s:.2f}-{win.t1_s:.2f} s holds only {periods:.1f} periods of "
+                f"{sig.source}: the window {win.t0_s:.2f}-{win.t1_s:.2f} s holds only {_fewer(periods)} periods of "
                 f"the {spec.peak_f_hz:.3g} Hz mode; at least {MIN_PERIODS_ERROR:g} are needed."
             )
         return win, spec, whole
