@@ -748,9 +748,10 @@ class Identifier:
         if fit.hold is not None:
             notes.append(
                 "tracked from video: the mode was fitted as seen through the encoder's hold of slowly moving edges, "
-                "its half-width fitted with it. A codec also shrinks the smallest swings, which nothing here models: "
-                "on rendered H.264 floats zeta came out up to 8 % high, outside its interval, with a good verdict; "
-                "film at a high bit rate (README: identify, video-tracked signals)."
+                "its half-width fitted with it. A codec also shrinks the smallest swings, which the hold does not "
+                "model: zeta's interval allows 1 % of zeta for it (enough at H.264 CRF 16-20), but at consumer bit "
+                "rates (CRF 23 and above) or for swings of a few degrees zeta came out up to 8-14 % high, outside "
+                "its interval; film at a high bit rate (README: identify, video-tracked signals)."
             )
         for note in (
             between.note(distinct_names([s.source for s in sigs])) if between else None,
