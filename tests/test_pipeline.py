@@ -128,6 +128,32 @@ def test_warnings_of_a_track_stage_with_several_videos_name_their_video(tmp_path
     assert repeated[0].startswith("sloshid: warning: a.mp4: ") and repeated[1].startswith("sloshid: warning: b.mp4: ")
 
 
+def test_a_stage_another_run_finished_meanwhile_is_reused_not_failed(video, tmp_path, run_cli, monkeypatch):
+    # two runs of one pipeline at once: the second to finish a stage found its cache folder taken and failed with
+    # "could not write runs/p3/.cache/track/...: Directory not empty" (a trial). Simulated here: while this run tracks,
+    # the other run's finished outputs land in the stage's cache folder
+    import shutil
+
+    import sloshid.workflow.stages as stages
+
+    pipe = _write(tmp_path / "p.toml", f'[track]\nvideos = ["{video}"]\n')
+    code, _, _ = run_cli("run", pipe, "--output-dir", tmp_path / "runs", "--quiet")
+    (cache,) = (tmp_path / "runs" / "p" / ".cache" / "track").iterdir()
+    saved = tmp_path / "other_run"
+    shutil.move(cache, saved)
+    track_one = stages.track_one
+
+    def racing(*args, **kwargs):
+        summary = track_one(*args, **kwargs)
+        shutil.copytree(saved, cache)  # the other run renames its finished folder into place first
+        return summary
+
+    monkeypatch.setattr(stages, "track_one", racing)
+    code, out, err = run_cli("run", pipe, "--output-dir", tmp_path / "runs")
+    assert code == 0 and "another run wrote its outputs meanwhile" in err, err
+    assert _statuses(Path(out.strip().splitlines()[-1]).parent) == {"track": "cached"}
+
+
 def test_failing_stage_keeps_finished_results(video, tmp_path, run_cli):
     # a constant signal has no oscillatory mode: identify must fail, track's outputs must stay
     flat = _write(tmp_path / "flat.csv", "t_s,y\n" + "".join(f"{i / 50},1.0\n" for i in range(500)))

@@ -264,11 +264,15 @@ def _run_stage(stage: Stage, settings: Any, key: str, cache: Path, ctx: StageCon
                 summary = stage.run(settings, replace(ctx, out_dir=tmp))
                 write_text(tmp / "summary.json", json.dumps(summary, indent=2, default=str))
                 write_text(tmp / FILES_JSON, json.dumps(_file_hashes(tmp), indent=1))
+            status = "ran"
         except Exception as exc:  # recorded, so the run still gets its manifest and index
-            error = _stage_error(exc, stage.name)
-            log(f"[{stage.name}] failed")  # the reason is the record's, which the command prints once at the end
-            return StageRecord(stage.name, key, "failed", time.perf_counter() - start, error=error)
-        status = "ran"
+            if not (cache / "summary.json").exists() or _cache_damage(cache) is not None:
+                error = _stage_error(exc, stage.name)
+                log(f"[{stage.name}] failed")  # the reason is the record's, which the command prints once at the end
+                return StageRecord(stage.name, key, "failed", time.perf_counter() - start, error=error)
+            # another run of the same pipeline finished this very stage (same key: same outputs) first
+            log(f"[{stage.name}] another run wrote its outputs meanwhile, reusing {cache}")
+            status = "cached"
     _copy_tree(cache, ctx.out_dir)
     summary = json.loads((cache / "summary.json").read_text())
     return StageRecord(stage.name, key, status, time.perf_counter() - start, summary)
