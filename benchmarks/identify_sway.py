@@ -149,8 +149,7 @@ def main() -> None:
         f"7000-{7000 + N_SHORT - 1}, otherwise alike): with the sway {sw['identified']} identify (the commit before: 63, of which 44 good, 2 of those outside), "
         f"{sw['good']} are rated good, and {sw['good_outside_interval']} of those have f or zeta outside its 95 % "
         f"interval; without the sway {st['identified']}, {st['good']} and {st['good_outside_interval']}. Without a quiet "
-        "tail a sway shows only as forcing that would go on to the end: tried as a sway (78 identified and 53 good "
-        "before that)."
+        "tail a sway cannot be told from forcing; record until the liquid is still."
     )
     write_results(
         "identify_sway",

@@ -128,6 +128,18 @@ def _bad_cases(tmp_path, decay):
             "no oscillatory mode found",
         )
     )
+    # a slow sway larger than the swing while the mode still rings at the end: with no quiet tail to tell a sway from
+    # forcing, it is forcing (a ring-down that fades is fitted with a swaying zero: test_identify)
+    _, ringing = free_decay(3.0, 0.005, 60, amplitude=5, seed=2)
+    sway = _csv(tmp_path / "sway.csv", ["t_s", "angle_deg"], t, ringing + 3 * np.sin(2 * np.pi * 0.4 * t))
+    cases.append(
+        (
+            "sway",
+            [sway],
+            "is driven (its mean over a period moves by more than half its swing) until 9.58 s of 9.98 s; "
+            "give --window (start and end, s)",
+        )
+    )
     cases.append(("half prior", [ok, "--container-radius-m", "0.05"], "needs both"))
     # millimetres typed as metres: the error was that the default band misses a 0.08-0.11 Hz "first mode"
     mm = [ok, "--container-radius-m", "50", "--fill-height-m", "80"]

@@ -163,33 +163,11 @@ def _forcing(sig: Signal, f_guess_hz: float, noise_std: float, drift: bool, mean
     if moving:  # the zero sways: the oscillation is judged without it
         amp = free
     gap = _in_gaps(sig.t_s, u.t_s, 1.0 / f_guess_hz)
-    forced = _forced(dev, amp, floor, gap, n)
-    to_end = forced.size and (u.t_s[-1] - u.t_s[forced[-1]]) * f_guess_hz < SWAY_TO_END_PERIODS
-    if to_end and not moving:
-        # "forcing" that goes on to the record's end while the ringing never fades in it: a sway (a container tilting
-        # in the picture) that a record without a quiet tail cannot show after the ring-down; judged as one when the
-        # forcing then ends early enough to leave a ring-down
-        sway = float(np.max(np.abs(slow - np.median(slow))))
-        again = _forced(dev, free, max(floor, SWAY_FACTOR * sway), gap, n)
-        if sway > _moving_floor(noise_std, float(amp.max())) and not (
-            again.size and (u.t_s[-1] - u.t_s[again[-1]]) * f_guess_hz < SWAY_TO_END_PERIODS
-        ):
-            return u, n, free, rest, slow, sway, True, gap, again
-    return u, n, amp, rest, slow, reach, moving, gap, forced
-
-
-SWAY_TO_END_PERIODS = 6.0
-"""Forcing that ends fewer than this many periods before the record's end leaves too short a ring-down (the window may
-start two periods after it and must hold four): it is tried as a sway of the zero instead (`_forcing`)."""
-
-
-def _forced(dev: np.ndarray, amp: np.ndarray, floor: float, gap: np.ndarray, n: int) -> np.ndarray:
-    """The samples whose one-period mean (`dev`: its distance from the final level) departs by more than FORCED_RATIO of
-    the swing `amp` and by more than `floor`."""
     forced = np.flatnonzero(dev > np.maximum(FORCED_RATIO * amp, floor))
     forced = forced[(forced >= n) & (forced < dev.size - n)]  # running means are padded at the edges: no evidence
     # nor are they across a gap (lost frames), where the grid holds a straight line: its mean strays, its swing is 0
-    return forced[~_near(gap, n)[forced]]
+    forced = forced[~_near(gap, n)[forced]]
+    return u, n, amp, rest, slow, reach, moving, gap, forced
 
 
 def find_decay_window(
