@@ -317,7 +317,19 @@ def test_the_time_column_given_as_the_signal_is_named(tmp_path, run_cli, decay_c
     for column in ("0", "t_s"):
         code, _, err = run_cli("identify", decay_csv, "-o", tmp_path / "p.json", "--value-col", column)
         _one_sentence(code, err)
-        assert "the time and the signal would be the same column" in err
+        assert "the time and the signal would be the same column (t_s)" in err  # by name (it said "(0)")
+
+
+def test_a_two_column_file_with_its_time_second_is_read(tmp_path, run_cli, decay_csv):
+    # 'angle,t_s' was refused with "the time and the signal would be the same column (1)" (a trial): with two columns
+    # the signal is the one that is not the time, wherever the time is
+    t, value = np.loadtxt(decay_csv, delimiter=",", skiprows=1, unpack=True)
+    swapped = tmp_path / "swapped.csv"
+    np.savetxt(swapped, np.c_[value, t], delimiter=",", header="angle,t_s", comments="")
+    out, ref = tmp_path / "p.json", tmp_path / "q.json"
+    assert run_cli("identify", swapped, "-o", out)[0] == 0 and run_cli("identify", decay_csv, "-o", ref)[0] == 0
+    f = [json.loads(p.read_text())["parameters"]["f_hz"]["value"] for p in (out, ref)]
+    assert f[0] == pytest.approx(f[1], rel=1e-12)
 
 
 def test_a_video_given_to_identify_points_to_track(tmp_path, run_cli, decay_csv):

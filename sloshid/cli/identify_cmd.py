@@ -100,8 +100,8 @@ def add_column_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--value-col",
         metavar="NAME|INDEX",
-        help="CSV signal column (name or 0-based index; default: a track CSV's angle_deg, the second of two "
-        "columns; needed for more)",
+        help="CSV signal column (name or 0-based index; default: a track CSV's angle_deg, of two columns the one "
+        "that is not the time; needed for more)",
     )
     parser.add_argument("--time-var", metavar="NAME", help=".mat variable holding the time in seconds")
     parser.add_argument("--value-var", metavar="NAME", help=".mat variable holding the signal")

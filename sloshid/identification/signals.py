@@ -283,8 +283,8 @@ def _load_csv(p: Path, time_col: str | None, value_col: str | None, progress: bo
         if vcol is None:
             if is_tracker:
                 vcol = "angle_deg"
-            elif ncols == 2:
-                vcol = "1"
+            elif ncols == 2:  # the column that is not the time (angle,t_s was refused as "the same column (1)")
+                vcol = str(1 - _column_index(tcol, header, ncols, p, "time"))
             elif ncols == 1:
                 raise UserError(
                     f"{p} has only one column; identify needs a time column in seconds and a signal column."
@@ -297,7 +297,8 @@ def _load_csv(p: Path, time_col: str | None, value_col: str | None, progress: bo
         chosen["t"] = _column_index(tcol, header, ncols, p, "time")
         chosen["v"] = _column_index(vcol, header, ncols, p, "value")
         if chosen["t"] == chosen["v"]:
-            raise UserError(f"{p}: the time and the signal would be the same column ({vcol}); choose the signal's.")
+            name = header[chosen["v"]] if header else vcol
+            raise UserError(f"{p}: the time and the signal would be the same column ({name}); choose the signal's.")
         if is_tracker and header[chosen["v"]] not in WHOLE_TRACKER_COLUMNS:
             chosen["valid"] = header.index("valid")
             if "key_frame" in header:  # written since the tracker reports key frames; older files lack it

@@ -125,11 +125,21 @@ def savgol_acceleration_response(f_hz: float, rate_hz: float, smooth_s: float = 
 
 
 def _window_samples(smooth_s: float, rate_hz: float) -> int:
-    """Odd window length in samples for a window of smooth_s seconds (at least order + 2)."""
+    """Odd window length in samples for a window of smooth_s seconds. One of fewer than order + 2 samples is refused
+    when given (it was lengthened without a word: --smooth-s 0.001 ran as 0.014 s on a 500 Hz log); the default is
+    lengthened to that on a slow log (0.1 s at 30 Hz: 7 samples)."""
     if not smooth_s > 0:
         raise SettingError("smooth_s", f"the smoothing window {{name}} must be positive, got {smooth_s!r} s.")
-    n = round(smooth_s * rate_hz) | 1
-    return max(n, SG_ORDER + 2 | 1)
+    least = SG_ORDER + 2 | 1
+    if round(smooth_s * rate_hz) < least and smooth_s == SMOOTH_S:
+        return least
+    if round(smooth_s * rate_hz) < least:
+        raise SettingError(
+            "smooth_s",
+            f"the smoothing window {{name}} {smooth_s:g} s holds fewer than the {least} samples of the pose log "
+            f"({rate_hz:.4g} Hz) that an order-{SG_ORDER} Savitzky-Golay fit needs; give at least {least / rate_hz:.3g} s.",
+        )
+    return round(smooth_s * rate_hz) | 1
 
 
 def excitation(pose: PoseLog, axis_offset_m: float = 0.0, smooth_s: float = SMOOTH_S) -> Excitation:
