@@ -116,3 +116,16 @@ def test_a_band_that_misses_the_mode_says_so_once(antisloshing_dir):
     f = res.parameters["f_hz"].value
     assert not any(re.search(rf"mode at {f:.3g} Hz", r) or "lies below the reported" in r for r in reasons), reasons
     assert res.second_mode is None or abs(res.second_mode.peak.f_hz - f) > 0.16  # not the fitted mode again
+
+
+def test_the_residual_autocorrelation_is_drawn_past_the_correction_it_marks(antisloshing_dir):
+    # on this run the interval correction reaches 139 lags (2.3 s) while the plot stopped at 60 (1 s), so the
+    # correlation it corrects for was never shown (a trial)
+    import matplotlib.pyplot as plt
+
+    res = Identifier(mass_kg=0.59).fit(load_signal(antisloshing_dir / "slosh" / "Tilt_RD_2D_0.3m_7s_30deg.mat")).result
+    ax = res.plot_residual_acf()
+    reach = next(line for line in ax.get_lines() if line.get_label() == "interval correction reach").get_xdata()[0]
+    drawn = max(seg[:, 0].max() for seg in ax.collections[0].get_segments())
+    assert res.fit.hac_lags[0] > 3 * res.lb_lags[0] and drawn >= reach
+    plt.close("all")
