@@ -200,6 +200,20 @@ def test_io_fit_of_a_noise_free_run_recovers_the_output_map_without_bias(tmp_pat
     assert fit.lags_s[0] == pytest.approx(LAG, abs=0.002)
 
 
+def _io_fit_of(tmp_path, pose: PoseLog, **measured) -> IOFit:
+    """The input-output fit of one run of `pose` as the truth model reads it (`measured_csv`'s options), from its
+    pose log file, with the decay-only start on the free decay of these moves."""
+    measured_csv(tmp_path / "meas.csv", pose, **measured)
+    write_pose_csv(tmp_path / "log.csv", pose)
+    return fit_io(
+        [load_pose_log(tmp_path / "log.csv")],
+        [load_signal(tmp_path / "meas.csv")],
+        RADIUS,
+        OFFSET,
+        settings=IdentSettings(window_s=(5.7, 10.5)),
+    )
+
+
 @pytest.mark.slow
 def test_io_fit_recovers_the_vertical_gain_of_a_lifted_move(tmp_path):
     # the move lifted 0.15 m on the way (vertical acceleration up to about 2 m/s^2, as in the shared 3-D runs), truth
@@ -207,15 +221,7 @@ def test_io_fit_recovers_the_vertical_gain_of_a_lifted_move(tmp_path):
     # smoothing): held to 0.05, and f to 0.5 %. The gain matters here: the fitted model scores the run with a peak
     # error of +0.7 %, the same model with the pendulum's vertical gain 1 with -7.5 % (held to 1.5 % and beyond 5 %).
     lifted = move_pose(lift_m=0.15)
-    measured_csv(tmp_path / "meas.csv", lifted, noise_mm=0.0, vertical_gain=1.5)
-    write_pose_csv(tmp_path / "log.csv", lifted)
-    fit = fit_io(
-        [load_pose_log(tmp_path / "log.csv")],
-        [load_signal(tmp_path / "meas.csv")],
-        RADIUS,
-        OFFSET,
-        settings=IdentSettings(window_s=(5.7, 10.5)),
-    )
+    fit = _io_fit_of(tmp_path, lifted, noise_mm=0.0, vertical_gain=1.5)
     p = fit.parameters
     assert p["vertical_gain"].value == pytest.approx(1.5, abs=0.05)
     assert p["f_hz"].value == pytest.approx(3.2, rel=0.005)
@@ -660,15 +666,7 @@ def test_a_move_without_vertical_motion_holds_the_vertical_gain_at_one(tmp_path)
     t = np.arange(0, 2.5, 1 / 500)
     s = smooth_step(t, 1.0, 1.2)
     flat = PoseLog(t, np.column_stack([0.25 * s, 0 * s, 0 * s]), Rotation.identity(t.size), "flat")
-    measured_csv(tmp_path / "meas.csv", flat, noise_mm=0.05)
-    write_pose_csv(tmp_path / "log.csv", flat)
-    fit = fit_io(
-        [load_pose_log(tmp_path / "log.csv")],
-        [load_signal(tmp_path / "meas.csv")],
-        RADIUS,
-        OFFSET,
-        settings=IdentSettings(window_s=(5.7, 10.5)),
-    )
+    fit = _io_fit_of(tmp_path, flat, noise_mm=0.05)
     assert "vertical_gain" not in fit.parameters and fit.model.vertical_gain == pytest.approx(1.0, abs=1e-9)
     assert "vertical_gain held at 1" in fit.summary() and any("held at 1" in n for n in fit.to_dict()["notes"])
     assert fit.parameters["f_hz"].value == pytest.approx(3.2, rel=0.01)
