@@ -1321,3 +1321,25 @@ def test_the_surface_is_measured_inside_the_roi_only(surface_video):
     ok = cut.valid.astype(bool)
     assert ok.sum() > 20 and reach[ok].max() < 2 + 3
     assert (reach > 2 + 3).sum() > 10 and not ok[reach > 2 + 3].any()
+
+
+def test_a_shallow_fill_in_an_upright_container_keeps_its_walls(tmp_path, monkeypatch):
+    # the tilted container's corner margin (a twentieth of the width above the bottom) took every wall row of a
+    # shallow fill, depth a tenth of the width: no frame found a container (a review; 576x48 px liquid, 960x480)
+    from dataclasses import replace as changed
+
+    import sloshid.synthetic.render as render
+    import sloshid.synthetic.surface_scene as scene
+
+    geometry = render.scene_geometry
+
+    def shallow(s):
+        return changed(geometry(s), inner_w=1.2 * s.height, depth=0.1 * s.height)
+
+    monkeypatch.setattr(render, "scene_geometry", shallow)
+    monkeypatch.setattr(scene, "scene_geometry", shallow)
+    s = SynthSettings(scene="surface", width=960, height=480, duration_s=2.0, amplitude_deg=4.0, quality=16, seed=1)
+    truth = render_video(tmp_path / "shallow.mp4", s)
+    res = track_video(tmp_path / "shallow.mp4", TrackSettings(target="surface", smooth=False), multithreaded=False)
+    ok = res.valid.astype(bool)
+    assert ok.mean() > 0.9 and _rmse((res.angle_deg - truth["surface_angle_deg"])[ok]) < 0.1  # measured 0.010 deg

@@ -661,10 +661,10 @@ def _on_wall(x: np.ndarray, ok: np.ndarray, inward: float) -> np.ndarray:
 
 
 CORNER_SHARE = 0.05
-"""Rows closer than this share of the liquid's width to the bottom (at a side's crossing) are not read for that wall:
-a container tilted in the picture raises one bottom corner into the rows read for the walls (12 deg at 640x480: 48 px),
-whose side crossings there lie on the bottom and had dropped the wall's true rows (two thirds of the frames lost). An
-upright container's rows end a tenth of its height above the bottom, beyond this."""
+"""Rows closer than this share of the liquid's width to the bottom (at a side's crossing; at most the tenth of the
+height that an upright container's rows end above it) are not read for that wall: a container tilted in the picture
+raises one bottom corner into the rows read for the walls (12 deg at 640x480: 48 px), whose side crossings there lie on
+the bottom and had dropped the wall's true rows (two thirds of the frames lost)."""
 
 
 def _bottom_at(cols: np.ndarray, bottom: np.ndarray, ok: np.ndarray, margin: float):
@@ -701,7 +701,10 @@ def _container_axes(
     c0, c1 = int(0.2 * (x1 - x0)) + x0 - X0, int(0.8 * (x1 - x0)) + x0 - X0
     bottom, okb = _crossings_first(body[::-1, c0:c1], inside[::-1, c0:c1], axis=0)
     bottom = body.shape[0] - 1 - bottom
-    corner = _bottom_at(np.arange(c0, c1), bottom, okb, CORNER_SHARE * (x1 - x0))
+    # within the rows already left out above the bottom (a tenth of the height): an upright container keeps every row
+    # it had, also a shallow fill (a twentieth of its width reached past them and took its walls)
+    margin = min(CORNER_SHARE * (x1 - x0), 0.1 * (y1 - y0) + 2)
+    corner = _bottom_at(np.arange(c0, c1), bottom, okb, margin)
     n = len(rows)
     wall_rows = [n, n]  # rows that may be a wall's: a third of them must be (robust_lines' min_points)
     if corner is not None:  # a container tilted in the picture: its raised side's lower rows end on the bottom
