@@ -31,7 +31,15 @@ from sloshid.identification.decay_window import (
     user_window,
     without_slow_motion,
 )
-from sloshid.identification.pt2fit import Z95, PT2Fit, WindowData, autocorrelation, fit_pt2, fit_pt2_hold
+from sloshid.identification.pt2fit import (
+    Z95,
+    PT2Fit,
+    WindowData,
+    autocorrelation,
+    fit_pt2,
+    fit_pt2_hold,
+    with_codec_share,
+)
 from sloshid.identification.second_mode import SecondMode, resolve_second_mode, strong_peaks
 from sloshid.identification.signals import Signal, load_signal
 from sloshid.identification.verdict import AMPLITUDE_SNR, GROUPS, GroupVerdict, VerdictInput, judge
@@ -624,6 +632,8 @@ class Identifier:
         if any(s.tracked for s in sigs):  # a video encoder's hold distorts every tracked target alike
             fit = fit_pt2_hold(wdata, fit)
         fit, between = between_signals(wdata, fit, [2 * math.pi * sp.peak_f_hz for sp in spectra])
+        if fit.hold is not None:
+            fit = with_codec_share(fit)
         self.result_ = self._assemble(
             sigs, windows, parts, spectra, [s.noise_std for s in fullspec], fit, second, prior, between
         )
