@@ -531,3 +531,13 @@ def test_the_codec_share_of_zeta_does_not_hide_runs_that_disagree(tmp_path):
     z = res.parameters["zeta"]
     assert z.ci95[0] <= 0.030 and z.ci95[1] >= 0.0306  # both runs' damping inside the joint interval
     assert z.stderr >= CODEC_ZETA_SHARE * z.value
+
+
+def test_a_quantised_record_is_not_called_clipped_unless_it_is():
+    # whole millimetres from a logger: a lightly damped peak holds its top value for some 10 samples at two peaks,
+    # which was called clipped and rated unreliable (a review); clipped at 12 of 20 mm it still is
+    t, y = free_decay(1.0, 0.002, 100, duration_s=20, amplitude=20, noise_std=0.1, seed=4, lead_in_s=1.0)
+    quantised = Identifier().fit(make_signal(t, np.round(y), "wall_height_mm", "mm", "logger")).result
+    assert not any("stop flat" in r for g in quantised.groups.values() for r in g.reasons)
+    cut = Identifier().fit(make_signal(t, np.round(np.clip(y, -12, 12)), "wall_height_mm", "mm", "cut")).result
+    assert any("stop flat at 12 mm" in r for r in cut.groups["damping"].reasons)

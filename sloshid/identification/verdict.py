@@ -184,21 +184,30 @@ def _judge_between(inp: VerdictInput, f: float, doubts: _Doubts) -> None:
 
 
 CLIP_RUN = 3
-"""Samples in a row at the window's extreme value that make a peak flat: a clipped one. Real records reach their
-extreme once (a smooth peak holds its top value for a sample or two even when quantised); a saturated sensor holds it
-for many, at peak after peak."""
+"""Samples in a row at the window's extreme value that make a peak flat: a clipped one, at two peaks or more, when a
+smooth peak's top would not hold one value that long (QUANTUM_RUNS)."""
+QUANTUM_RUNS = 2.0
+"""A quantised record (a logger's whole millimetres) holds a smooth peak's top value for as long as the swing stays
+within one step of it: 2 sqrt(2 q / A) / omega. A flat top counts as clipped only beyond this many times that (a
+review: a 1 Hz decay of 20 whole mm at 100 Hz, zeta 0.002, held its top for some 10 samples at two peaks and was
+called clipped)."""
 
 
-def clipped_at(values: np.ndarray) -> tuple[float, int] | None:
-    """(level, peaks) when at least two peaks of `values` stop flat at its maximum or its minimum (CLIP_RUN samples in a
-    row exactly there), else None."""
-    if values.size == 0:
+def clipped_at(values: np.ndarray, f_hz: float, rate_hz: float) -> tuple[float, int] | None:
+    """(level, peaks) when at least two peaks of `values` (a mode at `f_hz` sampled at `rate_hz`) stop flat at its
+    maximum or its minimum for longer than a smooth, quantised peak would (CLIP_RUN, QUANTUM_RUNS), else None."""
+    if values.size < 2:
         return None
+    steps = np.diff(np.unique(values))
+    quantum, swing = float(steps.min()) if steps.size else 0.0, 0.5 * float(values.max() - values.min())
+    if swing <= 0:
+        return None
+    top = 2 * math.sqrt(2 * quantum / swing) / (2 * math.pi * f_hz) * rate_hz  # samples a smooth top holds a value
     for level in (float(values.max()), float(values.min())):
         at = np.abs(values - level) <= 1e-9 * max(1.0, abs(level))
         edges = np.diff(np.concatenate([[0], at.astype(np.int8), [0]]))
         runs = np.flatnonzero(edges == -1) - np.flatnonzero(edges == 1)
-        peaks = int(np.count_nonzero(runs >= CLIP_RUN))
+        peaks = int(np.count_nonzero(runs >= max(CLIP_RUN, QUANTUM_RUNS * top)))
         if peaks >= 2:
             return level, peaks
     return None
@@ -240,7 +249,7 @@ def _judge_signal(inp: VerdictInput, i: int, name: str, f: float, f2: float | No
         )
     w = inp.windows[i]
     sig = inp.signals[i]
-    clipped = clipped_at(sig.value[(sig.t_s >= w.t0_s) & (sig.t_s <= w.t1_s)])
+    clipped = clipped_at(sig.value[(sig.t_s >= w.t0_s) & (sig.t_s <= w.t1_s)], f, sig.rate_hz)
     if clipped is not None:
         level, peaks = clipped
         doubts.add(
