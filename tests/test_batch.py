@@ -196,6 +196,9 @@ def test_a_cached_video_is_named_as_this_run_gives_it_and_checked_against_its_ou
     assert again["status"] == "cached" and again["outputs"].startswith(str(moved)) and again["f_hz"] == first["f_hz"]
     marker = json.loads((tmp_path / folder / "result.json").read_text())
     assert marker["settings"]["identify"]["mass_kg"] == 0.5  # the settings themselves, not only their hash
+    # a result.json of an earlier sloshid (no outputs listed) with its outputs there: finished, not done again
+    (tmp_path / folder / "result.json").write_text(json.dumps({"key": marker["key"], "row": marker["row"]}))
+    assert process_video(copies[0], config, str(out))["status"] == "cached"
     for damage in (
         lambda d: (d / "params.json").unlink(),
         lambda d: (d / "angles.csv").write_text((d / "angles.csv").read_text()[:-40]),

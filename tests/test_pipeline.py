@@ -216,12 +216,21 @@ def test_a_column_the_tracked_tables_lack_is_refused_before_tracking(video, tmp_
         code == 2 and "[identify].value_col 'left_wall_mm' is not a column of the tracked tables (target float)" in err
     )
     assert not (tmp_path / "runs").exists()
+    # the surface's tables have it, but empty without the container's scale; an index past the columns; the time
+    for track, ident, message in (
+        ('target = "surface"', 'value_col = "left_wall_mm"', "is empty in the tracked tables"),
+        ("", 'value_col = "99"', "'99' is not a column"),
+        ("", 'value_col = "t_s"', "is the tracked tables' time column"),
+    ):
+        pipe = _write(tmp_path / "s.toml", f'[track]\nvideos = ["{video}"]\n{track}\n[identify]\n{ident}\n')
+        code, _, err = run_cli("run", pipe, "--output-dir", tmp_path / "runs")
+        assert code == 2 and message in err and not (tmp_path / "runs").exists()
+    scaled = 'target = "surface"\ncontainer_diameter_m = 0.1'
     pipe = _write(
-        tmp_path / "s.toml",
-        f'[track]\nvideos = ["{video}"]\ntarget = "surface"\n[identify]\nvalue_col = "left_wall_mm"\n',
+        tmp_path / "d.toml", f'[track]\nvideos = ["{video}"]\n{scaled}\n[identify]\nvalue_col = "left_wall_mm"\n'
     )
     code, _, err = run_cli("run", pipe, "--output-dir", tmp_path / "runs", "--quiet")
-    assert "is not a column" not in err  # the surface's tables have it (this video has no dye: exit 1 from tracking)
+    assert "tracked tables" not in err  # with the scale it is a column (this video has no dye: exit 1 from tracking)
 
 
 def test_a_mistake_in_a_stages_scenario_names_the_scenario_file(tmp_path, run_cli):

@@ -132,9 +132,13 @@ missing or changed."""
 
 def _finished(marker: Path, key: dict[str, str]) -> bool:
     """The video's result.json holds this video's and these settings' key, and every output it lists is there, as
-    written (a damaged result.json or output means: not finished)."""
+    written (a damaged result.json or output means: not finished). One written before the outputs were listed (an
+    earlier sloshid) is finished when its tracked table and parameters are there: a whole batch was redone after an
+    upgrade."""
     try:
         done = json.loads(marker.read_text())
+        if "outputs" not in done:
+            return done.get("key") == key and all((marker.parent / name).is_file() for name in OUTPUT_FILES[:2])
         return done.get("key") == key and all(
             file_sha256(marker.parent / name) == digest for name, digest in done["outputs"].items()
         )

@@ -57,14 +57,27 @@ def check_tracked_columns(track: TrackOptions, ident: IdentifyOptions) -> None:
     if ident.signals:
         return
     columns = SURFACE_COLUMNS if track.target == "surface" else TRACK_COLUMNS
+    # the millimetre columns are there but empty without the container's scale
+    usable = [c for c in columns if track.container_diameter_m is not None or not c.endswith("_mm")]
+    chosen = {}
     for key in ("time_col", "value_col"):
         name = getattr(ident, key)
-        if name is not None and not name.strip().isdigit() and name not in columns:
+        if name is None:
+            continue
+        index = int(name) if name.isdigit() else None  # as the reader takes an index
+        chosen[key] = columns[index] if index is not None and index < len(columns) else name
+        if chosen[key] not in usable:
+            empty = chosen[key] in columns  # a millimetre column without the scale
             raise SettingError(
                 key,
-                f"{{name}} '{name}' is not a column of the tracked tables (target {track.target}): they have "
-                f"{', '.join(columns)}.",
+                f"{{name}} '{name}' is "
+                + ("empty in" if empty else "not a column of")
+                + f" the tracked tables (target {track.target}"
+                + (": give [track].container_diameter_m for the millimetres" if empty else "")
+                + f"); they have {', '.join(usable)}.",
             )
+    if chosen.get("value_col", "") == chosen.get("time_col", "t_s"):
+        raise SettingError("value_col", f"{{name}} '{ident.value_col}' is the tracked tables' time column.")
 
 
 @dataclass(frozen=True)
