@@ -670,3 +670,11 @@ def test_a_move_without_vertical_motion_holds_the_vertical_gain_at_one(tmp_path)
     assert "vertical_gain" not in fit.parameters and fit.model.vertical_gain == pytest.approx(1.0, abs=1e-9)
     assert "vertical_gain held at 1" in fit.summary() and any("held at 1" in n for n in fit.to_dict()["notes"])
     assert fit.parameters["f_hz"].value == pytest.approx(3.2, rel=0.01)
+
+
+def test_a_held_vertical_gain_takes_no_part_in_the_others_errors(tmp_path):
+    # held at 1, the vertical gain's Jacobian column still entered the covariance as a free direction: f's standard
+    # error came out 0.0028 Hz where the fit without it gives 0.0017 (a review; a move lifted by 1 mm)
+    fit = _io_fit_of(tmp_path, move_pose(lift_m=0.001), noise_mm=0.05)
+    assert "vertical_gain" not in fit.parameters
+    assert fit.parameters["f_hz"].stderr < 0.0022  # measured 0.00167 (0.00282 with the column)
