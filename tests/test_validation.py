@@ -354,8 +354,8 @@ def test_bad_input_is_one_sentence_and_exit_2_with_nothing_written(tmp_path, run
         (("predict", tmp_path / "badt.csv", "-o", out, "--params", params, *radius), "does not increase"),
         (("predict", good, "-o", out, "--params", params), "radius"),
         (("predict", good, "-o", out, "--params", params, *radius, "--smooth-s", "0"), "window --smooth-s must be"),
-        # shorter than the fit's 7 samples: it ran as 0.014 s without a word (a trial)
-        (("predict", good, "-o", out, "--params", params, *radius, "--smooth-s", "0.001"), "fewer than the 7 samples"),
+        # shorter than two samples: it ran as 0.014 s without a word (a trial)
+        (("predict", good, "-o", out, "--params", params, *radius, "--smooth-s", "0.001"), "shorter than two samples"),
         # a measurement given as the trajectory was read as text: "not UTF-8, re-save it as UTF-8"
         (("predict", tmp_path / "run.mat", "-o", out, "--params", params, *radius), "is a .mat file, a measured"),
         (

@@ -125,21 +125,19 @@ def savgol_acceleration_response(f_hz: float, rate_hz: float, smooth_s: float = 
 
 
 def _window_samples(smooth_s: float, rate_hz: float) -> int:
-    """Odd window length in samples for a window of smooth_s seconds. One of fewer than order + 2 samples is refused
-    when given (it was lengthened without a word: --smooth-s 0.001 ran as 0.014 s on a 500 Hz log); the default is
-    lengthened to that on a slow log (0.1 s at 30 Hz: 7 samples)."""
+    """Odd window length in samples for a window of smooth_s seconds, lengthened to the fit's order + 2 samples when
+    shorter (the default 0.1 s on a 30 Hz log, or 0.2 s: 7 samples); one of fewer than two samples is no smoothing
+    window at all and is refused (--smooth-s 0.001 ran as 0.014 s on a 500 Hz log without a word)."""
     if not smooth_s > 0:
         raise SettingError("smooth_s", f"the smoothing window {{name}} must be positive, got {smooth_s!r} s.")
     least = SG_ORDER + 2 | 1
-    if round(smooth_s * rate_hz) < least and smooth_s == SMOOTH_S:
-        return least
-    if round(smooth_s * rate_hz) < least:
+    if smooth_s * rate_hz < 2:
         raise SettingError(
             "smooth_s",
-            f"the smoothing window {{name}} {smooth_s:g} s holds fewer than the {least} samples of the pose log "
-            f"({rate_hz:.4g} Hz) that an order-{SG_ORDER} Savitzky-Golay fit needs; give at least {least / rate_hz:.3g} s.",
+            f"the smoothing window {{name}} {smooth_s:g} s is shorter than two samples of the pose log "
+            f"({rate_hz:.4g} Hz); the order-{SG_ORDER} Savitzky-Golay fit takes at least {least / rate_hz:.3g} s.",
         )
-    return round(smooth_s * rate_hz) | 1
+    return max(round(smooth_s * rate_hz) | 1, least)
 
 
 def excitation(pose: PoseLog, axis_offset_m: float = 0.0, smooth_s: float = SMOOTH_S) -> Excitation:
