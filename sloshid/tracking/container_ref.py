@@ -124,12 +124,13 @@ def _band_shift(reference: np.ndarray, edges: tuple, now: np.ndarray) -> np.ndar
     return np.where((energy > 1.0) & (np.abs(_edges_of(now)[2] - centroid) < 1.0), shift, np.nan)
 
 
-def held_angles(measured: list[tuple[int, float, bool]], held: list[int]) -> np.ndarray:
+def held_angles(measured: list[tuple[int, float, bool]], held: list[int], copied: list[int] = ()) -> np.ndarray:
     """Container angles of the held frames `held` (frame numbers, each after a measurement) from the measured ones
     (frame number, angle, `ContainerMeasurement.unmoved`; in order): linear between the measurements that began and
     ended a frame's hold when the walls' ends at its end were where they were at its start (a slow tilt); else the
     held value: the turn or jolt came at the hold's end, after the frames held. The held value too when the next
-    measurement is not the hold's end (the walls were lost) or there is none."""
+    measurement is not the hold's end (the walls were lost) or there is none. `copied`: frames (in order) that
+    copied a measured picture (`Copies`): nobody asked for the walls there, so they do not lengthen a hold."""
     at, angle, unmoved = (np.array(v) for v in zip(*measured))
     frames = np.asarray(held)
     k = np.searchsorted(at, frames)  # at[k - 1] < frame < at[k]: the measurements before and after
@@ -137,7 +138,8 @@ def held_angles(measured: list[tuple[int, float, bool]], held: list[int]) -> np.
         raise ValueError("a held frame comes before the walls' first measurement")
     after = np.minimum(k, at.size - 1)
     gap = at[after] - at[k - 1]
-    smooth = (k < at.size) & (gap <= HOLD_FRAMES) & unmoved[after]
+    asked = gap - (np.searchsorted(copied, at[after]) - np.searchsorted(copied, at[k - 1]))
+    smooth = (k < at.size) & (asked <= HOLD_FRAMES) & unmoved[after]
     return angle[k - 1] + np.where(smooth, (frames - at[k - 1]) / np.maximum(gap, 1), 0.0) * (
         angle[after] - angle[k - 1]
     )
@@ -151,6 +153,8 @@ class WallsRecord:
     """(frame, container angle, `ContainerMeasurement.unmoved`) of the frames whose walls were measured."""
     held: list[int] = field(default_factory=list)
     """The frames whose walls were held."""
+    copied: list[int] = field(default_factory=list)
+    """The frames that copied a measured picture (`Copies`): the walls were not asked for."""
 
     def add(self, frame: int, cm: ContainerMeasurement) -> None:
         """Note frame `frame`'s walls: measured, held, or (not found) nothing."""
@@ -161,9 +165,10 @@ class WallsRecord:
 
     def held_angles(self) -> dict[int, float]:
         """The held frames' container angles (`held_angles`); the record starts afresh."""
-        angles = dict(zip(self.held, map(float, held_angles(self.measured, self.held)))) if self.held else {}
-        self.measured, self.held = [], []
-        return angles
+        angles = held_angles(self.measured, self.held, self.copied) if self.held else []
+        out = dict(zip(self.held, map(float, angles)))
+        self.measured, self.held, self.copied = [], [], []
+        return out
 
 
 def _edge_points(grad: np.ndarray, usable: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -116,6 +116,11 @@ class FloatFinder:
         self._model: tuple[np.ndarray, float] | None = None
         self._frames_since_fit = 0
 
+    def copied(self) -> None:
+        """A frame that copied the last measured picture (`Copies`) was not measured: it counts toward the colour
+        model's refit as one that was (REFIT_EVERY frames of video, whatever the encoder repeated)."""
+        self._frames_since_fit += 1
+
     def measure(self, frame: np.ndarray) -> FloatMeasurement:
         """Measure the float in one BGR frame (near the last position first, then the whole ROI)."""
         if self._last is not None:

@@ -15,8 +15,14 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
+from sloshid.video.frames import Picture
+
 REPEAT_SHARE = 0.5
 """A frame whose object edges are at least this share unchanged copies of the previous frame is a repeat."""
+COPY_SHARE = 1.0
+"""A frame whose object edges are all unchanged since the last measured frame is not measured again (`Copies`). Not
+REPEAT_SHARE: an encoder updates a slowly moving float's blocks a few at a time, so that frames each half the same as
+the one before drifted by 0.3 deg over nine of them (a 60 fps H.264 clip), which copies of the first would have hidden."""
 MOVED_DEG = 0.15
 """A run of repeats hides motion when the fresh angles around it differ by more than this (about 2 sigma of the
 difference of two measurements at the tracker's 0.05 deg noise)."""
@@ -37,7 +43,8 @@ def repeated_share(
     dy_only counts only vertical intensity steps (a surface line), so static vertical edges such as highlight
     stripes on the glass do not count as repeated. OpenCV calls only: this runs for every frame. `lumas`: grey
     crops of this and the previous frame that the tracker made anyway, each (array, (x, y) of its corner) or None;
-    the box is read from them when both hold it (the same grey levels, without converting the pictures again).
+    the box is read from them when both hold it (the same grey levels, without converting the pictures again), else
+    from the luma planes of two decoded pictures (`Picture`), else converted.
     """
     if previous is None or previous.shape != frame.shape:
         return 0.0
@@ -46,7 +53,9 @@ def repeated_share(
     if x1 - x0 < 3 or y1 - y0 < 3:
         return 0.0
     cur, old = (_box_of(luma, (x0, y0, x1, y1)) for luma in lumas)
-    if cur is None or old is None:
+    if (cur is None or old is None) and isinstance(frame, Picture) and isinstance(previous, Picture):
+        cur, old = frame.luma[y0:y1, x0:x1], previous.luma[y0:y1, x0:x1]  # as decoded: nothing to convert
+    elif cur is None or old is None:
         cur = cv2.cvtColor(frame[y0:y1, x0:x1], cv2.COLOR_BGR2GRAY)
         old = cv2.cvtColor(previous[y0:y1, x0:x1], cv2.COLOR_BGR2GRAY)
     grad = cv2.convertScaleAbs(cv2.Sobel(cur, cv2.CV_16S, 0, 1, ksize=3), alpha=0.25)
@@ -59,6 +68,39 @@ def repeated_share(
         return 0.0
     same = cv2.compare(cur, old, cv2.CMP_EQ)
     return cv2.countNonZero(cv2.bitwise_and(same, edges)) / n
+
+
+class Copies:
+    """The frames whose picture, where the object was last measured, is an exact copy of that measured frame's (every
+    strong edge pixel unchanged, COPY_SHARE): they are not measured again, as a copied picture measures as its
+    original, and take the measured frame's row. They are repeats (`stale_repeats` judges them with the others)."""
+
+    def __init__(self, dy_only: bool) -> None:
+        """`dy_only`: as `repeated_share`'s (a surface line: True; a float's outline: False)."""
+        self.dy_only = dy_only
+        self.last: tuple | None = (
+            None  # (frame in the span, its picture, box, what the step keeps) of the last measured
+        )
+        self.of: dict[int, int] = {}  # copied frame -> the measured frame whose row it takes
+
+    def source(self, frame: np.ndarray, index: int) -> tuple | None:
+        """What the step kept of the last measured frame when frame `index` copies its picture around its box (noted
+        as that frame's copy), else None."""
+        if self.last is None or repeated_share(frame, self.last[1], self.last[2], self.dy_only) < COPY_SHARE:
+            return None
+        self.of[index] = self.last[0]
+        return self.last[3]
+
+    def measured(self, index: int, frame: np.ndarray, box: tuple[int, int, int, int] | None, kept: tuple) -> None:
+        """Frame `index` was measured, the object found in `box` (None: not found, so no frame copies it)."""
+        self.last = None if box is None else (index, frame, box, kept)
+
+    def fill(self, rows: list[tuple]) -> None:
+        """Give each copied frame (in `rows`: the span's, time first, changed in place) its measured frame's row; the
+        measured frame is let go (its picture holds the decoder's buffers)."""
+        for i, source in self.of.items():  # a source is a measured frame, final by now
+            rows[i] = (rows[i][0], *rows[source][1:])
+        self.of, self.last = {}, None
 
 
 def _box_of(luma: tuple | None, box: tuple[int, int, int, int]) -> np.ndarray | None:

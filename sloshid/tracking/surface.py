@@ -223,6 +223,11 @@ class SurfaceFinder:
         self._anchor: tuple | None = None  # (strip where the container's sides and bottom are, its centre, values)
         self._sink = 0.0  # how far the front edge's lowest point sank from the frame before to the last one
 
+    def copied(self) -> None:
+        """A frame that copied the last measured picture (`Copies`) was not measured: it counts toward the colour
+        model's refit as one that was (REFIT_EVERY frames of video, whatever the encoder repeated)."""
+        self._since_fit += 1
+
     def measure(self, frame: np.ndarray) -> SurfaceMeasurement:
         """Measure the surface in one BGR frame."""
         if self.hsv is None:

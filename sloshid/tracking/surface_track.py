@@ -17,7 +17,7 @@ import numpy as np
 from sloshid.core.errors import SettingError, UserError
 from sloshid.tracking.container_ref import ContainerMeasurement, ContainerTracker, WallsRecord
 from sloshid.tracking.overlay import draw_surface_overlay
-from sloshid.tracking.repeats import REPEAT_SHARE, repeated_share
+from sloshid.tracking.repeats import REPEAT_SHARE, Copies, repeated_share
 from sloshid.tracking.robust import median, percentile_span
 from sloshid.tracking.surface import SurfaceFinder, SurfaceMeasurement
 from sloshid.video.colors import HsvRange
@@ -49,9 +49,24 @@ class SurfaceStep:
         self.pending: list[tuple] = []  # (frame in the span, measurement again with a held elevation, walls measured)
         self.walls_record = WallsRecord()  # by frame in the span
         self.held_surfaces: dict[int, SurfaceMeasurement] = {}  # the frames whose walls were held: their surface
+        self.copies = Copies(dy_only=True)
 
     def __call__(self, frame: np.ndarray, draw: bool) -> tuple[tuple, np.ndarray | None]:
-        """(row, overlay frame or None): the track row's fields, then the raw surface geometry."""
+        """(row, overlay frame or None): the track row's fields, then the raw surface geometry.
+
+        A frame whose picture around the last measured surface is an exact copy of that frame's is not measured again
+        (`Copies`): its row is that measurement's (after `revise`), and it is marked repeated."""
+        copied = self.copies.source(frame, len(self.repeated))
+        if copied is not None:
+            m, row = copied
+            self.finder.copied()
+            if self.walls is not None:
+                self.walls_record.copied.append(len(self.repeated))
+            self.repeated.append(True)
+            self.liquid_frames += 1
+            self.previous, self.previous_luma = frame, None  # the next frame is compared with this one
+            reference = self.settings.reference
+            return row, draw_surface_overlay(frame, m, row[0], bool(row[6]), self.roi, reference) if draw else None
         m = self.finder.measure(frame)
         self.liquid_frames += m.liquid
         # the container's whole wall edges (rim to bottom) give its angle more precisely than the liquid's sides
@@ -68,6 +83,7 @@ class SurfaceStep:
                 self.held_surfaces[len(self.repeated)] = replace(m, walls=(), ends=(), luma=None, refit=None)
         self.repeated.append(bool(repeat))
         row = self._row(m, cm)
+        self.copies.measured(len(self.repeated) - 1, frame, m.band if m.found else None, (m, row))
         drawn = (
             draw_surface_overlay(frame, m, row[0], bool(row[6]), self.roi, self.settings.reference) if draw else None
         )
@@ -97,7 +113,7 @@ class SurfaceStep:
         on a yellow liquid with a strong reflection a few tilted the line by a degree and moved a wall by 20 px.
         And turn the frames whose container walls were held onto the container angle interpolated between the
         measurements that began and ended the hold (the held one when the walls were lost at its end, or the span
-        ended). Overlay frames show the first measurement."""
+        ended). Overlay frames show the first measurement. Frames that repeated a measured picture take its row."""
         walls = {}
         for i, value in self.walls_record.held_angles().items():
             walls[i] = ContainerMeasurement(True, value)
@@ -107,6 +123,7 @@ class SurfaceStep:
             m = refit(held, source)
             if m.found:
                 rows[i] = (rows[i][0], *self._row(m, walls.get(i, cm)))
+        self.copies.fill(rows)
         self.pending, self.held_surfaces = [], {}
 
     def merge(self, later: SurfaceStep) -> None:

@@ -32,7 +32,7 @@ from sloshid.core.tables import to_pandas, write_csv
 from sloshid.tracking.container_ref import ContainerMeasurement, ContainerTracker, WallsRecord
 from sloshid.tracking.float_angle import FloatFinder
 from sloshid.tracking.overlay import draw_overlay
-from sloshid.tracking.repeats import REPEAT_SHARE, repeated_share, stale_repeats
+from sloshid.tracking.repeats import REPEAT_SHARE, Copies, repeated_share, stale_repeats
 from sloshid.tracking.robust import percentile_span
 from sloshid.tracking.smooth import smoothing_worker
 from sloshid.tracking.surface import SurfaceFinder, auto_liquid_preset
@@ -324,9 +324,22 @@ class _FloatStep:
         self.repeated: list[bool] = []
         self.walls_record = WallsRecord()  # by frame in the span
         self.liquid_width: float | None = None  # `_liquid_width` of the first frame the float was found in
+        self.copies = Copies(dy_only=False)
 
     def __call__(self, frame: np.ndarray, draw: bool) -> tuple[tuple, np.ndarray | None]:
-        """(row, overlay frame or None) of one frame."""
+        """(row, overlay frame or None) of one frame; a frame whose picture around the last measured float is an exact
+        copy of that frame's is not measured again (`Copies`: its row is that measurement's, after `revise`)."""
+        copied = self.copies.source(frame, len(self.repeated))
+        if copied is not None:
+            fm, cm, row = copied
+            self.finder.copied()
+            self.found += 1
+            self.cut += fm.cut
+            if self.walls is not None:
+                self.walls_record.copied.append(len(self.repeated))
+            self.repeated.append(True)
+            self.previous = frame
+            return row, draw_overlay(frame, fm, cm, row[0], bool(row[6]), self.roi) if draw else None
         fm = self.finder.measure(frame)
         self.found += fm.found
         self.cut += fm.cut
@@ -347,14 +360,17 @@ class _FloatStep:
             self.last_angle = float_angle
         angle = float_angle - cm.angle_deg
         row = (angle, float_angle, cm.angle_deg, fm.x_px, fm.y_px, fm.quality if cm.found else 0.0, int(ok))
+        self.copies.measured(len(self.repeated) - 1, frame, fm.bbox if fm.found else None, (fm, cm, row))
         return row, draw_overlay(frame, fm, cm, angle, ok, self.roi) if draw else None
 
     def revise(self, rows: list[tuple]) -> None:
         """Turn the frames whose container walls were held onto the container angle interpolated between the
-        measurements around them (`held_angles`; `rows`: this span's, time first, changed in place)."""
+        measurements around them (`held_angles`; `rows`: this span's, time first, changed in place); then give the
+        copied frames their measured frame's row."""
         for i, value in self.walls_record.held_angles().items():
             t, _, float_angle, _, *rest = rows[i]
             rows[i] = (t, float_angle - value, float_angle, value, *rest)
+        self.copies.fill(rows)
 
     def merge(self, later: _FloatStep) -> None:
         """Take in what the step of a later span of the same video found (for `nothing_found` and `finish`)."""
