@@ -468,16 +468,35 @@ def test_a_label_on_the_glass_across_the_surface_is_left_out(tmp_path, label_bgr
     # (white) or upper edge (a label of the dye's colour), a step of 35 px, and the robust fit bent through both levels:
     # 11.7 and 12.1 deg angle RMSE in valid frames, the walls unmoved. The step's columns are dropped now (measured
     # 0.05 deg, 0.3 px)
-    s = SynthSettings(scene="surface", f_hz=2.0, zeta=0.04, amplitude_deg=6.0, tap_s=1.0, duration_s=3.0, seed=1)
-    rows = []
-    with VideoWriter(tmp_path / "l.mp4", s.width, s.height, s.fps) as w:
-        for row, frame in render_frames(s):
-            cv2.rectangle(frame, (380, 230), (429, 299), label_bgr, -1)
-            w.write(frame, row["t_s"])
-            rows.append(row)
-    truth = {k: np.array([r[k] for r in rows]) for k in rows[0]}
+    truth = _trial_surface_clip(tmp_path / "l.mp4", (380, 230), (429, 299), label_bgr)
     assert truth["surface_y_px"].min() > 230 and truth["surface_y_px"].max() < 300  # the label spans the surface
     res = track_video(tmp_path / "l.mp4", TrackSettings(target="surface", liquid_color="blue", smooth=False))
+    _assert_tracks_the_trial_clip(res, truth)
+
+
+def test_another_region_of_the_dyes_colour_is_left_out_and_named(tmp_path):
+    # a user trial's 100x100 px square of the dye's colour in the picture's corner, far from the container: the liquid's
+    # box took it in and no frame found walls (exit 2, "widen --roi", where narrowing it was the fix)
+    truth = _trial_surface_clip(tmp_path / "s.mp4", (10, 10), (109, 109), (211, 94, 50))
+    res = track_video(tmp_path / "s.mp4", TrackSettings(target="surface", liquid_color="blue", smooth=False))
+    _assert_tracks_the_trial_clip(res, truth)
+    assert any("another region of the dye's colour (100x100 px at x 10-110, y 10-110)" in w for w in res.warnings)
+
+
+def _trial_surface_clip(path: Path, corner: tuple, end: tuple, bgr: tuple) -> dict[str, np.ndarray]:
+    """A user trial's 640x480 blue-dye tap test (3 s) with a filled rectangle drawn into every frame; its truth."""
+    s = SynthSettings(scene="surface", f_hz=2.0, zeta=0.04, amplitude_deg=6.0, tap_s=1.0, duration_s=3.0, seed=1)
+    rows = []
+    with VideoWriter(path, s.width, s.height, s.fps) as w:
+        for row, frame in render_frames(s):
+            cv2.rectangle(frame, corner, end, bgr, -1)
+            w.write(frame, row["t_s"])
+            rows.append(row)
+    return {k: np.array([r[k] for r in rows]) for k in rows[0]}
+
+
+def _assert_tracks_the_trial_clip(res: TrackResult, truth: dict[str, np.ndarray]) -> None:
+    """Nearly every frame measured, within the issue's targets (0.3 deg, 1 px; the clip alone: 0.026 deg, 0.2 px)."""
     ok = res.valid.astype(bool)
     assert ok.mean() > 0.9
     assert _rmse((res.angle_deg - truth["surface_angle_deg"])[ok]) < 0.3

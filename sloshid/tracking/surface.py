@@ -83,6 +83,9 @@ outer faces were taken for the inner walls by turns, at each colour refit. Measu
 blue and orange dyes read 0.61 and 0.81 deg angle RMSE and 5.7 px wall RMSE before, 0.02-0.05 deg and 0.1 px after;
 with a dark meniscus and noise 6, five dyes 0.18-0.36 deg and up to 3.3 px before, 0.02-0.05 deg and 0.4 px after; at
 0-8 deg every dye measured as before (within 0.01 deg and 0.02 px)."""
+PIECE_GAP = 0.1
+"""Largest gap between pieces of one liquid body, as a share of the largest piece's width (`_beside`): highlight
+stripes are a few pixels wide."""
 STEP_PX = 4.0
 """Front edges of neighbouring columns further apart than this (and STEP_SLOPE per pixel between them) are on two
 sides of something in front of the surface (`_continuous`)."""
@@ -231,6 +234,7 @@ class SurfaceFinder:
         self._last: SurfaceMeasurement | None = None  # the last frame's, when found
         self._anchor: tuple | None = None  # (strip where the container's sides and bottom are, its centre, values)
         self._sink = 0.0  # how far the front edge's lowest point sank from the frame before to the last one
+        self.elsewhere: tuple | None = None  # (area, (x, y, w, h)) of the largest region of the dye's colour left out
 
     def copied(self) -> None:
         """A frame that copied the last measured picture (`Copies`) was not measured: it counts toward the colour
@@ -284,8 +288,13 @@ class SurfaceFinder:
         areas = 4 * stats[1:, cv2.CC_STAT_AREA]  # full-resolution pixels
         if areas.max() < MIN_LIQUID_SHARE * rw * rh and self._box is None:
             return None
-        # highlight stripes cut the body into side-by-side pieces: the box holds every sizeable piece
-        big = stats[1:][areas >= 0.1 * areas.max()]
+        # highlight stripes cut the body into side-by-side pieces: the box holds every sizeable piece beside the largest
+        pieces = stats[1:][areas >= 0.1 * areas.max()]
+        one = _beside(pieces)
+        for x, y, w, h, area in pieces[~one]:  # another object of the dye's colour: the largest is named in a warning
+            if self.elsewhere is None or 4 * area > self.elsewhere[0]:
+                self.elsewhere = (4 * int(area), (X0 + 2 * int(x), Y0 + 2 * int(y), 2 * int(w), 2 * int(h)))
+        big = pieces[one]
         bx0, by0 = 2 * big[:, 0].min(), 2 * big[:, 1].min()
         bx1, by1 = 2 * (big[:, 0] + big[:, 2]).max(), 2 * (big[:, 1] + big[:, 3]).max()
         return X0 + int(bx0), Y0 + int(by0), X0 + int(bx1), Y0 + int(by1)
@@ -530,6 +539,24 @@ def _anchor_values(strip: np.ndarray, centre: tuple[int, int]) -> np.ndarray | N
     return np.array(
         [s["m10"] / s["m00"], s["m00"] / ANCHOR_ROWS, b["m00"] / (centre[1] - centre[0]), b["m10"] / b["m00"]]
     )
+
+
+def _beside(pieces: np.ndarray) -> np.ndarray:
+    """Which pieces (connected components' stats rows: x, y, w, h, area) are one liquid body cut by highlight stripes:
+    the largest, and those beside it, in its rows (half their height at least) and within PIECE_GAP of its width of the
+    pieces taken. Another object of the dye's colour elsewhere (a label, a mat below the container, a cap) had joined
+    the body's box, whose sides were then no walls: no frame was measured."""
+    order = np.argsort(-pieces[:, 4])
+    one = np.zeros(len(pieces), bool)
+    one[order[0]] = True
+    x0, y0, w0, h0, _ = pieces[order[0]]
+    left, right, gap = x0, x0 + w0, PIECE_GAP * w0 + 2
+    for k in order[1:]:
+        x, y, w, h, _ = pieces[k]
+        if min(y0 + h0, y + h) - max(y0, y) >= 0.5 * h and x <= right + gap and x + w >= left - gap:
+            one[k] = True
+            left, right = min(left, x), max(right, x + w)
+    return one
 
 
 def _inside(body: np.ndarray) -> np.ndarray:

@@ -130,6 +130,8 @@ class SurfaceStep:
         """Take in what the step of a later span of the same video found (for `nothing_found`)."""
         self.liquid_frames += later.liquid_frames
         self.finder.hsv = self.finder.hsv or later.finder.hsv
+        others = [e for e in (self.finder.elsewhere, later.finder.elsewhere) if e is not None]
+        self.finder.elsewhere = max(others, default=None)
 
     def nothing_found(self, n: int, path: Path, hint: str) -> UserError:
         """The one-sentence error when no frame was valid: no liquid of that colour, or no container around it."""
@@ -154,7 +156,9 @@ class SurfaceStep:
         return SettingError(
             "roi",
             f"the liquid was found in {self.liquid_frames} of {n} frames of {path} but not the container's inner "
-            f"walls (straight sides of the liquid inside the picture) in any of them; {hint} or widen {{name}}.",
+            f"walls (straight sides of the liquid inside the picture) in any of them; {hint}, and set {{name}} around "
+            "the container: wider when the picture's edge cuts it, narrower when something else of the dye's colour "
+            "touches it or the colour range takes in the background.",
             "overlay",
         )
 
@@ -173,6 +177,13 @@ class SurfaceStep:
         check_rest_frames(n_rest, len(t))
         rest = valid & (np.arange(len(t)) < n_rest if n_rest else t < t[0] + 1.0)
         notes = [] if container else _tilt_notes(cang[valid])
+        if self.finder.elsewhere is not None:
+            x, y, w, h = self.finder.elsewhere[1]
+            notes.append(
+                f"another region of the dye's colour ({w}x{h} px at x {x}-{x + w}, y {y}-{y + h}) was left out: it is "
+                "not beside the largest one, which was measured as the liquid; if the liquid is elsewhere, or the "
+                "measured region is not liquid, set --roi around the container."
+            )
         if not rest.any():  # heights from the median of every valid frame: said, as they are not above rest
             window = f"the first {n_rest} frames" if n_rest else "the first second"
             notes.append(
