@@ -12,6 +12,7 @@ import pytest
 import scipy.io
 from scipy.spatial.transform import Rotation
 
+from sloshid.core.tables import read_csv
 from sloshid.identification.estimator import IdentSettings
 from sloshid.identification.signals import load_signal
 from sloshid.model.pendulum import G, SloshParams
@@ -114,6 +115,27 @@ def test_predict_cli_reads_headerless_semicolon_log_and_writes_columns(tmp_path,
     i = int(np.argmax(data[:, -1]))
     slope = math.tan(math.radians(data[i, header.index("rel_angle_deg")]))
     assert data[i, -1] == pytest.approx(0.8 * 50 * slope * (1 + 0.5 * slope), rel=1e-6)
+
+
+def test_a_log_on_unix_time_predicts_as_one_from_zero(tmp_path, run_cli):
+    # a robot logger's Unix timestamps (1.7e9 s, a trial's log): the solver gave up ("Required step size is less than
+    # spacing between numbers", a traceback). The same motion from 0 predicts the same angles on the log's own clock.
+    # At 128 Hz the steps (2^-7 s) are written exactly in 7 decimals and held exactly at 1.7e9 s
+    pose = move_pose(rate_hz=128.0)
+    later = PoseLog(pose.t_s + 1.7e9, pose.pos_m, pose.rot, "synthetic")
+    params = tmp_path / "p.json"
+    params.write_text(
+        json.dumps({"parameters": {"omega_rad_s": {"value": TRUTH.omega_rad_s}, "zeta": {"value": 0.03}}})
+    )
+    for name, log in (("zero", pose), ("unix", later)):
+        write_pose_csv(tmp_path / f"{name}.csv", log)
+        args = ("predict", tmp_path / f"{name}.csv", "-o", tmp_path / f"{name}_pred.csv", "--params", params)
+        code, _out, err = run_cli(*args, "--container-radius-m", 0.05)
+        assert code == 0, err
+    zero, unix = (read_csv(tmp_path / f"{name}_pred.csv") for name in ("zero", "unix"))
+    np.testing.assert_allclose(unix["t_s"] - 1.7e9, zero["t_s"], atol=1e-9)
+    assert zero["rel_angle_deg"].max() > 1.0
+    np.testing.assert_allclose(unix["rel_angle_deg"], zero["rel_angle_deg"], atol=1e-4)
 
 
 @pytest.mark.slow

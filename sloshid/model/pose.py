@@ -241,7 +241,10 @@ def respond(
     vertical by vertical_gain (gravity becomes g + vertical_gain az)."""
     acc = exc.acc_m_s2 * np.array([input_gain, input_gain, vertical_gain])
     zero = np.zeros_like(acc)
-    traj = Trajectory(exc.t_s, zero, zero, acc, zero, zero, name="pivot")  # only t_s and acc_m_s2 drive the liquid
+    # integrated from the log's start: at a logger's Unix time (1.7e9 s) a tenth of a microsecond is the spacing of
+    # the numbers, finer than the solver's steps, and the solver gave up
+    t0 = float(exc.t_s[0])
+    traj = Trajectory(exc.t_s - t0, zero, zero, acc, zero, zero, name="pivot")  # only t_s and acc_m_s2 drive the liquid
     res = simulate_liquid(traj, params, settle_s, rtol, atol)
     n_after = res.t_s.size - exc.t_s.size
     quat = exc.rot.as_quat()
@@ -252,7 +255,7 @@ def respond(
     rel = np.column_stack([np.arctan2(-local[:, 1], local[:, 2]), np.arctan2(local[:, 0], local[:, 2])])
     magnitude = np.arccos(np.clip(local[:, 2], -1.0, 1.0))
     acc_all = np.vstack([acc, np.zeros((n_after, 3))])
-    return PoseResponse(res.t_s, acc_all, res.liquid_rad, rel, magnitude, exc.move_span_s)
+    return PoseResponse(res.t_s + t0, acc_all, res.liquid_rad, rel, magnitude, exc.move_span_s)
 
 
 def pose_from_trajectory(traj: Trajectory, source: str = "trajectory") -> PoseLog:
