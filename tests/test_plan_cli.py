@@ -70,6 +70,12 @@ def test_plan_warns_and_exits_1_when_robot_limits_are_exceeded(run_cli, tmp_path
     # exit code 1, so that a script does not send it to the robot; the CSV is still written for inspection
     assert code == 1 and "warning: robot limit rot_acc_rad_s2 exceeded" in stderr
     assert json.loads(stdout)["limits_ok"] is False and (tmp_path / "t.csv").stat().st_size > 0
+    # but never over a file already there (a trial's good plan was replaced by the failed one): kept, and said
+    good = tmp_path / "good.csv"
+    good.write_text("t_s,x_m\n0,0\n")
+    code, _, stderr = run_cli("plan", path, "-o", good)
+    assert code == 1 and good.read_text() == "t_s,x_m\n0,0\n"
+    assert f"kept {good}: a plan that fails its checks does not replace a file already there" in stderr
 
 
 BAD = [

@@ -69,7 +69,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     """Check every output, load, plan, then write the CSV, joints and report only after everything succeeded;
     exit code 1 when the arm cannot follow, a limit is exceeded, the verification fails or the path is left (the
-    files are still written, for inspection)."""
+    files are still written, for inspection, where no file is yet)."""
     from sloshid.planning.planner import plan
     from sloshid.planning.scenario import load_scenario, resolve_liquid
 
@@ -92,13 +92,19 @@ def run(args: argparse.Namespace) -> int:
     fit = []
     if joints is not None:
         result, fit = _check_joints(result, scenario, params, args.fit_joints)
+    executable = result.joints is None or result.joints.executable
+    passed = executable and result.limits_ok and result.verification_ok and result.path_ok
+    # a plan that fails its checks is written for inspection, but never over a file already there (a good plan)
+    kept = [] if passed else [p for p in (output, joints) if p is not None and p.exists()]
     page = None
-    if report_dir is not None:  # drawn before anything is written
+    if report_dir is not None and output not in kept:  # drawn before anything is written
         source = f"identify's {args.params}" if args.params else f"the [liquid] table of {args.scenario}"
         csv = os.path.relpath(os.path.abspath(output), os.path.abspath(report_dir))
         page = result.report_page({"trajectory CSV": csv}, liquid_source=source)
-    result.trajectory.to_csv(output)
-    if joints is not None:
+    written = [p for p in (output, joints) if p is not None and p not in kept]
+    if output in written:
+        result.trajectory.to_csv(output)
+    if joints in written:
         result.joints.write_csv(joints)
     if page is not None:
         page.save(report_dir)
@@ -109,8 +115,14 @@ def run(args: argparse.Namespace) -> int:
             summary["joints"]["fit"] = [vars(f) for f in fit]
         print(json.dumps(summary, indent=2))
     else:
-        print(f"{result.summary()}; wrote {output}" + (f" and {joints}" if joints is not None else ""))
-    if result.joints is not None and not result.joints.executable:
+        print(result.summary() + (f"; wrote {' and '.join(map(str, written))}" if written else ""))
+    if kept:
+        print(
+            f"sloshid: kept {' and '.join(map(str, kept))}: a plan that fails its checks does not replace a file "
+            "already there; write it to a new path to inspect it.",
+            file=sys.stderr,
+        )
+    if not executable:
         # a slower plan cannot move the start: --fit-joints helps only an arm that starts where the move does
         slower = not args.fit_joints and result.joints.starts_at_q_start
         hint = " (--fit-joints re-plans slower until it can)" if slower else ""
