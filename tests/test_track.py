@@ -606,7 +606,9 @@ def test_surface_csv_identifies_like_its_truth(surface_video, tmp_path, run_cli)
         (["--liquid-color", "red"], "--liquid-color applies only to --target surface"),
         (["--target", "surface", "--float-color", "red"], "--float-color applies only to --target float"),
         # a diameter in millimetres would scale the heights a thousandfold
-        (["--target", "surface", "--container-diameter-m", "100"], "up to 10 (0.1 for 100 mm)"),
+        (["--target", "surface", "--container-diameter-m", "100"], "at most 10 (0.1 for 100 mm), got 100: is it in"),
+        # a slip the other way gave wall heights in nanometres (1e-9) and exit 0
+        (["--target", "surface", "--container-diameter-m", "1e-9"], "at least 0.001 (0.1 for 100 mm), got 1e-09."),
         (["--target", "surface", "--liquid-hsv-low", "100,140,60", "--liquid-hsv-high", "125,300,255"], "-high: HSV"),
     ],
 )
@@ -757,6 +759,26 @@ def test_a_rest_window_without_a_measurement_is_said_and_one_covering_the_video_
     assert [w for w in res.warnings if "none of the first second (the rest window)" in w]
     left = res.columns()["left_wall_px"][res.valid.astype(bool)]
     assert left.size > 30 and abs(np.median(left)) < 1e-9  # above the median of every valid frame
+
+
+def test_a_clip_shorter_than_the_rest_window_says_so(tmp_path):
+    # a trial's 0.7 s clip: the default rest window (the first second) held every frame, and the heights were above
+    # the whole clip's median without a word (--rest-frames covering it was already refused)
+    s = SynthSettings(**dict(STILL_SURFACE, duration_s=0.7, tap_s=0.1))
+    render_video(tmp_path / "short.mp4", s)
+    res = track_video(tmp_path / "short.mp4", TrackSettings(target="surface", smooth=False), multithreaded=False)
+    assert [w for w in res.warnings if "the video lasts 0.67 s, less than the rest window (the first second)" in w]
+    res = track_video(tmp_path / "short.mp4", TrackSettings(target="surface", smooth=False, rest_frames=3))
+    assert not [w for w in res.warnings if "rest window" in w]
+
+
+def test_a_still_image_is_refused_as_a_video(tmp_path, run_cli):
+    # a trial's PNG (or one named .mp4) was tracked as a video of one frame, exit 0
+    frame = next(render_frames(SynthSettings(**STILL_SURFACE)))[1]
+    cv2.imwrite(str(tmp_path / "still.png"), frame)
+    out = tmp_path / "a.csv"
+    code, _, err = run_cli("track", tmp_path / "still.png", "-o", out, "--target", "surface")
+    assert code == 2 and "still.png holds a single picture, not a video" in err and not out.exists()
 
 
 def _tracked_with_band(path: Path, band: bool, monkeypatch) -> tuple[TrackResult, int, int]:

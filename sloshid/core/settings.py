@@ -128,3 +128,26 @@ def from_dict(cls: type[T], data: dict[str, Any], where: str = "") -> T:
         return cls(**kwargs)
     except SettingError as exc:  # the library names its setting; here it is a key of this table
         raise UserError(str(exc.named(lambda setting: f"{prefix}{setting}"))) from None
+
+
+MAX_GEOMETRY_M = 10.0
+"""Largest container size taken (m): a value in millimetres (50 for 50 mm) is refused."""
+MIN_GEOMETRY_M = 0.001
+"""Smallest container size taken (m): a millimetre; a value below it is a slip (1e-9 gave wall heights in nanometres)."""
+
+
+def check_in_metres(key: str, value: float | None, example: str = "0.05 for 50 mm") -> None:
+    """Refuse a container size (`key`: a radius, a diameter, a fill height; `example`: how to write one) that is not
+    a number of metres between MIN_GEOMETRY_M and MAX_GEOMETRY_M: one typed in millimetres made wall heights a
+    thousandfold too high. None is not given."""
+    if value is None:
+        return
+    if not value > 0:
+        raise SettingError(key, f"{{name}} must be positive (m), got {value:g}.")
+    if value > MAX_GEOMETRY_M:
+        raise SettingError(
+            key,
+            f"{{name}} must be in metres, at most {MAX_GEOMETRY_M:g} ({example}), got {value:g}: is it in millimetres?",
+        )
+    if value < MIN_GEOMETRY_M:
+        raise SettingError(key, f"{{name}} must be in metres, at least {MIN_GEOMETRY_M:g} ({example}), got {value:g}.")

@@ -16,6 +16,7 @@ from tqdm import tqdm
 from sloshid import __version__
 from sloshid.core.errors import SettingError, UserError
 from sloshid.core.hashing import file_sha256
+from sloshid.core.settings import check_in_metres
 from sloshid.core.spectrum import MIN_PROMINENCE, Spectrum, welch_spectrum
 from sloshid.core.tables import PROGRESS_DELAY_S, distinct_names, to_pandas
 from sloshid.identification.between import BetweenSignals, between_signals
@@ -121,25 +122,6 @@ class IdentSettings:
             raise SettingError(bad, f"{{name}} must be positive (m), got {getattr(self, bad):g}.")
         for key in ("container_radius_m", "fill_height_m"):
             check_in_metres(key, getattr(self, key))  # millimetres typed as metres move the prior a 30-fold
-
-
-MAX_GEOMETRY_M = 10.0
-"""Largest container radius or fill height taken (m): a value in millimetres (50 for 50 mm) is refused."""
-
-
-def check_in_metres(key: str, value: float | None) -> None:
-    """Refuse a container radius or fill height (`key`) that is not positive or too large to be in metres (one typed
-    in millimetres: predicted wall heights 1000 times too high); None is not given."""
-    if value is None:
-        return
-    if not value > 0:
-        raise SettingError(key, f"{{name}} must be positive (m), got {value:g}.")
-    if value > MAX_GEOMETRY_M:
-        raise SettingError(
-            key,
-            f"{{name}} must be in metres, at most {MAX_GEOMETRY_M:g} (0.05 for 50 mm), got {value:g}: is it in "
-            "millimetres?",
-        )
 
 
 @dataclass(frozen=True)

@@ -192,6 +192,12 @@ class SurfaceStep:
                 "the surface was at rest and measured."
             )
             rest = valid
+        elif not n_rest and t[-1] < t[0] + 1.0:  # a clip shorter than the default window
+            notes.append(
+                f"the video lasts {t[-1] - t[0]:.2f} s, less than the rest window (the first second), so "
+                "left/right_wall_px and _mm are heights above the median of all valid frames, not above rest; give "
+                "--rest-frames for frames where the surface was at rest."
+            )
         walls = {}
         for name, w in (("left_wall", left), ("right_wall", right)):
             walls[f"{name}_px"] = np.where(valid, (w - median(w[rest])) / cos_e, np.nan)

@@ -28,6 +28,7 @@ from sloshid.core.atomic import atomic_path
 from sloshid.core.errors import SettingError, UserError
 from sloshid.core.outputs import Outputs
 from sloshid.core.parallel import die_with_parent, signals_held
+from sloshid.core.settings import check_in_metres
 from sloshid.core.tables import to_pandas, write_csv
 from sloshid.tracking.container_ref import ContainerMeasurement, ContainerTracker, WallsRecord
 from sloshid.tracking.float_angle import FloatFinder
@@ -76,9 +77,6 @@ SURFACE_ONLY = ("liquid_color", "liquid_hsv_low", "liquid_hsv_high", "rest_frame
 """Settings only the surface target reads (container_diameter_m too, refused with its own reason)."""
 FLOAT_ONLY = ("float_color", "float_hsv_low", "float_hsv_high")
 """Settings only the float target reads."""
-MAX_DIAMETER_M = 10.0
-"""Largest container_diameter_m taken: a diameter given in millimetres (100 for 100 mm) scales heights a
-thousandfold."""
 
 
 @dataclass(frozen=True)
@@ -143,14 +141,7 @@ class TrackSettings:
             )
         if self.target == "float" and self.float_color is None:  # the default, filled in once nothing can be refused
             object.__setattr__(self, "float_color", DEFAULT_FLOAT_COLOR)
-        if self.container_diameter_m is not None and not (
-            math.isfinite(self.container_diameter_m) and 0 < self.container_diameter_m <= MAX_DIAMETER_M
-        ):
-            raise SettingError(
-                "container_diameter_m",
-                f"{{name}} must be a positive number of metres up to {MAX_DIAMETER_M:g} (0.1 for 100 mm), "
-                f"got {self.container_diameter_m}.",
-            )
+        check_in_metres("container_diameter_m", self.container_diameter_m, "0.1 for 100 mm")
         if self.rest_frames is not None and self.rest_frames < 1:
             raise SettingError("rest_frames", f"{{name}} must be at least 1, got {self.rest_frames}.")
         if self.roi is not None:
@@ -481,6 +472,10 @@ def track_video(
             for part in parts[1:]:
                 step.merge(part.step)
             rows = [(index, *row) for index, row in enumerate(row for part in parts for row in part.rows)]
+            if len(rows) < 2:  # an image (PNG, JPEG) opens as a video of one frame
+                raise UserError(
+                    f"{path} holds a single picture, not a video: track measures the frames of a tap test or a move."
+                )
             found = any(r[8] for r in rows)
             if kept is not None and not found:  # raised here, the new overlay is not put in place
                 hint = f"{kept} was kept; write the overlay to a new path ({{overlay}}) to see what was searched"

@@ -25,12 +25,12 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from sloshid.core.errors import SettingError
+from sloshid.core.settings import check_in_metres
 from sloshid.identification.estimator import (
     Estimate,
     Identifier,
     IdentResult,
     IdentSettings,
-    check_in_metres,
     estimate,
     estimates_table,
 )

@@ -11,8 +11,8 @@ import numpy as np
 
 from sloshid.core.errors import UserError
 from sloshid.core.hashing import file_sha256
+from sloshid.core.settings import check_in_metres
 from sloshid.core.tables import write_csv
-from sloshid.identification.estimator import check_in_metres
 from sloshid.identification.stage import check_sampling
 from sloshid.model.pendulum import SloshParams
 from sloshid.model.pose import SMOOTH_S, PoseLog, PoseResponse, excitation, respond
