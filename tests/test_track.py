@@ -483,6 +483,35 @@ def test_another_region_of_the_dyes_colour_is_left_out_and_named(tmp_path):
     assert any("another region of the dye's colour (100x100 px at x 10-110, y 10-110)" in w for w in res.warnings)
 
 
+def test_an_exposure_step_refits_the_colour_model_at_once(tmp_path):
+    # a user trial's camera exposure step: a yellow dye's clip (H.264 CRF 10) encoded again at CRF 14 with the picture
+    # at 60 % brightness from 2 s on. The colour model fitted before the step moved the bottom's edge, and both wall
+    # heights with it, by 2 px until the next refit (measured: wall RMSE 0.99 / 0.97 px, at most 2.7 px); it is fitted
+    # again in the step's frame now (0.20 / 0.20 px, at most 0.68)
+    s = SynthSettings(
+        scene="surface",
+        liquid_color="yellow",
+        f_hz=2.5,
+        zeta=0.03,
+        amplitude_deg=5.0,
+        tap_s=1.0,
+        duration_s=5.0,
+        noise_sigma=3.0,
+        quality=10,
+        seed=3,
+    )
+    truth = render_video(tmp_path / "raw.mp4", s)
+    with VideoWriter(tmp_path / "e.mp4", s.width, s.height, s.fps, quality=14) as w:
+        for _, t, frame in FrameReader(tmp_path / "raw.mp4"):
+            w.write(np.clip(frame * (0.6 if t >= 2.0 else 1.0), 0, 255).astype(np.uint8), t)
+    res = track_video(tmp_path / "e.mp4", TrackSettings(target="surface", smooth=False))
+    ok = res.valid.astype(bool)
+    assert ok.mean() > 0.7
+    for side in ("left", "right"):
+        err = (res.columns()[f"{side}_wall_px"] - truth[f"{side}_wall_px"])[ok]
+        assert _rmse(err) < 0.5 and np.abs(err).max() < 1.5
+
+
 def _trial_surface_clip(path: Path, corner: tuple, end: tuple, bgr: tuple) -> dict[str, np.ndarray]:
     """A user trial's 640x480 blue-dye tap test (3 s) with a filled rectangle drawn into every frame; its truth."""
     s = SynthSettings(scene="surface", f_hz=2.0, zeta=0.04, amplitude_deg=6.0, tap_s=1.0, duration_s=3.0, seed=1)

@@ -29,6 +29,7 @@ import numpy as np
 from sloshid.tracking.float_angle import fit_colour_model, hsv_mask, membership_map
 from sloshid.tracking.robust import median, normal_solve, robust_lines
 from sloshid.video.colors import PRESETS, HsvRange
+from sloshid.video.frames import Picture
 
 MIN_LIQUID_SHARE = 0.005
 """A liquid region must cover at least this share of the searched area."""
@@ -37,6 +38,13 @@ WALL_MARGIN = 0.06
 REFIT_EVERY = 48
 """The liquid's colour model is refitted every this many frames (the float's: every 8): the front edge is placed on
 the luma, so a model that lags a lighting change by a second or two moves no edge; a refit reads the whole body."""
+EXPOSURE_SHARE = 0.1
+"""The colour model is fitted again, in the frame itself, when the liquid's mean grey level (`_liquid_level`) has moved
+by this share from its level at the last fit (a camera's exposure step): fitted before the step, the model moved the
+bottom's colour edge, and with it both wall heights, by 2 px until the next refit (a yellow dye at 60 % brightness,
+H.264 CRF 14, 640x480: wall RMSE 0.99 -> 0.20 px; steps to 60 % on four dyes at CRF 18: 0.15-0.42 -> 0.09-0.25 px;
+to 140 %, and at CRF 23, within 0.03 px of before but one yellow clip, whose refits at other frames read 0.82 px
+instead of 0.43: a yellow dye's colour model is fragile at that bit rate)."""
 HOLD_ELEVATION_AFTER = 15
 """The camera's elevation is fitted in this many frames, then held at their median."""
 HOLD_AXES_FRAMES = REFIT_EVERY
@@ -235,6 +243,7 @@ class SurfaceFinder:
         self._anchor: tuple | None = None  # (strip where the container's sides and bottom are, its centre, values)
         self._sink = 0.0  # how far the front edge's lowest point sank from the frame before to the last one
         self.elsewhere: tuple | None = None  # (area, (x, y, w, h)) of the largest region of the dye's colour left out
+        self._fit_level: float | None = None  # the liquid's mean grey level when the colour model was fitted
 
     def copied(self) -> None:
         """A frame that copied the last measured picture (`Copies`) was not measured: it counts toward the colour
@@ -248,6 +257,10 @@ class SurfaceFinder:
             if self.hsv is None:
                 return SurfaceMeasurement(False)
         self._since_fit += 1
+        if self._fit_level is not None and self._box is not None:  # the camera's exposure moved: fitted again now
+            level = _liquid_level(frame, self._box)
+            if abs(level - self._fit_level) > EXPOSURE_SHARE * self._fit_level:
+                self._since_fit = REFIT_EVERY
         m = self._measure_band(frame) if self._band_ready() else None
         if m is None and self._box is not None:
             m = self._measure_body(frame, self._box, follow=True)
@@ -371,6 +384,7 @@ class SurfaceFinder:
             half = frame[fy0:Y1, X0:X1][::2, ::2]
             greys = GREY_WEIGHT if self.hsv.low[1] > 0 else 0.0  # a range that holds greys makes them liquid
             self._model, self._since_fit = fit_colour_model(half, hsv_mask(half, self.hsv), greys), 0
+            self._fit_level = _liquid_level(frame, box)
         crop = frame[Y0:Y1, X0:X1]
         if self._model is None:
             return SurfaceMeasurement(False, liquid=True)
@@ -539,6 +553,18 @@ def _anchor_values(strip: np.ndarray, centre: tuple[int, int]) -> np.ndarray | N
     return np.array(
         [s["m10"] / s["m00"], s["m00"] / ANCHOR_ROWS, b["m00"] / (centre[1] - centre[0]), b["m10"] / b["m00"]]
     )
+
+
+def _liquid_level(frame: np.ndarray, box: tuple[int, int, int, int]) -> float:
+    """Mean grey level of the liquid in its body box (x0, y0, x1, y1): its lower half's middle three fifths, which a
+    slosh keeps under the surface, every other pixel; from the decoded luma of a `Picture`, converting nothing."""
+    x0, y0, x1, y1 = box
+    rows, cols = slice((y0 + y1) // 2, y1, 2), slice(x0 + (x1 - x0) // 5, x1 - (x1 - x0) // 5, 2)
+    if isinstance(frame, Picture):
+        grey = frame.luma[rows, cols]
+    else:
+        grey = cv2.cvtColor(np.ascontiguousarray(frame[rows, cols]), cv2.COLOR_BGR2GRAY)
+    return float(grey.mean()) if grey.size else 0.0
 
 
 def _beside(pieces: np.ndarray) -> np.ndarray:
