@@ -87,8 +87,8 @@ def run(args: argparse.Namespace) -> int:
         )
     params = resolve_liquid(scenario, args.params)
     _warn_on_doubtful_frequency(args.params)
-    note_io_model(args.params, str(output))
     result = plan(scenario, params, progress=sys.stderr.isatty())
+    note_io_model(args.params, str(output), result.trajectory)
     fit = []
     if joints is not None:
         result, fit = _check_joints(result, scenario, params, args.fit_joints)
@@ -132,12 +132,13 @@ def run(args: argparse.Namespace) -> int:
     return 0 if result.limits_ok and result.verification_ok and result.path_ok else 1
 
 
-def note_io_model(params_path: str | None, trajectory: str) -> None:
-    """One stderr note when the parameters are an input-output model, whose gains plan and compare do not use."""
+def note_io_model(params_path: str | None, trajectory: str, planned=None) -> None:
+    """One stderr note when the parameters are an input-output model, whose gains plan and compare do not use (with
+    how far it moves the liquid in the `planned` trajectory, when given)."""
     if params_path:
         from sloshid.validation.predict import planning_note
 
-        note = planning_note(params_path, trajectory)
+        note = planning_note(params_path, trajectory, planned)
         if note:
             print(f"sloshid: note: {note}", file=sys.stderr)
 

@@ -15,7 +15,8 @@ from sloshid.core.settings import check_in_metres
 from sloshid.core.tables import write_csv
 from sloshid.identification.stage import check_sampling
 from sloshid.model.pendulum import SloshParams
-from sloshid.model.pose import SMOOTH_S, PoseLog, PoseResponse, excitation, respond
+from sloshid.model.pose import SMOOTH_S, PoseLog, PoseResponse, excitation, pose_from_trajectory, respond
+from sloshid.model.trajectory import Trajectory
 
 
 @dataclass(frozen=True)
@@ -131,18 +132,22 @@ def _found(source: str, beside: Path) -> Path | None:
     return None
 
 
-def planning_note(path: str | Path, trajectory: str = "TRAJ.csv") -> str | None:
+def planning_note(path: str | Path, trajectory: str = "TRAJ.csv", plan: Trajectory | None = None) -> str | None:
     """For `plan` and `compare` with an input-output model (`identify --trajectory`, gains other than 1): they plan
-    and score with its f and zeta alone, as a pendulum; the sentence says so and how to check the plan with the whole
-    model (None for a plain model)."""
+    and score with its f and zeta alone, as a pendulum; the sentence says so, how far the whole model moves the liquid
+    in `plan` (when given: the planned trajectory) and how to check a plan with it (None for a plain model)."""
     model = load_model(path)
     if model.input_gain == 1 and model.vertical_gain == 1:
         return None
+    moved = "the liquid moves during a plan"
+    if plan is not None:
+        pose = pose_from_trajectory(plan, trajectory)
+        peak = float(predict(pose, pivot_for(pose, model, None)[0]).rel_angle_deg.max())
+        moved = f"this plan moves the liquid by up to {peak:.2g} deg against the container"
     return (
         f"{path} is an input-output model (input gain {model.input_gain:.3g}, vertical gain {model.vertical_gain:.3g}); "
-        f"plans and scores use its f and zeta alone, as a pendulum with gains of 1, so by the whole model the liquid "
-        f"moves during a plan (on a user's 1-D plan 0.77 deg where the pendulum said 0.0014): check a plan with "
-        f"`sloshid predict {trajectory} --params {path}`."
+        f"plans and scores use its f and zeta alone, as a pendulum with gains of 1, so by the whole model {moved}: "
+        f"check a plan with `sloshid predict {trajectory} --params {path}`."
     )
 
 
