@@ -56,6 +56,8 @@ def test_plan_writes_csv_report_and_json(run_cli, tmp_path):
     assert "warning" not in stderr
     # the report says which liquid it planned for and where it came from, and links the trajectory it describes
     assert "Planned for the liquid f = 3.44 Hz, zeta = 0.0699" in html and "[liquid] table of" in html
+    # the damping per mass, which the plan uses: a params file without a mass had d shown with an invented 1 kg
+    assert "d/m = 3.02 1/s" in html and " kg)" not in html
     assert 'href="../traj.csv"' in html
     # every robot limit used above 90 % is named in the verdict (the 1-D plan runs at its jerk limit)
     for u in summary["limits"]:

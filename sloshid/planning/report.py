@@ -209,7 +209,8 @@ def plan_report(
     p = result.params
     rep.add_text(
         f"Planned for the liquid f = {p.f_hz:.4g} Hz, zeta = {p.zeta:.3g}, l = {p.l_m:.4g} m, "
-        f"d = {p.d_ns_per_m:.3g} N s/m (m = {p.m_kg:g} kg), from {liquid_source or 'the scenario'}"
+        f"d/m = {p.d_ns_per_m / p.m_kg:.3g} 1/s (the damping per mass, all the pendulum needs), from "
+        f"{liquid_source or 'the scenario'}"
         + (
             f"; robust over omega x {', '.join(f'{f:g}' for f in result.robust_omega_factors)}."
             if result.robust_omega_factors
