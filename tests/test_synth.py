@@ -126,6 +126,12 @@ def test_cli_writes_video_and_truth(run_cli, tmp_path):
         (["--codec", "mpeg4", "--quality", "0"], "MPEG-4 qscale of 1..31"),
         (["--quality", "-3"], "H.264 CRF of 0..51"),
         (["--quality", "99"], "H.264 CRF of 0..51"),
+        # a trial's move: the liquid drawn cut off at the rim while its truth went on to 233 px up the wall, 63 deg
+        (
+            ["--scene", "surface", "--motion", "move", "--accel", "4", "--px-per-m", "300", "--duration", "3"],
+            "the liquid would reach 207 px up a wall, above the container's rim (86 px",
+        ),
+        (["--scene", "surface", "--travel", "600"], "the container would leave the 640 px wide picture"),
     ],
 )
 def test_cli_rejects_bad_settings_without_output(run_cli, tmp_path, args, message):
