@@ -512,6 +512,19 @@ def test_an_exposure_step_refits_the_colour_model_at_once(tmp_path):
         assert _rmse(err) < 0.5 and np.abs(err).max() < 1.5
 
 
+def test_an_automatic_dye_names_the_other_colour_it_passed_over(tmp_path):
+    # a user trial's red label (180x240 px) beside blue water, no --liquid-color: the label, the largest region of a
+    # preset colour, was measured as the liquid, with no word of the blue; the warning names it now
+    _trial_surface_clip(tmp_path / "r.mp4", (455, 100), (634, 339), (40, 40, 220))
+    res = track_video(tmp_path / "r.mp4", TrackSettings(target="surface", smooth=False))
+    assert res.dye == "red (chosen from the first frame)"
+    assert any(
+        "blue covers a region at least a quarter as large" in w and "--liquid-color blue" in w for w in res.warnings
+    )
+    alone = track_video(tmp_path / "r.mp4", TrackSettings(target="surface", liquid_color="blue", smooth=False))
+    assert not any("quarter as large" in w for w in alone.warnings)
+
+
 def _trial_surface_clip(path: Path, corner: tuple, end: tuple, bgr: tuple) -> dict[str, np.ndarray]:
     """A user trial's 640x480 blue-dye tap test (3 s) with a filled rectangle drawn into every frame; its truth."""
     s = SynthSettings(scene="surface", f_hz=2.0, zeta=0.04, amplitude_deg=6.0, tap_s=1.0, duration_s=3.0, seed=1)

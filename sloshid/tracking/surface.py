@@ -91,6 +91,10 @@ outer faces were taken for the inner walls by turns, at each colour refit. Measu
 blue and orange dyes read 0.61 and 0.81 deg angle RMSE and 5.7 px wall RMSE before, 0.02-0.05 deg and 0.1 px after;
 with a dark meniscus and noise 6, five dyes 0.18-0.36 deg and up to 3.3 px before, 0.02-0.05 deg and 0.4 px after; at
 0-8 deg every dye measured as before (within 0.01 deg and 0.02 px)."""
+RIVAL_SHARE = 0.25
+"""A second preset colour whose largest region in the first frame is at least this share of the chosen one's is
+named in a warning when the dye is chosen automatically (a trial's red label beside blue water was measured as the
+liquid, with no word of the blue)."""
 PIECE_GAP = 0.1
 """Largest gap between pieces of one liquid body, as a share of the largest piece's width (`_beside`): highlight
 stripes are a few pixels wide."""
@@ -147,23 +151,24 @@ class SurfaceMeasurement:
     source ("luma" or "colour"), so that the first frames can be measured as the later ones once they are held."""
 
 
-def auto_liquid_preset(frame: np.ndarray, roi: tuple[int, int, int, int]) -> str | None:
-    """The name of the preset whose colour covers the largest connected region of the ROI, or None when none covers
-    enough."""
+def auto_liquid_preset(frame: np.ndarray, roi: tuple[int, int, int, int]) -> tuple[str | None, str | None]:
+    """The name of the preset whose colour covers the largest connected region of the ROI (None when none covers
+    enough), and of the next one when its largest region is at least RIVAL_SHARE of that (the liquid may be it)."""
     x, y, w, h = roi
     crop = frame[y : y + h, x : x + w]
-    best, best_area = None, MIN_LIQUID_SHARE * w * h
+    areas = {}
     for name, p in PRESETS.items():
         n, _, stats, _ = cv2.connectedComponentsWithStats(hsv_mask(crop, p.hsv), connectivity=8)
-        area = stats[1:, cv2.CC_STAT_AREA].max() if n > 1 else 0
-        if area > best_area:
-            best, best_area = name, area
-    return best
+        areas[name] = stats[1:, cv2.CC_STAT_AREA].max() if n > 1 else 0
+    best, rival = sorted(areas, key=areas.get, reverse=True)[:2]
+    if areas[best] <= MIN_LIQUID_SHARE * w * h:
+        return None, None
+    return best, rival if areas[rival] >= RIVAL_SHARE * areas[best] else None
 
 
 def auto_liquid_range(frame: np.ndarray, roi: tuple[int, int, int, int]) -> HsvRange | None:
     """The HSV box of `auto_liquid_preset`'s choice, or None."""
-    name = auto_liquid_preset(frame, roi)
+    name = auto_liquid_preset(frame, roi)[0]
     return PRESETS[name].hsv if name else None
 
 

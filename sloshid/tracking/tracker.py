@@ -443,9 +443,9 @@ def track_video(
         key_times = key_frame_times(path)
         spans = _spans(reader.info, key_times)
         reader.end_s = spans[0][1]
-        liquid, dye = settings.liquid_hsv, ""
+        liquid, dye, rival = settings.liquid_hsv, "", None
         if settings.target == "surface" and liquid is None:  # one automatic dye colour for every span: the first's
-            name = auto_liquid_preset(reader.first_picture(), roi)
+            name, rival = auto_liquid_preset(reader.first_picture(), roi)
             liquid = preset(name).hsv if name else None
             dye = f"{name} (chosen from the first frame)" if name else ""
         elif settings.target == "surface":
@@ -497,6 +497,12 @@ def track_video(
         res = _result(Path(path), body, lost, reader.info.frame_count, smooth, repeated, settings.target)
     res.target, res.walls, res.repeated, res.dye = settings.target, walls, repeated, dye
     res.warnings.extend(notes)
+    if rival is not None:
+        res.warnings.append(
+            f"the dye's colour was chosen from the first frame as {dye.split()[0]}, the largest region of a preset "
+            f"colour; {rival} covers a region at least a quarter as large: if that is the liquid, give --liquid-color "
+            f"{rival}."
+        )
     res.key_frame = _at_key_frames(res.t_s, key_times)
     return res
 
