@@ -117,6 +117,24 @@ def test_predict_cli_reads_headerless_semicolon_log_and_writes_columns(tmp_path,
     assert data[i, -1] == pytest.approx(0.8 * 50 * slope * (1 + 0.5 * slope), rel=1e-6)
 
 
+def test_predict_without_a_radius_writes_the_angles(tmp_path, run_cli):
+    # a tap test's model has no container radius: predict refused to check a plan with it; the angles need none
+    write_pose_csv(tmp_path / "move.csv", move_pose())
+    params = tmp_path / "p.json"
+    params.write_text(
+        json.dumps({"parameters": {"omega_rad_s": {"value": TRUTH.omega_rad_s}, "zeta": {"value": 0.03}}})
+    )
+    code, out, err = run_cli("predict", tmp_path / "move.csv", "-o", tmp_path / "a.csv", "--params", params)
+    assert code == 0 and "the angles are written, not wall_height_mm" in err and "wall height" not in out
+    code, _, err = run_cli(
+        "predict", tmp_path / "move.csv", "-o", tmp_path / "b.csv", "--params", params, "--container-radius-m", 0.05
+    )
+    assert code == 0, err
+    angles, full = read_csv(tmp_path / "a.csv"), read_csv(tmp_path / "b.csv")
+    assert "wall_height_mm" not in angles and "wall_height_mm" in full
+    np.testing.assert_array_equal(angles["rel_angle_deg"], full["rel_angle_deg"])
+
+
 def test_a_log_on_unix_time_predicts_as_one_from_zero(tmp_path, run_cli):
     # a robot logger's Unix timestamps (1.7e9 s, a trial's log): the solver gave up ("Required step size is less than
     # spacing between numbers", a traceback). The same motion from 0 predicts the same angles on the log's own clock.
@@ -351,6 +369,10 @@ def test_bad_input_is_one_sentence_and_exit_2_with_nothing_written(tmp_path, run
     np.savetxt(tmp_path / "wxyz.csv", wxyz, delimiter=";")
     negative = tmp_path / "neg.json"  # said "d_ns_per_m must be zero or positive, got -11.2"
     negative.write_text(json.dumps({"parameters": {"omega_rad_s": {"value": 20.0}, "zeta": {"value": -0.5}}}))
+    massless = tmp_path / "m0.json"  # said "m_kg must be a positive number, got 0.0", naming no file (a trial)
+    massless.write_text(
+        json.dumps({"parameters": {"omega_rad_s": {"value": 20.0}, "zeta": {"value": 0.03}, "m_kg": {"value": 0}}})
+    )
     measured_csv(tmp_path / "meas.csv", pose)
     short = np.loadtxt(tmp_path / "meas.csv", delimiter=",", skiprows=1)[:150]  # 2.5 s: ends before the move does
     np.savetxt(tmp_path / "short.csv", short, delimiter=",", header="t_s,height_mm", comments="")
@@ -374,7 +396,6 @@ def test_bad_input_is_one_sentence_and_exit_2_with_nothing_written(tmp_path, run
         ),
         (("predict", tmp_path / "badq.csv", "-o", out, "--params", params, *radius), "not 1"),
         (("predict", tmp_path / "badt.csv", "-o", out, "--params", params, *radius), "does not increase"),
-        (("predict", good, "-o", out, "--params", params), "radius"),
         (("predict", good, "-o", out, "--params", params, *radius, "--smooth-s", "0"), "window --smooth-s must be"),
         # shorter than two samples: it ran as 0.014 s without a word (a trial)
         (("predict", good, "-o", out, "--params", params, *radius, "--smooth-s", "0.001"), "shorter than two samples"),
@@ -388,6 +409,10 @@ def test_bad_input_is_one_sentence_and_exit_2_with_nothing_written(tmp_path, run
         (("predict", tmp_path / "mm.csv", "-o", out, "--params", params, *radius), "positions in millimetres"),
         (("predict", tmp_path / "wxyz.csv", "-o", out, "--params", params, *radius), "quaternion order x, y, z, w"),
         (("predict", good, "-o", out, "--params", negative, *radius), "parameters.zeta.value must lie in [0, 1)"),
+        (
+            ("predict", good, "-o", out, "--params", massless, *radius),
+            "m0.json: parameters.m_kg.value must be positive",
+        ),
         # 1e9 s of settling asked for terabytes (a traceback)
         (("predict", good, "-o", out, "--params", params, *radius, "--settle-s", "1e9"), "between 0 and 600"),
         (

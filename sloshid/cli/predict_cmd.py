@@ -28,7 +28,7 @@ def add_geometry_arguments(parser: argparse.ArgumentParser) -> None:
         type=float,
         metavar="M",
         help="container radius R in m, for the wall height (default: the radius the parameters were identified with, "
-        "when identify had --container-radius-m; otherwise required)",
+        "when identify had --container-radius-m; without one only the angles are written)",
     )
     parser.add_argument(
         "--pose-columns",
@@ -64,8 +64,12 @@ def run(args: argparse.Namespace) -> int:
 
     output = Outputs([args.trajectory, args.params]).file(args.output, "-o", (".csv",))
     model = load_model(args.params).with_geometry(args.container_radius_m, None, args.smooth_s)
-    if model.radius_m is None:
-        raise UserError("the wall height needs the container radius: give --container-radius-m (m).")
+    if model.radius_m is None:  # the angles need no radius: a tap test's model checks a plan without one
+        print(
+            "sloshid: note: no container radius (--container-radius-m, or one stored by identify): the angles are "
+            "written, not wall_height_mm.",
+            file=sys.stderr,
+        )
     if not 0 <= args.settle_s <= MAX_SETTLE_S:
         raise UserError(f"--settle-s must lie between 0 and {MAX_SETTLE_S:g} s, got {args.settle_s:g}.")
     pose = load_pose_log(args.trajectory, args.pose_columns)
@@ -76,10 +80,12 @@ def run(args: argparse.Namespace) -> int:
     write_prediction(output, resp, model)
     move = resp.move_span_s
     during = (resp.t_s >= move[0]) & (resp.t_s <= move[1])
-    height = model.reading(resp, "wall_height_mm")
+    wall = ""
+    if model.radius_m is not None:
+        wall = f"peak wall height {model.reading(resp, 'wall_height_mm')[during].max():.2f} mm; "
     print(
         f"move {move[0]:.3f}-{move[1]:.3f} s: peak relative angle {resp.rel_angle_deg[during].max():.2f} deg, "
-        f"peak wall height {height[during].max():.2f} mm; after it {resp.rel_angle_deg[~during & (resp.t_s > move[1])].max(initial=0):.2f} deg"
+        f"{wall}after it {resp.rel_angle_deg[~during & (resp.t_s > move[1])].max(initial=0):.2f} deg"
     )
     print(f"wrote {output}")
     return 0

@@ -100,6 +100,8 @@ class SloshParams:
             raise UserError(f"parameter file {path}: parameters.omega_rad_s.value must be positive, got {omega!r}.")
         if not (math.isfinite(zeta) and 0 <= zeta < 1):
             raise UserError(f"parameter file {path}: parameters.zeta.value must lie in [0, 1), got {zeta!r}.")
+        if not (math.isfinite(m) and m > 0):
+            raise UserError(f"parameter file {path}: parameters.m_kg.value must be positive, got {m!r}.")
         return cls.from_modal(omega, zeta, m)
 
 
