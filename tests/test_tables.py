@@ -10,7 +10,7 @@ import pytest
 
 from sloshid.core import tables
 from sloshid.core.errors import UserError
-from sloshid.core.tables import read_table
+from sloshid.core.tables import read_table, table_to_csv
 
 
 @pytest.fixture
@@ -131,3 +131,10 @@ def test_comment_lines_are_skipped_and_a_commented_header_is_read(tmp_path, smal
     (tmp_path / "notes.csv").write_text("# nothing but notes\n")
     with pytest.raises(UserError, match="only comment lines"):
         read_table(tmp_path / "notes.csv")
+
+
+def test_a_negative_zero_is_written_as_0():
+    # a trial's predict CSV held "-0" cells (a zero relative roll times a negative factor); every other value keeps
+    # its bits, the time column its exact form
+    text = table_to_csv({"t_s": np.array([-0.0, 0.1]), "a_deg": np.array([-0.0, -1e-12]), "n": np.array([0, 1])})
+    assert text.splitlines()[1:] == ["0.0,0,0", "0.1,-1e-12,1"]

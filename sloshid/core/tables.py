@@ -29,12 +29,14 @@ def distinct_names(paths: Sequence[str | os.PathLike]) -> list[str]:
 
 
 def table_to_csv(columns: dict[str, np.ndarray], digits: int = 9) -> str:
-    """CSV text of equally long columns: whole numbers without decimals, floats with `digits` significant digits, and
-    the time column `t_s` in the shortest form that reads back to the same bits: analyses compare timestamps exactly
-    (key frames, window ends), so `identify` of a written track CSV equals `identify` of the TrackResult it came
+    """CSV text of equally long columns: whole numbers without decimals, floats with `digits` significant digits (no
+    "-0"), and the time column `t_s` in the shortest form that reads back to the same bits: analyses compare timestamps
+    exactly (key frames, window ends), so `identify` of a written track CSV equals `identify` of the TrackResult it came
     from."""
     names = list(columns)
+    # adding 0.0 turns a negative zero (a product of a zero and a negative number) into 0, every other value unchanged
     cols = [np.asarray(columns[n]) for n in names]
+    cols = [c + 0.0 if np.issubdtype(c.dtype, np.floating) else c for c in cols]
     fmt = [
         "%d".__mod__
         if np.issubdtype(c.dtype, np.integer) or c.dtype == bool
