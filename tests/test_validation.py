@@ -369,6 +369,8 @@ def test_bad_input_is_one_sentence_and_exit_2_with_nothing_written(tmp_path, run
     np.savetxt(tmp_path / "wxyz.csv", wxyz, delimiter=";")
     negative = tmp_path / "neg.json"  # said "d_ns_per_m must be zero or positive, got -11.2"
     negative.write_text(json.dumps({"parameters": {"omega_rad_s": {"value": 20.0}, "zeta": {"value": -0.5}}}))
+    fast = tmp_path / "fast.json"
+    fast.write_text(json.dumps({"parameters": {"omega_rad_s": {"value": 1e6}, "zeta": {"value": 0.03}}}))
     massless = tmp_path / "m0.json"  # said "m_kg must be a positive number, got 0.0", naming no file (a trial)
     massless.write_text(
         json.dumps({"parameters": {"omega_rad_s": {"value": 20.0}, "zeta": {"value": 0.03}, "m_kg": {"value": 0}}})
@@ -413,6 +415,8 @@ def test_bad_input_is_one_sentence_and_exit_2_with_nothing_written(tmp_path, run
             ("predict", good, "-o", out, "--params", massless, *radius),
             "m0.json: parameters.m_kg.value must be positive",
         ),
+        # said "sampled too slowly ... (is it in milliseconds?)", and plan asked for more solver iterations (a trial)
+        (("predict", good, "-o", out, "--params", fast, *radius), "1e+06 rad/s (1.592e+05 Hz) is no sloshing mode"),
         # 1e9 s of settling asked for terabytes (a traceback)
         (("predict", good, "-o", out, "--params", params, *radius, "--settle-s", "1e9"), "between 0 and 600"),
         (

@@ -98,11 +98,21 @@ class SloshParams:
         # named as the file names them: checked later, a negative zeta read as a negative d_ns_per_m
         if not (math.isfinite(omega) and omega > 0):
             raise UserError(f"parameter file {path}: parameters.omega_rad_s.value must be positive, got {omega!r}.")
+        if omega > 2 * math.pi * MAX_MODE_HZ:
+            raise UserError(
+                f"parameter file {path}: parameters.omega_rad_s.value {omega:g} rad/s ({omega / (2 * math.pi):.4g} Hz) "
+                f"is no sloshing mode (at most {MAX_MODE_HZ:g} Hz): is it in other units?"
+            )
         if not (math.isfinite(zeta) and 0 <= zeta < 1):
             raise UserError(f"parameter file {path}: parameters.zeta.value must lie in [0, 1), got {zeta!r}.")
         if not (math.isfinite(m) and m > 0):
             raise UserError(f"parameter file {path}: parameters.m_kg.value must be positive, got {m!r}.")
         return cls.from_modal(omega, zeta, m)
+
+
+MAX_MODE_HZ = 100.0
+"""Highest first sloshing mode a parameter file may give: a vial of 5 mm has about 10 Hz; a trial's 1e6 rad/s sent
+`plan` to ask for more solver iterations and `predict` whether its time was in milliseconds."""
 
 
 @dataclass(frozen=True)
