@@ -78,6 +78,15 @@ def test_plan_warns_and_exits_1_when_robot_limits_are_exceeded(run_cli, tmp_path
     code, _, stderr = run_cli("plan", path, "-o", good)
     assert code == 1 and good.read_text() == "t_s,x_m\n0,0\n"
     assert f"kept {good}: a plan that fails its checks does not replace a file already there" in stderr
+    # nor a report already in the report folder, and then none of its files is written (no failed CSV beside a kept
+    # report: a reviewer's pair of a failed trajectory and a good plan's joints)
+    (tmp_path / "ok").mkdir()
+    good_plan = _scenario(tmp_path / "ok", BASE)
+    assert run_cli("plan", good_plan, "-o", tmp_path / "ok.csv", "--report", tmp_path / "rep")[0] == 0
+    report = (tmp_path / "rep" / "index.html").read_text()
+    code, _, stderr = run_cli("plan", path, "-o", tmp_path / "new.csv", "--report", tmp_path / "rep")
+    assert code == 1 and (tmp_path / "rep" / "index.html").read_text() == report
+    assert not (tmp_path / "new.csv").exists() and "index.html" in stderr
 
 
 def test_a_plan_for_an_input_output_model_says_how_far_that_model_moves_the_liquid(run_cli, tmp_path):

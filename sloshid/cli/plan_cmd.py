@@ -2,7 +2,8 @@
 robot trajectory CSV. The container follows the liquid's surface, so the liquid never moves relative to it.
 The plan is checked against the robot's Cartesian limits and verified by simulating the liquid independently.
 Exit code 1 when a limit is exceeded, the verification fails, the path is left or the arm cannot follow: the files are
-written for inspection, but a script that runs plans should stop there.
+written for inspection (when none of them is there yet: a good plan's are kept), but a script that runs plans should
+stop there.
 """
 
 from __future__ import annotations
@@ -50,7 +51,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default=None,
         help="also write the arm's joint angles at 1 kHz (t_s, q1..q7 in rad) by inverse kinematics, checked "
         "against the datasheet's joint position, velocity, acceleration and jerk limits; needs a [robot] table "
-        'with model = "panda"; exit code 1 when the arm cannot follow (files are still written)',
+        'with model = "panda"; exit code 1 when the arm cannot follow (the files are still written where none is yet)',
     )
     parser.add_argument(
         "--fit-joints",
@@ -69,7 +70,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     """Check every output, load, plan, then write the CSV, joints and report only after everything succeeded;
     exit code 1 when the arm cannot follow, a limit is exceeded, the verification fails or the path is left (the
-    files are still written, for inspection, where no file is yet)."""
+    files are still written, for inspection, when none of them is there yet)."""
     from sloshid.planning.planner import plan
     from sloshid.planning.scenario import load_scenario, resolve_liquid
 
@@ -88,24 +89,26 @@ def run(args: argparse.Namespace) -> int:
     params = resolve_liquid(scenario, args.params)
     _warn_on_doubtful_frequency(args.params)
     result = plan(scenario, params, progress=sys.stderr.isatty())
-    note_io_model(args.params, str(output), result.trajectory)
     fit = []
     if joints is not None:
         result, fit = _check_joints(result, scenario, params, args.fit_joints)
+    note_io_model(args.params, str(output), result.trajectory)  # of the plan written (re-planned for the joints)
     executable = result.joints is None or result.joints.executable
     passed = executable and result.limits_ok and result.verification_ok and result.path_ok
-    # a plan that fails its checks is written for inspection, but never over a file already there (a good plan)
-    kept = [] if passed else [p for p in (output, joints) if p is not None and p.exists()]
+    # a plan that fails its checks is written for inspection, but never over a file already there (a good plan): then
+    # none of its outputs is, so that no failed file sits beside a kept one
+    report_page = report_dir / "index.html" if report_dir is not None else None
+    kept = [] if passed else [p for p in (output, joints, report_page) if p is not None and p.exists()]
     page = None
-    if report_dir is not None and output not in kept:  # drawn before anything is written
+    if report_dir is not None and not kept:  # drawn before anything is written
         source = f"identify's {args.params}" if args.params else f"the [liquid] table of {args.scenario}"
         csv = os.path.relpath(os.path.abspath(output), os.path.abspath(report_dir))
         page = result.report_page({"trajectory CSV": csv}, liquid_source=source)
-    written = [p for p in (output, joints) if p is not None and p not in kept]
-    if output in written:
+    written = [] if kept else [p for p in (output, joints) if p is not None]
+    if written:
         result.trajectory.to_csv(output)
-    if joints in written:
-        result.joints.write_csv(joints)
+        if joints is not None:
+            result.joints.write_csv(joints)
     if page is not None:
         page.save(report_dir)
     _warnings(result, fit)
@@ -119,7 +122,7 @@ def run(args: argparse.Namespace) -> int:
     if kept:
         print(
             f"sloshid: kept {' and '.join(map(str, kept))}: a plan that fails its checks does not replace a file "
-            "already there; write it to a new path to inspect it.",
+            "already there, and so writes none of its files; write them to new paths to inspect them.",
             file=sys.stderr,
         )
     if not executable:

@@ -12,6 +12,8 @@ rightly copied, and its frames stay valid.
 
 from __future__ import annotations
 
+import math
+
 import cv2
 import numpy as np
 
@@ -19,10 +21,6 @@ from sloshid.video.frames import Picture
 
 REPEAT_SHARE = 0.5
 """A frame whose object edges are at least this share unchanged copies of the previous frame is a repeat."""
-COPY_SHARE = 1.0
-"""A frame whose object edges are all unchanged since the last measured frame is not measured again (`Copies`). Not
-REPEAT_SHARE: an encoder updates a slowly moving float's blocks a few at a time, so that frames each half the same as
-the one before drifted by 0.3 deg over nine of them (a 60 fps H.264 clip), which copies of the first would have hidden."""
 MOVED_DEG = 0.15
 """A run of repeats hides motion when the fresh angles around it differ by more than this (about 2 sigma of the
 difference of two measurements at the tracker's 0.05 deg noise)."""
@@ -71,29 +69,35 @@ def repeated_share(
 
 
 class Copies:
-    """The frames whose picture, where the object was last measured, is an exact copy of that measured frame's (every
-    strong edge pixel unchanged, COPY_SHARE): they are not measured again, as a copied picture measures as its
-    original, and take the measured frame's row. They are repeats (`stale_repeats` judges them with the others)."""
+    """The frames whose picture, where the last measured frame's row was read (the float, or the surface, the liquid's
+    sides and its bottom, and the container walls when they are measured), is the encoder's copy of that frame's
+    (every strong edge pixel of each region unchanged): they are not measured again, as a copied picture measures as
+    its original, and take the measured frame's row. They are repeats (`stale_repeats` judges them with the others).
+    Compared with the measured frame, not the one before: an encoder updates a slowly moving float's blocks a few at a
+    time (frames each half the same as the one before drifted 0.3 deg over nine of them); and over the walls and the
+    bottom too: a flat surface band stays the same while the container turns or slides under it (a container turning
+    3 deg under level liquid read a staircase of 0.7 deg when only the band was compared). Only the edges: the noise
+    an encoder re-codes in flat parts (the liquid's body) moves no measurement, and left 6 of 7 copies uncounted."""
 
-    def __init__(self, dy_only: bool) -> None:
-        """`dy_only`: as `repeated_share`'s (a surface line: True; a float's outline: False)."""
-        self.dy_only = dy_only
-        self.last: tuple | None = (
-            None  # (frame in the span, its picture, box, what the step keeps) of the last measured
-        )
+    def __init__(self) -> None:
+        self.last: tuple | None = None  # (frame in the span, its picture, regions, what the step keeps) of the last
         self.of: dict[int, int] = {}  # copied frame -> the measured frame whose row it takes
 
     def source(self, frame: np.ndarray, index: int) -> tuple | None:
-        """What the step kept of the last measured frame when frame `index` copies its picture around its box (noted
+        """What the step kept of the last measured frame when frame `index` copies its picture in every region (noted
         as that frame's copy), else None."""
-        if self.last is None or repeated_share(frame, self.last[1], self.last[2], self.dy_only) < COPY_SHARE:
+        if self.last is None:
+            return None
+        _, picture, regions, kept = self.last
+        if not all(repeated_share(frame, picture, box, dy_only) >= 1.0 for box, dy_only in regions):
             return None
         self.of[index] = self.last[0]
-        return self.last[3]
+        return kept
 
-    def measured(self, index: int, frame: np.ndarray, box: tuple[int, int, int, int] | None, kept: tuple) -> None:
-        """Frame `index` was measured, the object found in `box` (None: not found, so no frame copies it)."""
-        self.last = None if box is None else (index, frame, box, kept)
+    def measured(self, index: int, frame: np.ndarray, regions: list[tuple] | None, kept: tuple) -> None:
+        """Frame `index` was measured from `regions` ((x0, y0, x1, y1), dy_only as `repeated_share` takes them; None:
+        the object was not found, so no frame copies it)."""
+        self.last = None if regions is None else (index, frame, regions, kept)
 
     def fill(self, rows: list[tuple]) -> None:
         """Give each copied frame (in `rows`: the span's, time first, changed in place) its measured frame's row; the
@@ -101,6 +105,18 @@ class Copies:
         for i, source in self.of.items():  # a source is a measured frame, final by now
             rows[i] = (rows[i][0], *rows[source][1:])
         self.of, self.last = {}, None
+
+
+def line_regions(lines, pad: int = 4) -> list[tuple]:
+    """`Copies` regions along near-vertical lines x = a y + b from row y0 to y1 (walls: `(a, b, y0, y1)`, or objects
+    with those attributes), `pad` pixels on each side, with their edges in either direction."""
+    regions = []
+    for line in lines:
+        a, b, y0, y1 = (line.a, line.b, line.y0, line.y1) if hasattr(line, "a") else line
+        xs = (a * y0 + b, a * y1 + b)
+        box = (math.floor(min(xs)) - pad, math.floor(y0), math.ceil(max(xs)) + pad + 1, math.ceil(y1) + 1)
+        regions.append((box, False))
+    return regions
 
 
 def _box_of(luma: tuple | None, box: tuple[int, int, int, int]) -> np.ndarray | None:

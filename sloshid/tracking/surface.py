@@ -45,6 +45,9 @@ bottom's colour edge, and with it both wall heights, by 2 px until the next refi
 H.264 CRF 14, 640x480: wall RMSE 0.99 -> 0.20 px; steps to 60 % on four dyes at CRF 18: 0.15-0.42 -> 0.09-0.25 px;
 to 140 %, and at CRF 23, within 0.03 px of before but one yellow clip, whose refits at other frames read 0.82 px
 instead of 0.43: a yellow dye's colour model is fragile at that bit rate)."""
+EXPOSURE_EVERY = 4
+"""Frames after a colour refit in which the exposure is not watched: under a light flickering by 30 % the model was
+refitted in every frame (1.8 times the CPU time) and measured no better."""
 HOLD_ELEVATION_AFTER = 15
 """The camera's elevation is fitted in this many frames, then held at their median."""
 HOLD_AXES_FRAMES = REFIT_EVERY
@@ -105,6 +108,13 @@ STEP_SLOPE = 1.0
 """A surface's largest slope in the picture, px per px (45 deg: a slosh beyond that breaks up)."""
 STEP_FIT = 10
 """Columns at the end of the surface taken so far whose line is carried across a step (`_continuous`)."""
+STEP_RUNS = 8
+"""More steps than this are a ragged edge, not something in front of the glass: `_continuous` leaves them."""
+STEP_KEEP = 0.5
+"""Share of the columns the surface's runs must keep (`_continuous`), else nothing is measured. A label over more than
+half of the surface is taken for it (over 56-60 % its flat edge was measured as the surface, 2.4 deg RMSE in valid rows
+of a reviewer's clip): nothing in one frame tells the two apart; a float breaking the surface over 46 % of the
+columns is left out."""
 STEP_SPREAD = 0.1
 """How far that line may miss a run beyond the step, per pixel of gap (the surface's curvature, px per px)."""
 SUSTAIN_ROWS = 3
@@ -156,14 +166,24 @@ def auto_liquid_preset(frame: np.ndarray, roi: tuple[int, int, int, int]) -> tup
     enough), and of the next one when its largest region is at least RIVAL_SHARE of that (the liquid may be it)."""
     x, y, w, h = roi
     crop = frame[y : y + h, x : x + w]
-    areas = {}
+    areas, boxes = {}, {}
     for name, p in PRESETS.items():
         n, _, stats, _ = cv2.connectedComponentsWithStats(hsv_mask(crop, p.hsv), connectivity=8)
-        areas[name] = stats[1:, cv2.CC_STAT_AREA].max() if n > 1 else 0
+        k = 1 + int(np.argmax(stats[1:, cv2.CC_STAT_AREA])) if n > 1 else 0
+        areas[name], boxes[name] = (stats[k, cv2.CC_STAT_AREA], stats[k, :4]) if k else (0, None)
     best, rival = sorted(areas, key=areas.get, reverse=True)[:2]
     if areas[best] <= MIN_LIQUID_SHARE * w * h:
         return None, None
-    return best, rival if areas[rival] >= RIVAL_SHARE * areas[best] else None
+    # a hue between two presets' ranges is one region in both: no rival
+    elsewhere = boxes[rival] is not None and _overlap(boxes[best], boxes[rival]) < 0.5
+    return best, rival if elsewhere and areas[rival] >= RIVAL_SHARE * areas[best] else None
+
+
+def _overlap(a: np.ndarray, b: np.ndarray) -> float:
+    """Share of the smaller of two boxes (x, y, w, h) that the other covers."""
+    w = min(a[0] + a[2], b[0] + b[2]) - max(a[0], b[0])
+    h = min(a[1] + a[3], b[1] + b[3]) - max(a[1], b[1])
+    return max(w, 0) * max(h, 0) / max(min(a[2] * a[3], b[2] * b[3]), 1)
 
 
 def auto_liquid_range(frame: np.ndarray, roi: tuple[int, int, int, int]) -> HsvRange | None:
@@ -262,7 +282,8 @@ class SurfaceFinder:
             if self.hsv is None:
                 return SurfaceMeasurement(False)
         self._since_fit += 1
-        if self._fit_level is not None and self._box is not None:  # the camera's exposure moved: fitted again now
+        # the camera's exposure moved: fitted again now (not again within EXPOSURE_EVERY frames: a flickering light)
+        if self._fit_level is not None and self._box is not None and self._since_fit > EXPOSURE_EVERY:
             level = _liquid_level(frame, self._box)
             if abs(level - self._fit_level) > EXPOSURE_SHARE * self._fit_level:
                 self._since_fit = REFIT_EVERY
@@ -573,20 +594,26 @@ def _liquid_level(frame: np.ndarray, box: tuple[int, int, int, int]) -> float:
 
 
 def _beside(pieces: np.ndarray) -> np.ndarray:
-    """Which pieces (connected components' stats rows: x, y, w, h, area) are one liquid body cut by highlight stripes:
-    the largest, and those beside it, in its rows (half their height at least) and within PIECE_GAP of its width of the
-    pieces taken. Another object of the dye's colour elsewhere (a label, a mat below the container, a cap) had joined
-    the body's box, whose sides were then no walls: no frame was measured."""
-    order = np.argsort(-pieces[:, 4])
+    """Which pieces (connected components' stats rows: x, y, w, h, area) are one liquid body cut by highlight stripes
+    or by a line across the glass: the largest, and those beside it (in the rows taken, half their height at least) or
+    above or below it (in the columns taken, half their width at least, and no wider than them), within PIECE_GAP of
+    the width taken so far. Another object of the dye's colour elsewhere (a label, a mat under the container, a cap) had
+    joined the body's box, whose sides were then no walls: no frame was measured."""
     one = np.zeros(len(pieces), bool)
-    one[order[0]] = True
-    x0, y0, w0, h0, _ = pieces[order[0]]
-    left, right, gap = x0, x0 + w0, PIECE_GAP * w0 + 2
-    for k in order[1:]:
-        x, y, w, h, _ = pieces[k]
-        if min(y0 + h0, y + h) - max(y0, y) >= 0.5 * h and x <= right + gap and x + w >= left - gap:
-            one[k] = True
-            left, right = min(left, x), max(right, x + w)
+    one[int(np.argmax(pieces[:, 4]))] = True
+    changed = True
+    while changed:  # pieces may join through one another (a stripe, then the piece beyond the next stripe)
+        changed = False
+        t = pieces[one]
+        left, top = t[:, 0].min(), t[:, 1].min()
+        right, bottom = (t[:, 0] + t[:, 2]).max(), (t[:, 1] + t[:, 3]).max()
+        gap = PIECE_GAP * (right - left) + 2
+        for k in np.flatnonzero(~one):
+            x, y, w, h, _ = pieces[k]
+            rows = min(bottom, y + h) - max(top, y) >= 0.5 * h and x <= right + gap and x + w >= left - gap
+            cols = min(right, x + w) - max(left, x) >= 0.5 * w and w <= right - left + 2 * gap
+            if rows or (cols and y <= bottom + gap and y + h >= top - gap):
+                one[k] = changed = True
     return one
 
 
@@ -640,19 +667,30 @@ def _continuous(w: np.ndarray, ok: np.ndarray, cols: np.ndarray) -> np.ndarray:
     """The columns (of `ok`) on the surface where something in front of the glass (a label, a finger, a clamp) hides or
     takes the place of the liquid's top in a run of them: a surface is continuous, so neighbouring front edges (`w`,
     at map columns `cols`) further apart than STEP_PX plus STEP_SLOPE per pixel between them bound such runs. The
-    longest run is taken for the surface, and each run beyond it on either side joins it when it continues the
-    surface's line there (the last STEP_FIT columns taken, carried across the gap) within STEP_PX plus STEP_SPREAD per
-    pixel of gap; a run that does not is dropped (a 50 px label across a 240 px surface moved the fitted angle by 12
-    deg, the walls staying put). A surface without such steps keeps every column."""
+    surface is the largest set of runs that continue one another's line (`_joined`: the last STEP_FIT columns taken,
+    carried across the gap, within STEP_PX plus STEP_SPREAD per pixel of gap); the other runs are dropped (a 50 px
+    label across a 240 px surface moved the fitted angle by 12 deg, the walls staying put). When that set keeps less
+    than STEP_KEEP of the columns, none is kept (the frame is not measured); a surface without steps, or with more than
+    STEP_RUNS (a ragged edge), keeps every column."""
     at = np.flatnonzero(ok)
     if at.size < 12:
         return ok
     v, x = w[at], cols[at].astype(float)
     steps = np.flatnonzero(np.abs(np.diff(v)) > STEP_PX + STEP_SLOPE * np.diff(x)) + 1
-    if steps.size == 0:
+    if steps.size == 0 or steps.size > STEP_RUNS:  # no step, or a ragged edge: the robust fit's to judge
         return ok
     runs = np.split(np.arange(at.size), steps)
-    first = max(range(len(runs)), key=lambda r: runs[r].size)
+    # each run in turn taken for the surface, with the runs that continue its line: the largest such set is kept
+    taken = max((_joined(runs, r, v, x) for r in range(len(runs))), key=lambda t: sum(q.size for q in t))
+    keep = np.zeros_like(ok)
+    kept = np.concatenate(taken)
+    if kept.size >= STEP_KEEP * at.size:  # else the surface may be the part left out: nothing is measured
+        keep[at[kept]] = True
+    return keep
+
+
+def _joined(runs: list[np.ndarray], first: int, v: np.ndarray, x: np.ndarray) -> list[np.ndarray]:
+    """Run `first` and the runs beyond it on either side that continue its line across their steps (`_continuous`)."""
     taken = [runs[first]]
     for order in (range(first + 1, len(runs)), range(first - 1, -1, -1)):
         side = list(runs[first])
@@ -665,9 +703,7 @@ def _continuous(w: np.ndarray, ok: np.ndarray, cols: np.ndarray) -> np.ndarray:
             if abs(v[start] - (v[end] + slope * (x[start] - x[end]))) <= STEP_PX + STEP_SPREAD * gap:
                 taken.append(runs[r])
                 side = side + list(runs[r]) if r > first else list(runs[r]) + side
-    keep = np.zeros_like(ok)
-    keep[at[np.concatenate(taken)]] = True
-    return keep
+    return taken
 
 
 def _locally_consistent(w: np.ndarray, ok: np.ndarray) -> np.ndarray:

@@ -17,7 +17,7 @@ import numpy as np
 from sloshid.core.errors import SettingError, UserError
 from sloshid.tracking.container_ref import ContainerMeasurement, ContainerTracker, WallsRecord
 from sloshid.tracking.overlay import draw_surface_overlay
-from sloshid.tracking.repeats import REPEAT_SHARE, Copies, repeated_share
+from sloshid.tracking.repeats import REPEAT_SHARE, Copies, line_regions, repeated_share
 from sloshid.tracking.robust import median, percentile_span
 from sloshid.tracking.surface import SurfaceFinder, SurfaceMeasurement
 from sloshid.video.colors import HsvRange
@@ -49,7 +49,7 @@ class SurfaceStep:
         self.pending: list[tuple] = []  # (frame in the span, measurement again with a held elevation, walls measured)
         self.walls_record = WallsRecord()  # by frame in the span
         self.held_surfaces: dict[int, SurfaceMeasurement] = {}  # the frames whose walls were held: their surface
-        self.copies = Copies(dy_only=True)
+        self.copies = Copies()
 
     def __call__(self, frame: np.ndarray, draw: bool) -> tuple[tuple, np.ndarray | None]:
         """(row, overlay frame or None): the track row's fields, then the raw surface geometry.
@@ -83,7 +83,7 @@ class SurfaceStep:
                 self.held_surfaces[len(self.repeated)] = replace(m, walls=(), ends=(), luma=None, refit=None)
         self.repeated.append(bool(repeat))
         row = self._row(m, cm)
-        self.copies.measured(len(self.repeated) - 1, frame, m.band if m.found else None, (m, row))
+        self.copies.measured(len(self.repeated) - 1, frame, _regions(m, cm) if m.found else None, (m, row))
         drawn = (
             draw_surface_overlay(frame, m, row[0], bool(row[6]), self.roi, self.settings.reference) if draw else None
         )
@@ -223,6 +223,16 @@ class SurfaceStep:
         for name in ("left_wall", "right_wall"):
             walls[f"{name}_mm"] = walls[f"{name}_px"] * mm_per_px
         return body, walls, notes
+
+
+def _regions(m: SurfaceMeasurement, cm: ContainerMeasurement | None) -> list[tuple]:
+    """Where a surface measurement was read, for `Copies`: the front edge's band, the liquid's sides (the inner walls,
+    from the surface to the bottom) and the bottom between them, and the container's whole wall edges when measured."""
+    (aL, bL, _, y_bottom), (aR, bR, _, _) = m.walls
+    bottom = (math.floor(aL * y_bottom + bL) - 4, math.floor(y_bottom) - 4)
+    bottom += (math.ceil(aR * y_bottom + bR) + 5, math.ceil(y_bottom) + 5)
+    regions = [(m.band, True), *line_regions(m.walls), (bottom, True)]
+    return regions + line_regions(cm.edges) if cm is not None and cm.edges else regions
 
 
 def check_rest_frames(n_rest: int | None, frames: int) -> None:

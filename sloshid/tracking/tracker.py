@@ -33,7 +33,7 @@ from sloshid.core.tables import to_pandas, write_csv
 from sloshid.tracking.container_ref import ContainerMeasurement, ContainerTracker, WallsRecord
 from sloshid.tracking.float_angle import FloatFinder
 from sloshid.tracking.overlay import draw_overlay
-from sloshid.tracking.repeats import REPEAT_SHARE, Copies, repeated_share, stale_repeats
+from sloshid.tracking.repeats import REPEAT_SHARE, Copies, line_regions, repeated_share, stale_repeats
 from sloshid.tracking.robust import percentile_span
 from sloshid.tracking.smooth import smoothing_worker
 from sloshid.tracking.surface import SurfaceFinder, auto_liquid_preset
@@ -315,7 +315,7 @@ class _FloatStep:
         self.repeated: list[bool] = []
         self.walls_record = WallsRecord()  # by frame in the span
         self.liquid_width: float | None = None  # `_liquid_width` of the first frame the float was found in
-        self.copies = Copies(dy_only=False)
+        self.copies = Copies()
 
     def __call__(self, frame: np.ndarray, draw: bool) -> tuple[tuple, np.ndarray | None]:
         """(row, overlay frame or None) of one frame; a frame whose picture around the last measured float is an exact
@@ -351,7 +351,9 @@ class _FloatStep:
             self.last_angle = float_angle
         angle = float_angle - cm.angle_deg
         row = (angle, float_angle, cm.angle_deg, fm.x_px, fm.y_px, fm.quality if cm.found else 0.0, int(ok))
-        self.copies.measured(len(self.repeated) - 1, frame, fm.bbox if fm.found else None, (fm, cm, row))
+        # the float's outline, and the container's wall edges when they are measured
+        regions = [(fm.bbox, False), *line_regions(cm.edges if self.walls is not None else ())] if fm.found else None
+        self.copies.measured(len(self.repeated) - 1, frame, regions, (fm, cm, row))
         return row, draw_overlay(frame, fm, cm, angle, ok, self.roi) if draw else None
 
     def revise(self, rows: list[tuple]) -> None:
