@@ -14,7 +14,9 @@ different look per clip (colours, camera elevation, meniscus, highlight stripes,
 container tilt, camera roll; most floats rounded, bent, with a specular spot, partly under the tinted liquid and
 motion-blurred). Each clip's tracked trace and its exact truth trace are identified alike; reported per clip:
 angle RMSE, wall-height RMSE, the f and zeta errors of the tracked trace against the truth trace's, and whether the
-tracked 95 % intervals cover the truth trace's values, before and after identify's encoder-hold fit.
+tracked 95 % intervals cover the truth trace's values, before and after identify's encoder-hold fit; and for each
+float clip the same errors of its lossless control (the clip as H.264 CRF 0), which separate the tracker's part of
+the error from the codec's.
 Targets: f within 0.1 %, zeta within 3 %, coverage near 95 %, surface angle RMSE
 <= 0.3 deg, wall RMSE <= 1 px, float angle RMSE <= 0.2 deg.
 Camera elevation: the dyed-liquid surface of every dye preset seen from 0, 8 and 16 deg above (and from 16 deg with a
@@ -31,6 +33,7 @@ import json
 import math
 import tempfile
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import cv2
@@ -294,7 +297,22 @@ def _identified(signal: Signal) -> dict:
 
 
 def dynamics_case(name: str, target: str, s: SynthSettings, path: Path) -> dict:
-    """Render, track and identify one clip and its truth; the errors the user would get."""
+    """Render, track and identify one clip and its truth; the errors the user would get. A float clip is also rendered
+    losslessly (`lossless_control`): what the tracker alone leaves of the dynamics."""
+    row = _tracked_case(name, target, s, path)
+    if target == "float":
+        control = _tracked_case(name, target, replace(s, codec="h264", quality=0.0), path.with_name("control.mp4"))
+        row |= {f"{k}_lossless": control[k] for k in LOSSLESS_KEYS}
+    return row
+
+
+LOSSLESS_KEYS = ("angle_rmse_deg", "f_hz_err_pct", "zeta_err_pct", "f_hz_covered", "zeta_covered")
+"""What a float clip's lossless control (the same clip as H.264 CRF 0: the same look, noise and frame rate, no codec
+loss) reports beside it."""
+
+
+def _tracked_case(name: str, target: str, s: SynthSettings, path: Path) -> dict:
+    """One clip rendered, tracked and identified, with its truth trace identified alike."""
     truth = render_video(path, s)
     reference = "container" if target == "surface" else "image"
     t0 = time.perf_counter()
@@ -365,12 +383,34 @@ def _summary_table(rows: list[dict]) -> list[str]:
     ]
 
 
+def _control_table(rows: list[dict]) -> list[str]:
+    """A set's float clips as coded against their lossless controls (identify's result, after), as Markdown lines:
+    what the codec takes from the dynamics and what the tracker does. Empty when the rows have no controls."""
+    floats = [r for r in rows if "f_hz_err_pct_lossless" in r]
+    if not floats:
+        return []
+    n, cells = len(floats), {}
+    for label, suffix in (("coded", ""), ("lossless", "_lossless")):
+        f_err, z_err = ([abs(r[f"{k}_err_pct{suffix}"]) for r in floats] for k in ("f_hz", "zeta"))
+        covered = sum(r[f"{k}_covered{suffix}"] for r in floats for k in ("f_hz", "zeta"))
+        cells[label] = (sum(e <= 0.1 for e in f_err), max(f_err), sum(e <= 3 for e in z_err), max(z_err), covered)
+    (fc, wfc, zc, wzc, cc), (fl, wfl, zl, wzl, cl) = cells["coded"], cells["lossless"]
+    return [
+        f"| the {n} float clips | as coded | lossless control (H.264 CRF 0) | target |",
+        "|---|---|---|---|",
+        f"| f within 0.1 % (largest error) | {fc} of {n} ({wfc:.3f} %) | {fl} of {n} ({wfl:.3f} %) | all |",
+        f"| zeta within 3 % (largest error) | {zc} of {n} ({wzc:.2f} %) | {zl} of {n} ({wzl:.2f} %) | all |",
+        f"| 95 % intervals covering the truth trace's value | {cc} of {2 * n} | {cl} of {2 * n} | about 95 % |",
+    ]
+
+
 def _clip_table(rows: list[dict]) -> list[str]:
     """One Markdown row per clip: validity, RMSEs, f and zeta errors and coverage before / after."""
     lines = [
         "| clip | valid | repeated | angle RMSE deg | wall RMSE px | hold half-width deg | f err % before / after | "
-        "zeta err % before / after | f covered | zeta covered | track fps |",
-        "|---|---|---|---|---|---|---|---|---|---|---|",
+        "zeta err % before / after | f covered | zeta covered | lossless control: angle RMSE deg, f / zeta err % | "
+        "track fps |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for r in rows:
         wall = f"{r['wall_rmse_px']:.2f}" if "wall_rmse_px" in r else "-"
@@ -380,9 +420,17 @@ def _clip_table(rows: list[dict]) -> list[str]:
             f"{r['f_hz_err_pct_uncorrected']:+.3f} / {r['f_hz_err_pct']:+.3f} | "
             f"{r['zeta_err_pct_uncorrected']:+.2f} / {r['zeta_err_pct']:+.2f} | "
             f"{_yes(r['f_hz_covered_uncorrected'])} / {_yes(r['f_hz_covered'])} | "
-            f"{_yes(r['zeta_covered_uncorrected'])} / {_yes(r['zeta_covered'])} | {r['track_fps']:.0f} |"
+            f"{_yes(r['zeta_covered_uncorrected'])} / {_yes(r['zeta_covered'])} | {_control_cell(r)} | "
+            f"{r['track_fps']:.0f} |"
         )
     return lines
+
+
+def _control_cell(r: dict) -> str:
+    """A clip's lossless control as a table cell ("-" for a surface clip, which has none)."""
+    if "f_hz_err_pct_lossless" not in r:
+        return "-"
+    return f"{r['angle_rmse_deg_lossless']:.3f}, {r['f_hz_err_pct_lossless']:+.3f} / {r['zeta_err_pct_lossless']:+.2f}"
 
 
 def run_dynamics() -> list[dict]:
@@ -409,11 +457,15 @@ def _dynamics_markdown(rows: list[dict]) -> list[str]:
         "",
         "Seeded 5 s clips, tap at 0.5 s. Before = the plain PT2 fit with its HAC interval; after = what identify "
         "reports for a tracked video trace: the mode fitted as seen through an encoder hold whose half-width is fitted "
-        "with it (float and surface alike), the interval from the joint covariance.",
+        "with it (float and surface alike), the interval from the joint covariance. Each float clip is also "
+        "rendered losslessly (the same clip as H.264 CRF 0: same look, noise and frame rate) and identified after "
+        "tracking alike: its errors are the tracker's own, the difference to the coded clip's is the codec's.",
     ]
     for title, seed in DYNAMICS_SETS:
         mine = [r for r in rows if r["set_seed"] == seed]
-        lines += ["", f"### {title[0].upper()}{title[1:]}", "", *_summary_table(mine), "", *_clip_table(mine)]
+        control = _control_table(mine)
+        lines += ["", f"### {title[0].upper()}{title[1:]}", "", *_summary_table(mine), ""]
+        lines += [*control, "", *_clip_table(mine)] if control else _clip_table(mine)
     return lines
 
 
