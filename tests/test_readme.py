@@ -49,6 +49,14 @@ def test_every_command_line_in_the_readme_parses():
             pytest.fail(f"README command does not parse: sloshid {' '.join(words)}")
 
 
+def test_ci_runs_exactly_the_readmes_test_command():
+    # the README's second command is what CI runs: .ci/run's last line, character for character, in a bash block of
+    # the README's opening (before its first section)
+    command = (ROOT / ".ci" / "run").read_text(encoding="utf-8").strip().splitlines()[-1]
+    opening = README.split("\n## ", 1)[0]
+    assert "pytest" in command and command in re.findall(r"```bash\n(.*?)\n```", opening, flags=re.S)
+
+
 def test_python_blocks_run_in_order(tmp_path, monkeypatch):
     # the blocks share one namespace and write under out/, as a reader's session in the repository would
     monkeypatch.chdir(tmp_path)
