@@ -9,6 +9,8 @@ out/benchmarks/ and reused.
 Issue 12 times whole commands, start-up included, as the target is stated: `sloshid track VIDEO -o CSV --target T`
 for the float (also with `--reference container`) and for a dyed-liquid surface video of the same size and length
 (a still container, also with `--reference container`, and one that tilts all video long), each against a bare decode loop run as its own Python process on the same file, alternately; wall-clock and CPU-time ratios, load noted.
+The tilting container's command is timed once more as its floor (`FLOOR_LOOP`: the fitting taken out, the pixel
+work left), which shows how much of the target's time the fitting may take.
 Since long videos are tracked in spans side by side (one process per core), the in-process figures count the span
 workers' and the smoother's CPU time too. Writes reports/benchmarks/track_speed.{json,md}. Run from the repository root: python3 benchmarks/track_speed.py
 """
@@ -71,6 +73,29 @@ def track_fps_no_smooth(path: Path) -> tuple[float, float]:
 
 
 BARE_LOOP = "import cv2,sys\ncap=cv2.VideoCapture(sys.argv[1],cv2.CAP_FFMPEG)\nwhile cap.read()[0]: pass\n"
+FLOOR_LOOP = """
+import sys, cv2
+from sloshid.cli.app import main
+from sloshid.tracking import surface_track
+from sloshid.tracking.float_angle import membership_map
+measured = surface_track.SurfaceStep.__call__
+def pixels_only(self, frame, draw):
+    f = self.finder
+    if f._last is None or f._model is None:  # the first frame is measured: it fixes the dye, box and colour model
+        self.last_row = measured(self, frame, draw)[0]
+        return self.last_row, None
+    X0, Y0, X1, Y1 = f._window(f._box, frame.shape)
+    crop = frame[Y0:Y1, X0:X1]
+    _ = membership_map(crop, f._model[0]) >= 0.5, cv2.cvtColor(crop, cv2.COLOR_BGR2GRAY)
+    self.repeated.append(False)
+    return self.last_row, None
+surface_track.SurfaceStep.__call__ = pixels_only
+sys.exit(main(sys.argv[1:]))
+"""
+"""The floor of a whole-body surface frame: `sloshid track` itself (start-up, spans, smoother, CSV) with each frame after
+the first reduced to the pixel work every whole-body frame does (the liquid's box converted from the decoded picture,
+its colour map and its luma), none of the fitting: what a measuring loop at no cost would reach."""
+FLOOR_SCENE = "surface_tilting"
 SURFACE_LOOK = ["--scene", "surface", "--specular", "0.3", "--meniscus", "1"]
 SCENES = {
     "float": ("float", [], []),
@@ -157,6 +182,10 @@ def whole_commands() -> list[dict]:
                 runs[scene]["track"].append(wall)
                 runs[scene]["track_cpu"].append(cpu)
                 runs[scene]["raw"].append(timed_process([*cmd, "--no-smooth"])[0])
+                if scene == FLOOR_SCENE:
+                    floor = [sys.executable, "-c", FLOOR_LOOP, *cmd[3:]]
+                    runs[scene].setdefault("floor", []).append(timed_process(floor)[0])
+                    runs[scene].setdefault("floor_raw", []).append(timed_process([*floor, "--no-smooth"])[0])
                 load.append(os.getloadavg()[0])
     rows = []
     for scene, r in runs.items():
@@ -182,6 +211,10 @@ def whole_commands() -> list[dict]:
             "meets_target": statistics.median(pairs) >= TARGET_RATIO,
             "copied_share": copied_share(videos[scene], scene),
         }
+        if "floor" in r:
+            row["floor_s"], row["floor_no_smooth_s"] = r["floor"], r["floor_raw"]
+            row["floor_ratio"] = statistics.median([b / t for b, t in zip(r["bare"], r["floor"])])
+            row["floor_ratio_no_smooth"] = statistics.median([b / t for b, t in zip(r["bare"], r["floor_raw"])])
         rows.append(row)
         print(
             f"whole command, {scene}: ratio {row['ratio']:.2f} (pairs {', '.join(f'{x:.2f}' for x in pairs)}), "
@@ -287,6 +320,18 @@ def main() -> None:
             f"{r['ratio_no_smooth']:.2f} | {r['load_average_1min'][0]:.1f}-{r['load_average_1min'][1]:.1f} | >= {TARGET_RATIO} | "
             f"{'yes' if r['meets_target'] else 'NO'} |"
         )
+    for r in (c for c in commands if "floor_ratio" in c):
+        bare, track, floor = (statistics.median(r[k]) for k in ("bare_s", "track_s", "floor_s"))
+        per_frame = 1000 * (os.cpu_count() or 1) / (DURATION_S * 30)  # ms of the cores' time a frame, per second
+        lines += [
+            "",
+            f"The floor of the {r['scene'].replace('_', ' ')} row (`FLOOR_LOOP`: the same command with every frame after "
+            "the first reduced to the pixel work of a whole-body frame, its box converted, its colour map and luma, "
+            f"none of the fitting): ratio **{r['floor_ratio']:.2f}** (median {floor:.2f} s), "
+            f"{r['floor_ratio_no_smooth']:.2f} with --no-smooth. Meeting {TARGET_RATIO} leaves "
+            f"{bare / TARGET_RATIO - floor:.2f} s beyond it for the fitting, {(bare / TARGET_RATIO - floor) * per_frame:.2f} "
+            f"ms of the cores' time a frame; the fitting takes {(track - floor) * per_frame:.2f} ms now.",
+        ]
     write_text(OUT / "track_speed.md", "\n".join(lines) + "\n")
 
 
