@@ -1292,6 +1292,13 @@ def test_pipeline_track_table_takes_the_target():
         TrackOptions(target="liquid")
 
 
+def _tracked_and_truth(tmp_path, synth: SynthSettings, settings: TrackSettings):
+    """The issue-12 measure of a float clip: (its tracked signal, the identification of its truth trace)."""
+    truth = render_video(tmp_path / "c.mp4", synth)
+    tracked = signal_from_track(track_video(tmp_path / "c.mp4", settings))
+    return tracked, Identifier().fit(make_signal(truth["t_s"], truth["float_angle_deg"], "angle_deg", "deg", "truth"))
+
+
 @pytest.mark.slow
 def test_tracked_clip_keeps_the_dynamics(tmp_path):
     # the issue-12 measure of a tracker: identify the tracked trace and the truth trace of the same video. A 640x480
@@ -1315,9 +1322,7 @@ def test_tracked_clip_keeps_the_dynamics(tmp_path):
         float_length_frac=0.1894750427990906,
         seed=1004,
     )
-    truth = render_video(tmp_path / "c.mp4", s)
-    tracked = signal_from_track(track_video(tmp_path / "c.mp4", TrackSettings(float_color="green")))
-    exact = Identifier().fit(make_signal(truth["t_s"], truth["float_angle_deg"], "angle_deg", "deg", "truth"))
+    tracked, exact = _tracked_and_truth(tmp_path, s, TrackSettings(float_color="green"))
     want = exact.result.parameters
     plain = Identifier().fit(replace(tracked, tracked="")).result.parameters
     assert plain["f_hz"].value < want["f_hz"].value * (1 - 0.001)  # the bias the correction is for (measured -0.20 %)
@@ -1358,10 +1363,8 @@ def test_a_losslessly_coded_float_keeps_the_dynamics_without_any_correction(tmp_
         float_length_frac=0.18010964533136292,
         seed=1010,
     )
-    truth = render_video(tmp_path / "c.mp4", s)
-    tracked = signal_from_track(track_video(tmp_path / "c.mp4", TrackSettings(float_color="green", smooth=False)))
-    want = Identifier().fit(make_signal(truth["t_s"], truth["float_angle_deg"], "angle_deg", "deg", "truth"))
-    want = want.result.parameters
+    tracked, exact = _tracked_and_truth(tmp_path, s, TrackSettings(float_color="green", smooth=False))
+    want = exact.result.parameters
     fitted = Identifier().fit(tracked).result
     assert fitted.fit.hold is not None and fitted.fit.hold.width < 0.005  # deg: no hold where the codec holds nothing
     plain = Identifier().fit(replace(tracked, tracked="")).result.parameters
