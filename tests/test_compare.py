@@ -17,6 +17,7 @@ from sloshid.comparison.ruckig_moves import jerk_limited
 from sloshid.comparison.shapers import design_shaper, shaped_constant_acceleration
 from sloshid.model.pendulum import TABLE_I, G, SloshParams
 from sloshid.model.simulate import simulate_liquid
+from sloshid.planning.scenario import Obstacle
 
 # a short 0.1 m move along x keeps every simulation below a second: T = 2 sqrt(L / a) = 0.894 s
 SHORT = MoveTask(((0.3, 0.0, 0.2), (0.4, 0.0, 0.2)), (0.5, 0.5, 0.5), (1.7, 1.7, 1.7))
@@ -104,6 +105,23 @@ def test_a_move_is_scored_against_its_own_jerk_limit():
     assert ramp.move_limits_ok and not ramp.limits_failed
     unlimited, _ = score(constant_acceleration(SHORT), TABLE_I, MoveLimits(SHORT), 1.0)  # no jerk limit given
     assert unlimited.move_limits_ok
+
+
+def test_a_move_whose_container_body_hits_an_obstacle_below_is_scored_as_colliding():
+    # SHORT runs at z = 0.2 m; a sphere 8 cm below its middle: the surface's centre clears it by 3 cm beyond both radii,
+    # a container body 8 cm deep runs through it. The clearance a method is judged by takes the body in.
+    below = [Obstacle(center=(0.35, 0.0, 0.12), radius=0.02)]
+    shallow, _ = score(
+        constant_acceleration(SHORT), TABLE_I, MoveLimits(SHORT, obstacles=below, container_radius_m=0.03), 1.0
+    )
+    deep, _ = score(
+        constant_acceleration(SHORT),
+        TABLE_I,
+        MoveLimits(SHORT, obstacles=below, container_radius_m=0.03, container_depth_m=0.08),
+        1.0,
+    )
+    assert shallow.min_clearance_m == pytest.approx(0.03, abs=1e-6)  # the 1 ms sample nearest the middle: 1e-8 off
+    assert deep.min_clearance_m < -0.02
 
 
 def test_tilt_compensation_follows_the_steady_tilt():

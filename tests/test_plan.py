@@ -20,7 +20,7 @@ from sloshid.model.simulate import simulate_liquid
 from sloshid.model.trajectory import RobotLimits, Trajectory, check_limits
 from sloshid.planning.ocp import Structure, bang_bang_time, get_solver
 from sloshid.planning.planner import _plan_free, plan, solve_segment
-from sloshid.planning.scenario import Scenario, load_scenario, scenario_from_dict
+from sloshid.planning.scenario import Scenario, body_clearance, load_scenario, scenario_from_dict
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -157,6 +157,32 @@ def test_obstacle_clearance_on_every_sample(obstacle):
     straight = np.linspace(sc.waypoints[0], sc.waypoints[1], 50)
     assert o.clearance(straight, sc.container_radius_m).min() < 0  # the test would fail for a straight move
     assert res.verification_ok
+
+
+def test_the_container_body_below_the_surface_clears_an_obstacle_too():
+    # A sphere 8 cm below the straight line: the surface's centre clears it (2.8 cm beyond its radius and the
+    # container's), a body 8 cm deep would run through it. With [container].depth_m the plan keeps the whole body clear,
+    # tilted as planned, on every 1 kHz sample; without it the same plan's body enters the sphere.
+    flat = _small_3d([{"center": [0.4, 0.0, 0.22], "radius": 0.02}])
+    blind = plan(flat, flat.liquid).trajectory
+    assert body_clearance(flat.obstacles, blind.pos_m, 0.03, 0.08, blind.z_axis).min() < 0
+    deep = dataclasses.replace(flat, container_depth_m=0.08)
+    res = plan(deep, deep.liquid)
+    tr = res.trajectory
+    clear = body_clearance(deep.obstacles, tr.pos_m, 0.03, 0.08, tr.z_axis)
+    assert clear.min() >= 0 and res.min_clearance_m == pytest.approx(clear.min())
+    assert res.verification_ok
+
+
+def test_a_body_still_in_an_obstacle_after_the_retries_is_named(monkeypatch):
+    # the body is kept clear by solving again with the obstacle grown, not by a constraint: when the retries run out
+    # (one here, which only takes in every obstacle) the error names the body, not the constraint points
+    import sloshid.planning.planner as planner
+
+    monkeypatch.setattr(planner, "CLEARANCE_RETRIES", 1)
+    sc = dataclasses.replace(_small_3d([{"center": [0.4, 0.0, 0.22], "radius": 0.02}]), container_depth_m=0.08)
+    with pytest.raises(UserError, match=r"the container's body \(\[container\]\.depth_m\) still enters an obstacle"):
+        plan(sc, sc.liquid)
 
 
 def test_waypoints_concatenate_continuously():

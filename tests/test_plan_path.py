@@ -15,6 +15,7 @@ from sloshid.core.errors import UserError
 from sloshid.model.simulate import simulate_liquid
 from sloshid.model.trajectory import Trajectory
 from sloshid.planning.path import PathTable, build_geometry
+from sloshid.planning.path_planner import check_path
 from sloshid.planning.path_problem import PathStructure, build_path_problem
 from sloshid.planning.planner import plan
 from sloshid.planning.scenario import load_scenario, scenario_from_dict
@@ -148,6 +149,18 @@ def test_path_through_an_obstacle_is_reported_not_avoided(run_cli, tmp_path):
     code, _out, err = run_cli("plan", sc, "-o", tmp_path / "t.csv")
     assert code == 2 and "runs through obstacle 1" in err and err.count("\n") == 1
     assert not (tmp_path / "t.csv").exists()
+
+
+def test_a_path_over_an_obstacle_is_refused_when_the_body_below_reaches_it(tmp_path):
+    # a sphere 9 cm below the arc: the surface's centre clears it (by 2 cm beyond both radii), an upright body 8 cm deep
+    # reaches 1 cm into it; the check refuses the path only with [container].depth_m, naming the body
+    below = "\n[[obstacles]]\ncenter = [0.55, -0.05, 0.21]\nradius = 0.03\n"
+    sc = tmp_path / "s.toml"
+    sc.write_text(PATH_ARC.read_text() + below)
+    check_path(load_scenario(sc))
+    sc.write_text(PATH_ARC.read_text().replace("radius_m = 0.04", "radius_m = 0.04\ndepth_m = 0.08") + below)
+    with pytest.raises(UserError, match=r"runs through obstacle 1 .*upright body 0\.08 m below the surface's centre"):
+        check_path(load_scenario(sc))
 
 
 def test_a_path_plan_draws_its_report(arc_plan, tmp_path):

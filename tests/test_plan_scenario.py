@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import numpy as np
@@ -11,7 +12,7 @@ from sloshid.core.errors import UserError
 from sloshid.model.pendulum import TABLE_I
 from sloshid.model.trajectory import RobotLimits
 from sloshid.planning.ocp import bang_bang_time, segment_axis
-from sloshid.planning.scenario import Obstacle, load_scenario, scenario_from_dict
+from sloshid.planning.scenario import Obstacle, body_clearance, load_scenario, scenario_from_dict
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -72,6 +73,35 @@ def test_obstacle_clearance_is_exact():
     pts = np.array([[0.3, 0, 0.2], [0.0, 0.0, 0.6], [0.05, 0, 0.2]])
     # beside: radial 0.3 - 0.15; above the inflated top (0.55): 0.05; inside: negative
     assert cyl.clearance(pts, 0.05) == pytest.approx([0.15, 0.05, -0.1])
+
+
+def test_body_clearance_covers_the_tilted_container_below_the_surface():
+    sphere = Obstacle(center=(0.0, 0.0, 0.0), radius=0.02)
+    above = np.array([0.0, 0.0, 0.1])  # the surface's centre 0.1 m above the sphere's
+    # no depth: the sphere of radius 0.03 around that point alone, exactly as the obstacle's own clearance
+    assert body_clearance([sphere], above, 0.03) == pytest.approx(sphere.clearance(above, 0.03))
+    # an upright body 0.08 m deep reaches down to 0.02 m above the centre: inside the sphere grown by 0.03
+    deep = float(body_clearance([sphere], above, 0.03, 0.08))
+    assert deep < 0
+    # its lowest covering sphere sits at the body's bottom, grown by at most 3 % to cover the cylinder
+    assert -0.03 * 1.03 <= deep <= -0.03
+    # tilted by 30 deg about y, the bottom swings 0.04 m sideways: a sphere there is reached, one on the other side not
+    tilt = math.radians(30)
+    axis = np.array([math.sin(tilt), 0.0, math.cos(tilt)])
+    bottom = above - 0.08 * axis
+    swung = Obstacle(center=tuple(bottom + np.array([-0.02, 0.0, -0.02])), radius=0.01)
+    assert body_clearance([swung], above, 0.03, 0.08, axis) < 0
+    assert body_clearance([swung], above, 0.03, 0.08) > 0  # the upright body misses it
+    # several samples at once, inf without obstacles
+    many = np.array([above, above + np.array([1.0, 0, 0])])
+    assert body_clearance([sphere], many, 0.03, 0.08).shape == (2,)
+    assert np.isinf(body_clearance([], many, 0.03, 0.08)).all()
+
+
+@pytest.mark.parametrize("depth", [-0.01, 80.0])
+def test_container_depth_must_be_in_metres(depth):
+    with pytest.raises(UserError, match=r"\[container\]\.depth_m must lie in \[0, 2\] m"):
+        scenario_from_dict({"move": {"start": [0, 0, 0.3], "goal": [0.2, 0, 0.3]}, "container": {"depth_m": depth}})
 
 
 def test_bang_bang_bound_and_1d_detection():

@@ -30,6 +30,7 @@ from sloshid.model.pendulum import SloshParams
 from sloshid.model.simulate import MAX_SETTLE_S, LiquidResponse, simulate_liquid
 from sloshid.model.trajectory import RobotLimits, Trajectory, check_limits, check_move_limits, tilt_profiles
 from sloshid.planning.planner import check_feasible
+from sloshid.planning.scenario import body_clearance
 
 METHODS: dict[str, str] = {
     "constant_acc": "constant acceleration",
@@ -182,6 +183,8 @@ class MoveLimits:
     obstacles: list[Any] = field(default_factory=list)
     """Objects with `clearance(points, inflate_m)` (sloshid.planning.scenario.Obstacle)."""
     container_radius_m: float = 0.0
+    container_depth_m: float = 0.0
+    """How far the container's body reaches below the point the move carries (sloshid.planning.scenario.body_clearance)."""
     path: Any = None
     """sloshid.planning.path.PathGeometry of a [path] scenario (deviations are scored against it), else None."""
     jerk_max_m_s3: tuple[float, float, float] | None = None
@@ -205,7 +208,8 @@ def score(traj: Trajectory, params: SloshParams, limits: MoveLimits, settle_s: f
     failed += [f"move {u.quantity} {u.peak:.3g} > {u.limit:.3g}" for u in move if not u.ok]
     clearance = None
     if limits.obstacles:
-        clearance = float(min(np.min(o.clearance(traj.pos_m, limits.container_radius_m)) for o in limits.obstacles))
+        R, depth = limits.container_radius_m, limits.container_depth_m
+        clearance = float(body_clearance(limits.obstacles, traj.pos_m, R, depth, traj.z_axis).min())
     deviation = float(limits.path.deviation(traj.pos_m).max()) if limits.path is not None else None
     sc = Score(
         traj.duration_s,
@@ -270,7 +274,14 @@ def compare_scenario(
 
 def _move(scenario: Any) -> tuple:
     """What makes a scenario's move: a plan of another one must not be scored as this one's."""
-    return scenario.waypoints, scenario.limits, scenario.obstacles, scenario.path_table, scenario.container_radius_m
+    return (
+        scenario.waypoints,
+        scenario.limits,
+        scenario.obstacles,
+        scenario.path_table,
+        scenario.container_radius_m,
+        scenario.container_depth_m,
+    )
 
 
 def compare_settings(scenario: Any) -> CompareSettings:
@@ -297,6 +308,7 @@ def from_scenario(scenario: Any, params: SloshParams, f_interval_hz: tuple[float
         scenario.robot,
         list(scenario.obstacles),
         scenario.container_radius_m,
+        scenario.container_depth_m,
         getattr(scenario, "path", None),
         scenario.move_jerk_max,
     )

@@ -38,7 +38,7 @@ from sloshid.planning.path_problem import (
     path_parameters,
 )
 from sloshid.planning.problem import constraint_bounds
-from sloshid.planning.scenario import Scenario
+from sloshid.planning.scenario import Scenario, body_clearance
 from sloshid.planning.transcription import MultipleShooting, graded_mesh
 
 VERIFY_AFTER_DEG = 0.05
@@ -72,13 +72,14 @@ def check_path(scenario: Scenario) -> None:
             f"the path leaves [limits].z_range [{lim.z_range[0]:g}, {lim.z_range[1]:g}] m at "
             f"{np.round(pts[i], 4).tolist()} ({sigma[i]:.3f} m along it)."
         )
-    R = scenario.container_radius_m
+    R, depth = scenario.container_radius_m, scenario.container_depth_m
+    body = f", and the upright body {depth:g} m below the surface's centre" if depth else ""
     for j, o in enumerate(scenario.obstacles):
-        clear = o.clearance(pts, R)
+        clear = body_clearance([o], pts, R, depth)
         if clear.min() < 0:
             i = int(np.argmin(clear))
             raise UserError(
-                f"the path runs through obstacle {j + 1} ({o.describe(R)}: container radius) at "
+                f"the path runs through obstacle {j + 1} ({o.describe(R)}: container radius{body}) at "
                 f"{np.round(pts[i], 4).tolist()}, {sigma[i]:.3f} m along it; sloshid keeps to the given path, "
                 "so move the path or the obstacle."
             )
@@ -233,7 +234,8 @@ def _clearance(scenario: Scenario, traj: Trajectory) -> float | None:
     """Smallest distance of a 1 kHz sample to an inflated obstacle (None without obstacles)."""
     if not scenario.obstacles:
         return None
-    return float(min(o.clearance(traj.pos_m, scenario.container_radius_m).min() for o in scenario.obstacles))
+    R, depth = scenario.container_radius_m, scenario.container_depth_m
+    return float(body_clearance(scenario.obstacles, traj.pos_m, R, depth, traj.z_axis).min())
 
 
 __all__ = ["check_path", "plan_path", "sample_path"]

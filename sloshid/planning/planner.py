@@ -40,7 +40,7 @@ from sloshid.planning.ocp import (
     time_lower_bound,
 )
 from sloshid.planning.sampling import sample_segments
-from sloshid.planning.scenario import Obstacle, Scenario
+from sloshid.planning.scenario import Obstacle, Scenario, body_clearance
 from sloshid.planning.transcription import equidistributed_mesh, graded_mesh, regrid
 
 VERIFY_DURING_DEG = 0.1
@@ -244,10 +244,11 @@ def check_feasible(scenario: Scenario) -> None:
                 f"[{lim.z_range[0]:g}, {lim.z_range[1]:g}] m."
             )
         for j, obstacle in enumerate(scenario.obstacles):
-            if obstacle.clearance(p, R) < 0:
+            if body_clearance([obstacle], p, R, scenario.container_depth_m) < 0:
+                body = f", and the body {scenario.container_depth_m:g} m below it" if scenario.container_depth_m else ""
                 raise UserError(
                     f"the {label} {list(p)} lies inside obstacle {j + 1} ({obstacle.describe(R)}: container "
-                    "radius plus [solver].clearance_margin_m); move it out or shrink the obstacle."
+                    f"radius plus [solver].clearance_margin_m{body}); move it out or shrink the obstacle."
                 )
     for i, (a, b) in enumerate(zip(scenario.waypoints[:-1], scenario.waypoints[1:])):
         t_lb = time_lower_bound(a, b, lim, scenario.solver.kappa_T)
@@ -261,7 +262,8 @@ def check_feasible(scenario: Scenario) -> None:
 def near_obstacles(scenario: Scenario, start, goal) -> list[Obstacle]:
     """Obstacles within NEAR_M of the straight segment (the others cannot matter unless the path bulges far)."""
     line = np.linspace(start, goal, 64)
-    return [o for o in scenario.obstacles if o.clearance(line, scenario.container_radius_m).min() < NEAR_M]
+    R, depth = scenario.container_radius_m, scenario.container_depth_m
+    return [o for o in scenario.obstacles if body_clearance([o], line, R, depth).min() < NEAR_M]
 
 
 def _structure(scenario: Scenario, start, goal, obstacles, n_robust: int, warm: bool) -> Structure:
@@ -572,6 +574,12 @@ def _plan_free(
         if not dipped:
             break
         if attempt == CLEARANCE_RETRIES:
+            if scenario.container_depth_m:  # the body is kept clear by these retries alone, not by constraints
+                raise UserError(
+                    f"segment {dipped[0] + 1}: the container's body ([container].depth_m) still enters an obstacle by "
+                    f"{-clearance.min() * 1e3:.2f} mm after {CLEARANCE_RETRIES} solves with it grown; add a waypoint "
+                    "that leads around it, or raise the path."
+                )
             raise UserError(
                 f"segment {dipped[0] + 1} still enters an inflated obstacle by {-clearance.min() * 1e3:.2f} mm between "
                 "constraint points; raise [solver].clearance_points or [solver].N."
@@ -636,12 +644,11 @@ def segment_of_samples(segments: Sequence[SegmentResult], n: int) -> np.ndarray:
 
 def _clearance(scenario: Scenario, segments: list[SegmentResult], traj: Trajectory) -> tuple[np.ndarray, np.ndarray]:
     """Smallest clearance (m) of each 1 kHz sample to any inflated obstacle, and the segment of each sample."""
-    n = len(traj.t_s)
-    seg_of = segment_of_samples(segments, n)
+    seg_of = segment_of_samples(segments, len(traj.t_s))
     if not scenario.obstacles:
-        return np.full(n, np.inf), seg_of
-    clear = np.min([o.clearance(traj.pos_m, scenario.container_radius_m) for o in scenario.obstacles], axis=0)
-    return clear, seg_of
+        return body_clearance((), traj.pos_m, 0.0), seg_of
+    R, depth = scenario.container_radius_m, scenario.container_depth_m
+    return body_clearance(scenario.obstacles, traj.pos_m, R, depth, traj.z_axis), seg_of
 
 
 __all__ = ["PlanResult", "check_feasible", "plan", "solve_segment"]

@@ -13,6 +13,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
 
+import numpy as np
+
 from sloshid.core.errors import SettingError, UserError
 from sloshid.core.settings import did_you_mean, from_dict, load_toml
 from sloshid.model.pendulum import SloshParams
@@ -116,8 +118,6 @@ class Obstacle:
 
     def clearance(self, p: Any, inflate_m: float) -> Any:
         """Exact signed clearance (m) of point(s) p (..., 3) from the obstacle inflated by `inflate_m`; < 0 inside."""
-        import numpy as np
-
         p = np.asarray(p, dtype=float)
         r = self.radius + inflate_m
         if self.kind == "sphere":
@@ -140,10 +140,40 @@ class Container:
 
     radius_m: float = 0.04
     """Container radius (m); every obstacle grows by it."""
+    depth_m: float = 0.0
+    """How far the container's body reaches below the liquid surface's centre (the point the plan moves) along its
+    axis (m): it must clear the obstacles too, tilted as the plan tilts it (`body_clearance`); 0: the sphere only."""
 
     def __post_init__(self) -> None:
         if not self.radius_m >= 0:
             raise UserError(f"[container].radius_m must be zero or positive, got {self.radius_m}.")
+        if not 0 <= self.depth_m <= MAX_DEPTH_M:
+            raise UserError(
+                f"[container].depth_m must lie in [0, {MAX_DEPTH_M:g}] m (metres, not millimetres), got {self.depth_m}."
+            )
+
+
+MAX_DEPTH_M = 2.0
+"""The deepest container body [container].depth_m takes (m): a depth in millimetres would read as metres."""
+
+
+def body_clearance(obstacles, pos_m, radius_m: float, depth_m: float = 0.0, z_axis=None):
+    """Smallest signed clearance (m) of the container from any of `obstacles` at each position `pos_m` (..., 3) of
+    the liquid surface's centre; < 0 inside one, inf without obstacles. The container is the sphere of `radius_m`
+    around that point and, with a `depth_m`, its body down to `depth_m` below it along its axis `z_axis` (..., 3; None:
+    upright): spheres along the axis at most half a radius apart, each grown to cover the cylinder between them
+    (radius hypot(R, spacing / 2), at most 3 % more), so a body that clears them clears the obstacle."""
+    pos = np.asarray(pos_m, dtype=float)
+    if not obstacles:
+        return np.full(pos.shape[:-1], np.inf)
+    if depth_m <= 0:
+        return np.min([o.clearance(pos, radius_m) for o in obstacles], axis=0)
+    n = math.ceil(2 * depth_m / max(radius_m, depth_m / 32)) + 1
+    step = depth_m / (n - 1)
+    axis = np.array([0.0, 0.0, 1.0]) if z_axis is None else np.asarray(z_axis, dtype=float)
+    points = pos[..., None, :] - np.linspace(0.0, depth_m, n)[:, None] * axis[..., None, :]
+    grown = math.hypot(radius_m, step / 2)
+    return np.min([o.clearance(points, grown).min(axis=-1) for o in obstacles], axis=0)
 
 
 @dataclass(frozen=True)
@@ -241,6 +271,8 @@ class Scenario:
     """[path] as written (tolerances)."""
     arm: Any = None
     """[robot] model = "panda" ...: the arm for joint-space checks (sloshid.planning.arm.ArmSettings), else None."""
+    container_depth_m: float = 0.0
+    """[container].depth_m: the container's body below the liquid surface's centre that clears the obstacles too."""
 
     @property
     def move_jerk_max(self) -> Vec3 | None:
@@ -288,11 +320,13 @@ def scenario_from_dict(data: dict[str, Any], source: str = "") -> Scenario:
         from sloshid.planning.arm import arm_settings
 
         arm = arm_settings(arm_raw)
+    container = from_dict(Container, data.get("container", {}), "[container]")
     return Scenario(
         waypoints=points,
         limits=from_dict(Limits, data.get("limits", {}), "[limits]"),
         obstacles=obstacles,
-        container_radius_m=from_dict(Container, data.get("container", {}), "[container]").radius_m,
+        container_radius_m=container.radius_m,
+        container_depth_m=container.depth_m,
         solver=from_dict(SolverSettings, data.get("solver", {}), "[solver]"),
         liquid=liquid,
         robot=from_dict(RobotLimits, robot_raw, "[robot]"),
