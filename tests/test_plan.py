@@ -160,10 +160,11 @@ def test_obstacle_clearance_on_every_sample(obstacle):
 
 
 def test_the_container_body_below_the_surface_clears_an_obstacle_too():
-    # A sphere 8 cm below the straight line: the surface's centre clears it (2.8 cm beyond its radius and the
-    # container's), a body 8 cm deep would run through it. With [container].depth_m the plan keeps the whole body clear,
-    # tilted as planned, on every 1 kHz sample; without it the same plan's body enters the sphere.
-    flat = _small_3d([{"center": [0.4, 0.0, 0.22], "radius": 0.02}])
+    # A sphere 10 cm below the straight line: the surface's centre clears it (4.8 cm beyond its radius and the
+    # container's), a body 8 cm deep would run 3 cm into it. With [container].depth_m the plan keeps the whole body
+    # clear, tilted as planned, on every 1 kHz sample; without it the same plan's body enters the sphere. (The retries
+    # once grew the margin by the dip alone, which the centre's 4.8 cm of room absorbed: this case was never left.)
+    flat = _small_3d([{"center": [0.4, 0.0, 0.20], "radius": 0.02}])
     blind = plan(flat, flat.liquid).trajectory
     assert body_clearance(flat.obstacles, blind.pos_m, 0.03, 0.08, blind.z_axis).min() < 0
     deep = dataclasses.replace(flat, container_depth_m=0.08)
@@ -175,11 +176,11 @@ def test_the_container_body_below_the_surface_clears_an_obstacle_too():
 
 
 def test_a_body_still_in_an_obstacle_after_the_retries_is_named(monkeypatch):
-    # the body is kept clear by solving again with the obstacle grown, not by a constraint: when the retries run out
-    # (one here, which only takes in every obstacle) the error names the body, not the constraint points
+    # the body is kept clear by solving again with the obstacles grown, not by a constraint: when the retries run out
+    # (none here) the error names the body, not the constraint points
     import sloshid.planning.planner as planner
 
-    monkeypatch.setattr(planner, "CLEARANCE_RETRIES", 1)
+    monkeypatch.setattr(planner, "CLEARANCE_RETRIES", 0)
     sc = dataclasses.replace(_small_3d([{"center": [0.4, 0.0, 0.22], "radius": 0.02}]), container_depth_m=0.08)
     with pytest.raises(UserError, match=r"the container's body \(\[container\]\.depth_m\) still enters an obstacle"):
         plan(sc, sc.liquid)

@@ -163,6 +163,19 @@ def test_a_path_over_an_obstacle_is_refused_when_the_body_below_reaches_it(tmp_p
         check_path(load_scenario(sc))
 
 
+def test_a_path_whose_tilted_body_swings_into_an_obstacle_writes_no_plan(run_cli, tmp_path):
+    # A container 0.3 m deep (radius 0.01 m) on the arc leans into the turn, its bottom swinging 2.2 cm outward at
+    # t = 0.89 s; a sphere 1.2 cm beyond that bottom is clear of the upright body all along the path (check_path passes),
+    # but the planned tilt brings the body 8 mm into it: one sentence, exit 2, no CSV.
+    text = PATH_ARC.read_text().replace("radius_m = 0.04", "radius_m = 0.01\ndepth_m = 0.3")
+    sc = tmp_path / "s.toml"
+    sc.write_text(text + "\n[[obstacles]]\ncenter = [0.3711, -0.0337, 0.0008]\nradius = 0.01\n")
+    check_path(load_scenario(sc))
+    code, _out, err = run_cli("plan", sc, "-o", tmp_path / "t.csv")
+    assert code == 2 and "tilted as the plan tilts it along the path" in err and err.count("\n") == 1
+    assert not (tmp_path / "t.csv").exists()
+
+
 def test_a_path_plan_draws_its_report(arc_plan, tmp_path):
     # a path plan knew no scenario, so `--report` (and a pipeline's [plan] on a path) failed after writing the CSV
     page = arc_plan.report(tmp_path / "rep")

@@ -85,7 +85,7 @@ def test_body_clearance_covers_the_tilted_container_below_the_surface():
     assert deep < 0
     # its lowest covering sphere sits at the body's bottom, grown by at most 3 % to cover the cylinder
     assert -0.03 * 1.03 <= deep <= -0.03
-    # tilted by 30 deg about y, the bottom swings 0.04 m sideways: a sphere there is reached, one on the other side not
+    # tilted by 30 deg about y, the bottom swings 0.04 m sideways: a sphere beside it is reached, which the upright body misses
     tilt = math.radians(30)
     axis = np.array([math.sin(tilt), 0.0, math.cos(tilt)])
     bottom = above - 0.08 * axis

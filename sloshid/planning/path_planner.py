@@ -209,6 +209,13 @@ def plan_path(scenario: Scenario, params: SloshParams, *, progress: bool = False
     verification = simulate_liquid(traj, params)
     deviation = float(scenario.path.deviation(traj.pos_m).max())
     seg = _as_segment(scenario, traj, T, status, iters, elapsed, mesh, X, U)
+    clearance = _clearance(scenario, traj)
+    if clearance is not None and clearance < 0:  # the path was checked upright: the planned tilt swung the body in
+        raise UserError(
+            f"the container, tilted as the plan tilts it along the path (its body {scenario.container_depth_m:g} m "
+            f"deep), enters an obstacle by {-clearance * 1e3:.1f} mm; sloshid keeps to the given path, so move the "
+            "path or the obstacle, or lower [limits].tilt_max_deg."
+        )
     return PlanResult(
         trajectory=traj,
         T_s=T,
@@ -220,7 +227,7 @@ def plan_path(scenario: Scenario, params: SloshParams, *, progress: bool = False
         limits_ok=all(u.ok for u in usages + move),
         verification=verification,
         params=params,
-        min_clearance_m=_clearance(scenario, traj),
+        min_clearance_m=clearance,
         wall_time_s=time.perf_counter() - t_wall,
         verify_during_deg=lim.rel_angle_max_deg,
         max_path_deviation_m=deviation,

@@ -585,11 +585,27 @@ def _plan_free(
                 "constraint points; raise [solver].clearance_points or [solver].N."
             )
         for i in dipped:
-            if i in full:
-                margins[i] += float(-clearance[seg_of_sample == i].min()) + 1e-3
+            if i in full or scenario.container_depth_m:
+                margins[i] = _grown_margin(scenario, traj, clearance, seg_of_sample == i, margins[i])
             full.add(i)
         segs.update(_solve_all(scenario, params, robust, margins, dipped, None, progress, full))
     return _assemble(scenario, params, ordered, traj, clearance, robust, t_wall)
+
+
+def _grown_margin(
+    scenario: Scenario, traj: Trajectory, clearance: np.ndarray, mine: np.ndarray, margin: float
+) -> float:
+    """A segment's obstacle margin for its next solve, from its samples' clearance (`mine`: its samples): the deepest
+    dip and a millimetre more. A container's body ([container].depth_m) dips where its surface's centre, which the
+    constraints keep clear, may still have room: the margin then also takes in that room, else it would grow without
+    the constraint ever pushing the centre (a sphere 10 cm below a move, 3 cm into the body, was never left)."""
+    worst = int(np.flatnonzero(mine)[np.argmin(clearance[mine])])
+    grown = margin - float(clearance[worst]) + 1e-3
+    if not scenario.container_depth_m:
+        return grown
+    centre = body_clearance(scenario.obstacles, traj.pos_m[worst], scenario.container_radius_m)
+    room = float(centre) - scenario.solver.clearance_margin_m - margin  # beyond what the constraint keeps
+    return grown + max(0.0, room)
 
 
 def limit_usages(traj: Trajectory, scenario: Scenario) -> tuple[list[LimitUsage], list[LimitUsage]]:
