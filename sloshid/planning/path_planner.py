@@ -211,10 +211,12 @@ def plan_path(scenario: Scenario, params: SloshParams, *, progress: bool = False
     seg = _as_segment(scenario, traj, T, status, iters, elapsed, mesh, X, U)
     clearance = _clearance(scenario, traj)
     if clearance is not None and clearance < 0:  # the path was checked upright: the planned tilt swung the body in
+        depth = scenario.container_depth_m
+        what = f"tilted as the plan tilts it along the path (its body {depth:g} m deep)" if depth else "on the plan"
         raise UserError(
-            f"the container, tilted as the plan tilts it along the path (its body {scenario.container_depth_m:g} m "
-            f"deep), enters an obstacle by {-clearance * 1e3:.1f} mm; sloshid keeps to the given path, so move the "
-            "path or the obstacle, or lower [limits].tilt_max_deg."
+            f"the container, {what}, enters an obstacle by {-clearance * 1e3:.1f} mm; sloshid keeps to the given "
+            "path (within [path].path_tolerance_m), so move the path or the obstacle"
+            + (", or lower [limits].tilt_max_deg." if depth else ".")
         )
     return PlanResult(
         trajectory=traj,
