@@ -38,7 +38,7 @@ from sloshid.planning.path_problem import (
     path_parameters,
 )
 from sloshid.planning.problem import constraint_bounds
-from sloshid.planning.scenario import Scenario, body_clearance
+from sloshid.planning.scenario import Scenario
 from sloshid.planning.transcription import MultipleShooting, graded_mesh
 
 VERIFY_AFTER_DEG = 0.05
@@ -75,7 +75,7 @@ def check_path(scenario: Scenario) -> None:
     R, depth = scenario.container_radius_m, scenario.container_depth_m
     body = f", and the upright body {depth:g} m below the surface's centre" if depth else ""
     for j, o in enumerate(scenario.obstacles):
-        clear = body_clearance([o], pts, R, depth)
+        clear = scenario.container_clearance(pts, obstacles=[o])
         if clear.min() < 0:
             i = int(np.argmin(clear))
             raise UserError(
@@ -243,8 +243,7 @@ def _clearance(scenario: Scenario, traj: Trajectory) -> float | None:
     """Smallest distance of a 1 kHz sample to an inflated obstacle (None without obstacles)."""
     if not scenario.obstacles:
         return None
-    R, depth = scenario.container_radius_m, scenario.container_depth_m
-    return float(body_clearance(scenario.obstacles, traj.pos_m, R, depth, traj.z_axis).min())
+    return float(scenario.container_clearance(traj.pos_m, traj.z_axis).min())
 
 
 __all__ = ["check_path", "plan_path", "sample_path"]

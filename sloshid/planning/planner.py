@@ -262,8 +262,7 @@ def check_feasible(scenario: Scenario) -> None:
 def near_obstacles(scenario: Scenario, start, goal) -> list[Obstacle]:
     """Obstacles within NEAR_M of the straight segment (the others cannot matter unless the path bulges far)."""
     line = np.linspace(start, goal, 64)
-    R, depth = scenario.container_radius_m, scenario.container_depth_m
-    return [o for o in scenario.obstacles if body_clearance([o], line, R, depth).min() < NEAR_M]
+    return [o for o in scenario.obstacles if scenario.container_clearance(line, obstacles=[o]).min() < NEAR_M]
 
 
 def _structure(scenario: Scenario, start, goal, obstacles, n_robust: int, warm: bool) -> Structure:
@@ -661,10 +660,7 @@ def segment_of_samples(segments: Sequence[SegmentResult], n: int) -> np.ndarray:
 def _clearance(scenario: Scenario, segments: list[SegmentResult], traj: Trajectory) -> tuple[np.ndarray, np.ndarray]:
     """Smallest clearance (m) of each 1 kHz sample to any inflated obstacle, and the segment of each sample."""
     seg_of = segment_of_samples(segments, len(traj.t_s))
-    if not scenario.obstacles:
-        return body_clearance((), traj.pos_m, 0.0), seg_of
-    R, depth = scenario.container_radius_m, scenario.container_depth_m
-    return body_clearance(scenario.obstacles, traj.pos_m, R, depth, traj.z_axis), seg_of
+    return scenario.container_clearance(traj.pos_m, traj.z_axis), seg_of
 
 
 __all__ = ["PlanResult", "check_feasible", "plan", "solve_segment"]

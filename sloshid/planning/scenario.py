@@ -162,7 +162,8 @@ def body_clearance(obstacles, pos_m, radius_m: float, depth_m: float = 0.0, z_ax
     the liquid surface's centre; < 0 inside one, inf without obstacles. The container is the sphere of `radius_m`
     around that point and, with a `depth_m`, its body down to `depth_m` below it along its axis `z_axis` (..., 3; None:
     upright): spheres along the axis at most half a radius apart, each grown to cover the cylinder between them
-    (radius hypot(R, spacing / 2), at most 3 % more), so a body that clears them clears the obstacle."""
+    (radius hypot(R, spacing / 2): at most 3.1 % more while R is over a 32nd of the depth), so a body that clears
+    them clears the obstacle."""
     pos = np.asarray(pos_m, dtype=float)
     if not obstacles:
         return np.full(pos.shape[:-1], np.inf)
@@ -273,6 +274,12 @@ class Scenario:
     """[robot] model = "panda" ...: the arm for joint-space checks (sloshid.planning.arm.ArmSettings), else None."""
     container_depth_m: float = 0.0
     """[container].depth_m: the container's body below the liquid surface's centre that clears the obstacles too."""
+
+    def container_clearance(self, pos_m, z_axis=None, obstacles=None):
+        """`body_clearance` of this scenario's container (its radius and depth) at positions `pos_m` of the surface's
+        centre, from `obstacles` (default: all of the scenario's); `z_axis` None: upright."""
+        obstacles = self.obstacles if obstacles is None else obstacles
+        return body_clearance(obstacles, pos_m, self.container_radius_m, self.container_depth_m, z_axis)
 
     @property
     def move_jerk_max(self) -> Vec3 | None:
