@@ -219,6 +219,101 @@ def detect_walls(
     return [best[s][1] for s in sorted(best)]
 
 
+GLASS_SLOPES = np.linspace(-0.03, 0.03, 31)
+"""Slope changes (x per row, about +-1.7 deg) tried about a wall's seed line by `glass_edges`: the liquid's sides give
+the walls to about a degree. The best is searched again about itself in GLASS_FINE steps, with offsets in quarter
+pixels: on whole-pixel offsets a sharp edge half-way between two of them reads best on a line that crosses it (0.2 deg
+off on a 250-row wall)."""
+GLASS_FINE = 0.0002
+GLASS_BLUR = 1.0
+"""Gaussian blur (px) of the grey levels before their gradient: a smooth edge profile, so that the line sums' peak
+between the tried offsets and slopes is found by parabolas."""
+
+
+def glass_edges(frame: np.ndarray | Picture, seeds: list[EdgeLine], rows: tuple[int, int]) -> list[EdgeLine]:
+    """The container's walls from the glass's own edges: for each seed line (a wall as the liquid's side gives it), the
+    straight lines within BAND_PX of it, over `rows` (the glass above the liquid as well as the liquid's side), along
+    which the horizontal luma gradient adds up to the most, one rising and one falling (line integrals, as a Radon
+    transform's): the faint edge of empty glass counts over its whole length, and a curved or broken stretch (a bottom
+    corner, a meniscus, a holder) moves them little. A wall is their mean, weighted by how far their sums exceed
+    GLASS_WEAK of the stronger one's: a glass wall's two faces err independently."""
+    h, w = frame.shape[:2]
+    ys = np.arange(max(0, rows[0]), min(h, rows[1]))
+    if ys.size < 20:
+        return []
+    yc = 0.5 * (ys[0] + ys[-1])
+    dy = (ys - yc).astype(np.float32)[:, None]
+    walls = []
+    for seed in seeds:
+        xs = seed.x_at(ys)
+        x0, x1 = int(xs.min()) - BAND_PX - 6, int(xs.max()) + BAND_PX + 7
+        if x0 < 0 or x1 > w:
+            return []
+        box = (slice(ys[0], ys[-1] + 1), slice(x0, x1))
+        grey = frame.luma[box] if isinstance(frame, Picture) else cv2.cvtColor(frame[box], cv2.COLOR_BGR2GRAY)
+        smooth = cv2.GaussianBlur(grey.astype(np.float32), (0, 0), GLASS_BLUR)
+        line = _LineSums(cv2.Sobel(smooth, cv2.CV_32F, 1, 0, ksize=3), seed.x_at(yc) - x0, dy)
+        offs = np.arange(-BAND_PX, BAND_PX + 1, dtype=np.float32)
+        coarse = line.sums(seed.a + GLASS_SLOPES, offs)
+        edges = [e for e in (_edge_line(line, coarse * sign, seed.a, offs, sign) for sign in (1, -1)) if e]
+        if edges:
+            # weights that fall to zero at GLASS_WEAK of the stronger face: a face near it does not switch on and off
+            top = max(e[2] for e in edges)
+            weights = [e[2] - GLASS_WEAK * top for e in edges]
+            a = sum(e[0] * q for e, q in zip(edges, weights)) / sum(weights)
+            x_mid = seed.x_at(yc) + sum(e[1] * q for e, q in zip(edges, weights)) / sum(weights)
+            walls.append(EdgeLine(float(a), float(x_mid - a * yc), int(ys[0]), int(ys[-1]) + 1, 0.0, int(ys.size)))
+    return walls
+
+
+GLASS_WEAK = 0.3
+"""A wall's weaker face counts when its line sum is above this share of the stronger one's."""
+
+
+def _edge_line(line: _LineSums, coarse: np.ndarray, a0: float, offs: np.ndarray, sign: int):
+    """The best line of one polarity (`coarse`: its signed sums on GLASS_SLOPES x `offs`, sign applied), searched
+    again finely about itself: (slope, offset from the seed, line sum), or None when it lies at the band's edge."""
+    k, j = np.unravel_index(int(np.argmax(coarse)), coarse.shape)
+    if not 0 < j < offs.size - 1 or coarse[k, j] <= 0:
+        return None
+    slopes = a0 + GLASS_SLOPES[k] + GLASS_FINE * np.arange(-10, 11)
+    fine_offs = offs[j] + np.arange(-1.5, 1.75, 0.25, dtype=np.float32)
+    score = sign * line.sums(slopes, fine_offs)
+    k, j = np.unravel_index(int(np.argmax(score)), score.shape)
+    dk = _vertex(*score[k - 1 : k + 2, j]) if 0 < k < slopes.size - 1 else 0.0
+    dj = _vertex(*score[k, j - 1 : j + 2]) if 0 < j < fine_offs.size - 1 else 0.0
+    return slopes[k] + dk * GLASS_FINE, fine_offs[j] + 0.25 * dj, float(score[k, j])
+
+
+@dataclass
+class _LineSums:
+    """Sums of a gradient image along straight lines x = centre + offset + slope * dy over its rows."""
+
+    grad: np.ndarray
+    centre: float
+    dy: np.ndarray
+    """Each row's distance from the pivot row (rows x 1)."""
+
+    def sums(self, slopes: np.ndarray, offs: np.ndarray) -> np.ndarray:
+        """Sum of the gradient along each (slope, offset) line (slopes x offsets), sampled by cubic interpolation:
+        a linear one makes the sums flat between two equal samples (an edge half-way between pixels), where a line
+        that crosses the edge sums as much as one along it."""
+        map_y = np.ascontiguousarray(
+            np.broadcast_to(np.arange(self.dy.shape[0], dtype=np.float32)[:, None], (self.dy.shape[0], offs.size))
+        )
+        out = np.empty((slopes.size, offs.size))
+        for k, slope in enumerate(slopes):
+            map_x = (self.centre + offs[None, :] + np.float32(slope) * self.dy).astype(np.float32)
+            out[k] = cv2.remap(self.grad, map_x, map_y, cv2.INTER_CUBIC).sum(axis=0)
+        return out
+
+
+def _vertex(left: float, mid: float, right: float) -> float:
+    """Offset (-0.5..0.5 steps) of the top of the parabola through three equally spaced values."""
+    curve = left - 2 * mid + right
+    return float(np.clip(0.5 * (left - right) / curve, -0.5, 0.5)) if curve < 0 else 0.0
+
+
 def _weighted_angle(edges: list[EdgeLine]) -> float:
     """Mean angle of a wall's edges, weighted by slope precision (~ rows * span^2 / rms^2)."""
     wts = np.array([e.rows * (e.y1 - e.y0) ** 2 / max(e.rms_px, 0.05) ** 2 for e in edges])
@@ -236,13 +331,22 @@ class ContainerTracker:
         self._steady = False  # the walls moved slowly enough to be held since the measurement before (STEADY_DEG, _PX)
         self._held = 0  # frames it has been held for since
         self._ends: tuple | None = None  # the measured frame's wall ends: rows, columns, grey, `_edges_of` the grey
+        self._on_glass = False  # the walls are found by `glass_edges` (Hough and the rows' edges found none)
 
     def measure(
-        self, frame: np.ndarray, float_x: float, float_y: float, float_len: float, still: bool = False
+        self,
+        frame: np.ndarray,
+        float_x: float,
+        float_y: float,
+        float_len: float,
+        still: bool = False,
+        glass: tuple[list[EdgeLine], tuple[int, int], tuple[int, int]] | None = None,
     ) -> ContainerMeasurement:
         """Container angle in this frame; re-detects the walls with Hough when following them fails. `still`: the
         caller saw no motion of the container (or cannot tell), so the walls may be held if their ends agree (see
-        HOLD_FRAMES); False: measured in this frame."""
+        HOLD_FRAMES); False: measured in this frame. `glass`: the surface target's (seed walls, their rows, the rows of
+        their ends to watch): when Hough and the rows' edges find no walls (faint glass, as in real footage), the walls
+        are the glass's edges along the liquid's sides (`glass_edges`), in this frame and every later one."""
         if not np.isfinite(float_x):
             return ContainerMeasurement(False)
         unmoved = None  # the walls' ends where the last measurement saw them: asked when a hold may go on or ends
@@ -254,7 +358,13 @@ class ContainerTracker:
         if self._held and unmoved is None:
             unmoved = self._unmoved(frame)
         before, frames = self._last, self._held + 1
-        m, anew = self._measure(frame, float_x, float_y, float_len, frames)
+        if glass is not None and self._on_glass:
+            m, anew = self._glass(frame, *glass, frames), False
+        else:
+            m, anew = self._measure(frame, float_x, float_y, float_len, frames)
+            if not m.found and glass is not None:  # no wall edge found row by row: the glass's line sums from now on
+                self._on_glass = True
+                m, anew = self._glass(frame, *glass, frames), False
         m.unmoved = bool(unmoved) and not anew  # walls found anew may sit elsewhere than the ends watched
         turn = abs(m.angle_deg - before.angle_deg) / frames if m.found and before.found else math.inf
         self._steady = max(turn / STEADY_DEG, abs(self._shift) / STEADY_PX) * (HOLD_FRAMES - 1) < 1
@@ -280,6 +390,32 @@ class ContainerTracker:
                 return m, False
         self._walls, self._shift = detect_walls(frame, float_x, float_y, float_len, self.roi), 0.0
         return (self._follow(frame, rows) if self._walls else ContainerMeasurement(False)), True
+
+    def _glass(
+        self, frame: np.ndarray, seeds: list[EdgeLine], rows: tuple[int, int], ends: tuple[int, int], frames: int
+    ) -> ContainerMeasurement:
+        """The walls as the glass's edges along the seed lines (`glass_edges`); their ends watched in rows `ends`."""
+        walls = glass_edges(frame, seeds, rows)
+        if len(walls) < len(seeds):
+            self._walls = []
+            return ContainerMeasurement(False)
+        if self._walls:
+            yc = 0.5 * (rows[0] + rows[1])
+            self._shift = sum(nw.x_at(yc) - ow.x_at(yc) for nw, ow in zip(walls, self._walls)) / (len(walls) * frames)
+        self._walls = walls
+        xc = np.rint([[wall.x_at(y) for y in range(*ends)] for wall in walls]).astype(np.intp)
+        self._watch(frame, np.arange(*ends), xc[..., None] + np.arange(-BAND_PX, BAND_PX + 1), 0, ends[1] - ends[0])
+        return ContainerMeasurement(True, sum(wall.angle_deg for wall in walls) / len(walls), tuple(walls))
+
+    def _watch(self, frame: np.ndarray, ys: np.ndarray, cols: np.ndarray, lo: int, hi: int) -> None:
+        """Keep the walls' ends as this frame shows them, for `_unmoved`: GUARD_ROWS at each end of rows lo..hi of
+        `ys` (the rows of the bands `cols`: walls x rows x band columns)."""
+        self._ends = None
+        if hi - lo >= 4 * GUARD_ROWS and cols.min() >= 0 and cols.max() < frame.shape[1]:
+            ends = np.r_[lo : lo + GUARD_ROWS, hi - GUARD_ROWS : hi]
+            # as blocks of GUARD_ROWS rows: walls x both ends
+            grey = _grey_at(frame, ys[ends], cols[:, ends]).reshape(-1, GUARD_ROWS, cols.shape[2])
+            self._ends = (ys[ends], cols[:, ends], grey, _edges_of(grey))
 
     def _follow(self, frame: np.ndarray, rows: tuple[int, int], frames: int = 1) -> ContainerMeasurement:
         """Refit every wall edge near its predicted position (last line moved on at the last shift per frame for
@@ -330,12 +466,6 @@ class ContainerTracker:
         self._walls = new_walls
         # the walls' ends as this frame shows them, for `_unmoved`: GUARD_ROWS at each end of the rows where every
         # edge was followed (the band reaches beyond the container's rim)
-        lo, hi = max(f.y0 for f in fitted) - ys[0], min(f.y1 for f in fitted) - ys[0]
-        self._ends = None
-        if hi - lo >= 4 * GUARD_ROWS:
-            ends = np.r_[lo : lo + GUARD_ROWS, hi - GUARD_ROWS : hi]
-            # as blocks of GUARD_ROWS rows: walls x both ends
-            grey = _grey_at(frame, ys[ends], cols[:, ends]).reshape(-1, GUARD_ROWS, cols.shape[2])
-            self._ends = (ys[ends], cols[:, ends], grey, _edges_of(grey))
+        self._watch(frame, ys, cols, max(f.y0 for f in fitted) - ys[0], min(f.y1 for f in fitted) - ys[0])
         # each wall counts once, so a tapered glass (walls leaning in opposite directions) reads as upright
         return ContainerMeasurement(True, sum(wall_angles) / n, tuple(fitted))

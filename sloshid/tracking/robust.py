@@ -54,6 +54,38 @@ def robust_lines(
     return coef, keep
 
 
+def straight_part(t: np.ndarray, v: np.ndarray, ok: np.ndarray, tol: float, max_slope: float) -> np.ndarray:
+    """The usable points (`ok`) of each row of `v` (over `t`, one row for all) within `tol` of the straight line that
+    most of them lie on, among lines through two points at least a quarter of the row's span apart, each the median
+    of five neighbours, and steeper in `t` than `max_slope` nowhere: a wall's edge points are one long straight run,
+    while a curved bottom, a sloped surface or a holder below take a minority or a shorter run of rows. Rows with
+    fewer than ten usable points keep them all (the line fit's own minimum decides)."""
+    keep = ok.copy()
+    for k in range(v.shape[0]):
+        at = np.flatnonzero(ok[k])
+        if at.size < 10:
+            continue
+        anchors = at[np.linspace(2, at.size - 3, min(12, at.size - 4)).astype(int)]
+        pos = np.searchsorted(at, anchors)
+        ta = t[anchors].astype(float)
+        va = np.array([np.median(v[k, at[max(0, p - 2) : p + 3]]) for p in pos])
+        i, j = np.triu_indices(len(anchors), 1)
+        far = np.abs(ta[j] - ta[i]) >= 0.25 * (t[at[-1]] - t[at[0]])
+        i, j = i[far], j[far]
+        if i.size == 0:
+            continue
+        slope = (va[j] - va[i]) / (ta[j] - ta[i])
+        fine = np.abs(slope) <= max_slope
+        if not fine.any():
+            continue
+        i, j, slope = i[fine], j[fine], slope[fine]
+        res = np.abs(v[k, at][None, :] - (va[i, None] + slope[:, None] * (t[at][None, :] - ta[i, None])))
+        best = int(np.argmax((res <= tol).sum(axis=1)))
+        keep[k] = False
+        keep[k, at[res[best] <= tol]] = True
+    return keep
+
+
 def masked_median(values: np.ndarray, mask: np.ndarray) -> np.ndarray:
     """The median of each row of `values` over its `mask`ed entries (NaN for a row with none), by one sort; the
     masked entries must not be NaN."""

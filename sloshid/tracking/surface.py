@@ -27,7 +27,7 @@ import cv2
 import numpy as np
 
 from sloshid.tracking.float_angle import fit_colour_model, hsv_mask, membership_map
-from sloshid.tracking.robust import median, normal_solve, robust_lines
+from sloshid.tracking.robust import median, normal_solve, robust_lines, straight_part
 from sloshid.video.colors import PRESETS, HsvRange
 from sloshid.video.frames import Picture
 
@@ -101,6 +101,10 @@ liquid, with no word of the blue)."""
 PIECE_GAP = 0.1
 """Largest gap between pieces of one liquid body, as a share of the largest piece's width (`_beside`): highlight
 stripes are a few pixels wide."""
+OUTWARD_PX = 3.0
+"""Both sides of the liquid's run stepping outward from the walls' lines by more than this (or OUTWARD_SHARE of the
+inner width) in three successive rows end the container's column: a holder or table of the dye's colour below it."""
+OUTWARD_SHARE = 0.03
 STEP_PX = 4.0
 """Front edges of neighbouring columns further apart than this (and STEP_SLOPE per pixel between them) are on two
 sides of something in front of the surface (`_continuous`)."""
@@ -321,22 +325,26 @@ class SurfaceFinder:
         # the box only bounds the search: half resolution finds it four times faster, to within 2 px
         small = cv2.resize(frame[Y0:Y1, X0:X1], None, fx=0.5, fy=0.5, interpolation=cv2.INTER_AREA)
         mask = cv2.morphologyEx(hsv_mask(small, self.hsv), cv2.MORPH_OPEN, np.ones((3, 3), np.uint8))
-        n, _, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=8)
+        n, labels, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=8)
         if n <= 1:
             return None
         areas = 4 * stats[1:, cv2.CC_STAT_AREA]  # full-resolution pixels
         if areas.max() < MIN_LIQUID_SHARE * rw * rh and self._box is None:
             return None
         # highlight stripes cut the body into side-by-side pieces: the box holds every sizeable piece beside the largest
-        pieces = stats[1:][areas >= 0.1 * areas.max()]
+        sizeable = 1 + np.flatnonzero(areas >= 0.1 * areas.max())
+        pieces = stats[sizeable]
         one = _beside(pieces)
         for x, y, w, h, area in pieces[~one]:  # another object of the dye's colour: the largest is named in a warning
             if self.elsewhere is None or 4 * area > self.elsewhere[0]:
                 self.elsewhere = (4 * int(area), (X0 + 2 * int(x), Y0 + 2 * int(y), 2 * int(w), 2 * int(h)))
-        big = pieces[one]
-        bx0, by0 = 2 * big[:, 0].min(), 2 * big[:, 1].min()
-        bx1, by1 = 2 * (big[:, 0] + big[:, 2]).max(), 2 * (big[:, 1] + big[:, 3]).max()
-        return X0 + int(bx0), Y0 + int(by0), X0 + int(bx1), Y0 + int(by1)
+        # the container's part of them: a holder or table of the dye's colour below it is left out
+        column = _column_box(np.isin(labels, sizeable[one]), (0, 0), bottom_open=True)
+        if column is None:  # the liquid reaches the picture's side: the caller finds no walls in the pieces' box
+            big = pieces[one]
+            column = big[:, 0].min(), big[:, 1].min(), (big[:, 0] + big[:, 2]).max(), (big[:, 1] + big[:, 3]).max()
+        bx0, by0, bx1, by1 = (2 * int(v) for v in column)
+        return X0 + bx0, Y0 + by0, X0 + bx1, Y0 + by1
 
     def _window(
         self, box: tuple[int, int, int, int], shape: tuple, headroom: float = HEADROOM
@@ -417,7 +425,7 @@ class SurfaceFinder:
         body = membership_map(crop, self._model[0])
         inside = _inside(body)
         if follow:
-            box = _body_box(inside, (X0, Y0))
+            box = _column_box(inside, (X0, Y0))
             if box is None:
                 return None
             if box[0] <= rx or box[2] >= rx + rw:
@@ -634,20 +642,68 @@ def _sustained(inside: np.ndarray) -> np.ndarray:
     return held
 
 
-def _body_box(inside: np.ndarray, origin: tuple[int, int]) -> tuple[int, int, int, int] | None:
-    """Frame box (x0, y0, x1, y1) of the liquid in a membership map (`inside`, as `_inside` gives it): columns
-    holding a tenth of the fullest column's liquid pixels (stripes cut columns, not the body's sides) and rows
-    holding a twentieth of the fullest row's (a sloped surface thins out at its top); None when that box touches
-    the map's sides or bottom."""
-    per_col = cv2.reduce(inside.view(np.uint8), 0, cv2.REDUCE_SUM, dtype=cv2.CV_32S).ravel()
+def _column_box(
+    inside: np.ndarray, origin: tuple[int, int], bottom_open: bool = False
+) -> tuple[int, int, int, int] | None:
+    """Frame box (x0, y0, x1, y1) of the liquid column in a membership map (`inside`, as `_inside` gives it): from the
+    liquid's top down to where the liquid ends below its centre, or to where something of its colour wider than the
+    container begins (a holder, a table, a thick glass bottom: `_column_end`). None when there is no body, when the
+    column touches the map's sides above its end, or (unless `bottom_open`) reaches the map's bottom: the body left
+    the map."""
     per_row, r = _liquid_rows(inside)
-    if per_col.max() < 10 or per_row.max() < 10:
+    if per_row.max() < 10:
         return None
-    c = np.flatnonzero(per_col >= 0.1 * per_col.max())
-    if c[0] == 0 or c[-1] == inside.shape[1] - 1 or r[0] == 0 or r[-1] == inside.shape[0] - 1:
+    top = int(r[0])
+    # highlight stripes cut rows into pieces: closed across a tenth of the body's width for the runs below
+    gap = 2 * int(PIECE_GAP * median(per_row[r].astype(float))) + 3
+    seg = cv2.morphologyEx(inside[top:].view(np.uint8), cv2.MORPH_CLOSE, np.ones((1, gap), np.uint8)).view(bool)
+    # the centre: middle of the columns the upper half of the body fills (a wider holder below does not move it)
+    upper = cv2.reduce(seg[: max(1, (int(r[-1]) - top) // 2)].view(np.uint8), 0, cv2.REDUCE_SUM, dtype=cv2.CV_32S)
+    filled = np.flatnonzero(upper.ravel() >= 0.1 * upper.max())
+    c = (int(filled[0]) + int(filled[-1])) // 2
+    # per row, the run of liquid through the centre: its first and its last-plus-one column
+    dl, dr = np.argmax(~seg[:, c::-1], axis=1), np.argmax(~seg[:, c:], axis=1)
+    walled = seg[:, c] & ~seg[:, 0] & ~seg[:, -1]
+    left, right = (c + 1 - dl).astype(float), (c + dr).astype(float)
+    n = _column_end(seg[:, c], left, right)
+    if n < 12 or np.any(seg[:n, c] & ~walled[:n]):  # the column reaches the map's side
+        return None
+    if n == seg.shape[0] and not bottom_open:
         return None
     X0, Y0 = origin
-    return X0 + int(c[0]), Y0 + int(r[0]), X0 + int(c[-1]) + 1, Y0 + int(r[-1]) + 1
+    rows = seg[:n, c]
+    return X0 + int(left[:n][rows].min()), Y0 + top, X0 + int(right[:n][rows].max()), Y0 + top + n
+
+
+def _column_end(centre: np.ndarray, left: np.ndarray, right: np.ndarray) -> int:
+    """Rows of the liquid column (from its top): up to the first gap of more than three rows without liquid at its
+    centre (the bottom), or up to where both sides of the run step outward from the walls' lines by more than
+    OUTWARD_PX (or OUTWARD_SHARE of the width) in three successive rows. The walls' lines are fitted on the middle
+    of the column (its 30-60 % rows): below the slosh's reach, above what may stand below the container."""
+    missing = np.flatnonzero(~centre)
+    runs = np.flatnonzero(np.diff(missing) > 1)  # gaps in the centre's liquid: where each missing stretch starts
+    length = centre.size
+    for start, stop in zip(np.r_[missing[:1], missing[runs + 1]], np.r_[missing[runs], missing[-1:]]):
+        if stop - start >= 3 and start > 0:
+            length = int(start)
+            break
+    lo, hi = int(0.3 * length), int(0.6 * length)
+    if hi - lo < 10:
+        return length
+    rows = np.arange(length, dtype=float)
+    mid = np.zeros((2, length), bool)
+    mid[:, lo:hi] = centre[lo:hi]
+    lines, _ = robust_lines(rows, np.vstack([left[:length], right[:length]]), mid, 0.5, min_points=5)
+    if np.isnan(lines).any():
+        return length
+    width = float(np.median(right[lo:hi] - left[lo:hi]))
+    tol = max(OUTWARD_PX, OUTWARD_SHARE * width)
+    out = (lines[0, 0] * rows + lines[0, 1] - left[:length] > tol) & (
+        right[:length] - lines[1, 0] * rows - lines[1, 1] > tol
+    )
+    out[:hi] = False
+    steps = np.flatnonzero(out[:-2] & out[1:-1] & out[2:])
+    return int(steps[0]) if steps.size else length
 
 
 def _liquid_rows(inside: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -802,6 +858,16 @@ def _on_wall(x: np.ndarray, ok: np.ndarray, inward: float) -> np.ndarray:
     return on if np.count_nonzero(ok & ~on) >= 0.1 * x.size else ok
 
 
+WALL_FROM = 0.1
+"""The walls are read from this share of the liquid column's height below its top (the meniscus above) to a tenth
+above its end; `_on_wall` and `straight_part` leave out the rows a slosh, a bottom corner or a holder takes."""
+MIN_DEPTH_SHARE = 0.2
+"""A liquid column less deep than this share of its width is not measured: a float's bar (24 x 144 px) has straight
+sides too and was taken for the liquid; a fill that shallow leaves a slosh no wall to read anyway."""
+WALL_TOL_PX = 1.5
+"""A wall's colour crossings lie within this of its line (compression blocks move them by up to 1.3 px)."""
+WALL_MAX_SLOPE = 0.84
+"""Walls lean by at most 40 deg in the picture (x per row): a sloped surface's run along a wall is flatter."""
 CORNER_SHARE = 0.05
 """Rows closer than this share of the liquid's width to the bottom (at a side's crossing; at most the tenth of the
 height that an upright container's rows end above it) are not read for that wall: a container tilted in the picture
@@ -832,8 +898,8 @@ def _container_axes(
     """
     X0, Y0 = origin
     x0, y0, x1, y1 = box
-    r0, r1 = y0 - Y0 + int(0.4 * (y1 - y0)), y1 - Y0 - int(0.1 * (y1 - y0)) - 2
-    if r1 - r0 < 10:
+    r0, r1 = y0 - Y0 + int(WALL_FROM * (y1 - y0)), y1 - Y0 - int(0.1 * (y1 - y0)) - 2
+    if r1 - r0 < 10 or y1 - y0 < MIN_DEPTH_SHARE * (x1 - x0):
         return None
     rows = np.arange(r0, r1)
     band, band_in = body[r0:r1], inside[r0:r1]
@@ -841,8 +907,10 @@ def _container_axes(
     right, okr = _crossings_first(band[:, ::-1], band_in[:, ::-1], axis=1)
     right = band.shape[1] - 1 - right
     c0, c1 = int(0.2 * (x1 - x0)) + x0 - X0, int(0.8 * (x1 - x0)) + x0 - X0
-    bottom, okb = _crossings_first(body[::-1, c0:c1], inside[::-1, c0:c1], axis=0)
-    bottom = body.shape[0] - 1 - bottom
+    # the bottom: where the liquid ends going down from mid-height (a holder of its colour may go on below)
+    mid = (y0 + y1) // 2 - Y0
+    bottom, okb = _crossings_first(1.0 - body[mid:, c0:c1], ~inside[mid:, c0:c1], axis=0)
+    bottom += mid
     # within the rows already left out above the bottom (a tenth of the height): an upright container keeps every row
     # it had, also a shallow fill (a twentieth of its width reached past them and took its walls)
     margin = min(CORNER_SHARE * (x1 - x0), 0.1 * (y1 - y0) + 2)
@@ -854,6 +922,7 @@ def _container_axes(
         okl, okr = okl & above[0], okr & above[1]
         wall_rows = [int(np.count_nonzero(a)) for a in above]
     okl, okr = okl & _on_wall(left, okl, 1.0), okr & _on_wall(right, okr, -1.0)
+    okl, okr = straight_part(rows, np.vstack([left, right]), np.vstack([okl, okr]), WALL_TOL_PX, WALL_MAX_SLOPE)
     # both walls in one call: each row's luma is read at its left and at its right crossing
     both, good = _luma_crossings(
         gray[r0:r1].T, np.concatenate([left, right]), np.concatenate([okl, okr]), reach=2, cols=np.tile(np.arange(n), 2)

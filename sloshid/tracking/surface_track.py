@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from sloshid.core.errors import SettingError, UserError
-from sloshid.tracking.container_ref import ContainerMeasurement, ContainerTracker, WallsRecord
+from sloshid.tracking.container_ref import GUARD_ROWS, ContainerMeasurement, ContainerTracker, EdgeLine, WallsRecord
 from sloshid.tracking.overlay import draw_surface_overlay
 from sloshid.tracking.repeats import REPEAT_SHARE, Copies, line_regions, repeated_share
 from sloshid.tracking.robust import median, percentile_span
@@ -69,8 +69,13 @@ class SurfaceStep:
             return row, draw_surface_overlay(frame, m, row[0], bool(row[6]), self.roi, reference) if draw else None
         m = self.finder.measure(frame)
         self.liquid_frames += m.liquid
-        # the container's whole wall edges (rim to bottom) give its angle more precisely than the liquid's sides
-        cm = self.walls.measure(frame, m.x_px, m.y_px, 0.8 * m.width_px, m.still) if m.found and self.walls else None
+        # the glass's edges along the liquid's sides, from above the liquid to its bottom, give the container's angle
+        # more precisely than the liquid's sides alone
+        cm = (
+            self.walls.measure(frame, m.x_px, m.y_px, 0.8 * m.width_px, m.still, _glass(m))
+            if m.found and self.walls
+            else None
+        )
         lumas = (m.luma, self.previous_luma)
         repeat = m.found and repeated_share(frame, self.previous, m.band, True, lumas) >= REPEAT_SHARE
         self.previous, self.previous_luma = frame, m.luma
@@ -223,6 +228,23 @@ class SurfaceStep:
         for name in ("left_wall", "right_wall"):
             walls[f"{name}_mm"] = walls[f"{name}_px"] * mm_per_px
         return body, walls, notes
+
+
+GLASS_ABOVE = 1.2
+"""The glass's edges are read from this many inner widths above the surface's centre (or the picture's top) down to
+the liquid's bottom."""
+
+
+def _glass(m: SurfaceMeasurement) -> tuple[list[EdgeLine], tuple[int, int], tuple[int, int]]:
+    """What `ContainerTracker.measure` needs to find the walls on the glass: the liquid's sides as seed lines, the rows
+    from GLASS_ABOVE widths above the surface to the last tenth above the bottom, and the rows whose two ends are
+    watched for a move of the container while it stands still: the glass just above the liquid and the liquid's side
+    near the bottom (far apart, so that a turn about either end moves the other)."""
+    (aL, bL, top, bottom), (aR, bR, _, _) = m.walls
+    seeds = [EdgeLine(aL, bL, 0, 0, 0.0, 0), EdgeLine(aR, bR, 0, 0, 0.0, 0)]
+    low = int(bottom - 0.1 * (bottom - top))
+    rows = (max(0, int(m.y_px - GLASS_ABOVE * m.width_px)), low)
+    return seeds, rows, (max(rows[0], int(top) - 4 - GUARD_ROWS), low)
 
 
 def _regions(m: SurfaceMeasurement, cm: ContainerMeasurement | None) -> list[tuple]:

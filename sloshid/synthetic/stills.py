@@ -1,0 +1,46 @@
+"""Still clips from one picture: the picture turned by a known angle, with fresh sensor noise in every frame and
+H.264 compression, so that a tracker can be checked on footage no renderer made (a real photo) against the one thing
+known about it, the rotation."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from sloshid.core.atomic import atomic_path
+from sloshid.video.frames import VideoWriter
+
+
+def rotated(image: np.ndarray, angle_deg: float, width: int | None = None) -> np.ndarray:
+    """The picture turned by `angle_deg` (counter-clockwise as seen) about its centre, its corners filled by
+    reflection, then scaled to `width` pixels across (its aspect kept; None: as it is)."""
+    h, w = image.shape[:2]
+    turn = cv2.getRotationMatrix2D((0.5 * (w - 1), 0.5 * (h - 1)), angle_deg, 1.0)
+    out = cv2.warpAffine(image, turn, (w, h), flags=cv2.INTER_CUBIC, borderMode=cv2.BORDER_REFLECT)
+    if width is None or width == w:
+        return out
+    return cv2.resize(out, (width, round(h * width / w)), interpolation=cv2.INTER_AREA)
+
+
+def still_clip(
+    image: np.ndarray,
+    path: str | Path,
+    angle_deg: float = 0.0,
+    frames: int = 15,
+    fps: float = 30.0,
+    noise: float = 3.0,
+    crf: float = 20.0,
+    width: int | None = None,
+    seed: int = 0,
+) -> None:
+    """Write an H.264 clip of `frames` frames of the picture turned by `angle_deg` (`rotated`), each with fresh
+    Gaussian sensor noise of `noise` grey levels (seeded), at constant quality `crf`."""
+    rng = np.random.default_rng(seed)
+    picture = rotated(image, angle_deg, width).astype(np.float32)
+    h, w = picture.shape[:2]
+    with atomic_path(path) as tmp, VideoWriter(tmp, w, h, fps, "h264", crf) as writer:
+        for i in range(frames):
+            grain = rng.normal(0.0, noise, picture.shape).astype(np.float32)
+            writer.write(np.clip(picture + grain, 0, 255).astype(np.uint8), i / fps)

@@ -1,0 +1,52 @@
+"""The surface tracker on a real camera frame (../shared/data/real): a glass cylinder of blue water standing in a blue
+holder, turned by known angles. Nothing here was rendered: the only truth is the rotation, and that the liquid is at
+rest in an upright container (its surface's angle relative to the container is constant)."""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+import pytest
+from conftest import ROOT
+
+from sloshid.synthetic.stills import still_clip
+from sloshid.tracking.tracker import TrackSettings, track_video
+
+REAL_FRAME = ROOT.parent / "shared" / "data" / "real" / "blue_cylinder_at_rest.png"
+ROTATIONS = (-10.0, -6.0, -3.0, 0.0, 4.0, 7.0, 10.0)
+
+
+@pytest.fixture(scope="module")
+def real_clips(tmp_path_factory):
+    """Eight-frame 960x540 H.264 clips of the real frame turned by each of ROTATIONS (noise 3, seeded)."""
+    if not REAL_FRAME.is_file():
+        pytest.skip("../shared/data/real is not beside this checkout")
+    image = cv2.imread(str(REAL_FRAME))
+    folder = tmp_path_factory.mktemp("real")
+    clips = {}
+    for k, angle in enumerate(ROTATIONS):
+        clips[angle] = folder / f"turned_{k}.mp4"
+        still_clip(image, clips[angle], angle, frames=8, width=960, seed=k)
+    return clips
+
+
+def _median_angle(path, reference):
+    res = track_video(path, TrackSettings(target="surface", reference=reference, smooth=False))
+    assert res.valid.all(), f"{path.name}: {np.count_nonzero(~res.valid)} frames not valid"
+    return float(np.median(res.angle_deg))
+
+
+def test_a_real_cylinder_in_a_holder_of_its_colour_is_tracked_at_every_rotation(real_clips):
+    # the holder touches the liquid from below in nearly the dye's colour, the bottom is hidden and the glass is thick:
+    # every clip is tracked in every frame, the surface's image angle follows the rotation within 0.3 deg (the issue's
+    # figure; the rotation is applied exactly, so the error is the tracker's and the codec's), and its angle relative to
+    # the container (found on the glass's edges) stays within a 0.5 deg span
+    image = {a: _median_angle(p, "image") for a, p in real_clips.items()}
+    relative = {a: _median_angle(p, "container") for a, p in real_clips.items()}
+    level = image[0.0]
+    for angle in ROTATIONS:
+        assert abs(image[angle] - level - angle) < 0.3, (angle, image[angle] - level)
+    assert max(relative.values()) - min(relative.values()) < 0.5, relative
+    # at rest in an upright cylinder the surface is square to the container's axis, to within the glass's and the
+    # camera's imperfections (a degree is generous: the unturned frame reads -0.16)
+    assert all(abs(v) < 1.0 for v in relative.values()), relative
