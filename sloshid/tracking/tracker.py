@@ -570,6 +570,23 @@ def _step(settings: TrackSettings, roi: tuple[int, int, int, int], liquid: HsvRa
     return _FloatStep(settings, roi) if settings.target == "float" else SurfaceStep(settings, roi, liquid)
 
 
+def measure_frame(
+    frame: np.ndarray, t_s: float, settings: TrackSettings, roi: tuple[int, int, int, int], liquid: HsvRange | None
+) -> tuple[tuple, np.ndarray, _FloatStep | SurfaceStep]:
+    """One frame measured as `track_video` measures the first frame of a span and draws it in `--overlay` (the target's
+    step, then, for a valid frame, its finish): the table row (frame, t_s, angle_deg, ..., valid), the overlay picture,
+    and the step, which holds what it found (`walls_record`, `liquid_frames`, ...). `sloshid inspect` calls it, so that
+    its picture shows what track would do."""
+    step = _step(settings, roi, liquid)
+    row, drawn = step(frame, True)
+    rows = [(t_s, *row)]
+    step.previous = None
+    if rows[0][7]:  # finish corrects a valid surface for the camera's elevation; it needs a valid frame
+        body = step.finish([(0, *rows[0])])[0]
+        return body[0], drawn, step
+    return (0, *rows[0][:8]), drawn, step
+
+
 def _track_frames(reader: FrameReader, step, tick: Callable[[int], object], writer: VideoWriter | None = None) -> _Span:
     """Measure every frame the reader yields with `step` (drawing the overlay into `writer`); tick(1) per frame."""
     rows: list[tuple] = []

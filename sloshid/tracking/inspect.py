@@ -1,0 +1,647 @@
+"""A first look at a user's own video (`sloshid inspect`): one frame, what each target would track there, a suggested
+region of interest and the `sloshid track` command to run next.
+
+Every preset colour is looked for in the frame. Each one found is measured by the tracker's own per-frame step
+(`tracker.measure_frame`, the code `track` runs on every frame), as the dyed liquid's surface and as a float, so that
+the picture shows what track would do: the liquid region of every matching preset, the liquid's sides (the container's
+inner walls) and the surface line, the float candidates (size, elongation, angle) and the float track would take.
+When nothing of a preset colour is there, it says what it saw (how saturated the picture is, its largest coloured
+regions and an HSV range that would take the largest in) instead.
+"""
+
+from __future__ import annotations
+
+import math
+import shlex
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from sloshid.core.atomic import atomic_path
+from sloshid.core.errors import UserError
+from sloshid.core.outputs import Outputs
+from sloshid.tracking.float_angle import MIN_AREA_PX, hsv_mask, principal_axis
+from sloshid.tracking.surface import MIN_LIQUID_SHARE
+from sloshid.tracking.tracker import TrackSettings, measure_frame
+from sloshid.video.colors import PRESETS, HsvRange, format_hsv
+from sloshid.video.frames import FrameReader
+
+LISTED_SHARE = 1e-4
+"""A preset colour is listed as found when its largest region covers at least this share of the searched area (and
+MIN_AREA_PX): single noisy pixels of a colour are not a finding."""
+MAX_CANDIDATES = 5
+"""Float candidates listed per preset colour (the largest)."""
+WIDER = 0.05
+"""The liquid region is taken to meet something of its own colour (a holder, a table) from the first row, below its
+top quarter, where it reaches further sideways than this share of the surface's width (plus 3 px) on three rows."""
+SATURATED = (60, 40)
+"""Least saturation and value (OpenCV HSV) of a pixel called coloured when nothing of a preset colour was found."""
+AT_BEFORE_S = 1.0
+"""--at: decoding starts at the key frame before this many seconds ahead of the time asked for, so that the frame on
+screen then (the last one not after it) is among those read."""
+AT_TOLERANCE_S = 5e-4
+"""--at: a frame this close after the time asked for is the one meant (a time typed to the millisecond)."""
+_HUES = ((8, "red"), (22, "orange"), (35, "yellow"), (85, "green"), (100, "cyan"), (125, "blue"), (170, "magenta"))
+"""Upper hue bounds (OpenCV, 0..179) of the colour names used to say what was seen; above the last: red again."""
+
+
+@dataclass
+class PresetMatch:
+    """Where one preset colour is in the frame."""
+
+    name: str
+    share: float
+    """Share of the searched area (the ROI, or the whole picture) in the preset's HSV range."""
+    regions: list[tuple[int, int, int, int, int]]
+    """Its connected regions (x, y, width, height, area in px), largest first, each at least MIN_AREA_PX."""
+
+
+@dataclass
+class SurfaceLook:
+    """One preset colour measured as the dyed liquid by the surface target."""
+
+    dye: str
+    liquid: bool
+    """Liquid of this colour was found (a region large enough)."""
+    measured: bool
+    """The surface was measured there (valid, as track would mark the frame)."""
+    angle_deg: float = math.nan
+    """The surface against the image horizontal, CCW positive as seen."""
+    container_angle_deg: float = math.nan
+    """The container's tilt from vertical: its whole wall edges when found, else the liquid's sides."""
+    walls: bool = False
+    """The container's wall edges were found (what --reference container measures against)."""
+    quality: float = 0.0
+    roi: tuple[int, int, int, int] | None = None
+    """The ROI this measurement was made in (None: the whole picture)."""
+
+
+@dataclass
+class FloatCandidate:
+    """A region of a preset colour that could be a float (binary moments of its mask)."""
+
+    color: str
+    box: tuple[int, int, int, int]
+    """x, y, width, height in px."""
+    area_px: int
+    elongation: float
+    """1 - minor/major variance: 0 for a disc or a square, near 1 for a thin bar (track wants at least 0.5)."""
+    angle_deg: float
+    """Long axis against the image horizontal, CCW positive as seen."""
+
+
+@dataclass
+class FloatLook:
+    """One preset colour measured as the float by the float target (it takes the largest region)."""
+
+    color: str
+    found: bool
+    measured: bool = False
+    angle_deg: float = math.nan
+    quality: float = 0.0
+    walls: bool = False
+    """The container's side walls were found beside it (what --reference container measures against)."""
+    liquid_like: bool = False
+    """What the float target would take is a liquid body between straight walls: dyed liquid, not a float."""
+
+
+@dataclass
+class InspectResult:
+    """What `sloshid inspect` found in one frame and the `sloshid track` command it suggests."""
+
+    video: Path
+    t_s: float
+    size: tuple[int, int]
+    """(width, height) of the frame, px."""
+    roi: tuple[int, int, int, int]
+    """The area searched (x, y, width, height): the given ROI or the whole picture."""
+    presets: list[PresetMatch]
+    surfaces: list[SurfaceLook]
+    floats: list[FloatLook]
+    candidates: list[FloatCandidate]
+    suggested_roi: tuple[int, int, int, int] | None
+    """Around the container (the liquid found) or the float: where track should look; drawn on the picture."""
+    target: str | None
+    """'surface' or 'float': what the suggested command tracks (None: nothing found)."""
+    command: list[str] = field(default_factory=list)
+    """The `sloshid track ...` command line (words), empty when nothing was found."""
+    notes: list[str] = field(default_factory=list)
+    """Sentences on what was found, in the order `summary` prints them."""
+    seen: str = ""
+    """When nothing of a preset colour was found: what the frame shows instead, and what to try."""
+    picture: np.ndarray = field(default_factory=lambda: np.zeros((0, 0, 3), np.uint8), repr=False)
+    """The annotated picture (BGR): surface target on the left, float target on the right."""
+
+    @property
+    def measured(self) -> bool:
+        """The suggested command's target was measured in this frame (track would mark it valid)."""
+        if self.target == "surface":
+            return any(s.measured for s in self.surfaces)
+        return self.target == "float" and any(f.measured and not f.liquid_like for f in self.floats)
+
+    def command_line(self) -> str:
+        """The suggested command as one shell line (quoted where needed)."""
+        return shlex.join(self.command)
+
+    def summary(self) -> str:
+        """The text `sloshid inspect` prints: what was found per target and the command to run next."""
+        w, h = self.size
+        lines = [f"{self.video}: frame at {self.t_s:.3f} s, {w}x{h} px", *self.notes]
+        if self.seen:
+            lines.append(self.seen)
+        if self.command:
+            lines.append("next: " + self.command_line())
+        return "\n".join(lines)
+
+    def to_dict(self) -> dict:
+        """JSON-safe form (the picture is `save_picture`)."""
+
+        def num(v: float) -> float | None:
+            return float(v) if math.isfinite(v) else None
+
+        return {
+            "video": str(self.video),
+            "t_s": self.t_s,
+            "size_px": list(self.size),
+            "roi": list(self.roi),
+            "presets": [
+                {"name": p.name, "share": p.share, "regions": [list(r) for r in p.regions]} for p in self.presets
+            ],
+            "surface": [
+                {**s.__dict__, "angle_deg": num(s.angle_deg), "container_angle_deg": num(s.container_angle_deg)}
+                for s in self.surfaces
+            ],
+            "float": [{**f.__dict__, "angle_deg": num(f.angle_deg)} for f in self.floats],
+            "float_candidates": [c.__dict__ for c in self.candidates],
+            "suggested_roi": list(self.suggested_roi) if self.suggested_roi else None,
+            "target": self.target,
+            "command": self.command_line() if self.command else None,
+            "notes": list(self.notes),
+            "seen": self.seen or None,
+        }
+
+    def save_picture(self, path: str | Path) -> Path:
+        """Write the annotated picture as PNG, atomically (never over the inspected video)."""
+        out = Outputs([self.video]).file(path, "the picture", (".png",))
+        with atomic_path(out) as tmp:
+            if not cv2.imwrite(str(tmp), self.picture):
+                raise UserError(f"could not write the picture {out}.")
+        return out
+
+    def plot(self, ax=None):
+        """The annotated picture in a matplotlib axes; returns the figure."""
+        import matplotlib.pyplot as plt
+
+        if ax is None:
+            h, w = self.picture.shape[:2]
+            _, ax = plt.subplots(figsize=(10, 10 * h / max(w, 1)))
+        ax.imshow(self.picture[:, :, ::-1])
+        ax.set_axis_off()
+        ax.set_title(f"sloshid inspect: {self.video.name} at {self.t_s:.3f} s", fontsize=9)
+        return ax.figure
+
+    def report(self, directory: str | Path) -> Path:
+        """Write a one-page HTML report (the text and the picture) to directory/index.html."""
+        from sloshid.report.html import Report
+
+        page = Report(f"sloshid inspect: {self.video.name}")
+        for line in self.summary().splitlines():
+            page.add_text(line)
+        page.add_figure(self.plot(), "Left: the surface target; right: the float target; white: the suggested ROI.")
+        return page.save(directory)
+
+
+def read_frame(path: str | Path, at_s: float | None) -> tuple[np.ndarray, float]:
+    """The BGR frame on screen at `at_s` seconds (the last whose presentation time is not after it; None: the first)
+    and its time; a single picture, a negative time or one after the last frame's time on screen is refused."""
+    if at_s is not None and not (math.isfinite(at_s) and at_s >= 0):
+        raise UserError(f"--at must be a time of 0 s or more into the video, got {at_s:g}.")
+    frames = iter(FrameReader(Path(path), False))
+    try:
+        first, second = next(frames), next(frames, None)
+    finally:
+        frames.close()
+    if second is None:  # an image (PNG, JPEG) opens as a video of one frame
+        raise UserError(f"{path} holds a single picture, not a video: inspect looks at a frame of the video to track.")
+    if not at_s:
+        return first[2], float(first[1])
+    reader = FrameReader(Path(path), False, start_s=max(0.0, at_s - AT_BEFORE_S))
+    frames, shown, after = iter(reader), None, False
+    try:
+        for _, t, frame in frames:
+            if t > at_s + AT_TOLERANCE_S:
+                after = True
+                break
+            shown = (frame, float(t))
+    finally:
+        frames.close()
+    if shown is None:  # every frame lies more than AT_BEFORE_S before the time asked for
+        lasts = f", which lasts {reader.info.duration_s:.3f} s" if reader.info.duration_s else ""
+        raise UserError(f"--at {at_s:g} s is beyond the end of {path}{lasts}; give a time within the video.")
+    end = shown[1] + 1 / (reader.info.fps or 30.0)  # the last frame stays on screen for a frame's time
+    if not after and at_s >= end:
+        raise UserError(
+            f"--at {at_s:g} s is beyond the end of {path}, whose last frame is shown from {shown[1]:.3f} s to "
+            f"{end:.3f} s; give a time within the video."
+        )
+    return shown
+
+
+def _roi_box(roi: tuple[int, int, int, int] | None, width: int, height: int) -> tuple[int, int, int, int]:
+    """The ROI checked against the frame, or the whole frame."""
+    if roi is None:
+        return 0, 0, width, height
+    x, y, w, h = TrackSettings(roi=tuple(roi)).roi  # the tracker's own checks of its shape
+    if x + w > width or y + h > height:
+        raise UserError(f"ROI {x},{y},{w},{h} reaches beyond the {width}x{height} frame.")
+    return x, y, w, h
+
+
+def _preset_matches(frame: np.ndarray, roi: tuple[int, int, int, int]) -> tuple[list[PresetMatch], dict]:
+    """Every preset colour found in the ROI (largest share first) and each one's region labels (for drawing)."""
+    x, y, w, h = roi
+    crop = frame[y : y + h, x : x + w]
+    least = max(MIN_AREA_PX, LISTED_SHARE * w * h)
+    found, labels = [], {}
+    for name, p in PRESETS.items():
+        mask = hsv_mask(crop, p.hsv)
+        n, lab, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=8)
+        keep = [k for k in range(1, n) if stats[k, cv2.CC_STAT_AREA] >= least]
+        if not keep:
+            continue
+        keep.sort(key=lambda k: -stats[k, cv2.CC_STAT_AREA])
+        regions = [(x + int(stats[k, 0]), y + int(stats[k, 1]), *(int(v) for v in stats[k, 2:5])) for k in keep]
+        found.append(PresetMatch(name, cv2.countNonZero(mask) / (w * h), regions))
+        labels[name] = (lab, keep)
+    found.sort(key=lambda m: -m.share)
+    return found, labels
+
+
+def _candidates(name: str, labels: np.ndarray, keep: list[int], roi: tuple) -> list[FloatCandidate]:
+    """The largest regions of one preset colour as float candidates: box, area, elongation, long-axis angle."""
+    out = []
+    for k in keep[:MAX_CANDIDATES]:
+        blob = (labels == k).astype(np.uint8)
+        bx, by, bw, bh = cv2.boundingRect(blob)
+        mo = cv2.moments(blob[by : by + bh, bx : bx + bw], binaryImage=True)
+        angle, elongation, _ = principal_axis(mo)
+        box = (roi[0] + bx, roi[1] + by, bw, bh)
+        out.append(FloatCandidate(name, box, int(mo["m00"]), round(elongation, 3), round(angle, 2)))
+    return out
+
+
+def _measure(frame: np.ndarray, t_s: float, settings: TrackSettings, roi: tuple) -> tuple[tuple, np.ndarray, object]:
+    """The tracker's own measurement of one frame (the one call into it: `measure_frame`, what track runs per frame)."""
+    return measure_frame(frame, t_s, settings, roi, None)
+
+
+def _look_at_surface(frame, t_s, name: str, roi: tuple) -> tuple[SurfaceLook, np.ndarray]:
+    """Measure preset `name` as the dyed liquid (against the container's walls, to learn whether they are found)."""
+    settings = TrackSettings(target="surface", liquid_color=name, reference="container", roi=roi)
+    row, drawn, step = _measure(frame, t_s, settings, roi)
+    walls = bool(step.walls_record.measured)
+    look = SurfaceLook(name, step.liquid_frames > 0, bool(row[8]), walls=walls, quality=float(row[7]), roi=roi)
+    if look.measured:
+        look.angle_deg, look.container_angle_deg = float(row[3]), float(row[4])
+    return look, drawn
+
+
+def _look_at_float(frame, t_s, name: str, roi: tuple) -> tuple[FloatLook, np.ndarray]:
+    """Measure preset `name` as the float, against the image (is it measured?) and the container (are walls there?)."""
+    row, drawn, step = _measure(frame, t_s, TrackSettings(float_color=name, roi=roi), roi)
+    look = FloatLook(name, step.found > 0, bool(row[8]), float(row[3]), float(row[7]))
+    look.liquid_like = bool(step.liquid_width)
+    if look.found:
+        walled = _measure(frame, t_s, TrackSettings(float_color=name, reference="container", roi=roi), roi)[2]
+        look.walls = bool(walled.walls_record.measured)
+    return look, drawn
+
+
+def liquid_roi(box_mask: np.ndarray, origin: tuple[int, int], size: tuple[int, int]) -> tuple[tuple, bool]:
+    """A ROI around the container a liquid region (`box_mask`: its pixels in its bounding box at `origin`) stands in,
+    and whether the region meets something of its own colour below (it widens: a holder or a table).
+
+    The surface's width is the region's extent over the top quarter of its rows; the ROI takes the columns of that
+    width plus a margin for the glass, from half the width above the surface (a slosh, the rim) down to where the
+    region widens (or a little below its bottom)."""
+    rows = np.flatnonzero(box_mask.any(axis=1))
+    left = np.argmax(box_mask[rows], axis=1)
+    right = box_mask.shape[1] - 1 - np.argmax(box_mask[rows, ::-1], axis=1)
+    top = rows[: max(3, len(rows) // 4)]
+    lo, hi = float(np.median(left[: len(top)])), float(np.median(right[: len(top)]))
+    width = hi - lo + 1
+    tol = WIDER * width + 3
+    wide = (left < lo - tol) | (right > hi + tol)
+    wide[: len(top)] = False
+    run = np.convolve(wide, np.ones(3), "valid") >= 3  # three rows in a row
+    meets = bool(run.any())
+    bottom = rows[int(np.argmax(run))] if meets else rows[-1] + 1 + int(0.05 * width)
+    pad = int(0.08 * width) + 4
+    x0, x1 = origin[0] + int(lo) - pad, origin[0] + int(hi) + 1 + pad
+    y0, y1 = origin[1] + int(rows[0] - 0.5 * width), origin[1] + int(bottom)
+    return _clipped(x0, y0, x1, y1, size), meets
+
+
+def _float_roi(c: FloatCandidate, size: tuple[int, int]) -> tuple[int, int, int, int]:
+    """A ROI around a float: 1.5 of its length each way, where track looks for the container's walls beside it."""
+    x, y, w, h = c.box
+    length, cx, cy = max(w, h), x + 0.5 * w, y + 0.5 * h
+    return _clipped(
+        int(cx - 1.5 * length), int(cy - 1.5 * length), int(cx + 1.5 * length), int(cy + 1.5 * length), size
+    )
+
+
+def _clipped(x0: int, y0: int, x1: int, y1: int, size: tuple[int, int]) -> tuple[int, int, int, int]:
+    """(x, y, w, h) of a box cut to the picture."""
+    x0, y0 = max(0, x0), max(0, y0)
+    x1, y1 = min(size[0], x1), min(size[1], y1)
+    return x0, y0, x1 - x0, y1 - y0
+
+
+def _inside(box: tuple, roi: tuple) -> bool:
+    """Box (x, y, w, h) lies within roi (x, y, w, h)."""
+    return (
+        box[0] >= roi[0]
+        and box[1] >= roi[1]
+        and box[0] + box[2] <= roi[0] + roi[2]
+        and box[1] + box[3] <= roi[1] + roi[3]
+    )
+
+
+def _hue_name(h: float) -> str:
+    """A colour's name for an OpenCV hue (0..179)."""
+    return next((name for bound, name in _HUES if h < bound), "red")
+
+
+def what_it_saw(frame: np.ndarray, roi: tuple[int, int, int, int]) -> str:
+    """What the frame shows when no preset colour was found: how coloured it is, its largest coloured regions and an
+    HSV range that takes the largest in, to try with --liquid-hsv-low/high or --float-hsv-low/high."""
+    x, y, w, h = roi
+    hsv = cv2.cvtColor(frame[y : y + h, x : x + w], cv2.COLOR_BGR2HSV)
+    coloured = ((hsv[..., 1] >= SATURATED[0]) & (hsv[..., 2] >= SATURATED[1])).astype(np.uint8)
+    s_med, v_med = int(np.median(hsv[..., 1])), int(np.median(hsv[..., 2]))
+    greys = f"median saturation {s_med} and brightness {v_med} of 255"
+    n, lab, stats, _ = cv2.connectedComponentsWithStats(coloured, connectivity=8)
+    order = sorted(range(1, n), key=lambda k: -stats[k, cv2.CC_STAT_AREA])
+    big = [k for k in order if stats[k, cv2.CC_STAT_AREA] >= max(MIN_AREA_PX, LISTED_SHARE * w * h)][:3]
+    if not big:
+        return (
+            f"seen instead: no coloured region (saturation {SATURATED[0]} or more) of {MIN_AREA_PX} px or more, "
+            f"{greys}: a grey picture. Track needs a float or a dye of a clear colour (red, orange, yellow, green, "
+            "blue, magenta); check the file, the lighting, or the time given with --at."
+        )
+    parts, ranges = [], []
+    for k in big:
+        px = hsv[lab == k]
+        hue = float(np.median(px[:, 0]))
+        bx, by, bw, bh, area = (int(v) for v in stats[k])
+        parts.append(
+            f"{_hue_name(hue)} (hue {hue:.0f}) {bw}x{bh} px at x {x + bx}-{x + bx + bw}, y {y + by}-{y + by + bh}, "
+            f"{100 * area / (w * h):.2f} %"
+        )
+        low = (
+            int(hue - 8) % 180,
+            max(20, int(np.percentile(px[:, 1], 5)) - 10),
+            max(20, int(np.percentile(px[:, 2], 5)) - 10),
+        )
+        ranges.append(HsvRange(low, (int(hue + 8) % 180, 255, 255)))
+    r = ranges[0]
+    return (
+        f"seen instead ({greys}): the largest coloured regions, none in a preset's range: {'; '.join(parts)}. Try "
+        f"--liquid-hsv-low {format_hsv(r.low)} --liquid-hsv-high {format_hsv(r.high)} (or --float-hsv-low/-high "
+        "for a float), or --roi around the liquid or float."
+    )
+
+
+def inspect_video(
+    path: str | Path, at_s: float | None = None, roi: tuple[int, int, int, int] | None = None
+) -> InspectResult:
+    """Look at one frame of `path` (the first, or the one at `at_s` seconds) as each target would track it.
+
+    Raises UserError for a file that is not a video, a single picture, a time outside the video and a ROI outside the
+    frame. Finding nothing is not an error here: the result says what was seen (`seen`) and has no `target`."""
+    video = Path(path)
+    frame, t_s = read_frame(video, at_s)
+    size = (frame.shape[1], frame.shape[0])
+    box = _roi_box(roi, *size)
+    presets, labels = _preset_matches(frame, box)
+    surfaces, floats, candidates, drawn = [], [], [], {}
+    for p in presets:
+        look, drawn[("surface", p.name)] = _look_at_surface(frame, t_s, p.name, box)
+        surfaces.append(look)
+        candidates += _candidates(p.name, *labels[p.name], box)
+        look, drawn[("float", p.name)] = _look_at_float(frame, t_s, p.name, box)
+        floats.append(look)
+    res = InspectResult(video, t_s, size, box, presets, surfaces, floats, candidates, None, None)
+    _decide(res, frame, labels, drawn)
+    res.picture = _picture(res, frame, labels, drawn)
+    return res
+
+
+def _decide(res: InspectResult, frame: np.ndarray, labels: dict, drawn: dict) -> None:
+    """Choose the target (a measured surface, else a measured float, else liquid found, else a float found), the
+    preset and the ROI, and write the notes and the command."""
+    size, box = res.size, res.roi
+    given = box != (0, 0, *size)
+    if res.presets:
+        where = "ROI" if given else "picture"
+        shares = ", ".join(f"{p.name} {100 * p.share:.2f} %" for p in res.presets)
+        res.notes.append(f"colours found (share of the {where}): {shares}")
+    measured = next((s for s in res.surfaces if s.measured), None)
+    liquid = measured or next((s for s in res.surfaces if s.liquid), None)
+    flt = _best_float(res, None if measured is None else measured.dye)
+    surface = measured or (liquid if flt is None or not flt.measured else None)
+    if liquid is not None:
+        res.notes.append(_surface_note(liquid, next(m for m in res.presets if m.name == liquid.dye)))
+    else:
+        res.notes.append(
+            f"surface: no dyed liquid (no preset colour's region of {100 * MIN_LIQUID_SHARE:.1f} % of the area)"
+        )
+    use_roi, why = False, ""
+    if surface is not None:
+        p = next(m for m in res.presets if m.name == surface.dye)
+        lab, keep = labels[surface.dye]
+        x0, y0, w0, h0, _ = p.regions[0]
+        region = lab[y0 - box[1] : y0 - box[1] + h0, x0 - box[0] : x0 - box[0] + w0] == keep[0]
+        res.suggested_roi, meets = liquid_roi(region, (x0, y0), size)
+        others = [r for r in p.regions[1:] if not _inside(r[:4], res.suggested_roi) and r[4] >= 0.1 * p.regions[0][4]]
+        if not surface.measured and res.suggested_roi != box:
+            retry, drawn[("surface", "roi")] = _look_at_surface(frame, res.t_s, surface.dye, res.suggested_roi)
+            res.surfaces.append(retry)
+            found = "measured, " + _surface_numbers(retry) if retry.measured else "not measured either"
+            res.notes.append(f"  with --roi {_fmt_roi(res.suggested_roi)}: {found}")
+            surface = retry if retry.measured else surface
+            use_roi, why = True, "the liquid was not measured in the whole picture"
+        elif meets and not given:
+            use_roi, why = True, f"the {surface.dye} region runs on into something of its own colour below the liquid"
+        elif others and not given:
+            use_roi, why = True, f"{len(others)} other {surface.dye} region(s) lie outside it"
+    res.notes += [_float_note(f, [c for c in res.candidates if c.color == f.color]) for f in res.floats]
+    if surface is None and flt is not None:
+        cands = [c for c in res.candidates if c.color == flt.color]
+        res.suggested_roi = _float_roi(cands[0], size)
+        others = [c for c in cands[1:] if not _inside(c.box, res.suggested_roi)]
+        if others and not given:
+            use_roi, why = (
+                True,
+                f"{len(others)} other {flt.color} region(s) lie outside it and could be taken for the float",
+            )
+    if res.suggested_roi is not None:
+        around = "the container the liquid stands in" if surface is not None else "the float and the walls beside it"
+        used = f", used below: {why}" if use_roi else ""
+        res.notes.append(
+            f"suggested ROI: --roi {_fmt_roi(res.suggested_roi)} (around {around}; white on the picture){used}"
+        )
+    if surface is not None:
+        res.target = "surface"
+        words = ["--target", "surface", "--liquid-color", surface.dye]
+        res.command = _command(res, words, use_roi or given, surface.walls)
+    elif flt is not None:
+        res.target = "float"
+        res.command = _command(res, ["--float-color", flt.color], use_roi or given, flt.walls)
+    elif res.presets:
+        res.seen = (
+            "nothing here is a dyed liquid or a float: the preset colours found cover too little of the area, or are "
+            "not elongated; try --roi around the liquid or float, or a frame where they show (--at)."
+        )
+    else:
+        res.seen = what_it_saw(frame, box)
+    if res.command and not res.measured:
+        res.notes.append(
+            "track would not measure this frame with that command today; run it to see its message, with "
+            "--overlay OUT.mp4 to see what it found"
+        )
+
+
+def _command(res: InspectResult, words: list[str], roi: bool, walls: bool) -> list[str]:
+    """`sloshid track VIDEO -o STEM_angles.csv WORDS [--roi ...] [--reference container]`."""
+    out = res.video.with_name(f"{res.video.stem}_angles.csv")
+    cmd = ["sloshid", "track", str(res.video), "-o", str(out), *words]
+    if roi:
+        cmd += ["--roi", _fmt_roi(res.suggested_roi if res.suggested_roi else res.roi)]
+    if walls:
+        cmd += ["--reference", "container"]
+    return cmd
+
+
+def _fmt_roi(roi: tuple) -> str:
+    return ",".join(str(int(v)) for v in roi)
+
+
+def _surface_numbers(s: SurfaceLook) -> str:
+    """The measured surface's numbers in words."""
+    walls = (
+        f"the container's wall edges found at {s.container_angle_deg:+.2f} deg from vertical (--reference container)"
+        if s.walls
+        else f"the liquid's sides at {s.container_angle_deg:+.2f} deg from vertical; the container's wall edges not found"
+    )
+    return f"surface at {s.angle_deg:+.2f} deg against the image, quality {s.quality:.2f}, {walls}"
+
+
+def _surface_note(s: SurfaceLook, p: PresetMatch) -> str:
+    """One line on the surface target."""
+    x, y, w, h, _ = p.regions[0]
+    where = f"{s.dye} liquid {w}x{h} px at x {x}-{x + w}, y {y}-{y + h}"
+    if s.measured:
+        return f"surface: {where}: measured, {_surface_numbers(s)}"
+    return (
+        f"surface: the largest {s.dye} region, {w}x{h} px at x {x}-{x + w}, y {y}-{y + h}: not measured as a liquid, "
+        "the container's inner walls (straight sides of the region, its bottom) were not found"
+    )
+
+
+def _float_note(f: FloatLook, cands: list[FloatCandidate]) -> str:
+    """One line on the float target for one preset colour."""
+    listed = "; ".join(
+        f"{c.box[2]}x{c.box[3]} px at x {c.box[0]}, y {c.box[1]}, {c.area_px} px, elongation {c.elongation:.2f}, "
+        f"{c.angle_deg:+.1f} deg"
+        for c in cands[:3]
+    )
+    more = f" (+{len(cands) - 3} more)" if len(cands) > 3 else ""
+    if f.liquid_like:
+        verdict = "the largest is a liquid body between walls, not a float"
+    elif f.measured:
+        walls = "walls found beside it" if f.walls else "no walls beside it (--reference image only)"
+        verdict = f"track takes the largest: {f.angle_deg:+.2f} deg, quality {f.quality:.2f}, {walls}"
+    elif f.found:
+        verdict = f"track takes the largest but with quality {f.quality:.2f} (below 0.5: not a float's shape or colour)"
+    else:
+        verdict = "too small for track to take"
+    return f"float, {f.color}: {len(cands)} candidate(s): {listed}{more}: {verdict}"
+
+
+def _picture(res: InspectResult, frame: np.ndarray, labels: dict, drawn: dict) -> np.ndarray:
+    """Two panels: the surface target (the tracker's overlay, every preset's regions) and the float target (its
+    overlay, the candidates); the suggested ROI in white on both; a title bar over each."""
+    chosen = next((s for s in reversed(res.surfaces) if s.measured), None) or next(
+        (s for s in res.surfaces if s.liquid), None
+    )
+    key = (
+        ("surface", "roi")
+        if chosen is not None and chosen.roi != res.roi
+        else ("surface", chosen.dye if chosen else "")
+    )
+    left = drawn.get(key, np.array(frame)).copy()
+    scale = max(0.45, frame.shape[0] / 800)
+    thick = max(1, round(frame.shape[0] / 360))
+    for p in res.presets:
+        lab, keep = labels[p.name]
+        outline = tuple(255 - v for v in PRESETS[p.name].bgr)
+        mask = np.isin(lab, keep).astype(np.uint8)
+        contours, _ = cv2.findContours(mask, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_SIMPLE)
+        cv2.drawContours(left, contours, -1, outline, thick, offset=res.roi[:2])
+        x, y = p.regions[0][:2]
+        _text(left, f"{p.name} {100 * p.share:.1f} %", (x + 4, y + int(22 * scale) + 4), scale, outline)
+    flt = _best_float(res, _measured_dye(res))
+    right = drawn[("float", flt.color)].copy() if flt else np.array(frame)
+    for c in res.candidates:
+        outline = tuple(255 - v for v in PRESETS[c.color].bgr)
+        x, y, w, h = c.box
+        cv2.rectangle(right, (x - 2, y - 2), (x + w + 1, y + h + 1), outline, thick)
+        _text(right, f"{c.color} e{c.elongation:.2f} {c.angle_deg:+.1f}", (x, max(y - 6, 12)), 0.8 * scale, outline)
+    for panel in (left, right):
+        if res.suggested_roi is not None:
+            x, y, w, h = res.suggested_roi
+            cv2.rectangle(panel, (x, y), (x + w - 1, y + h - 1), (255, 255, 255), thick)
+    titles = (_title(res, "surface"), _title(res, "float"))
+    bar = int(34 * scale) + 8
+    panels = []
+    for panel, title in zip((left, right), titles):
+        head = np.full((bar, panel.shape[1], 3), 32, np.uint8)
+        cv2.putText(head, title, (8, bar - 10), cv2.FONT_HERSHEY_SIMPLEX, scale, (255, 255, 255), 1, cv2.LINE_AA)
+        panels.append(np.vstack([head, panel]))
+    gap = np.full((panels[0].shape[0], 8, 3), 255, np.uint8)
+    return np.hstack([panels[0], gap, panels[1]])
+
+
+def _title(res: InspectResult, target: str) -> str:
+    """A panel's title: the target and what it found."""
+    if target == "surface":
+        s = next((s for s in reversed(res.surfaces) if s.measured), None)
+        if s is not None:
+            return f"surface: {s.dye} liquid, {s.angle_deg:+.2f} deg"
+        return "surface: liquid found, walls not" if res.target == "surface" else "surface: nothing measured"
+    f = _best_float(res, _measured_dye(res))
+    if f is not None and f.measured:
+        return f"float: {f.color}, {f.angle_deg:+.2f} deg, quality {f.quality:.2f}"
+    return f"float: {len(res.candidates)} candidate(s), none measured"
+
+
+def _best_float(res: InspectResult, liquid: str | None = None) -> FloatLook | None:
+    """The float track would measure best (measured, not liquid, highest quality), or the first found; not of the
+    colour `liquid` (a measured liquid's)."""
+    found = [f for f in res.floats if f.found and not f.liquid_like and f.color != liquid]
+    return max(found, key=lambda f: (f.measured, f.quality), default=None)
+
+
+def _text(img: np.ndarray, text: str, org: tuple[int, int], scale: float, colour: tuple) -> None:
+    """Text with a dark outline, readable on any background."""
+    cv2.putText(img, text, org, cv2.FONT_HERSHEY_SIMPLEX, scale, (0, 0, 0), 3, cv2.LINE_AA)
+    cv2.putText(img, text, org, cv2.FONT_HERSHEY_SIMPLEX, scale, colour, 1, cv2.LINE_AA)
+
+
+def _measured_dye(res: InspectResult) -> str | None:
+    """The colour of the liquid whose surface was measured, if one was."""
+    return next((s.dye for s in res.surfaces if s.measured), None)

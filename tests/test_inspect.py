@@ -1,0 +1,177 @@
+"""sloshid inspect: the first look at a user's own video finds the target and colour, suggests a track command that
+runs, says what it saw when nothing is there, and refuses bad input with one sentence and no file."""
+
+from __future__ import annotations
+
+import json
+import shlex
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+
+import sloshid
+from sloshid.video.frames import VideoWriter
+
+REAL_FRAME = Path(__file__).resolve().parents[2] / "shared" / "data" / "real" / "blue_cylinder_at_rest.png"
+SMALL = ["--width", "320", "--height", "240", "--duration", "1", "--noise", "3", "--seed", "5"]
+
+
+def _next_command(out: str) -> list[str]:
+    """The words of the `next: sloshid track ...` line inspect printed."""
+    line = next(line for line in out.splitlines() if line.startswith("next: "))
+    return shlex.split(line.removeprefix("next: "))
+
+
+def _grey_frames(rng: np.random.Generator, n: int = 5) -> list[np.ndarray]:
+    """A grey wall lit from one side, with camera noise: nothing coloured."""
+    ramp = np.linspace(90, 200, 320)[None, :, None]
+    return [np.clip(ramp + rng.normal(0, 3, (240, 320, 3)), 0, 255).astype(np.uint8) for _ in range(n)]
+
+
+def _write(path: Path, frames: list[np.ndarray], fps: float = 30.0) -> Path:
+    h, w = frames[0].shape[:2]
+    with VideoWriter(path, w, h, fps, quality=18) as writer:
+        for i, frame in enumerate(frames):
+            writer.write(frame, i / fps)
+    return path
+
+
+@pytest.fixture(scope="module")
+def grey_video(tmp_path_factory):
+    return _write(tmp_path_factory.mktemp("grey") / "grey.mp4", _grey_frames(np.random.default_rng(3)))
+
+
+@pytest.mark.parametrize(
+    "scene, words",
+    [
+        ([], ["--float-color", "green"]),
+        (["--scene", "surface"], ["--target", "surface", "--liquid-color", "orange"]),
+    ],
+)
+def test_a_synth_clip_gets_its_target_and_colour_and_the_command_tracks(tmp_path, run_cli, scene, words):
+    colour = words[-1]
+    clip = tmp_path / "clip.mp4"
+    option = "--float-color" if not scene else "--liquid-color"
+    assert run_cli("synth", clip, *SMALL, *scene, option, colour)[0] == 0
+    code, out, err = run_cli("inspect", clip, "-o", tmp_path / "look.png")
+    assert code == 0, err
+    command = _next_command(out)
+    assert command[:5] == ["sloshid", "track", str(clip), "-o", str(tmp_path / "clip_angles.csv")]
+    assert command[5 : 5 + len(words)] == words
+    assert command[-2:] == ["--reference", "container"]  # the container's walls were found
+    picture = cv2.imread(str(tmp_path / "look.png"))
+    assert picture.shape[1] == 2 * 320 + 8  # two panels: surface and float target
+    code, _, err = run_cli(*command[1:])  # the suggested command, as printed
+    assert code == 0, err
+    assert (tmp_path / "clip_angles.csv").exists()
+
+
+def test_the_real_frame_shows_blue_liquid_and_a_surface_command_with_an_roi(tmp_path, run_cli):
+    if not REAL_FRAME.exists():
+        pytest.skip("../shared/data/real is not beside this checkout")
+    frame = cv2.imread(str(REAL_FRAME))
+    clip = _write(tmp_path / "real.mp4", [frame] * 3)
+    code, out, err = run_cli("inspect", clip, "-o", tmp_path / "real.png")
+    assert code in (0, 1), err  # 1: found, but the tracker does not measure this frame today (the holder, the glass)
+    assert "colours found (share of the picture): blue" in out
+    assert "surface: blue liquid " in out or "surface: the largest blue region, " in out  # measured, or not
+    command = _next_command(out)
+    assert command[5:9] == ["--target", "surface", "--liquid-color", "blue"]
+    x, y, w, h = map(int, command[command.index("--roi") + 1].split(","))
+    # around the cylinder: its liquid spans x 650-1320 with its surface at y 575; the camera body at the left
+    # (x < 170) and the holder's plate below y 900 are left out
+    assert 450 < x < 650 and 1320 < x + w < 1500 and 150 < y < 560 and 850 < y + h <= 960
+    assert (tmp_path / "real.png").exists()
+
+
+def test_a_video_with_nothing_coloured_says_what_it_saw(grey_video, tmp_path, run_cli):
+    code, out, err = run_cli("inspect", grey_video, "-o", tmp_path / "g.png")
+    assert code == 2
+    assert err.count("\n") == 1 and "nothing track could follow was found" in err and "Traceback" not in err
+    assert "a grey picture" in out and "median saturation" in out
+    assert "next:" not in out
+    assert (tmp_path / "g.png").exists()  # the picture is what was seen
+
+
+def test_a_colour_no_preset_takes_gets_an_hsv_range_to_try(tmp_path, run_cli):
+    frames = _grey_frames(np.random.default_rng(4))
+    for f in frames:
+        cv2.rectangle(f, (110, 120), (210, 200), (200, 180, 40), -1)  # cyan (hue 93): between green and blue
+    clip = _write(tmp_path / "cyan.mp4", frames)
+    code, out, _ = run_cli("inspect", clip, "-o", tmp_path / "c.png")
+    assert code == 2
+    assert "cyan (hue 9" in out and "102x82 px at x 110-212" in out
+    low = next(w for w in out.split("--liquid-hsv-low ")[1:2]).split()[0]
+    assert 80 <= int(low.split(",")[0]) <= 90
+
+
+def test_at_picks_the_frame_on_screen_at_that_time(tmp_path, run_cli):
+    frames = _grey_frames(np.random.default_rng(5), 10)
+    for f in frames[6:]:  # from 0.2 s on, a blue bar floats in the picture
+        cv2.rectangle(f, (120, 110), (200, 122), (215, 80, 30), -1)
+    clip = _write(tmp_path / "late.mp4", frames)
+    assert run_cli("inspect", clip, "-o", tmp_path / "a.png", "--at", "0.19")[0] == 2  # frame 5, at 0.167 s
+    code, out, _ = run_cli("inspect", clip, "-o", tmp_path / "b.png", "--at", "0.21")
+    assert code == 0 and "frame at 0.200 s" in out and "--float-color blue" in out
+
+
+@pytest.mark.parametrize(
+    "extra, message",
+    [
+        (["--at", "0.4"], "--at 0.4 s is beyond the end of"),
+        (["--at", "60"], "is beyond the end of"),
+        (["--at", "-1"], "--at must be a time of 0 s or more"),
+        (["--roi", "300,200,50,50"], "reaches beyond the 320x240 frame"),
+        (["-o", "{video}"], "must end in .png"),
+    ],
+)
+def test_bad_input_is_one_sentence_and_writes_nothing(grey_video, tmp_path, run_cli, extra, message):
+    extra = [str(grey_video) if e == "{video}" else e for e in extra]
+    args = ["-o", tmp_path / "p.png", *extra] if "-o" not in extra else extra
+    code, out, err = run_cli("inspect", grey_video, *args)
+    assert code == 2 and message in err, err
+    assert err.count("\n") == 1 and "Traceback" not in err and out == ""
+    assert list(tmp_path.iterdir()) == []  # no picture, no temporary leftovers
+
+
+def test_not_a_video_a_still_picture_and_an_output_over_the_input_are_refused(grey_video, tmp_path, run_cli):
+    (tmp_path / "notes.mp4").write_text("not a video\n")
+    cv2.imwrite(str(tmp_path / "still.png"), _grey_frames(np.random.default_rng(6), 1)[0])
+    disguised = tmp_path / "clip.png"  # a video named like a picture: -o the same path would replace it
+    disguised.write_bytes(grey_video.read_bytes())
+    cases = [
+        (tmp_path / "notes.mp4", ["-o", tmp_path / "n.png"], "is not a video FFmpeg can decode"),
+        (tmp_path / "still.png", ["-o", tmp_path / "s.png"], "holds a single picture, not a video"),
+        (disguised, ["-o", disguised], "is also an input of this run"),
+    ]
+    before = sorted(tmp_path.iterdir())
+    for video, args, message in cases:
+        code, _, err = run_cli("inspect", video, *args)
+        assert code == 2 and message in err and err.count("\n") == 1, err
+    assert sorted(tmp_path.iterdir()) == before
+    assert disguised.read_bytes() == grey_video.read_bytes()
+
+
+def test_the_default_picture_goes_beside_the_video_but_never_over_a_file(tmp_path, run_cli):
+    clip = _write(tmp_path / "grey.mp4", _grey_frames(np.random.default_rng(7)))
+    assert run_cli("inspect", clip)[0] == 2
+    made = tmp_path / "grey_inspect.png"
+    first = made.read_bytes()
+    code, _, err = run_cli("inspect", clip)
+    assert code == 2 and "already exists; give -o PICTURE.png" in err
+    assert made.read_bytes() == first
+
+
+def test_the_api_gives_the_commands_result(tmp_path, run_cli):
+    clip = tmp_path / "clip.mp4"
+    assert run_cli("synth", clip, *SMALL)[0] == 0
+    res = sloshid.inspect(clip, picture=tmp_path / "api.png")
+    assert isinstance(res, sloshid.InspectResult)
+    assert res.target == "float" and res.measured and "--float-color red" in res.command_line()
+    assert res.suggested_roi is not None and (tmp_path / "api.png").exists()
+    doc = json.loads(json.dumps(res.to_dict(), allow_nan=False))
+    assert doc["target"] == "float" and doc["float_candidates"][0]["color"] == "red"
+    code, out, _ = run_cli("inspect", clip, "-o", tmp_path / "cli.png")
+    assert code == 0 and _next_command(out) == res.command and res.summary() in out
