@@ -186,7 +186,7 @@ class InspectResult:
         """Write the annotated picture as PNG, atomically (never over the inspected video)."""
         out = Outputs([self.video]).file(path, "the picture", (".png",))
         with atomic_path(out) as tmp:
-            if not cv2.imwrite(str(tmp), self.picture):
+            if not cv2.imwrite(str(tmp), self.picture, [cv2.IMWRITE_PNG_COMPRESSION, 6]):
                 raise UserError(f"could not write the picture {out}.")
         return out
 
