@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 import sloshid
+from sloshid.synthetic.render import SynthSettings, render_frames
 from sloshid.video.frames import VideoWriter
 
 REAL_FRAME = Path(__file__).resolve().parents[2] / "shared" / "data" / "real" / "blue_cylinder_at_rest.png"
@@ -95,16 +96,43 @@ def test_a_video_with_nothing_coloured_says_what_it_saw(grey_video, tmp_path, ru
     assert (tmp_path / "g.png").exists()  # the picture is what was seen
 
 
-def test_a_colour_no_preset_takes_gets_an_hsv_range_to_try(tmp_path, run_cli):
-    frames = _grey_frames(np.random.default_rng(4))
-    for f in frames:
-        cv2.rectangle(f, (110, 120), (210, 200), (200, 180, 40), -1)  # cyan (hue 93): between green and blue
-    clip = _write(tmp_path / "cyan.mp4", frames)
-    code, out, _ = run_cli("inspect", clip, "-o", tmp_path / "c.png")
-    assert code == 2
-    assert "cyan (hue 9" in out and "102x82 px at x 110-212" in out
-    low = next(w for w in out.split("--liquid-hsv-low ")[1:2]).split()[0]
-    assert 80 <= int(low.split(",")[0]) <= 90
+def _surface_clip(path: Path, paint) -> Path:
+    """sloshid synth's dyed-liquid scene (blue dye, 320x240, 1 s), each frame changed by `paint(frame)` in place."""
+    s = SynthSettings(scene="surface", width=320, height=240, duration_s=1.0, noise_sigma=3.0, seed=5)
+    with VideoWriter(path, s.width, s.height, s.fps, quality=18) as writer:
+        for row, frame in render_frames(s):
+            paint(frame)
+            writer.write(frame, row["t_s"])
+    return path
+
+
+def test_a_dye_no_preset_takes_is_measured_with_a_range_of_its_own(tmp_path, run_cli):
+    def cyan(frame):  # the blue dye turned to cyan (hue about 93), between the green and blue presets' ranges
+        hsv = cv2.cvtColor(frame, cv2.COLOR_BGR2HSV)
+        dyed = hsv[..., 1] > 100
+        hsv[..., 0][dyed] -= 20
+        frame[:] = cv2.cvtColor(hsv, cv2.COLOR_HSV2BGR)
+
+    clip = _surface_clip(tmp_path / "cyan.mp4", cyan)
+    code, out, err = run_cli("inspect", clip, "-o", tmp_path / "c.png")
+    assert code == 0, err
+    assert "the largest coloured regions: cyan (hue 9" in out
+    command = _next_command(out)
+    assert command[5:7] == ["--target", "surface"] and command[7] == "--liquid-hsv-low"
+    assert 82 <= int(command[8].split(",")[0]) <= 88 and 98 <= int(command[10].split(",")[0]) <= 104
+    assert run_cli(*command[1:])[0] == 0  # the range inspect made tracks the clip
+
+
+def test_the_liquid_in_its_container_wins_over_a_larger_label(tmp_path, run_cli):
+    # a red label larger than the blue liquid: track's automatic dye takes the red; inspect measures both, and only
+    # the blue one stands between the container's walls
+    clip = _surface_clip(tmp_path / "label.mp4", lambda f: cv2.rectangle(f, (236, 4), (316, 144), (40, 40, 215), -1))
+    code, out, err = run_cli("inspect", clip, "-o", tmp_path / "l.png")
+    assert code == 0, err
+    assert "colours found (share of the picture): red 1" in out and "measured as a surface too: red" in out
+    command = _next_command(out)
+    assert command[5:9] == ["--target", "surface", "--liquid-color", "blue"] and command[-1] == "container"
+    assert run_cli(*command[1:])[0] == 0
 
 
 def test_at_picks_the_frame_on_screen_at_that_time(tmp_path, run_cli):

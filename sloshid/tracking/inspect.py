@@ -43,19 +43,52 @@ AT_BEFORE_S = 1.0
 screen then (the last one not after it) is among those read."""
 AT_TOLERANCE_S = 5e-4
 """--at: a frame this close after the time asked for is the one meant (a time typed to the millisecond)."""
+HUE_REACH = 8
+"""The HSV range made for a colour no preset takes reaches this far (OpenCV hue, 0..179) either side of its median
+hue: the presets' ranges are 14-35 wide."""
 _HUES = ((8, "red"), (22, "orange"), (35, "yellow"), (85, "green"), (100, "cyan"), (125, "blue"), (170, "magenta"))
 """Upper hue bounds (OpenCV, 0..179) of the colour names used to say what was seen; above the last: red again."""
 
 
 @dataclass
-class PresetMatch:
-    """Where one preset colour is in the frame."""
+class ColourMatch:
+    """Where one colour is in the frame: a preset's, or (when no preset's is there) the range made for the largest
+    coloured region."""
 
     name: str
+    """The preset's name, or the colour's name and HSV range."""
+    hsv: HsvRange
     share: float
-    """Share of the searched area (the ROI, or the whole picture) in the preset's HSV range."""
+    """Share of the searched area (the ROI, or the whole picture) in the HSV range."""
     regions: list[tuple[int, int, int, int, int]]
     """Its connected regions (x, y, width, height, area in px), largest first, each at least MIN_AREA_PX."""
+
+    @property
+    def preset(self) -> bool:
+        """A named preset (`--liquid-color NAME`), not an HSV range of inspect's making."""
+        return self.name in PRESETS
+
+    def words(self, kind: str) -> list[str]:
+        """The track options that name this colour for `kind` 'liquid' or 'float'."""
+        if self.preset:
+            return [f"--{kind}-color", self.name]
+        return [f"--{kind}-hsv-low", format_hsv(self.hsv.low), f"--{kind}-hsv-high", format_hsv(self.hsv.high)]
+
+    def settings(self, kind: str) -> dict:
+        """The TrackSettings fields that name this colour for `kind` 'liquid' or 'float'."""
+        if self.preset:
+            return {f"{kind}_color": self.name}
+        return {f"{kind}_hsv_low": self.hsv.low, f"{kind}_hsv_high": self.hsv.high}
+
+    def outline(self) -> tuple[int, int, int]:
+        """A BGR colour that stands out on this one (its complement), for drawing its regions."""
+        if self.preset:
+            bgr = PRESETS[self.name].bgr
+        else:
+            lo, hi = self.hsv.low[0], self.hsv.high[0]
+            hue = ((lo + hi + (180 if lo > hi else 0)) // 2) % 180
+            bgr = cv2.cvtColor(np.uint8([[[hue, 220, 220]]]), cv2.COLOR_HSV2BGR)[0, 0]
+        return tuple(255 - int(v) for v in bgr)
 
 
 @dataclass
@@ -117,7 +150,7 @@ class InspectResult:
     """(width, height) of the frame, px."""
     roi: tuple[int, int, int, int]
     """The area searched (x, y, width, height): the given ROI or the whole picture."""
-    presets: list[PresetMatch]
+    presets: list[ColourMatch]
     surfaces: list[SurfaceLook]
     floats: list[FloatLook]
     candidates: list[FloatCandidate]
@@ -125,6 +158,11 @@ class InspectResult:
     """Around the container (the liquid found) or the float: where track should look; drawn on the picture."""
     target: str | None
     """'surface' or 'float': what the suggested command tracks (None: nothing found)."""
+    liquid: SurfaceLook | None = None
+    """The liquid the text and the picture's left panel show: the measured surface (one whose container's walls were
+    found first), else the largest liquid region found (its measurement in the suggested ROI when that one was)."""
+    float_look: FloatLook | None = None
+    """The float the right panel shows: the best measured, not liquid, not of the measured liquid's colour."""
     command: list[str] = field(default_factory=list)
     """The `sloshid track ...` command line (words), empty when nothing was found."""
     notes: list[str] = field(default_factory=list)
@@ -137,9 +175,8 @@ class InspectResult:
     @property
     def measured(self) -> bool:
         """The suggested command's target was measured in this frame (track would mark it valid)."""
-        if self.target == "surface":
-            return any(s.measured for s in self.surfaces)
-        return self.target == "float" and any(f.measured and not f.liquid_like for f in self.floats)
+        look = self.liquid if self.target == "surface" else self.float_look if self.target == "float" else None
+        return look is not None and look.measured
 
     def command_line(self) -> str:
         """The suggested command as one shell line (quoted where needed)."""
@@ -148,9 +185,11 @@ class InspectResult:
     def summary(self) -> str:
         """The text `sloshid inspect` prints: what was found per target and the command to run next."""
         w, h = self.size
-        lines = [f"{self.video}: frame at {self.t_s:.3f} s, {w}x{h} px", *self.notes]
-        if self.seen:
-            lines.append(self.seen)
+        lines = [
+            f"{self.video}: frame at {self.t_s:.3f} s, {w}x{h} px",
+            *([self.seen] if self.seen else []),
+            *self.notes,
+        ]
         if self.command:
             lines.append("next: " + self.command_line())
         return "\n".join(lines)
@@ -259,21 +298,23 @@ def _roi_box(roi: tuple[int, int, int, int] | None, width: int, height: int) -> 
     return x, y, w, h
 
 
-def _preset_matches(frame: np.ndarray, roi: tuple[int, int, int, int]) -> tuple[list[PresetMatch], dict]:
-    """Every preset colour found in the ROI (largest share first) and each one's region labels (for drawing)."""
+def _colour_matches(
+    frame: np.ndarray, roi: tuple[int, int, int, int], colours: dict[str, HsvRange]
+) -> tuple[list[ColourMatch], dict]:
+    """Every one of `colours` found in the ROI (largest share first) and each one's region labels (for drawing)."""
     x, y, w, h = roi
     crop = frame[y : y + h, x : x + w]
     least = max(MIN_AREA_PX, LISTED_SHARE * w * h)
     found, labels = [], {}
-    for name, p in PRESETS.items():
-        mask = hsv_mask(crop, p.hsv)
+    for name, hsv in colours.items():
+        mask = hsv_mask(crop, hsv)
         n, lab, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=8)
         keep = [k for k in range(1, n) if stats[k, cv2.CC_STAT_AREA] >= least]
         if not keep:
             continue
         keep.sort(key=lambda k: -stats[k, cv2.CC_STAT_AREA])
         regions = [(x + int(stats[k, 0]), y + int(stats[k, 1]), *(int(v) for v in stats[k, 2:5])) for k in keep]
-        found.append(PresetMatch(name, cv2.countNonZero(mask) / (w * h), regions))
+        found.append(ColourMatch(name, hsv, cv2.countNonZero(mask) / (w * h), regions))
         labels[name] = (lab, keep)
     found.sort(key=lambda m: -m.share)
     return found, labels
@@ -297,24 +338,25 @@ def _measure(frame: np.ndarray, t_s: float, settings: TrackSettings, roi: tuple)
     return measure_frame(frame, t_s, settings, roi, None)
 
 
-def _look_at_surface(frame, t_s, name: str, roi: tuple) -> tuple[SurfaceLook, np.ndarray]:
-    """Measure preset `name` as the dyed liquid (against the container's walls, to learn whether they are found)."""
-    settings = TrackSettings(target="surface", liquid_color=name, reference="container", roi=roi)
+def _look_at_surface(frame, t_s, colour: ColourMatch, roi: tuple) -> tuple[SurfaceLook, np.ndarray]:
+    """Measure `colour` as the dyed liquid (against the container's walls, to learn whether they are found)."""
+    settings = TrackSettings(target="surface", reference="container", roi=roi, **colour.settings("liquid"))
     row, drawn, step = _measure(frame, t_s, settings, roi)
     walls = bool(step.walls_record.measured)
-    look = SurfaceLook(name, step.liquid_frames > 0, bool(row[8]), walls=walls, quality=float(row[7]), roi=roi)
+    look = SurfaceLook(colour.name, step.liquid_frames > 0, bool(row[8]), walls=walls, quality=float(row[7]), roi=roi)
     if look.measured:
         look.angle_deg, look.container_angle_deg = float(row[3]), float(row[4])
     return look, drawn
 
 
-def _look_at_float(frame, t_s, name: str, roi: tuple) -> tuple[FloatLook, np.ndarray]:
-    """Measure preset `name` as the float, against the image (is it measured?) and the container (are walls there?)."""
-    row, drawn, step = _measure(frame, t_s, TrackSettings(float_color=name, roi=roi), roi)
-    look = FloatLook(name, step.found > 0, bool(row[8]), float(row[3]), float(row[7]))
+def _look_at_float(frame, t_s, colour: ColourMatch, roi: tuple) -> tuple[FloatLook, np.ndarray]:
+    """Measure `colour` as the float, against the image (is it measured?) and the container (are walls there?)."""
+    named = colour.settings("float")
+    row, drawn, step = _measure(frame, t_s, TrackSettings(roi=roi, **named), roi)
+    look = FloatLook(colour.name, step.found > 0, bool(row[8]), float(row[3]), float(row[7]))
     look.liquid_like = bool(step.liquid_width)
     if look.found:
-        walled = _measure(frame, t_s, TrackSettings(float_color=name, reference="container", roi=roi), roi)[2]
+        walled = _measure(frame, t_s, TrackSettings(reference="container", roi=roi, **named), roi)[2]
         look.walls = bool(walled.walls_record.measured)
     return look, drawn
 
@@ -375,9 +417,9 @@ def _hue_name(h: float) -> str:
     return next((name for bound, name in _HUES if h < bound), "red")
 
 
-def what_it_saw(frame: np.ndarray, roi: tuple[int, int, int, int]) -> str:
-    """What the frame shows when no preset colour was found: how coloured it is, its largest coloured regions and an
-    HSV range that takes the largest in, to try with --liquid-hsv-low/high or --float-hsv-low/high."""
+def what_it_saw(frame: np.ndarray, roi: tuple[int, int, int, int]) -> tuple[str, dict[str, HsvRange]]:
+    """What the frame shows when no preset colour was found: how coloured it is and its largest coloured regions, in
+    words, and an HSV range (by its name) that takes the largest in, to measure it with (none in a grey picture)."""
     x, y, w, h = roi
     hsv = cv2.cvtColor(frame[y : y + h, x : x + w], cv2.COLOR_BGR2HSV)
     coloured = ((hsv[..., 1] >= SATURATED[0]) & (hsv[..., 2] >= SATURATED[1])).astype(np.uint8)
@@ -388,31 +430,27 @@ def what_it_saw(frame: np.ndarray, roi: tuple[int, int, int, int]) -> str:
     big = [k for k in order if stats[k, cv2.CC_STAT_AREA] >= max(MIN_AREA_PX, LISTED_SHARE * w * h)][:3]
     if not big:
         return (
-            f"seen instead: no coloured region (saturation {SATURATED[0]} or more) of {MIN_AREA_PX} px or more, "
+            f"no preset colour here, and no coloured region (saturation {SATURATED[0]} or more) of {MIN_AREA_PX} px or more, "
             f"{greys}: a grey picture. Track needs a float or a dye of a clear colour (red, orange, yellow, green, "
             "blue, magenta); check the file, the lighting, or the time given with --at."
-        )
-    parts, ranges = [], []
+        ), {}
+    parts = []
     for k in big:
-        px = hsv[lab == k]
-        hue = float(np.median(px[:, 0]))
+        hue = float(np.median(hsv[lab == k][:, 0]))
         bx, by, bw, bh, area = (int(v) for v in stats[k])
         parts.append(
             f"{_hue_name(hue)} (hue {hue:.0f}) {bw}x{bh} px at x {x + bx}-{x + bx + bw}, y {y + by}-{y + by + bh}, "
             f"{100 * area / (w * h):.2f} %"
         )
-        low = (
-            int(hue - 8) % 180,
-            max(20, int(np.percentile(px[:, 1], 5)) - 10),
-            max(20, int(np.percentile(px[:, 2], 5)) - 10),
-        )
-        ranges.append(HsvRange(low, (int(hue + 8) % 180, 255, 255)))
-    r = ranges[0]
+    px = hsv[lab == big[0]]
+    hue = float(np.median(px[:, 0]))
+    floor = [max(20, int(np.percentile(px[:, c], 5)) - 10) for c in (1, 2)]  # its paler and darker pixels too
+    r = HsvRange((int(hue - HUE_REACH) % 180, *floor), (int(hue + HUE_REACH) % 180, 255, 255))
     return (
-        f"seen instead ({greys}): the largest coloured regions, none in a preset's range: {'; '.join(parts)}. Try "
-        f"--liquid-hsv-low {format_hsv(r.low)} --liquid-hsv-high {format_hsv(r.high)} (or --float-hsv-low/-high "
-        "for a float), or --roi around the liquid or float."
-    )
+        f"no preset colour measured here ({greys}); the largest coloured regions: {'; '.join(parts)}; the "
+        f"largest is looked at below with --liquid-hsv-low {format_hsv(r.low)} --liquid-hsv-high {format_hsv(r.high)} "
+        "(--float-hsv-low/-high for a float)."
+    ), {f"{_hue_name(hue)} ({r.describe()})": r}
 
 
 def inspect_video(
@@ -426,18 +464,30 @@ def inspect_video(
     frame, t_s = read_frame(video, at_s)
     size = (frame.shape[1], frame.shape[0])
     box = _roi_box(roi, *size)
-    presets, labels = _preset_matches(frame, box)
-    surfaces, floats, candidates, drawn = [], [], [], {}
-    for p in presets:
-        look, drawn[("surface", p.name)] = _look_at_surface(frame, t_s, p.name, box)
-        surfaces.append(look)
-        candidates += _candidates(p.name, *labels[p.name], box)
-        look, drawn[("float", p.name)] = _look_at_float(frame, t_s, p.name, box)
-        floats.append(look)
-    res = InspectResult(video, t_s, size, box, presets, surfaces, floats, candidates, None, None)
+    res = InspectResult(video, t_s, size, box, [], [], [], [], None, None)
+    labels, drawn = {}, {}
+    _look_at_colours(res, frame, {name: p.hsv for name, p in PRESETS.items()}, labels, drawn)
+    if not any(s.liquid for s in res.surfaces) and not any(f.found for f in res.floats):
+        # a colour no preset takes (or too little of one): the largest coloured region's own range is looked at
+        res.seen, largest = what_it_saw(frame, box)
+        _look_at_colours(res, frame, largest, labels, drawn)
     _decide(res, frame, labels, drawn)
     res.picture = _picture(res, frame, labels, drawn)
     return res
+
+
+def _look_at_colours(res: InspectResult, frame: np.ndarray, colours: dict, labels: dict, drawn: dict) -> None:
+    """Find `colours` (name: HSV range) in the frame and measure each one found as the liquid and as a float; the
+    region labels and the tracker's overlays go into `labels` and `drawn`."""
+    found, more = _colour_matches(frame, res.roi, colours)
+    labels.update(more)
+    for p in found:
+        look, drawn[("surface", p.name)] = _look_at_surface(frame, res.t_s, p, res.roi)
+        res.surfaces.append(look)
+        res.candidates += _candidates(p.name, *labels[p.name], res.roi)
+        look, drawn[("float", p.name)] = _look_at_float(frame, res.t_s, p, res.roi)
+        res.floats.append(look)
+    res.presets += found
 
 
 def _decide(res: InspectResult, frame: np.ndarray, labels: dict, drawn: dict) -> None:
@@ -449,30 +499,39 @@ def _decide(res: InspectResult, frame: np.ndarray, labels: dict, drawn: dict) ->
         where = "ROI" if given else "picture"
         shares = ", ".join(f"{p.name} {100 * p.share:.2f} %" for p in res.presets)
         res.notes.append(f"colours found (share of the {where}): {shares}")
-    measured = next((s for s in res.surfaces if s.measured), None)
+    # a liquid stands in a container: one whose walls were found first, then the largest
+    measured = max((s for s in res.surfaces if s.measured), key=lambda s: s.walls, default=None)
     liquid = measured or next((s for s in res.surfaces if s.liquid), None)
-    flt = _best_float(res, None if measured is None else measured.dye)
+    flt = res.float_look = _best_float(res, None if measured is None else measured.dye)
     surface = measured or (liquid if flt is None or not flt.measured else None)
+    res.liquid = liquid
     if liquid is not None:
-        res.notes.append(_surface_note(liquid, next(m for m in res.presets if m.name == liquid.dye)))
+        res.notes.append(_surface_note(liquid, _match(res, liquid.dye)))
+        rivals = [s.dye for s in res.surfaces if s.measured and s is not measured]
+        if measured is not None and rivals:
+            res.notes.append(
+                f"  measured as a surface too: {', '.join(rivals)}; "
+                + ("it has no container's walls beside it" if measured.walls else "the largest was taken")
+                + "; if that is the liquid, give its colour instead"
+            )
     else:
         res.notes.append(
             f"surface: no dyed liquid (no preset colour's region of {100 * MIN_LIQUID_SHARE:.1f} % of the area)"
         )
     use_roi, why = False, ""
     if surface is not None:
-        p = next(m for m in res.presets if m.name == surface.dye)
+        p = _match(res, surface.dye)
         lab, keep = labels[surface.dye]
         x0, y0, w0, h0, _ = p.regions[0]
         region = lab[y0 - box[1] : y0 - box[1] + h0, x0 - box[0] : x0 - box[0] + w0] == keep[0]
         res.suggested_roi, meets = liquid_roi(region, (x0, y0), size)
         others = [r for r in p.regions[1:] if not _inside(r[:4], res.suggested_roi) and r[4] >= 0.1 * p.regions[0][4]]
         if not surface.measured and res.suggested_roi != box:
-            retry, drawn[("surface", "roi")] = _look_at_surface(frame, res.t_s, surface.dye, res.suggested_roi)
+            retry, drawn[("surface", "roi")] = _look_at_surface(frame, res.t_s, p, res.suggested_roi)
             res.surfaces.append(retry)
             found = "measured, " + _surface_numbers(retry) if retry.measured else "not measured either"
             res.notes.append(f"  with --roi {_fmt_roi(res.suggested_roi)}: {found}")
-            surface = retry if retry.measured else surface
+            surface = res.liquid = retry if retry.measured else surface
             use_roi, why = True, "the liquid was not measured in the whole picture"
         elif meets and not given:
             use_roi, why = True, f"the {surface.dye} region runs on into something of its own colour below the liquid"
@@ -496,18 +555,16 @@ def _decide(res: InspectResult, frame: np.ndarray, labels: dict, drawn: dict) ->
         )
     if surface is not None:
         res.target = "surface"
-        words = ["--target", "surface", "--liquid-color", surface.dye]
+        words = ["--target", "surface", *_match(res, surface.dye).words("liquid")]
         res.command = _command(res, words, use_roi or given, surface.walls)
     elif flt is not None:
         res.target = "float"
-        res.command = _command(res, ["--float-color", flt.color], use_roi or given, flt.walls)
+        res.command = _command(res, _match(res, flt.color).words("float"), use_roi or given, flt.walls)
     elif res.presets:
-        res.seen = (
-            "nothing here is a dyed liquid or a float: the preset colours found cover too little of the area, or are "
-            "not elongated; try --roi around the liquid or float, or a frame where they show (--at)."
+        res.notes.append(
+            "nothing here is a dyed liquid or a float: the colours found cover too little of the area, or are not "
+            "elongated; try --roi around the liquid or float, or a frame where they show (--at)"
         )
-    else:
-        res.seen = what_it_saw(frame, box)
     if res.command and not res.measured:
         res.notes.append(
             "track would not measure this frame with that command today; run it to see its message, with "
@@ -540,7 +597,7 @@ def _surface_numbers(s: SurfaceLook) -> str:
     return f"surface at {s.angle_deg:+.2f} deg against the image, quality {s.quality:.2f}, {walls}"
 
 
-def _surface_note(s: SurfaceLook, p: PresetMatch) -> str:
+def _surface_note(s: SurfaceLook, p: ColourMatch) -> str:
     """One line on the surface target."""
     x, y, w, h, _ = p.regions[0]
     where = f"{s.dye} liquid {w}x{h} px at x {x}-{x + w}, y {y}-{y + h}"
@@ -575,29 +632,23 @@ def _float_note(f: FloatLook, cands: list[FloatCandidate]) -> str:
 def _picture(res: InspectResult, frame: np.ndarray, labels: dict, drawn: dict) -> np.ndarray:
     """Two panels: the surface target (the tracker's overlay, every preset's regions) and the float target (its
     overlay, the candidates); the suggested ROI in white on both; a title bar over each."""
-    chosen = next((s for s in reversed(res.surfaces) if s.measured), None) or next(
-        (s for s in res.surfaces if s.liquid), None
-    )
-    key = (
-        ("surface", "roi")
-        if chosen is not None and chosen.roi != res.roi
-        else ("surface", chosen.dye if chosen else "")
-    )
+    chosen = res.liquid
+    key = ("surface", "roi" if chosen is not None and chosen.roi != res.roi else chosen.dye if chosen else "")
     left = drawn.get(key, np.array(frame)).copy()
     scale = max(0.45, frame.shape[0] / 800)
     thick = max(1, round(frame.shape[0] / 360))
     for p in res.presets:
         lab, keep = labels[p.name]
-        outline = tuple(255 - v for v in PRESETS[p.name].bgr)
+        outline = p.outline()
         mask = np.isin(lab, keep).astype(np.uint8)
         contours, _ = cv2.findContours(mask, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_SIMPLE)
         cv2.drawContours(left, contours, -1, outline, thick, offset=res.roi[:2])
         x, y = p.regions[0][:2]
         _text(left, f"{p.name} {100 * p.share:.1f} %", (x + 4, y + int(22 * scale) + 4), scale, outline)
-    flt = _best_float(res, _measured_dye(res))
+    flt = res.float_look
     right = drawn[("float", flt.color)].copy() if flt else np.array(frame)
     for c in res.candidates:
-        outline = tuple(255 - v for v in PRESETS[c.color].bgr)
+        outline = _match(res, c.color).outline()
         x, y, w, h = c.box
         cv2.rectangle(right, (x - 2, y - 2), (x + w + 1, y + h + 1), outline, thick)
         _text(right, f"{c.color} e{c.elongation:.2f} {c.angle_deg:+.1f}", (x, max(y - 6, 12)), 0.8 * scale, outline)
@@ -619,11 +670,11 @@ def _picture(res: InspectResult, frame: np.ndarray, labels: dict, drawn: dict) -
 def _title(res: InspectResult, target: str) -> str:
     """A panel's title: the target and what it found."""
     if target == "surface":
-        s = next((s for s in reversed(res.surfaces) if s.measured), None)
-        if s is not None:
+        s = res.liquid
+        if s is not None and s.measured:
             return f"surface: {s.dye} liquid, {s.angle_deg:+.2f} deg"
         return "surface: liquid found, walls not" if res.target == "surface" else "surface: nothing measured"
-    f = _best_float(res, _measured_dye(res))
+    f = res.float_look
     if f is not None and f.measured:
         return f"float: {f.color}, {f.angle_deg:+.2f} deg, quality {f.quality:.2f}"
     return f"float: {len(res.candidates)} candidate(s), none measured"
@@ -642,6 +693,6 @@ def _text(img: np.ndarray, text: str, org: tuple[int, int], scale: float, colour
     cv2.putText(img, text, org, cv2.FONT_HERSHEY_SIMPLEX, scale, colour, 1, cv2.LINE_AA)
 
 
-def _measured_dye(res: InspectResult) -> str | None:
-    """The colour of the liquid whose surface was measured, if one was."""
-    return next((s.dye for s in res.surfaces if s.measured), None)
+def _match(res: InspectResult, name: str) -> ColourMatch:
+    """The colour called `name` among those found."""
+    return next(m for m in res.presets if m.name == name)
