@@ -12,8 +12,9 @@ import numpy as np
 import pytest
 
 import sloshid
-from sloshid.synthetic.render import SynthSettings, render_frames
-from sloshid.video.frames import VideoWriter
+from sloshid.synthetic.render import SynthSettings, render_frames, render_video
+from sloshid.tracking.tracker import TrackSettings, measure_frame, track_video
+from sloshid.video.frames import FrameReader, VideoWriter
 
 REAL_FRAME = Path(__file__).resolve().parents[2] / "shared" / "data" / "real" / "blue_cylinder_at_rest.png"
 SMALL = ["--width", "320", "--height", "240", "--duration", "1", "--noise", "3", "--seed", "5"]
@@ -203,3 +204,35 @@ def test_the_api_gives_the_commands_result(tmp_path, run_cli):
     assert doc["target"] == "float" and doc["float_candidates"][0]["color"] == "red"
     code, out, _ = run_cli("inspect", clip, "-o", tmp_path / "cli.png")
     assert code == 0 and _next_command(out) == res.command and res.summary() in out
+
+
+@pytest.mark.parametrize("target", ["float", "surface"])
+def test_measure_frame_is_what_track_measures_in_the_first_frame(tmp_path, target):
+    # inspect's one call into the tracker: it must keep measuring what track does (a level camera: track's revision
+    # of a span's first frames, with the elevation held after them, changes nothing there)
+    clip = tmp_path / "clip.mp4"
+    settings = SynthSettings(scene=target, width=320, height=240, duration_s=0.6, noise_sigma=3.0, seed=8)
+    render_video(clip, settings)
+    tracked = track_video(clip, TrackSettings(target=target, reference="container", smooth=False))
+    frame = next(iter(FrameReader(clip, False)))[2]
+    colour = {"liquid_color": "blue"} if target == "surface" else {}
+    track = TrackSettings(target=target, reference="container", **colour)
+    row, drawn, _ = measure_frame(frame, 0.0, track, (0, 0, 320, 240), None)
+    assert row[8] == 1 and tracked.valid[0] == 1
+    assert row[2] == pytest.approx(tracked.angle_deg[0], abs=1e-6)
+    assert row[4] == pytest.approx(tracked.container_angle_deg[0], abs=1e-6)
+    assert row[5:7] == pytest.approx((tracked.x_px[0], tracked.y_px[0]), abs=1e-6)
+    assert drawn.shape == frame.shape
+
+
+def test_a_given_roi_is_searched_alone_and_kept_in_the_command(tmp_path, run_cli):
+    clip = tmp_path / "clip.mp4"
+    assert run_cli("synth", clip, *SMALL)[0] == 0
+    code, out, _ = run_cli("inspect", clip, "-o", tmp_path / "in.png", "--roi", "60,40,200,180")
+    assert code == 0 and "(share of the ROI): red 1.0" in out
+    command = _next_command(out)
+    assert command[command.index("--roi") + 1] == "60,40,200,180"
+    x, y, w, h = map(int, out.split("suggested ROI: --roi ")[1].split()[0].split(","))
+    assert x >= 60 and y >= 40 and x + w <= 260 and y + h <= 220  # inside the ROI searched
+    code, out, _ = run_cli("inspect", clip, "-o", tmp_path / "out.png", "--roi", "0,0,80,60")  # beside the float
+    assert code == 2 and "next:" not in out

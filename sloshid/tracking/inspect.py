@@ -361,13 +361,13 @@ def _look_at_float(frame, t_s, colour: ColourMatch, roi: tuple) -> tuple[FloatLo
     return look, drawn
 
 
-def liquid_roi(box_mask: np.ndarray, origin: tuple[int, int], size: tuple[int, int]) -> tuple[tuple, bool]:
+def liquid_roi(box_mask: np.ndarray, origin: tuple[int, int], bounds: tuple[int, int, int, int]) -> tuple[tuple, bool]:
     """A ROI around the container a liquid region (`box_mask`: its pixels in its bounding box at `origin`) stands in,
     and whether the region meets something of its own colour below (it widens: a holder or a table).
 
     The surface's width is the region's extent over the top quarter of its rows; the ROI takes the columns of that
     width plus a margin for the glass, from half the width above the surface (a slosh, the rim) down to where the
-    region widens (or a little below its bottom)."""
+    region widens (or a little below its bottom); inside `bounds` (x, y, w, h: the area searched)."""
     rows = np.flatnonzero(box_mask.any(axis=1))
     left = np.argmax(box_mask[rows], axis=1)
     right = box_mask.shape[1] - 1 - np.argmax(box_mask[rows, ::-1], axis=1)
@@ -383,22 +383,24 @@ def liquid_roi(box_mask: np.ndarray, origin: tuple[int, int], size: tuple[int, i
     pad = int(0.08 * width) + 4
     x0, x1 = origin[0] + int(lo) - pad, origin[0] + int(hi) + 1 + pad
     y0, y1 = origin[1] + int(rows[0] - 0.5 * width), origin[1] + int(bottom)
-    return _clipped(x0, y0, x1, y1, size), meets
+    return _clipped(x0, y0, x1, y1, bounds), meets
 
 
-def _float_roi(c: FloatCandidate, size: tuple[int, int]) -> tuple[int, int, int, int]:
-    """A ROI around a float: 1.5 of its length each way, where track looks for the container's walls beside it."""
+def _float_roi(c: FloatCandidate, bounds: tuple[int, int, int, int]) -> tuple[int, int, int, int]:
+    """A ROI around a float: 1.5 of its length each way, where track looks for the container's walls beside it;
+    inside `bounds` (x, y, w, h: the area searched)."""
     x, y, w, h = c.box
     length, cx, cy = max(w, h), x + 0.5 * w, y + 0.5 * h
     return _clipped(
-        int(cx - 1.5 * length), int(cy - 1.5 * length), int(cx + 1.5 * length), int(cy + 1.5 * length), size
+        int(cx - 1.5 * length), int(cy - 1.5 * length), int(cx + 1.5 * length), int(cy + 1.5 * length), bounds
     )
 
 
-def _clipped(x0: int, y0: int, x1: int, y1: int, size: tuple[int, int]) -> tuple[int, int, int, int]:
-    """(x, y, w, h) of a box cut to the picture."""
-    x0, y0 = max(0, x0), max(0, y0)
-    x1, y1 = min(size[0], x1), min(size[1], y1)
+def _clipped(x0: int, y0: int, x1: int, y1: int, bounds: tuple[int, int, int, int]) -> tuple[int, int, int, int]:
+    """(x, y, w, h) of a box cut to `bounds` (x, y, w, h), which it overlaps (it holds a region found there)."""
+    bx, by, bw, bh = bounds
+    x0, y0 = max(bx, x0), max(by, y0)
+    x1, y1 = min(bx + bw, x1), min(by + bh, y1)
     return x0, y0, x1 - x0, y1 - y0
 
 
@@ -494,7 +496,7 @@ def _decide(res: InspectResult, frame: np.ndarray, labels: dict, drawn: dict) ->
     """Choose the target (a measured surface, else a measured float, else liquid found, else a float found), the
     preset and the ROI, and write the notes and the command."""
     size, box = res.size, res.roi
-    given = box != (0, 0, *size)
+    given = box if box != (0, 0, *size) else None  # the user's ROI
     if res.presets:
         where = "ROI" if given else "picture"
         shares = ", ".join(f"{p.name} {100 * p.share:.2f} %" for p in res.presets)
@@ -524,7 +526,7 @@ def _decide(res: InspectResult, frame: np.ndarray, labels: dict, drawn: dict) ->
         lab, keep = labels[surface.dye]
         x0, y0, w0, h0, _ = p.regions[0]
         region = lab[y0 - box[1] : y0 - box[1] + h0, x0 - box[0] : x0 - box[0] + w0] == keep[0]
-        res.suggested_roi, meets = liquid_roi(region, (x0, y0), size)
+        res.suggested_roi, meets = liquid_roi(region, (x0, y0), box)
         others = [r for r in p.regions[1:] if not _inside(r[:4], res.suggested_roi) and r[4] >= 0.1 * p.regions[0][4]]
         if not surface.measured and res.suggested_roi != box:
             retry, drawn[("surface", "roi")] = _look_at_surface(frame, res.t_s, p, res.suggested_roi)
@@ -540,7 +542,7 @@ def _decide(res: InspectResult, frame: np.ndarray, labels: dict, drawn: dict) ->
     res.notes += [_float_note(f, [c for c in res.candidates if c.color == f.color]) for f in res.floats]
     if surface is None and flt is not None:
         cands = [c for c in res.candidates if c.color == flt.color]
-        res.suggested_roi = _float_roi(cands[0], size)
+        res.suggested_roi = _float_roi(cands[0], box)
         others = [c for c in cands[1:] if not _inside(c.box, res.suggested_roi)]
         if others and not given:
             use_roi, why = (
@@ -556,10 +558,11 @@ def _decide(res: InspectResult, frame: np.ndarray, labels: dict, drawn: dict) ->
     if surface is not None:
         res.target = "surface"
         words = ["--target", "surface", *_match(res, surface.dye).words("liquid")]
-        res.command = _command(res, words, use_roi or given, surface.walls)
+        res.command = _command(res, words, res.suggested_roi if use_roi else given, surface.walls)
     elif flt is not None:
         res.target = "float"
-        res.command = _command(res, _match(res, flt.color).words("float"), use_roi or given, flt.walls)
+        words = _match(res, flt.color).words("float")
+        res.command = _command(res, words, res.suggested_roi if use_roi else given, flt.walls)
     elif res.presets:
         res.notes.append(
             "nothing here is a dyed liquid or a float: the colours found cover too little of the area, or are not "
@@ -572,12 +575,12 @@ def _decide(res: InspectResult, frame: np.ndarray, labels: dict, drawn: dict) ->
         )
 
 
-def _command(res: InspectResult, words: list[str], roi: bool, walls: bool) -> list[str]:
+def _command(res: InspectResult, words: list[str], roi: tuple | None, walls: bool) -> list[str]:
     """`sloshid track VIDEO -o STEM_angles.csv WORDS [--roi ...] [--reference container]`."""
     out = res.video.with_name(f"{res.video.stem}_angles.csv")
     cmd = ["sloshid", "track", str(res.video), "-o", str(out), *words]
-    if roi:
-        cmd += ["--roi", _fmt_roi(res.suggested_roi if res.suggested_roi else res.roi)]
+    if roi is not None:
+        cmd += ["--roi", _fmt_roi(roi)]
     if walls:
         cmd += ["--reference", "container"]
     return cmd
