@@ -236,3 +236,22 @@ def test_a_given_roi_is_searched_alone_and_kept_in_the_command(tmp_path, run_cli
     assert x >= 60 and y >= 40 and x + w <= 260 and y + h <= 220  # inside the ROI searched
     code, out, _ = run_cli("inspect", clip, "-o", tmp_path / "out.png", "--roi", "0,0,80,60")  # beside the float
     assert code == 2 and "next:" not in out
+
+
+@pytest.mark.parametrize("turn_deg", [-10.0, 10.0])
+def test_the_suggested_roi_holds_the_real_liquid_turned_in_the_picture(tmp_path, turn_deg):
+    if not REAL_FRAME.exists():
+        pytest.skip("../shared/data/real is not beside this checkout")
+    frame = cv2.imread(str(REAL_FRAME))
+    turn = cv2.getRotationMatrix2D((960, 540), turn_deg, 0.5)  # turned about the centre, at half size
+    turn[:, 2] -= (480, 270)  # the centre to the half-size picture's centre
+    turned = cv2.warpAffine(frame, turn, (960, 540), borderMode=cv2.BORDER_REFLECT)
+    res = sloshid.inspect(_write(tmp_path / "turned.mp4", [turned] * 3))
+    assert res.target == "surface" and res.liquid.dye == "blue"
+    # the blue liquid's corners in the real frame (x 650-1320 between the walls, surface at y 575; the holder from y 900
+    # rises above y 880 on one side once turned, and the ROI stops where it begins)
+    corners = np.array([[650, 575, 1], [1320, 575, 1], [650, 800, 1], [1320, 800, 1]]) @ turn.T
+    x, y, w, h = res.suggested_roi
+    assert (corners[:, 0] > x).all() and (corners[:, 0] < x + w).all()
+    assert (corners[:, 1] > y).all() and (corners[:, 1] < y + h).all()
+    assert w < 0.6 * 960  # the container, not the picture

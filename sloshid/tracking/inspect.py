@@ -361,28 +361,40 @@ def _look_at_float(frame, t_s, colour: ColourMatch, roi: tuple) -> tuple[FloatLo
     return look, drawn
 
 
-def liquid_roi(box_mask: np.ndarray, origin: tuple[int, int], bounds: tuple[int, int, int, int]) -> tuple[tuple, bool]:
+def liquid_roi(
+    box_mask: np.ndarray, origin: tuple[int, int], bounds: tuple[int, int, int, int]
+) -> tuple[tuple[int, int, int, int], bool]:
     """A ROI around the container a liquid region (`box_mask`: its pixels in its bounding box at `origin`) stands in,
     and whether the region meets something of its own colour below (it widens: a holder or a table).
 
-    The surface's width is the region's extent over the top quarter of its rows; the ROI takes the columns of that
-    width plus a margin for the glass, from half the width above the surface (a slosh, the rim) down to where the
-    region widens (or a little below its bottom); inside `bounds` (x, y, w, h: the area searched)."""
+    The liquid's sides are straight lines fitted to the region's ends in its full rows (those of the upper half at
+    least nine tenths as wide as the widest there: below a sloped surface, above a holder); the ROI holds them, plus a
+    margin for the glass, from half the width above the region's top (a slosh, the rim) down to the first of three
+    rows that reach beyond a side (or a little below the region's bottom); inside `bounds` (x, y, w, h)."""
     rows = np.flatnonzero(box_mask.any(axis=1))
-    left = np.argmax(box_mask[rows], axis=1)
-    right = box_mask.shape[1] - 1 - np.argmax(box_mask[rows, ::-1], axis=1)
-    top = rows[: max(3, len(rows) // 4)]
-    lo, hi = float(np.median(left[: len(top)])), float(np.median(right[: len(top)]))
-    width = hi - lo + 1
-    tol = WIDER * width + 3
-    wide = (left < lo - tol) | (right > hi + tol)
-    wide[: len(top)] = False
+    left = np.argmax(box_mask[rows], axis=1).astype(float)
+    right = box_mask.shape[1] - 1 - np.argmax(box_mask[rows, ::-1], axis=1).astype(float)
+    upper = slice(0, max(3, len(rows) // 2))
+    width = right - left + 1
+    full = np.flatnonzero(width[upper] >= 0.9 * width[upper].max())
+    if len(full) < 3:  # a sliver: its box
+        left_line = right_line = None
+        lo, hi, wide = left.min(), right.max(), np.zeros(len(rows), bool)
+    else:
+        left_line, right_line = (np.polyfit(rows[full], v[full], 1) for v in (left, right))
+        tol = WIDER * float(np.median(width[full])) + 3
+        wide = (left < np.polyval(left_line, rows) - tol) | (right > np.polyval(right_line, rows) + tol)
+        wide[: full[0]] = False
     run = np.convolve(wide, np.ones(3), "valid") >= 3  # three rows in a row
     meets = bool(run.any())
-    bottom = rows[int(np.argmax(run))] if meets else rows[-1] + 1 + int(0.05 * width)
-    pad = int(0.08 * width) + 4
+    size = float(np.median(width[full])) if len(full) >= 3 else float(width.max())
+    bottom = rows[int(np.argmax(run))] if meets else rows[-1] + 1 + int(0.05 * size)
+    if left_line is not None:  # the sides' extent between the top and the bottom (a container tilted in the picture)
+        ends = np.array([rows[0], bottom])
+        lo, hi = np.polyval(left_line, ends).min(), np.polyval(right_line, ends).max()
+    pad = int(0.08 * size) + 4
     x0, x1 = origin[0] + int(lo) - pad, origin[0] + int(hi) + 1 + pad
-    y0, y1 = origin[1] + int(rows[0] - 0.5 * width), origin[1] + int(bottom)
+    y0, y1 = origin[1] + int(rows[0] - 0.5 * size), origin[1] + int(bottom)
     return _clipped(x0, y0, x1, y1, bounds), meets
 
 
