@@ -255,3 +255,12 @@ def test_the_suggested_roi_holds_the_real_liquid_turned_in_the_picture(tmp_path,
     assert (corners[:, 0] > x).all() and (corners[:, 0] < x + w).all()
     assert (corners[:, 1] > y).all() and (corners[:, 1] < y + h).all()
     assert w < 0.6 * 960  # the container, not the picture
+
+
+def test_a_float_measured_beside_the_liquid_gets_its_command_too(tmp_path, run_cli):
+    clip = _surface_clip(tmp_path / "both.mp4", lambda f: cv2.rectangle(f, (140, 112), (180, 120), (40, 40, 215), -1))
+    code, out, _ = run_cli("inspect", clip, "-o", tmp_path / "b.png")
+    assert code == 0 and "--target surface --liquid-color blue" in " ".join(_next_command(out))
+    line = next(line for line in out.splitlines() if line.startswith("a red float is measured too"))
+    other = shlex.split(line.split("instead: ")[1])
+    assert other[5:7] == ["--float-color", "red"] and run_cli(*other[1:])[0] == 0

@@ -208,14 +208,16 @@ class InspectResult:
             "presets": [
                 {"name": p.name, "share": p.share, "regions": [list(r) for r in p.regions]} for p in self.presets
             ],
-            "surface": [
+            "surfaces": [
                 {**s.__dict__, "angle_deg": num(s.angle_deg), "container_angle_deg": num(s.container_angle_deg)}
                 for s in self.surfaces
             ],
-            "float": [{**f.__dict__, "angle_deg": num(f.angle_deg)} for f in self.floats],
+            "floats": [{**f.__dict__, "angle_deg": num(f.angle_deg)} for f in self.floats],
             "float_candidates": [c.__dict__ for c in self.candidates],
             "suggested_roi": list(self.suggested_roi) if self.suggested_roi else None,
             "target": self.target,
+            "liquid": self.liquid.dye if self.liquid else None,
+            "float": self.float_look.color if self.float_look else None,
             "command": self.command_line() if self.command else None,
             "notes": list(self.notes),
             "seen": self.seen or None,
@@ -571,6 +573,9 @@ def _decide(res: InspectResult, frame: np.ndarray, labels: dict, drawn: dict) ->
         res.target = "surface"
         words = ["--target", "surface", *_match(res, surface.dye).words("liquid")]
         res.command = _command(res, words, res.suggested_roi if use_roi else given, surface.walls)
+        if flt is not None and flt.measured:  # a float on the dyed liquid: its command too
+            other = _command(res, _match(res, flt.color).words("float"), given, flt.walls)
+            res.notes.append(f"a {flt.color} float is measured too; to track it instead: {shlex.join(other)}")
     elif flt is not None:
         res.target = "float"
         words = _match(res, flt.color).words("float")
