@@ -5,8 +5,9 @@ Every preset colour is looked for in the frame. Each one found is measured by th
 (`tracker.measure_frame`, the code `track` runs on every frame), as the dyed liquid's surface and as a float, so that
 the picture shows what track would do: the liquid region of every matching preset, the liquid's sides (the container's
 inner walls) and the surface line, the float candidates (size, elongation, angle) and the float track would take.
-When nothing of a preset colour is there, it says what it saw (how saturated the picture is, its largest coloured
-regions and an HSV range that would take the largest in) instead.
+Of several colours measured as a surface, the one between the container's walls is taken. When no preset colour gives
+a liquid or a float, it says what it saw (how saturated the picture is, its largest coloured regions) and measures the
+largest with an HSV range of its own.
 """
 
 from __future__ import annotations
@@ -34,8 +35,8 @@ MIN_AREA_PX): single noisy pixels of a colour are not a finding."""
 MAX_CANDIDATES = 5
 """Float candidates listed per preset colour (the largest)."""
 WIDER = 0.05
-"""The liquid region is taken to meet something of its own colour (a holder, a table) from the first row, below its
-top quarter, where it reaches further sideways than this share of the surface's width (plus 3 px) on three rows."""
+"""The liquid region is taken to meet something of its own colour (a holder, a table) from the first of three rows, below
+its first full row, that reach beyond a side of the liquid by more than this share of its width (plus 3 px)."""
 SATURATED = (60, 40)
 """Least saturation and value (OpenCV HSV) of a pixel called coloured when nothing of a preset colour was found."""
 AT_BEFORE_S = 1.0
@@ -150,7 +151,8 @@ class InspectResult:
     """(width, height) of the frame, px."""
     roi: tuple[int, int, int, int]
     """The area searched (x, y, width, height): the given ROI or the whole picture."""
-    presets: list[ColourMatch]
+    colours: list[ColourMatch]
+    """The colours found, each largest share first: the presets, then the range made for a colour no preset takes."""
     surfaces: list[SurfaceLook]
     floats: list[FloatLook]
     candidates: list[FloatCandidate]
@@ -168,7 +170,8 @@ class InspectResult:
     notes: list[str] = field(default_factory=list)
     """Sentences on what was found, in the order `summary` prints them."""
     seen: str = ""
-    """When nothing of a preset colour was found: what the frame shows instead, and what to try."""
+    """When no preset colour gave a liquid or a float: what the frame shows (how coloured, its largest coloured
+    regions) and the HSV range made for the largest."""
     picture: np.ndarray = field(default_factory=lambda: np.zeros((0, 0, 3), np.uint8), repr=False)
     """The annotated picture (BGR): surface target on the left, float target on the right."""
 
@@ -205,8 +208,15 @@ class InspectResult:
             "t_s": self.t_s,
             "size_px": list(self.size),
             "roi": list(self.roi),
-            "presets": [
-                {"name": p.name, "share": p.share, "regions": [list(r) for r in p.regions]} for p in self.presets
+            "colours": [
+                {
+                    "name": p.name,
+                    "hsv_low": list(p.hsv.low),
+                    "hsv_high": list(p.hsv.high),
+                    "share": p.share,
+                    "regions": [list(r) for r in p.regions],
+                }
+                for p in self.colours
             ],
             "surfaces": [
                 {**s.__dict__, "angle_deg": num(s.angle_deg), "container_angle_deg": num(s.container_angle_deg)}
@@ -503,7 +513,7 @@ def _look_at_colours(res: InspectResult, frame: np.ndarray, colours: dict, label
         res.candidates += _candidates(p.name, *labels[p.name], res.roi)
         look, drawn[("float", p.name)] = _look_at_float(frame, res.t_s, p, res.roi)
         res.floats.append(look)
-    res.presets += found
+    res.colours += found
 
 
 def _decide(res: InspectResult, frame: np.ndarray, labels: dict, drawn: dict) -> None:
@@ -511,9 +521,9 @@ def _decide(res: InspectResult, frame: np.ndarray, labels: dict, drawn: dict) ->
     preset and the ROI, and write the notes and the command."""
     size, box = res.size, res.roi
     given = box if box != (0, 0, *size) else None  # the user's ROI
-    if res.presets:
+    if res.colours:
         where = "ROI" if given else "picture"
-        shares = ", ".join(f"{p.name} {100 * p.share:.2f} %" for p in res.presets)
+        shares = ", ".join(f"{p.name} {100 * p.share:.2f} %" for p in res.colours)
         res.notes.append(f"colours found (share of the {where}): {shares}")
     # a liquid stands in a container: one whose walls were found first, then the largest
     measured = max((s for s in res.surfaces if s.measured), key=lambda s: s.walls, default=None)
@@ -534,35 +544,17 @@ def _decide(res: InspectResult, frame: np.ndarray, labels: dict, drawn: dict) ->
         res.notes.append(
             f"surface: no dyed liquid (no preset colour's region of {100 * MIN_LIQUID_SHARE:.1f} % of the area)"
         )
-    use_roi, why = False, ""
+    why = ""  # why the command needs the suggested ROI ("": it does not)
     if surface is not None:
-        p = _match(res, surface.dye)
-        lab, keep = labels[surface.dye]
-        x0, y0, w0, h0, _ = p.regions[0]
-        region = lab[y0 - box[1] : y0 - box[1] + h0, x0 - box[0] : x0 - box[0] + w0] == keep[0]
-        res.suggested_roi, meets = liquid_roi(region, (x0, y0), box)
-        others = [r for r in p.regions[1:] if not _inside(r[:4], res.suggested_roi) and r[4] >= 0.1 * p.regions[0][4]]
-        if not surface.measured and res.suggested_roi != box:
-            retry, drawn[("surface", "roi")] = _look_at_surface(frame, res.t_s, p, res.suggested_roi)
-            res.surfaces.append(retry)
-            found = "measured, " + _surface_numbers(retry) if retry.measured else "not measured either"
-            res.notes.append(f"  with --roi {_fmt_roi(res.suggested_roi)}: {found}")
-            surface = res.liquid = retry if retry.measured else surface
-            use_roi, why = True, "the liquid was not measured in the whole picture"
-        elif meets and not given:
-            use_roi, why = True, f"the {surface.dye} region runs on into something of its own colour below the liquid"
-        elif others and not given:
-            use_roi, why = True, f"{len(others)} other {surface.dye} region(s) lie outside it"
+        surface, why = _around_liquid(res, surface, frame, labels, drawn)
     res.notes += [_float_note(f, [c for c in res.candidates if c.color == f.color]) for f in res.floats]
     if surface is None and flt is not None:
         cands = [c for c in res.candidates if c.color == flt.color]
         res.suggested_roi = _float_roi(cands[0], box)
         others = [c for c in cands[1:] if not _inside(c.box, res.suggested_roi)]
         if others and not given:
-            use_roi, why = (
-                True,
-                f"{len(others)} other {flt.color} region(s) lie outside it and could be taken for the float",
-            )
+            why = f"{len(others)} other {flt.color} region(s) lie outside it and could be taken for the float"
+    use_roi = bool(why)
     if res.suggested_roi is not None:
         around = "the container the liquid stands in" if surface is not None else "the float and the walls beside it"
         used = f", used below: {why}" if use_roi else ""
@@ -580,7 +572,7 @@ def _decide(res: InspectResult, frame: np.ndarray, labels: dict, drawn: dict) ->
         res.target = "float"
         words = _match(res, flt.color).words("float")
         res.command = _command(res, words, res.suggested_roi if use_roi else given, flt.walls)
-    elif res.presets:
+    elif res.colours:
         res.notes.append(
             "nothing here is a dyed liquid or a float: the colours found cover too little of the area, or are not "
             "elongated; try --roi around the liquid or float, or a frame where they show (--at)"
@@ -590,6 +582,33 @@ def _decide(res: InspectResult, frame: np.ndarray, labels: dict, drawn: dict) ->
             "track would not measure this frame with that command today; run it to see its message, with "
             "--overlay OUT.mp4 to see what it found"
         )
+
+
+def _around_liquid(
+    res: InspectResult, surface: SurfaceLook, frame: np.ndarray, labels: dict, drawn: dict
+) -> tuple[SurfaceLook, str]:
+    """Suggest the ROI around the liquid `surface` shows; measure it there when it was not measured in the whole area.
+    Returns the surface to track (that measurement when it succeeded) and why the command needs the ROI ("": not)."""
+    box, given = res.roi, res.roi != (0, 0, *res.size)
+    p = _match(res, surface.dye)
+    lab, keep = labels[surface.dye]
+    x0, y0, w0, h0, _ = p.regions[0]
+    region = lab[y0 - box[1] : y0 - box[1] + h0, x0 - box[0] : x0 - box[0] + w0] == keep[0]
+    res.suggested_roi, meets = liquid_roi(region, (x0, y0), box)
+    others = [r for r in p.regions[1:] if not _inside(r[:4], res.suggested_roi) and r[4] >= 0.1 * p.regions[0][4]]
+    if not surface.measured and res.suggested_roi != box:
+        retry, drawn[("surface", "roi")] = _look_at_surface(frame, res.t_s, p, res.suggested_roi)
+        res.surfaces.append(retry)
+        found = "measured, " + _surface_numbers(retry) if retry.measured else "not measured either"
+        res.notes.append(f"  with --roi {_fmt_roi(res.suggested_roi)}: {found}")
+        if retry.measured:
+            surface = res.liquid = retry
+        return surface, f"the liquid was not measured in the {'ROI given' if given else 'whole picture'}"
+    if meets and not given:
+        return surface, f"the {surface.dye} region runs on into something of its own colour below the liquid"
+    if others and not given:
+        return surface, f"{len(others)} other {surface.dye} region(s) lie outside it"
+    return surface, ""
 
 
 def _command(res: InspectResult, words: list[str], roi: tuple | None, walls: bool) -> list[str]:
@@ -657,7 +676,7 @@ def _picture(res: InspectResult, frame: np.ndarray, labels: dict, drawn: dict) -
     left = drawn.get(key, np.array(frame)).copy()
     scale = max(0.45, frame.shape[0] / 800)
     thick = max(1, round(frame.shape[0] / 360))
-    for p in res.presets:
+    for p in res.colours:
         lab, keep = labels[p.name]
         outline = p.outline()
         mask = np.isin(lab, keep).astype(np.uint8)
@@ -715,4 +734,4 @@ def _text(img: np.ndarray, text: str, org: tuple[int, int], scale: float, colour
 
 def _match(res: InspectResult, name: str) -> ColourMatch:
     """The colour called `name` among those found."""
-    return next(m for m in res.presets if m.name == name)
+    return next(m for m in res.colours if m.name == name)
