@@ -92,6 +92,7 @@ def test_a_video_with_nothing_coloured_says_what_it_saw(grey_video, tmp_path, ru
     code, out, err = run_cli("inspect", grey_video, "-o", tmp_path / "g.png")
     assert code == 2
     assert err.count("\n") == 1 and "nothing track could follow was found" in err and "Traceback" not in err
+    assert ": a grey picture (no coloured region, median saturation" in err and "g.png" in err
     assert "a grey picture" in out and "median saturation" in out
     assert "next:" not in out
     assert (tmp_path / "g.png").exists()  # the picture is what was seen

@@ -75,7 +75,7 @@ def run(args: argparse.Namespace) -> int:
     if result.target is None:
         print(
             f"sloshid: error: nothing track could follow was found in the frame at {result.t_s:.2f} s of "
-            f"{args.video} (what was seen is above and in {picture}).",
+            f"{args.video}: {result.saw}; see {picture}.",
             file=sys.stderr,
         )
         return 2

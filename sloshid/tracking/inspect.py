@@ -172,6 +172,8 @@ class InspectResult:
     seen: str = ""
     """When no preset colour gave a liquid or a float: what the frame shows (how coloured, its largest coloured
     regions) and the HSV range made for the largest."""
+    saw: str = ""
+    """What was seen, as a clause for the one-sentence error when nothing was found."""
     picture: np.ndarray = field(default_factory=lambda: np.zeros((0, 0, 3), np.uint8), repr=False)
     """The annotated picture (BGR): surface target on the left, float target on the right."""
 
@@ -443,9 +445,10 @@ def _hue_name(h: float) -> str:
     return next((name for bound, name in _HUES if h < bound), "red")
 
 
-def what_it_saw(frame: np.ndarray, roi: tuple[int, int, int, int]) -> tuple[str, dict[str, HsvRange]]:
+def what_it_saw(frame: np.ndarray, roi: tuple[int, int, int, int]) -> tuple[str, str, dict[str, HsvRange]]:
     """What the frame shows when no preset colour was found: how coloured it is and its largest coloured regions, in
-    words, and an HSV range (by its name) that takes the largest in, to measure it with (none in a grey picture)."""
+    words, the same in a clause, and an HSV range (by its name) that takes the largest in, to measure it with (none in
+    a grey picture)."""
     x, y, w, h = roi
     hsv = cv2.cvtColor(frame[y : y + h, x : x + w], cv2.COLOR_BGR2HSV)
     coloured = ((hsv[..., 1] >= SATURATED[0]) & (hsv[..., 2] >= SATURATED[1])).astype(np.uint8)
@@ -456,10 +459,14 @@ def what_it_saw(frame: np.ndarray, roi: tuple[int, int, int, int]) -> tuple[str,
     big = [k for k in order if stats[k, cv2.CC_STAT_AREA] >= max(MIN_AREA_PX, LISTED_SHARE * w * h)][:3]
     if not big:
         return (
-            f"no preset colour here, and no coloured region (saturation {SATURATED[0]} or more) of {MIN_AREA_PX} px or more, "
-            f"{greys}: a grey picture. Track needs a float or a dye of a clear colour (red, orange, yellow, green, "
-            "blue, magenta); check the file, the lighting, or the time given with --at."
-        ), {}
+            (
+                f"no preset colour here, and no coloured region (saturation {SATURATED[0]} or more) of {MIN_AREA_PX} px or more, "
+                f"{greys}: a grey picture. Track needs a float or a dye of a clear colour (red, orange, yellow, green, "
+                "blue, magenta); check the file, the lighting, or the time given with --at."
+            ),
+            f"a grey picture (no coloured region, median saturation {s_med} of 255)",
+            {},
+        )
     parts = []
     for k in big:
         hue = float(np.median(hsv[lab == k][:, 0]))
@@ -473,10 +480,14 @@ def what_it_saw(frame: np.ndarray, roi: tuple[int, int, int, int]) -> tuple[str,
     floor = [max(20, int(np.percentile(px[:, c], 5)) - 10) for c in (1, 2)]  # its paler and darker pixels too
     r = HsvRange((int(hue - HUE_REACH) % 180, *floor), (int(hue + HUE_REACH) % 180, 255, 255))
     return (
-        f"no preset colour measured here ({greys}); the largest coloured regions: {'; '.join(parts)}; the "
-        f"largest is looked at below with --liquid-hsv-low {format_hsv(r.low)} --liquid-hsv-high {format_hsv(r.high)} "
-        "(--float-hsv-low/-high for a float)."
-    ), {f"{_hue_name(hue)} ({r.describe()})": r}
+        (
+            f"no preset colour measured here ({greys}); the largest coloured regions: {'; '.join(parts)}; the "
+            f"largest is looked at below with --liquid-hsv-low {format_hsv(r.low)} --liquid-hsv-high {format_hsv(r.high)} "
+            "(--float-hsv-low/-high for a float)."
+        ),
+        f"its largest coloured region, {parts[0]}, in no preset's range",
+        {f"{_hue_name(hue)} ({r.describe()})": r},
+    )
 
 
 def inspect_video(
@@ -495,7 +506,7 @@ def inspect_video(
     _look_at_colours(res, frame, {name: p.hsv for name, p in PRESETS.items()}, labels, drawn)
     if not any(s.liquid for s in res.surfaces) and not any(f.found for f in res.floats):
         # a colour no preset takes (or too little of one): the largest coloured region's own range is looked at
-        res.seen, largest = what_it_saw(frame, box)
+        res.seen, res.saw, largest = what_it_saw(frame, box)
         _look_at_colours(res, frame, largest, labels, drawn)
     _decide(res, frame, labels, drawn)
     res.picture = _picture(res, frame, labels, drawn)
@@ -573,6 +584,8 @@ def _decide(res: InspectResult, frame: np.ndarray, labels: dict, drawn: dict) ->
         words = _match(res, flt.color).words("float")
         res.command = _command(res, words, res.suggested_roi if use_roi else given, flt.walls)
     elif res.colours:
+        names = ", ".join(c.name for c in res.colours)
+        res.saw = (res.saw + "; " if res.saw else "") + f"{names} found, but neither as a liquid nor as a float"
         res.notes.append(
             "nothing here is a dyed liquid or a float: the colours found cover too little of the area, or are not "
             "elongated; try --roi around the liquid or float, or a frame where they show (--at)"
