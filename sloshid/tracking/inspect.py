@@ -137,6 +137,8 @@ class FloatLook:
     quality: float = 0.0
     walls: bool = False
     """The container's side walls were found beside it (what --reference container measures against)."""
+    container_angle_deg: float = math.nan
+    """Their tilt from vertical, CCW positive as seen (NaN when they were not found)."""
     liquid_like: bool = False
     """What the float target would take is a liquid body between straight walls: dyed liquid, not a float."""
 
@@ -224,7 +226,10 @@ class InspectResult:
                 {**s.__dict__, "angle_deg": num(s.angle_deg), "container_angle_deg": num(s.container_angle_deg)}
                 for s in self.surfaces
             ],
-            "floats": [{**f.__dict__, "angle_deg": num(f.angle_deg)} for f in self.floats],
+            "floats": [
+                {**f.__dict__, "angle_deg": num(f.angle_deg), "container_angle_deg": num(f.container_angle_deg)}
+                for f in self.floats
+            ],
             "float_candidates": [c.__dict__ for c in self.candidates],
             "suggested_roi": list(self.suggested_roi) if self.suggested_roi else None,
             "target": self.target,
@@ -370,8 +375,9 @@ def _look_at_float(frame, t_s, colour: ColourMatch, roi: tuple) -> tuple[FloatLo
     look = FloatLook(colour.name, step.found > 0, bool(row[8]), float(row[3]), float(row[7]))
     look.liquid_like = bool(step.liquid_width)
     if look.found:
-        walled = _measure(frame, t_s, TrackSettings(reference="container", roi=roi, **named), roi)[2]
+        row, _, walled = _measure(frame, t_s, TrackSettings(reference="container", roi=roi, **named), roi)
         look.walls = bool(walled.walls_record.measured)
+        look.container_angle_deg = float(row[4]) if look.walls else math.nan
     return look, drawn
 
 
@@ -672,7 +678,11 @@ def _float_note(f: FloatLook, cands: list[FloatCandidate]) -> str:
     if f.liquid_like:
         verdict = "the largest is a liquid body between walls, not a float"
     elif f.measured:
-        walls = "walls found beside it" if f.walls else "no walls beside it (--reference image only)"
+        walls = (
+            f"walls found beside it, {f.container_angle_deg:+.2f} deg from vertical"
+            if f.walls
+            else "no walls beside it (--reference image only)"
+        )
         verdict = f"track takes the largest: {f.angle_deg:+.2f} deg, quality {f.quality:.2f}, {walls}"
     elif f.found:
         verdict = f"track takes the largest but with quality {f.quality:.2f} (below 0.5: not a float's shape or colour)"
