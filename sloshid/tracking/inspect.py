@@ -25,7 +25,7 @@ from sloshid.core.errors import UserError
 from sloshid.core.outputs import Outputs
 from sloshid.tracking.float_angle import MIN_AREA_PX, hsv_mask, principal_axis
 from sloshid.tracking.surface import MIN_LIQUID_SHARE
-from sloshid.tracking.tracker import TrackSettings, measure_frame
+from sloshid.tracking.tracker import TrackSettings, measure_frame, roi_box
 from sloshid.video.colors import PRESETS, HsvRange, format_hsv
 from sloshid.video.frames import FrameReader
 
@@ -307,16 +307,6 @@ def read_frame(path: str | Path, at_s: float | None) -> tuple[np.ndarray, float]
     return shown
 
 
-def _roi_box(roi: tuple[int, int, int, int] | None, width: int, height: int) -> tuple[int, int, int, int]:
-    """The ROI checked against the frame, or the whole frame."""
-    if roi is None:
-        return 0, 0, width, height
-    x, y, w, h = TrackSettings(roi=tuple(roi)).roi  # the tracker's own checks of its shape
-    if x + w > width or y + h > height:
-        raise UserError(f"ROI {x},{y},{w},{h} reaches beyond the {width}x{height} frame.")
-    return x, y, w, h
-
-
 def _colour_matches(
     frame: np.ndarray, roi: tuple[int, int, int, int], colours: dict[str, HsvRange]
 ) -> tuple[list[ColourMatch], dict]:
@@ -506,7 +496,7 @@ def inspect_video(
     video = Path(path)
     frame, t_s = read_frame(video, at_s)
     size = (frame.shape[1], frame.shape[0])
-    box = _roi_box(roi, *size)
+    box = roi_box(TrackSettings(roi=None if roi is None else tuple(roi)), *size)
     res = InspectResult(video, t_s, size, box, [], [], [], [], None, None)
     labels, drawn = {}, {}
     _look_at_colours(res, frame, {name: p.hsv for name, p in PRESETS.items()}, labels, drawn)

@@ -284,8 +284,8 @@ class TrackResult:
         return page.save(directory)
 
 
-def _roi_box(settings: TrackSettings, width: int, height: int) -> tuple[int, int, int, int]:
-    """The ROI checked against the frame, or the whole frame."""
+def roi_box(settings: TrackSettings, width: int, height: int) -> tuple[int, int, int, int]:
+    """The ROI checked against the frame, or the whole frame (track and inspect)."""
     if settings.roi is None:
         return 0, 0, width, height
     x, y, w, h = settings.roi
@@ -441,7 +441,7 @@ def track_video(
         reader = FrameReader(Path(path), multithreaded, pictures=True)
         check_rest_frames(settings.rest_frames, reader.info.frame_count)  # as declared; the frames read: at the end
         width, height = reader.frame_size
-        roi = _roi_box(settings, width, height)
+        roi = roi_box(settings, width, height)
         key_times = key_frame_times(path)
         spans = _spans(reader.info, key_times)
         reader.end_s = spans[0][1]
