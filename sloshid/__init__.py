@@ -18,12 +18,14 @@ from typing import TYPE_CHECKING, Any
 
 _LAZY = {
     "track": "sloshid.api",
+    "inspect": "sloshid.api",
     "identify": "sloshid.api",
     "load_scenario": "sloshid.api",
     "plan": "sloshid.api",
     "compare": "sloshid.api",
     "SloshParams": "sloshid.model.pendulum",
     "TrackResult": "sloshid.tracking.tracker",
+    "InspectResult": "sloshid.tracking.inspect",
     "IdentResult": "sloshid.identification.estimator",
     "PlanResult": "sloshid.planning.planner",
     "Comparison": "sloshid.comparison.compare",
@@ -33,6 +35,7 @@ _LAZY = {
 __all__ = [
     "Comparison",
     "IdentResult",
+    "InspectResult",
     "PlanResult",
     "Scenario",
     "SloshParams",
@@ -40,19 +43,21 @@ __all__ = [
     "UserError",
     "compare",
     "identify",
+    "inspect",
     "load_scenario",
     "plan",
     "track",
 ]
 
 if TYPE_CHECKING:
-    from sloshid.api import compare, identify, load_scenario, plan, track
+    from sloshid.api import compare, identify, inspect, load_scenario, plan, track
     from sloshid.comparison.compare import Comparison
     from sloshid.core.errors import UserError
     from sloshid.identification.estimator import IdentResult
     from sloshid.model.pendulum import SloshParams
     from sloshid.planning.planner import PlanResult
     from sloshid.planning.scenario import Scenario
+    from sloshid.tracking.inspect import InspectResult
     from sloshid.tracking.tracker import TrackResult
 
 

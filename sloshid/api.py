@@ -19,6 +19,7 @@ if TYPE_CHECKING:
     from sloshid.model.pendulum import SloshParams
     from sloshid.planning.planner import PlanResult
     from sloshid.planning.scenario import Scenario
+    from sloshid.tracking.inspect import InspectResult
     from sloshid.tracking.tracker import TrackResult
 
 
@@ -37,6 +38,24 @@ def track(
     if overlay is not None:  # the command line's check: never over the video, and a video the overlay writer makes
         overlay = Outputs([video]).file(overlay, "overlay", VIDEO_SUFFIXES)
     return track_video(video, track_settings, overlay=overlay, progress=progress)
+
+
+def inspect(
+    video: str | Path,
+    *,
+    at: float | None = None,
+    roi: tuple[int, int, int, int] | None = None,
+    picture: str | Path | None = None,
+) -> InspectResult:
+    """Look at one frame of `video` (the first, or the one shown at `at` seconds) as each target would track it:
+    the colour presets found, the liquid's surface and walls, the float candidates, a suggested ROI and the
+    `sloshid track` command to run (`.command`, `.summary()`); `picture` also writes the annotated frame (PNG)."""
+    from sloshid.tracking.inspect import inspect_video
+
+    result = inspect_video(video, at, roi)
+    if picture is not None:
+        result.save_picture(picture)
+    return result
 
 
 def identify(*sources: Source, **settings: Any) -> IdentResult:

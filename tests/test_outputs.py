@@ -564,7 +564,7 @@ def test_cli_parsing_negative_values_unknown_options_and_help(tmp_path, run_cli,
     assert not (tmp_path / "a.csv").exists()
     from sloshid.cli.app import _Formatter, _subparser, build_parser
 
-    for command in ("track", "identify", "plan", "compare", "batch", "run", "synth"):
+    for command in ("track", "inspect", "identify", "plan", "compare", "batch", "run", "synth"):
         sub = _subparser(build_parser(only=command), command)
         formatter = _Formatter(command)
         for action in sub._actions:

@@ -16,6 +16,7 @@ from sloshid.core.errors import SettingError, UserError
 
 COMMANDS: dict[str, str] = {
     "synth": "render a synthetic float or dyed-liquid video with exact ground truth (for testing the tracker)",
+    "inspect": "look at one frame of your video: what each target would track there, and the track command to run",
     "track": "measure the float's (or the liquid surface's) angle in every frame, relative to image or container",
     "identify": "find the sloshing frequency, damping, pendulum length and damping constant of a signal",
     "plan": "plan a time-optimal, slosh-free container move (CasADi) and write a 1 kHz robot trajectory",

@@ -89,8 +89,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
 
 
-def _roi_from_args(text: str | None) -> tuple[int, ...] | None:
-    """Parse X,Y,W,H (four whole numbers) or None."""
+def roi_from_args(text: str | None) -> tuple[int, ...] | None:
+    """Parse --roi X,Y,W,H (four whole numbers) or None (track and inspect)."""
     if text is None:
         return None
     try:
@@ -108,7 +108,7 @@ def run(args: argparse.Namespace) -> int:
         float_color=args.float_color,
         float_hsv_low=parse_hsv(args.float_hsv_low, "--float-hsv-low") if args.float_hsv_low else None,
         float_hsv_high=parse_hsv(args.float_hsv_high, "--float-hsv-high") if args.float_hsv_high else None,
-        roi=_roi_from_args(args.roi),
+        roi=roi_from_args(args.roi),
         reference=args.reference,
         smooth=not args.no_smooth,
         target=args.target,

@@ -104,6 +104,18 @@ def membership_map(crop: np.ndarray, transform: np.ndarray) -> np.ndarray:
     return np.clip(value, 0, 1, out=value)
 
 
+def principal_axis(mo: dict) -> tuple[float, float, float]:
+    """Of OpenCV moments (`cv2.moments`, m00 > 0): the long axis's angle against the image horizontal (CCW as seen, in
+    (-90, 90]), the elongation 1 - minor/major variance (0 for a disc, near 1 for a thin bar) and the major variance."""
+    a, b, c = mo["mu20"] / mo["m00"], mo["mu11"] / mo["m00"], mo["mu02"] / mo["m00"]
+    spread = math.hypot(a - c, 2 * b)
+    lam1, lam2 = 0.5 * (a + c + spread), 0.5 * (a + c - spread)
+    angle = -0.5 * math.degrees(math.atan2(2 * b, a - c))  # y points down: negate for CCW as seen
+    if angle <= -90:
+        angle += 180
+    return angle, (1 - lam2 / lam1 if lam1 > 0 else 0.0), lam1
+
+
 class FloatFinder:
     """Stateful per-video float finder: searches near the last position, falls back to the whole ROI."""
 
@@ -237,13 +249,7 @@ class FloatFinder:
         if mo["m00"] <= 1e-6:
             return FloatMeasurement(False)
         cx, cy = mo["m10"] / mo["m00"], mo["m01"] / mo["m00"]
-        a, b, c = mo["mu20"] / mo["m00"], mo["mu11"] / mo["m00"], mo["mu02"] / mo["m00"]
-        spread = math.hypot(a - c, 2 * b)
-        lam1, lam2 = 0.5 * (a + c + spread), 0.5 * (a + c - spread)
-        angle = -0.5 * math.degrees(math.atan2(2 * b, a - c))  # y points down: negate for CCW as seen
-        if angle <= -90:
-            angle += 180
-        elong = 1 - lam2 / lam1 if lam1 > 0 else 0.0
+        angle, elong, lam1 = principal_axis(mo)
         area = mo["m00"]
         q_sep = min(1.0, max(0.0, 1 - 2 * rms))
         q_area = min(area, self._ref_area) / max(area, self._ref_area) if self._ref_area else 1.0

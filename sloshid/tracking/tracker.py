@@ -284,8 +284,8 @@ class TrackResult:
         return page.save(directory)
 
 
-def _roi_box(settings: TrackSettings, width: int, height: int) -> tuple[int, int, int, int]:
-    """The ROI checked against the frame, or the whole frame."""
+def roi_box(settings: TrackSettings, width: int, height: int) -> tuple[int, int, int, int]:
+    """The ROI checked against the frame, or the whole frame (track and inspect)."""
     if settings.roi is None:
         return 0, 0, width, height
     x, y, w, h = settings.roi
@@ -441,7 +441,7 @@ def track_video(
         reader = FrameReader(Path(path), multithreaded, pictures=True)
         check_rest_frames(settings.rest_frames, reader.info.frame_count)  # as declared; the frames read: at the end
         width, height = reader.frame_size
-        roi = _roi_box(settings, width, height)
+        roi = roi_box(settings, width, height)
         key_times = key_frame_times(path)
         spans = _spans(reader.info, key_times)
         reader.end_s = spans[0][1]
@@ -568,6 +568,23 @@ def _spans(info: VideoInfo, key_times: np.ndarray) -> list[tuple[float | None, f
 def _step(settings: TrackSettings, roi: tuple[int, int, int, int], liquid: HsvRange | None):
     """A fresh per-frame measurement step of the target."""
     return _FloatStep(settings, roi) if settings.target == "float" else SurfaceStep(settings, roi, liquid)
+
+
+def measure_frame(
+    frame: np.ndarray, t_s: float, settings: TrackSettings, roi: tuple[int, int, int, int], liquid: HsvRange | None
+) -> tuple[tuple, np.ndarray, _FloatStep | SurfaceStep]:
+    """One frame measured as `track_video` measures the first frame of a span and draws it in `--overlay` (the target's
+    step, then, for a valid frame, its finish): the table row (frame, t_s, angle_deg, ..., valid), the overlay picture,
+    and the step, which holds what it found (`walls_record`, `liquid_frames`, ...). `sloshid inspect` calls it, so that
+    its picture shows what track would do."""
+    step = _step(settings, roi, liquid)
+    row, drawn = step(frame, True)
+    rows = [(t_s, *row)]
+    step.previous = None
+    if rows[0][7]:  # finish corrects a valid surface for the camera's elevation; it needs a valid frame
+        body = step.finish([(0, *rows[0])])[0]
+        return body[0], drawn, step
+    return (0, *rows[0][:8]), drawn, step
 
 
 def _track_frames(reader: FrameReader, step, tick: Callable[[int], object], writer: VideoWriter | None = None) -> _Span:

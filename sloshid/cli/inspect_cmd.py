@@ -1,0 +1,82 @@
+"""A first look at your own video: what each target would track in one frame, and the `sloshid track` command to run.
+
+Reads one frame (the first, or the one shown at --at SECONDS) and writes a picture of it in two panels. Left, the
+surface target (a dyed liquid): the region of every colour preset found, with its share of the picture, and what
+track measures there: the liquid's sides (the container's inner walls, blue), the surface line (green when measured,
+red when not) and its height at each wall (yellow). Right, the float target: every region of a preset colour as a
+float candidate (its elongation and angle; track wants a bar, elongation 0.5 or more) and the one track would take.
+White on both: a suggested --roi around the container (or the float).
+
+Prints what it found for each target and the `sloshid track` command line to run next (target, colour preset,
+--roi when it helps, --reference container when the container's walls were found). Of several colours measured as a
+surface, the one between the container's walls is taken (track's automatic dye takes the largest). When no preset
+colour gives a liquid or a float, it says what it saw (how coloured the picture is, its largest coloured regions)
+and measures the largest with an HSV range of its own, which the command then gives (--liquid-hsv-low/high).
+
+Exit codes: 0 when the suggested command's target was measured in this frame, 1 when something was found that
+track would not measure there today (the text says why), 2 when nothing was found or the input is bad (a file that
+is not a video, --at outside the video, an output over the input): one sentence on stderr; no picture is written
+for bad input.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from sloshid.cli.track_cmd import roi_from_args
+from sloshid.core.errors import UserError
+from sloshid.core.outputs import Outputs
+from sloshid.tracking.inspect import inspect_video
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Options of `sloshid inspect`, each with its unit."""
+    parser.add_argument("video", type=Path, metavar="VIDEO", help="video file FFmpeg can decode")
+    parser.add_argument(
+        "-o",
+        "--output",
+        type=Path,
+        metavar="PICTURE.png",
+        help="picture to write (default: VIDEO's name with _inspect.png beside it, only when no file is there yet)",
+    )
+    parser.add_argument(
+        "--at",
+        type=float,
+        metavar="SECONDS",
+        help="look at the frame shown at this presentation time, s from the video's start (default: the first)",
+    )
+    parser.add_argument(
+        "--roi",
+        metavar="X,Y,W,H",
+        help="look only inside this region: left x, top y, width, height in pixels (default: whole frame)",
+    )
+
+
+def _picture_path(args: argparse.Namespace) -> Path:
+    """-o, checked; or VIDEO_inspect.png beside the video when no file is there (a default replaces nothing)."""
+    outputs = Outputs([args.video])
+    if args.output is not None:
+        return outputs.file(args.output, "-o", (".png",))
+    default = args.video.with_name(f"{args.video.stem}_inspect.png")
+    if default.exists() or default.is_symlink():
+        raise UserError(f"{default} already exists; give -o PICTURE.png to say where the picture goes.")
+    return outputs.file(default, "the picture", (".png",))
+
+
+def run(args: argparse.Namespace) -> int:
+    """Check the output, look at the frame, write the picture, print what was found and the command to run."""
+    picture = _picture_path(args)
+    result = inspect_video(args.video, args.at, roi_from_args(args.roi))
+    result.save_picture(picture)
+    print(result.summary())
+    print(f"wrote {picture}")
+    if result.target is None:
+        print(
+            f"sloshid: error: nothing track could follow was found in the frame at {result.t_s:.2f} s of "
+            f"{args.video}: {result.saw}; see {picture}.",
+            file=sys.stderr,
+        )
+        return 2
+    return 0 if result.measured else 1

@@ -1,0 +1,750 @@
+"""A first look at a user's own video (`sloshid inspect`): one frame, what each target would track there, a suggested
+region of interest and the `sloshid track` command to run next.
+
+Every preset colour is looked for in the frame. Each one found is measured by the tracker's own per-frame step
+(`tracker.measure_frame`, the code `track` runs on every frame), as the dyed liquid's surface and as a float, so that
+the picture shows what track would do: the liquid region of every matching preset, the liquid's sides (the container's
+inner walls) and the surface line, the float candidates (size, elongation, angle) and the float track would take.
+Of several colours measured as a surface, the one between the container's walls is taken. When no preset colour gives
+a liquid or a float, it says what it saw (how saturated the picture is, its largest coloured regions) and measures the
+largest with an HSV range of its own.
+"""
+
+from __future__ import annotations
+
+import math
+import shlex
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from sloshid.core.atomic import atomic_path
+from sloshid.core.errors import UserError
+from sloshid.core.outputs import Outputs
+from sloshid.tracking.float_angle import MIN_AREA_PX, hsv_mask, principal_axis
+from sloshid.tracking.surface import MIN_LIQUID_SHARE
+from sloshid.tracking.tracker import TrackSettings, measure_frame, roi_box
+from sloshid.video.colors import PRESETS, HsvRange, format_hsv
+from sloshid.video.frames import FrameReader
+
+LISTED_SHARE = 1e-4
+"""A preset colour is listed as found when its largest region covers at least this share of the searched area (and
+MIN_AREA_PX): single noisy pixels of a colour are not a finding."""
+MAX_CANDIDATES = 5
+"""Float candidates listed per preset colour (the largest)."""
+WIDER = 0.05
+"""The liquid region is taken to meet something of its own colour (a holder, a table) from the first of three rows, below
+its first full row, that reach beyond a side of the liquid by more than this share of its width (plus 3 px)."""
+SATURATED = (60, 40)
+"""Least saturation and value (OpenCV HSV) of a pixel called coloured when nothing of a preset colour was found."""
+AT_BEFORE_S = 1.0
+"""--at: decoding starts at the key frame before this many seconds ahead of the time asked for, so that the frame on
+screen then (the last one not after it) is among those read."""
+AT_TOLERANCE_S = 5e-4
+"""--at: a frame this close after the time asked for is the one meant (a time typed to the millisecond)."""
+HUE_REACH = 8
+"""The HSV range made for a colour no preset takes reaches this far (OpenCV hue, 0..179) either side of its median
+hue: the presets' ranges are 14-35 wide."""
+_HUES = ((8, "red"), (22, "orange"), (35, "yellow"), (85, "green"), (100, "cyan"), (125, "blue"), (170, "magenta"))
+"""Upper hue bounds (OpenCV, 0..179) of the colour names used to say what was seen; above the last: red again."""
+
+
+@dataclass
+class ColourMatch:
+    """Where one colour is in the frame: a preset's, or (when no preset's is there) the range made for the largest
+    coloured region."""
+
+    name: str
+    """The preset's name, or the colour's name and HSV range."""
+    hsv: HsvRange
+    share: float
+    """Share of the searched area (the ROI, or the whole picture) in the HSV range."""
+    regions: list[tuple[int, int, int, int, int]]
+    """Its connected regions (x, y, width, height, area in px), largest first, each at least MIN_AREA_PX."""
+
+    @property
+    def preset(self) -> bool:
+        """A named preset (`--liquid-color NAME`), not an HSV range of inspect's making."""
+        return self.name in PRESETS
+
+    def words(self, kind: str) -> list[str]:
+        """The track options that name this colour for `kind` 'liquid' or 'float'."""
+        if self.preset:
+            return [f"--{kind}-color", self.name]
+        return [f"--{kind}-hsv-low", format_hsv(self.hsv.low), f"--{kind}-hsv-high", format_hsv(self.hsv.high)]
+
+    def settings(self, kind: str) -> dict:
+        """The TrackSettings fields that name this colour for `kind` 'liquid' or 'float'."""
+        if self.preset:
+            return {f"{kind}_color": self.name}
+        return {f"{kind}_hsv_low": self.hsv.low, f"{kind}_hsv_high": self.hsv.high}
+
+    def outline(self) -> tuple[int, int, int]:
+        """A BGR colour that stands out on this one (its complement), for drawing its regions."""
+        if self.preset:
+            bgr = PRESETS[self.name].bgr
+        else:
+            lo, hi = self.hsv.low[0], self.hsv.high[0]
+            hue = ((lo + hi + (180 if lo > hi else 0)) // 2) % 180
+            bgr = cv2.cvtColor(np.uint8([[[hue, 220, 220]]]), cv2.COLOR_HSV2BGR)[0, 0]
+        return tuple(255 - int(v) for v in bgr)
+
+
+@dataclass
+class SurfaceLook:
+    """One preset colour measured as the dyed liquid by the surface target."""
+
+    dye: str
+    liquid: bool
+    """Liquid of this colour was found (a region large enough)."""
+    measured: bool
+    """The surface was measured there (valid, as track would mark the frame)."""
+    angle_deg: float = math.nan
+    """The surface against the image horizontal, CCW positive as seen."""
+    container_angle_deg: float = math.nan
+    """The container's tilt from vertical: its whole wall edges when found, else the liquid's sides."""
+    walls: bool = False
+    """The container's wall edges were found (what --reference container measures against)."""
+    quality: float = 0.0
+    roi: tuple[int, int, int, int] | None = None
+    """The ROI this measurement was made in (None: the whole picture)."""
+
+
+@dataclass
+class FloatCandidate:
+    """A region of a preset colour that could be a float (binary moments of its mask)."""
+
+    color: str
+    box: tuple[int, int, int, int]
+    """x, y, width, height in px."""
+    area_px: int
+    elongation: float
+    """1 - minor/major variance: 0 for a disc or a square, near 1 for a thin bar (track wants at least 0.5)."""
+    angle_deg: float
+    """Long axis against the image horizontal, CCW positive as seen."""
+
+
+@dataclass
+class FloatLook:
+    """One preset colour measured as the float by the float target (it takes the largest region)."""
+
+    color: str
+    found: bool
+    measured: bool = False
+    angle_deg: float = math.nan
+    quality: float = 0.0
+    walls: bool = False
+    """The container's side walls were found beside it (what --reference container measures against)."""
+    container_angle_deg: float = math.nan
+    """Their tilt from vertical, CCW positive as seen (NaN when they were not found)."""
+    liquid_like: bool = False
+    """What the float target would take is a liquid body between straight walls: dyed liquid, not a float."""
+
+
+@dataclass
+class InspectResult:
+    """What `sloshid inspect` found in one frame and the `sloshid track` command it suggests."""
+
+    video: Path
+    t_s: float
+    size: tuple[int, int]
+    """(width, height) of the frame, px."""
+    roi: tuple[int, int, int, int]
+    """The area searched (x, y, width, height): the given ROI or the whole picture."""
+    colours: list[ColourMatch]
+    """The colours found, each largest share first: the presets, then the range made for a colour no preset takes."""
+    surfaces: list[SurfaceLook]
+    floats: list[FloatLook]
+    candidates: list[FloatCandidate]
+    suggested_roi: tuple[int, int, int, int] | None
+    """Around the container (the liquid found) or the float: where track should look; drawn on the picture."""
+    target: str | None
+    """'surface' or 'float': what the suggested command tracks (None: nothing found)."""
+    liquid: SurfaceLook | None = None
+    """The liquid the text and the picture's left panel show: the measured surface (one whose container's walls were
+    found first), else the largest liquid region found (its measurement in the suggested ROI when that one was)."""
+    float_look: FloatLook | None = None
+    """The float the right panel shows: the best measured, not liquid, not of the measured liquid's colour."""
+    command: list[str] = field(default_factory=list)
+    """The `sloshid track ...` command line (words), empty when nothing was found."""
+    notes: list[str] = field(default_factory=list)
+    """Sentences on what was found, in the order `summary` prints them."""
+    seen: str = ""
+    """When no preset colour gave a liquid or a float: what the frame shows (how coloured, its largest coloured
+    regions) and the HSV range made for the largest."""
+    saw: str = ""
+    """What was seen, as a clause for the one-sentence error when nothing was found."""
+    picture: np.ndarray = field(default_factory=lambda: np.zeros((0, 0, 3), np.uint8), repr=False)
+    """The annotated picture (BGR): surface target on the left, float target on the right."""
+
+    @property
+    def measured(self) -> bool:
+        """The suggested command's target was measured in this frame (track would mark it valid)."""
+        look = self.liquid if self.target == "surface" else self.float_look if self.target == "float" else None
+        return look is not None and look.measured
+
+    def command_line(self) -> str:
+        """The suggested command as one shell line (quoted where needed)."""
+        return shlex.join(self.command)
+
+    def summary(self) -> str:
+        """The text `sloshid inspect` prints: what was found per target and the command to run next."""
+        w, h = self.size
+        lines = [
+            f"{self.video}: frame at {self.t_s:.3f} s, {w}x{h} px",
+            *([self.seen] if self.seen else []),
+            *self.notes,
+        ]
+        if self.command:
+            lines.append("next: " + self.command_line())
+        return "\n".join(lines)
+
+    def to_dict(self) -> dict:
+        """JSON-safe form (the picture is `save_picture`)."""
+
+        def num(v: float) -> float | None:
+            return float(v) if math.isfinite(v) else None
+
+        return {
+            "video": str(self.video),
+            "t_s": self.t_s,
+            "size_px": list(self.size),
+            "roi": list(self.roi),
+            "colours": [
+                {
+                    "name": p.name,
+                    "hsv_low": list(p.hsv.low),
+                    "hsv_high": list(p.hsv.high),
+                    "share": p.share,
+                    "regions": [list(r) for r in p.regions],
+                }
+                for p in self.colours
+            ],
+            "surfaces": [
+                {**s.__dict__, "angle_deg": num(s.angle_deg), "container_angle_deg": num(s.container_angle_deg)}
+                for s in self.surfaces
+            ],
+            "floats": [
+                {**f.__dict__, "angle_deg": num(f.angle_deg), "container_angle_deg": num(f.container_angle_deg)}
+                for f in self.floats
+            ],
+            "float_candidates": [c.__dict__ for c in self.candidates],
+            "suggested_roi": list(self.suggested_roi) if self.suggested_roi else None,
+            "target": self.target,
+            "liquid": self.liquid.dye if self.liquid else None,
+            "float": self.float_look.color if self.float_look else None,
+            "command": self.command_line() if self.command else None,
+            "notes": list(self.notes),
+            "seen": self.seen or None,
+        }
+
+    def save_picture(self, path: str | Path) -> Path:
+        """Write the annotated picture as PNG, atomically (never over the inspected video)."""
+        out = Outputs([self.video]).file(path, "the picture", (".png",))
+        with atomic_path(out) as tmp:
+            if not cv2.imwrite(str(tmp), self.picture, [cv2.IMWRITE_PNG_COMPRESSION, 6]):
+                raise UserError(f"could not write the picture {out}.")
+        return out
+
+    def plot(self, ax=None):
+        """The annotated picture in a matplotlib axes; returns the figure."""
+        import matplotlib.pyplot as plt
+
+        if ax is None:
+            h, w = self.picture.shape[:2]
+            _, ax = plt.subplots(figsize=(10, 10 * h / max(w, 1)))
+        ax.imshow(self.picture[:, :, ::-1])
+        ax.set_axis_off()
+        ax.set_title(f"sloshid inspect: {self.video.name} at {self.t_s:.3f} s", fontsize=9)
+        return ax.figure
+
+    def report(self, directory: str | Path) -> Path:
+        """Write a one-page HTML report (the text and the picture) to directory/index.html."""
+        from sloshid.report.html import Report
+
+        page = Report(f"sloshid inspect: {self.video.name}")
+        for line in self.summary().splitlines():
+            page.add_text(line)
+        page.add_figure(self.plot(), "Left: the surface target; right: the float target; white: the suggested ROI.")
+        return page.save(directory)
+
+
+def read_frame(path: str | Path, at_s: float | None) -> tuple[np.ndarray, float]:
+    """The BGR frame on screen at `at_s` seconds (the last whose presentation time is not after it; None: the first)
+    and its time; a single picture, a negative time or one after the last frame's time on screen is refused."""
+    if at_s is not None and not (math.isfinite(at_s) and at_s >= 0):
+        raise UserError(f"--at must be a time of 0 s or more into the video, got {at_s:g}.")
+    frames = iter(FrameReader(Path(path), False))
+    try:
+        first, second = next(frames), next(frames, None)
+    finally:
+        frames.close()
+    if second is None:  # an image (PNG, JPEG) opens as a video of one frame
+        raise UserError(f"{path} holds a single picture, not a video: inspect looks at a frame of the video to track.")
+    if not at_s:
+        return first[2], float(first[1])
+    reader = FrameReader(Path(path), False, start_s=max(0.0, at_s - AT_BEFORE_S))
+    frames, shown, after = iter(reader), None, False
+    try:
+        for _, t, frame in frames:
+            if t > at_s + AT_TOLERANCE_S:
+                after = True
+                break
+            shown = (frame, float(t))
+    finally:
+        frames.close()
+    if shown is None:  # every frame lies more than AT_BEFORE_S before the time asked for
+        lasts = f", which lasts {reader.info.duration_s:.3f} s" if reader.info.duration_s else ""
+        raise UserError(f"--at {at_s:g} s is beyond the end of {path}{lasts}; give a time within the video.")
+    end = shown[1] + 1 / (reader.info.fps or 30.0)  # the last frame stays on screen for a frame's time
+    if not after and at_s >= end:
+        raise UserError(
+            f"--at {at_s:g} s is beyond the end of {path}, whose last frame is shown from {shown[1]:.3f} s to "
+            f"{end:.3f} s; give a time within the video."
+        )
+    return shown
+
+
+def _colour_matches(
+    frame: np.ndarray, roi: tuple[int, int, int, int], colours: dict[str, HsvRange]
+) -> tuple[list[ColourMatch], dict]:
+    """Every one of `colours` found in the ROI (largest share first) and each one's region labels (for drawing)."""
+    x, y, w, h = roi
+    crop = frame[y : y + h, x : x + w]
+    least = max(MIN_AREA_PX, LISTED_SHARE * w * h)
+    found, labels = [], {}
+    for name, hsv in colours.items():
+        mask = hsv_mask(crop, hsv)
+        n, lab, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=8)
+        keep = [k for k in range(1, n) if stats[k, cv2.CC_STAT_AREA] >= least]
+        if not keep:
+            continue
+        keep.sort(key=lambda k: -stats[k, cv2.CC_STAT_AREA])
+        regions = [(x + int(stats[k, 0]), y + int(stats[k, 1]), *(int(v) for v in stats[k, 2:5])) for k in keep]
+        found.append(ColourMatch(name, hsv, cv2.countNonZero(mask) / (w * h), regions))
+        labels[name] = (lab, keep)
+    found.sort(key=lambda m: -m.share)
+    return found, labels
+
+
+def _candidates(name: str, labels: np.ndarray, keep: list[int], roi: tuple) -> list[FloatCandidate]:
+    """The largest regions of one preset colour as float candidates: box, area, elongation, long-axis angle."""
+    out = []
+    for k in keep[:MAX_CANDIDATES]:
+        blob = (labels == k).astype(np.uint8)
+        bx, by, bw, bh = cv2.boundingRect(blob)
+        mo = cv2.moments(blob[by : by + bh, bx : bx + bw], binaryImage=True)
+        angle, elongation, _ = principal_axis(mo)
+        box = (roi[0] + bx, roi[1] + by, bw, bh)
+        out.append(FloatCandidate(name, box, int(mo["m00"]), round(elongation, 3), round(angle, 2)))
+    return out
+
+
+def _measure(frame: np.ndarray, t_s: float, settings: TrackSettings, roi: tuple) -> tuple[tuple, np.ndarray, object]:
+    """The tracker's own measurement of one frame (the one call into it: `measure_frame`, what track runs per frame)."""
+    return measure_frame(frame, t_s, settings, roi, None)
+
+
+def _look_at_surface(frame, t_s, colour: ColourMatch, roi: tuple) -> tuple[SurfaceLook, np.ndarray]:
+    """Measure `colour` as the dyed liquid (against the container's walls, to learn whether they are found)."""
+    settings = TrackSettings(target="surface", reference="container", roi=roi, **colour.settings("liquid"))
+    row, drawn, step = _measure(frame, t_s, settings, roi)
+    walls = bool(step.walls_record.measured)
+    look = SurfaceLook(colour.name, step.liquid_frames > 0, bool(row[8]), walls=walls, quality=float(row[7]), roi=roi)
+    if look.measured:
+        look.angle_deg, look.container_angle_deg = float(row[3]), float(row[4])
+    return look, drawn
+
+
+def _look_at_float(frame, t_s, colour: ColourMatch, roi: tuple) -> tuple[FloatLook, np.ndarray]:
+    """Measure `colour` as the float, against the image (is it measured?) and the container (are walls there?)."""
+    named = colour.settings("float")
+    row, drawn, step = _measure(frame, t_s, TrackSettings(roi=roi, **named), roi)
+    look = FloatLook(colour.name, step.found > 0, bool(row[8]), float(row[3]), float(row[7]))
+    look.liquid_like = bool(step.liquid_width)
+    if look.found:
+        row, _, walled = _measure(frame, t_s, TrackSettings(reference="container", roi=roi, **named), roi)
+        look.walls = bool(walled.walls_record.measured)
+        look.container_angle_deg = float(row[4]) if look.walls else math.nan
+    return look, drawn
+
+
+def liquid_roi(
+    box_mask: np.ndarray, origin: tuple[int, int], bounds: tuple[int, int, int, int]
+) -> tuple[tuple[int, int, int, int], bool]:
+    """A ROI around the container a liquid region (`box_mask`: its pixels in its bounding box at `origin`) stands in,
+    and whether the region meets something of its own colour below (it widens: a holder or a table).
+
+    The liquid's sides are straight lines fitted to the region's ends in its full rows (those of the upper half at
+    least nine tenths as wide as the widest there: below a sloped surface, above a holder); the ROI holds them, plus a
+    margin for the glass, from half the width above the region's top (a slosh, the rim) down to the first of three
+    rows that reach beyond a side (or a little below the region's bottom); inside `bounds` (x, y, w, h)."""
+    rows = np.flatnonzero(box_mask.any(axis=1))
+    left = np.argmax(box_mask[rows], axis=1).astype(float)
+    right = box_mask.shape[1] - 1 - np.argmax(box_mask[rows, ::-1], axis=1).astype(float)
+    upper = slice(0, max(3, len(rows) // 2))
+    width = right - left + 1
+    full = np.flatnonzero(width[upper] >= 0.9 * width[upper].max())
+    if len(full) < 3:  # a sliver: its box
+        left_line = right_line = None
+        lo, hi, wide = left.min(), right.max(), np.zeros(len(rows), bool)
+    else:
+        left_line, right_line = (np.polyfit(rows[full], v[full], 1) for v in (left, right))
+        tol = WIDER * float(np.median(width[full])) + 3
+        wide = (left < np.polyval(left_line, rows) - tol) | (right > np.polyval(right_line, rows) + tol)
+        wide[: full[0]] = False
+    run = np.convolve(wide, np.ones(3), "valid") >= 3  # three rows in a row
+    meets = bool(run.any())
+    size = float(np.median(width[full])) if len(full) >= 3 else float(width.max())
+    bottom = rows[int(np.argmax(run))] if meets else rows[-1] + 1 + int(0.05 * size)
+    if left_line is not None:  # the sides' extent between the top and the bottom (a container tilted in the picture)
+        ends = np.array([rows[0], bottom])
+        lo, hi = np.polyval(left_line, ends).min(), np.polyval(right_line, ends).max()
+    pad = int(0.08 * size) + 4
+    x0, x1 = origin[0] + int(lo) - pad, origin[0] + int(hi) + 1 + pad
+    y0, y1 = origin[1] + int(rows[0] - 0.5 * size), origin[1] + int(bottom)
+    return _clipped(x0, y0, x1, y1, bounds), meets
+
+
+def _float_roi(c: FloatCandidate, bounds: tuple[int, int, int, int]) -> tuple[int, int, int, int]:
+    """A ROI around a float: 1.5 of its length each way, where track looks for the container's walls beside it;
+    inside `bounds` (x, y, w, h: the area searched)."""
+    x, y, w, h = c.box
+    length, cx, cy = max(w, h), x + 0.5 * w, y + 0.5 * h
+    return _clipped(
+        int(cx - 1.5 * length), int(cy - 1.5 * length), int(cx + 1.5 * length), int(cy + 1.5 * length), bounds
+    )
+
+
+def _clipped(x0: int, y0: int, x1: int, y1: int, bounds: tuple[int, int, int, int]) -> tuple[int, int, int, int]:
+    """(x, y, w, h) of a box cut to `bounds` (x, y, w, h), which it overlaps (it holds a region found there)."""
+    bx, by, bw, bh = bounds
+    x0, y0 = max(bx, x0), max(by, y0)
+    x1, y1 = min(bx + bw, x1), min(by + bh, y1)
+    return x0, y0, x1 - x0, y1 - y0
+
+
+def _inside(box: tuple, roi: tuple) -> bool:
+    """Box (x, y, w, h) lies within roi (x, y, w, h)."""
+    return (
+        box[0] >= roi[0]
+        and box[1] >= roi[1]
+        and box[0] + box[2] <= roi[0] + roi[2]
+        and box[1] + box[3] <= roi[1] + roi[3]
+    )
+
+
+def _hue_name(h: float) -> str:
+    """A colour's name for an OpenCV hue (0..179)."""
+    return next((name for bound, name in _HUES if h < bound), "red")
+
+
+def what_it_saw(frame: np.ndarray, roi: tuple[int, int, int, int]) -> tuple[str, str, dict[str, HsvRange]]:
+    """What the frame shows when no preset colour was found: how coloured it is and its largest coloured regions, in
+    words, the same in a clause, and an HSV range (by its name) that takes the largest in, to measure it with (none in
+    a grey picture)."""
+    x, y, w, h = roi
+    hsv = cv2.cvtColor(frame[y : y + h, x : x + w], cv2.COLOR_BGR2HSV)
+    coloured = ((hsv[..., 1] >= SATURATED[0]) & (hsv[..., 2] >= SATURATED[1])).astype(np.uint8)
+    s_med, v_med = int(np.median(hsv[..., 1])), int(np.median(hsv[..., 2]))
+    greys = f"median saturation {s_med} and brightness {v_med} of 255"
+    n, lab, stats, _ = cv2.connectedComponentsWithStats(coloured, connectivity=8)
+    order = sorted(range(1, n), key=lambda k: -stats[k, cv2.CC_STAT_AREA])
+    big = [k for k in order if stats[k, cv2.CC_STAT_AREA] >= max(MIN_AREA_PX, LISTED_SHARE * w * h)][:3]
+    if not big:
+        return (
+            (
+                f"no preset colour here, and no coloured region (saturation {SATURATED[0]} or more) of {MIN_AREA_PX} px or more, "
+                f"{greys}: a grey picture. Track needs a float or a dye of a clear colour (red, orange, yellow, green, "
+                "blue, magenta); check the file, the lighting, or the time given with --at."
+            ),
+            f"a grey picture (no coloured region, median saturation {s_med} of 255)",
+            {},
+        )
+    parts = []
+    for k in big:
+        hue = float(np.median(hsv[lab == k][:, 0]))
+        bx, by, bw, bh, area = (int(v) for v in stats[k])
+        parts.append(
+            f"{_hue_name(hue)} (hue {hue:.0f}) {bw}x{bh} px at x {x + bx}-{x + bx + bw}, y {y + by}-{y + by + bh}, "
+            f"{100 * area / (w * h):.2f} %"
+        )
+    px = hsv[lab == big[0]]
+    hue = float(np.median(px[:, 0]))
+    floor = [max(20, int(np.percentile(px[:, c], 5)) - 10) for c in (1, 2)]  # its paler and darker pixels too
+    r = HsvRange((int(hue - HUE_REACH) % 180, *floor), (int(hue + HUE_REACH) % 180, 255, 255))
+    return (
+        (
+            f"no preset colour measured here ({greys}); the largest coloured regions: {'; '.join(parts)}; the "
+            f"largest is looked at below with --liquid-hsv-low {format_hsv(r.low)} --liquid-hsv-high {format_hsv(r.high)} "
+            "(--float-hsv-low/-high for a float)."
+        ),
+        f"its largest coloured region, {parts[0]}, in no preset's range",
+        {f"{_hue_name(hue)} ({r.describe()})": r},
+    )
+
+
+def inspect_video(
+    path: str | Path, at_s: float | None = None, roi: tuple[int, int, int, int] | None = None
+) -> InspectResult:
+    """Look at one frame of `path` (the first, or the one at `at_s` seconds) as each target would track it.
+
+    Raises UserError for a file that is not a video, a single picture, a time outside the video and a ROI outside the
+    frame. Finding nothing is not an error here: the result says what was seen (`seen`) and has no `target`."""
+    video = Path(path)
+    frame, t_s = read_frame(video, at_s)
+    size = (frame.shape[1], frame.shape[0])
+    box = roi_box(TrackSettings(roi=None if roi is None else tuple(roi)), *size)
+    res = InspectResult(video, t_s, size, box, [], [], [], [], None, None)
+    labels, drawn = {}, {}
+    _look_at_colours(res, frame, {name: p.hsv for name, p in PRESETS.items()}, labels, drawn)
+    if not any(s.liquid for s in res.surfaces) and not any(f.found for f in res.floats):
+        # a colour no preset takes (or too little of one): the largest coloured region's own range is looked at
+        res.seen, res.saw, largest = what_it_saw(frame, box)
+        _look_at_colours(res, frame, largest, labels, drawn)
+    _decide(res, frame, labels, drawn)
+    res.picture = _picture(res, frame, labels, drawn)
+    return res
+
+
+def _look_at_colours(res: InspectResult, frame: np.ndarray, colours: dict, labels: dict, drawn: dict) -> None:
+    """Find `colours` (name: HSV range) in the frame and measure each one found as the liquid and as a float; the
+    region labels and the tracker's overlays go into `labels` and `drawn`."""
+    found, more = _colour_matches(frame, res.roi, colours)
+    labels.update(more)
+    for p in found:
+        look, drawn[("surface", p.name)] = _look_at_surface(frame, res.t_s, p, res.roi)
+        res.surfaces.append(look)
+        res.candidates += _candidates(p.name, *labels[p.name], res.roi)
+        look, drawn[("float", p.name)] = _look_at_float(frame, res.t_s, p, res.roi)
+        res.floats.append(look)
+    res.colours += found
+
+
+def _decide(res: InspectResult, frame: np.ndarray, labels: dict, drawn: dict) -> None:
+    """Choose the target (a measured surface, else a measured float, else liquid found, else a float found), the
+    preset and the ROI, and write the notes and the command."""
+    size, box = res.size, res.roi
+    given = box if box != (0, 0, *size) else None  # the user's ROI
+    if res.colours:
+        where = "ROI" if given else "picture"
+        shares = ", ".join(f"{p.name} {100 * p.share:.2f} %" for p in res.colours)
+        res.notes.append(f"colours found (share of the {where}): {shares}")
+    # a liquid stands in a container: one whose walls were found first, then the largest
+    measured = max((s for s in res.surfaces if s.measured), key=lambda s: s.walls, default=None)
+    liquid = measured or next((s for s in res.surfaces if s.liquid), None)
+    flt = res.float_look = _best_float(res, None if measured is None else measured.dye)
+    surface = measured or (liquid if flt is None or not flt.measured else None)
+    res.liquid = liquid
+    if liquid is not None:
+        res.notes.append(_surface_note(liquid, _match(res, liquid.dye)))
+        rivals = [s.dye for s in res.surfaces if s.measured and s is not measured]
+        if measured is not None and rivals:
+            res.notes.append(
+                f"  measured as a surface too: {', '.join(rivals)}; "
+                + ("it has no container's walls beside it" if measured.walls else "the largest was taken")
+                + "; if that is the liquid, give its colour instead"
+            )
+    else:
+        res.notes.append(
+            f"surface: no dyed liquid (no preset colour's region of {100 * MIN_LIQUID_SHARE:.1f} % of the area)"
+        )
+    why = ""  # why the command needs the suggested ROI ("": it does not)
+    if surface is not None:
+        surface, why = _around_liquid(res, surface, frame, labels, drawn)
+    res.notes += [_float_note(f, [c for c in res.candidates if c.color == f.color]) for f in res.floats]
+    if surface is None and flt is not None:
+        cands = [c for c in res.candidates if c.color == flt.color]
+        res.suggested_roi = _float_roi(cands[0], box)
+        others = [c for c in cands[1:] if not _inside(c.box, res.suggested_roi)]
+        if others and not given:
+            why = f"{len(others)} other {flt.color} region(s) lie outside it and could be taken for the float"
+    use_roi = bool(why)
+    if res.suggested_roi is not None:
+        around = "the container the liquid stands in" if surface is not None else "the float and the walls beside it"
+        used = f", used below: {why}" if use_roi else ""
+        res.notes.append(
+            f"suggested ROI: --roi {_fmt_roi(res.suggested_roi)} (around {around}; white on the picture){used}"
+        )
+    if surface is not None:
+        res.target = "surface"
+        words = ["--target", "surface", *_match(res, surface.dye).words("liquid")]
+        res.command = _command(res, words, res.suggested_roi if use_roi else given, surface.walls)
+        if flt is not None and flt.measured:  # a float on the dyed liquid: its command too
+            other = _command(res, _match(res, flt.color).words("float"), given, flt.walls)
+            res.notes.append(f"a {flt.color} float is measured too; to track it instead: {shlex.join(other)}")
+    elif flt is not None:
+        res.target = "float"
+        words = _match(res, flt.color).words("float")
+        res.command = _command(res, words, res.suggested_roi if use_roi else given, flt.walls)
+    elif res.colours:
+        names = ", ".join(c.name for c in res.colours)
+        res.saw = (res.saw + "; " if res.saw else "") + f"{names} found, but neither as a liquid nor as a float"
+        res.notes.append(
+            "nothing here is a dyed liquid or a float: the colours found cover too little of the area, or are not "
+            "elongated; try --roi around the liquid or float, or a frame where they show (--at)"
+        )
+    if res.command and not res.measured:
+        res.notes.append(
+            "track would not measure this frame with that command today; run it to see its message, with "
+            "--overlay OUT.mp4 to see what it found"
+        )
+
+
+def _around_liquid(
+    res: InspectResult, surface: SurfaceLook, frame: np.ndarray, labels: dict, drawn: dict
+) -> tuple[SurfaceLook, str]:
+    """Suggest the ROI around the liquid `surface` shows; measure it there when it was not measured in the whole area.
+    Returns the surface to track (that measurement when it succeeded) and why the command needs the ROI ("": not)."""
+    box, given = res.roi, res.roi != (0, 0, *res.size)
+    p = _match(res, surface.dye)
+    lab, keep = labels[surface.dye]
+    x0, y0, w0, h0, _ = p.regions[0]
+    region = lab[y0 - box[1] : y0 - box[1] + h0, x0 - box[0] : x0 - box[0] + w0] == keep[0]
+    res.suggested_roi, meets = liquid_roi(region, (x0, y0), box)
+    others = [r for r in p.regions[1:] if not _inside(r[:4], res.suggested_roi) and r[4] >= 0.1 * p.regions[0][4]]
+    if not surface.measured and res.suggested_roi != box:
+        retry, drawn[("surface", "roi")] = _look_at_surface(frame, res.t_s, p, res.suggested_roi)
+        res.surfaces.append(retry)
+        found = "measured, " + _surface_numbers(retry) if retry.measured else "not measured either"
+        res.notes.append(f"  with --roi {_fmt_roi(res.suggested_roi)}: {found}")
+        if retry.measured:
+            surface = res.liquid = retry
+        return surface, f"the liquid was not measured in the {'ROI given' if given else 'whole picture'}"
+    if meets and not given:
+        return surface, f"the {surface.dye} region runs on into something of its own colour below the liquid"
+    if others and not given:
+        return surface, f"{len(others)} other {surface.dye} region(s) lie outside it"
+    return surface, ""
+
+
+def _command(res: InspectResult, words: list[str], roi: tuple | None, walls: bool) -> list[str]:
+    """`sloshid track VIDEO -o STEM_angles.csv WORDS [--roi ...] [--reference container]`."""
+    out = res.video.with_name(f"{res.video.stem}_angles.csv")
+    cmd = ["sloshid", "track", str(res.video), "-o", str(out), *words]
+    if roi is not None:
+        cmd += ["--roi", _fmt_roi(roi)]
+    if walls:
+        cmd += ["--reference", "container"]
+    return cmd
+
+
+def _fmt_roi(roi: tuple) -> str:
+    return ",".join(str(int(v)) for v in roi)
+
+
+def _surface_numbers(s: SurfaceLook) -> str:
+    """The measured surface's numbers in words."""
+    walls = (
+        f"the container's wall edges found at {s.container_angle_deg:+.2f} deg from vertical (--reference container)"
+        if s.walls
+        else f"the liquid's sides at {s.container_angle_deg:+.2f} deg from vertical; the container's wall edges not found"
+    )
+    return f"surface at {s.angle_deg:+.2f} deg against the image, quality {s.quality:.2f}, {walls}"
+
+
+def _surface_note(s: SurfaceLook, p: ColourMatch) -> str:
+    """One line on the surface target."""
+    x, y, w, h, _ = p.regions[0]
+    where = f"{s.dye} liquid {w}x{h} px at x {x}-{x + w}, y {y}-{y + h}"
+    if s.measured:
+        return f"surface: {where}: measured, {_surface_numbers(s)}"
+    return (
+        f"surface: the largest {s.dye} region, {w}x{h} px at x {x}-{x + w}, y {y}-{y + h}: not measured as a liquid, "
+        "the container's inner walls (straight sides of the region, its bottom) were not found"
+    )
+
+
+def _float_note(f: FloatLook, cands: list[FloatCandidate]) -> str:
+    """One line on the float target for one preset colour."""
+    listed = "; ".join(
+        f"{c.box[2]}x{c.box[3]} px at x {c.box[0]}, y {c.box[1]}, {c.area_px} px, elongation {c.elongation:.2f}, "
+        f"{c.angle_deg:+.1f} deg"
+        for c in cands[:3]
+    )
+    more = f" (+{len(cands) - 3} more)" if len(cands) > 3 else ""
+    if f.liquid_like:
+        verdict = "the largest is a liquid body between walls, not a float"
+    elif f.measured:
+        walls = (
+            f"walls found beside it, {f.container_angle_deg:+.2f} deg from vertical"
+            if f.walls
+            else "no walls beside it (--reference image only)"
+        )
+        verdict = f"track takes the largest: {f.angle_deg:+.2f} deg, quality {f.quality:.2f}, {walls}"
+    elif f.found:
+        verdict = f"track takes the largest but with quality {f.quality:.2f} (below 0.5: not a float's shape or colour)"
+    else:
+        verdict = "too small for track to take"
+    return f"float, {f.color}: {len(cands)} candidate(s): {listed}{more}: {verdict}"
+
+
+def _picture(res: InspectResult, frame: np.ndarray, labels: dict, drawn: dict) -> np.ndarray:
+    """Two panels: the surface target (the tracker's overlay, every preset's regions) and the float target (its
+    overlay, the candidates); the suggested ROI in white on both; a title bar over each."""
+    chosen = res.liquid
+    key = ("surface", "roi" if chosen is not None and chosen.roi != res.roi else chosen.dye if chosen else "")
+    left = drawn.get(key, np.array(frame)).copy()
+    scale = max(0.45, frame.shape[0] / 800)
+    thick = max(1, round(frame.shape[0] / 360))
+    for p in res.colours:
+        lab, keep = labels[p.name]
+        outline = p.outline()
+        mask = np.isin(lab, keep).astype(np.uint8)
+        contours, _ = cv2.findContours(mask, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_SIMPLE)
+        cv2.drawContours(left, contours, -1, outline, thick, offset=res.roi[:2])
+        x, y = p.regions[0][:2]
+        _text(left, f"{p.name} {100 * p.share:.1f} %", (x + 4, y + int(22 * scale) + 4), scale, outline)
+    flt = res.float_look
+    right = drawn[("float", flt.color)].copy() if flt else np.array(frame)
+    for c in res.candidates:
+        outline = _match(res, c.color).outline()
+        x, y, w, h = c.box
+        cv2.rectangle(right, (x - 2, y - 2), (x + w + 1, y + h + 1), outline, thick)
+        _text(right, f"{c.color} e{c.elongation:.2f} {c.angle_deg:+.1f}", (x, max(y - 6, 12)), 0.8 * scale, outline)
+    for panel in (left, right):
+        if res.suggested_roi is not None:
+            x, y, w, h = res.suggested_roi
+            cv2.rectangle(panel, (x, y), (x + w - 1, y + h - 1), (255, 255, 255), thick)
+    titles = (_title(res, "surface"), _title(res, "float"))
+    bar = int(34 * scale) + 8
+    panels = []
+    for panel, title in zip((left, right), titles):
+        head = np.full((bar, panel.shape[1], 3), 32, np.uint8)
+        cv2.putText(head, title, (8, bar - 10), cv2.FONT_HERSHEY_SIMPLEX, scale, (255, 255, 255), 1, cv2.LINE_AA)
+        panels.append(np.vstack([head, panel]))
+    gap = np.full((panels[0].shape[0], 8, 3), 255, np.uint8)
+    return np.hstack([panels[0], gap, panels[1]])
+
+
+def _title(res: InspectResult, target: str) -> str:
+    """A panel's title: the target and what it found."""
+    if target == "surface":
+        s = res.liquid
+        if s is not None and s.measured:
+            return f"surface: {s.dye} liquid, {s.angle_deg:+.2f} deg"
+        return "surface: liquid found, walls not" if res.target == "surface" else "surface: nothing measured"
+    f = res.float_look
+    if f is not None and f.measured:
+        return f"float: {f.color}, {f.angle_deg:+.2f} deg, quality {f.quality:.2f}"
+    return f"float: {len(res.candidates)} candidate(s), none measured"
+
+
+def _best_float(res: InspectResult, liquid: str | None = None) -> FloatLook | None:
+    """The float track would measure best (measured, not liquid, highest quality), or the first found; not of the
+    colour `liquid` (a measured liquid's)."""
+    found = [f for f in res.floats if f.found and not f.liquid_like and f.color != liquid]
+    return max(found, key=lambda f: (f.measured, f.quality), default=None)
+
+
+def _text(img: np.ndarray, text: str, org: tuple[int, int], scale: float, colour: tuple) -> None:
+    """Text with a dark outline, readable on any background."""
+    cv2.putText(img, text, org, cv2.FONT_HERSHEY_SIMPLEX, scale, (0, 0, 0), 3, cv2.LINE_AA)
+    cv2.putText(img, text, org, cv2.FONT_HERSHEY_SIMPLEX, scale, colour, 1, cv2.LINE_AA)
+
+
+def _match(res: InspectResult, name: str) -> ColourMatch:
+    """The colour called `name` among those found."""
+    return next(m for m in res.colours if m.name == name)
