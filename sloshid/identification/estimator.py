@@ -39,6 +39,7 @@ from sloshid.identification.pt2fit import (
     autocorrelation,
     fit_pt2,
     fit_pt2_hold,
+    fit_pt2_shrink,
     with_codec_share,
 )
 from sloshid.identification.second_mode import SecondMode, resolve_second_mode, strong_peaks
@@ -624,7 +625,7 @@ class Identifier:
             fit = fit_pt2_hold(wdata, fit)
         fit, between = between_signals(wdata, fit, [2 * math.pi * sp.peak_f_hz for sp in spectra])
         if fit.hold is not None:
-            fit = with_codec_share(fit)
+            fit = with_codec_share(fit_pt2_shrink(wdata, fit))
         self.result_ = self._assemble(
             sigs, windows, parts, spectra, [s.noise_std for s in fullspec], fit, second, prior, between
         )

@@ -548,51 +548,56 @@ def fit_pt2_hold(windows: list[WindowData], plain: PT2Fit, keep: int = len(HOLD_
     enters omega's and zeta's through the joint Newey-West covariance. A codec is no perfect hold, so the shift from
     the plain fit is added as a systematic standard error: the distance between the two models is what is known
     about the model's own error (on rendered clips the hold explains most, not all, of the tracking error). The
-    codec's shrinking of the smallest swings is added after (`with_codec_share`)."""
+    codec's shrinking of the swings is allowed for after (`fit_pt2_shrink`, `with_codec_share`)."""
     model = _HeldModel(windows, plain.drift, 2 if plain.second else 1, plain.slow_s)
-    modes = [(plain.omega_rad_s, plain.zeta)] + (
-        [(plain.second.omega_rad_s, plain.second.zeta)] if plain.second else []
-    )
-    reach = [OMEGA_SPAN * w for w, _ in modes]
-    if plain.second:  # as in fit_two_modes: each mode may move at most half-way toward the other
-        reach = [min(r, abs(modes[1][0] - modes[0][0]) / 2) for r in reach]
-    lower = [v for (w, _), r in zip(modes, reach) for v in (w - r, ZETA_BOUNDS[0])]
-    upper = [v for (w, _), r in zip(modes, reach) for v in (w + r, ZETA_BOUNDS[1])]
-    widest = 0.5 * min(plain.amplitude(i) for i in range(len(windows)))
+    modes, lower, upper, widest = _refit_bounds(windows, plain)
     rms = float(np.sqrt(np.mean(np.concatenate(plain.residuals) ** 2)))
-    starts = [(*np.ravel(modes), min(f * rms, widest)) for f in HOLD_STARTS]
+    starts = [(*modes, min(f * rms, widest)) for f in HOLD_STARTS]
     fit = _solve(model, starts, (*lower, 0.0), (*upper, widest), keep, plain=plain)
-    held = replace(
+    return replace(
         fit,
         hold=replace(fit.hold, restarts=sum(int(np.sum(w.restarts)) for w in windows if w.restarts is not None)),
         cov=fit.cov + np.outer(fit.hold.shift, fit.hold.shift),
         # a width of zero is a signal without a hold, not a search that ran out of room
         at_bound=tuple(n for n in fit.at_bound if n != "hold" or fit.hold.width > widest / 2),
     )
-    return fit_pt2_shrink(windows, held, (*lower, 0.0, 0.0), (*upper, widest, widest), keep)
 
 
-def fit_pt2_shrink(windows: list[WindowData], held: PT2Fit, lower, upper, keep: int) -> PT2Fit:
-    """The held fit with zeta's variance widened by what a codec's shrink of the swings may do to it: the fit refitted
-    with every swing of the main mode losing a fitted constant amount (`_ShrunkHeldModel`; `lower`/`upper` bound
-    the modes, the shrink and the hold's width), and again with that shrink one residual rms larger, which the fit
-    cannot tell apart; both zeta shifts are added to zeta's variance as systematic errors. The values stay the
-    held fit's.
+def _refit_bounds(windows: list[WindowData], fit: PT2Fit) -> tuple[list[float], list[float], list[float], float]:
+    """For a refit of `fit` through a codec model: its modes (omega, zeta[, omega2, zeta2]), their lower and upper
+    bounds (each omega within OMEGA_SPAN, as in fit_two_modes at most half-way toward the other mode), and the
+    largest hold width or shrink searched: half the smallest window's starting amplitude."""
+    modes = [(fit.omega_rad_s, fit.zeta)] + ([(fit.second.omega_rad_s, fit.second.zeta)] if fit.second else [])
+    reach = [OMEGA_SPAN * w for w, _ in modes]
+    if fit.second:
+        reach = [min(r, abs(modes[1][0] - modes[0][0]) / 2) for r in reach]
+    lower = [v for (w, _), r in zip(modes, reach) for v in (w - r, ZETA_BOUNDS[0])]
+    upper = [v for (w, _), r in zip(modes, reach) for v in (w + r, ZETA_BOUNDS[1])]
+    return list(np.ravel(modes)), lower, upper, 0.5 * min(fit.amplitude(i) for i in range(len(windows)))
+
+
+def fit_pt2_shrink(windows: list[WindowData], held: PT2Fit, keep: int = len(SHRINK_STARTS)) -> PT2Fit:
+    """The held fit (`fit_pt2_hold`) with zeta's variance widened by what a codec's shrink of the swings may do to
+    it: the fit refitted with every swing of the main mode losing a fitted constant amount (`_ShrunkHeldModel`), and
+    again with that shrink one residual rms larger, which the fit cannot tell apart; both zeta shifts are added to
+    zeta's variance as systematic errors. The values stay the held fit's. Like `with_codec_share`, for the final
+    fit only: the same camera and codec shrink every window alike, so the windows' agreement is judged without it.
 
     Inter-frame coding takes about the same angle (0.1-0.3 deg at H.264 CRF 23) off a float's swings whatever their
     size, with little lag, so the decay looks faster; the hold, which cannot shrink a swing without delaying it,
     models only part of it. The shrink is no exact model of a codec either: as the value, it brought zeta from
     +5-10 % to -4..+7.5 % on CRF 23 floats, but moved high-bit-rate floats that the held fit had right away from the
     truth (120 fps CRF 20: +0.2 -> -5.5 %), so it only widens the interval (docs/zeta_from_video.md)."""
-    modes = [held.omega_rad_s, held.zeta] + ([held.second.omega_rad_s, held.second.zeta] if held.second else [])
+    modes, lower, upper, widest = _refit_bounds(windows, held)
+    lower, upper = [*lower, 0.0, 0.0], [*upper, widest, widest]  # then the shrink and the hold's width
     rms = float(np.sqrt(np.mean(np.concatenate(held.residuals) ** 2)))
     # from the held fit's width and from none: a hold can take a shrink's place in a local minimum
-    starts = [(*modes, min(f * rms, upper[-2]), w) for f in SHRINK_STARTS for w in (held.hold.width, 0.0)]
+    starts = [(*modes, min(f * rms, widest), w) for f in SHRINK_STARTS for w in (held.hold.width, 0.0)]
     model = _ShrunkHeldModel(windows, held.drift, 2 if held.second else 1, held.slow_s)
     shrunk = _solve(model, starts, lower, upper, keep, plain=held)
     # the same fit with the codec taking another residual rms off every swing, a shrink the fit cannot tell from
     # the one it found (held to that value by bounds a hair apart: least squares wants them apart)
-    more = min(shrunk.hold.shrink + rms, upper[-2])
+    more = min(shrunk.hold.shrink + rms, widest)
     x_more = (shrunk.omega_rad_s, shrunk.zeta, *modes[2:], more, shrunk.hold.width)
     lower_more, upper_more = list(lower), list(upper)
     lower_more[-2], upper_more[-2] = more, more * (1 + 1e-9) + 1e-12
