@@ -33,6 +33,10 @@ HOLD_STARTS = (0.0, 0.5, 1.0, 2.0)
 """Starting hold half-widths, in residual rms of the plain fit (a perfect play leaves about 0.4 of its width)."""
 SHRINK_STARTS = (0.0, 0.5, 1.0, 2.0)
 """Starting codec shrinks (`fit_pt2_shrink`), in residual rms of the held fit."""
+SHRINK_MAX_SHARE = 0.05
+"""Largest codec shrink searched, as a share of the smallest window's starting amplitude: H.264 took 0.1-0.3 deg off
+rendered floats' 5-8 deg swings (1.5-4 %). Unbounded, a window that decays little traded zeta for a shrink no codec
+makes (a 3 s, zeta 0.02 float: 2 deg of 8, zeta's interval +-97 %)."""
 CODEC_ZETA_SHARE = 0.01
 """Systematic standard error of a video-tracked zeta, as a share of zeta: a codec also shrinks the smallest swings,
 which the hold does not model, and zeta comes out high by a percent or two at H.264 CRF 16-20. Chosen on the
@@ -589,22 +593,23 @@ def fit_pt2_shrink(windows: list[WindowData], held: PT2Fit, keep: int = len(SHRI
     +5-10 % to -4..+7.5 % on CRF 23 floats, but moved high-bit-rate floats that the held fit had right away from the
     truth (120 fps CRF 20: +0.2 -> -5.5 %), so it only widens the interval (docs/zeta_from_video.md)."""
     modes, lower, upper, widest = _refit_bounds(windows, held)
-    lower, upper = [*lower, 0.0, 0.0], [*upper, widest, widest]  # then the shrink and the hold's width
+    most = 2 * SHRINK_MAX_SHARE * widest  # widest is half the smallest starting amplitude
+    lower, upper = [*lower, 0.0, 0.0], [*upper, most, widest]  # then the shrink and the hold's width
     rms = float(np.sqrt(np.mean(np.concatenate(held.residuals) ** 2)))
     # from the held fit's width and from none: a hold can take a shrink's place in a local minimum
-    starts = [(*modes, min(f * rms, widest), w) for f in SHRINK_STARTS for w in (held.hold.width, 0.0)]
+    starts = [(*modes, min(f * rms, most), w) for f in SHRINK_STARTS for w in (held.hold.width, 0.0)]
     model = _ShrunkHeldModel(windows, held.drift, 2 if held.second else 1, held.slow_s)
     shrunk = _solve(model, starts, lower, upper, keep, plain=held)
     # the same fit with the codec taking another residual rms off every swing, a shrink the fit cannot tell from
     # the one it found (held to that value by bounds a hair apart: least squares wants them apart)
-    more = min(shrunk.hold.shrink + rms, widest)
+    more = min(shrunk.hold.shrink + rms, most)
     x_more = (shrunk.omega_rad_s, shrunk.zeta, *modes[2:], more, shrunk.hold.width)
     lower_more, upper_more = list(lower), list(upper)
     lower_more[-2], upper_more[-2] = more, more * (1 + 1e-9) + 1e-12
     hidden = _solve(model, [x_more], lower_more, upper_more, 1).zeta - shrunk.zeta
     shift = shrunk.zeta - held.zeta
     var = held.cov[1, 1]  # with the hold's own shift from a plain fit, a systematic error too
-    scale = math.sqrt((max(var, shrunk.cov[1, 1]) + shift**2 + hidden**2) / var) if var > 0 else 1.0
+    scale = math.sqrt((var + shift**2 + hidden**2) / var) if var > 0 else 1.0
     return replace(
         held,
         cov=held.cov * np.outer([1.0, scale], [1.0, scale]),
