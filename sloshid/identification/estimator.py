@@ -754,7 +754,7 @@ class Identifier:
                 "shrinks the smallest swings most for their size and the decay looks faster; no model of that held "
                 "on all rendered clips, so zeta's interval holds how far zeta moves in a refit with such a shrink and "
                 "with a shrink one residual rms larger. At H.264 CRF 23 (60-120 fps) rendered floats' zeta came out "
-                "up to 13 % high, inside intervals of +-8 to +-30 %; film at a high bit rate (README: identify, "
+                "up to 13 % high, inside intervals of +-7 to +-25 %; film at a high bit rate (README: identify, "
                 "video-tracked signals)."
             )
         for note in (

@@ -34,9 +34,8 @@ HOLD_STARTS = (0.0, 0.5, 1.0, 2.0)
 SHRINK_STARTS = (0.0, 0.5, 1.0, 2.0)
 """Starting codec shrinks (`fit_pt2_shrink`), in residual rms of the held fit."""
 SHRINK_MAX_SHARE = 0.05
-"""Largest codec shrink searched, as a share of the smallest window's starting amplitude: H.264 took 0.1-0.3 deg off
-rendered floats' 5-8 deg swings (1.5-4 %). Unbounded, a window that decays little traded zeta for a shrink no codec
-makes (a 3 s, zeta 0.02 float: 2 deg of 8, zeta's interval +-97 %)."""
+"""Largest codec shrink searched, as a share of the smallest window's starting amplitude (H.264 took 1.5-4 % off
+rendered floats'): beyond it, a window that decays little trades zeta for a shrink no codec makes."""
 CODEC_ZETA_SHARE = 0.01
 """Systematic standard error of a video-tracked zeta, as a share of zeta: a codec also shrinks the smallest swings,
 which the hold does not model, and zeta comes out high by a percent or two at H.264 CRF 16-20. Chosen on the
@@ -581,17 +580,11 @@ def _refit_bounds(windows: list[WindowData], fit: PT2Fit) -> tuple[list[float], 
 
 
 def fit_pt2_shrink(windows: list[WindowData], held: PT2Fit, keep: int = len(SHRINK_STARTS)) -> PT2Fit:
-    """The held fit (`fit_pt2_hold`) with zeta's variance widened by what a codec's shrink of the swings may do to
-    it: the fit refitted with every swing of the main mode losing a fitted constant amount (`_ShrunkHeldModel`), and
-    again with that shrink one residual rms larger, which the fit cannot tell apart; both zeta shifts are added to
-    zeta's variance as systematic errors. The values stay the held fit's. Like `with_codec_share`, for the final
-    fit only: the same camera and codec shrink every window alike, so the windows' agreement is judged without it.
-
-    Inter-frame coding takes about the same angle (0.1-0.3 deg at H.264 CRF 23) off a float's swings whatever their
-    size, with little lag, so the decay looks faster; the hold, which cannot shrink a swing without delaying it,
-    models only part of it. The shrink is no exact model of a codec either: as the value, it brought zeta from
-    +5-10 % to -4..+7.5 % on CRF 23 floats, but moved high-bit-rate floats that the held fit had right away from the
-    truth (120 fps CRF 20: +0.2 -> -5.5 %), so it only widens the interval (docs/zeta_from_video.md)."""
+    """The held fit with zeta's variance widened for the codec's shrink of every swing (H.264 takes about the same
+    angle off each, with little lag, which the hold cannot model): the zeta shifts of a refit with a fitted constant
+    shrink (`_ShrunkHeldModel`) and of one with that shrink a residual rms larger are added as systematic errors. The
+    values stay the held fit's: as the value the shrink over-corrected high-bit-rate floats (docs/zeta_from_video.md).
+    For the final fit only, like `with_codec_share`: one camera and codec shrink every window alike."""
     modes, lower, upper, widest = _refit_bounds(windows, held)
     most = 2 * SHRINK_MAX_SHARE * widest  # widest is half the smallest starting amplitude
     lower, upper = [*lower, 0.0, 0.0], [*upper, most, widest]  # then the shrink and the hold's width
