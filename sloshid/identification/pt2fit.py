@@ -301,12 +301,13 @@ class _ShrunkHeldModel(_HeldModel):
 
     n_extra = 2
 
-    def _unheld(self, x: np.ndarray) -> tuple[list[np.ndarray], np.ndarray]:
-        """Model values per window before the hold, and their Jacobian (the hold's width column zero): the plain
-        model's, with the main mode's columns (omega, zeta, a, b) and the shrink's for the shrunk mode."""
+    def _unheld(self, x: np.ndarray, jacobian: bool = True) -> tuple[list[np.ndarray], np.ndarray | None]:
+        """Model values per window before the hold, and (when asked) their Jacobian with the hold's width column
+        zero: the plain model's, with the main mode's columns (omega, zeta, a, b) and the shrink's for the shrunk
+        mode."""
         modes, shrink = self.modes(x), x[-2]
         (omega, zeta), root = modes[0], np.sqrt(max(1 - modes[0][1] ** 2, 1e-12))
-        jac = _JointModel.jacobian(self, x)
+        jac = _JointModel.jacobian(self, x) if jacobian else None
         values = []
         for t, z, lin, rows, o in zip(self.t, self.zero, self.split(x), self.blocks, self.offsets):
             a, b = lin[:2]
@@ -315,6 +316,9 @@ class _ShrunkHeldModel(_HeldModel):
             cos, sin = np.cos(omega * root * t), np.sin(omega * root * t)
             wave = a * cos + b * sin
             gain = np.maximum(e - shrink / amp, 0.0)
+            values.append(_basis(t, modes, z) @ lin - (e - gain) * wave)
+            if jac is None:
+                continue
             on = gain > 0
             d_sigma, d_wd = -t * e * wave * on, gain * t * (b * cos - a * sin)
             jac[rows, 0] = d_sigma * zeta + d_wd * root
@@ -322,12 +326,11 @@ class _ShrunkHeldModel(_HeldModel):
             jac[rows, o] = gain * cos + on * wave * shrink * a / amp**3
             jac[rows, o + 1] = gain * sin + on * wave * shrink * b / amp**3
             jac[rows, -2] = -wave * on / amp
-            values.append(_basis(t, modes, z) @ lin - (e - gain) * wave)
         return values, jac
 
     def fitted(self, x: np.ndarray) -> list[np.ndarray]:
         """Model values per window: shrunk, then through the hold."""
-        return [_hold_path(f, x[-1], r)[0] for f, r in zip(self._unheld(x)[0], self.restarts)]
+        return [_hold_path(f, x[-1], r)[0] for f, r in zip(self._unheld(x, jacobian=False)[0], self.restarts)]
 
     def jacobian(self, x: np.ndarray) -> np.ndarray:
         """d residuals / d x: the shrunk model's rows of the samples the hold passes on, and the hold's signs."""
@@ -579,7 +582,7 @@ def _refit_bounds(windows: list[WindowData], fit: PT2Fit) -> tuple[list[float], 
     return list(np.ravel(modes)), lower, upper, 0.5 * min(fit.amplitude(i) for i in range(len(windows)))
 
 
-def fit_pt2_shrink(windows: list[WindowData], held: PT2Fit, keep: int = len(SHRINK_STARTS)) -> PT2Fit:
+def fit_pt2_shrink(windows: list[WindowData], held: PT2Fit, keep: int = 2) -> PT2Fit:
     """The held fit with zeta's variance widened for the codec's shrink of every swing (H.264 takes about the same
     angle off each, with little lag, which the hold cannot model): the zeta shifts of a refit with a fitted constant
     shrink (`_ShrunkHeldModel`) and of one with that shrink a residual rms larger are added as systematic errors. The
