@@ -1340,6 +1340,37 @@ def test_tracked_clip_keeps_the_dynamics(tmp_path):
         assert got[key].ci95[0] <= want[key].value <= got[key].ci95[1]
 
 
+@pytest.mark.slow
+def test_consumer_bit_rate_float_zeta_interval_covers_the_truth(tmp_path):
+    # issue 37's outside check: zeta from H.264 floats at 60-120 fps came out 6-10 % high. The realistic float at
+    # the synth's default CRF 23 (60 fps, Table I liquid, 8 deg): P-frames take 0.1-0.3 deg off every swing, and zeta
+    # reads +13.3 % high, outside the held fit's interval (+8.3 .. +18.3 %, measured); the codec-shrink allowance
+    # widens it to -4.2 .. +30.8 % (docs/zeta_from_video.md). f keeps the issue's 0.3 % (measured -0.02 %)
+    s = SynthSettings(
+        width=640,
+        height=480,
+        fps=60.0,
+        duration_s=5.0,
+        f_hz=3.44,
+        zeta=0.07,
+        amplitude_deg=8.0,
+        noise_sigma=4.0,
+        blur_px=1.0,
+        quality=23,
+        float_rounded=True,
+        float_bend_px=3.0,
+        float_specular=0.5,
+        float_submerged=0.3,
+        seed=11,
+    )
+    tracked, exact = _tracked_and_truth(tmp_path, s, TrackSettings(smooth=False))
+    want = exact.result.parameters
+    got = Identifier().fit(tracked).result.parameters
+    assert got["zeta"].value > want["zeta"].value * 1.05  # the codec's bias, which stays in the value
+    assert got["zeta"].ci95[0] <= want["zeta"].value <= got["zeta"].ci95[1]
+    assert got["f_hz"].value == pytest.approx(want["f_hz"].value, rel=0.003)
+
+
 def test_a_losslessly_coded_float_keeps_the_dynamics_without_any_correction(tmp_path):
     # the tracker's own share of the dynamics error: the track_accuracy benchmark's calibration clip 10 (a plain green
     # bar, noise 6; zeta +3.1 % at H.264 CRF 18, whose decoded picture shrinks the late small swings), shortened and at

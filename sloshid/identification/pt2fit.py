@@ -31,6 +31,11 @@ SPLINE_SAMPLES = 8
 coefficients rests on data (a 16-sample window at 30 fps holds two)."""
 HOLD_STARTS = (0.0, 0.5, 1.0, 2.0)
 """Starting hold half-widths, in residual rms of the plain fit (a perfect play leaves about 0.4 of its width)."""
+SHRINK_STARTS = (0.0, 0.5, 1.0, 2.0)
+"""Starting codec shrinks (`fit_pt2_shrink`), in residual rms of the held fit."""
+SHRINK_MAX_SHARE = 0.05
+"""Largest codec shrink searched, as a share of the smallest window's starting amplitude (H.264 took 1.5-4 % off
+rendered floats'): beyond it, a window that decays little trades zeta for a shrink no codec makes."""
 CODEC_ZETA_SHARE = 0.01
 """Systematic standard error of a video-tracked zeta, as a share of zeta: a codec also shrinks the smallest swings,
 which the hold does not model, and zeta comes out high by a percent or two at H.264 CRF 16-20. Chosen on the
@@ -73,6 +78,12 @@ class HoldFit:
     """2x2 covariance of (omega, zeta) of the plain fit, for comparison."""
     restarts: int = 0
     """How many times the hold restarted at a key frame inside the windows (0: no key frames known)."""
+    shrink: float = 0.0
+    """Amount every swing of the main mode loses to the codec in the refit of `fit_pt2_shrink`, in the signal's unit."""
+    shrink_shift: float = 0.0
+    """zeta of the refit with the shrink minus the held fit's: a systematic error of zeta (`fit_pt2_shrink`)."""
+    shrink_hidden: float = 0.0
+    """How far the refit's zeta moves when the shrink grows by the residual's rms: a systematic error of zeta too."""
 
 
 @dataclass(frozen=True)
@@ -283,6 +294,54 @@ class _HeldModel(_JointModel):
         return jac
 
 
+class _ShrunkHeldModel(_HeldModel):
+    """The held model whose main mode loses `shrink` (second last parameter, shared by all windows) of its amplitude
+    A(t') = hypot(a, b) exp(-zeta omega t') at every moment, down to nothing where A < shrink (`fit_pt2_shrink`):
+    the mode becomes max(exp(-zeta omega t') - shrink / hypot(a, b), 0) (a cos(omega_d t') + b sin(omega_d t'))."""
+
+    n_extra = 2
+
+    def _unheld(self, x: np.ndarray, jacobian: bool = True) -> tuple[list[np.ndarray], np.ndarray | None]:
+        """Model values per window before the hold, and (when asked) their Jacobian with the hold's width column
+        zero: the plain model's, with the main mode's columns (omega, zeta, a, b) and the shrink's for the shrunk
+        mode."""
+        modes, shrink = self.modes(x), x[-2]
+        (omega, zeta), root = modes[0], np.sqrt(max(1 - modes[0][1] ** 2, 1e-12))
+        jac = _JointModel.jacobian(self, x) if jacobian else None
+        values = []
+        for t, z, lin, rows, o in zip(self.t, self.zero, self.split(x), self.blocks, self.offsets):
+            a, b = lin[:2]
+            amp = max(float(np.hypot(a, b)), 1e-300)
+            e = np.exp(-zeta * omega * t)
+            cos, sin = np.cos(omega * root * t), np.sin(omega * root * t)
+            wave = a * cos + b * sin
+            gain = np.maximum(e - shrink / amp, 0.0)
+            values.append(_basis(t, modes, z) @ lin - (e - gain) * wave)
+            if jac is None:
+                continue
+            on = gain > 0
+            d_sigma, d_wd = -t * e * wave * on, gain * t * (b * cos - a * sin)
+            jac[rows, 0] = d_sigma * zeta + d_wd * root
+            jac[rows, 1] = d_sigma * omega - d_wd * omega * zeta / root
+            jac[rows, o] = gain * cos + on * wave * shrink * a / amp**3
+            jac[rows, o + 1] = gain * sin + on * wave * shrink * b / amp**3
+            jac[rows, -2] = -wave * on / amp
+        return values, jac
+
+    def fitted(self, x: np.ndarray) -> list[np.ndarray]:
+        """Model values per window: shrunk, then through the hold."""
+        return [_hold_path(f, x[-1], r)[0] for f, r in zip(self._unheld(x, jacobian=False)[0], self.restarts)]
+
+    def jacobian(self, x: np.ndarray) -> np.ndarray:
+        """d residuals / d x: the shrunk model's rows of the samples the hold passes on, and the hold's signs."""
+        values, jac = self._unheld(x)
+        for f, rows, restarts in zip(values, self.blocks, self.restarts):
+            _, src, sign = _hold_path(f, x[-1], restarts)
+            jac[rows] = jac[rows][src]
+            jac[rows, -1] = sign
+        return jac
+
+
 def correlation_lags(r: np.ndarray, period: int) -> int:
     """Newey-West bandwidth: the larger of the textbook rule 4 (N/100)^(2/9) and the lag after which the residual
     autocorrelation stays inside +-3/sqrt(N) for a whole mode period (`period` samples), so that periodic
@@ -433,6 +492,7 @@ def _solve(
             float(se[-1]),
             np.array([x[0] - plain.omega_rad_s, x[1] - plain.zeta]),
             plain.cov,
+            shrink=float(x[-2]) if ne == 2 else 0.0,
         ),
         model.slow_s,
         tuple(z @ lin[2 : 2 + z.shape[1]] for z, lin in zip(model.zero, lins)),
@@ -494,19 +554,11 @@ def fit_pt2_hold(windows: list[WindowData], plain: PT2Fit, keep: int = len(HOLD_
     enters omega's and zeta's through the joint Newey-West covariance. A codec is no perfect hold, so the shift from
     the plain fit is added as a systematic standard error: the distance between the two models is what is known
     about the model's own error (on rendered clips the hold explains most, not all, of the tracking error). The
-    codec's shrinking of the smallest swings is added after (`with_codec_share`)."""
+    codec's shrinking of the swings is allowed for after (`fit_pt2_shrink`, `with_codec_share`)."""
     model = _HeldModel(windows, plain.drift, 2 if plain.second else 1, plain.slow_s)
-    modes = [(plain.omega_rad_s, plain.zeta)] + (
-        [(plain.second.omega_rad_s, plain.second.zeta)] if plain.second else []
-    )
-    reach = [OMEGA_SPAN * w for w, _ in modes]
-    if plain.second:  # as in fit_two_modes: each mode may move at most half-way toward the other
-        reach = [min(r, abs(modes[1][0] - modes[0][0]) / 2) for r in reach]
-    lower = [v for (w, _), r in zip(modes, reach) for v in (w - r, ZETA_BOUNDS[0])]
-    upper = [v for (w, _), r in zip(modes, reach) for v in (w + r, ZETA_BOUNDS[1])]
-    widest = 0.5 * min(plain.amplitude(i) for i in range(len(windows)))
+    modes, lower, upper, widest = _refit_bounds(windows, plain)
     rms = float(np.sqrt(np.mean(np.concatenate(plain.residuals) ** 2)))
-    starts = [(*np.ravel(modes), min(f * rms, widest)) for f in HOLD_STARTS]
+    starts = [(*modes, min(f * rms, widest)) for f in HOLD_STARTS]
     fit = _solve(model, starts, (*lower, 0.0), (*upper, widest), keep, plain=plain)
     return replace(
         fit,
@@ -514,4 +566,48 @@ def fit_pt2_hold(windows: list[WindowData], plain: PT2Fit, keep: int = len(HOLD_
         cov=fit.cov + np.outer(fit.hold.shift, fit.hold.shift),
         # a width of zero is a signal without a hold, not a search that ran out of room
         at_bound=tuple(n for n in fit.at_bound if n != "hold" or fit.hold.width > widest / 2),
+    )
+
+
+def _refit_bounds(windows: list[WindowData], fit: PT2Fit) -> tuple[list[float], list[float], list[float], float]:
+    """For a refit of `fit` through a codec model: its modes (omega, zeta[, omega2, zeta2]), their lower and upper
+    bounds (each omega within OMEGA_SPAN, as in fit_two_modes at most half-way toward the other mode), and the
+    largest hold width or shrink searched: half the smallest window's starting amplitude."""
+    modes = [(fit.omega_rad_s, fit.zeta)] + ([(fit.second.omega_rad_s, fit.second.zeta)] if fit.second else [])
+    reach = [OMEGA_SPAN * w for w, _ in modes]
+    if fit.second:
+        reach = [min(r, abs(modes[1][0] - modes[0][0]) / 2) for r in reach]
+    lower = [v for (w, _), r in zip(modes, reach) for v in (w - r, ZETA_BOUNDS[0])]
+    upper = [v for (w, _), r in zip(modes, reach) for v in (w + r, ZETA_BOUNDS[1])]
+    return list(np.ravel(modes)), lower, upper, 0.5 * min(fit.amplitude(i) for i in range(len(windows)))
+
+
+def fit_pt2_shrink(windows: list[WindowData], held: PT2Fit, keep: int = 2) -> PT2Fit:
+    """The held fit with zeta's variance widened for the codec's shrink of every swing (H.264 takes about the same
+    angle off each, with little lag, which the hold cannot model): the zeta shifts of a refit with a fitted constant
+    shrink (`_ShrunkHeldModel`) and of one with that shrink a residual rms larger are added as systematic errors. The
+    values stay the held fit's: as the value the shrink over-corrected high-bit-rate floats (docs/zeta_from_video.md).
+    For the final fit only, like `with_codec_share`: one camera and codec shrink every window alike."""
+    modes, lower, upper, widest = _refit_bounds(windows, held)
+    most = 2 * SHRINK_MAX_SHARE * widest  # widest is half the smallest starting amplitude
+    lower, upper = [*lower, 0.0, 0.0], [*upper, most, widest]  # then the shrink and the hold's width
+    rms = float(np.sqrt(np.mean(np.concatenate(held.residuals) ** 2)))
+    # from the held fit's width and from none: a hold can take a shrink's place in a local minimum
+    starts = [(*modes, min(f * rms, most), w) for f in SHRINK_STARTS for w in (held.hold.width, 0.0)]
+    model = _ShrunkHeldModel(windows, held.drift, 2 if held.second else 1, held.slow_s)
+    shrunk = _solve(model, starts, lower, upper, keep, plain=held)
+    # the same fit with the codec taking another residual rms off every swing, a shrink the fit cannot tell from
+    # the one it found (held to that value by bounds a hair apart: least squares wants them apart)
+    more = min(shrunk.hold.shrink + rms, most)
+    x_more = (shrunk.omega_rad_s, shrunk.zeta, *modes[2:], more, shrunk.hold.width)
+    lower_more, upper_more = list(lower), list(upper)
+    lower_more[-2], upper_more[-2] = more, more * (1 + 1e-9) + 1e-12
+    hidden = _solve(model, [x_more], lower_more, upper_more, 1).zeta - shrunk.zeta
+    shift = shrunk.zeta - held.zeta
+    var = held.cov[1, 1]  # with the hold's own shift from a plain fit, a systematic error too
+    scale = math.sqrt((var + shift**2 + hidden**2) / var) if var > 0 else 1.0
+    return replace(
+        held,
+        cov=held.cov * np.outer([1.0, scale], [1.0, scale]),
+        hold=replace(held.hold, shrink=shrunk.hold.shrink, shrink_shift=shift, shrink_hidden=hidden),
     )
