@@ -861,9 +861,9 @@ def _on_wall(x: np.ndarray, ok: np.ndarray, inward: float) -> np.ndarray:
 WALL_FROM = 0.1
 """The walls are read from this share of the liquid column's height below its top (the meniscus above) to a tenth
 above its end; `_on_wall` and `straight_part` leave out the rows a slosh, a bottom corner or a holder takes."""
-MIN_DEPTH_SHARE = 0.2
-"""A liquid column less deep than this share of its width is not measured: a float's bar (24 x 144 px) has straight
-sides too and was taken for the liquid; a fill that shallow leaves a slosh no wall to read anyway."""
+MIN_DEPTH_PX = 30
+"""A liquid column less deep than this is not measured: a float's bar (144 x 24 px) has straight sides too and was taken
+for the liquid once the walls were read from a tenth of the height down; a shallow fill's 576 x 48 px is measured."""
 WALL_TOL_PX = 1.5
 """A wall's colour crossings lie within this of its line (compression blocks move them by up to 1.3 px)."""
 WALL_MAX_SLOPE = 0.84
@@ -899,7 +899,7 @@ def _container_axes(
     X0, Y0 = origin
     x0, y0, x1, y1 = box
     r0, r1 = y0 - Y0 + int(WALL_FROM * (y1 - y0)), y1 - Y0 - int(0.1 * (y1 - y0)) - 2
-    if r1 - r0 < 10 or y1 - y0 < MIN_DEPTH_SHARE * (x1 - x0):
+    if r1 - r0 < 10 or y1 - y0 < MIN_DEPTH_PX:
         return None
     rows = np.arange(r0, r1)
     band, band_in = body[r0:r1], inside[r0:r1]
