@@ -225,6 +225,20 @@ def check_pbr_settings(s: SynthSettings) -> None:
             )
 
 
+def _load_in_order(mi, d: dict, tries: int = 50):
+    """The scene with its shapes in the order given: Mitsuba's loader put two of them the other way round about one
+    time in twenty, which reorders the lights a sample picks from and so changes every pixel; such a load is
+    repeated, so that the same scene always renders the same picture."""
+    shape_types = ("cube", "sphere", "rectangle")
+    d = {k: mi.load_dict(v) if isinstance(v, dict) and v.get("type") in shape_types else v for k, v in d.items()}
+    want = [k for k, v in d.items() if isinstance(v, mi.Shape)]
+    for _ in range(tries):
+        scene = mi.load_dict(d, parallel=False)
+        if [sh.id() for sh in scene.shapes()] == want:
+            return scene
+    raise RuntimeError(f"Mitsuba loaded the scene's shapes out of order {tries} times")
+
+
 class PbrRenderer:
     """One clip's fixed parts (scene draw, camera, lens maps, media) and its per-frame path tracing."""
 
@@ -422,7 +436,7 @@ class PbrRenderer:
                 pose,
                 glow=self._glow(_linear(sc.float_color), 0.6),
             )
-        return mi.load_dict(d)
+        return _load_in_order(mi, d)
 
     def _float_local(self, pose: Pose) -> Mesh:
         """The float in container coordinates: at the surface's centre, along its slope, a third of it below."""
