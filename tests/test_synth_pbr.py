@@ -118,6 +118,7 @@ def test_leaning_container_keeps_the_liquid_level():
     assert row["container_angle_deg"] == pytest.approx(6.0, abs=0.05)
     assert row["surface_angle_deg"] == pytest.approx(0.0, abs=1e-9)
     assert row["rel_angle_deg"] == pytest.approx(-6.0, abs=0.05)
+    assert abs(row["left_wall_px"]) < 1e-9 and abs(row["right_wall_mm"]) < 1e-9, "at rest: no rise at the walls"
     assert _edge_angle_deg(img, row) == pytest.approx(0.0, abs=1.0)
 
 
