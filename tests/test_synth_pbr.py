@@ -1,0 +1,186 @@
+"""sloshid synth --renderer pbr: the same seed gives the same files, the truth is where the picture shows the liquid.
+
+Renders are small (at most 240x180, a few samples per pixel, a few frames), a second or two each.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import replace
+
+import cv2
+import numpy as np
+import pytest
+
+from sloshid.core.tables import read_csv
+from sloshid.synthetic.pbr import PbrRenderer, pbr_frames
+from sloshid.synthetic.pbr_scene import draw_scene
+from sloshid.synthetic.render import SynthSettings
+
+TINY = ("--width", "160", "--height", "120", "--spp", "2", "--duration", "0.3", "--fps", "10")
+
+
+def _synth(run_cli, out, seed: int, *extra: str):
+    code, _, err = run_cli("synth", out, "--renderer", "pbr", "--scene-seed", seed, *TINY, *extra)
+    assert code == 0, err
+    return [out.read_bytes(), out.with_name(out.stem + "_truth.csv").read_bytes()]
+
+
+def test_same_seed_same_bytes_other_seed_other_scene(run_cli, tmp_path):
+    a = _synth(run_cli, tmp_path / "a.mp4", 5, "--scene", "surface")
+    b = _synth(run_cli, tmp_path / "b.mp4", 5, "--scene", "surface")
+    c = _synth(run_cli, tmp_path / "c.mp4", 6, "--scene", "surface")
+    assert a == b
+    assert a[0] != c[0] and a[1] != c[1]
+    drawn = json.loads((tmp_path / "a_scene.json").read_text())
+    assert drawn["scene"]["seed"] == 5 and drawn["renderer"] == "pbr"
+    assert (tmp_path / "a_scene.json").read_bytes() == (tmp_path / "b_scene.json").read_bytes()
+    assert (tmp_path / "a_scene.json").read_bytes() != (tmp_path / "c_scene.json").read_bytes()
+    truth = read_csv(tmp_path / "a_truth.csv")
+    assert {"surface_angle_deg", "left_wall_px", "right_wall_px", "container_angle_deg", "box_x0_px"} <= set(truth)
+
+
+def _blue_glass(roll_deg: float, lean_deg: float = 0.0):
+    """A straight cylinder of strong blue dye in soft light before a plain wall, seen level (no lens distortion)."""
+    return replace(
+        draw_scene(0, "surface"),
+        container="cylinder",
+        taper=0.0,
+        liquid="strong_dye",
+        liquid_color="blue",
+        background="plain",
+        clutter=(),
+        elevation_deg=0.0,
+        roll_deg=roll_deg,
+        lean_deg=lean_deg,
+        k1=0.0,
+        k2=0.0,
+        light="soft",
+        noise_sigma=0.0,
+        frame_fill=0.6,
+        second_mode=0.0,
+    )
+
+
+def _still(width=320, height=240) -> SynthSettings:
+    return SynthSettings(
+        width=width, height=height, duration_s=0.1, fps=10, renderer="pbr", spp=4, scene="surface", amplitude_deg=0
+    )
+
+
+def _edge_angle_deg(img: np.ndarray, row: dict) -> float:
+    """The angle of the liquid's top edge in the picture: per column across the middle half of the glass, the first
+    blue row from above (on a median-filtered blueness: the path tracer leaves specks), a line fitted twice, the
+    second time without the columns more than a pixel off the first line."""
+    blue = cv2.medianBlur(np.clip(img[..., 0].astype(int) - img[..., 2], 0, 255).astype(np.uint8), 5)
+    half = 0.25 * (row["box_x1_px"] - row["box_x0_px"])
+    xs = np.arange(int(row["surface_x_px"] - half), int(row["surface_x_px"] + half))
+    top = int(row["surface_y_px"] - 0.3 * (row["surface_y_px"] - row["box_y0_px"]))
+    ys = []
+    for x in xs:
+        col = blue[top:, x].astype(float)
+        i = max(int(np.argmax(col > 60)), 1)
+        thr = 0.5 * (np.median(col[:i]) + np.median(col[i + 2 : i + 12]))  # half-way: the light is not even
+        i = max(int(np.argmax(col > thr)), 1)
+        ys.append(top + i - 1 + (thr - col[i - 1]) / max(col[i] - col[i - 1], 1.0))  # to a share of a pixel
+    ys = np.array(ys)
+    line = np.polyfit(xs, ys, 1)
+    keep = np.abs(np.polyval(line, xs) - ys) <= 1.0
+    slope = np.polyfit(xs[keep], ys[keep], 1)[0]
+    return -math.degrees(math.atan(slope))
+
+
+@pytest.mark.parametrize("roll", [-3.0, 2.5])
+def test_truth_is_where_the_picture_shows_the_liquid(roll):
+    # The drawn truth for a level surface is the camera's roll itself (no lens distortion here), and the blue edge
+    # found in the picture has that angle within 1 deg: at 4 samples per pixel the path tracer's specks move the edge
+    # found across ~80 columns of a 320x240 picture by up to 0.6 deg (the light from either side, or none).
+    s = _still()
+    row, img = next(pbr_frames(s, _blue_glass(roll)))
+    assert row["surface_angle_deg"] == pytest.approx(roll, abs=1e-9)
+    assert row["container_angle_deg"] == pytest.approx(roll, abs=1e-9)
+    assert abs(row["left_wall_px"]) < 1e-9 and abs(row["right_wall_px"]) < 1e-9
+    assert _edge_angle_deg(img, row) == pytest.approx(roll, abs=1.0)
+    blue = img[..., 0].astype(int) - img[..., 2]
+    x = round(row["surface_x_px"])
+    below = round(row["surface_y_px"] + 0.5 * (row["container_y_px"] - row["surface_y_px"]))
+    above = round(row["surface_y_px"] - 0.5 * (row["surface_y_px"] - row["box_y0_px"]))
+    assert blue[below, x] > 60, "the liquid's colour is below the truth's surface"
+    assert blue[above, x] < 20, "no liquid colour above it"
+
+
+def test_leaning_container_keeps_the_liquid_level():
+    # The container leans in the picture, the liquid at rest stays level: the truth's surface is the roll, the
+    # container's angle lean + roll (to 0.05 deg: the leaning axis is seen in perspective, off the picture's centre),
+    # and the picture's edge follows the surface, not the container (1 deg, as above).
+    row, img = next(pbr_frames(_still(), _blue_glass(0.0, lean_deg=6.0)))
+    assert row["container_angle_deg"] == pytest.approx(6.0, abs=0.05)
+    assert row["surface_angle_deg"] == pytest.approx(0.0, abs=1e-9)
+    assert row["rel_angle_deg"] == pytest.approx(-6.0, abs=0.05)
+    assert abs(row["left_wall_px"]) < 1e-9 and abs(row["right_wall_mm"]) < 1e-9, "at rest: no rise at the walls"
+    assert _edge_angle_deg(img, row) == pytest.approx(0.0, abs=1.0)
+
+
+def test_lens_distortion_moves_picture_and_truth_alike():
+    # The picture is warped with the inverse of the truth's projection: a world point's distorted pixel must read the
+    # undistorted render where the undistorted camera puts that point (to 0.01 px; the inversion iterates to 1e-6).
+    s = SynthSettings(width=320, height=240, duration_s=0.1, fps=10, renderer="pbr", scene="surface")
+    sc = replace(draw_scene(2, "surface"), k1=-0.15, k2=0.02)
+    r = PbrRenderer(s, sc)
+    mapx, mapy = r.camera.distortion_maps()
+    cam = r.camera  # world points all over the picture: undistorted pixels lifted to 0.5 m in front of the camera
+    pix = np.random.default_rng(0).uniform([0, 0], [319, 239], (60, 2))
+    rays = np.column_stack([(pix - cam.K[:2, 2]) / cam.K[0, 0], np.ones(len(pix))])
+    pts = cam.C + 0.5 * rays @ cam.R
+    distorted = r.camera.project(pts)
+    ideal = replace(r.camera, dist=np.zeros(5)).project(pts)
+    inside = (distorted[:, 0] > 1) & (distorted[:, 0] < 318) & (distorted[:, 1] > 1) & (distorted[:, 1] < 238)
+    assert inside.sum() > 30
+    sample = np.stack(
+        [cv2.remap(m, distorted[inside, None].astype(np.float32), None, cv2.INTER_LINEAR) for m in (mapx, mapy)]
+    )
+    np.testing.assert_allclose(sample[..., 0].T, ideal[inside], atol=0.01)
+    assert np.max(np.abs(distorted - ideal)) > 2, "the distortion is strong enough to matter"
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (("--renderer", "pbr", "--roll", "2"), "--roll is not an option of the pbr renderer"),
+        (("--renderer", "pbr", "--scene", "surface", "--liquid-color", "red"), "--liquid-color is not an option of"),
+        (("--scene-seed", "4"), "--scene-seed applies only to --renderer pbr"),
+        (("--renderer", "pbr", "--travel", "2000"), "would leave the"),
+        (("--renderer", "pbr", "--amplitude", "30"), "above the rim"),
+    ],
+)
+def test_bad_scene_option_is_one_sentence_and_no_file(run_cli, tmp_path, args, message):
+    out = tmp_path / "bad.mp4"
+    code, _, err = run_cli("synth", out, *TINY[:4], *args)
+    assert code == 2
+    assert message in err
+    assert len(err.strip().splitlines()) == 1
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_float_is_where_and_as_turned_as_the_truth_says():
+    # A red float at the first peak of an 8 deg tap: the red pixels' centre is the truth's float centre (within 2 px)
+    # and their long axis its angle, within 1.5 deg: the float is ~70 px long in a 320x240 picture, seen through the
+    # glass above the liquid, whose refraction shifts and blurs its ends by a pixel or so.
+    s = SynthSettings(  # frames at 0 and 0.1 s, the peak of Table I's liquid 0.073 s after a tap at 0.03 s
+        width=320, height=240, duration_s=0.2, fps=10, tap_s=0.03, amplitude_deg=8.0, renderer="pbr", spp=4
+    )
+    sc = replace(_blue_glass(0.0), liquid="faint_dye", float_color="red", float_shape="stick", elevation_deg=5.0)
+    frames = list(pbr_frames(s, sc))
+    row, img = max(frames, key=lambda f: abs(f[0]["float_angle_deg"]))
+    assert abs(row["float_angle_deg"]) > 5
+    b, g, r = (img[..., i].astype(int) for i in range(3))
+    ys, xs = np.nonzero((r > g + 60) & (r > b + 60))
+    assert len(xs) > 50
+    assert np.hypot(xs.mean() - row["float_x_px"], ys.mean() - row["float_y_px"]) < 2.0
+    cov = np.cov(np.stack([xs, ys]))
+    w, v = np.linalg.eigh(cov)
+    axis = v[:, np.argmax(w)]
+    seen = math.degrees(math.atan2(-axis[1], axis[0]))
+    seen = (seen + 90) % 180 - 90
+    assert seen == pytest.approx(row["float_angle_deg"], abs=1.5)
