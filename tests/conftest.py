@@ -30,7 +30,7 @@ def run_cli(capsys):
 
 @pytest.fixture(scope="session")
 def antisloshing_dir() -> Path:
-    """The eight measured runs in ../shared/data/antisloshing (skip when the checkout has no shared/)."""
+    """The ten measured runs in ../shared/data/antisloshing (skip when the checkout has no shared/)."""
     if not ANTISLOSHING.is_dir():
         pytest.skip("../shared/data/antisloshing is not beside this checkout")
     return ANTISLOSHING

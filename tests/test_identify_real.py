@@ -1,4 +1,4 @@
-"""The eight measured antisloshing runs (known physics: first mode 3.047 Hz) and the HTML report's content."""
+"""The ten measured antisloshing runs (known physics: first mode 3.047 Hz) and the HTML report's content."""
 
 from __future__ import annotations
 
@@ -18,16 +18,17 @@ F_PHYS = 3.047  # analytic first mode for R = 49 mm, h = 78 mm (data README); a 
 
 def test_real_runs_frequency_and_verdicts(antisloshing_dir):
     runs = sorted((antisloshing_dir / "slosh").glob("*.mat"))
-    assert len(runs) == 8
+    assert len(runs) == 10
     results = {p.stem: identify_sources([p]) for p in runs}
     for name, res in results.items():
         f = res.parameters["f_hz"].value
         # every run, good or not, must land within the +-2 % the issue allows (nonlinear, 20-50 mm crests)
         assert abs(f / F_PHYS - 1) < 0.02, (name, f)
     good = [n for n, r in results.items() if r.groups["frequency"].quality == "good"]
-    # measured: 7 of 8 good frequencies (the issue's target is 85 %); the eighth's wall amplitude grows until the
-    # recording stops
-    assert len(good) >= 7, {n: r.reasons for n, r in results.items()}
+    # measured: 8 of 10 good frequencies (the issue's target is 85 % of the first eight, of which 7 are good): the wall
+    # amplitude of TRD_2D grows until the recording stops, and the 3-D figure-eight LE_3D (shared for issue 38) reads
+    # an uncertain frequency
+    assert len(good) >= 8, {n: r.reasons for n, r in results.items()}
     grow = results["TRD_2D_0.3m_2.2s_270deg"]
     assert grow.groups["damping"].quality == "unreliable" and "zeta" in grow.fit.at_bound
     # the run with a 62.8 % fit whose log decrement (0.004) lies far outside the fit's zeta interval (0.0011-0.0021):
@@ -46,7 +47,7 @@ def test_joint_identification_of_all_runs(antisloshing_dir):
     sigs = [load_signal(p) for p in sorted((antisloshing_dir / "slosh").glob("*.mat"))]
     res = Identifier().fit(sigs).result
     assert abs(res.parameters["f_hz"].value / F_PHYS - 1) < 0.02
-    assert len(res.windows) == 8 and all(w.t0_s > 10 for w in res.windows)  # ~10 s quiet lead-in plus motion
+    assert len(res.windows) == 10 and all(w.t0_s > 10 for w in res.windows)  # ~10 s quiet lead-in plus motion
 
 
 def test_report_has_every_figure_and_table(antisloshing_dir, tmp_path, run_cli):

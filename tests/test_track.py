@@ -756,8 +756,9 @@ def test_a_container_turning_under_level_liquid_is_measured_in_every_frame(tmp_p
 def test_repeated_pictures_are_not_measured_again_and_track_as_before(tmp_path, monkeypatch):
     # the still container's liquid rests before its tap and the encoder copies it (at CRF 26): those frames take the row
     # of the frame they copy, and count toward the colour model's refits; measuring them anyway gives the same track
-    # (measured: within 0.012 deg and 0.04 px, 0.006 deg before the walls were read from a tenth of the liquid's height
-    # down; 0.054 deg and 0.58 px when copies did not count toward the refits)
+    # (measured: within 0.012 deg and 0.15 px; 0.006 deg and 0.04 px before the walls were read from a tenth of the
+    # liquid's height down, where the wall's reflection of the surface lies and each colour refit moves its edge a
+    # little; 0.054 deg and 0.58 px when copies did not count toward the refits)
     path = tmp_path / "still.mp4"
     truth = render_video(path, SynthSettings(**dict(STILL_SURFACE, quality=26)))
     settings = TrackSettings(target="surface", smooth=False)
@@ -772,7 +773,7 @@ def test_repeated_pictures_are_not_measured_again_and_track_as_before(tmp_path, 
     assert np.abs(res.angle_deg - every.angle_deg)[ok].max() < 0.02
     for side in ("left", "right"):
         column = f"{side}_wall_px"
-        assert np.abs(res.columns()[column] - every.columns()[column])[ok].max() < 0.05
+        assert np.abs(res.columns()[column] - every.columns()[column])[ok].max() < 0.2
     assert _rmse((res.angle_deg - truth["surface_angle_deg"])[ok]) < 0.3
 
 

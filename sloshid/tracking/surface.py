@@ -645,8 +645,8 @@ def _sustained(inside: np.ndarray) -> np.ndarray:
 def _column_box(
     inside: np.ndarray, origin: tuple[int, int], bottom_open: bool = False
 ) -> tuple[int, int, int, int] | None:
-    """Frame box (x0, y0, x1, y1) of the liquid column in a membership map (`inside`, as `_inside` gives it): from the
-    liquid's top down to where the liquid ends below its centre, or to where something of its colour wider than the
+    """Frame box (x0, y0, x1, y1) of the liquid column in a membership map (`inside`, as `_inside` gives it): the
+    longest stretch of liquid through its centre (`_centre_run`), down to where the liquid ends, or to where something of its colour wider than the
     container begins (a holder, a table, a thick glass bottom: `_column_end`). None when there is no body, when the
     column touches the map's sides above its end, or (unless `bottom_open`) reaches the map's bottom: the body left
     the map."""
@@ -665,28 +665,36 @@ def _column_box(
     dl, dr = np.argmax(~seg[:, c::-1], axis=1), np.argmax(~seg[:, c:], axis=1)
     walled = seg[:, c] & ~seg[:, 0] & ~seg[:, -1]
     left, right = (c + 1 - dl).astype(float), (c + dr).astype(float)
-    n = _column_end(seg[:, c], left, right)
-    if n < 12 or np.any(seg[:n, c] & ~walled[:n]):  # the column reaches the map's side
+    start, stop = _centre_run(seg[:, c])
+    n = start + _column_end(seg[start:stop, c], left[start:stop], right[start:stop])
+    if n - start < 12 or np.any(seg[start:n, c] & ~walled[start:n]):  # the column reaches the map's side
         return None
     if n == seg.shape[0] and not bottom_open:
         return None
     X0, Y0 = origin
-    rows = seg[:n, c]
-    return X0 + int(left[:n][rows].min()), Y0 + top, X0 + int(right[:n][rows].max()), Y0 + top + n
+    rows = seg[start:n, c]
+    x0, x1 = int(left[start:n][rows].min()), int(right[start:n][rows].max())
+    return X0 + x0, Y0 + top, X0 + x1, Y0 + top + n  # from the liquid's top: a pale surface band seen from above too
+
+
+def _centre_run(centre: np.ndarray) -> tuple[int, int]:
+    """The longest stretch of rows (start, stop) in which the column's centre holds liquid, across gaps of up to three
+    rows: the body, not a pale band above it (the surface seen from above, a meniscus) nor a holder beyond a gap."""
+    rows = np.flatnonzero(centre)
+    if rows.size == 0:
+        return 0, 0
+    breaks = np.flatnonzero(np.diff(rows) > 4)
+    starts, stops = np.r_[rows[:1], rows[breaks + 1]], np.r_[rows[breaks], rows[-1:]] + 1
+    k = int(np.argmax(stops - starts))
+    return int(starts[k]), int(stops[k])
 
 
 def _column_end(centre: np.ndarray, left: np.ndarray, right: np.ndarray) -> int:
-    """Rows of the liquid column (from its top): up to the first gap of more than three rows without liquid at its
-    centre (the bottom), or up to where both sides of the run step outward from the walls' lines by more than
-    OUTWARD_PX (or OUTWARD_SHARE of the width) in three successive rows. The walls' lines are fitted on the middle
-    of the column (its 30-60 % rows): below the slosh's reach, above what may stand below the container."""
-    missing = np.flatnonzero(~centre)
-    runs = np.flatnonzero(np.diff(missing) > 1)  # gaps in the centre's liquid: where each missing stretch starts
+    """Rows of the liquid column (from its top, the `_centre_run`): all of them, or up to where both sides of the run
+    step outward from the walls' lines by more than OUTWARD_PX (or OUTWARD_SHARE of the width) in three successive rows.
+    The walls' lines are fitted on the middle of the column (its 30-60 % rows): below the slosh's reach, above what may
+    stand below the container."""
     length = centre.size
-    for start, stop in zip(np.r_[missing[:1], missing[runs + 1]], np.r_[missing[runs], missing[-1:]]):
-        if stop - start >= 3 and start > 0:
-            length = int(start)
-            break
     lo, hi = int(0.3 * length), int(0.6 * length)
     if hi - lo < 10:
         return length
@@ -864,6 +872,9 @@ above its end; `_on_wall` and `straight_part` leave out the rows a slosh, a bott
 MIN_DEPTH_PX = 30
 """A liquid column less deep than this is not measured: a float's bar (144 x 24 px) has straight sides too and was taken
 for the liquid once the walls were read from a tenth of the height down; a shallow fill's 576 x 48 px is measured."""
+WALL_SHARE = 4
+"""At least one in this many of the rows that may be a wall's must be on its straight part (sensor speckle on a
+path-traced glass moves the liquid's edge by more than WALL_TOL_PX in up to half of them)."""
 WALL_TOL_PX = 1.5
 """A wall's colour crossings lie within this of its line (compression blocks move them by up to 1.3 px)."""
 WALL_MAX_SLOPE = 0.84
@@ -911,6 +922,8 @@ def _container_axes(
     mid = (y0 + y1) // 2 - Y0
     bottom, okb = _crossings_first(1.0 - body[mid:, c0:c1], ~inside[mid:, c0:c1], axis=0)
     bottom += mid
+    if np.count_nonzero(okb) < okb.size // 3:  # the liquid runs on below (a label or holder of its colour): the
+        bottom[:], okb[:] = y1 - Y0, True  # column's end, where that begins, stands for the bottom
     # within the rows already left out above the bottom (a tenth of the height): an upright container keeps every row
     # it had, also a shallow fill (a twentieth of its width reached past them and took its walls)
     margin = min(CORNER_SHARE * (x1 - x0), 0.1 * (y1 - y0) + 2)
@@ -940,7 +953,7 @@ def _container_axes(
     t[:2, :n], t[2, :m] = rows, np.arange(c0, c1)
     v[0, :n], v[1, :n], v[2, :m] = left, right, bottom
     ok[0, :n], ok[1, :n], ok[2, :m] = okl, okr, okb
-    lines, _ = robust_lines(t, v, ok, 0.3, min_points=np.array([max(10, k // 3) for k in (*wall_rows, m)]))
+    lines, _ = robust_lines(t, v, ok, 0.3, min_points=np.array([max(10, k // WALL_SHARE) for k in (*wall_rows, m)]))
     if np.isnan(lines).any():
         return None
     (aL, bL), (aR, bR), (k, d) = lines
