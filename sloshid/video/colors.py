@@ -48,8 +48,10 @@ PRESETS: dict[str, ColorPreset] = {
     "green": ColorPreset((60, 190, 40), HsvRange((45, 110, 60), (80, 255, 255))),
     "blue": ColorPreset((215, 80, 30), HsvRange((100, 140, 60), (125, 255, 255))),
     "magenta": ColorPreset((200, 40, 205), HsvRange((140, 110, 60), (165, 255, 255))),
+    "dark": ColorPreset((22, 26, 34), HsvRange((0, 0, 0), (179, 255, 60))),
 }
-"""Float colour presets; the HSV ranges are wide enough for sensor noise, blur and compression."""
+"""Float and dye colour presets; the HSV ranges are wide enough for sensor noise, blur and compression. "dark" is any
+hue too dark to have one: a near-black liquid (cola, coffee, ink), which no hue range finds."""
 
 DEFAULT_FLOAT_COLOR = "red"
 """The colour synth paints by default and track looks for by default."""
