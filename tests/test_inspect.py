@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 import sloshid
+from sloshid.core.tables import read_csv
 from sloshid.synthetic.render import SynthSettings, render_frames, render_video
 from sloshid.tracking.tracker import TrackSettings, measure_frame, track_video
 from sloshid.video.frames import FrameReader, VideoWriter
@@ -71,20 +72,22 @@ def test_a_synth_clip_gets_its_target_and_colour_and_the_command_tracks(tmp_path
 
 
 def test_the_real_frame_shows_blue_liquid_and_a_surface_command_with_an_roi(tmp_path, run_cli):
+    # at half size (960x540), where the tracker measures the frame alone (at full size a single frame's front edge fits
+    # to a quality of 0.39 across the meniscus band; track measures it from the settled elevation after 15 frames)
     if not REAL_FRAME.exists():
         pytest.skip("../shared/data/real is not beside this checkout")
-    frame = cv2.imread(str(REAL_FRAME))
+    frame = cv2.resize(cv2.imread(str(REAL_FRAME)), (960, 540), interpolation=cv2.INTER_AREA)
     clip = _write(tmp_path / "real.mp4", [frame] * 3)
     code, out, err = run_cli("inspect", clip, "-o", tmp_path / "real.png")
-    assert code in (0, 1), err  # 1: found, but the tracker does not measure this frame today (the holder, the glass)
+    assert code == 0, err  # measured: the liquid's column stops above the holder of its colour
     assert "colours found (share of the picture): blue" in out
-    assert "surface: blue liquid " in out or "surface: the largest blue region, " in out  # measured, or not
+    assert "surface: blue liquid " in out and "measured, surface at " in out
     command = _next_command(out)
     assert command[5:9] == ["--target", "surface", "--liquid-color", "blue"]
     x, y, w, h = map(int, command[command.index("--roi") + 1].split(","))
-    # around the cylinder: its liquid spans x 650-1320 with its surface at y 575; the camera body at the left
-    # (x < 170) and the holder's plate below y 900 are left out
-    assert 450 < x < 650 and 1320 < x + w < 1500 and 150 < y < 560 and 850 < y + h <= 960
+    # around the cylinder: its liquid spans x 325-660 with its surface at y 288; the camera body at the left
+    # (x < 85) and the holder's plate below y 450 are left out
+    assert 225 < x < 325 and 660 < x + w < 750 and 75 < y < 280 and 425 < y + h <= 480
     assert (tmp_path / "real.png").exists()
 
 
@@ -265,3 +268,23 @@ def test_a_float_measured_beside_the_liquid_gets_its_command_too(tmp_path, run_c
     line = next(line for line in out.splitlines() if line.startswith("a red float is measured too"))
     other = shlex.split(line.split("instead: ")[1])
     assert other[5:7] == ["--float-color", "red"] and run_cli(*other[1:])[0] == 0
+
+
+def test_a_path_traced_render_gets_a_surface_command_that_tracks(tmp_path, run_cli):
+    # a physically based render (scene seed 1000: an orange juice in a beaker with graduation marks, 320x240 at 4
+    # samples per pixel): inspect finds the orange liquid, and its suggested command tracks the surface against the image
+    # within 1 deg of the scene's truth (measured 0.38 deg; the path tracer's specks at this size are most of it)
+    clip = tmp_path / "pbr.mp4"
+    size = ("--width", "320", "--height", "240", "--spp", "4", "--duration", "0.3", "--fps", "10")
+    assert run_cli("synth", clip, "--renderer", "pbr", "--scene-seed", 1000, "--scene", "surface", *size)[0] == 0
+    code, out, err = run_cli("inspect", clip, "-o", tmp_path / "look.png")
+    assert code == 0, err
+    command = _next_command(out)
+    assert command[5:9] == ["--target", "surface", "--liquid-color", "orange"]
+    image_reference = [word for word in command[1:] if word not in ("--reference", "container")]
+    code, _, err = run_cli(*image_reference)
+    assert code == 0, err
+    tracked = read_csv(tmp_path / "pbr_angles.csv")
+    truth = read_csv(tmp_path / "pbr_truth.csv")
+    assert tracked["valid"].all()
+    assert np.abs(tracked["angle_deg"] - truth["surface_angle_deg"]).max() < 1.0
