@@ -65,11 +65,10 @@ def straight_part(t: np.ndarray, v: np.ndarray, ok: np.ndarray, tol: float, max_
         at = np.flatnonzero(ok[k])
         if at.size < 10:
             continue
-        anchors = at[np.linspace(2, at.size - 3, min(12, at.size - 4)).astype(int)]
-        pos = np.searchsorted(at, anchors)
-        ta = t[anchors].astype(float)
-        va = np.array([np.median(v[k, at[max(0, p - 2) : p + 3]]) for p in pos])
-        i, j = np.triu_indices(len(anchors), 1)
+        pos = np.linspace(2, at.size - 3, min(12, at.size - 4)).astype(int)  # anchors, among the usable points
+        ta = t[at[pos]].astype(float)
+        va = np.partition(v[k, at[pos[:, None] + np.arange(-2, 3)]], 2, axis=1)[:, 2]  # medians of five
+        i, j = np.triu_indices(len(pos), 1)
         far = np.abs(ta[j] - ta[i]) >= 0.25 * (t[at[-1]] - t[at[0]])
         i, j = i[far], j[far]
         if i.size == 0:

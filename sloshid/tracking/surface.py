@@ -656,14 +656,18 @@ def _column_box(
     top = int(r[0])
     # highlight stripes cut rows into pieces: closed across a tenth of the body's width for the runs below
     gap = 2 * int(PIECE_GAP * median(per_row[r].astype(float))) + 3
-    seg = cv2.morphologyEx(inside[top:].view(np.uint8), cv2.MORPH_CLOSE, np.ones((1, gap), np.uint8)).view(bool)
+    # on the map padded with no liquid: at its edge a closing reads the outside as liquid, or erodes the body near it
+    kernel = np.ones((1, gap), np.uint8)
+    padded = cv2.copyMakeBorder(inside[top:].view(np.uint8), 0, 0, gap, gap, cv2.BORDER_CONSTANT, value=0)
+    closed = np.ascontiguousarray(cv2.morphologyEx(padded, cv2.MORPH_CLOSE, kernel)[:, gap:-gap])
+    seg = closed.view(bool)
     # the centre: middle of the columns the upper half of the body fills (a wider holder below does not move it)
     upper = cv2.reduce(seg[: max(1, (int(r[-1]) - top) // 2)].view(np.uint8), 0, cv2.REDUCE_SUM, dtype=cv2.CV_32S)
     filled = np.flatnonzero(upper.ravel() >= 0.1 * upper.max())
     c = (int(filled[0]) + int(filled[-1])) // 2
     # per row, the run of liquid through the centre: its first and its last-plus-one column
     dl, dr = np.argmax(~seg[:, c::-1], axis=1), np.argmax(~seg[:, c:], axis=1)
-    walled = seg[:, c] & ~seg[:, 0] & ~seg[:, -1]
+    walled = seg[:, c] & ~inside[top:, 0] & ~inside[top:, -1]
     left, right = (c + 1 - dl).astype(float), (c + dr).astype(float)
     start, stop = _centre_run(seg[:, c])
     n = start + _column_end(seg[start:stop, c], left[start:stop], right[start:stop])
