@@ -487,7 +487,8 @@ def track_video(
             hint = (
                 f"see the overlay {overlay}"
                 if overlay
-                else "write an overlay video ({overlay}) to see what was searched"
+                else "look at a frame with `sloshid inspect` (it draws what each target finds and suggests a command), "
+                "or write an overlay video ({overlay}) to see what was searched"
             )
             raise step.nothing_found(len(rows), path, hint)
         body, walls, notes = step.finish(rows)
