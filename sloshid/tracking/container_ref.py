@@ -191,7 +191,8 @@ def _edge_points(grad: np.ndarray, usable: np.ndarray) -> tuple[np.ndarray, np.n
 def detect_walls(
     frame: np.ndarray, float_x: float, float_y: float, float_len: float, roi: tuple[int, int, int, int]
 ) -> list[EdgeLine]:
-    """First frame: the nearest long near-vertical Hough lines left and right of the float, as coarse edges."""
+    """First frame: the strongest long near-vertical Hough lines left and right of the float, within WALL_REACH float
+    lengths of it, as coarse edges (the nearest were often lines inside the liquid: its refraction, a label's edge)."""
     x, y, w, h = roi
     gray = cv2.GaussianBlur(cv2.cvtColor(frame[y : y + h, x : x + w], cv2.COLOR_BGR2GRAY), (0, 0), 1.0)
     edges = cv2.Canny(gray, 30, 90)
@@ -210,13 +211,15 @@ def detect_walls(
         b = rho / math.cos(theta) - a * y + x  # back to frame coordinates
         xf = a * float_y + b
         side = -1 if xf < float_x - 0.5 * float_len else (1 if xf > float_x + 0.5 * float_len else 0)
-        if side == 0:
-            continue
-        dist = abs(xf - float_x)
-        if side not in best or dist < best[side][0]:
-            span = int(1.5 * float_len)
-            best[side] = (dist, EdgeLine(a, b, int(float_y - span), int(float_y + span), math.inf, 0))
-    return [best[s][1] for s in sorted(best)]
+        if side == 0 or side in best or abs(xf - float_x) > WALL_REACH * float_len:
+            continue  # OpenCV lists the lines by their votes: the first on each side is the strongest
+        span = int(1.5 * float_len)
+        best[side] = EdgeLine(a, b, int(float_y - span), int(float_y + span), math.inf, 0)
+    return [best[s] for s in sorted(best)]
+
+
+WALL_REACH = 4.0
+"""How far from the float (in float lengths) a wall may be: a float spans a quarter of the width or more."""
 
 
 GLASS_SLOPES = np.linspace(-0.03, 0.03, 31)
@@ -332,6 +335,7 @@ class ContainerTracker:
         self._held = 0  # frames it has been held for since
         self._ends: tuple | None = None  # the measured frame's wall ends: rows, columns, grey, `_edges_of` the grey
         self._on_glass = False  # the walls are found by `glass_edges` (Hough and the rows' edges found none)
+        self._hough: list[EdgeLine] = []  # the last Hough lines whose edges could not be followed row by row
 
     def measure(
         self,
@@ -346,7 +350,8 @@ class ContainerTracker:
         caller saw no motion of the container (or cannot tell), so the walls may be held if their ends agree (see
         HOLD_FRAMES); False: measured in this frame. `glass`: the surface target's (seed walls, their rows, the rows of
         their ends to watch): when Hough and the rows' edges find no walls (faint glass, as in real footage), the walls
-        are the glass's edges along the liquid's sides (`glass_edges`), in this frame and every later one."""
+        are the glass's edges along the liquid's sides (`glass_edges`), in this frame and every later one. Without it (the
+        float), Hough lines whose edges are too noisy to follow row by row seed `glass_edges` likewise."""
         if not np.isfinite(float_x):
             return ContainerMeasurement(False)
         unmoved = None  # the walls' ends where the last measurement saw them: asked when a hold may go on or ends
@@ -358,13 +363,16 @@ class ContainerTracker:
         if self._held and unmoved is None:
             unmoved = self._unmoved(frame)
         before, frames = self._last, self._held + 1
-        if glass is not None and self._on_glass:
-            m, anew = self._glass(frame, *glass, frames), False
-        else:
+        if self._on_glass:
+            m, anew = self._glass(frame, *self._glass_seeds(glass, float_y, float_len, frames), frames), False
+            self._on_glass = m.found or glass is not None  # a float's walls lost: Hough anew
+        if not self._on_glass:
             m, anew = self._measure(frame, float_x, float_y, float_len, frames)
-            if not m.found and glass is not None:  # no wall edge found row by row: the glass's line sums from now on
+            if not m.found and (glass is not None or self._hough):
+                # no wall edge found row by row (faint glass, a noisy picture): the glass's line sums from now on
                 self._on_glass = True
-                m, anew = self._glass(frame, *glass, frames), False
+                seeds = self._glass_seeds(glass, float_y, float_len, frames)
+                m, anew = self._glass(frame, *seeds, frames), anew and glass is None
         m.unmoved = bool(unmoved) and not anew  # walls found anew may sit elsewhere than the ends watched
         turn = abs(m.angle_deg - before.angle_deg) / frames if m.found and before.found else math.inf
         self._steady = max(turn / STEADY_DEG, abs(self._shift) / STEADY_PX) * (HOLD_FRAMES - 1) < 1
@@ -389,7 +397,22 @@ class ContainerTracker:
             if m.found:
                 return m, False
         self._walls, self._shift = detect_walls(frame, float_x, float_y, float_len, self.roi), 0.0
-        return (self._follow(frame, rows) if self._walls else ContainerMeasurement(False)), True
+        hough = self._walls
+        m = self._follow(frame, rows) if hough else ContainerMeasurement(False)
+        self._hough = [] if m.found else hough
+        return m, True
+
+    def _glass_seeds(
+        self, glass: tuple | None, float_y: float, float_len: float, frames: int
+    ) -> tuple[list[EdgeLine], tuple[int, int], tuple[int, int]]:
+        """`glass_edges`' seeds, rows and watched ends: the surface target's, or about the float the last walls moved
+        on at their last shift (the Hough lines when there are none), over the rows `_follow` reads (in the ROI)."""
+        if glass is not None:
+            return glass
+        top, bottom = self.roi[1], self.roi[1] + self.roi[3]
+        rows = (max(top, int(float_y - 1.5 * float_len)), min(bottom, int(float_y + 1.5 * float_len)))
+        moved = [replace(wall, b=wall.b + self._shift * frames) for wall in self._walls]
+        return moved or self._hough, rows, rows
 
     def _glass(
         self, frame: np.ndarray, seeds: list[EdgeLine], rows: tuple[int, int], ends: tuple[int, int], frames: int
