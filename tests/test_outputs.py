@@ -392,6 +392,46 @@ def test_a_pipe_is_read_as_an_input_file(tmp_path):
         input_file(tmp_path / "nope.csv", "signal file")
 
 
+@pytest.mark.parametrize(
+    "args",
+    [
+        ["plan", ROOT / "data" / "scenarios" / "demo_move.toml", "--params", "/dev/zero", "-o", "p.csv"],
+        ["plan", "/dev/zero", "-o", "p.csv"],
+        ["identify", "/dev/zero", "-o", "p.json"],
+        ["compare", "/dev/zero"],
+        ["run", "/dev/zero"],
+    ],
+)
+def test_a_device_given_as_a_file_is_one_sentence(tmp_path, run_cli, monkeypatch, args):
+    # /dev/zero was read until memory ran out (3-3.6 GB), then a traceback
+    monkeypatch.chdir(tmp_path)
+    code, _, err = run_cli(*args)
+    assert code == 2 and "/dev/zero is a device or socket, not a file." in err and err.count("\n") == 1
+    assert not list(tmp_path.iterdir())
+
+
+def test_an_outsized_settings_file_is_refused_before_it_is_read(tmp_path, run_cli, monkeypatch):
+    import sloshid.core.settings as settings
+
+    scenario = tmp_path / "big.toml"
+    scenario.write_text("# " + "x" * 2000 + "\n")
+    monkeypatch.setattr(settings, "SMALL_FILE_BYTES", 1000)  # a small stand-in for 64 MB
+    code, _, err = run_cli("plan", scenario, "-o", tmp_path / "p.csv")
+    assert code == 2 and "more than such a file can be" in err and not (tmp_path / "p.csv").exists()
+
+
+def test_a_name_too_long_and_closed_standard_streams_are_no_traceback(tmp_path, run_cli):
+    code, _, err = run_cli("synth", tmp_path / ("a" * 300 + ".mp4"), "--duration", "0.5")
+    assert code == 2 and "longer than the file system allows" in err and err.count("\n") == 1
+    assert not list(tmp_path.iterdir())
+    for closed in ("1", "2"):  # `sloshid ... >&-` and `2>&-`: the run works, and its files hold only their own bytes
+        out = tmp_path / f"s{closed}.mp4"
+        cmd = f'"{sys.executable}" -m sloshid synth "{out}" --duration 0.5 {closed}>&-'
+        proc = subprocess.run(["bash", "-c", cmd], capture_output=True, text=True, timeout=120)
+        assert proc.returncode == 0 and "Traceback" not in proc.stdout + proc.stderr
+        assert out.read_bytes()[4:8] == b"ftyp"  # an MP4, not a message written into its first bytes
+
+
 def test_a_mass_far_from_the_geometrys_water_is_said(tmp_path, run_cli, decay_csv):
     # --mass 590 (grams) beside R = 49 mm, h = 78 mm (0.588 kg of water) passed without a word: d came out 1000x
     geometry = ("--container-radius-m", "0.049", "--fill-height-m", "0.078")

@@ -128,9 +128,31 @@ def _fail(message: str) -> int:
     return 2
 
 
+_PATH_TROUBLE = {
+    errno.ENAMETOOLONG: "a file or folder name in it is longer than the file system allows (255 bytes)",
+    errno.ENOTDIR: "a part of it that should be a folder is a file",
+    errno.ELOOP: "its symbolic links go round in a loop",
+    errno.EROFS: "it is on a read-only file system",
+    errno.ENOSPC: "the disk is full",
+}
+"""The file system's refusals of a path, in words: any other one is named by the system's own message."""
+
+
+def _reopen_closed_streams() -> None:
+    """Standard output or error closed by the caller (`cmd >&-`): /dev/null in its place, so that printing works and no
+    file this run opens is given its descriptor (where a library's writes to it would land)."""
+    for fd, name in ((1, "stdout"), (2, "stderr")):
+        try:
+            os.fstat(fd)
+        except OSError:
+            os.dup2(os.open(os.devnull, os.O_WRONLY), fd)
+            setattr(sys, name, open(fd, "w", closefd=False))  # noqa: SIM115 - the stream lives as long as the process
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point: parse, dispatch, and turn a UserError into one line on stderr with exit code 2."""
     argv = list(sys.argv[1:] if argv is None else argv)
+    _reopen_closed_streams()
     os.environ.setdefault("MPLBACKEND", "Agg")  # a command draws figures into files, never into windows
     wanted = next((a for a in argv if a in COMMANDS), None)
     args = None
@@ -165,7 +187,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         if exc.errno in (errno.ENOSPC, errno.EPIPE, errno.EIO) and exc.filename is None:  # standard output failed
             os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())  # so the exit-time flush cannot fail
             return _fail(f"could not write to standard output ({exc.strerror}).")
-        raise
+        if exc.filename is None:
+            raise
+        return _fail(f"could not use {exc.filename}: {_PATH_TROUBLE.get(exc.errno, exc.strerror or 'unknown error')}.")
     except (KeyboardInterrupt, Terminated):
         print("sloshid: interrupted; finished outputs are kept, nothing half-written was left.", file=sys.stderr)
         return 130 if not isinstance(sys.exc_info()[1], Terminated) else 143

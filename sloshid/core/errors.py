@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import stat
 from collections.abc import Callable
 from pathlib import Path
 
@@ -38,9 +39,14 @@ class SettingError(UserError):
         return err
 
 
-def input_file(path: str | os.PathLike, what: str) -> Path:
+SMALL_FILE_BYTES = 64 * 2**20
+"""Largest settings file (TOML scenario, pipeline or batch table; JSON parameters) read: a thousand times any real
+one, so that /dev/zero or a mistaken video given as one is refused before memory runs out."""
+
+
+def input_file(path: str | os.PathLike, what: str, max_bytes: int | None = None) -> Path:
     """`path` as a Path when it names a file (or a pipe) that can be read, else the one-sentence UserError (missing, a
-    folder, unreadable), naming it as `what` ("parameter file", "trajectory file", ...)."""
+    folder, a device, unreadable, over `max_bytes`), naming it as `what` ("parameter file", "trajectory file", ...)."""
     p = Path(path)
     if p.is_dir():
         raise UserError(f"{what} {p} is a folder, not a file.")
@@ -48,4 +54,11 @@ def input_file(path: str | os.PathLike, what: str) -> Path:
         raise UserError(f"{what} {p} does not exist.")
     if not os.access(p, os.R_OK):
         raise UserError(f"{what} {p} cannot be read (permission denied).")
+    mode = p.stat().st_mode
+    if stat.S_ISCHR(mode) or stat.S_ISBLK(mode) or stat.S_ISSOCK(mode):
+        raise UserError(f"{what} {p} is a device or socket, not a file.")
+    if stat.S_ISREG(mode) and max_bytes is not None and p.stat().st_size > max_bytes:
+        raise UserError(
+            f"{what} {p} is {p.stat().st_size / 2**20:.1f} MB, more than such a file can be; is it the right file?"
+        )
     return p

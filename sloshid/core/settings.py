@@ -10,7 +10,7 @@ import typing
 from pathlib import Path
 from typing import Any, TypeVar
 
-from sloshid.core.errors import SettingError, UserError
+from sloshid.core.errors import SMALL_FILE_BYTES, SettingError, UserError, input_file
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -21,15 +21,10 @@ T = TypeVar("T")
 
 
 def load_toml(path: str | Path) -> dict[str, Any]:
-    """Read a TOML file, turning a missing or malformed file into a one-sentence UserError."""
+    """Read a TOML file, turning a missing, outsized or malformed file into a one-sentence UserError."""
     try:
-        with open(path, "rb") as fh:
-            raw = fh.read()
+        raw = input_file(path, "TOML file", SMALL_FILE_BYTES).read_bytes()
         return tomllib.loads(raw.decode("utf-8-sig"))  # a UTF-8 byte-order mark (Windows editors) is accepted
-    except FileNotFoundError:
-        raise UserError(f"{path} does not exist.") from None
-    except IsADirectoryError:
-        raise UserError(f"{path} is a directory, not a TOML file.") from None
     except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
         raise UserError(f"{path} is not valid TOML ({exc}).") from None
 
