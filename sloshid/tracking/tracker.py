@@ -497,7 +497,7 @@ def track_video(
         body = [(*r[:8], int(r[8] and not rep)) for r, rep in zip(body, repeated)]
         smooth = smoother.smooth if smoother is not None else None
         lost = lost_share(reader.info.frame_count, len(rows))
-        res = _result(Path(path), body, lost, reader.info.frame_count, smooth, repeated, settings.target)
+        res = _result(Path(path), body, lost, reader.info, smooth, repeated, settings.target)
     res.target, res.walls, res.repeated, res.dye = settings.target, walls, repeated, dye
     res.warnings.extend(notes)
     if rival is not None:
@@ -506,7 +506,7 @@ def track_video(
             f"colour; {rival} covers a region at least a quarter as large: if that is the liquid, give --liquid-color "
             f"{rival}."
         )
-    res.key_frame = _at_key_frames(res.t_s, key_times)
+    res.key_frame = _at_key_frames(np.array([r[1] for r in body], float), key_times)  # the file's own times
     return res
 
 
@@ -676,11 +676,21 @@ def _span_job(job: tuple) -> _Span:
     return part
 
 
+def _increasing_times(t: np.ndarray, fps: float) -> tuple[np.ndarray, int]:
+    """The frames' times, and how many did not increase: when any did not (a file's repeated or reordered
+    timestamps), every frame is timed by its number at the declared rate, since a smoother and an identification
+    need increasing times and a timestamp that repeats says nothing of when the frame was taken."""
+    bad = int(np.sum(np.diff(t) <= 0))
+    if not bad:
+        return t, 0
+    return t[0] + np.arange(t.size) / (fps or 30.0), bad
+
+
 def _result(
     video: Path,
     rows: list[tuple],
     lost_share: float,
-    declared: int,
+    info: VideoInfo,
     smooth: Callable[..., np.ndarray] | None,
     repeated: np.ndarray,
     target: str,
@@ -691,6 +701,8 @@ def _result(
     arr = [np.asarray(c) for c in cols]
     frame, t, angle, fang, cang, x, y, q, valid = arr
     frame, valid = frame.astype(int), valid.astype(int)
+    declared = info.frame_count
+    t, retimed = _increasing_times(t.astype(float), info.fps)
     # the smoother may lean on repeated pictures: they are late by a frame or two, not wrong, and without them
     # it would bridge whole stretches (a float at rest until a tap) along an oscillator of coarse frequency
     measured = valid.astype(bool) | repeated
@@ -709,6 +721,12 @@ def _result(
         smoothed,
         lost_share,
     )
+    if retimed:
+        res.warnings.append(
+            f"{retimed} of {len(t)} frames of {video} have a timestamp that does not increase (repeated or out of "
+            f"order); every frame is timed by its number at the declared {info.fps:.3f} fps instead: check that rate, "
+            "or re-mux the file with fresh timestamps (ffmpeg -fflags +genpts)."
+        )
     if lost_share > LOST_NOTE:
         res.warnings.append(
             f"{video} looks truncated: only {len(rows)} of {declared} frames decoded "
