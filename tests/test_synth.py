@@ -120,7 +120,10 @@ def test_cli_writes_video_and_truth(run_cli, tmp_path):
         (["--tilt", "45"], "--tilt must be within 30 degrees"),
         # a look of the other scene would be rendered nowhere
         (["--elevation", "5"], "a camera elevation applies only to the surface scene"),
-        (["--scene", "surface", "--float-color", "green"], "the float colour applies only to the float scene"),
+        (["--scene", "surface", "--float-color", "green"], "--float-color applies only to the float scene"),
+        # the default colour given by name was taken for not given
+        (["--scene", "surface", "--float-color", "red"], "--float-color applies only to the float scene"),
+        (["--liquid-color", "blue"], "--liquid-color applies only to the surface scene"),
         (["--scene", "surface", "--float-length", "0.1"], "the float length applies only to the float scene"),
         # outside the encoders' ranges: a traceback from PyAV (MPEG-4 0 and 0.5, H.264 -3), or clipped silently
         (["--codec", "mpeg4", "--quality", "0"], "MPEG-4 qscale of 1..31"),
@@ -132,6 +135,12 @@ def test_cli_writes_video_and_truth(run_cli, tmp_path):
             "the liquid would reach 207 px up a wall, above the container's rim (86 px",
         ),
         (["--scene", "surface", "--travel", "600"], "the container would leave the 640 px wide picture"),
+        # the float scene drew them: its truth had the liquid at 1217 deg and the container 2800 px outside the picture
+        (["--motion", "move", "--accel", "50"], "the liquid would turn 1217 deg, above the container's rim"),
+        (["--travel", "5000"], "the container would leave the 640 px wide picture"),
+        (["--tap", "-1"], "--tap must not be negative"),
+        (["--scene", "surface", "--second-mode", "-1"], "--second-mode must be 0..1"),
+        (["--scene", "surface", "--container-diameter", "100"], "is it in millimetres?"),
     ],
 )
 def test_cli_rejects_bad_settings_without_output(run_cli, tmp_path, args, message):
@@ -140,6 +149,13 @@ def test_cli_rejects_bad_settings_without_output(run_cli, tmp_path, args, messag
     assert code == 2
     assert message in err
     assert not out.exists() and not (tmp_path / "bad_truth.csv").exists()
+
+
+def test_a_tap_after_the_videos_end_is_said(run_cli, tmp_path):
+    # it rendered a liquid at rest without a word; a still clip is a use, so it is written, with a warning
+    code, _, err = run_cli("synth", tmp_path / "late.mp4", "--tap", "5", "--duration", "1")
+    assert code == 0 and "the tap at 5 s comes after the video's end (1 s): the liquid rests in every frame" in err
+    assert "warning" not in run_cli("synth", tmp_path / "early.mp4", "--duration", "1")[2]
 
 
 def test_settings_reject_unknown_colour():

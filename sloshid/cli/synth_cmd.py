@@ -16,8 +16,10 @@ box_y1_px); the draw is written to OUT_scene.json.
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
+from sloshid.core.errors import UserError
 from sloshid.model.pendulum import TABLE_I
 from sloshid.synthetic.render import SynthSettings, render_video
 from sloshid.video.colors import PRESETS
@@ -108,7 +110,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default=d.camera_roll_deg,
         help="camera not level: scene rotated by this angle, degrees CCW",
     )
-    g.add_argument("--float-color", choices=sorted(PRESETS), default=d.float_color, help="float colour")
+    g.add_argument("--float-color", choices=sorted(PRESETS), help=f"float colour (default: {d.float_color})")
     g.add_argument(
         "--float-length", type=float, default=d.float_length_frac, help="float length, fraction of the frame height"
     )
@@ -158,7 +160,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default=d.scene,
         help="float: a float on pale liquid; surface: dyed liquid whose surface is measured (truth: wall heights too)",
     )
-    g.add_argument("--liquid-color", choices=sorted(PRESETS), default=d.liquid_color, help="dye colour")
+    g.add_argument("--liquid-color", choices=sorted(PRESETS), help=f"dye colour (default: {d.liquid_color})")
     g.add_argument("--elevation", type=float, default=d.elevation_deg, help="camera above the surface plane, degrees")
     g.add_argument("--meniscus", type=float, default=d.meniscus_px, help="meniscus band thickness, pixels")
     g.add_argument("--meniscus-dark", action="store_true", help="a dark meniscus band instead of a bright one")
@@ -173,7 +175,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def settings_from_args(args: argparse.Namespace) -> SynthSettings:
-    """The SynthSettings the command line describes (validated by the dataclass)."""
+    """The SynthSettings the command line describes (validated by the dataclass; a colour of the other scene is
+    refused here, where it is known to be given: its default is a colour too)."""
+    for option, scene in (("float_color", "float"), ("liquid_color", "surface")):
+        if getattr(args, option) is not None and args.scene != scene:
+            flag = "--" + option.replace("_", "-")
+            raise UserError(f"{flag} applies only to the {scene} scene (--scene {scene}), not the {args.scene} one.")
     return SynthSettings(
         width=args.width,
         height=args.height,
@@ -196,7 +203,7 @@ def settings_from_args(args: argparse.Namespace) -> SynthSettings:
         container_tilt_deg=args.tilt,
         container_tilt_hz=args.tilt_hz,
         camera_roll_deg=args.roll,
-        float_color=args.float_color,
+        float_color=args.float_color or _DEFAULTS.float_color,
         float_length_frac=args.float_length,
         noise_sigma=args.noise,
         blur_px=args.blur,
@@ -210,7 +217,7 @@ def settings_from_args(args: argparse.Namespace) -> SynthSettings:
         float_submerged=args.float_submerged,
         motion_blur=args.motion_blur,
         scene=args.scene,
-        liquid_color=args.liquid_color,
+        liquid_color=args.liquid_color or _DEFAULTS.liquid_color,
         elevation_deg=args.elevation,
         meniscus_px=args.meniscus,
         meniscus_dark=args.meniscus_dark,
@@ -243,4 +250,6 @@ def run(args: argparse.Namespace) -> int:
         f"and {truth_path}{f' and {scene_json}' if scene_json else ''}; liquid f = {p.f_hz:.3f} Hz, "
         f"zeta = {p.zeta:.4f}"
     )
+    if settings.at_rest:
+        print(f"sloshid: warning: {settings.at_rest}.", file=sys.stderr)
     return 0

@@ -23,6 +23,7 @@ from tqdm import tqdm
 
 from sloshid.core.atomic import atomic_path, write_json
 from sloshid.core.errors import SettingError, UserError
+from sloshid.core.settings import check_in_metres
 from sloshid.core.tables import write_csv
 from sloshid.model.conventions import SEEN_SIGN
 from sloshid.model.pendulum import TABLE_I, SloshParams
@@ -175,8 +176,9 @@ class SynthSettings:
             (0 <= self.meniscus_px <= 10, "meniscus_px", "{name} must be 0..10 pixels"),
             (0 <= self.specular <= 1, "specular", "{name} must be 0..1"),
             (0 <= self.reflection <= 1, "reflection", "{name} must be 0..1"),
-            (abs(self.second_mode) <= 1, "second_mode", "{name} must be within -1..1 of the first mode"),
-            (self.container_diameter_m > 0, "container_diameter_m", "{name} must be positive"),
+            (0 <= self.second_mode <= 1, "second_mode", "{name} must be 0..1 of the first mode's wall height"),
+            (self.tap_s >= 0, "tap_s", "{name} must not be negative"),
+            (self.move_start_s >= 0, "move_start_s", "{name} must not be negative"),
             (self.renderer in ("painted", "pbr"), "renderer", "{name} must be 'painted' or 'pbr'"),
             (1 <= self.spp <= 4096, "spp", "{name} must be 1..4096 samples per pixel"),
             (0 <= self.scene_seed < 2**63, "scene_seed", "{name} must be a non-negative integer"),
@@ -190,6 +192,7 @@ class SynthSettings:
         for ok, setting, message in checks:
             if not ok:
                 raise SettingError(setting, f"{message}.", *("f_hz", "zeta"))
+        check_in_metres("container_diameter_m", self.container_diameter_m, "0.1 for 100 mm")
         # a look of the other scene would be rendered nowhere: refused, not ignored
         other = "surface" if self.scene == "float" else "float"
         for name, label in SCENE_ONLY[other].items():
@@ -208,6 +211,16 @@ class SynthSettings:
         preset(self.float_color)
         preset(self.liquid_color)
         _ = self.params  # validates m, l, d
+
+    @property
+    def at_rest(self) -> str | None:
+        """Why the liquid rests in every frame although a motion is asked for (a tap or a move after the video's end),
+        or None: a still clip is a use, so it is said, not refused."""
+        start, what = (self.tap_s, "tap") if self.motion == "decay" else (self.move_start_s, "move")
+        moved = self.amplitude_deg != 0 if self.motion == "decay" else self.accel_m_s2 != 0
+        if moved and start >= self.duration_s:
+            return f"the {what} at {start:g} s comes after the video's end ({self.duration_s:g} s): the liquid rests in every frame"
+        return None
 
     @property
     def params(self) -> SloshParams:
@@ -512,6 +525,28 @@ class _FloatScene:
         return img
 
 
+def check_in_picture(s: SynthSettings, sc: SceneGeometry, mo: Motion, h2: np.ndarray | float = 0.0) -> None:
+    """Refuse a motion whose picture cannot be drawn: the liquid above the container's rim (drawn cut off at it, with
+    the truth going on: a trial's move reached 233 px up a wall and 63 deg) or the container beyond the picture's side
+    at some frame."""
+    turn = float(np.max(np.abs(mo.rel)))
+    # past the vertical the surface's tangent wraps round: the liquid is over the rim whatever it gives
+    peak = math.inf if turn >= math.pi / 2 else float(np.max(sc.inner_w / 2 * np.abs(np.tan(mo.rel)) + np.abs(h2)))
+    if peak > sc.head:
+        where = f"reach {peak:.0f} px up a wall" if math.isfinite(peak) else f"turn {math.degrees(turn):.0f} deg"
+        raise UserError(
+            f"the liquid would {where}, above the container's rim ({sc.head:.0f} px above the liquid at rest): a "
+            "picture cannot show it; lower --amplitude, --accel or --second-mode."
+        )
+    reach = sc.inner_w / 2 + sc.wall
+    left, right = float(np.min(sc.x0 + mo.dx)) - reach, float(np.max(sc.x0 + mo.dx)) + reach
+    if left < 0 or right > s.width:
+        raise UserError(
+            f"the container would leave the {s.width} px wide picture (its sides reach x = {left:.0f} to {right:.0f} "
+            "px): lower --travel, --px-per-m or --accel, or widen --width."
+        )
+
+
 def render_frames(s: SynthSettings):
     """Yield (truth row dict, BGR uint8 frame) for every frame; the generator behind render_video."""
     if s.renderer == "pbr":
@@ -527,6 +562,7 @@ def render_frames(s: SynthSettings):
     mo = _motion(s)
     t, rel, tilt, dx, accel, drift = mo.t, mo.rel, mo.tilt, mo.dx, mo.accel, mo.drift
     scene = _FloatScene(s)
+    check_in_picture(s, scene.sc, mo)
     sc, roll = scene.sc, math.radians(s.camera_roll_deg)
     noise = NoisePool(scene.base.shape, s.noise_sigma, mo.rng) if s.noise_sigma > 0 else None
     offsets = (np.linspace(0, 1, 5) - 0.5) * s.motion_blur / s.fps if s.motion_blur > 0 else np.zeros(1)

@@ -16,12 +16,12 @@ import math
 
 import numpy as np
 
-from sloshid.core.errors import UserError
 from sloshid.synthetic.render import (
     Motion,
     NoisePool,
     SynthSettings,
     background_image,
+    check_in_picture,
     degrade_picture,
     paint_polygon,
     rectangle_points,
@@ -84,25 +84,6 @@ def _surface_layers(img, u, w, z, dz, walls_z: tuple[float, float], s: SynthSett
             _blend(img, s.specular * stripe * np.clip(0.5 + sc.head - w, 0, 1), (255, 255, 255))
 
 
-def _check_in_picture(s: SynthSettings, sc, mo: Motion, h2: np.ndarray) -> None:
-    """Refuse a motion whose picture cannot be drawn: the liquid above the container's rim (drawn cut off at it, with
-    the truth going on: a trial's move reached 233 px up a wall and 63 deg) or the container beyond the picture's side
-    at some frame."""
-    peak = float(np.max(sc.inner_w / 2 * np.abs(np.tan(mo.rel)) + np.abs(h2)))
-    if peak > sc.head:
-        raise UserError(
-            f"the liquid would reach {peak:.0f} px up a wall, above the container's rim ({sc.head:.0f} px above the "
-            "liquid at rest): a picture cannot show it; lower --amplitude, --accel or --second-mode."
-        )
-    reach = sc.inner_w / 2 + sc.wall
-    left, right = float(np.min(sc.x0 + mo.dx)) - reach, float(np.max(sc.x0 + mo.dx)) + reach
-    if left < 0 or right > s.width:
-        raise UserError(
-            f"the container would leave the {s.width} px wide picture (its sides reach x = {left:.0f} to {right:.0f} "
-            "px): lower --travel, --px-per-m or --accel, or widen --width."
-        )
-
-
 def surface_frames(s: SynthSettings, mo: Motion):
     """Yield (truth row dict, BGR uint8 frame) for every frame of the dyed-liquid scene."""
     sc = scene_geometry(s)
@@ -113,7 +94,7 @@ def surface_frames(s: SynthSettings, mo: Motion):
     noise = NoisePool(base.shape, s.noise_sigma, mo.rng) if s.noise_sigma > 0 else None
     tan_amp = math.tan(math.radians(abs(s.amplitude_deg)) if s.motion == "decay" else 0.1)
     h2 = _second_mode_height(s, mo.t, half * tan_amp)
-    _check_in_picture(s, sc, mo, h2)
+    check_in_picture(s, sc, mo, h2)
     mm_per_px = 1000 * s.container_diameter_m / sc.inner_w
     walls = {
         "left": rectangle_points(-half - sc.wall, -half, -sc.depth - sc.wall, sc.head),
