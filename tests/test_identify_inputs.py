@@ -114,6 +114,14 @@ def _bad_cases(tmp_path, decay):
             "lasts only 2.15 periods of the 2.95 Hz mode; at least 3 are needed",  # two decimals, rounded down
         )
     )  # coarse guess from 0.75 s
+    # scaled out of any measurement's range: tracebacks (a NaN to an integer, a division by zero, infs in a fit)
+    for name, scale, message in (
+        ("huge", 1e300, "reaches 5.3e+300, no angle"),
+        ("large", 1e100, "reaches 5.3e+100, no angle"),
+        ("tiny", 1e-300, "nothing moved in it"),
+    ):
+        path = _csv(tmp_path / f"{name}.csv", ["t_s", "angle_deg"], t, y * scale)
+        cases.append((name, [path], message))
     ok = _csv(tmp_path / "ok.csv", ["t_s", "angle_deg"], t, y)
     cases.append(("window outside", [ok, "--window", "2,30"], "reaches beyond the data"))
     cases.append(("window reversed", [ok, "--window", "5,2"], "must be before its end"))

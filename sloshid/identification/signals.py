@@ -122,7 +122,27 @@ def make_signal(t, y, label: str, unit: str = "", source: str = "array", n_dropp
     if np.any(step <= 0):
         k = int(np.argmax(step <= 0)) + 1
         raise UserError(f"{source}: time is not strictly increasing at sample {k} (t = {t[k - 1]:g} then {t[k]:g} s).")
+    _check_scale(t, y, label, source)
     return Signal(t, y, label, unit, source, n_dropped + int(bad.sum()), tuple(notes))
+
+
+MAX_MAGNITUDE = 1e9
+"""Largest |value| or |time| taken: a billion degrees, millimetres or seconds (31 years) is no measurement, and
+beyond it the fit's sums of squares overflow or lose every digit of the oscillation."""
+MIN_SWING = 1e-9
+"""Smallest peak-to-peak swing taken: below it the fit's scaling divides by nothing."""
+
+
+def _check_scale(t: np.ndarray, y: np.ndarray, label: str, source: str) -> None:
+    """Refuse a signal no fit can hold: values or times beyond MAX_MAGNITUDE, or a swing under MIN_SWING."""
+    big = float(np.max(np.abs(y)))
+    if big > MAX_MAGNITUDE:
+        raise UserError(f"{source}: '{label}' reaches {big:.3g}, no angle, wall height or position is that large.")
+    if float(np.ptp(y)) < MIN_SWING:
+        raise UserError(f"{source}: '{label}' is constant to {float(np.ptp(y)):.3g} at most: nothing moved in it.")
+    late = float(np.max(np.abs(t)))
+    if late > MAX_MAGNITUDE * 1e3:  # a Unix time in seconds (1.7e9) is a logger's usual clock
+        raise UserError(f"{source}: the time reaches {late:.3g} s; sloshid reads times in seconds.")
 
 
 class TracedAngles(Protocol):
