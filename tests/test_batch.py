@@ -131,6 +131,53 @@ def test_unreachable_scheduler_is_one_clear_error(videos, tmp_path, run_cli):
     assert not (tmp_path / "o").exists()  # not even the folder (it was left empty)
 
 
+def test_a_silent_port_and_a_scheduler_without_workers_are_one_sentence(videos, tmp_path, run_cli, monkeypatch):
+    # both waited for ever with no message: a port that takes the connection and never answers, and a scheduler
+    # that no worker ever joins
+    import socket
+    import threading
+
+    from dask.distributed import LocalCluster
+
+    from sloshid.core import parallel
+
+    good, _ = videos
+    monkeypatch.setattr(parallel, "CONNECT_WAIT_S", 0.5)  # short stand-ins for the 10 s and 30 s waits
+    monkeypatch.setattr(parallel, "WORKER_WAIT_S", 1.0)
+    with socket.socket() as silent:
+        silent.bind(("127.0.0.1", 0))
+        silent.listen()
+        threading.Thread(target=silent.accept, daemon=True).start()
+        address = f"tcp://127.0.0.1:{silent.getsockname()[1]}"
+        start = time.monotonic()
+        code, _, err = run_cli("batch", good[0], "--out", tmp_path / "o", "--scheduler", address)
+    # Dask's own timeout or, where it hangs in the handshake, the watch of its thread: one sentence either way
+    assert code == 2 and f"the Dask scheduler at {address}" in err and err.count("\n") == 1
+    assert time.monotonic() - start < 20
+    with LocalCluster(n_workers=0, processes=False, dashboard_address=None) as cluster:
+        code, _, err = run_cli("batch", good[0], "--out", tmp_path / "o", "--scheduler", cluster.scheduler_address)
+    assert code == 2 and "has no worker (none joined in 1 s)" in err
+    assert not (tmp_path / "o").exists()
+
+
+def test_a_cluster_that_loses_its_last_worker_stops_the_wait(monkeypatch):
+    # the batch waited for ever when the only worker died; now it stops with what to do
+    from dask.distributed import Client, LocalCluster
+
+    from sloshid.core import parallel
+    from sloshid.core.errors import UserError
+
+    monkeypatch.setattr(parallel, "WORKER_WAIT_S", 1.0)
+    with LocalCluster(n_workers=1, processes=False, dashboard_address=None) as cluster, Client(cluster) as client:
+        job = client.submit(time.sleep, 30, pure=False)
+        threading_timer = __import__("threading").Timer(0.5, cluster.scale, args=(0,))
+        threading_timer.start()
+        start = time.monotonic()
+        with pytest.raises(UserError, match=r"no worker for 1 s .* with 1 job"):
+            list(parallel.wait_with_workers(client, [job], poll_s=0.2))
+        assert time.monotonic() - start < 15
+
+
 @pytest.mark.slow
 def test_ctrl_c_from_a_terminal_stops_the_batch_without_worker_tracebacks(videos, tmp_path):
     # a terminal sends Ctrl-C to the whole process group: every Dask worker printed its own KeyboardInterrupt

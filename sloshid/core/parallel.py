@@ -112,15 +112,79 @@ def check_workers(workers: int, what: str = "workers") -> int:
     return workers
 
 
+CONNECT_WAIT_S = 10.0
+"""How long a Dask scheduler may take to answer a new client."""
+WORKER_WAIT_S = 30.0
+"""How long a cluster may be without a worker (none joined yet, or the last one stopped) before a batch gives up."""
+
+
+def _remote_client(scheduler: str):
+    """A client of the scheduler at `scheduler` with at least one worker, or the one-sentence UserError: Dask's own
+    connect timeout does not cover a port that takes the connection and never answers, so it runs in a thread
+    that is left behind when it overstays."""
+    from dask.distributed import Client
+
+    box: dict[str, Any] = {}
+
+    def connect() -> None:
+        try:
+            box["client"] = Client(scheduler, timeout=f"{CONNECT_WAIT_S:g}s")
+        except Exception as exc:  # handed to the caller's thread
+            box["error"] = exc
+
+    thread = threading.Thread(target=connect, name="sloshid-dask-connect", daemon=True)
+    thread.start()
+    thread.join(CONNECT_WAIT_S + 5)
+    if thread.is_alive():
+        raise UserError(
+            f"the Dask scheduler at {scheduler} took the connection but did not answer in {CONNECT_WAIT_S + 5:.0f} s: "
+            "is a Dask scheduler listening there?"
+        )
+    error = box.get("error")
+    if isinstance(error, (OSError, TimeoutError, ValueError, TypeError)):
+        raise UserError(f"could not reach the Dask scheduler at {scheduler} ({error}).")
+    if error is not None:
+        raise error
+    client = box["client"]
+    try:
+        client.wait_for_workers(1, timeout=WORKER_WAIT_S)
+    except TimeoutError:
+        client.close()
+        raise UserError(
+            f"the Dask scheduler at {scheduler} has no worker (none joined in {WORKER_WAIT_S:.0f} s): start one with "
+            f"`dask worker {scheduler}`."
+        ) from None
+    return client
+
+
+def wait_with_workers(client, futures: Iterable, poll_s: float = 2.0) -> Iterator:
+    """The futures as they finish, like `as_completed`, but a cluster left with no worker for WORKER_WAIT_S (the last
+    one stopped) is the one-sentence UserError instead of a wait for ever."""
+    from dask.distributed import wait
+
+    pending, idle_s = set(futures), 0.0
+    while pending:
+        try:
+            done, pending = wait(pending, timeout=poll_s, return_when="FIRST_COMPLETED")
+        except TimeoutError:
+            idle_s = idle_s + poll_s if not client.scheduler_info().get("workers") else 0.0
+            if idle_s >= WORKER_WAIT_S:
+                raise UserError(
+                    f"the Dask cluster has had no worker for {WORKER_WAIT_S:.0f} s (the last one stopped) with "
+                    f"{len(pending)} job(s) left: what finished is kept; run the same command again once workers are "
+                    "back to do the rest."
+                ) from None
+            continue
+        idle_s = 0.0
+        yield from done
+
+
 def dask_client(workers: int, scheduler: str | None = None):
     """A `dask.distributed` client: on a running scheduler, or on a local cluster of single-threaded processes."""
     from dask.distributed import Client
 
     if scheduler:
-        try:
-            return Client(scheduler, timeout="10s")
-        except (OSError, TimeoutError, ValueError, TypeError) as exc:
-            raise UserError(f"could not reach the Dask scheduler at {scheduler} ({exc}).") from None
+        return _remote_client(scheduler)
     check_workers(workers)
     # a client that starts its own local cluster also shuts it down when closed. Its worker processes start with
     # Ctrl-C ignored (a new Python keeps an ignored SIGINT): a terminal's Ctrl-C reaches the whole process group, and

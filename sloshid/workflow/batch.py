@@ -20,7 +20,7 @@ from sloshid.core.atomic import remove_empty, write_json, write_text
 from sloshid.core.errors import SettingError, UserError
 from sloshid.core.hashing import file_sha256, json_sha256
 from sloshid.core.outputs import is_sloshid_page, writable_folder
-from sloshid.core.parallel import dask_client
+from sloshid.core.parallel import dask_client, wait_with_workers
 from sloshid.core.tables import distinct_names
 from sloshid.identification.estimator import Z95, shown_with_error
 from sloshid.report.html import Report
@@ -208,7 +208,6 @@ def run_batch(
     progress: bool = True,
 ) -> BatchResult:
     """Process every video on Dask (finished ones skipped), then write summary.csv, failures.csv, summary.html."""
-    from dask.distributed import as_completed
     from tqdm import tqdm
 
     names = [str(Path(v).resolve()) for v in videos]
@@ -222,7 +221,7 @@ def run_batch(
         out.mkdir(parents=True, exist_ok=True)  # once the cluster is there: an unreachable scheduler leaves no folder
         futures = {client.submit(process_video, v, config, str(out.resolve()), pure=False): v for v in names}
         bar = tqdm(total=len(futures), desc="videos", unit="video", disable=None if progress else True)
-        for fut in as_completed(futures):
+        for fut in wait_with_workers(client, futures):
             video = futures[fut]
             try:
                 rows[video] = fut.result()
