@@ -8,8 +8,7 @@ import io
 import json
 
 import pytest
-
-from tests.conftest import ROOT
+from conftest import ROOT
 
 # Reference: `sloshid compare data/scenarios/demo_move.toml --json` at commit 2e09c11 (before issue 39), when every
 # simulation was scipy's adaptive DOP853 (rtol 1e-9) one pendulum at a time; rounded to 1e-6 deg.

@@ -3,7 +3,8 @@
 Methods (keys in `METHODS`): the constant-acceleration profile, ZV and ZVD shaped, ruckig jerk-limited upright
 and tilt-compensated, sloshid's plan and its robust variant, and camera feedback on top of the
 constant-acceleration profile and of sloshid's plan. A method that cannot be built for the scenario is a
-'not applicable' row with its reason. Scoring is `simulate_liquid` (nonlinear) for every method.
+'not applicable' row with its reason. Scoring is the nonlinear pendulum (`simulate_liquids`, every method in one
+batch).
 """
 
 from __future__ import annotations
@@ -20,14 +21,14 @@ from tqdm import tqdm
 from sloshid.comparison.feedback import FeedbackSettings
 from sloshid.comparison.profiles import MoveTask, NotApplicable, constant_acceleration
 from sloshid.comparison.recommend import Recommendation, recommend
-from sloshid.comparison.robot_tracking import ClosedLoopResponse, closed_loop_response
-from sloshid.comparison.robustness import Replay, RobustnessResult, sweep
+from sloshid.comparison.robot_tracking import ClosedLoopResponse, closed_loop_responses
+from sloshid.comparison.robustness import Replay, RobustnessResult, replay_responses, sweep
 from sloshid.comparison.ruckig_moves import jerk_limited
 from sloshid.comparison.shapers import shaped_constant_acceleration
 from sloshid.core.errors import UserError
 from sloshid.core.tables import to_pandas
 from sloshid.model.pendulum import SloshParams
-from sloshid.model.simulate import MAX_SETTLE_S, LiquidResponse, simulate_liquid
+from sloshid.model.simulate import MAX_SETTLE_S, LiquidResponse, simulate_liquid, simulate_liquids
 from sloshid.model.trajectory import RobotLimits, Trajectory, check_limits, check_move_limits, tilt_profiles
 from sloshid.planning.planner import check_feasible
 from sloshid.planning.scenario import body_clearance
@@ -191,9 +192,12 @@ class MoveLimits:
     """Per-axis jerk limit of the move ([limits].jerk_max with the jerk-limited formulation), else None."""
 
 
-def score(traj: Trajectory, params: SloshParams, limits: MoveLimits, settle_s: float) -> tuple[Score, LiquidResponse]:
-    """Score a trajectory: nonlinear slosh relative to the container, tilt, robot and move limits, clearance."""
-    resp = simulate_liquid(traj, params, settle_s=settle_s)
+def score(
+    traj: Trajectory, params: SloshParams, limits: MoveLimits, settle_s: float, resp: LiquidResponse | None = None
+) -> tuple[Score, LiquidResponse]:
+    """Score a trajectory: nonlinear slosh relative to the container (`resp`, simulated here when not given), tilt,
+    robot and move limits, clearance."""
+    resp = resp or simulate_liquid(traj, params, settle_s=settle_s)
     tilt, rate = tilt_profiles(traj)
     failed = [f"robot {u.quantity} {u.peak:.3g} > {u.limit:.3g}" for u in check_limits(traj, limits.robot) if not u.ok]
     robot_ok = not failed
@@ -354,7 +358,17 @@ def with_feedback(inp: CompareInput, base: Trajectory, fb: FeedbackSettings | No
 
 
 def build_method(key: str, inp: CompareInput, built: dict[str, MethodResult]) -> MethodResult:
-    """Build one method (feedback methods reuse their base's trajectory from `built`); never raises NotApplicable."""
+    """Build and score one method (feedback methods reuse their base's trajectory from `built`); never raises
+    NotApplicable."""
+    res = build_trajectory(key, inp, built)
+    if res.applicable:
+        res.score, res.response = score(res.trajectory, inp.params, inp.limits, inp.settings.settle_s)
+    return res
+
+
+def build_trajectory(key: str, inp: CompareInput, built: dict[str, MethodResult]) -> MethodResult:
+    """Build one method's trajectory, unscored (feedback methods reuse their base's trajectory from `built`); never
+    raises NotApplicable."""
     res = MethodResult(key, METHODS[key])
     task = inp.limits.task
     t0 = time.perf_counter()
@@ -382,7 +396,7 @@ def build_method(key: str, inp: CompareInput, built: dict[str, MethodResult]) ->
             base_key = key.removesuffix("_feedback")
             base = built.get(base_key)
             if base is None or not base.applicable:
-                base = build_method(base_key, inp, built)
+                base = build_trajectory(base_key, inp, built)
             if not base.applicable:
                 raise NotApplicable(f"its feedforward '{base.label}' is not applicable.")
             res.replay = with_feedback(inp, base.trajectory)
@@ -395,7 +409,6 @@ def build_method(key: str, inp: CompareInput, built: dict[str, MethodResult]) ->
     traj.name = res.label
     res.trajectory = traj
     res.replay = res.replay or Replay(traj)
-    res.score, res.response = score(traj, inp.params, inp.limits, inp.settings.settle_s)
     return res
 
 
@@ -535,53 +548,63 @@ def camera_seen_peak(angle_deg: np.ndarray, dt_s: float, fps: float, phases: int
     return float(np.mean(peaks))
 
 
-def camera_study(inp: CompareInput, built: dict[str, MethodResult]) -> tuple[list[CameraPoint], dict[str, float]]:
-    """Feedback residual against camera rate at the configured model error, for each applicable feedforward."""
+def camera_study(
+    inp: CompareInput, built: dict[str, MethodResult], progress: bool = False
+) -> tuple[list[CameraPoint], dict[str, float]]:
+    """Feedback residual against camera rate at the configured model error, for each applicable feedforward (every
+    loop against the true liquid first, then all of them in one batched simulation)."""
     s = inp.settings
     truth = inp.params.scaled(s.camera_omega_factor, 1.0)
-    points, reference = [], {}
-    for base_key in ("constant_acc", "sloshid"):
-        base = built.get(base_key)
-        if base is None or not base.applicable or f"{base_key}_feedback" not in built:
-            continue
-        reference[base.label] = simulate_liquid(base.trajectory, truth, settle_s=s.settle_s).residual_deg
-        dt = base.trajectory.dt_s
-        rel = base.response.rel_angle_deg[: len(base.trajectory.t_s)]  # while moving
+    bases = [
+        built[k] for k in ("constant_acc", "sloshid") if k in built and built[k].applicable and f"{k}_feedback" in built
+    ]
+    loops = {}
+    for base in bases:
         for fps in s.camera_fps_sweep:
-            seen = camera_seen_peak(rel, dt, fps)
             fb = FeedbackSettings(**{**vars(s.feedback), "camera_fps": fps})
-            traj = with_feedback(inp, base.trajectory, fb)(truth)
-            resp = simulate_liquid(traj, truth, settle_s=s.settle_s)
-            points.append(
-                CameraPoint(
-                    base.label, fps, traj.duration_s, resp.peak_during_deg, resp.residual_deg, seen, float(rel.max())
-                )
+            own = built[f"{base.key}_feedback"].replay  # the configured camera: its loop at this liquid may have run
+            loops[base.label, fps] = (
+                own if own is not None and fb == own.feedback else with_feedback(inp, base.trajectory, fb)
             )
+    pairs = [(Replay(b.trajectory), truth) for b in bases] + [(loop, truth) for loop in loops.values()]
+    resp = replay_responses(pairs, s.settle_s, progress, s.workers)
+    reference = {b.label: r.residual_deg for b, r in zip(bases, resp)}
+    points = []
+    for ((label, fps), loop), r in zip(loops.items(), resp[len(bases) :]):
+        base = next(b for b in bases if b.label == label)
+        rel = base.response.rel_angle_deg[: len(base.trajectory.t_s)]  # while moving
+        seen = camera_seen_peak(rel, base.trajectory.dt_s, fps)
+        points.append(
+            CameraPoint(label, fps, loop(truth).duration_s, r.peak_during_deg, r.residual_deg, seen, float(rel.max()))
+        )
     return points, reference
 
 
 def linearity_study(inp: CompareInput) -> list[LinearityPoint]:
     """Where linearisation holds: the constant-acceleration move at growing accelerations, linear vs nonlinear."""
     task = inp.limits.task
-    points = []
-    for acc in inp.settings.linearity_acc_m_s2:
-        scaled = MoveTask(task.waypoints, (acc, acc, acc), task.vel_max_m_s)
-        cl = closed_loop_response(constant_acceleration(scaled), inp.params, inp.settings.robot_bandwidth_hz, 1.0)
-        points.append(
-            LinearityPoint(acc, float(cl.rel_linear_deg.max()), float(cl.rel_nonlinear_deg.max()), cl.max_gap_deg)
-        )
-    return points
+    accs = inp.settings.linearity_acc_m_s2
+    moves = [constant_acceleration(MoveTask(task.waypoints, (acc, acc, acc), task.vel_max_m_s)) for acc in accs]
+    closed = closed_loop_responses(moves, inp.params, inp.settings.robot_bandwidth_hz, 1.0)
+    return [
+        LinearityPoint(acc, float(cl.rel_linear_deg.max()), float(cl.rel_nonlinear_deg.max()), cl.max_gap_deg)
+        for acc, cl in zip(accs, closed)
+    ]
 
 
 def compare(inp: CompareInput, progress: bool = False) -> Comparison:
-    """Build and score every requested method, then run the closed-loop, robustness, camera and linearity studies."""
+    """Build every requested method, score them in one batched simulation, then run the closed-loop, robustness,
+    camera and linearity studies."""
     s = inp.settings
     built: dict[str, MethodResult] = {}
     for key in tqdm(s.methods, desc="methods", disable=None if progress else True, leave=False):
-        built[key] = build_method(key, inp, built)
+        built[key] = build_trajectory(key, inp, built)
     results = [built[k] for k in s.methods]
     ok = [r for r in results if r.applicable]
-    closed = {r.key: closed_loop_response(r.trajectory, inp.params, s.robot_bandwidth_hz, s.settle_s) for r in ok}
+    for r, resp in zip(ok, simulate_liquids([r.trajectory for r in ok], inp.params, s.settle_s)):
+        r.score, r.response = score(r.trajectory, inp.params, inp.limits, s.settle_s, resp)
+    cls = closed_loop_responses([r.trajectory for r in ok], inp.params, s.robot_bandwidth_hz, s.settle_s)
+    closed = {r.key: cl for r, cl in zip(ok, cls)}
     robust = sweep(
         {r.label: r.replay for r in ok},
         inp.params,
@@ -590,7 +613,7 @@ def compare(inp: CompareInput, progress: bool = False) -> Comparison:
         progress=progress,
         workers=s.workers,
     )
-    camera, reference = camera_study(inp, built)
+    camera, reference = camera_study(inp, built, progress)
     comp = Comparison(inp.params, s, results, closed, robust, camera, reference, linearity_study(inp))
     comp.recommendation = recommend(results, inp.params, s, inp.f_interval_hz, progress)
     comp.verdict = verdict(comp)

@@ -2,7 +2,7 @@
 
 Every trajectory is pushed through a second-order tracking loop (bandwidth configurable, default 20 Hz) with
 `control.forced_response`; the linear liquid angle is H(s) of the executed acceleration. Beside it the
-nonlinear pendulum (`simulate_liquid`, solve_ivp) runs on the same executed motion, which shows where the
+nonlinear pendulum (`simulate_liquids`) runs on the same executed motion, which shows where the
 linearisation holds.
 """
 
@@ -15,7 +15,7 @@ import control
 import numpy as np
 
 from sloshid.model.pendulum import SloshParams, linear_tf
-from sloshid.model.simulate import simulate_liquid
+from sloshid.model.simulate import simulate_liquids
 from sloshid.model.trajectory import Trajectory
 
 
@@ -42,21 +42,21 @@ def hold_after(traj: Trajectory, settle_s: float) -> Trajectory:
 
 
 def filter_columns(sys: control.TransferFunction, t: np.ndarray, data: np.ndarray) -> np.ndarray:
-    """Each column of `data` (N, k) through the SISO system `sys`, starting from its own first value at rest."""
-    out = np.empty_like(data)
-    for k in range(data.shape[1]):
-        base = data[0, k]
-        out[:, k] = base + control.forced_response(sys, T=t, U=data[:, k] - base).outputs
-    return out
+    """Each column of `data` (N, k) through the SISO system `sys`, starting from its own first value at rest; all
+    columns in one forced_response of k uncoupled copies (its time loop runs once, not k times)."""
+    one = control.ss(sys)
+    k = data.shape[1]
+    copies = control.ss(*(np.kron(np.eye(k), np.asarray(m)) for m in (one.A, one.B, one.C, one.D)))
+    base = data[0]
+    out = control.forced_response(copies, T=t, U=(data - base).T).outputs
+    return base + np.asarray(out).reshape(k, -1).T
 
 
 def executed(traj: Trajectory, robot: control.TransferFunction) -> Trajectory:
     """What a robot with tracking dynamics `robot` actually does when commanded `traj` (all channels filtered)."""
-    t = traj.t_s
-    f = lambda a: filter_columns(robot, t, a)  # noqa: E731
-    return Trajectory(
-        t, f(traj.pos_m), f(traj.vel_m_s), f(traj.acc_m_s2), f(traj.euler_rad), f(traj.euler_rate_rad_s), name=traj.name
-    )
+    channels = (traj.pos_m, traj.vel_m_s, traj.acc_m_s2, traj.euler_rad, traj.euler_rate_rad_s)
+    done = np.split(filter_columns(robot, traj.t_s, np.hstack(channels)), len(channels), axis=1)
+    return Trajectory(traj.t_s, *done, name=traj.name)
 
 
 @dataclass
@@ -67,7 +67,7 @@ class ClosedLoopResponse:
     rel_linear_rad: np.ndarray
     """python-control: H(s) of the executed acceleration minus the executed container tilt (N, 2)."""
     rel_nonlinear_rad: np.ndarray
-    """solve_ivp on the nonlinear pendulums under the same executed motion (N, 2)."""
+    """The nonlinear pendulums under the same executed motion (N, 2)."""
     t_arrival_s: float
     """End of the commanded move."""
 
@@ -92,16 +92,26 @@ class ClosedLoopResponse:
         return float(self.rel_linear_deg[self.t_s > self.t_arrival_s].max())
 
 
+def closed_loop_responses(
+    trajs: list[Trajectory], params: SloshParams, bandwidth_hz: float = 20.0, settle_s: float = 2.0
+) -> list[ClosedLoopResponse]:
+    """Push each trajectory through robot tracking and liquid, linear (python-control) and nonlinear (all of them in
+    one batched `simulate_liquids`)."""
+    robot, h = robot_tf(bandwidth_hz), linear_tf(params)
+    runs = [executed(hold_after(traj, settle_s), robot) for traj in trajs]
+    nonlinear = simulate_liquids(runs, params, settle_s=0.0)
+    out = []
+    for traj, run, nl in zip(trajs, runs, nonlinear):
+        t = run.t_s
+        theta = control.forced_response(h, T=t, U=run.acc_m_s2[:, 0]).outputs  # pitch tilts toward +ux
+        phi = -control.forced_response(h, T=t, U=run.acc_m_s2[:, 1]).outputs  # roll tilts away from +uy
+        linear = np.column_stack([phi, theta]) - run.euler_rad[:, :2]
+        out.append(ClosedLoopResponse(t, linear, nl.rel_rad[: len(t)], float(traj.t_s[-1])))
+    return out
+
+
 def closed_loop_response(
     traj: Trajectory, params: SloshParams, bandwidth_hz: float = 20.0, settle_s: float = 2.0
 ) -> ClosedLoopResponse:
-    """Push `traj` through robot tracking and liquid, linear (python-control) and nonlinear (solve_ivp)."""
-    padded = hold_after(traj, settle_s)
-    run = executed(padded, robot_tf(bandwidth_hz))
-    h = linear_tf(params)
-    t = run.t_s
-    theta = control.forced_response(h, T=t, U=run.acc_m_s2[:, 0]).outputs  # pitch tilts toward +ux
-    phi = -control.forced_response(h, T=t, U=run.acc_m_s2[:, 1]).outputs  # roll tilts away from +uy
-    linear = np.column_stack([phi, theta]) - run.euler_rad[:, :2]
-    nonlinear = simulate_liquid(run, params, settle_s=0.0).rel_rad[: len(t)]
-    return ClosedLoopResponse(t, linear, nonlinear, float(traj.t_s[-1]))
+    """`closed_loop_responses` of one trajectory."""
+    return closed_loop_responses([traj], params, bandwidth_hz, settle_s)[0]
