@@ -89,14 +89,14 @@ class SloshFilter:
     P0: np.ndarray
 
     def predict(self, x: np.ndarray, P: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """States x (axes, 2) and covariance one step on under the accelerations u (axes,)."""
-        return x @ self.F.T + u[:, None] * self.B, self.F @ P @ self.F.T + self.Q
+        """States x (..., 2) and covariance one step on under the accelerations u (...)."""
+        return x @ self.F.T + u[..., None] * self.B, self.F @ P @ self.F.T + self.Q
 
     def update(self, x: np.ndarray, P: np.ndarray, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Measured angles z (axes,) folded in (Joseph form, as filterpy's KalmanFilter.update)."""
+        """Measured angles z (...) folded into the states x (..., 2) (Joseph form, as filterpy's KalmanFilter)."""
         k = P[:, 0] / (P[0, 0] + self.R)
         i_kh = np.eye(2) - np.outer(k, [1.0, 0.0])
-        return x + np.outer(z - x[:, 0], k), i_kh @ P @ i_kh.T + self.R * np.outer(k, k)
+        return x + (z - x[..., 0])[..., None] * k, i_kh @ P @ i_kh.T + self.R * np.outer(k, k)
 
 
 def slosh_filter(model: SloshParams, dt_s: float, s: FeedbackSettings) -> SloshFilter:
@@ -127,14 +127,22 @@ def run_feedback(
     traj: Trajectory, model: SloshParams, truth: SloshParams, s: FeedbackSettings, bandwidth_hz: float = 20.0
 ) -> FeedbackRun:
     """Simulate the camera-in-the-loop feedback on `traj` with the liquid `truth`, designed for `model`."""
+    return run_feedbacks(traj, model, [truth], s, bandwidth_hz)[0]
+
+
+def run_feedbacks(
+    traj: Trajectory, model: SloshParams, truths: list[SloshParams], s: FeedbackSettings, bandwidth_hz: float = 20.0
+) -> list[FeedbackRun]:
+    """`run_feedback` against several true liquids in one pass: each run has its own plant; the filter's covariance,
+    the camera's frames and their seeded noise are the same in all of them."""
     padded = hold_after(traj, s.settle_s)
     t, dt, n = padded.t_s, padded.dt_s, len(padded.t_s)
     robot = robot_tf(bandwidth_hz)
     tilt_cmd = np.column_stack([sign * padded.euler_rad[:, e] for _, e, sign in TILT_AXES])
     tilt_rate = np.column_stack([sign * padded.euler_rate_rad_s[:, e] for _, e, sign in TILT_AXES])
     tilt_exec = filter_columns(robot, t, tilt_cmd)
-    plant = control.c2d(control.ss(control.series(robot, linear_tf(truth))), dt)
-    pa, pb, pc = (np.asarray(m) for m in (plant.A, plant.B, plant.C))
+    plants = [control.c2d(control.ss(control.series(robot, linear_tf(truth))), dt) for truth in truths]
+    pa, pb, pc = (np.stack([np.asarray(getattr(p, m)) for p in plants]) for m in "ABC")  # one plant per run
     gain = lqr_gain(model, s)
     kf = slosh_filter(model, dt, s)
     axes = [a for a, _, _ in TILT_AXES]
@@ -146,19 +154,20 @@ def run_feedback(
     q_sum = np.zeros((lag + 1, 2, 2))  # the process noise m predictions add: sum of F^l Q F^l' for l < m
     for m in range(1, lag + 1):
         q_sum[m] = kf.F @ q_sum[m - 1] @ kf.F.T + kf.Q
-    x_plant = np.zeros((len(axes), pa.shape[0]))
-    x, P = np.zeros((len(axes), 2)), kf.P0
-    dev = np.zeros((len(axes), 2))  # dp, dv per axis
-    u_fb = np.zeros((n, len(axes)))
-    dev_hist = np.zeros((n, len(axes), 2))
-    q_true = np.zeros((n, len(axes)))
-    q_est = np.zeros((n, len(axes)))
-    amp_est = np.zeros((n, len(axes)))  # estimated slosh amplitude relative to the commanded tilt
-    x_hist, p_hist = np.zeros((n, len(axes), 2)), np.zeros((n, 2, 2))  # the filter before each step's frames
-    pending: list[tuple[int, int, np.ndarray]] = []  # (arrival step, frame step, measurement per axis)
+    shape = (len(truths), len(axes))  # (run, axis) leads every per-step array
+    x_plant = np.zeros((*shape, pa.shape[1]))
+    x, P = np.zeros((*shape, 2)), kf.P0
+    dev = np.zeros((*shape, 2))  # dp, dv per axis
+    u_fb = np.zeros((n, *shape))
+    dev_hist = np.zeros((n, *shape, 2))
+    q_true = np.zeros((n, *shape))
+    q_est = np.zeros((n, *shape))
+    amp_est = np.zeros((n, *shape))  # estimated slosh amplitude relative to the commanded tilt
+    x_hist, p_hist = np.zeros((n, *shape, 2)), np.zeros((n, 2, 2))  # the filter before each step's frames
+    pending: list[tuple[int, int, np.ndarray]] = []  # (arrival step, frame step, measurement per run and axis)
     next_frame, frames = 0.0, 0
     for j in range(n):
-        q_true[j] = x_plant @ pc[0]
+        q_true[j] = np.einsum("rxs,rs->rx", x_plant, pc[:, 0])
         if j >= next_frame:
             meas = q_true[j] - tilt_exec[j] + rng.normal(0.0, math.radians(s.noise_deg), len(axes))
             pending.append((j + lag, j, meas))
@@ -172,22 +181,25 @@ def run_feedback(
             frames += 1
             x, P = kf.update(x_hist[j0], p_hist[j0], meas + tilt_cmd[j0])
             m = j - j0 + 1
-            x_hist[j0 : j + 1] += np.einsum("mab,xb->mxa", powers[:m], x - x_hist[j0])
+            x_hist[j0 : j + 1] += np.einsum("mab,rxb->mrxa", powers[:m], x - x_hist[j0])
             p_hist[j0 : j + 1] = powers[:m] @ P @ powers[:m].transpose(0, 2, 1) + q_sum[:m]
             x, P = x_hist[j].copy(), p_hist[j].copy()
-        q_est[j] = x[:, 0]
-        err = np.column_stack([dev, x[:, 0] - tilt_cmd[j], x[:, 1] - tilt_rate[j]])
-        amp_est[j] = np.hypot(err[:, 2], err[:, 3] / model.omega_rad_s)
+        q_est[j] = x[..., 0]
+        err = np.concatenate([dev, (x - np.stack([tilt_cmd[j], tilt_rate[j]], axis=-1))], axis=-1)
+        amp_est[j] = np.hypot(err[..., 2], err[..., 3] / model.omega_rad_s)
         u_fb[j] = np.clip(-(err @ gain), -s.acc_tol_m_s2, s.acc_tol_m_s2)
         dev_hist[j] = dev
         a_cmd = acc_ff[j] + u_fb[j]
         x, P = kf.predict(x, P, a_cmd)
-        x_plant = x_plant @ pa.T + pb[:, 0] * a_cmd[:, None]
-        dev = np.column_stack([dev[:, 0] + dev[:, 1] * dt + 0.5 * u_fb[j] * dt * dt, dev[:, 1] + u_fb[j] * dt])
-    end = arrival_index(dev_hist, amp_est, len(traj.t_s), math.radians(s.calm_deg))
-    run = _executed(padded, dev_hist, u_fb, end, f"{traj.name} + feedback ({s.camera_fps:g} fps)")
-    rms = float(np.degrees(np.sqrt(np.mean((q_est[:end] - q_true[:end]) ** 2))))
-    return FeedbackRun(run, rms, frames)
+        x_plant = np.einsum("rxs,rts->rxt", x_plant, pa) + pb[:, None, :, 0] * a_cmd[..., None]
+        dev = np.stack([dev[..., 0] + dev[..., 1] * dt + 0.5 * u_fb[j] * dt * dt, dev[..., 1] + u_fb[j] * dt], -1)
+    runs = []
+    for r in range(len(truths)):
+        end = arrival_index(dev_hist[:, r], amp_est[:, r], len(traj.t_s), math.radians(s.calm_deg))
+        run = _executed(padded, dev_hist[:, r], u_fb[:, r], end, f"{traj.name} + feedback ({s.camera_fps:g} fps)")
+        rms = float(np.degrees(np.sqrt(np.mean((q_est[:end, r] - q_true[:end, r]) ** 2))))
+        runs.append(FeedbackRun(run, rms, frames))
+    return runs
 
 
 def _executed(padded: Trajectory, dev_hist: np.ndarray, u_fb: np.ndarray, end: int, name: str) -> Trajectory:

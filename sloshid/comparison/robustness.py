@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from sloshid.comparison.feedback import FeedbackSettings, run_feedback
+from sloshid.comparison.feedback import FeedbackSettings, run_feedbacks
 from sloshid.core.parallel import parallel_map
 from sloshid.model.pendulum import SloshParams
 from sloshid.model.simulate import LiquidResponse, simulate_liquids
@@ -48,32 +48,37 @@ class Replay:
         """The executed trajectory against the true liquid."""
         if not self.closed_loop:
             return self.trajectory
-        key = _liquid_key(truth)
-        if key not in self.runs:
-            self.runs[key] = run_feedback(
-                self.trajectory, self.model, truth, self.feedback, self.bandwidth_hz
-            ).trajectory
-        return self.runs[key]
+        self.run_all([truth])
+        return self.runs[_liquid_key(truth)]
+
+    def run_all(self, truths: Sequence[SloshParams]) -> None:
+        """Feedback only: run the loop against every true liquid not yet run, all of them in one pass."""
+        todo = list({_liquid_key(t): t for t in truths if _liquid_key(t) not in self.runs}.values())
+        if todo:
+            done = run_feedbacks(self.trajectory, self.model, todo, self.feedback, self.bandwidth_hz)
+            self.runs.update({_liquid_key(t): run.trajectory for t, run in zip(todo, done)})
 
 
 def replay_responses(
     pairs: Sequence[tuple[Replay, SloshParams]], settle_s: float, progress: bool = False, workers: int = 1
 ) -> list[LiquidResponse]:
-    """The liquid's response to each replay against its true liquid: the feedback loops not yet run go first (over
-    `workers` processes, a tqdm bar when `progress`), then every pendulum in one batched simulation."""
-    todo: dict[tuple[int, tuple[str, str]], tuple[Replay, SloshParams]] = {}
+    """The liquid's response to each replay against its true liquid: the feedback loops not yet run go first (each
+    loop against all its true liquids in one pass, the loops over `workers` processes with a tqdm bar when
+    `progress`), then every pendulum in one batched simulation."""
+    loops: dict[int, tuple[Replay, list[SloshParams]]] = {}
     for replay, truth in pairs:
         if replay.closed_loop and _liquid_key(truth) not in replay.runs:
-            todo.setdefault((id(replay), _liquid_key(truth)), (replay, truth))
-    done = parallel_map(_executed, list(todo.values()), workers, progress=progress, desc="feedback loops")
-    for (replay, truth), traj in zip(todo.values(), done):
-        replay.runs[_liquid_key(truth)] = traj
+            loops.setdefault(id(replay), (replay, []))[1].append(truth)
+    done = parallel_map(_run_all, list(loops.values()), workers, progress=progress, desc="feedback loops")
+    for (replay, _), runs in zip(loops.values(), done):
+        replay.runs.update(runs)
     return simulate_liquids([replay(truth) for replay, truth in pairs], [truth for _, truth in pairs], settle_s)
 
 
-def _executed(replay: Replay, truth: SloshParams) -> Trajectory:
-    """One replay's executed trajectory against one true liquid (a picklable unit of work)."""
-    return replay(truth)
+def _run_all(replay: Replay, truths: list[SloshParams]) -> dict[tuple[str, str], Trajectory]:
+    """One feedback loop against its true liquids (a picklable unit of work); the executed trajectories by liquid."""
+    replay.run_all(truths)
+    return replay.runs
 
 
 def band_responses(
