@@ -594,28 +594,38 @@ def linearity_study(inp: CompareInput) -> list[LinearityPoint]:
 
 def compare(inp: CompareInput, progress: bool = False) -> Comparison:
     """Build every requested method, score them in one batched simulation, then run the closed-loop, robustness,
-    camera and linearity studies."""
+    camera and linearity studies; with `progress`, one tqdm bar counts the methods and the studies."""
     s = inp.settings
+    studies = ("scoring", "closed loop", "robustness", "camera rates", "linearity", "recommendation")
+    bar = tqdm(total=len(s.methods) + len(studies), desc="compare", disable=None if progress else True, leave=False)
+
+    def step(name: str) -> None:
+        bar.set_postfix_str(name)
+        bar.update()
+
     built: dict[str, MethodResult] = {}
-    for key in tqdm(s.methods, desc="methods", disable=None if progress else True, leave=False):
+    for key in s.methods:
+        bar.set_postfix_str(key)
         built[key] = build_trajectory(key, inp, built)
+        bar.update()
     results = [built[k] for k in s.methods]
     ok = [r for r in results if r.applicable]
     for r, resp in zip(ok, simulate_liquids([r.trajectory for r in ok], inp.params, s.settle_s)):
         r.score, r.response = score(r.trajectory, inp.params, inp.limits, s.settle_s, resp)
+    step(studies[0])
     cls = closed_loop_responses([r.trajectory for r in ok], inp.params, s.robot_bandwidth_hz, s.settle_s)
     closed = {r.key: cl for r, cl in zip(ok, cls)}
-    robust = sweep(
-        {r.label: r.replay for r in ok},
-        inp.params,
-        s.omega_factors,
-        s.zeta_factors,
-        progress=progress,
-        workers=s.workers,
-    )
+    step(studies[1])
+    replays = {r.label: r.replay for r in ok}
+    robust = sweep(replays, inp.params, s.omega_factors, s.zeta_factors, progress=progress, workers=s.workers)
+    step(studies[2])
     camera, reference = camera_study(inp, built, progress)
+    step(studies[3])
     comp = Comparison(inp.params, s, results, closed, robust, camera, reference, linearity_study(inp))
+    step(studies[4])
     comp.recommendation = recommend(results, inp.params, s, inp.f_interval_hz, progress)
+    step(studies[5])
+    bar.close()
     comp.verdict = verdict(comp)
     return comp
 
