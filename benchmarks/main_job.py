@@ -5,14 +5,10 @@ shared, so single runs are noisy) and the median run, by whole time, is the head
 
 from __future__ import annotations
 
-import json
-import subprocess
-import sys
 import tempfile
-import time
-from pathlib import Path
 
-from bench_output import ROOT, write_results
+from bench_output import write_results
+from pipeline_rerun import timed_run
 
 RUNS = 3
 """First runs to time, each into its own empty folder."""
@@ -22,16 +18,7 @@ WHOLE_PER_PLAN = 10.0
 
 def one_run(out: str) -> dict:
     """Wall time of one first run and each stage's seconds from its manifest."""
-    start = time.perf_counter()
-    done = subprocess.run(
-        [sys.executable, "-m", "sloshid", "run", "pipelines/demo.toml", "--output-dir", out, "--quiet"],
-        cwd=ROOT,
-        check=True,
-        capture_output=True,
-        text=True,
-    )
-    whole = time.perf_counter() - start
-    manifest = json.loads((Path(done.stdout.strip()).parent / "manifest.json").read_text())
+    whole, manifest = timed_run(out)
     stages = {s["name"]: s["seconds"] for s in manifest["stages"]}
     assert all(s["status"] == "ran" for s in manifest["stages"]), manifest["stages"]
     return {"whole_s": whole, "stages_s": stages, "outside_stages_s": whole - sum(stages.values())}

@@ -6,31 +6,15 @@ import math
 
 import numpy as np
 import pytest
-from scipy.integrate import solve_ivp
+from conftest import adaptive_liquid
 
 from sloshid.comparison.profiles import MoveTask, constant_acceleration
 from sloshid.comparison.ruckig_moves import jerk_limited
-from sloshid.model.pendulum import TABLE_I, SloshParams, pendulum_rhs_3d
+from sloshid.model.pendulum import TABLE_I, SloshParams
 from sloshid.model.simulate import rk4_substeps, simulate_liquid, simulate_liquids
 
 # a diagonal move that drives both pendulums, with the jumps of a constant-acceleration profile
 DIAGONAL = MoveTask(((0.3, -0.2, 0.2), (0.5, 0.1, 0.3)), (0.5, 0.5, 0.5), (1.7, 1.7, 1.7))
-
-
-def adaptive(traj, params: SloshParams, settle_s: float) -> np.ndarray:
-    """Liquid (phi, theta) on the grid by DOP853 at rtol 1e-12, the input linear between samples, zero after."""
-    t, acc = traj.t_s, traj.acc_m_s2
-
-    def rhs(tt, y, moving):
-        u = [np.interp(tt, t, acc[:, k]) for k in range(3)] if moving else [0.0, 0.0, 0.0]
-        d = pendulum_rhs_3d(np.r_[0, 0, 0, y[0], y[1], 0, 0, 0, 0, y[2], y[3], 0], u, params)
-        return [d[3], d[4], d[9], d[10]]
-
-    # max_step 1 ms: the input's kinks sit on the samples, so no step may straddle two of them
-    move = solve_ivp(rhs, (t[0], t[-1]), np.zeros(4), "DOP853", t, rtol=1e-12, atol=1e-14, max_step=1e-3, args=(True,))
-    after = t[-1] + traj.dt_s * np.arange(0, math.ceil(settle_s / traj.dt_s) + 1)
-    rest = solve_ivp(rhs, (after[0], after[-1]), move.y[:, -1], "DOP853", after, rtol=1e-12, atol=1e-14, args=(False,))
-    return np.vstack([move.y.T, rest.y.T[1:]])[:, :2]
 
 
 @pytest.mark.parametrize("f_hz", [3.44, 20.0])
@@ -38,7 +22,7 @@ def test_fixed_step_matches_the_adaptive_solver(f_hz):
     params = SloshParams.from_modal(2 * math.pi * f_hz, 0.07, 0.5)
     traj = constant_acceleration(DIAGONAL)
     resp = simulate_liquid(traj, params, settle_s=1.0)
-    ref = adaptive(traj, params, 1.0)
+    ref = adaptive_liquid(traj, params, 1.0)
     assert resp.liquid_rad.shape == ref.shape
     assert np.degrees(np.abs(resp.liquid_rad).max()) > 2.0  # a real swing, not a trivially small one
     # RK4's phase error per radian is (omega h)^4/120 <= rtol = 1e-9 by construction; over the ~100 rad of this

@@ -60,6 +60,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "(slower; the JSON's joints.fit lists each attempt's T in s)",
     )
     parser.add_argument(
+        "--robust",
+        action="store_true",
+        help="plan the robust variant, the one `sloshid compare` scores as 'sloshid robust plan': the liquid at every "
+        "frequency factor of the scenario's [compare] robust_omega_factors (default 0.9, 1.0, 1.1) ends at rest",
+    )
+    parser.add_argument(
         "--json",
         action="store_true",
         help="print a JSON summary (T_s in s, solve_time_s in s, iterations, status, max_tilt_deg, "
@@ -86,6 +92,10 @@ def run(args: argparse.Namespace) -> int:
         raise UserError(
             '--joints needs a [robot] table with model = "panda" in the scenario (base_xyz_m and q_start are optional).'
         )
+    if args.robust:
+        from sloshid.comparison.compare import robust_scenario
+
+        scenario = robust_scenario(scenario)
     params = resolve_liquid(scenario, args.params)
     _warn_on_doubtful_frequency(args.params)
     result = plan(scenario, params, progress=sys.stderr.isatty())
@@ -119,6 +129,8 @@ def run(args: argparse.Namespace) -> int:
         print(json.dumps(summary, indent=2))
     else:
         print(result.summary() + (f"; wrote {' and '.join(map(str, written))}" if written else ""))
+    if written and passed:  # the one line a user needs next (on stderr under --json, which stays JSON)
+        print(f"next: send {output} to the robot.", file=sys.stderr if args.json else sys.stdout)
     if kept:
         print(
             f"sloshid: kept {' and '.join(map(str, kept))}: a plan that fails its checks does not replace a file "

@@ -334,19 +334,39 @@ def _path_only(key: str, inp: CompareInput) -> None:
         raise NotApplicable("camera feedback corrects the acceleration and would leave the [path].")
 
 
+def robust_scenario(scenario: Any) -> Any:
+    """The scenario whose plan is compare's 'sloshid robust plan' (`sloshid plan --robust`, `sloshid.plan(...,
+    robust=True)`): [solver].robust_omega_factors set to its [compare].robust_omega_factors (default 0.9, 1.0, 1.1:
+    the liquid at -10 %, 0 and +10 % of its frequency must all end at rest); UserError for a [path] scenario."""
+    if getattr(scenario, "path", None) is not None:
+        raise UserError("the path planner has no robust variant; plan a [path] scenario without it.")
+    factors = list(compare_settings(scenario).robust_omega_factors)
+    return replace(scenario, solver=replace(scenario.solver, robust_omega_factors=factors))
+
+
+def _copies(factors: Any) -> tuple[float, ...]:
+    """The extra pendulum copies a plan with these factors holds (1.0 is the nominal one, always there)."""
+    return tuple(float(f) for f in factors if abs(f - 1.0) > 1e-9)
+
+
 def sloshid_plan(inp: CompareInput, robust: bool) -> tuple[Trajectory, float]:
-    """sloshid's plan (issue 4's planner) for the scenario, nominal or robust; (trajectory, solve time in s)."""
+    """sloshid's plan (issue 4's planner) for the scenario, nominal or robust, reusing the given plan when it is that
+    variant; (trajectory, solve time in s)."""
     if inp.scenario is None:
         raise NotApplicable("needs a scenario file for the planner.")
     try:
         from sloshid.planning.planner import plan
     except ImportError as exc:
         raise NotApplicable(f"the planner is not available ({exc}).") from None
-    if not robust and inp.plan is not None:
+    wanted = _copies(inp.settings.robust_omega_factors) if robust else ()
+    if inp.plan is not None and _copies(inp.plan.robust_omega_factors) == wanted:
         return inp.plan.trajectory, float(inp.plan.solve_time_s)
-    factors = inp.settings.robust_omega_factors if robust else ()  # () is nominal; None would take [solver]'s
-    try:
-        result = plan(inp.scenario, inp.params, robust_omega_factors=factors)
+    try:  # nominal: no copies, whatever [solver] lists
+        result = (
+            plan(robust_scenario(inp.scenario), inp.params)
+            if robust
+            else plan(inp.scenario, inp.params, robust_omega_factors=())
+        )
     except UserError as exc:
         raise NotApplicable(f"the planner could not solve this scenario: {exc}") from None
     return result.trajectory, float(result.solve_time_s)
@@ -458,6 +478,46 @@ class Comparison:
     def result(self, key: str) -> MethodResult | None:
         """The row of method `key`, if it was requested."""
         return next((r for r in self.results if r.key == key), None)
+
+    @property
+    def recommended(self) -> MethodResult | None:
+        """The recommended method's row (None when no method qualifies)."""
+        rec = self.recommendation
+        return self.result(rec.method) if rec is not None and rec.method else None
+
+    def recommended_move(self) -> dict[str, Any] | None:
+        """What the sidecar JSON of the recommended move says: the method, why, the band it holds over, and for a
+        feedback method that the CSV is its feedforward (the camera loop corrects it on the robot)."""
+        r, rec = self.recommended, self.recommendation
+        if r is None:
+            return None
+        closed = r.replay is not None and r.replay.closed_loop
+        return {
+            "method": r.key,
+            "label": r.label,
+            "transfer_time_s": r.score.transfer_time_s,
+            "band_hz": list(rec.band_hz),
+            "risk": rec.risk,
+            "reason": rec.reason,
+            "robust_omega_factors": list(self.settings.robust_omega_factors) if r.key == "sloshid_robust" else None,
+            "csv_holds": "the feedforward; the camera feedback corrects it on the robot" if closed else "the move",
+        }
+
+    def write_recommended(self, path: str | Path, inputs: tuple[str | Path, ...] = ()) -> Path | None:
+        """Write the recommended move as a 1 kHz trajectory CSV at `path` and what it is as JSON beside it
+        (`path` with .json); None (nothing written) when no method is recommended."""
+        from sloshid.core.atomic import write_json
+        from sloshid.core.outputs import Outputs
+
+        move = self.recommended_move()
+        if move is None:
+            return None
+        outputs = Outputs(inputs)
+        csv = outputs.file(path, "the recommended move", (".csv",))
+        sidecar = outputs.file(csv.with_suffix(".json"), "the recommended move's description", (".json",))
+        self.recommended.replay.trajectory.to_csv(csv, inputs)
+        write_json(sidecar, {**move, "trajectory_csv": csv.name})
+        return csv
 
     def summary(self) -> str:
         """The score table as aligned plain text, then the verdict (what `sloshid compare` prints)."""

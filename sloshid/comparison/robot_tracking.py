@@ -48,6 +48,8 @@ def forced_columns(sys: control.TransferFunction, blocks: list[tuple[np.ndarray,
     vectorised recursion instead of one Python time loop per column. The blocks share their sample period."""
     import scipy.linalg
 
+    if not blocks:
+        return []
     one = control.ss(sys)
     a, b, c, d = (np.asarray(m, dtype=float) for m in (one.A, one.B, one.C, one.D))
     periods = {(t[-1] - t[0]) / (len(t) - 1) for t, _ in blocks}  # forced_response's own dt
