@@ -14,7 +14,7 @@ import argparse
 import json
 import sys
 
-from sloshid.cli.plan_cmd import note_io_model
+from sloshid.cli.plan_cmd import note_io_model, warn_doubtful_parameters
 from sloshid.core.outputs import Outputs
 
 
@@ -65,6 +65,7 @@ def run(args: argparse.Namespace) -> int:
     scenario = load_scenario(args.scenario)
     params = resolve_liquid(scenario, args.params)
     note_io_model(args.params, "TRAJ.csv")
+    warn_doubtful_parameters(args.params, scenario)
     interval = IdentifiedFrequency.from_identify_json(args.params).ci95_hz if args.params else None
     comp = compare_scenario(scenario, params, f_interval_hz=interval, progress=sys.stderr.isatty())
     if report_dir is not None:

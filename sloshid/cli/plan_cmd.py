@@ -12,6 +12,7 @@ import argparse
 import json
 import os
 import sys
+from pathlib import Path
 
 from sloshid.core.errors import UserError
 from sloshid.core.outputs import Outputs
@@ -97,7 +98,7 @@ def run(args: argparse.Namespace) -> int:
 
         scenario = robust_scenario(scenario)
     params = resolve_liquid(scenario, args.params)
-    _warn_on_doubtful_frequency(args.params)
+    warn_doubtful_parameters(args.params, scenario)
     result = plan(scenario, params, progress=sys.stderr.isatty())
     fit = []
     if joints is not None:
@@ -158,15 +159,35 @@ def note_io_model(params_path: str | None, trajectory: str, planned=None) -> Non
             print(f"sloshid: note: {note}", file=sys.stderr)
 
 
-def _warn_on_doubtful_frequency(params_path: str | None) -> None:
-    """One stderr line when the identify JSON's frequency verdict is not good (the plan still runs)."""
-    from sloshid.model.pendulum import IdentifiedFrequency
+def warn_doubtful_parameters(params_path: str | None, scenario) -> None:
+    """One stderr line per parameter a plan or comparison uses (f, zeta) whose identify verdict is not good: why,
+    and what it costs (the band the recommendation must hold over; the damping the move was made for)."""
+    from sloshid.comparison.compare import CompareSettings
+    from sloshid.comparison.recommend import frequency_band
+    from sloshid.model.pendulum import IdentifiedFrequency, SloshParams
 
-    if params_path:
-        freq = IdentifiedFrequency.from_identify_json(params_path)
-        if freq.quality not in (None, "good"):
-            why = f": {freq.reasons[0]}" if freq.reasons else ""
-            print(f"sloshid: warning: the identified frequency is {freq.quality}{why}", file=sys.stderr)
+    if not params_path:
+        return
+    params = SloshParams.from_identify_json(params_path)  # checks the file first
+    freq = IdentifiedFrequency.from_identify_json(params_path)
+    zeta = json.loads(Path(params_path).read_text(encoding="utf-8")).get("parameters", {}).get("zeta", {})
+    because = lambda reasons: f" ({reasons[0].rstrip('.')})" if reasons else ""  # noqa: E731
+    if freq.quality not in (None, "good"):
+        margin = float(scenario.compare.get("frequency_margin", CompareSettings().frequency_margin))
+        (lo, hi), _ = frequency_band(params.f_hz, freq.ci95_hz, margin)
+        print(
+            f"sloshid: warning: the identified frequency is {freq.quality}{because(freq.reasons)}; it costs: a move "
+            f"must stay slosh-free over {lo:.3g}-{hi:.3g} Hz (compare's band), where one planned for "
+            f"{params.f_hz:.3g} Hz alone may not (--robust plans for -10 % to +10 %).",
+            file=sys.stderr,
+        )
+    if zeta.get("quality") not in (None, "good"):
+        print(
+            f"sloshid: warning: the identified damping ratio is {zeta['quality']}{because(zeta.get('reasons'))}; it "
+            f"costs: the move is made for zeta = {params.zeta:.3g}, and compare's robustness sweep shows what half or "
+            "twice that leaves behind.",
+            file=sys.stderr,
+        )
 
 
 def _check_joints(result, scenario, params, fit_joints: bool) -> tuple:
