@@ -3,6 +3,8 @@ a 'good' verdict's 95 % interval holds the truth as often as it claims, and ever
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 from scipy import stats
@@ -28,31 +30,32 @@ def damaged(seed: int, lost: float, how: str):
             n = int(rng.integers(5, 40))
             start = int(rng.integers(0, t.size - n))
             keep[start : start + n] = False
-    sig = make_signal(t[keep], y[keep], "angle_deg", "deg", f"seed {seed}")
-    return sig
+    # as the tracker CSV's reader counts the frames it skips
+    return replace(make_signal(t[keep], y[keep], "angle_deg", "deg", f"seed {seed}"), n_dropped=int((~keep).sum()))
 
 
 @pytest.mark.slow
 def test_good_intervals_hold_the_truth_on_traces_with_lost_frames():
     missed = {"f_hz": [0, 0], "zeta": [0, 0]}  # [good verdicts, intervals that miss the truth]
     refused = 0
-    for how in ("random", "bursts"):
-        for lost in (0.05, 0.15, 0.3):
-            for seed in range(SEEDS):
-                try:
-                    params = sloshid.identify(damaged(seed, lost, how)).to_dict()["parameters"]
-                except UserError:  # 30 % in bursts can leave no clean decay: a refusal claims nothing
-                    refused += 1
-                    continue
-                for key, truth in (("f_hz", F_HZ), ("zeta", ZETA)):
-                    if params[key]["quality"] == "good":
-                        lo, hi = params[key]["ci95"]
-                        missed[key][0] += 1
-                        missed[key][1] += not lo <= truth <= hi
+    conditions = [(how, lost) for how in ("random", "bursts") for lost in (0.05, 0.15, 0.3)]
+    for c, (how, lost) in enumerate(conditions):
+        for seed in range(c * SEEDS, (c + 1) * SEEDS):  # other traces in every condition: independent misses
+            try:
+                params = sloshid.identify(damaged(seed, lost, how)).to_dict()["parameters"]
+            except UserError:  # 30 % in bursts can leave no clean decay: a refusal claims nothing
+                refused += 1
+                continue
+            for key, truth in (("f_hz", F_HZ), ("zeta", ZETA)):
+                if params[key]["quality"] == "good":
+                    lo, hi = params[key]["ci95"]
+                    missed[key][0] += 1
+                    missed[key][1] += not lo <= truth <= hi
     assert refused <= 0.1 * 6 * SEEDS  # most damaged traces are still identified
     for key, (good, misses) in missed.items():
         # a 95 % interval misses 5 % of the time; more misses than a 1 %-level binomial test allows would be a claim
-        # it does not keep (measured: 5-8 % per condition)
+        # it does not keep. White noise: with tracker-like correlated noise (AR(1), rho 0.6) the intervals miss
+        # 11-12 % already on undamaged traces, lost frames or not (issue 39's report: open)
         assert good > 0.8 * 6 * SEEDS and stats.binom.sf(misses - 1, good, 0.05) > 0.01, (key, good, misses)
 
 
