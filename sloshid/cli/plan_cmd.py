@@ -58,7 +58,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--fit-joints",
         action="store_true",
         help="with --joints: when the arm cannot follow, re-plan with lower Cartesian limits until it can "
-        "(slower; the JSON's joints.fit lists each attempt's T in s)",
+        "(slower; the JSON's joints.fit lists each attempt's T in s); [robot] fit_joints = true does it by default",
     )
     parser.add_argument(
         "--robust",
@@ -102,7 +102,7 @@ def run(args: argparse.Namespace) -> int:
     result = plan(scenario, params, progress=sys.stderr.isatty())
     fit = []
     if joints is not None:
-        result, fit = _check_joints(result, scenario, params, args.fit_joints)
+        result, fit = _check_joints(result, scenario, params, args.fit_joints or scenario.arm.fit_joints)
     note_io_model(args.params, str(output), result.trajectory)  # of the plan written (re-planned for the joints)
     executable = result.joints is None or result.joints.executable
     passed = executable and result.limits_ok and result.verification_ok and result.path_ok
@@ -131,7 +131,8 @@ def run(args: argparse.Namespace) -> int:
     else:
         print(result.summary() + (f"; wrote {' and '.join(map(str, written))}" if written else ""))
     if written and passed:  # the one line a user needs next (on stderr under --json, which stays JSON)
-        print(f"next: send {output} to the robot.", file=sys.stderr if args.json else sys.stdout)
+        also = f" (or the joints, {joints})" if joints is not None else ""
+        print(f"next: send {output}{also} to the robot.", file=sys.stderr if args.json else sys.stdout)
     if kept:
         print(
             f"sloshid: kept {' and '.join(map(str, kept))}: a plan that fails its checks does not replace a file "
@@ -139,10 +140,11 @@ def run(args: argparse.Namespace) -> int:
             file=sys.stderr,
         )
     if not executable:
-        # a slower plan cannot move the start: --fit-joints helps only an arm that starts where the move does
-        slower = not args.fit_joints and result.joints.starts_at_q_start
-        hint = " (--fit-joints re-plans slower until it can)" if slower else ""
-        print(f"sloshid: not executable on the Panda: {result.joints.reason()}{hint}", file=sys.stderr)
+        why = result.joints.reason().rstrip(".")
+        print(
+            f"sloshid: not executable on the Panda: {why}{'' if fit else _fit_cost(result, scenario, params)}.",
+            file=sys.stderr,
+        )
         return 1
     # a plan past a limit, unverified or off its path is written for inspection, but a script must not run it
     return 0 if result.limits_ok and result.verification_ok and result.path_ok else 1
@@ -203,6 +205,20 @@ def _check_joints(result, scenario, params, fit_joints: bool) -> tuple:
     return result, fit
 
 
+def _fit_cost(result, scenario, params) -> str:
+    """What --fit-joints would cost, measured by fitting (the plan written stays the fastest one)."""
+    from sloshid.planning.arm import fit_to_joints
+
+    _, check, steps = fit_to_joints(scenario, params, result, result.joints)
+    if not check.executable:
+        return f"; --fit-joints cannot fix it: {steps[-1].reason.rstrip('.')}"
+    cost = 100 * (steps[-1].T_s / steps[0].T_s - 1)
+    return (
+        f"; --fit-joints (or [robot] fit_joints = true) re-plans slower until it can: T {steps[0].T_s:.3f} -> "
+        f"{steps[-1].T_s:.3f} s (+{cost:.1f} %)"
+    )
+
+
 def _warnings(result, fit: list) -> None:
     """Robot limits exceeded, a failed verification, a path left, and joint re-planning, one line each."""
     from sloshid.planning.planner import VERIFY_AFTER_DEG
@@ -236,6 +252,8 @@ def _warnings(result, fit: list) -> None:
             f"than [path].path_tolerance_m = {result.path_tolerance_m * 1e3:g} mm.",
             file=sys.stderr,
         )
+    if result.joints is not None and result.joints.start_moved:
+        print(f"sloshid: {result.joints.start_moved}", file=sys.stderr)
     if len(fit) > 1:
         print(
             f"sloshid: re-planned {len(fit) - 1} time(s) with lower Cartesian limits for the joints: T "
