@@ -69,7 +69,7 @@ def run(args: argparse.Namespace) -> int:
     interval = IdentifiedFrequency.from_identify_json(args.params).ci95_hz if args.params else None
     comp = compare_scenario(scenario, params, f_interval_hz=interval, progress=sys.stderr.isatty())
     if report_dir is not None:
-        print(f"report written to {comp.report(report_dir)}", file=sys.stderr)
+        print(f"report written to {comp.report(report_dir, progress=sys.stderr.isatty())}", file=sys.stderr)
     print(json.dumps(comp.to_dict(), indent=2) if args.json else comp.summary())
     written = comp.write_recommended(output, tuple(inputs)) if output is not None else None
     given = args.scenario + (f" --params {args.params}" if args.params else "")

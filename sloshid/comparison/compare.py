@@ -557,11 +557,12 @@ class Comparison:
         ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1))
         return ax.figure
 
-    def report(self, directory: str | Path, links: dict[str, str] | None = None) -> Path:
-        """Write the comparison report to directory/index.html (`links`: text -> relative href shown at the top)."""
+    def report(self, directory: str | Path, links: dict[str, str] | None = None, progress: bool = False) -> Path:
+        """Write the comparison report to directory/index.html (`links`: text -> relative href shown at the top;
+        `progress`: a tqdm bar counts its figures)."""
         from sloshid.comparison.report import save_report
 
-        return save_report(self, directory, links)
+        return save_report(self, directory, links, progress)
 
     def to_dict(self) -> dict:
         """JSON-ready summary (unit-named keys)."""

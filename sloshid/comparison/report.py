@@ -173,12 +173,14 @@ def _recommendation_table(rep: Report, comp: Comparison) -> None:
     )
 
 
-def build_report(comp: Comparison, title: str = "sloshid compare", links: dict[str, str] | None = None) -> Report:
+def build_report(
+    comp: Comparison, title: str = "sloshid compare", links: dict[str, str] | None = None, progress: bool = False
+) -> Report:
     """Assemble the page; every figure says what to look at; `links` (text -> relative href) point back to a
-    pipeline's index and to the stage's files."""
+    pipeline's index and to the stage's files; `progress` counts the figures on a tqdm bar."""
     s = comp.settings
     p = comp.params
-    rep = Report(title)
+    rep = Report(title, progress=progress)
     rep.add_links(links or {})
     rec = comp.recommendation
     rep.add_text(comp.verdict, f"verdict-{rec.risk if rec else 'uncertain'}")
@@ -286,6 +288,8 @@ def _camera_section(rep: Report, comp: Comparison) -> None:
     )
 
 
-def save_report(comp: Comparison, directory: str | Path, links: dict[str, str] | None = None) -> Path:
+def save_report(
+    comp: Comparison, directory: str | Path, links: dict[str, str] | None = None, progress: bool = False
+) -> Path:
     """Write the comparison report to `directory/index.html`."""
-    return build_report(comp, links=links).save(directory)
+    return build_report(comp, links=links, progress=progress).save(directory)

@@ -210,7 +210,7 @@ def run_compare(opts: CompareOptions, ctx: StageContext) -> dict[str, Any]:
     if move is not None:
         comp.write_recommended(ctx.out_dir / RECOMMENDED_CSV)
         links = {"recommended move CSV": f"../{RECOMMENDED_CSV}", **links}
-    comp.report(ctx.out_dir / "report", links)
+    comp.report(ctx.out_dir / "report", links, progress=True)
     return {
         "scores": "scores.json",
         "report": "report/index.html",
