@@ -1,5 +1,7 @@
-"""The one pendulum integrator (solve_ivp) used by simulation, plan sampling and synthetic videos, the nonlinear
-liquid response to a container trajectory, and the slosh figures that score a move.
+"""The pendulum integrators and the nonlinear liquid response to a container trajectory, with the slosh figures that
+score a move: `simulate_liquids` for sampled trajectories (a fixed-step RK4 compiled with CasADi on the trajectory's
+grid, many pendulums per call: every scored move), `integrate_pendulums` for inputs given as functions of time
+(adaptive DOP853: plan sampling between the optimiser's nodes, synthetic videos).
 
 The liquid is the pendulum pair of `sloshid.model.pendulum.pendulum_rhs_3d`; what spills liquid is its angle
 *relative to the container*, i.e. the liquid surface's (phi, theta) minus the container's.
@@ -62,8 +64,9 @@ def integrate_pendulums(
     atol: float = 1e-12,
     max_step: float = np.inf,
 ) -> np.ndarray:
-    """The one pendulum integrator: surface state [phi, theta, phi', theta'] (rad, rad/s) at the sorted times
-    `t_eval` under the container acceleration given piece by piece, `pieces` = [(t0, t1, accel), ...] back to back.
+    """The integrator for inputs given as functions of time: surface state [phi, theta, phi', theta'] (rad, rad/s)
+    at the sorted times `t_eval` under the container acceleration given piece by piece, `pieces` = [(t0, t1, accel),
+    ...] back to back.
 
     The nonlinear pair of the reconstructed seed eq. 3 (vertical acceleration changes gravity to g + uz; -phi tilts
     toward +uy, theta toward +ux) is integrated with solve_ivp (DOP853) one piece at a time, restarting at every
