@@ -76,3 +76,15 @@ def test_plan_robust_needs_a_free_move_and_one_way_of_asking(run_cli, tmp_path):
     assert code == 2 and "no robust variant" in err and not (tmp_path / "t.csv").exists()
     with pytest.raises(UserError, match="not both"):
         sloshid.plan(SCENARIO, robust=True, robust_omega_factors=(0.9, 1.1))
+
+
+def test_each_command_of_the_chain_ends_with_the_next_step(run_cli, tmp_path):
+    # issue 39: every command ends with the one line a user needs next, the file to send last
+    angles, params, move = tmp_path / "tap.csv", tmp_path / "params.json", tmp_path / "move.csv"
+    code, out, _ = run_cli("track", ROOT / "data" / "sample_tap.mp4", "-o", angles, "--float-color", "red")
+    assert code == 0 and out.strip().splitlines()[-1].startswith(f"next: sloshid identify {angles} -o ")
+    code, out, _ = run_cli("identify", angles, "--mass", "0.5", "-o", params)
+    assert code == 0 and out.strip().splitlines()[-1].startswith(f"next: sloshid plan SCENARIO.toml --params {params}")
+    code, out, err = run_cli("plan", SCENARIO, "--params", params, "--robust", "-o", move)
+    assert code == 0, err
+    assert out.strip().splitlines()[-1] == f"next: send {move} to the robot."
