@@ -14,21 +14,27 @@ from pathlib import Path
 from bench_output import ROOT, write_results
 
 
+def timed_run(output_dir: str) -> tuple[float, dict]:
+    """One `sloshid run pipelines/demo.toml` in a new process into `output_dir`: (wall time in s, its manifest)."""
+    start = time.perf_counter()
+    done = subprocess.run(
+        [sys.executable, "-m", "sloshid", "run", "pipelines/demo.toml", "--output-dir", output_dir, "--quiet"],
+        cwd=ROOT,
+        check=True,
+        capture_output=True,
+        text=True,
+    )
+    seconds = time.perf_counter() - start
+    return seconds, json.loads((Path(done.stdout.strip()).parent / "manifest.json").read_text())
+
+
 def main() -> None:
     """Time a first and an unchanged second run of the demo pipeline; write reports/benchmarks/pipeline_rerun.*"""
     times, statuses = [], []
     with tempfile.TemporaryDirectory() as tmp:
         for _ in range(2):
-            start = time.perf_counter()
-            done = subprocess.run(
-                [sys.executable, "-m", "sloshid", "run", "pipelines/demo.toml", "--output-dir", tmp, "--quiet"],
-                cwd=ROOT,
-                check=True,
-                capture_output=True,
-                text=True,
-            )
-            times.append(time.perf_counter() - start)
-            manifest = json.loads((Path(done.stdout.strip()).parent / "manifest.json").read_text())
+            seconds, manifest = timed_run(tmp)
+            times.append(seconds)
             statuses.append({s["name"]: s["status"] for s in manifest["stages"]})
     ratio = times[1] / times[0]
     write_results(

@@ -109,15 +109,23 @@ def plan(
     scenario: Scenario | str | Path,
     params: Any = None,
     *,
+    robust: bool = False,
     robust_omega_factors: Sequence[float] | None = None,
     progress: bool = False,
 ) -> PlanResult:
     """Plan the scenario's time-optimal slosh-free move for the liquid `params` (SloshParams, an IdentResult, an
-    identify JSON path, or None for the scenario's [liquid]); `robust_omega_factors` (e.g. (0.9, 1.0, 1.1)) makes
-    it the robust variant, None takes the scenario's [solver].robust_omega_factors."""
+    identify JSON path, or None for the scenario's [liquid]). `robust=True` plans the robust variant `compare` scores
+    (the frequency factors of [compare] robust_omega_factors, default (0.9, 1.0, 1.1), as `sloshid plan --robust`);
+    `robust_omega_factors` gives the factors themselves; None takes the scenario's [solver].robust_omega_factors."""
+    from sloshid.comparison.compare import robust_scenario
+    from sloshid.core.errors import UserError
     from sloshid.planning.planner import plan as solve
 
+    if robust and robust_omega_factors is not None:
+        raise UserError("give robust=True or robust_omega_factors, not both.")
     scenario, liquid, _ = _scenario_and_liquid(scenario, params)
+    if robust:
+        scenario = robust_scenario(scenario)
     return solve(scenario, liquid, robust_omega_factors=robust_omega_factors, progress=progress)
 
 

@@ -178,3 +178,16 @@ def test_a_method_that_collides_reads_collide_in_the_table(tmp_path, run_cli):
     row = next(line for line in out.splitlines() if line.startswith("constant acceleration"))
     assert row.split()[-1] == "COLLIDE"
     assert "collides with an obstacle: constant acceleration" in out
+
+
+def test_compare_shows_its_progress_on_a_terminal_and_ends_with_the_next_step(tmp_path, run_cli, stderr_as):
+    # issue 39: compare ran for minutes without a word; a bar counts its methods and studies on a terminal
+    path = write_scenario(tmp_path, methods='["constant_acc", "sloshid_robust"]')  # the robust plan is recommended
+    err = stderr_as(terminal=True)
+    code, out, _ = run_cli("compare", path, "-o", tmp_path / "move.csv", "--report", tmp_path / "rep")
+    assert code == 0
+    assert "compare" in err.getvalue() and "robustness" in err.getvalue()  # the bar and its study names
+    assert "sloshid compare: figures" in err.getvalue()  # and the report's figures, seconds of drawing
+    last = out.strip().splitlines()[-1]
+    recommended = json.loads((tmp_path / "move.json").read_text())
+    assert last.startswith(f"next: send {tmp_path / 'move.csv'} to the robot") and recommended["label"] in last

@@ -84,10 +84,11 @@ def test_seed_1d_case_recommends_a_method_slosh_free_over_the_identified_interva
     assert summary["verdict"].startswith("Recommended: ")
 
 
-def test_plan_warns_when_the_identified_frequency_is_not_good(tmp_path, run_cli, sample_liquid):
+def test_plan_names_each_identified_parameter_that_is_not_good_and_its_cost(tmp_path, run_cli, sample_liquid):
     params, _ = sample_liquid
     data = json.loads(params.read_text())
     data["parameters"]["f_hz"].update(quality="uncertain", reasons=["two strong peaks compete."])
+    data["parameters"]["zeta"].update(quality="uncertain", reasons=["the residual is not white."])
     doubtful = tmp_path / "doubtful.json"
     doubtful.write_text(json.dumps(data))
     scenario = tmp_path / "demo.toml"
@@ -95,7 +96,16 @@ def test_plan_warns_when_the_identified_frequency_is_not_good(tmp_path, run_cli,
     code, _, err = run_cli("plan", scenario, "--params", doubtful, "-o", tmp_path / "t.csv")
     # it still plans (written; at this coarse N = 40 the plan can pass a robot limit between grid points: exit 1)
     assert (tmp_path / "t.csv").stat().st_size > 0 and code == (1 if "exceeded" in err else 0), err
-    warnings = [line for line in err.splitlines() if "identified frequency" in line]
-    assert warnings == ["sloshid: warning: the identified frequency is uncertain: two strong peaks compete."]
+    warnings = [line for line in err.splitlines() if "identified" in line]
+    # each doubtful parameter named, with its reason and what it costs (issue 39): the band a move must hold over
+    lo, hi = (f * (1 + m) for f, m in zip(data["parameters"]["f_hz"]["ci95"], (-0.05, 0.05)))
+    assert warnings == [
+        "sloshid: warning: the identified frequency is uncertain (two strong peaks compete); it costs: a move must "
+        f"stay slosh-free over {lo:.3g}-{hi:.3g} Hz (compare's band), where one planned for "
+        f"{data['parameters']['f_hz']['value']:.3g} Hz alone may not (--robust plans for -10 % to +10 %).",
+        "sloshid: warning: the identified damping ratio is uncertain (the residual is not white); it costs: the move "
+        f"is made for zeta = {data['parameters']['zeta']['value']:.3g}, and compare's robustness sweep shows what "
+        "half or twice that leaves behind.",
+    ]
     code, _, err = run_cli("plan", scenario, "--params", params, "-o", tmp_path / "t2.csv")
-    assert code == (1 if "exceeded" in err else 0) and "identified frequency" not in err  # a good one plans silently
+    assert code == (1 if "exceeded" in err else 0) and "identified" not in err  # good ones plan silently

@@ -14,7 +14,7 @@ import argparse
 import json
 import sys
 
-from sloshid.cli.plan_cmd import note_io_model
+from sloshid.cli.plan_cmd import note_io_model, warn_doubtful_parameters
 from sloshid.core.outputs import Outputs
 
 
@@ -35,6 +35,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--report", metavar="DIR", default=None, help="write the HTML report to DIR/index.html (figures embedded)"
     )
     parser.add_argument(
+        "-o",
+        "--output",
+        metavar="TRAJ.csv",
+        default=None,
+        help="write the recommended move as a 1 kHz robot trajectory CSV (the columns of `sloshid plan -o`) and "
+        "TRAJ.json beside it (which method, why, the frequency band in Hz it holds over); nothing when none is "
+        "recommended",
+    )
+    parser.add_argument(
         "--json",
         action="store_true",
         help="print the full summary as JSON (times in s, angles in deg) instead of the table",
@@ -47,14 +56,35 @@ def run(args: argparse.Namespace) -> int:
     from sloshid.model.pendulum import IdentifiedFrequency
     from sloshid.planning.scenario import load_scenario, resolve_liquid
 
-    outputs = Outputs([p for p in (args.scenario, args.params) if p])
+    inputs = [p for p in (args.scenario, args.params) if p]
+    outputs = Outputs(inputs)
     report_dir = outputs.report_dir(args.report, "--report") if args.report is not None else None
+    output = outputs.file(args.output, "-o", (".csv",)) if args.output else None
+    if output is not None:
+        outputs.file(output.with_suffix(".json"), "-o's description beside it", (".json",))
     scenario = load_scenario(args.scenario)
     params = resolve_liquid(scenario, args.params)
     note_io_model(args.params, "TRAJ.csv")
+    warn_doubtful_parameters(args.params, scenario)
     interval = IdentifiedFrequency.from_identify_json(args.params).ci95_hz if args.params else None
     comp = compare_scenario(scenario, params, f_interval_hz=interval, progress=sys.stderr.isatty())
     if report_dir is not None:
-        print(f"report written to {comp.report(report_dir)}", file=sys.stderr)
+        print(f"report written to {comp.report(report_dir, progress=sys.stderr.isatty())}", file=sys.stderr)
     print(json.dumps(comp.to_dict(), indent=2) if args.json else comp.summary())
+    written = comp.write_recommended(output, tuple(inputs)) if output is not None else None
+    given = args.scenario + (f" --params {args.params}" if args.params else "")
+    print(next_line(comp, given, written), file=sys.stderr if args.json else sys.stdout)  # JSON stays JSON
     return 0
+
+
+def next_line(comp, scenario: str, written) -> str:
+    """What to do with the result: send the written move, or the command that writes it (`scenario`: the scenario
+    and --params as given)."""
+    rec = comp.recommended
+    if rec is None:
+        return "next: no method is recommended (see why above); change the move, its limits or [compare] and compare again."
+    if written is not None:
+        return f"next: send {written} to the robot ({rec.label}; {written.with_suffix('.json')} says why)."
+    if rec.key == "sloshid_robust":
+        return f"next: sloshid plan {scenario} --robust -o TRAJ.csv writes the recommended move ({rec.label})."
+    return f"next: sloshid compare {scenario} -o TRAJ.csv writes the recommended move ({rec.label})."

@@ -161,4 +161,5 @@ def run(args: argparse.Namespace) -> int:
     write_json(output, doc)
     print(result.summary())
     print(f"wrote {output}" + (f" and {report_dir / 'index.html'}" if report_dir else ""))
+    print(f"next: sloshid plan SCENARIO.toml --params {output} -o TRAJ.csv plans a slosh-free move for this liquid.")
     return 0

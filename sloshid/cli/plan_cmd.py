@@ -12,6 +12,7 @@ import argparse
 import json
 import os
 import sys
+from pathlib import Path
 
 from sloshid.core.errors import UserError
 from sloshid.core.outputs import Outputs
@@ -57,7 +58,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--fit-joints",
         action="store_true",
         help="with --joints: when the arm cannot follow, re-plan with lower Cartesian limits until it can "
-        "(slower; the JSON's joints.fit lists each attempt's T in s)",
+        "(slower; the JSON's joints.fit lists each attempt's T in s); [robot] fit_joints = true does it by default",
+    )
+    parser.add_argument(
+        "--robust",
+        action="store_true",
+        help="plan the robust variant, the one `sloshid compare` scores as 'sloshid robust plan': the liquid at every "
+        "frequency factor of the scenario's [compare] robust_omega_factors (default 0.9, 1.0, 1.1) ends at rest",
     )
     parser.add_argument(
         "--json",
@@ -86,12 +93,16 @@ def run(args: argparse.Namespace) -> int:
         raise UserError(
             '--joints needs a [robot] table with model = "panda" in the scenario (base_xyz_m and q_start are optional).'
         )
+    if args.robust:
+        from sloshid.comparison.compare import robust_scenario
+
+        scenario = robust_scenario(scenario)
     params = resolve_liquid(scenario, args.params)
-    _warn_on_doubtful_frequency(args.params)
+    warn_doubtful_parameters(args.params, scenario)
     result = plan(scenario, params, progress=sys.stderr.isatty())
     fit = []
     if joints is not None:
-        result, fit = _check_joints(result, scenario, params, args.fit_joints)
+        result, fit = _check_joints(result, scenario, params, args.fit_joints or scenario.arm.fit_joints)
     note_io_model(args.params, str(output), result.trajectory)  # of the plan written (re-planned for the joints)
     executable = result.joints is None or result.joints.executable
     passed = executable and result.limits_ok and result.verification_ok and result.path_ok
@@ -119,6 +130,9 @@ def run(args: argparse.Namespace) -> int:
         print(json.dumps(summary, indent=2))
     else:
         print(result.summary() + (f"; wrote {' and '.join(map(str, written))}" if written else ""))
+    if written and passed:  # the one line a user needs next (on stderr under --json, which stays JSON)
+        also = f" (or the joints, {joints})" if joints is not None else ""
+        print(f"next: send {output}{also} to the robot.", file=sys.stderr if args.json else sys.stdout)
     if kept:
         print(
             f"sloshid: kept {' and '.join(map(str, kept))}: a plan that fails its checks does not replace a file "
@@ -126,10 +140,11 @@ def run(args: argparse.Namespace) -> int:
             file=sys.stderr,
         )
     if not executable:
-        # a slower plan cannot move the start: --fit-joints helps only an arm that starts where the move does
-        slower = not args.fit_joints and result.joints.starts_at_q_start
-        hint = " (--fit-joints re-plans slower until it can)" if slower else ""
-        print(f"sloshid: not executable on the Panda: {result.joints.reason()}{hint}", file=sys.stderr)
+        why = result.joints.reason().rstrip(".")
+        print(
+            f"sloshid: not executable on the Panda: {why}{'' if fit else _fit_cost(result, scenario, params)}.",
+            file=sys.stderr,
+        )
         return 1
     # a plan past a limit, unverified or off its path is written for inspection, but a script must not run it
     return 0 if result.limits_ok and result.verification_ok and result.path_ok else 1
@@ -146,15 +161,35 @@ def note_io_model(params_path: str | None, trajectory: str, planned=None) -> Non
             print(f"sloshid: note: {note}", file=sys.stderr)
 
 
-def _warn_on_doubtful_frequency(params_path: str | None) -> None:
-    """One stderr line when the identify JSON's frequency verdict is not good (the plan still runs)."""
-    from sloshid.model.pendulum import IdentifiedFrequency
+def warn_doubtful_parameters(params_path: str | None, scenario) -> None:
+    """One stderr line per parameter a plan or comparison uses (f, zeta) whose identify verdict is not good: why,
+    and what it costs (the band the recommendation must hold over; the damping the move was made for)."""
+    from sloshid.comparison.compare import CompareSettings
+    from sloshid.comparison.recommend import frequency_band
+    from sloshid.model.pendulum import IdentifiedFrequency, SloshParams
 
-    if params_path:
-        freq = IdentifiedFrequency.from_identify_json(params_path)
-        if freq.quality not in (None, "good"):
-            why = f": {freq.reasons[0]}" if freq.reasons else ""
-            print(f"sloshid: warning: the identified frequency is {freq.quality}{why}", file=sys.stderr)
+    if not params_path:
+        return
+    params = SloshParams.from_identify_json(params_path)  # checks the file first
+    freq = IdentifiedFrequency.from_identify_json(params_path)
+    zeta = json.loads(Path(params_path).read_text(encoding="utf-8")).get("parameters", {}).get("zeta", {})
+    because = lambda reasons: f" ({reasons[0].rstrip('.')})" if reasons else ""  # noqa: E731
+    if freq.quality not in (None, "good"):
+        margin = float(scenario.compare.get("frequency_margin", CompareSettings().frequency_margin))
+        (lo, hi), _ = frequency_band(params.f_hz, freq.ci95_hz, margin)
+        print(
+            f"sloshid: warning: the identified frequency is {freq.quality}{because(freq.reasons)}; it costs: a move "
+            f"must stay slosh-free over {lo:.3g}-{hi:.3g} Hz (compare's band), where one planned for "
+            f"{params.f_hz:.3g} Hz alone may not (--robust plans for -10 % to +10 %).",
+            file=sys.stderr,
+        )
+    if zeta.get("quality") not in (None, "good"):
+        print(
+            f"sloshid: warning: the identified damping ratio is {zeta['quality']}{because(zeta.get('reasons'))}; it "
+            f"costs: the move is made for zeta = {params.zeta:.3g}, and compare's robustness sweep shows what half or "
+            "twice that leaves behind.",
+            file=sys.stderr,
+        )
 
 
 def _check_joints(result, scenario, params, fit_joints: bool) -> tuple:
@@ -168,6 +203,20 @@ def _check_joints(result, scenario, params, fit_joints: bool) -> tuple:
         result, check, fit = fit_to_joints(scenario, params, result, check)
     result.joints = check
     return result, fit
+
+
+def _fit_cost(result, scenario, params) -> str:
+    """What --fit-joints would cost, measured by fitting (the plan written stays the fastest one)."""
+    from sloshid.planning.arm import fit_to_joints
+
+    _, check, steps = fit_to_joints(scenario, params, result, result.joints)
+    if not check.executable:
+        return f"; --fit-joints cannot fix it: {steps[-1].reason.rstrip('.')}"
+    cost = 100 * (steps[-1].T_s / steps[0].T_s - 1)
+    return (
+        f"; --fit-joints (or [robot] fit_joints = true) re-plans slower until it can: T {steps[0].T_s:.3f} -> "
+        f"{steps[-1].T_s:.3f} s (+{cost:.1f} %)"
+    )
 
 
 def _warnings(result, fit: list) -> None:
@@ -203,6 +252,8 @@ def _warnings(result, fit: list) -> None:
             f"than [path].path_tolerance_m = {result.path_tolerance_m * 1e3:g} mm.",
             file=sys.stderr,
         )
+    if result.joints is not None and result.joints.start_moved:
+        print(f"sloshid: {result.joints.start_moved}", file=sys.stderr)
     if len(fit) > 1:
         print(
             f"sloshid: re-planned {len(fit) - 1} time(s) with lower Cartesian limits for the joints: T "

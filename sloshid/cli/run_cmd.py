@@ -29,9 +29,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Load and validate the pipeline, run it, print the index path."""
+    """Load and validate the pipeline, run it, name the file to send to the robot, print the index path."""
     from sloshid.tracking.tracker import LOST_NOTE
-    from sloshid.workflow.index import write_index
+    from sloshid.workflow.index import next_step, write_index
     from sloshid.workflow.pipeline import Pipeline, run_pipeline
     from sloshid.workflow.stages import REGISTRY
 
@@ -51,5 +51,8 @@ def run(args: argparse.Namespace) -> int:
                 named = f"{name}: {warning}" if len(videos) > 1 and name not in warning else warning
                 print(f"sloshid: warning: {named}", file=sys.stderr)
             truncated |= video.get("lost_share", 0.0) > LOST_NOTE
+    step = next_step(result.run_dir, result.stages)
+    if step is not None and not args.quiet:  # stdout stays the index's path alone
+        print(f"send to the robot: {result.run_dir / step[0]} ({step[1]}); open:", file=sys.stderr)
     print(result.index_html)
     return 0 if result.ok and not truncated else 1

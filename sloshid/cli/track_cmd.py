@@ -126,4 +126,5 @@ def run(args: argparse.Namespace) -> int:
     for warning in result.warnings:
         print(f"sloshid: warning: {warning}", file=sys.stderr)
     print(result.summary() + f"; wrote {output}" + (f" and {overlay}" if overlay else ""))
+    print(f"next: sloshid identify {output} -o params.json identifies the liquid from this angle trace.")
     return 1 if result.lost_share > LOST_NOTE else 0

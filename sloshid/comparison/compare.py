@@ -3,7 +3,8 @@
 Methods (keys in `METHODS`): the constant-acceleration profile, ZV and ZVD shaped, ruckig jerk-limited upright
 and tilt-compensated, sloshid's plan and its robust variant, and camera feedback on top of the
 constant-acceleration profile and of sloshid's plan. A method that cannot be built for the scenario is a
-'not applicable' row with its reason. Scoring is `simulate_liquid` (nonlinear) for every method.
+'not applicable' row with its reason. Scoring is the nonlinear pendulum (`simulate_liquids`, every method in one
+batch).
 """
 
 from __future__ import annotations
@@ -20,14 +21,14 @@ from tqdm import tqdm
 from sloshid.comparison.feedback import FeedbackSettings
 from sloshid.comparison.profiles import MoveTask, NotApplicable, constant_acceleration
 from sloshid.comparison.recommend import Recommendation, recommend
-from sloshid.comparison.robot_tracking import ClosedLoopResponse, closed_loop_response
-from sloshid.comparison.robustness import Replay, RobustnessResult, sweep
+from sloshid.comparison.robot_tracking import ClosedLoopResponse, closed_loop_responses
+from sloshid.comparison.robustness import Replay, RobustnessResult, replay_responses, sweep
 from sloshid.comparison.ruckig_moves import jerk_limited
 from sloshid.comparison.shapers import shaped_constant_acceleration
 from sloshid.core.errors import UserError
 from sloshid.core.tables import to_pandas
 from sloshid.model.pendulum import SloshParams
-from sloshid.model.simulate import MAX_SETTLE_S, LiquidResponse, simulate_liquid
+from sloshid.model.simulate import MAX_SETTLE_S, LiquidResponse, simulate_liquid, simulate_liquids
 from sloshid.model.trajectory import RobotLimits, Trajectory, check_limits, check_move_limits, tilt_profiles
 from sloshid.planning.planner import check_feasible
 from sloshid.planning.scenario import body_clearance
@@ -191,9 +192,12 @@ class MoveLimits:
     """Per-axis jerk limit of the move ([limits].jerk_max with the jerk-limited formulation), else None."""
 
 
-def score(traj: Trajectory, params: SloshParams, limits: MoveLimits, settle_s: float) -> tuple[Score, LiquidResponse]:
-    """Score a trajectory: nonlinear slosh relative to the container, tilt, robot and move limits, clearance."""
-    resp = simulate_liquid(traj, params, settle_s=settle_s)
+def score(
+    traj: Trajectory, params: SloshParams, limits: MoveLimits, settle_s: float, resp: LiquidResponse | None = None
+) -> tuple[Score, LiquidResponse]:
+    """Score a trajectory: nonlinear slosh relative to the container (`resp`, simulated here when not given), tilt,
+    robot and move limits, clearance."""
+    resp = resp or simulate_liquid(traj, params, settle_s=settle_s)
     tilt, rate = tilt_profiles(traj)
     failed = [f"robot {u.quantity} {u.peak:.3g} > {u.limit:.3g}" for u in check_limits(traj, limits.robot) if not u.ok]
     robot_ok = not failed
@@ -330,19 +334,39 @@ def _path_only(key: str, inp: CompareInput) -> None:
         raise NotApplicable("camera feedback corrects the acceleration and would leave the [path].")
 
 
+def robust_scenario(scenario: Any) -> Any:
+    """The scenario whose plan is compare's 'sloshid robust plan' (`sloshid plan --robust`, `sloshid.plan(...,
+    robust=True)`): [solver].robust_omega_factors set to its [compare].robust_omega_factors (default 0.9, 1.0, 1.1:
+    the liquid at -10 %, 0 and +10 % of its frequency must all end at rest); UserError for a [path] scenario."""
+    if getattr(scenario, "path", None) is not None:
+        raise UserError("the path planner has no robust variant; plan a [path] scenario without it.")
+    factors = list(compare_settings(scenario).robust_omega_factors)
+    return replace(scenario, solver=replace(scenario.solver, robust_omega_factors=factors))
+
+
+def _copies(factors: Any) -> tuple[float, ...]:
+    """The extra pendulum copies a plan with these factors holds (1.0 is the nominal one, always there)."""
+    return tuple(float(f) for f in factors if abs(f - 1.0) > 1e-9)
+
+
 def sloshid_plan(inp: CompareInput, robust: bool) -> tuple[Trajectory, float]:
-    """sloshid's plan (issue 4's planner) for the scenario, nominal or robust; (trajectory, solve time in s)."""
+    """sloshid's plan (issue 4's planner) for the scenario, nominal or robust, reusing the given plan when it is that
+    variant; (trajectory, solve time in s)."""
     if inp.scenario is None:
         raise NotApplicable("needs a scenario file for the planner.")
     try:
         from sloshid.planning.planner import plan
     except ImportError as exc:
         raise NotApplicable(f"the planner is not available ({exc}).") from None
-    if not robust and inp.plan is not None:
+    wanted = _copies(inp.settings.robust_omega_factors) if robust else ()
+    if inp.plan is not None and _copies(inp.plan.robust_omega_factors) == wanted:
         return inp.plan.trajectory, float(inp.plan.solve_time_s)
-    factors = inp.settings.robust_omega_factors if robust else ()  # () is nominal; None would take [solver]'s
-    try:
-        result = plan(inp.scenario, inp.params, robust_omega_factors=factors)
+    try:  # nominal: no copies, whatever [solver] lists
+        result = (
+            plan(robust_scenario(inp.scenario), inp.params)
+            if robust
+            else plan(inp.scenario, inp.params, robust_omega_factors=())
+        )
     except UserError as exc:
         raise NotApplicable(f"the planner could not solve this scenario: {exc}") from None
     return result.trajectory, float(result.solve_time_s)
@@ -354,7 +378,17 @@ def with_feedback(inp: CompareInput, base: Trajectory, fb: FeedbackSettings | No
 
 
 def build_method(key: str, inp: CompareInput, built: dict[str, MethodResult]) -> MethodResult:
-    """Build one method (feedback methods reuse their base's trajectory from `built`); never raises NotApplicable."""
+    """Build and score one method (feedback methods reuse their base's trajectory from `built`); never raises
+    NotApplicable."""
+    res = build_trajectory(key, inp, built)
+    if res.applicable:
+        res.score, res.response = score(res.trajectory, inp.params, inp.limits, inp.settings.settle_s)
+    return res
+
+
+def build_trajectory(key: str, inp: CompareInput, built: dict[str, MethodResult]) -> MethodResult:
+    """Build one method's trajectory, unscored (feedback methods reuse their base's trajectory from `built`); never
+    raises NotApplicable."""
     res = MethodResult(key, METHODS[key])
     task = inp.limits.task
     t0 = time.perf_counter()
@@ -382,7 +416,7 @@ def build_method(key: str, inp: CompareInput, built: dict[str, MethodResult]) ->
             base_key = key.removesuffix("_feedback")
             base = built.get(base_key)
             if base is None or not base.applicable:
-                base = build_method(base_key, inp, built)
+                base = build_trajectory(base_key, inp, built)
             if not base.applicable:
                 raise NotApplicable(f"its feedforward '{base.label}' is not applicable.")
             res.replay = with_feedback(inp, base.trajectory)
@@ -395,7 +429,6 @@ def build_method(key: str, inp: CompareInput, built: dict[str, MethodResult]) ->
     traj.name = res.label
     res.trajectory = traj
     res.replay = res.replay or Replay(traj)
-    res.score, res.response = score(traj, inp.params, inp.limits, inp.settings.settle_s)
     return res
 
 
@@ -446,6 +479,46 @@ class Comparison:
         """The row of method `key`, if it was requested."""
         return next((r for r in self.results if r.key == key), None)
 
+    @property
+    def recommended(self) -> MethodResult | None:
+        """The recommended method's row (None when no method qualifies)."""
+        rec = self.recommendation
+        return self.result(rec.method) if rec is not None and rec.method else None
+
+    def recommended_move(self) -> dict[str, Any] | None:
+        """What the sidecar JSON of the recommended move says: the method, why, the band it holds over, and for a
+        feedback method that the CSV is its feedforward (the camera loop corrects it on the robot)."""
+        r, rec = self.recommended, self.recommendation
+        if r is None:
+            return None
+        closed = r.replay is not None and r.replay.closed_loop
+        return {
+            "method": r.key,
+            "label": r.label,
+            "transfer_time_s": r.score.transfer_time_s,
+            "band_hz": list(rec.band_hz),
+            "risk": rec.risk,
+            "reason": rec.reason,
+            "robust_omega_factors": list(self.settings.robust_omega_factors) if r.key == "sloshid_robust" else None,
+            "csv_holds": "the feedforward; the camera feedback corrects it on the robot" if closed else "the move",
+        }
+
+    def write_recommended(self, path: str | Path, inputs: tuple[str | Path, ...] = ()) -> Path | None:
+        """Write the recommended move as a 1 kHz trajectory CSV at `path` and what it is as JSON beside it
+        (`path` with .json); None (nothing written) when no method is recommended."""
+        from sloshid.core.atomic import write_json
+        from sloshid.core.outputs import Outputs
+
+        move = self.recommended_move()
+        if move is None:
+            return None
+        outputs = Outputs(inputs)
+        csv = outputs.file(path, "the recommended move", (".csv",))
+        sidecar = outputs.file(csv.with_suffix(".json"), "the recommended move's description", (".json",))
+        self.recommended.replay.trajectory.to_csv(csv, inputs)
+        write_json(sidecar, {**move, "trajectory_csv": csv.name})
+        return csv
+
     def summary(self) -> str:
         """The score table as aligned plain text, then the verdict (what `sloshid compare` prints)."""
         head = f"{'method':34s} {'T_s':>7s} {'peak_deg':>9s} {'resid_deg':>9s} {'tilt_deg':>8s} {'limits':>7s}"
@@ -484,11 +557,12 @@ class Comparison:
         ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1))
         return ax.figure
 
-    def report(self, directory: str | Path, links: dict[str, str] | None = None) -> Path:
-        """Write the comparison report to directory/index.html (`links`: text -> relative href shown at the top)."""
+    def report(self, directory: str | Path, links: dict[str, str] | None = None, progress: bool = False) -> Path:
+        """Write the comparison report to directory/index.html (`links`: text -> relative href shown at the top;
+        `progress`: a tqdm bar counts its figures)."""
         from sloshid.comparison.report import save_report
 
-        return save_report(self, directory, links)
+        return save_report(self, directory, links, progress)
 
     def to_dict(self) -> dict:
         """JSON-ready summary (unit-named keys)."""
@@ -535,64 +609,84 @@ def camera_seen_peak(angle_deg: np.ndarray, dt_s: float, fps: float, phases: int
     return float(np.mean(peaks))
 
 
-def camera_study(inp: CompareInput, built: dict[str, MethodResult]) -> tuple[list[CameraPoint], dict[str, float]]:
-    """Feedback residual against camera rate at the configured model error, for each applicable feedforward."""
+def camera_study(
+    inp: CompareInput, built: dict[str, MethodResult], progress: bool = False
+) -> tuple[list[CameraPoint], dict[str, float]]:
+    """Feedback residual against camera rate at the configured model error, for each applicable feedforward (every
+    loop against the true liquid first, then all of them in one batched simulation)."""
     s = inp.settings
     truth = inp.params.scaled(s.camera_omega_factor, 1.0)
-    points, reference = [], {}
-    for base_key in ("constant_acc", "sloshid"):
-        base = built.get(base_key)
-        if base is None or not base.applicable or f"{base_key}_feedback" not in built:
-            continue
-        reference[base.label] = simulate_liquid(base.trajectory, truth, settle_s=s.settle_s).residual_deg
-        dt = base.trajectory.dt_s
-        rel = base.response.rel_angle_deg[: len(base.trajectory.t_s)]  # while moving
+    bases = [
+        built[k] for k in ("constant_acc", "sloshid") if k in built and built[k].applicable and f"{k}_feedback" in built
+    ]
+    loops = {}
+    for base in bases:
         for fps in s.camera_fps_sweep:
-            seen = camera_seen_peak(rel, dt, fps)
             fb = FeedbackSettings(**{**vars(s.feedback), "camera_fps": fps})
-            traj = with_feedback(inp, base.trajectory, fb)(truth)
-            resp = simulate_liquid(traj, truth, settle_s=s.settle_s)
-            points.append(
-                CameraPoint(
-                    base.label, fps, traj.duration_s, resp.peak_during_deg, resp.residual_deg, seen, float(rel.max())
-                )
+            own = built[f"{base.key}_feedback"].replay  # the configured camera: its loop at this liquid may have run
+            loops[base.label, fps] = (
+                own if own is not None and fb == own.feedback else with_feedback(inp, base.trajectory, fb)
             )
+    pairs = [(Replay(b.trajectory), truth) for b in bases] + [(loop, truth) for loop in loops.values()]
+    resp = replay_responses(pairs, s.settle_s, progress, s.workers)
+    reference = {b.label: r.residual_deg for b, r in zip(bases, resp)}
+    points = []
+    for ((label, fps), loop), r in zip(loops.items(), resp[len(bases) :]):
+        base = next(b for b in bases if b.label == label)
+        rel = base.response.rel_angle_deg[: len(base.trajectory.t_s)]  # while moving
+        seen = camera_seen_peak(rel, base.trajectory.dt_s, fps)
+        points.append(
+            CameraPoint(label, fps, loop(truth).duration_s, r.peak_during_deg, r.residual_deg, seen, float(rel.max()))
+        )
     return points, reference
 
 
 def linearity_study(inp: CompareInput) -> list[LinearityPoint]:
     """Where linearisation holds: the constant-acceleration move at growing accelerations, linear vs nonlinear."""
     task = inp.limits.task
-    points = []
-    for acc in inp.settings.linearity_acc_m_s2:
-        scaled = MoveTask(task.waypoints, (acc, acc, acc), task.vel_max_m_s)
-        cl = closed_loop_response(constant_acceleration(scaled), inp.params, inp.settings.robot_bandwidth_hz, 1.0)
-        points.append(
-            LinearityPoint(acc, float(cl.rel_linear_deg.max()), float(cl.rel_nonlinear_deg.max()), cl.max_gap_deg)
-        )
-    return points
+    accs = inp.settings.linearity_acc_m_s2
+    moves = [constant_acceleration(MoveTask(task.waypoints, (acc, acc, acc), task.vel_max_m_s)) for acc in accs]
+    closed = closed_loop_responses(moves, inp.params, inp.settings.robot_bandwidth_hz, 1.0)
+    return [
+        LinearityPoint(acc, float(cl.rel_linear_deg.max()), float(cl.rel_nonlinear_deg.max()), cl.max_gap_deg)
+        for acc, cl in zip(accs, closed)
+    ]
 
 
 def compare(inp: CompareInput, progress: bool = False) -> Comparison:
-    """Build and score every requested method, then run the closed-loop, robustness, camera and linearity studies."""
+    """Build every requested method, score them in one batched simulation, then run the closed-loop, robustness,
+    camera and linearity studies; with `progress`, one tqdm bar counts the methods and the studies."""
     s = inp.settings
+    studies = ("scoring", "closed loop", "robustness", "camera rates", "linearity", "recommendation")
+    bar = tqdm(total=len(s.methods) + len(studies), desc="compare", disable=None if progress else True, leave=False)
+
+    def step(name: str) -> None:
+        bar.set_postfix_str(name)
+        bar.update()
+
     built: dict[str, MethodResult] = {}
-    for key in tqdm(s.methods, desc="methods", disable=None if progress else True, leave=False):
-        built[key] = build_method(key, inp, built)
+    for key in s.methods:
+        bar.set_postfix_str(key)
+        built[key] = build_trajectory(key, inp, built)
+        bar.update()
     results = [built[k] for k in s.methods]
     ok = [r for r in results if r.applicable]
-    closed = {r.key: closed_loop_response(r.trajectory, inp.params, s.robot_bandwidth_hz, s.settle_s) for r in ok}
-    robust = sweep(
-        {r.label: r.replay for r in ok},
-        inp.params,
-        s.omega_factors,
-        s.zeta_factors,
-        progress=progress,
-        workers=s.workers,
-    )
-    camera, reference = camera_study(inp, built)
+    for r, resp in zip(ok, simulate_liquids([r.trajectory for r in ok], inp.params, s.settle_s)):
+        r.score, r.response = score(r.trajectory, inp.params, inp.limits, s.settle_s, resp)
+    step(studies[0])
+    cls = closed_loop_responses([r.trajectory for r in ok], inp.params, s.robot_bandwidth_hz, s.settle_s)
+    closed = {r.key: cl for r, cl in zip(ok, cls)}
+    step(studies[1])
+    replays = {r.label: r.replay for r in ok}
+    robust = sweep(replays, inp.params, s.omega_factors, s.zeta_factors, progress=progress, workers=s.workers)
+    step(studies[2])
+    camera, reference = camera_study(inp, built, progress)
+    step(studies[3])
     comp = Comparison(inp.params, s, results, closed, robust, camera, reference, linearity_study(inp))
+    step(studies[4])
     comp.recommendation = recommend(results, inp.params, s, inp.f_interval_hz, progress)
+    step(studies[5])
+    bar.close()
     comp.verdict = verdict(comp)
     return comp
 

@@ -1,4 +1,4 @@
-"""Vision feedback on top of a feedforward move: Kalman filter (filterpy) on camera frames, LQR (python-control).
+"""Vision feedback on top of a feedforward move: Kalman filter on camera frames, LQR (python-control).
 
 Per horizontal axis the robot adds an acceleration u_fb = -K [dp, dv, e, e'] to the feedforward, where dp, dv
 are its own deviation from the feedforward (known exactly from the encoders) and e, e' the estimated liquid
@@ -19,7 +19,6 @@ from dataclasses import dataclass
 import control
 import numpy as np
 from filterpy.common import Q_discrete_white_noise
-from filterpy.kalman import KalmanFilter
 
 from sloshid.comparison.robot_tracking import filter_columns, hold_after, robot_tf
 from sloshid.core.errors import UserError
@@ -78,16 +77,39 @@ def lqr_gain(model: SloshParams, s: FeedbackSettings) -> np.ndarray:
     return np.asarray(k)[0]
 
 
-def slosh_filter(model: SloshParams, dt_s: float, s: FeedbackSettings) -> KalmanFilter:
-    """Kalman filter on [liquid angle, rate] driven by the commanded acceleration, measured by the camera."""
+@dataclass(frozen=True)
+class SloshFilter:
+    """Kalman filter on [liquid angle, rate] driven by the commanded acceleration, measured by the camera: the same
+    matrices for both axes, and since both see the same frames and model, one covariance serves both."""
+
+    F: np.ndarray
+    B: np.ndarray
+    Q: np.ndarray
+    R: float
+    P0: np.ndarray
+
+    def predict(self, x: np.ndarray, P: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """States x (..., 2) and covariance one step on under the accelerations u (...)."""
+        return x @ self.F.T + u[..., None] * self.B, self.F @ P @ self.F.T + self.Q
+
+    def update(self, x: np.ndarray, P: np.ndarray, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Measured angles z (...) folded into the states x (..., 2) (Joseph form, as filterpy's KalmanFilter)."""
+        k = P[:, 0] / (P[0, 0] + self.R)
+        i_kh = np.eye(2) - np.outer(k, [1.0, 0.0])
+        return x + (z - x[..., 0])[..., None] * k, i_kh @ P @ i_kh.T + self.R * np.outer(k, k)
+
+
+def slosh_filter(model: SloshParams, dt_s: float, s: FeedbackSettings) -> SloshFilter:
+    """The filter designed for the model's liquid at the camera's noise."""
     a = np.array([[0.0, 1.0], [-G / model.l_m, -model.damping_rate_1_s]])
     disc = control.c2d(control.ss(a, [[0.0], [1.0 / model.l_m]], [[1.0, 0.0]], [[0.0]]), dt_s)
-    kf = KalmanFilter(dim_x=2, dim_z=1, dim_u=1)
-    kf.F, kf.B, kf.H = np.asarray(disc.A), np.asarray(disc.B), np.array([[1.0, 0.0]])
-    kf.R = np.array([[math.radians(s.noise_deg) ** 2]])
-    kf.Q = Q_discrete_white_noise(2, dt_s, var=math.radians(5.0) ** 2 * model.omega_rad_s**3)  # model error
-    kf.P = np.diag([math.radians(0.5) ** 2, (math.radians(0.5) * model.omega_rad_s) ** 2])
-    return kf
+    return SloshFilter(
+        np.asarray(disc.A),
+        np.asarray(disc.B)[:, 0],
+        Q_discrete_white_noise(2, dt_s, var=math.radians(5.0) ** 2 * model.omega_rad_s**3),  # model error
+        math.radians(s.noise_deg) ** 2,
+        np.diag([math.radians(0.5) ** 2, (math.radians(0.5) * model.omega_rad_s) ** 2]),
+    )
 
 
 @dataclass
@@ -105,68 +127,79 @@ def run_feedback(
     traj: Trajectory, model: SloshParams, truth: SloshParams, s: FeedbackSettings, bandwidth_hz: float = 20.0
 ) -> FeedbackRun:
     """Simulate the camera-in-the-loop feedback on `traj` with the liquid `truth`, designed for `model`."""
+    return run_feedbacks(traj, model, [truth], s, bandwidth_hz)[0]
+
+
+def run_feedbacks(
+    traj: Trajectory, model: SloshParams, truths: list[SloshParams], s: FeedbackSettings, bandwidth_hz: float = 20.0
+) -> list[FeedbackRun]:
+    """`run_feedback` against several true liquids in one pass: each run has its own plant; the filter's covariance,
+    the camera's frames and their seeded noise are the same in all of them."""
     padded = hold_after(traj, s.settle_s)
     t, dt, n = padded.t_s, padded.dt_s, len(padded.t_s)
     robot = robot_tf(bandwidth_hz)
     tilt_cmd = np.column_stack([sign * padded.euler_rad[:, e] for _, e, sign in TILT_AXES])
     tilt_rate = np.column_stack([sign * padded.euler_rate_rad_s[:, e] for _, e, sign in TILT_AXES])
     tilt_exec = filter_columns(robot, t, tilt_cmd)
-    plant = control.c2d(control.ss(control.series(robot, linear_tf(truth))), dt)
-    pa, pb, pc = (np.asarray(m) for m in (plant.A, plant.B, plant.C))
+    plants = [control.c2d(control.ss(control.series(robot, linear_tf(truth))), dt) for truth in truths]
+    pa, pb, pc = (np.stack([np.asarray(getattr(p, m)) for p in plants]) for m in "ABC")  # one plant per run
     gain = lqr_gain(model, s)
-    filters = [slosh_filter(model, dt, s) for _ in TILT_AXES]
+    kf = slosh_filter(model, dt, s)
+    axes = [a for a, _, _ in TILT_AXES]
+    acc_ff = padded.acc_m_s2[:, axes]
     rng = np.random.default_rng(s.seed)
     frame_step = 1.0 / (s.camera_fps * dt)
     lag = round(s.latency_s / dt)
-    x_plant = np.zeros((len(TILT_AXES), pa.shape[0]))
-    dev = np.zeros((len(TILT_AXES), 2))  # dp, dv per axis
-    u_fb = np.zeros((n, len(TILT_AXES)))
-    dev_hist = np.zeros((n, len(TILT_AXES), 2))
-    q_true = np.zeros((n, len(TILT_AXES)))
-    q_est = np.zeros((n, len(TILT_AXES)))
-    amp_est = np.zeros((n, len(TILT_AXES)))  # estimated slosh amplitude relative to the commanded tilt
-    history: list[list[tuple[np.ndarray, np.ndarray]]] = [[] for _ in TILT_AXES]
-    pending: list[tuple[int, int, np.ndarray]] = []  # (arrival step, frame step, measurement per axis)
+    powers = np.stack([np.linalg.matrix_power(kf.F, m) for m in range(lag + 1)])  # F^m: m predictions
+    q_sum = np.zeros((lag + 1, 2, 2))  # the process noise m predictions add: sum of F^l Q F^l' for l < m
+    for m in range(1, lag + 1):
+        q_sum[m] = kf.F @ q_sum[m - 1] @ kf.F.T + kf.Q
+    shape = (len(truths), len(axes))  # (run, axis) leads every per-step array
+    x_plant = np.zeros((*shape, pa.shape[1]))
+    x, P = np.zeros((*shape, 2)), kf.P0
+    dev = np.zeros((*shape, 2))  # dp, dv per axis
+    u_fb = np.zeros((n, *shape))
+    dev_hist = np.zeros((n, *shape, 2))
+    q_true = np.zeros((n, *shape))
+    q_est = np.zeros((n, *shape))
+    amp_est = np.zeros((n, *shape))  # estimated slosh amplitude relative to the commanded tilt
+    x_hist, p_hist = np.zeros((n, *shape, 2)), np.zeros((n, 2, 2))  # the filter before each step's frames
+    pending: list[tuple[int, int, np.ndarray]] = []  # (arrival step, frame step, measurement per run and axis)
     next_frame, frames = 0.0, 0
     for j in range(n):
-        q_true[j] = (pc @ x_plant[:, :, None])[:, 0, 0]
+        q_true[j] = np.einsum("rxs,rs->rx", x_plant, pc[:, 0])
         if j >= next_frame:
-            meas = q_true[j] - tilt_exec[j] + rng.normal(0.0, math.radians(s.noise_deg), len(TILT_AXES))
+            meas = q_true[j] - tilt_exec[j] + rng.normal(0.0, math.radians(s.noise_deg), len(axes))
             pending.append((j + lag, j, meas))
             next_frame += frame_step
-        for k, kf in enumerate(filters):
-            history[k].append((kf.x.copy(), kf.P.copy()))
+        x_hist[j], p_hist[j] = x, P
         while pending and pending[0][0] <= j:
+            # a frame taken at step j0 arrives now (latency): rewind to j0, update with the measured surface angle,
+            # and predict forward again with the inputs applied since: the filter is linear and those inputs stay,
+            # so the update's correction moves step j0 + m by F^m, and the covariance follows its own recursion
             _, j0, meas = pending.pop(0)
             frames += 1
-            _late_update(filters, history, j0, j, meas + tilt_cmd[j0], padded.acc_m_s2, u_fb)
-        for k, kf in enumerate(filters):
-            q_est[j, k] = kf.x[0, 0]
-            err = np.array([dev[k, 0], dev[k, 1], kf.x[0, 0] - tilt_cmd[j, k], kf.x[1, 0] - tilt_rate[j, k]])
-            amp_est[j, k] = math.hypot(err[2], err[3] / model.omega_rad_s)
-            u_fb[j, k] = float(np.clip(-gain @ err, -s.acc_tol_m_s2, s.acc_tol_m_s2))
+            x, P = kf.update(x_hist[j0], p_hist[j0], meas + tilt_cmd[j0])
+            m = j - j0 + 1
+            x_hist[j0 : j + 1] += np.einsum("mab,rxb->mrxa", powers[:m], x - x_hist[j0])
+            p_hist[j0 : j + 1] = powers[:m] @ P @ powers[:m].transpose(0, 2, 1) + q_sum[:m]
+            x, P = x_hist[j].copy(), p_hist[j].copy()
+        q_est[j] = x[..., 0]
+        err = np.concatenate([dev, (x - np.stack([tilt_cmd[j], tilt_rate[j]], axis=-1))], axis=-1)
+        amp_est[j] = np.hypot(err[..., 2], err[..., 3] / model.omega_rad_s)
+        u_fb[j] = np.clip(-(err @ gain), -s.acc_tol_m_s2, s.acc_tol_m_s2)
         dev_hist[j] = dev
-        a_cmd = padded.acc_m_s2[j, [a for a, _, _ in TILT_AXES]] + u_fb[j]
-        for k, kf in enumerate(filters):
-            kf.predict(u=np.array([[a_cmd[k]]]))
-        x_plant = (pa @ x_plant[:, :, None])[:, :, 0] + pb[:, 0] * a_cmd[:, None]
-        dev = np.column_stack([dev[:, 0] + dev[:, 1] * dt + 0.5 * u_fb[j] * dt * dt, dev[:, 1] + u_fb[j] * dt])
-    end = arrival_index(dev_hist, amp_est, len(traj.t_s), math.radians(s.calm_deg))
-    run = _executed(padded, dev_hist, u_fb, end, f"{traj.name} + feedback ({s.camera_fps:g} fps)")
-    rms = float(np.degrees(np.sqrt(np.mean((q_est[:end] - q_true[:end]) ** 2))))
-    return FeedbackRun(run, rms, frames)
-
-
-def _late_update(filters, history, j0: int, j: int, measured: np.ndarray, acc: np.ndarray, u_fb: np.ndarray) -> None:
-    """A camera frame taken at step j0 arrives at step j (latency): rewind each filter to j0, update with the
-    measured surface angle, and predict forward again with the inputs applied since."""
-    for k, kf in enumerate(filters):
-        kf.x, kf.P = (a.copy() for a in history[k][j0])
-        kf.update(np.array([[measured[k]]]))
-        for i in range(j0, j):
-            history[k][i] = (kf.x.copy(), kf.P.copy())
-            kf.predict(u=np.array([[acc[i, TILT_AXES[k][0]] + u_fb[i, k]]]))
-        history[k][j] = (kf.x.copy(), kf.P.copy())
+        a_cmd = acc_ff[j] + u_fb[j]
+        x, P = kf.predict(x, P, a_cmd)
+        x_plant = np.einsum("rxs,rts->rxt", x_plant, pa) + pb[:, None, :, 0] * a_cmd[..., None]
+        dev = np.stack([dev[..., 0] + dev[..., 1] * dt + 0.5 * u_fb[j] * dt * dt, dev[..., 1] + u_fb[j] * dt], -1)
+    runs = []
+    for r in range(len(truths)):
+        end = arrival_index(dev_hist[:, r], amp_est[:, r], len(traj.t_s), math.radians(s.calm_deg))
+        run = _executed(padded, dev_hist[:, r], u_fb[:, r], end, f"{traj.name} + feedback ({s.camera_fps:g} fps)")
+        rms = float(np.degrees(np.sqrt(np.mean((q_est[:end, r] - q_true[:end, r]) ** 2))))
+        runs.append(FeedbackRun(run, rms, frames))
+    return runs
 
 
 def _executed(padded: Trajectory, dev_hist: np.ndarray, u_fb: np.ndarray, end: int, name: str) -> Trajectory:

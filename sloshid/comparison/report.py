@@ -86,7 +86,7 @@ def closed_loop_figure(comp: Comparison):
     for ax, key in zip(axes.flat, keys):
         cl = comp.closed_loop[key]
         ax.plot(cl.t_s, cl.rel_linear_deg, lw=1.5, label="linear (python-control)")
-        ax.plot(cl.t_s, cl.rel_nonlinear_deg, lw=1, ls="--", label="nonlinear (solve_ivp)")
+        ax.plot(cl.t_s, cl.rel_nonlinear_deg, lw=1, ls="--", label="nonlinear (RK4)")
         ax.axvline(cl.t_arrival_s, color="grey", lw=0.7)
         ax.set_title(f"{comp.result(key).label}: gap {cl.max_gap_deg:.2g} deg", fontsize=9)
         ax.set_xlabel("t (s)")
@@ -173,12 +173,14 @@ def _recommendation_table(rep: Report, comp: Comparison) -> None:
     )
 
 
-def build_report(comp: Comparison, title: str = "sloshid compare", links: dict[str, str] | None = None) -> Report:
+def build_report(
+    comp: Comparison, title: str = "sloshid compare", links: dict[str, str] | None = None, progress: bool = False
+) -> Report:
     """Assemble the page; every figure says what to look at; `links` (text -> relative href) point back to a
-    pipeline's index and to the stage's files."""
+    pipeline's index and to the stage's files; `progress` counts the figures on a tqdm bar."""
     s = comp.settings
     p = comp.params
-    rep = Report(title)
+    rep = Report(title, progress=progress)
     rep.add_links(links or {})
     rec = comp.recommendation
     rep.add_text(comp.verdict, f"verdict-{rec.risk if rec else 'uncertain'}")
@@ -186,7 +188,7 @@ def build_report(comp: Comparison, title: str = "sloshid compare", links: dict[s
         _recommendation_table(rep, comp)
     rep.add_text(
         f"Liquid: f = {p.f_hz:.3g} Hz, zeta = {p.zeta:.3g} (l = {p.l_m:.4g} m, d = {p.d_ns_per_m:.3g} Ns/m). "
-        "Every method is scored by the same nonlinear pendulum simulation (solve_ivp): the relative angle "
+        "Every method is scored by the same nonlinear pendulum simulation (RK4 on the 1 kHz grid): the relative angle "
         "between liquid surface and container is what spills liquid."
     )
     rep.add_heading("Relative slosh angle over time (the seed's Fig. 7, all methods)")
@@ -286,6 +288,8 @@ def _camera_section(rep: Report, comp: Comparison) -> None:
     )
 
 
-def save_report(comp: Comparison, directory: str | Path, links: dict[str, str] | None = None) -> Path:
+def save_report(
+    comp: Comparison, directory: str | Path, links: dict[str, str] | None = None, progress: bool = False
+) -> Path:
     """Write the comparison report to `directory/index.html`."""
-    return build_report(comp, links=links).save(directory)
+    return build_report(comp, links=links, progress=progress).save(directory)

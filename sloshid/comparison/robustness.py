@@ -1,21 +1,27 @@
 """Model-error sweep: each method keeps its nominal plan while the true liquid's frequency and damping change.
 
-Open-loop methods replay the same trajectory; feedback methods re-run their loop against the true liquid.
-Every point is scored by the nonlinear `simulate_liquid`, as in the main comparison.
+Open-loop methods replay the same trajectory; feedback methods re-run their loop against the true liquid (once per
+true liquid: a loop's noise is seeded). Every point is scored by the nonlinear pendulums of the main comparison, all
+points of a study in one batched `simulate_liquids`.
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
-from sloshid.comparison.feedback import FeedbackSettings, run_feedback
+from sloshid.comparison.feedback import FeedbackSettings, run_feedbacks
 from sloshid.core.parallel import parallel_map
 from sloshid.model.pendulum import SloshParams
-from sloshid.model.simulate import simulate_liquid
+from sloshid.model.simulate import LiquidResponse, simulate_liquids
 from sloshid.model.trajectory import Trajectory
+
+
+def _liquid_key(truth: SloshParams) -> tuple[str, str]:
+    """What a feedback loop's plant depends on (l and d/m), to 12 digits: `scaled(1, 1)` is the nominal liquid."""
+    return f"{truth.l_m:.12g}", f"{truth.damping_rate_1_s:.12g}"
 
 
 @dataclass
@@ -30,33 +36,57 @@ class Replay:
     """Feedback only: camera and LQR settings (None: open loop)."""
     bandwidth_hz: float = 20.0
     """Feedback only: robot tracking bandwidth in the loop, Hz."""
+    runs: dict[tuple[str, str], Trajectory] = field(default_factory=dict, repr=False, compare=False)
+    """Feedback only: the executed trajectories already run, by true liquid."""
+
+    @property
+    def closed_loop(self) -> bool:
+        """True when the executed move depends on the true liquid (a feedback loop)."""
+        return self.feedback is not None and self.model is not None
 
     def __call__(self, truth: SloshParams) -> Trajectory:
         """The executed trajectory against the true liquid."""
-        if self.feedback is None or self.model is None:
+        if not self.closed_loop:
             return self.trajectory
-        return run_feedback(self.trajectory, self.model, truth, self.feedback, self.bandwidth_hz).trajectory
+        self.run_all([truth])
+        return self.runs[_liquid_key(truth)]
+
+    def run_all(self, truths: Sequence[SloshParams]) -> None:
+        """Feedback only: run the loop against every true liquid not yet run, all of them in one pass."""
+        todo = list({_liquid_key(t): t for t in truths if _liquid_key(t) not in self.runs}.values())
+        if todo:
+            done = run_feedbacks(self.trajectory, self.model, todo, self.feedback, self.bandwidth_hz)
+            self.runs.update({_liquid_key(t): run.trajectory for t, run in zip(todo, done)})
 
 
-def peak_and_residual(job: tuple[Replay, SloshParams, float]) -> tuple[float, float]:
-    """Peak relative angle during the move and residual after it (deg) of one replay against one true liquid
-    (a picklable unit of work)."""
-    replay, truth, settle_s = job
-    resp = simulate_liquid(replay(truth), truth, settle_s=settle_s)
-    return resp.peak_during_deg, resp.residual_deg
+def replay_responses(
+    pairs: Sequence[tuple[Replay, SloshParams]], settle_s: float, progress: bool = False, workers: int = 1
+) -> list[LiquidResponse]:
+    """The liquid's response to each replay against its true liquid: the feedback loops not yet run go first (each
+    loop against all its true liquids in one pass, the loops over `workers` processes with a tqdm bar when
+    `progress`), then every pendulum in one batched simulation."""
+    loops: dict[int, tuple[Replay, list[SloshParams]]] = {}
+    for replay, truth in pairs:
+        if replay.closed_loop and _liquid_key(truth) not in replay.runs:
+            loops.setdefault(id(replay), (replay, []))[1].append(truth)
+    done = parallel_map(_run_all, list(loops.values()), workers, progress=progress, desc="feedback loops")
+    for (replay, _), runs in zip(loops.values(), done):
+        replay.runs.update(runs)
+    return simulate_liquids([replay(truth) for replay, truth in pairs], [truth for _, truth in pairs], settle_s)
 
 
-def residual(job: tuple[Replay, SloshParams, float]) -> float:
-    """Residual slosh (deg) of one replay against one true liquid (a picklable unit of work)."""
-    return peak_and_residual(job)[1]
+def _run_all(replay: Replay, truths: list[SloshParams]) -> dict[tuple[str, str], Trajectory]:
+    """One feedback loop against its true liquids (a picklable unit of work); the executed trajectories by liquid."""
+    replay.run_all(truths)
+    return replay.runs
 
 
 def band_responses(
     replays: dict[str, Replay], truths: Sequence[SloshParams], settle_s: float, progress: bool = False, workers: int = 1
 ) -> dict[str, np.ndarray]:
     """Per method: (peak during, residual) in deg against each true liquid, shape (len(truths), 2)."""
-    jobs = [(replay, truth, settle_s) for replay in replays.values() for truth in truths]
-    flat = parallel_map(peak_and_residual, [(job,) for job in jobs], workers, progress=progress, desc="frequency band")
+    pairs = [(replay, truth) for replay in replays.values() for truth in truths]
+    flat = [(r.peak_during_deg, r.residual_deg) for r in replay_responses(pairs, settle_s, progress, workers)]
     n = len(truths)
     return {label: np.array(flat[i * n : (i + 1) * n]) for i, label in enumerate(replays)}
 
@@ -124,15 +154,13 @@ def sweep(
     """Residual slosh of every method at every (true omega, nominal zeta) and (nominal omega, true zeta) point.
 
     The residual peaks in the first slosh period after arrival, so `settle_s` = 1 s covers it for f > 1 Hz;
-    `workers` > 1 spreads the points over that many processes.
+    `workers` > 1 spreads the feedback loops over that many processes.
     """
     omega_factors = np.asarray(sorted(set(omega_factors) | {1.0}), float)  # the nominal point is always swept
     zeta_factors = np.asarray(sorted(set(zeta_factors) | {1.0}), float)
     truths = [params.scaled(f, 1.0) for f in omega_factors] + [params.scaled(1.0, z) for z in zeta_factors]
-    jobs = [(replay, truth, settle_s) for replay in replays.values() for truth in truths]
-    flat = parallel_map(residual, [(job,) for job in jobs], workers, progress=progress, desc="robustness sweep")
+    by_truth = band_responses(replays, truths, settle_s, progress, workers)
     by_omega, by_zeta = {}, {}
-    for i, label in enumerate(replays):
-        row = np.array(flat[i * len(truths) : (i + 1) * len(truths)])
-        by_omega[label], by_zeta[label] = row[: len(omega_factors)], row[len(omega_factors) :]
+    for label, resp in by_truth.items():
+        by_omega[label], by_zeta[label] = resp[: len(omega_factors), 1], resp[len(omega_factors) :, 1]
     return RobustnessResult(omega_factors, zeta_factors, by_omega, by_zeta)

@@ -217,11 +217,20 @@ def _judge_signal(inp: VerdictInput, i: int, name: str, f: float, f2: float | No
     """The doubts one signal's window raises."""
     fit = inp.fit
     if inp.fit_percent[i] < inp.min_fit_percent:
-        doubts.add(BOTH, "uncertain", f"{name}: fit {inp.fit_percent[i]:.1f} % is below {inp.min_fit_percent:g} %.")
+        doubts.add(
+            BOTH,
+            "uncertain",
+            f"{name}: fit {inp.fit_percent[i]:.1f} % is below {inp.min_fit_percent:g} %: noise, or a trace that is "
+            "not the liquid's angle alone; check the tracked angle in the report (another colour range if frames "
+            "were lost or jump), or fit its clean decay (--window).",
+        )
     periods = inp.windows[i].duration_s * f
     if periods < inp.min_periods:
         doubts.add(
-            BOTH, "uncertain", f"{name}: only {periods:.1f} periods in the window (fewer than {inp.min_periods:g})."
+            BOTH,
+            "uncertain",
+            f"{name}: only {periods:.1f} periods in the window (fewer than {inp.min_periods:g}); record a longer "
+            "decay (a stronger tap rings longer) or give a longer window (--window).",
         )
     # a peak the fitted second mode accounts for (within one bin) is no longer a doubt; any other one is
     strong = [
@@ -236,7 +245,8 @@ def _judge_signal(inp: VerdictInput, i: int, name: str, f: float, f2: float | No
             BOTH,
             "uncertain",
             f"{name}: strong second mode at {p.f_hz:.3g} Hz ({100 * p.relative:.0f} % of the main peak's PSD)"
-            + (f" that a two-mode fit could not separate ({why})." if why else "."),
+            + (f" that a two-mode fit could not separate ({why})" if why else "")
+            + "; give --f-range around the mode you want, or the container geometry to pick the first mode.",
         )
     if inp.windows[i].near_mode_noise:
         doubts.add(
@@ -267,9 +277,22 @@ def _judge_signal(inp: VerdictInput, i: int, name: str, f: float, f2: float | No
             f"{w.excitation_end_s:.2f} s): the fit reads a driven response as a free decay; start it after that "
             "(--window).",
         )
+    if sig.n_dropped:
+        lost = sig.n_dropped / (sig.n_dropped + sig.t_s.size)
+        notes.append(
+            f"{name}: {sig.n_dropped} samples ({100 * lost:.0f} %) were lost or invalid and are left out; the fit and "
+            "its intervals use the measured ones alone (on seeded traces with 5-30 % lost at random or in bursts the "
+            "95 % intervals held), unless they were lost for a reason tied to the angle (a float leaving its colour "
+            "range when tilted most): then look at the tracked angle, or track with another colour range."
+        )
     snr = fit.amplitude(i) / fit.amplitude_se(i)
     if snr < AMPLITUDE_SNR:
-        doubts.add(BOTH, "uncertain", f"{name}: the fitted amplitude is only {snr:.1f} standard errors above zero.")
+        doubts.add(
+            BOTH,
+            "uncertain",
+            f"{name}: the fitted amplitude is only {snr:.1f} standard errors above zero; tap harder, or film closer "
+            "or at a higher frame rate, so that the swing stands out of the noise.",
+        )
     _judge_residual(inp, i, name, doubts, notes)
     _judge_cross_checks(inp, i, name, f, doubts)
 
@@ -285,7 +308,8 @@ def _judge_residual(inp: VerdictInput, i: int, name: str, doubts: _Doubts, notes
             ("damping",),
             "uncertain",
             f"{name}: the residual is not white (Ljung-Box p = {lb:.2g}) and fades with the oscillation (p = "
-            f"{p_grow:.2g}): the model misfits the mode, which bends the envelope the damping is read from.",
+            f"{p_grow:.2g}): the model misfits the mode, which bends the envelope the damping is read from; fit a later "
+            "window with smaller swings (--window), or tap more gently so that the slosh stays linear.",
         )
     else:
         notes.append(
@@ -304,7 +328,8 @@ def _judge_cross_checks(inp: VerdictInput, i: int, name: str, f: float, doubts: 
             doubts.add(
                 ("frequency",),
                 "uncertain",
-                f"{name}: {c.method} gives f = {c.f_hz:.4g} Hz, more than 2 % from the fit's {f:.4g} Hz.",
+                f"{name}: {c.method} gives f = {c.f_hz:.4g} Hz, more than 2 % from the fit's {f:.4g} Hz; check the "
+                "window and the tracked trace in the report (lost or mis-tracked frames), or give the window (--window).",
             )
         if c.method == "logarithmic decrement" and math.isfinite(c.zeta):
             outside = not z.ci95[0] <= c.zeta <= z.ci95[1]
@@ -314,7 +339,8 @@ def _judge_cross_checks(inp: VerdictInput, i: int, name: str, f: float, doubts: 
                     ("damping",),
                     "uncertain",
                     f"{name}: the logarithmic decrement gives zeta = {c.zeta:.2g}, outside the fit's 95 % interval "
-                    f"{z.ci95[0]:.2g}-{z.ci95[1]:.2g} and more than a factor {LOG_DECREMENT_FACTOR:g} from {z.value:.2g}.",
+                    f"{z.ci95[0]:.2g}-{z.ci95[1]:.2g} and more than a factor {LOG_DECREMENT_FACTOR:g} from {z.value:.2g}; "
+                    "give the window yourself where the decay is clean (--window), or record a longer decay.",
                 )
 
 
@@ -326,12 +352,17 @@ def _judge_bounds(inp: VerdictInput, doubts: _Doubts, notes: list[str]) -> None:
             doubts.add(
                 ("damping",),
                 "unreliable",
-                "zeta ended on its search bound 0: the oscillation does not decay in the window (no free decay).",
+                "zeta ended on its search bound 0: the oscillation does not decay in the window (no free decay); "
+                "fit a window after the excitation ends (--window).",
             )
         elif name == "omega":
-            doubts.add(("frequency",), "unreliable", "omega ended on its search bound.")
+            doubts.add(("frequency",), "unreliable", "omega ended on its search bound; widen the band (--f-range).")
         else:
-            doubts.add(BOTH, "uncertain", f"{name} ended on its search bound.")
+            doubts.add(
+                BOTH,
+                "uncertain",
+                f"{name} ended on its search bound; check that the window holds one free decay (--window).",
+            )
     z = inp.parameters["zeta"]
     if "zeta" not in fit.at_bound and z.ci95[0] <= 0:  # a wide but valid interval: reported, not a doubt
         notes.append(
@@ -359,7 +390,8 @@ def _judge_mode_choice(inp: VerdictInput, f: float, f2: float | None, doubts: _D
                 ("frequency",),
                 "unreliable",
                 f"f = {f:.4g} Hz lies outside {lo:.3g}-{hi:.3g} Hz, the band where the container's first mode "
-                f"({inp.prior['f_hz']:.3g} Hz) is nearer than its second azimuthal mode: not the first mode.",
+                f"({inp.prior['f_hz']:.3g} Hz) is nearer than its second azimuthal mode: not the first mode; check "
+                "the container's radius and fill, or fit where the first mode rings (--window, --f-range).",
             )
         return
     lower = [f2] if f2 is not None and f2 < f else []

@@ -43,6 +43,8 @@ FLANGE = "panda_link8"
 IK_TOL = 1e-10
 """Pose error (m and rad) at which a Newton solve stops."""
 IK_MAX_ITER = 30
+IK_SEED_ITER = 300
+"""Newton steps allowed from the q_start seed to the start configuration (it may lie a radian away)."""
 IK_DAMPING = 1e-6
 
 
@@ -59,7 +61,10 @@ class ArmSettings:
     tool_offset_m: tuple[float, float, float] = (0.0, 0.0, 0.1)
     """Liquid surface centre in the flange frame (m): the flange's z points down, so (0, 0, 0.1) is 0.1 m below."""
     q_start: list[float] = field(default_factory=lambda: list(PANDA_Q_READY))
-    """Joint angles at the start (rad), one per joint."""
+    """Joint angles near the start (rad), one per joint: a seed, from which the configuration that holds the container
+    at the move's start is solved (the nearest, by least joint change)."""
+    fit_joints: bool = False
+    """True: when the arm cannot follow the fastest plan, re-plan slower until it can (as `--fit-joints`)."""
 
     def __post_init__(self) -> None:
         if self.model not in MODELS:
@@ -159,12 +164,14 @@ class Arm:
         P = np.eye(3) - np.outer(z, z)  # rotations about the axis do not count
         return np.concatenate([p_goal - (p_f + arm), np.cross(z, z_goal)]), np.vstack([Jv, P @ Jw])
 
-    def solve(self, q0: np.ndarray, z_goal: np.ndarray, p_goal: np.ndarray) -> np.ndarray | None:
+    def solve(
+        self, q0: np.ndarray, z_goal: np.ndarray, p_goal: np.ndarray, max_iter: int = IK_MAX_ITER
+    ) -> np.ndarray | None:
         """Joint angles placing the liquid surface centre at p_goal with the container axis z_goal (damped Newton
         from q0: each step the smallest joint change, so the redundant freedom moves as little as it can)."""
         q = q0.copy()
         eye = IK_DAMPING**2 * np.eye(6)
-        for _ in range(IK_MAX_ITER):
+        for _ in range(max_iter):
             err, J = self._error_and_jacobian(q, z_goal, p_goal)
             if np.abs(err).max() < IK_TOL:
                 return q
@@ -175,15 +182,16 @@ class Arm:
     def inverse(self, traj: Trajectory) -> np.ndarray:
         """Joint angles (n, 7) following the trajectory at every sample; UserError if a pose is unreachable.
 
-        Each solve starts from the previous sample's angles (q_start at t = 0), so the redundant freedom (the 7th
-        joint and the container's yaw) is resolved by least joint motion: continuous, no jumps."""
+        Each solve starts from the previous sample's angles, the first from the q_start seed (with more Newton steps:
+        the start configuration nearest to it), so the redundant freedom (the 7th joint and the container's yaw) is
+        resolved by least joint motion: continuous, no jumps."""
         from scipy.spatial.transform import Rotation
 
         z_all = Rotation.from_euler("ZYX", traj.euler_rad[:, ::-1]).apply([0.0, 0.0, 1.0])
         q = np.asarray(self.settings.q_start, float)
         out = np.zeros((len(traj.t_s), 7))
         for i in range(len(traj.t_s)):
-            sol = self.solve(q, z_all[i], traj.pos_m[i])
+            sol = self.solve(q, z_all[i], traj.pos_m[i], IK_SEED_ITER if i == 0 else IK_MAX_ITER)
             if sol is None:
                 raise UserError(
                     f"the pose at t = {traj.t_s[i]:.3f} s ({np.round(traj.pos_m[i], 4).tolist()} m) is out of the "
@@ -236,20 +244,30 @@ class JointCheck:
     fk_angle_error_deg: float
     """Largest angle between the container axis by FK and the trajectory's (deg); its yaw about the axis is free."""
     start_offset_m: float = 0.0
-    """Distance of the container at [robot].q_start from the trajectory's first point (m)."""
+    """Distance of the container at the [robot].q_start seed from the trajectory's first point (m)."""
     start_jump_rad: float = 0.0
-    """Largest joint change from q_start to the first sample's angles: the jump the arm would make at t = 0."""
+    """Largest joint change from the q_start seed to the start configuration solved from it (the first row)."""
     start_m: np.ndarray | None = None
     """The trajectory's first point (m)."""
+    q_seed: np.ndarray | None = None
+    """[robot].q_start, the seed the start configuration was solved from."""
 
     @property
-    def starts_at_q_start(self) -> bool:
-        """q_start holds the container at the trajectory's start (a jump of at most START_JUMP_RAD)."""
-        return self.start_jump_rad <= START_JUMP_RAD
+    def start_moved(self) -> str:
+        """One sentence when the start configuration lies away from the q_start seed (empty when q_start held the
+        container there already): where the arm must be before the move starts."""
+        if self.start_jump_rad <= START_JUMP_RAD:
+            return ""
+        j = int(np.argmax(np.abs(self.q[0] - self.q_seed))) + 1 if self.q_seed is not None else 0
+        return (
+            f"the arm starts at the joints CSV's first row, solved from [robot].q_start (which holds the container "
+            f"{1e3 * self.start_offset_m:.0f} mm from the move's start): joints moved by up to "
+            f"{self.start_jump_rad:.3g} rad (joint {j}); bring the arm there before the move."
+        )
 
     @property
     def executable(self) -> bool:
-        return self.starts_at_q_start and all(u.ok for u in self.usages)
+        return all(u.ok for u in self.usages)
 
     @property
     def worst(self) -> JointUsage:
@@ -258,12 +276,6 @@ class JointCheck:
 
     def reason(self) -> str:
         """One sentence: why the arm cannot follow, naming the joint and the time."""
-        if not self.starts_at_q_start:
-            return (
-                f"[robot].q_start holds the container {1e3 * self.start_offset_m:.0f} mm from the move's start "
-                f"({np.round(self.start_m, 4).tolist()} m): the arm would jump by up to {self.start_jump_rad:.3g} rad "
-                "at t = 0; give a q_start that holds the container at the start (the joints CSV's first row does)."
-            )
         bad = [u for u in self.usages if not u.ok]
         if not bad:
             return "the Panda can follow the trajectory."
@@ -287,6 +299,7 @@ class JointCheck:
             "fk_angle_error_deg": self.fk_angle_error_deg,
             "start_offset_m": self.start_offset_m,
             "start_jump_rad": self.start_jump_rad,
+            "q_start_solved_rad": self.q[0].tolist(),
         }
 
     def write_csv(self, path) -> None:
@@ -343,7 +356,7 @@ def check_joints(traj: Trajectory, settings: ArmSettings, arm: Arm | None = None
     offset = float(np.linalg.norm(arm.tool_pose(q0)[1] - traj.pos_m[0]))
     jump = float(np.abs(q[0] - q0).max())
     return JointCheck(
-        traj.t_s, q, joint_usages(traj.t_s, q), pos_err, math.degrees(ang_err), offset, jump, traj.pos_m[0]
+        traj.t_s, q, joint_usages(traj.t_s, q), pos_err, math.degrees(ang_err), offset, jump, traj.pos_m[0], q0
     )
 
 
@@ -351,8 +364,8 @@ __all__ = ["Arm", "ArmSettings", "JointCheck", "arm_settings", "check_joints", "
 
 
 START_JUMP_RAD = 1e-3
-"""Largest joint change from [robot].q_start to the first sample's angles for a trajectory the arm can start: the IK
-starts there, so a q_start that holds the container at the start gives the first sample's angles to its tolerance."""
+"""Largest joint change from [robot].q_start to the solved start configuration that counts as none: a q_start that
+holds the container at the start gives the first sample's angles to the IK's tolerance."""
 FIT_TRIES = 6
 """Re-plans at most this many times when fitting a plan to the joint limits."""
 FIT_SAFETY = 0.9
@@ -395,8 +408,6 @@ def fit_to_joints(scenario, params, first=None, check: JointCheck | None = None)
         if check.executable:
             break
         bad = [u for u in check.usages if not u.ok]
-        if not check.starts_at_q_start:  # no timing moves the start
-            break
         if any(u.quantity == "position_rad" for u in bad):
             steps[-1].reason += " Re-planning cannot fix a joint position limit: move the path, the base or q_start."
             break

@@ -21,7 +21,7 @@ from sloshid.model.pendulum import SloshParams
 from sloshid.model.trajectory import RobotLimits
 from sloshid.planning.path import PathGeometry, PathTable, build_geometry
 
-ARM_KEYS = ("model", "base_xyz_m", "base_rpy_deg", "tool_offset_m", "q_start")
+ARM_KEYS = ("model", "base_xyz_m", "base_rpy_deg", "tool_offset_m", "q_start", "fit_joints")
 """[robot] keys that describe the arm (the rest are its Cartesian limits, RobotLimits)."""
 
 Vec3 = tuple[float, float, float]

@@ -54,6 +54,9 @@ class Report:
 
     title: str
     items: list[str] = field(default_factory=list)
+    progress: bool = False
+    """Count the figures on a tqdm bar (on a terminal) as they are drawn: a report of a dozen takes seconds."""
+    _bar: Any = field(default=None, init=False, repr=False)
 
     def add_heading(self, text: str) -> None:
         """Start a new section."""
@@ -70,7 +73,13 @@ class Report:
 
     def add_figure(self, fig: Any, caption: str = "") -> None:
         """Embed a matplotlib figure as PNG, with a caption saying what to look at."""
+        if self.progress and self._bar is None:
+            from tqdm import tqdm
+
+            self._bar = tqdm(desc=f"{self.title}: figures", unit="figure", disable=None, leave=False)
         data = figure_to_png_base64(fig)
+        if self._bar is not None:
+            self._bar.update()
         cap = f"<figcaption>{html.escape(caption)}</figcaption>" if caption else ""
         self.items.append(
             f'<figure><img alt="{html.escape(caption)}" src="data:image/png;base64,{data}">{cap}</figure>'
@@ -107,6 +116,8 @@ class Report:
     def save(self, directory: str | Path) -> Path:
         """Write `directory/index.html` atomically and return its path; never over an index.html sloshid did not
         write (`Outputs.report_dir`: the command line checks it before the work, every caller here)."""
+        if self._bar is not None:
+            self._bar.close()
         path = Outputs().report_dir(directory, "the report folder") / "index.html"
         write_text(path, self.to_html())
         return path

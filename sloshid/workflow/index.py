@@ -107,7 +107,7 @@ def _plan(report: Report, run_dir: Path, s: dict[str, Any]) -> None:
     )
     report.add_html(
         "<p>"
-        + _link(run_dir, "plan/trajectory.csv", "1 kHz robot trajectory (CSV)")
+        + _link(run_dir, "plan/trajectory.csv", "nominal plan, 1 kHz robot trajectory (CSV)")
         + " · "
         + _link(run_dir, "plan/report/index.html", "plan report")
         + "</p>"
@@ -129,8 +129,11 @@ def _compare(report: Report, run_dir: Path, s: dict[str, Any]) -> None:
         ["method", "transfer time (s)", "peak slosh during (deg)", "residual slosh (deg)", "peak tilt (deg)", "limits"],
         rows,
     )
+    move = s.get("recommended")
+    recommended = _link(run_dir, f"compare/{move['csv']}", f"recommended move: {move['label']} (CSV)") if move else ""
     report.add_html(
         "<p>"
+        + (recommended + " · " if move else "")
         + _link(run_dir, "compare/report/index.html", "comparison report")
         + " · "
         + _link(run_dir, "compare/scores.json", "scores (JSON)")
@@ -179,11 +182,37 @@ def overall_verdict(records: list[StageRecord]) -> tuple[str, str]:
     return "Overall: " + ("; ".join(parts) or "no stage ran") + ".", worst
 
 
+def next_step(run_dir: Path, records: list[StageRecord]) -> tuple[str, str] | None:
+    """(file relative to the run, what it is) that a user sends to the robot: the recommended move when compare
+    recommended one, else the plan (said to be unchecked or not recommended); None when neither was written."""
+    summaries = {r.name: r.summary or {} for r in records if r.status in ("ran", "cached")}
+    move = summaries.get("compare", {}).get("recommended")
+    if move and (run_dir / "compare" / move["csv"]).exists():
+        return f"compare/{move['csv']}", f"the recommended move: {move['label']} ({move['transfer_time_s']:.3f} s)"
+    if (run_dir / "plan" / "trajectory.csv").exists():
+        why = "compare recommended no method" if "compare" in summaries else "not compared with the alternatives"
+        return "plan/trajectory.csv", f"the nominal plan ({why})"
+    return None
+
+
+def _next_step(report: Report, run_dir: Path, records: list[StageRecord]) -> None:
+    """The file to send to the robot, first on the page, with the nominal plan beside it when that is another."""
+    step = next_step(run_dir, records)
+    if step is None:
+        return
+    rel, what = step
+    text = f"Send to the robot: {_link(run_dir, rel, rel)}, {html.escape(what)}."
+    if rel != "plan/trajectory.csv" and (run_dir / "plan" / "trajectory.csv").exists():
+        text += " The nominal plan is beside it: " + _link(run_dir, "plan/trajectory.csv", "plan/trajectory.csv") + "."
+    report.add_html(f"<p><strong>{text}</strong></p>")
+
+
 def write_index(run_dir: Path, records: list[StageRecord], title: str) -> Path:
     """Write run_dir/index.html for the stages' records; returns its path."""
     report = Report(title)
     sentence, quality = overall_verdict(records)
     report.add_text(sentence, css_class=f"verdict-{quality}")
+    _next_step(report, run_dir, records)
     status = ", ".join(f"{r.name}: {r.status} ({r.seconds:.1f} s)" for r in records)
     report.add_text(f"Stages: {status}.")
     report.add_html(

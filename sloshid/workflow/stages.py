@@ -21,6 +21,8 @@ from sloshid.tracking.tracker import track_video
 from sloshid.workflow.options import IdentifyOptions, TrackOptions, check_tracked_columns
 from sloshid.workflow.pipeline import Stage, StageContext
 
+RECOMMENDED_CSV = "recommended.csv"
+"""The [compare] stage's recommended move (1 kHz trajectory; recommended.json beside it says which method and why)."""
 PLAN_PICKLE = "plan.pickle"
 """The [plan] stage's solution with the scenario it solved, kept so that [compare] does not solve it again."""
 
@@ -203,10 +205,16 @@ def run_compare(opts: CompareOptions, ctx: StageContext) -> dict[str, Any]:
     comp = compare_scenario(scenario, params, plan=planned, f_interval_hz=interval, progress=True)
     summary = comp.to_dict()
     write_json(ctx.out_dir / "scores.json", summary)
-    comp.report(ctx.out_dir / "report", {"pipeline index": "../../index.html", "scores JSON": "../scores.json"})
+    move = comp.recommended_move()
+    links = {"pipeline index": "../../index.html", "scores JSON": "../scores.json"}
+    if move is not None:
+        comp.write_recommended(ctx.out_dir / RECOMMENDED_CSV)
+        links = {"recommended move CSV": f"../{RECOMMENDED_CSV}", **links}
+    comp.report(ctx.out_dir / "report", links, progress=True)
     return {
         "scores": "scores.json",
         "report": "report/index.html",
+        "recommended": {**move, "csv": RECOMMENDED_CSV} if move is not None else None,
         "verdict": summary["verdict"],
         "recommendation": summary["recommendation"],
         "methods": summary["methods"],

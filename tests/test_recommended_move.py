@@ -1,0 +1,90 @@
+"""The move the demo pipeline recommends is the move it writes and links first, and it keeps the recommendation's
+promise when simulated independently (issue 39); `plan --robust` plans that same move."""
+
+from __future__ import annotations
+
+import json
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+from conftest import ROOT, adaptive_liquid
+
+from sloshid.model.pendulum import SloshParams
+from sloshid.model.trajectory import Trajectory
+
+DEMO = ROOT / "pipelines" / "demo.toml"
+SCENARIO = ROOT / "data" / "scenarios" / "demo_move.toml"
+
+
+@pytest.fixture(scope="module")
+def demo_run(tmp_path_factory) -> Path:
+    """The folder of one full run of the demo pipeline (about 12 s)."""
+    from sloshid.cli.app import main
+
+    out = tmp_path_factory.mktemp("demo")
+    assert main(["run", str(DEMO), "--output-dir", str(out), "--quiet"]) == 0
+    return next((out / "demo").glob("2*"))
+
+
+def test_the_index_links_the_recommended_move_first_and_it_is_the_robust_plan(demo_run):
+    scores = json.loads((demo_run / "compare" / "scores.json").read_text())
+    move = json.loads((demo_run / "compare" / "recommended.json").read_text())
+    rec = scores["recommendation"]
+    assert move["method"] == rec["method"] == "sloshid_robust"  # the demo recommends the robust plan
+    links = [t for t in re.findall(r'href="([^"]+)"', (demo_run / "index.html").read_text()) if t.endswith(".csv")]
+    assert links[:2] == ["compare/recommended.csv", "plan/trajectory.csv"]  # recommended first, the nominal beside
+    assert "sloshid robust plan" in (demo_run / "index.html").read_text()
+
+    import sloshid
+
+    robust = sloshid.plan(SCENARIO, demo_run / "identify" / "params.json", robust=True)
+    written = Trajectory.from_csv(demo_run / "compare" / "recommended.csv")
+    nominal = Trajectory.from_csv(demo_run / "plan" / "trajectory.csv")
+    assert robust.robust_omega_factors == (0.9, 1.1)
+    assert written.t_s.shape == robust.trajectory.t_s.shape
+    # the CSV keeps 12 significant digits: 1e-9 m is far below any difference between plans (the nominal plan is
+    # shorter, so the robust one is told apart by its length alone)
+    assert np.abs(written.pos_m - robust.trajectory.pos_m).max() < 1e-9
+    assert written.t_s.shape != nominal.t_s.shape
+
+
+def test_an_independent_simulation_of_the_recommended_move_keeps_its_promise(demo_run):
+    move = json.loads((demo_run / "compare" / "recommended.json").read_text())
+    scores = json.loads((demo_run / "compare" / "scores.json").read_text())
+    liquid = scores["liquid"]
+    traj = Trajectory.from_csv(demo_run / "compare" / "recommended.csv")
+    lo, hi = move["band_hz"]
+    settle = 3.0  # [compare] settle_s
+    container = np.vstack([traj.euler_rad[:, :2], np.repeat(traj.euler_rad[-1:, :2], round(settle * 1000), axis=0)])
+    moving = np.arange(len(container)) < len(traj.t_s)
+    # five frequencies across the band where the recommendation checked three (its ends and the nominal)
+    for f in np.linspace(lo, hi, 5):
+        params = SloshParams.from_modal(2 * np.pi * f, liquid["zeta"], liquid["m_kg"])
+        rel = np.degrees(np.hypot(*(adaptive_liquid(traj, params, settle) - container).T))
+        # the recommendation's thresholds ([compare] residual_ok_deg = 0.5, peak_ok_deg = 1 by default), as it claims
+        assert rel[~moving].max() <= scores["residual_ok_deg"], f
+        assert rel[moving].max() <= 1.0, f
+
+
+def test_plan_robust_needs_a_free_move_and_one_way_of_asking(run_cli, tmp_path):
+    import sloshid
+    from sloshid.core.errors import UserError
+
+    code, _, err = run_cli("plan", ROOT / "data" / "scenarios" / "path_arc.toml", "--robust", "-o", tmp_path / "t.csv")
+    assert code == 2 and "no robust variant" in err and not (tmp_path / "t.csv").exists()
+    with pytest.raises(UserError, match="not both"):
+        sloshid.plan(SCENARIO, robust=True, robust_omega_factors=(0.9, 1.1))
+
+
+def test_each_command_of_the_chain_ends_with_the_next_step(run_cli, tmp_path):
+    # issue 39: every command ends with the one line a user needs next, the file to send last
+    angles, params, move = tmp_path / "tap.csv", tmp_path / "params.json", tmp_path / "move.csv"
+    code, out, _ = run_cli("track", ROOT / "data" / "sample_tap.mp4", "-o", angles, "--float-color", "red")
+    assert code == 0 and out.strip().splitlines()[-1].startswith(f"next: sloshid identify {angles} -o ")
+    code, out, _ = run_cli("identify", angles, "--mass", "0.5", "-o", params)
+    assert code == 0 and out.strip().splitlines()[-1].startswith(f"next: sloshid plan SCENARIO.toml --params {params}")
+    code, out, err = run_cli("plan", SCENARIO, "--params", params, "--robust", "-o", move)
+    assert code == 0, err
+    assert out.strip().splitlines()[-1] == f"next: send {move} to the robot."
