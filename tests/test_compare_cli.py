@@ -114,6 +114,7 @@ def test_a_method_that_cannot_be_built_is_reported_not_applicable(tmp_path, run_
         ('residual_ok_deg = "small"', "[compare].residual_ok_deg must be a number"),
         ("robust_omega_factors = []", "[compare].robust_omega_factors must be a non-empty list"),
         ("robot_bandwidth_hz = 0.0", "[compare].robot_bandwidth_hz must be positive"),
+        (f"robust_omega_factors = {[1.0] * 10}", "[compare].robust_omega_factors holds 10 factors; at most 9"),
     ],
 )
 def test_bad_compare_table_is_one_sentence_and_writes_nothing(tmp_path, run_cli, extra, message):
@@ -131,12 +132,40 @@ def test_when_no_method_applies_the_recommendation_says_so(tmp_path, run_cli):
     assert "No method of [compare].methods applies to this scenario" in out and "): ." not in out
 
 
+@pytest.mark.parametrize(
+    "edit, message",
+    [
+        # printed as "the band 5-1 Hz" while another band was used
+        (lambda f: f.__setitem__("ci95", [5, 1]), "parameters.f_hz.ci95 must be two positive numbers, low first"),
+        (lambda f: f.__setitem__("value", -3.4), "parameters.f_hz.value -3.4 is not the frequency"),
+        (lambda f: f.__setitem__("value", "3.4"), "parameters.f_hz.value '3.4' is not the frequency"),
+    ],
+)
+def test_an_edited_parameter_file_is_refused(tmp_path, run_cli, edit, message):
+    from sloshid.model.pendulum import TABLE_I
+
+    f_hz = TABLE_I.f_hz
+    section = {"value": f_hz, "ci95": [0.99 * f_hz, 1.01 * f_hz], "quality": "good"}
+    edit(section)
+    params = {"omega_rad_s": {"value": TABLE_I.omega_rad_s}, "zeta": {"value": TABLE_I.zeta}, "f_hz": section}
+    path = tmp_path / "p.json"
+    path.write_text(json.dumps({"parameters": params}))
+    code, out, err = run_cli("compare", write_scenario(tmp_path), "--params", path)
+    assert code == 2 and message in err and err.count("\n") == 1 and out == ""
+
+
 def test_a_settling_time_of_terabytes_is_refused():
     # [compare] settle_s = 1e9 asked simulate_liquid for 7 TiB of samples: a traceback
     from sloshid.comparison.compare import CompareSettings
 
     with pytest.raises(UserError, match=r"\[compare\]\.settle_s must be at most 600 s"):
         CompareSettings(settle_s=1e9)
+    # a NaN passed a check on the list's minimum (a TOML file's is refused as it is read); 10,001 study frequencies
+    # ran on without a word
+    with pytest.raises(UserError, match=r"\[compare\]\.zeta_factors must be a non-empty list of positive numbers"):
+        CompareSettings(zeta_factors=[float("nan")])
+    with pytest.raises(UserError, match=r"\[compare\]\.omega_factors holds 10001 values; at most 201"):
+        CompareSettings(omega_factors=[1.0 + k * 1e-4 for k in range(10001)])
 
 
 def test_bad_method_name_suggests_the_right_one(tmp_path, run_cli):

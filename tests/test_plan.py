@@ -316,6 +316,20 @@ def test_api_refuses_bad_params_with_one_sentence(paper_1d, tmp_path, monkeypatc
             call(paper_1d, params)
 
 
+@pytest.mark.parametrize(
+    "factors, message",
+    [
+        ((float("nan"),), r"robust_omega_factors must be positive numbers, got \[nan\]"),  # planned the nominal move
+        (tuple(1 + 0.001 * k for k in range(101)), "holds 101 factors; at most 9"),  # ran for hours
+    ],
+)
+def test_bad_robust_factors_are_refused_before_the_solve(paper_1d, factors, message):
+    import sloshid
+
+    with pytest.raises(UserError, match=message):
+        sloshid.plan(paper_1d, robust_omega_factors=factors)
+
+
 def test_the_plan_figure_keeps_its_legend_and_labels_inside(plan_1d):
     # the legend sat outside the figure, so a plain fig.savefig() cut it off with the x label
     fig = plan_1d.plot()

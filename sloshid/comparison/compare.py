@@ -31,7 +31,7 @@ from sloshid.model.pendulum import SloshParams
 from sloshid.model.simulate import MAX_SETTLE_S, LiquidResponse, simulate_liquid, simulate_liquids
 from sloshid.model.trajectory import RobotLimits, Trajectory, check_limits, check_move_limits, tilt_profiles
 from sloshid.planning.planner import check_feasible
-from sloshid.planning.scenario import body_clearance
+from sloshid.planning.scenario import body_clearance, check_robust_factors
 
 METHODS: dict[str, str] = {
     "constant_acc": "constant acceleration",
@@ -121,8 +121,20 @@ class CompareSettings:
             raise UserError(f"[compare].workers must lie between 1 and 64, got {self.workers!r}.")
         lists = ("omega_factors", "zeta_factors", "robust_omega_factors", "camera_fps_sweep", "linearity_acc_m_s2")
         for name in lists:
-            if not getattr(self, name) or min(getattr(self, name)) <= 0:
-                raise UserError(f"[compare].{name} must be a non-empty list of positive numbers.")
+            values = getattr(self, name)
+            if not values or not all(math.isfinite(v) and v > 0 for v in values):
+                raise UserError(f"[compare].{name} must be a non-empty list of positive numbers, got {values!r}.")
+            if len(values) > MAX_STUDY_POINTS:
+                raise UserError(
+                    f"[compare].{name} holds {len(values)} values; at most {MAX_STUDY_POINTS} (each is a simulation of "
+                    "every method)."
+                )
+        check_robust_factors(self.robust_omega_factors, "[compare].robust_omega_factors")
+
+
+MAX_STUDY_POINTS = 201
+"""Most values a [compare] study list may hold: a frequency sweep at half-percent steps over +-50 %; 10,001 ran for
+long without a word."""
 
 
 @dataclass

@@ -131,12 +131,28 @@ class IdentifiedFrequency:
         interval), which is what a move must hold over."""
         data = json.loads(Path(path).read_text(encoding="utf-8"))
         f = data.get("parameters", {}).get("f_hz", {})
-        ci = f.get("ci95")
+        ci, where = f.get("ci95"), "parameters.f_hz.ci95"
         between = ((data.get("fit") or {}).get("between_signals") or {}).get("f_hz") or {}
         if between.get("disagree") and isinstance(between.get("prediction_interval95"), list):
-            ci = between["prediction_interval95"]
-        interval = (float(ci[0]), float(ci[1])) if isinstance(ci, list) and len(ci) == 2 else None
+            ci, where = between["prediction_interval95"], "fit.between_signals.f_hz.prediction_interval95"
+        if "value" in f:  # the file's f_hz beside its omega: one edited without the other is refused, not half-used
+            f_hz = SloshParams.from_identify_json(path).f_hz
+            if not _number(f["value"]) or abs(f["value"] - f_hz) > 1e-6 * f_hz:
+                raise UserError(
+                    f"parameter file {path}: parameters.f_hz.value {f['value']!r} is not the frequency of "
+                    f"parameters.omega_rad_s.value ({f_hz:.6g} Hz): was one of them edited?"
+                )
+        interval = None
+        if ci is not None:
+            if not (isinstance(ci, list) and len(ci) == 2 and all(_number(c) and c > 0 for c in ci) and ci[0] <= ci[1]):
+                raise UserError(f"parameter file {path}: {where} must be two positive numbers, low first, got {ci!r}.")
+            interval = (float(ci[0]), float(ci[1]))
         return cls(interval, f.get("quality"), tuple(f.get("reasons") or ()))
+
+
+def _number(value: object) -> bool:
+    """A finite JSON number (not a string, not a boolean)."""
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
 
 
 TABLE_I = SloshParams(m_kg=0.5, l_m=0.021, d_ns_per_m=1.51)

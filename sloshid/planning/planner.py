@@ -40,7 +40,7 @@ from sloshid.planning.ocp import (
     time_lower_bound,
 )
 from sloshid.planning.sampling import sample_segments
-from sloshid.planning.scenario import Obstacle, Scenario, body_clearance
+from sloshid.planning.scenario import Obstacle, Scenario, body_clearance, check_robust_factors
 from sloshid.planning.transcription import equidistributed_mesh, graded_mesh, regrid
 
 VERIFY_DURING_DEG = 0.1
@@ -550,9 +550,8 @@ def _plan_free(
     t_wall = time.perf_counter()
     check_feasible(scenario)
     factors = scenario.solver.robust_omega_factors if robust_omega_factors is None else robust_omega_factors
+    check_robust_factors(factors, "robust_omega_factors")  # a NaN was dropped by the filter below: a nominal plan
     robust = tuple(float(f) for f in factors if abs(f - 1.0) > 1e-9)
-    if any(not f > 0 for f in robust):
-        raise UserError(f"robust omega factors must be positive, got {list(factors)}.")
     n_seg = len(scenario.waypoints) - 1
     margins = [0.0] * n_seg
     warm = warm_from.segments if warm_from is not None and len(warm_from.segments) == n_seg else None

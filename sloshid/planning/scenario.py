@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import itertools
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
@@ -177,6 +178,22 @@ def body_clearance(obstacles, pos_m, radius_m: float, depth_m: float = 0.0, z_ax
     return np.min([o.clearance(points, grown).min(axis=-1) for o in obstacles], axis=0)
 
 
+MAX_ROBUST_FACTORS = 9
+"""Most frequency factors a robust plan holds: each adds a copy of the liquid to the optimal control problem (nine
+cover a band at 2.5 % steps), and 101 made one plan run for hours."""
+
+
+def check_robust_factors(factors: Sequence[float], where: str) -> None:
+    """Refuse robust frequency factors that are not positive finite numbers, or more than MAX_ROBUST_FACTORS."""
+    if any(not (isinstance(f, (int, float)) and math.isfinite(f) and f > 0) for f in factors):
+        raise UserError(f"{where} must be positive numbers, got {list(factors)}.")
+    if len(factors) > MAX_ROBUST_FACTORS:
+        raise UserError(
+            f"{where} holds {len(factors)} factors; at most {MAX_ROBUST_FACTORS}: each adds a copy of the liquid to "
+            "the plan's problem."
+        )
+
+
 @dataclass(frozen=True)
 class SolverSettings:
     """[solver]: discretisation and weights of the optimal-control problem (seed eq. 8-10)."""
@@ -234,8 +251,7 @@ class SolverSettings:
             raise UserError(f"[solver].grid_grading must lie in [0, 1), got {self.grid_grading}.")
         if not 1 <= self.rk4_steps <= 20 or not 0 <= self.clearance_points <= 20:
             raise UserError("[solver].rk4_steps must lie in 1..20 and clearance_points in 0..20.")
-        if any(not f > 0 for f in self.robust_omega_factors):
-            raise UserError("[solver].robust_omega_factors must be positive numbers.")
+        check_robust_factors(self.robust_omega_factors, "[solver].robust_omega_factors")
         if not self.clearance_margin_m >= 0:
             raise UserError(f"[solver].clearance_margin_m must be zero or positive, got {self.clearance_margin_m}.")
         for name in ("robust_max_rel_deg", "tol", "max_iter"):
