@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import os
 import re
 from pathlib import Path
 
@@ -69,6 +70,30 @@ def test_cache_skips_unchanged_and_reruns_changed_stage_downstream_only(video, t
     assert _statuses(third) == {"track": "cached", "identify": "ran"}
     params = json.loads((third / "identify" / "params.json").read_text())["parameters"]
     assert params["m_kg"]["value"] == 1.0
+
+
+def test_a_full_disk_while_a_cached_stage_is_copied_leaves_no_run_folder(video, tmp_path, run_cli, monkeypatch):
+    # shutil.Error was a traceback, and the run folder kept a 0-byte params.json and no manifest
+    import errno
+    import shutil
+
+    pipe = _write(tmp_path / "p.toml", f'[track]\nvideos = ["{video}"]\n\n[identify]\nmass_kg = 0.5\n')
+    runs = tmp_path / "runs"
+    assert run_cli("run", pipe, "--output-dir", runs, "--quiet")[0] == 0
+    before = sorted(p.name for p in runs.iterdir())
+    copy = shutil.copyfile  # what copytree's copy2 calls for the bytes
+
+    def full(src, dst, **kwargs):
+        if os.fspath(src).endswith("params.json"):
+            open(dst, "w").close()  # as a full disk leaves it: the file made, nothing in it
+            raise OSError(errno.ENOSPC, "No space left on device")
+        return copy(src, dst, **kwargs)
+
+    monkeypatch.setattr(shutil, "copyfile", full)
+    code, out, err = run_cli("run", pipe, "--output-dir", runs, "--quiet")
+    assert code == 2, (out, err)
+    assert "No space left on device" in err and err.count("\n") == 1 and out == ""
+    assert sorted(p.name for p in runs.iterdir()) == before  # the new run's folder is gone, the earlier one kept
 
 
 def test_a_run_folder_is_its_own_and_a_damaged_cache_runs_again(video, tmp_path, run_cli):

@@ -192,8 +192,13 @@ def _settings_json(settings: Any) -> dict[str, Any]:
 
 def _copy_tree(src: Path, dst: Path) -> None:
     """Copy a finished stage's outputs into a run: copies, not links, so that editing a file in one run's folder
-    changes neither the cache nor any other run."""
-    shutil.copytree(src, dst, ignore=shutil.ignore_patterns(FILES_JSON))
+    changes neither the cache nor any other run. All or nothing: copytree goes on past a failed file (a full disk
+    left 0-byte copies), so the copy is made beside `dst` and put in place whole."""
+    with atomic_dir(dst) as tmp:
+        try:
+            shutil.copytree(src, tmp, ignore=shutil.ignore_patterns(FILES_JSON), dirs_exist_ok=True)
+        except shutil.Error as exc:  # each failed file's (source, destination, reason): the first reason says it
+            raise OSError(exc.args[0][0][2]) from None
 
 
 FILES_JSON = ".files.json"
@@ -287,6 +292,31 @@ def run_pipeline(
     """Run every stage (or reuse its cached outputs) and write the run directory with manifest and index."""
     root, run_dir, run_id = _new_run_dir(pipeline, output_dir)
     input_hashes: dict[str, str] = {}
+    try:
+        records = _run_stages(pipeline, root, run_dir, input_hashes, log)
+        manifest = {
+            "pipeline": str(pipeline.path.resolve()),
+            "run_id": run_id,
+            "sloshid_version": __version__,
+            "settings": {
+                "run": _settings_json(pipeline.run),
+                **{s.name: _settings_json(c) for s, c in pipeline.stages},
+            },
+            "input_sha256": input_hashes,
+            "stages": [dataclasses.asdict(r) for r in records],
+        }
+        write_text(run_dir / "manifest.json", json.dumps(manifest, indent=2, default=str))
+        index = write_index(run_dir, records) if write_index else run_dir / "manifest.json"
+    except (UserError, OSError):  # a run folder that cannot be finished (a full disk) is not left half-written
+        shutil.rmtree(run_dir, ignore_errors=True)
+        raise
+    return PipelineRun(run_dir, index, records)
+
+
+def _run_stages(
+    pipeline: Pipeline, root: Path, run_dir: Path, input_hashes: dict[str, str], log: Callable[[str], None]
+) -> list[StageRecord]:
+    """Run (or reuse) every stage in order into the run folder; a stage whose inputs failed is skipped."""
     keys: dict[str, str] = {}
     caches: dict[str, Path] = {}  # each stage's content-addressed outputs: what later stages read
     records: list[StageRecord] = []
@@ -311,14 +341,4 @@ def run_pipeline(
         records.append(_run_stage(stage, settings, key, caches[stage.name], ctx, log))
         if records[-1].status == "failed":
             failed.add(stage.name)
-    manifest = {
-        "pipeline": str(pipeline.path.resolve()),
-        "run_id": run_id,
-        "sloshid_version": __version__,
-        "settings": {"run": _settings_json(pipeline.run), **{s.name: _settings_json(c) for s, c in pipeline.stages}},
-        "input_sha256": input_hashes,
-        "stages": [dataclasses.asdict(r) for r in records],
-    }
-    write_text(run_dir / "manifest.json", json.dumps(manifest, indent=2, default=str))
-    index = write_index(run_dir, records) if write_index else run_dir / "manifest.json"
-    return PipelineRun(run_dir, index, records)
+    return records
