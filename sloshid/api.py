@@ -4,6 +4,7 @@ an unknown keyword is refused with a "did you mean"."""
 
 from __future__ import annotations
 
+import os
 from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -34,6 +35,7 @@ def track(
     from sloshid.tracking.tracker import TrackSettings, track_video
     from sloshid.video.frames import VIDEO_SUFFIXES
 
+    _check_path(video, "video")
     track_settings = from_dict(TrackSettings, settings)
     if overlay is not None:  # the command line's check: never over the video, and a video the overlay writer makes
         overlay = Outputs([video]).file(overlay, "overlay", VIDEO_SUFFIXES)
@@ -69,9 +71,19 @@ def identify(*sources: Source, **settings: Any) -> IdentResult:
     if len(sources) == 1 and isinstance(sources[0], (list, tuple)):  # identify(["a.csv", tracked]) as well
         sources = tuple(sources[0])
     column_keys = {"time_col", "value_col", "time_var", "value_var"}
-    columns = from_dict(SignalColumns, {k: v for k, v in settings.items() if k in column_keys})
+    # a column by its 0-based index, as the command line's `--time-col 0` gives it
+    given = {k: str(v) if isinstance(v, int) and not isinstance(v, bool) else v for k, v in settings.items()}
+    columns = from_dict(SignalColumns, {k: v for k, v in given.items() if k in column_keys})
     ident = from_dict(IdentSettings, {k: v for k, v in settings.items() if k not in column_keys})
     return identify_sources(sources, ident, columns)
+
+
+def _check_path(value: Any, what: str) -> None:
+    """Refuse a `what` that is not a path (None, a number) in one sentence, before anything deep tries it."""
+    from sloshid.core.errors import UserError
+
+    if not isinstance(value, (str, os.PathLike)):
+        raise UserError(f"{what} must be a path (str or Path), got {type(value).__name__}.")
 
 
 def load_scenario(path: str | Path) -> Scenario:
@@ -86,10 +98,12 @@ def _scenario_and_liquid(scenario: Scenario | str | Path, params: Any) -> tuple[
     `params` is SloshParams, an IdentResult, an identify JSON path, or None for the scenario's own [liquid]."""
     from sloshid.core.errors import UserError
     from sloshid.model.pendulum import IdentifiedFrequency, SloshParams
-    from sloshid.planning.scenario import resolve_liquid
+    from sloshid.planning.scenario import Scenario, resolve_liquid
 
     if isinstance(scenario, (str, Path)):
         scenario = load_scenario(scenario)
+    if not isinstance(scenario, Scenario):
+        raise UserError(f"scenario must be a Scenario or a scenario TOML's path, got {type(scenario).__name__}.")
     if isinstance(params, SloshParams):
         return scenario, params, None
     if hasattr(params, "params") and isinstance(params.params, SloshParams):  # an IdentResult
@@ -123,6 +137,10 @@ def plan(
 
     if robust and robust_omega_factors is not None:
         raise UserError("give robust=True or robust_omega_factors, not both.")
+    if isinstance(robust_omega_factors, str):
+        raise UserError(
+            f"robust_omega_factors must be numbers such as (0.9, 1.1), got the string {robust_omega_factors!r}."
+        )
     scenario, liquid, _ = _scenario_and_liquid(scenario, params)
     if robust:
         scenario = robust_scenario(scenario)
@@ -140,8 +158,12 @@ def compare(
     """Score every method of the scenario's [compare] table for the liquid `params`; a `plan` of the same scenario
     and liquid is reused instead of solved again. Keywords override keys of the [compare] table (methods, ...)."""
     from sloshid.comparison.compare import compare_scenario
+    from sloshid.core.errors import UserError
+    from sloshid.planning.planner import PlanResult
 
     scenario, liquid, interval = _scenario_and_liquid(scenario, params)
+    if plan is not None and not isinstance(plan, PlanResult):
+        raise UserError(f"plan must be a PlanResult of `sloshid.plan` or None, got {type(plan).__name__}.")
     if settings:
         scenario = replace(scenario, compare={**scenario.compare, **settings})
     return compare_scenario(scenario, liquid, plan=plan, f_interval_hz=interval, progress=progress)

@@ -35,6 +35,14 @@ def writable_folder(folder: Path, role: str, path: Path) -> None:
     os.unlink(name)
 
 
+def _resolved(path: Path) -> Path:
+    """`path` with its links followed, or the one-sentence UserError when they go round in a loop."""
+    try:
+        return path.resolve()
+    except (RuntimeError, OSError):  # RuntimeError up to Python 3.12, OSError (ELOOP) after
+        raise UserError(f"{path}: its symbolic links go round in a loop.") from None
+
+
 def is_sloshid_page(path: Path) -> bool:
     """Whether an existing HTML file was written by sloshid (its generator mark is in the first kilobytes)."""
     try:
@@ -49,12 +57,12 @@ class Outputs:
     """The outputs of one run, checked as they are declared: each against the inputs and the earlier outputs."""
 
     def __init__(self, inputs: Iterable[str | os.PathLike] = ()) -> None:
-        self.inputs = {Path(p).resolve(): Path(p) for p in inputs}
+        self.inputs = {_resolved(Path(p)): Path(p) for p in inputs}
         self.claimed: dict[Path, str] = {}
 
     def _claim(self, path: Path, role: str) -> Path:
         """Refuse a path that is an input or already another output of this run."""
-        real = path.resolve()
+        real = _resolved(path)
         if real in self.inputs:
             raise UserError(f"{role} {path} is also an input of this run; refusing to overwrite it.")
         if real in self.claimed:

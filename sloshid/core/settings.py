@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import dataclasses
 import difflib
+import math
+import numbers
 import sys
 import types
 import typing
@@ -25,8 +27,10 @@ def load_toml(path: str | Path) -> dict[str, Any]:
     try:
         raw = input_file(path, "TOML file", SMALL_FILE_BYTES).read_bytes()
         return tomllib.loads(raw.decode("utf-8-sig"))  # a UTF-8 byte-order mark (Windows editors) is accepted
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError, ValueError) as exc:  # ValueError: a 5,000-digit number
         raise UserError(f"{path} is not valid TOML ({exc}).") from None
+    except RecursionError:
+        raise UserError(f"{path} nests arrays or tables too deeply to be a settings file.") from None
 
 
 def did_you_mean(word: str, choices: typing.Iterable[str]) -> str:
@@ -76,16 +80,18 @@ def _check(value: Any, tp: Any, where: str) -> Any:
             inner = args[0] if args else Any
             items = [_check(v, inner, f"{where}[{i}]") for i, v in enumerate(value)]
         return tuple(items) if origin is tuple else items
-    if tp is float:
-        if isinstance(value, bool) or not isinstance(value, (int, float)):
+    if tp is float:  # NumPy's scalars too (numbers.Real): a mass taken from an array is a number like any other
+        if isinstance(value, bool) or not isinstance(value, numbers.Real):
             raise UserError(f"{where} must be a number, got {value!r}.")
         if value != value:  # TOML's nan: every comparison with it is False, so range checks would let it through
             raise UserError(f"{where} is nan; give a number.")
+        if abs(value) == math.inf:  # TOML's inf: a start at infinity "needed at least inf s"
+            raise UserError(f"{where} is infinite; give a finite number.")
         return float(value)
     if tp is int:
-        if isinstance(value, bool) or not isinstance(value, int):
+        if isinstance(value, bool) or not isinstance(value, numbers.Integral):
             raise UserError(f"{where} must be a whole number, got {value!r}.")
-        return value
+        return int(value)
     if tp is bool:
         if not isinstance(value, bool):
             raise UserError(f"{where} must be true or false, got {value!r}.")

@@ -73,6 +73,10 @@ class NotFittedError(RuntimeError):
     """Raised when results are asked of an Identifier before fit() was called."""
 
 
+MAX_MASS_KG = 1e4
+"""Largest liquid mass taken: ten tonnes, a road tanker's compartment; 1e308 kg made the damping constant infinite."""
+
+
 @dataclass(frozen=True)
 class IdentSettings:
     """How to identify (all optional; defaults suit tracker traces and wall-height sensors alike)."""
@@ -99,8 +103,10 @@ class IdentSettings:
     """Liquid fill height h for the prior."""
 
     def __post_init__(self) -> None:
-        if self.mass_kg is not None and not (math.isfinite(self.mass_kg) and self.mass_kg > 0):
-            raise SettingError("mass_kg", f"{{name}} must be a positive number of kg, got {self.mass_kg!r}.")
+        if self.mass_kg is not None and not (math.isfinite(self.mass_kg) and 0 < self.mass_kg <= MAX_MASS_KG):
+            raise SettingError(
+                "mass_kg", f"{{name}} must be a positive number of kg up to {MAX_MASS_KG:g}, got {self.mass_kg!r}."
+            )
         if self.window_s is not None and not all(map(math.isfinite, self.window_s)):
             raise SettingError("window_s", f"{{name}} must be two numbers of seconds, got {self.window_s!r}.")
         if self.window_s is not None and not self.window_s[0] < self.window_s[1]:

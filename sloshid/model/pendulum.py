@@ -83,8 +83,10 @@ class SloshParams:
         """Read the parameters written by `sloshid identify` (values of `parameters.{omega_rad_s,zeta,m_kg}`)."""
         try:
             data = json.loads(input_file(path, "parameter file", SMALL_FILE_BYTES).read_text(encoding="utf-8"))
-        except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        except (ValueError, UnicodeDecodeError) as exc:  # a JSONDecodeError, or a 5,000-digit number
             raise UserError(f"parameter file {path} is not valid JSON ({exc}).") from None
+        except RecursionError:
+            raise UserError(f"parameter file {path} nests arrays too deeply to be a parameter file.") from None
         try:
             p = data["parameters"]
             omega = float(p["omega_rad_s"]["value"])

@@ -182,6 +182,7 @@ class SynthSettings:
             (self.renderer in ("painted", "pbr"), "renderer", "{name} must be 'painted' or 'pbr'"),
             (1 <= self.spp <= 4096, "spp", "{name} must be 1..4096 samples per pixel"),
             (0 <= self.scene_seed < 2**63, "scene_seed", "{name} must be a non-negative integer"),
+            (0 <= self.seed < 2**63, "seed", "{name} must be a non-negative integer"),
             (
                 # the encoders' own ranges: PyAV raised (a traceback) outside them or clipped without a word
                 self.quality is None or (0 <= self.quality <= 51 if self.codec == "h264" else 1 <= self.quality <= 31),
