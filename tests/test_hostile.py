@@ -108,3 +108,47 @@ def test_out_of_range_numbers_are_named_as_given(tmp_path, run_cli, decay_csv):
     code, _, err = run_cli("identify", decay_csv, "--mass", "1e308", "-o", tmp_path / "p.json")
     assert code == 2 and "--mass must be a positive number of kg up to 10000" in err
     assert not list(tmp_path.glob("s*")) and not (tmp_path / "p.json").exists()
+
+
+def test_a_nul_byte_in_a_pipeline_is_one_sentence(tmp_path, run_cli):
+    # ValueError: embedded null byte
+    video = tmp_path / "v.mp4"
+    for name, body in (
+        ('[run]\nname = "a\\u0000b"\n', "[run].name must be a plain folder name (no '/' or NUL"),
+        ("", "a path holds a NUL byte"),
+    ):
+        videos = '["v\\u0000.mp4"]' if not name else f'["{video}"]'
+        pipe = tmp_path / "p.toml"
+        pipe.write_text(f"{name}[track]\nvideos = {videos}\n")
+        code, _, err = run_cli("run", pipe, "--output-dir", tmp_path / "runs")
+        assert code == 2 and body in err and err.count("\n") == 1
+
+
+def test_what_a_killed_run_left_is_removed_by_the_next(tmp_path, run_cli):
+    # a run killed outright (SIGKILL) left its run folder without manifest or index, and its stage's half-made cache
+    # folder (.part) was never cleaned up by later runs; a live run's are left alone
+    import os
+    import subprocess
+    import sys
+
+    from sloshid.synthetic.render import SynthSettings, render_video
+
+    video = tmp_path / "v.mp4"
+    render_video(video, SynthSettings(width=320, height=240, duration_s=3.0, f_hz=3.0, zeta=0.05))
+    pipe = tmp_path / "p.toml"
+    pipe.write_text(f'[track]\nvideos = ["{video}"]\n')
+    root = tmp_path / "runs" / "p"
+    dead = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"], capture_output=True, text=True)
+    gone = int(dead.stdout)  # a process id that has just ended
+    (root / "20260101-000000-000000").mkdir(parents=True)
+    (root / "20260101-000000-000000" / f".running-{gone}").touch()
+    (root / ".cache" / "track" / f".abc.{gone}-0123456789abcdef.part").mkdir(parents=True)
+    live = root / ".cache" / "track" / f".abc.{os.getpid()}-0123456789abcdef.part"
+    live.mkdir()
+    code, out, err = run_cli("run", pipe, "--output-dir", tmp_path / "runs", "--quiet")
+    assert code == 0, err
+    runs = [p.name for p in root.iterdir() if not p.name.startswith(".")]
+    assert runs == [Path(out.strip()).parent.name]  # the killed run's folder went, this run's stays
+    assert not list(Path(out.strip()).parent.glob(".running-*"))  # a finished run carries no mark
+    parts = sorted(p.name for p in (root / ".cache" / "track").glob(".*.part"))
+    assert parts == [live.name]

@@ -190,6 +190,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         if exc.filename is None:
             raise
         return _fail(f"could not use {exc.filename}: {_PATH_TROUBLE.get(exc.errno, exc.strerror or 'unknown error')}.")
+    except ValueError as exc:
+        if "null byte" not in str(exc):
+            raise
+        return _fail("a path holds a NUL byte, which no file system takes.")  # a TOML string's \u0000 reaches os calls
     except (KeyboardInterrupt, Terminated):
         print("sloshid: interrupted; finished outputs are kept, nothing half-written was left.", file=sys.stderr)
         return 130 if not isinstance(sys.exc_info()[1], Terminated) else 143

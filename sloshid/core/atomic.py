@@ -8,6 +8,7 @@ from __future__ import annotations
 import contextlib
 import json
 import os
+import re
 import secrets
 import shutil
 from collections.abc import Iterator
@@ -18,11 +19,37 @@ from sloshid.core.errors import UserError
 
 
 def _sibling(target: Path, suffix: str) -> Path:
-    """A hidden temporary name beside `target`, random (64 bits) so that parallel runs never pick the same one.
+    """A hidden temporary name beside `target`, random (64 bits) so that parallel runs never pick the same one, with
+    the writing process's id, so that a later run can tell one left by a killed process (`remove_orphans`).
 
     The name is chosen before anything is created, so that a `finally` can remove whatever exists under it: an
     interruption (SIGTERM, Ctrl-C) between creating the file and entering a `try` would otherwise leave it behind."""
-    return target.parent / f".{target.name}.{secrets.token_hex(8)}{suffix}"
+    return target.parent / f".{target.name}.{os.getpid()}-{secrets.token_hex(8)}{suffix}"
+
+
+def _alive(pid: int) -> bool:
+    """Whether a process with this id runs (one of another user counts as running)."""
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
+
+
+def writer_gone(name: str) -> bool:
+    """Whether the process id in a temporary or marker name (`.<name>.<pid>-<token>.part`, `.running-<pid>`) is of no
+    running process: what it was writing will never be finished (SIGKILL, a power cut)."""
+    match = re.search(r"[.-](\d+)(?:-[0-9a-f]{16})?(?:\.part\b|$)", name)
+    return match is not None and not _alive(int(match.group(1)))
+
+
+def remove_orphans(folder: Path) -> None:
+    """Remove the `.part` temporaries in `folder` whose writer was killed before it could remove them."""
+    for entry in folder.glob(".*.part*"):
+        if writer_gone(entry.name):
+            shutil.rmtree(entry, ignore_errors=True) if entry.is_dir() else entry.unlink(missing_ok=True)
 
 
 def _write_error(target: Path, exc: OSError) -> UserError:

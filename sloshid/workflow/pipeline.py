@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import os
 import shutil
 import time
 from collections.abc import Callable
@@ -18,7 +19,7 @@ from pathlib import Path
 from typing import Any, Literal
 
 from sloshid import __version__
-from sloshid.core.atomic import atomic_dir, write_text
+from sloshid.core.atomic import atomic_dir, remove_orphans, write_text, writer_gone
 from sloshid.core.errors import SettingError, UserError, input_file
 from sloshid.core.hashing import file_sha256, json_sha256
 from sloshid.core.outputs import writable_folder
@@ -41,9 +42,9 @@ class RunSettings:
 
     def __post_init__(self) -> None:
         check_workers(self.workers)
-        if self.name and (Path(self.name).name != self.name or self.name.startswith(".")):
+        if self.name and (Path(self.name).name != self.name or self.name.startswith(".") or "\0" in self.name):
             raise UserError(
-                f"[run].name must be a plain folder name (no '/', not starting with '.'), got {self.name!r}."
+                f"[run].name must be a plain folder name (no '/' or NUL, not starting with '.'), got {self.name!r}."
             )
 
 
@@ -245,8 +246,11 @@ def _new_run_dir(pipeline: Pipeline, output_dir: str | Path | None) -> tuple[Pat
     run_id = datetime.now(timezone.utc).strftime("%Y%m%d-%H%M%S-%f")
     run_dir = root / run_id
     writable_folder(run_dir, "the run folder", run_dir)
+    if root.is_dir():
+        _remove_killed_runs(root)
     try:
         run_dir.mkdir(parents=True)
+        (run_dir / RUNNING_MARK.format(pid=os.getpid())).touch()
     except OSError as exc:
         raise UserError(f"could not create the run folder {run_dir}: {exc.strerror or exc}.") from None
     return root, run_dir, run_id
@@ -307,10 +311,26 @@ def run_pipeline(
         }
         write_text(run_dir / "manifest.json", json.dumps(manifest, indent=2, default=str))
         index = write_index(run_dir, records) if write_index else run_dir / "manifest.json"
-    except (UserError, OSError):  # a run folder that cannot be finished (a full disk) is not left half-written
+    except BaseException:  # a run folder that cannot be finished (a full disk, Ctrl-C) is not left half-written
         shutil.rmtree(run_dir, ignore_errors=True)
         raise
+    (run_dir / RUNNING_MARK.format(pid=os.getpid())).unlink()
     return PipelineRun(run_dir, index, records)
+
+
+RUNNING_MARK = ".running-{pid}"
+"""In a run folder while its run goes on: one whose process is gone (killed) is removed by the next run."""
+
+
+def _remove_killed_runs(root: Path) -> None:
+    """Remove what runs killed outright (SIGKILL, a power cut) left under `root`: their unfinished run folders and
+    the temporary folders of the stages they were caching."""
+    for mark in root.glob("*/" + RUNNING_MARK.format(pid="*")):
+        if writer_gone(mark.name):
+            shutil.rmtree(mark.parent, ignore_errors=True)
+    for stage in (root / ".cache").glob("*"):
+        if stage.is_dir():
+            remove_orphans(stage)
 
 
 def _run_stages(
