@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from sloshid.model.pendulum import G, SloshParams, angle_accel
+from sloshid.model.pendulum import G, SloshParams, angle_accel, spherical_accel
 from sloshid.model.trajectory import Trajectory
 
 MAX_STEP_S = 5e-3
@@ -63,6 +63,7 @@ def integrate_pendulums(
     rtol: float = 1e-10,
     atol: float = 1e-12,
     max_step: float = np.inf,
+    spherical: bool = False,
 ) -> np.ndarray:
     """The one pendulum integrator: surface state [phi, theta, phi', theta'] (rad, rad/s) at the sorted times
     `t_eval` under the container acceleration given piece by piece, `pieces` = [(t0, t1, accel), ...] back to back.
@@ -70,7 +71,9 @@ def integrate_pendulums(
     The nonlinear pair of the reconstructed seed eq. 3 (vertical acceleration changes gravity to g + uz; -phi tilts
     toward +uy, theta toward +ux) is integrated with solve_ivp (DOP853) one piece at a time, restarting at every
     piece boundary so that a jump or kink of the input is never smeared. Samples before the first piece hold y0;
-    samples after the last hold nothing (the caller's pieces must cover them)."""
+    samples after the last hold nothing (the caller's pieces must cover them). `spherical`: one spherical pendulum in
+    the same angles instead of the pair (`pendulum.spherical_accel`: the horizontal directions coupled).
+    """
     out = np.zeros((len(t_eval), 4))
     out[t_eval < pieces[0][0]] = y0
     y = np.asarray(y0, dtype=float)
@@ -85,6 +88,8 @@ def integrate_pendulums(
             # plain floats: this runs ~10^5 times per second of motion, so it avoids NumPy scalar overhead
             ux, uy, uz = accel(t)
             g_eff = G + uz
+            if spherical:
+                return [q[2], q[3], *spherical_accel(q[0], q[1], q[2], q[3], ux, uy, g_eff, params)]
             tilt_y_dd = angle_accel(-q[0], -q[2], uy, params, g_eff, math.sin, math.cos)  # -phi tilts toward +uy
             theta_dd = angle_accel(q[1], q[3], ux, params, g_eff, math.sin, math.cos)
             return [q[2], q[3], -tilt_y_dd, theta_dd]
@@ -106,9 +111,15 @@ samples; a liquid rings down in seconds, and 1e9 s asked for terabytes."""
 
 
 def simulate_liquid(
-    traj: Trajectory, params: SloshParams, settle_s: float = 3.0, rtol: float = 1e-9, atol: float = 1e-12
+    traj: Trajectory,
+    params: SloshParams,
+    settle_s: float = 3.0,
+    rtol: float = 1e-9,
+    atol: float = 1e-12,
+    spherical: bool = False,
 ) -> LiquidResponse:
-    """Integrate the nonlinear pendulums under the trajectory's accelerations, liquid at rest at t0.
+    """Integrate the nonlinear pendulums (or, `spherical`, one spherical pendulum) under the
+    trajectory's accelerations, liquid at rest at t0.
 
     The acceleration is linear between samples and zero after arrival; the container holds its last pose.
     """
@@ -130,7 +141,9 @@ def simulate_liquid(
     # max_step only keeps the integrator from stepping over a move that starts after an idle lead-in;
     # accuracy comes from rtol/atol (5 ms steps agree with 2 ms steps to 1e-6 deg on the bundled moves)
     pieces = [(t0, t_end, moving), (t_end, float(t_all[-1]), lambda _t: (0.0, 0.0, 0.0))]
-    state = integrate_pendulums(pieces, t_all, params, rtol=rtol, atol=atol, max_step=max(2 * dt, MAX_STEP_S))
+    state = integrate_pendulums(
+        pieces, t_all, params, rtol=rtol, atol=atol, max_step=max(2 * dt, MAX_STEP_S), spherical=spherical
+    )
     liquid = state[:, :2]
     container = np.vstack([traj.euler_rad[:, :2], np.repeat(traj.euler_rad[-1:, :2], n_after, axis=0)])
     return LiquidResponse(t_all, liquid, liquid - container, float(t[-1]))
