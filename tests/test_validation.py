@@ -389,6 +389,9 @@ def test_bad_input_is_one_sentence_and_exit_2_with_nothing_written(tmp_path, run
     bad_q, bad_t = rows.copy(), rows.copy()
     bad_q[100, 7] = 0.5
     bad_t[200, 0] = bad_t[199, 0]
+    bad_nan = rows.copy()
+    bad_nan[300, 2] = np.nan  # a logger's dropped sample
+    np.savetxt(tmp_path / "badnan.csv", bad_nan, delimiter=";")
     np.savetxt(tmp_path / "badq.csv", bad_q, delimiter=";")
     np.savetxt(tmp_path / "badt.csv", bad_t, delimiter=";")
     # a pose log whose time column is in milliseconds: predicted as a move of minutes with no slosh, exit 0
@@ -433,6 +436,7 @@ def test_bad_input_is_one_sentence_and_exit_2_with_nothing_written(tmp_path, run
             "milliseconds",
         ),
         (("predict", tmp_path / "badq.csv", "-o", out, "--params", params, *radius), "not 1"),
+        (("predict", tmp_path / "badnan.csv", "-o", out, "--params", params, *radius), "data row 301 holds NaN"),
         (("predict", tmp_path / "badt.csv", "-o", out, "--params", params, *radius), "does not increase"),
         (("predict", good, "-o", out, "--params", params, *radius, "--smooth-s", "0"), "window --smooth-s must be"),
         # shorter than two samples: it ran as 0.014 s without a word (a trial)

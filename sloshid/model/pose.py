@@ -321,6 +321,7 @@ def load_pose_log(path: str | Path, columns: str | None = None) -> PoseLog:
     table = read_table(p)
     header, data = table.header, table.data
     if header is not None and all(c in header for c in CSV_COLUMNS) and columns is None:
+        _check_finite(p, data[:, [header.index(c) for c in CSV_COLUMNS]])
         traj = Trajectory.from_columns(dict(zip(header, data.T)), str(p), p.stem)
         return pose_from_trajectory(traj, str(p))
     names = _column_names(header, columns, data.shape[1], p)
@@ -354,6 +355,13 @@ def _column_names(header: list[str] | None, columns: str | None, ncols: int, p: 
     return names
 
 
+def _check_finite(p: Path, data: np.ndarray) -> None:
+    """Refuse a log whose used columns hold NaN or inf (a logger's dropped sample), naming the first such row."""
+    bad = np.flatnonzero(~np.all(np.isfinite(data), axis=1))
+    if bad.size:
+        raise UserError(f"{p}: data row {bad[0] + 1} holds NaN or an infinite value; drop or fill the incomplete rows.")
+
+
 def _pose_from_columns(names: list[str], data: np.ndarray, p: Path) -> PoseLog:
     """Build the PoseLog from canonical column names; quaternions must be unit."""
     base = [n.split("_")[0] for n in names]
@@ -364,8 +372,7 @@ def _pose_from_columns(names: list[str], data: np.ndarray, p: Path) -> PoseLog:
     if missing or not (quat or rpy):
         what = ", ".join(missing) or "an orientation (qx, qy, qz, qw or roll, pitch, yaw)"
         raise SettingError("pose_columns", f"{p} lacks {what}; name the columns with a header or {{name}}.")
-    if not np.all(np.isfinite(data)):
-        raise UserError(f"{p} holds NaN or infinite values.")
+    _check_finite(p, data[:, [i for i, n in enumerate(names) if n]])
     pos = np.column_stack([col("x"), col("y"), col("z")])
     if quat:
         q = np.column_stack([col("qx"), col("qy"), col("qz"), col("qw")])
