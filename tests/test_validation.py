@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -756,3 +757,63 @@ def test_a_run_the_model_was_fitted_on_is_marked_and_left_out_of_the_medians(tmp
     (tmp_path / "p.json").write_text(json.dumps(params))
     code, out, err = run_cli("validate", *runs, "--params", tmp_path / "p.json", "--json")
     assert code == 0 and [r["in_sample"] for r in json.loads(out)["runs"]] == [True, False]
+
+
+def _synthetic_moves() -> dict[str, PoseLog]:
+    """Commanded moves of kinds the shared runs lack, 9 s at 500 Hz: a 3-D lemniscate pumped vertically at twice the
+    mode's frequency (0.5 g and 1 g), four turns about a vertical axis 0.1 m from the container, a 45 deg tilt and back
+    in 0.6 s."""
+    t = np.arange(0, 9, 0.002)
+    env = np.sin(np.pi * np.clip((t - 1) / 6, 0, 1)) ** 2
+    w, fz = 2 * np.pi / 3, 2 * 3.02
+    moves = {}
+    for g_share in (0.5, 1.0):
+        b = g_share * G / (2 * np.pi * fz) ** 2
+        pos = np.column_stack(
+            [0.2 * np.sin(w * (t - 1)), 0.1 * np.sin(2 * w * (t - 1)), b * np.sin(2 * np.pi * fz * (t - 1))]
+        )
+        moves[f"lemniscate {g_share} g"] = PoseLog(t, pos * env[:, None], Rotation.identity(t.size), "lemniscate")
+    yaw = 4 * np.pi * (1 - np.cos(np.pi * np.clip((t - 1) / 4, 0, 1)))
+    spin = np.column_stack([0.1 * np.cos(yaw) - 0.1, 0.1 * np.sin(yaw), 0 * t])
+    moves["spin"] = PoseLog(t, spin, Rotation.from_euler("z", yaw[:, None]), "spin")
+    tilt = np.radians(45) * np.sin(np.pi * np.clip((t - 1) / 0.6, 0, 1)) ** 2
+    moves["fast tilt"] = PoseLog(t, np.zeros((t.size, 3)), Rotation.from_euler("y", tilt[:, None]), "tilt")
+    return moves
+
+
+@pytest.mark.slow
+def test_moves_of_kinds_the_runs_lack_stay_physical_and_widen_their_bands(antisloshing_dir):
+    # a model as fitted on the shared runs (benchmarks/validate_real.py: f 3.02 Hz, zeta 0.012, drag 1, wave share
+    # 0.75, crest 0.4, its errors) with the motion range of three real runs. Vertical pumping at twice the mode's
+    # frequency is parametric resonance: without the breaking drag the pendulum turned over (178 deg at 1 g), so each
+    # pumped prediction must stay below the 58 deg at which the surface reaches the bottom (atan(h / R)); every one
+    # must be finite, turn the surface less than 90 deg from the container's axis (the 45 deg tilt itself leaves the
+    # liquid 45 deg off before it sloshes), name the quantity it extrapolates, and have a band wider than the same
+    # prediction's inside the range
+    from sloshid.model.pose import motion_range
+    from sloshid.validation.predict import LiquidModel, forecast, wall_height
+
+    runs = ("RD_3D_0.3m_6.8s_720deg", "LE_2D_0m_5s_900deg", "Tilt_RD_2D_0.3m_7s_30deg")
+    ranges = [motion_range(excitation(load_pose_log(antisloshing_dir / "commands" / f"{n}.csv"), 0.078)) for n in runs]
+    envelope = tuple((k, max(r[k] for r in ranges)) for k in ranges[0])
+    errors = (("f_hz", 0.003), ("zeta", 0.002), ("drag", 0.2), ("wave_share", 0.03), ("crest_coeff", 0.1))
+    model = LiquidModel(
+        SloshParams.from_modal(2 * math.pi * 3.02, 0.012), 0.049, 0.078, 0.1, 0.75, 1.0, 0.4, stderr=errors
+    )
+    model = replace(model, envelope=envelope)
+    expected = {
+        "lemniscate 0.5 g": "vertical acceleration",
+        "lemniscate 1.0 g": "vertical acceleration",
+        "spin": "yaw rate",
+        "fast tilt": "tilt",
+    }
+    for name, pose in _synthetic_moves().items():
+        fc = forecast(pose, model, 3.0, 1e-7)
+        peak = fc.resp.rel_angle_deg.max()
+        print(name, peak)
+        assert np.all(np.isfinite(fc.resp.rel_angle_deg)) and peak < 90.0, name
+        assert not name.startswith("lemniscate") or peak < math.degrees(math.atan(0.078 / 0.049)), name
+        assert any(f"its {expected[name]} reaches" in n for n in fc.notes), (name, fc.notes)
+        inside = replace(fc, log_sd=model.model_error)
+        i = int(np.argmax(wall_height(fc.resp, model)))
+        assert fc.band(wall_height)[1][i] > inside.band(wall_height)[1][i], name

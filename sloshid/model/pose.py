@@ -268,8 +268,9 @@ def respond(
     atol: float = 1e-12,
     vertical_gain: float = 1.0,
     spherical: bool = False,
+    drag: float = 0.0,
 ) -> PoseResponse:
-    """Integrate the pendulums (simulate_liquid; `spherical`: one spherical pendulum) under the pivot acceleration;
+    """Integrate the pendulums (simulate_liquid; `spherical`: one spherical pendulum with its `drag`) under the pivot acceleration;
     horizontal input scaled by input_gain, vertical by vertical_gain (gravity becomes g + vertical_gain az)."""
     acc = exc.acc_m_s2 * np.array([input_gain, input_gain, vertical_gain])
     zero = np.zeros_like(acc)
@@ -277,7 +278,7 @@ def respond(
     # the numbers, finer than the solver's steps, and the solver gave up
     t0 = float(exc.t_s[0])
     traj = Trajectory(exc.t_s - t0, zero, zero, acc, zero, zero, name="pivot")  # only t_s and acc_m_s2 drive the liquid
-    res = simulate_liquid(traj, params, settle_s, rtol, atol, spherical)
+    res = simulate_liquid(traj, params, settle_s, rtol, atol, spherical, drag)
     n_after = res.t_s.size - exc.t_s.size
     quat = exc.rot.as_quat()
     rot = Rotation.from_quat(np.vstack([quat, np.repeat(quat[-1:], n_after, axis=0)]))  # the last pose is held

@@ -64,6 +64,7 @@ def integrate_pendulums(
     atol: float = 1e-12,
     max_step: float = np.inf,
     spherical: bool = False,
+    drag: float = 0.0,
 ) -> np.ndarray:
     """The one pendulum integrator: surface state [phi, theta, phi', theta'] (rad, rad/s) at the sorted times
     `t_eval` under the container acceleration given piece by piece, `pieces` = [(t0, t1, accel), ...] back to back.
@@ -72,7 +73,8 @@ def integrate_pendulums(
     toward +uy, theta toward +ux) is integrated with solve_ivp (DOP853) one piece at a time, restarting at every
     piece boundary so that a jump or kink of the input is never smeared. Samples before the first piece hold y0;
     samples after the last hold nothing (the caller's pieces must cover them). `spherical`: one spherical pendulum in
-    the same angles instead of the pair (`pendulum.spherical_accel`: the horizontal directions coupled).
+    the same angles instead of the pair (`pendulum.spherical_accel`: the horizontal directions coupled), with its
+    `drag`.
     """
     out = np.zeros((len(t_eval), 4))
     out[t_eval < pieces[0][0]] = y0
@@ -89,7 +91,7 @@ def integrate_pendulums(
             ux, uy, uz = accel(t)
             g_eff = G + uz
             if spherical:
-                return [q[2], q[3], *spherical_accel(q[0], q[1], q[2], q[3], ux, uy, g_eff, params)]
+                return [q[2], q[3], *spherical_accel(q[0], q[1], q[2], q[3], ux, uy, g_eff, params, drag)]
             tilt_y_dd = angle_accel(-q[0], -q[2], uy, params, g_eff, math.sin, math.cos)  # -phi tilts toward +uy
             theta_dd = angle_accel(q[1], q[3], ux, params, g_eff, math.sin, math.cos)
             return [q[2], q[3], -tilt_y_dd, theta_dd]
@@ -117,8 +119,9 @@ def simulate_liquid(
     rtol: float = 1e-9,
     atol: float = 1e-12,
     spherical: bool = False,
+    drag: float = 0.0,
 ) -> LiquidResponse:
-    """Integrate the nonlinear pendulums (or, `spherical`, one spherical pendulum) under the
+    """Integrate the nonlinear pendulums (or, `spherical`, one spherical pendulum with its `drag`) under the
     trajectory's accelerations, liquid at rest at t0.
 
     The acceleration is linear between samples and zero after arrival; the container holds its last pose.
@@ -142,7 +145,7 @@ def simulate_liquid(
     # accuracy comes from rtol/atol (5 ms steps agree with 2 ms steps to 1e-6 deg on the bundled moves)
     pieces = [(t0, t_end, moving), (t_end, float(t_all[-1]), lambda _t: (0.0, 0.0, 0.0))]
     state = integrate_pendulums(
-        pieces, t_all, params, rtol=rtol, atol=atol, max_step=max(2 * dt, MAX_STEP_S), spherical=spherical
+        pieces, t_all, params, rtol=rtol, atol=atol, max_step=max(2 * dt, MAX_STEP_S), spherical=spherical, drag=drag
     )
     liquid = state[:, :2]
     container = np.vstack([traj.euler_rad[:, :2], np.repeat(traj.euler_rad[-1:, :2], n_after, axis=0)])

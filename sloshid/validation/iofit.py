@@ -4,7 +4,8 @@ measured record (forced response and free decay) of one or several runs at once.
 Physics fixes the structure (`predict.LiquidModel`: one spherical pendulum in the world frame, pivoted at the surface,
 under gravity g + az; the wall reads the static surface plus the first mode's wave). The fit sets what physics leaves
 open, each parameter pulled toward its physical prior and bounded by its physical range (`PRIORS`): the frequency f
-(prior: the cylinder's first mode from the geometry), the damping ratio zeta (prior 0.01), the wall's wave share c
+(prior: the cylinder's first mode from the geometry), the damping ratio zeta (prior 0.01), the breaking drag (prior
+1 per rad: damping that grows with the wave's speed, which bounds parametric resonance), the wall's wave share c
 (prior 2 / (xi^2 - 1) = 0.84) and the crest coefficient q (prior 0.58, a second-order standing wave). Per run: the
 clock lag (started by cross-correlation, then fitted with the physics) and an offset of the measured zero. Bounded
 least squares (scipy) on residuals scaled so that every run weighs as its NRMSE, plus one row per prior; Newey-West
@@ -65,12 +66,15 @@ LAG_SPAN_S = 0.5
 PRIORS = {
     "f_hz": (None, 0.03, (0.85, 1.15)),
     "zeta": (0.01, math.log(3.0), (0.002, 0.15)),
+    "drag": (1.0, 1.0, (0.5, 10.0)),
     "wave_share": (2 / (XI_CYLINDER**2 - 1), 0.2, (0.3, 1.2)),
     "crest_coeff": (0.58, 0.5, (-0.5, 1.5)),
 }
 """Per fitted parameter: (prior, its standard deviation, physical range). f: the geometry's first mode (else the
 decay-only fit's), 3 % (fill height and meniscus), range +-15 % of the prior; zeta: 0.01 (the wall's boundary layer
-and contact line of a small water tank), a factor of 3 (log scale); the wave share: linear theory's first-mode wall
+and contact line of a small water tank), a factor of 3 (log scale); the breaking drag: 1 per rad (an equivalent
+damping ratio 0.4 x drag x the angle: 0.1 at 15 deg), at least 0.5 (every liquid breaks: below it, vertical pumping
+at twice the mode's frequency and 0.5 g turns the pendulum past 90 deg, a flip no liquid makes); the wave share: linear theory's first-mode wall
 share, range 0.3-1.2 (the sensor's scale is in it); the crest: a Stokes standing wave's k a / 2 over the centre slope
 1.58 a / R, k = 1.84 / R."""
 PRIOR_WEIGHT = 0.3
@@ -225,7 +229,7 @@ class IOFit:
             "fit": {
                 "structure": STRUCTURE,
                 "model": "one spherical pendulum (world frame, pivot at the surface) under the pivot's acceleration, "
-                "gravity g + az; wall = R |static slope + wave_share x wave slope| (1 + crest_coeff x its wave part); "
+                "gravity g + az, damped by zeta and the breaking drag; wall = R |static slope + wave_share x wave slope| (1 + crest_coeff x its wave part); "
                 "per run lag and offset",
                 "priors": {
                     k: {"value": v, "sd": PRIORS[k][1], "range": list(self.ranges[k])} for k, v in self.priors.items()
@@ -303,7 +307,7 @@ def _prepare(pose: PoseLog, sig: Signal, start: LiquidModel) -> _RunData:
 
 
 class _Problem:
-    """Residuals of x = [10 (f/f_p - 1), log(zeta/zeta_p), c - c_p, q - q_p, (lag_i - lag0_i) / LAG_SCALE_S ...]
+    """Residuals of x = [10 (f/f_p - 1), log(zeta/zeta_p), b - b_p, c - c_p, q - q_p, (lag_i - lag0_i) / LAG_SCALE_S ...]
     (p: the priors): each run's, weighing as its NRMSE, with its offset the mean residual (variable projection), then
     one row per prior, PRIOR_WEIGHT x (distance from it) / its standard deviation."""
 
@@ -311,16 +315,17 @@ class _Problem:
         self.data, self.priors, self.radius_m, self.views = data, priors, radius_m, views
         self.lags = [d.lag0 for d in data]
         self.n_sim = 0
-        self._sims: dict[tuple[float, float], list[tuple[np.ndarray, np.ndarray, np.ndarray]]] = {}
+        self._sims: dict[tuple[float, float, float], list[tuple[np.ndarray, np.ndarray, np.ndarray]]] = {}
 
-    def physical(self, x: np.ndarray) -> tuple[float, float, float, float]:
-        """(f, zeta, c, q) from the scaled vector."""
+    def physical(self, x: np.ndarray) -> tuple[float, float, float, float, float]:
+        """(f, zeta, drag b, c, q) from the scaled vector."""
         p = self.priors
-        return p["f_hz"] * (1 + x[0] / 10), p["zeta"] * math.exp(x[1]), p["wave_share"] + x[2], p["crest_coeff"] + x[3]
+        f, zeta = p["f_hz"] * (1 + x[0] / 10), p["zeta"] * math.exp(x[1])
+        return f, zeta, p["drag"] + x[2], p["wave_share"] + x[3], p["crest_coeff"] + x[4]
 
     def scaled(self, f: float, zeta: float) -> np.ndarray:
-        """The scaled vector of the physics (f, zeta) with c and q at their priors and the lags at their starts."""
-        return np.array([10 * (f / self.priors["f_hz"] - 1), math.log(zeta / self.priors["zeta"]), 0.0, 0.0])
+        """The scaled vector of the physics (f, zeta) with the others at their priors."""
+        return np.array([10 * (f / self.priors["f_hz"] - 1), math.log(zeta / self.priors["zeta"]), 0.0, 0.0, 0.0])
 
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
         """Lower and upper bounds of the scaled vector: the physical ranges and the lags' spans."""
@@ -332,7 +337,7 @@ class _Problem:
 
     def prior_rows(self, x: np.ndarray) -> np.ndarray:
         """PRIOR_WEIGHT x each parameter's distance from its prior over the prior's standard deviation."""
-        sds = np.array([10 * PRIORS["f_hz"][1], PRIORS["zeta"][1], PRIORS["wave_share"][1], PRIORS["crest_coeff"][1]])
+        sds = np.array([10 * PRIORS["f_hz"][1], *(PRIORS[k][1] for k in FITTED[1:])])
         return PRIOR_WEIGHT * x[:N_PARAMS] / sds
 
     def lags_at(self, x: np.ndarray) -> list[float]:
@@ -343,20 +348,22 @@ class _Problem:
     def predictions(self, x: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
         """Predicted (t, series) of every run (trajectory clock); recent physics' simulations are kept, so that a
         step of the wall's reading alone (c, q) simulates nothing."""
-        f, zeta, c, q = self.physical(x)
-        if (f, zeta) not in self._sims:
+        f, zeta, b, c, q = self.physical(x)
+        if (f, zeta, b) not in self._sims:
             params = SloshParams.from_modal(2 * math.pi * f, zeta)
             self.n_sim += 1
             if len(self._sims) >= SIM_CACHE:
                 self._sims.clear()
             sims = []
             for d in self.data:
-                resp = respond(d.exc, params, settle_s=d.settle_s, rtol=FIT_RTOL, atol=FIT_RTOL * 1e-3, spherical=True)
+                resp = respond(
+                    d.exc, params, settle_s=d.settle_s, rtol=FIT_RTOL, atol=FIT_RTOL * 1e-3, spherical=True, drag=b
+                )
                 sims.append((resp.t_s, *wall_parts(resp)))
-            self._sims[f, zeta] = sims
+            self._sims[f, zeta, b] = sims
         return [
             (t, read_out(static, wave, c, q, d.kind, self.radius_m, self.views))
-            for d, (t, static, wave) in zip(self.data, self._sims[f, zeta])
+            for d, (t, static, wave) in zip(self.data, self._sims[f, zeta, b])
         ]
 
     def run_residuals(self, x: np.ndarray) -> np.ndarray:
@@ -433,9 +440,15 @@ def fit_io(
         k: (priors[k] * lo, priors[k] * hi) if k == "f_hz" else (lo, hi) for k, (_, _, (lo, hi)) in PRIORS.items()
     }
     start = LiquidModel(
-        SloshParams.from_modal(2 * math.pi * f_prior, priors["zeta"]), radius_m, axis_offset_m, smooth_s
+        SloshParams.from_modal(2 * math.pi * f_prior, priors["zeta"]),
+        radius_m,
+        axis_offset_m,
+        smooth_s,
+        wave_share=priors["wave_share"],
+        drag=priors["drag"],
+        crest_coeff=priors["crest_coeff"],
+        views_deg=views_deg,
     )
-    start = replace(start, wave_share=priors["wave_share"], crest_coeff=priors["crest_coeff"])
     prob = _Problem([_prepare(p, s, start) for p, s in zip(poses, signals)], priors, radius_m, views_deg)
     candidates = [f_prior] + ([f_decay] if abs(f_decay / f_prior - 1) < PRIORS["f_hz"][2][1] - 1 else [])
     x0 = _best_start(prob, candidates)
@@ -445,14 +458,16 @@ def fit_io(
     sol = least_squares(
         prob.residuals, x, bounds=(lo, hi), jac=prob.jacobian, x_scale="jac", max_nfev=MAX_NFEV, **TOLERANCES
     )
-    f, zeta, c, q = physical = prob.physical(sol.x)
+    f, zeta, b, c, q = physical = prob.physical(sol.x)
     at_bound = [nm for nm, v, a, b in zip(FITTED, sol.x, lo, hi) if min(v - a, b - v) < 1e-6]
     params = _estimates(sol, prob, physical, settings.mass_kg)
     mass = settings.mass_kg or 1.0
     physics = SloshParams.from_modal(2 * math.pi * f, zeta, mass)
     envelope = {k: max(motion_range(d.exc)[k] for d in prob.data) for k in MOTION_QUANTITIES}
     stderr = tuple((k, params[k].stderr) for k in FITTED_ERRORS)
-    model = replace(start, params=physics, wave_share=c, crest_coeff=q, stderr=stderr, envelope=tuple(envelope.items()))
+    model = replace(
+        start, params=physics, drag=b, wave_share=c, crest_coeff=q, stderr=stderr, envelope=tuple(envelope.items())
+    )
     names = names or [s.source for s in signals]
     runs = [validate_run(p, s, model, nm) for p, s, nm in zip(poses, signals, names)]
     decay_model = LiquidModel(decay.params, radius_m, axis_offset_m, smooth_s, views_deg=views_deg)
@@ -504,13 +519,13 @@ def _estimates(
 ) -> dict[str, Estimate]:
     """Parameters (f, zeta, c, q) with Newey-West standard errors (per-run blocks; the prior rows one more block),
     mapped from the scaled vector."""
-    f, zeta, c, q = physical
+    f, zeta, b, c, q = physical
     data = prob.data
     sizes = np.cumsum([0] + [d.y.size for d in data] + [N_PARAMS])
     blocks = [slice(a, b) for a, b in itertools.pairwise(sizes)]
     periods = [max(round(1.0 / (f * np.median(np.diff(d.t_meas)))), 1) for d in data] + [1]
     cov, _naive, _lags = hac_covariance(sol.jac, sol.fun, blocks, periods)
-    d_scaled = np.array([prob.priors["f_hz"] / 10, zeta, 1.0, 1.0])
+    d_scaled = np.array([prob.priors["f_hz"] / 10, zeta, 1.0, 1.0, 1.0])
     se = np.sqrt(np.clip(np.diag(cov)[:N_PARAMS], 0, None)) * d_scaled
     omega, se_w = 2 * math.pi * f, 2 * math.pi * se[0]
     out = {
@@ -518,8 +533,9 @@ def _estimates(
         "omega_rad_s": estimate(omega, se_w),
         "zeta": estimate(zeta, se[1], floor=0.0),
         "l_m": estimate(G / omega**2, 2 * G / omega**3 * se_w),
-        "wave_share": estimate(c, se[2], floor=0.0),
-        "crest_coeff": estimate(q, se[3]),
+        "drag": estimate(b, se[2], floor=0.0),
+        "wave_share": estimate(c, se[3], floor=0.0),
+        "crest_coeff": estimate(q, se[4]),
     }
     if mass is not None:
         out["d_ns_per_m"] = estimate(

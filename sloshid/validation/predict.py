@@ -28,7 +28,9 @@ from sloshid.model.pose import (
 )
 from sloshid.model.trajectory import Trajectory
 
-STRUCTURE = "spherical pendulum at the surface; wall = static surface + wave_share x the wave (crest_coeff)"
+STRUCTURE = (
+    "spherical pendulum at the surface with breaking drag; wall = static surface + wave_share x the wave (crest_coeff)"
+)
 """The model structure an identify --trajectory file names (`fit.structure`); a file of another is refused."""
 OLD_GAINS = ("input_gain", "output_gain", "vertical_gain")
 """Parameters of the input-output model before the physics-first structure: a file holding them is refused."""
@@ -56,6 +58,8 @@ class LiquidModel:
     wave_share: float = 1.0
     """The wall's share of the first mode's wave, beyond the static surface: 2 / (xi^2 - 1) = 0.84 in linear theory for
     a cylinder (the sensor's own scale too); 1 reads the pendulum's plane."""
+    drag: float = 0.0
+    """Breaking drag (per rad, `pendulum.spherical_accel`): damping that grows with the wave's speed."""
     crest_coeff: float = 0.0
     """Second-order crest: the wave part grows by this times its own slope (Stokes: k a / 2 over the slope, 0.58)."""
     spherical: bool = True
@@ -162,6 +166,7 @@ def load_model(path: str | Path) -> LiquidModel:
     try:
         share = float(p.get("wave_share", {}).get("value", 1.0))
         crest = float(p.get("crest_coeff", {}).get("value", 0.0))
+        drag = float(p.get("drag", {}).get("value", 0.0))
         stderr = tuple((k, float(p[k]["stderr"])) for k in FITTED_ERRORS if "stderr" in p.get(k, {}))
         envelope = tuple((k, float(v)) for k, v in (fit.get("motion_range") or {}).items())
         model_error = float(fit.get("model_error_log_sd", MODEL_ERROR_LOG_SD))
@@ -181,11 +186,11 @@ def load_model(path: str | Path) -> LiquidModel:
     hashes = data.get("source_sha256") if isinstance(data.get("source_sha256"), list) else []
     digests = tuple(h for h in hashes if isinstance(h, str))
     return LiquidModel(
-        params, radius, offset, smooth, share, crest, True, views, stderr, model_error, envelope, fitted, digests
+        params, radius, offset, smooth, share, drag, crest, True, views, stderr, model_error, envelope, fitted, digests
     )
 
 
-FITTED_ERRORS = ("f_hz", "zeta", "wave_share", "crest_coeff")
+FITTED_ERRORS = ("f_hz", "zeta", "drag", "wave_share", "crest_coeff")
 """Parameters whose standard errors widen the band."""
 
 
@@ -310,8 +315,10 @@ def forecast(
     check_sampling(pose.source, 1.0 / float(np.median(np.diff(pose.t_s))), (f_hz, f_hz))
     exc = excitation(pose, model.axis_offset_m, model.smooth_s)
 
-    def run(params: SloshParams) -> PoseResponse:
-        return respond(exc, params, settle_s=settle_s, rtol=rtol, atol=rtol * 1e-3, spherical=model.spherical)
+    def run(params: SloshParams, drag: float = model.drag) -> PoseResponse:
+        return respond(
+            exc, params, settle_s=settle_s, rtol=rtol, atol=rtol * 1e-3, spherical=model.spherical, drag=drag
+        )
 
     resp = run(model.params)
     if not band:
@@ -321,6 +328,8 @@ def forecast(
         steps.append((run(p.scaled(omega_factor=1 + se["f_hz"] / p.f_hz)), model))
     if se.get("zeta", 0) > 0 and p.zeta > 0:
         steps.append((run(p.scaled(zeta_factor=1 + se["zeta"] / p.zeta)), model))
+    if se.get("drag", 0) > 0:
+        steps.append((run(p, model.drag + se["drag"]), model))
     for name in ("wave_share", "crest_coeff"):
         if se.get(name, 0) > 0:
             steps.append((resp, replace(model, **{name: getattr(model, name) + se[name]})))
