@@ -18,7 +18,7 @@ from sloshid.identification.signals import load_signal
 from sloshid.model.pendulum import G, SloshParams
 from sloshid.model.pose import PoseLog, excitation, load_pose_log, respond, savgol_acceleration_response
 from sloshid.validation.iofit import IOFit, fit_io
-from sloshid.validation.predict import load_model, read_out, wall_parts
+from sloshid.validation.predict import MODEL_ERROR_LOG_SD, load_model, read_out, wall_parts
 
 TRUTH = SloshParams.from_modal(2 * math.pi * 3.2, 0.03)
 RADIUS, OFFSET, LAG = 0.05, 0.05, 3.3
@@ -144,12 +144,12 @@ def test_predict_cli_reads_headerless_semicolon_log_and_writes_columns(tmp_path,
     # a 0.25 m move in 1.2 s peaks near 1.7 m/s^2: a few degrees of slosh
     assert 1.0 < data["rel_angle_deg"].max() < 20.0
     # each angle and the wall have a band around them; the wall's is at least the model error's factor exp(1.96 x
-    # 0.12) wide at its peak (the wave share's error widens it further)
+    # MODEL_ERROR_LOG_SD) wide at its peak (the wave share's error widens it further)
     for stem, unit in (("rel_angle", "deg"), ("rel_pitch", "deg"), ("liquid_phi", "deg"), ("wall_height", "mm")):
         lo, mid, hi = data[f"{stem}_lo_{unit}"], data[f"{stem}_{unit}"], data[f"{stem}_hi_{unit}"]
         assert np.all(lo <= mid + 1e-12) and np.all(mid <= hi + 1e-12)
     i = int(np.argmax(data["wall_height_mm"]))
-    assert data["wall_height_hi_mm"][i] / data["wall_height_mm"][i] > math.exp(1.96 * 0.12) - 1e-9
+    assert data["wall_height_hi_mm"][i] / data["wall_height_mm"][i] > math.exp(1.96 * MODEL_ERROR_LOG_SD) - 1e-9
 
 
 def test_predict_without_a_radius_writes_the_angles(tmp_path, run_cli):
