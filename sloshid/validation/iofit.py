@@ -77,10 +77,16 @@ damping ratio 0.4 x drag x the angle: 0.1 at 15 deg), at least 0.5 (every liquid
 at twice the mode's frequency and 0.5 g turns the pendulum past 90 deg, a flip no liquid makes); the wave share: linear theory's first-mode wall
 share, range 0.3-1.2 (the sensor's scale is in it); the crest: a Stokes standing wave's k a / 2 over the centre slope
 1.58 a / R, k = 1.84 / R."""
-PRIOR_WEIGHT = 0.3
-"""A parameter one prior standard deviation away adds 0.3^2 = 0.09 to the cost: about what one run's residuals weigh
-(each run's scaled residuals sum to its NRMSE^2, 0.1-0.3 on the shared runs), so the data move a parameter only where
-several runs agree."""
+
+
+def prior_weight(cost: float, periods: float) -> float:
+    """Weight of the prior rows: the runs' residual scale per period of the mode, sqrt(cost / periods), so that a prior
+    counts like one period of data (maximum a posteriori with the residuals' own scale and one independent sample per
+    period, the residuals being correlated over a period): a parameter the records pin moves freely, one they leave
+    open (a kind of motion they lack) stays with its physics."""
+    return math.sqrt(max(cost, 1e-12) / max(periods, 1.0))
+
+
 START_ZETAS = (0.01, 0.02, 0.04)
 """Damping ratios tried as starts (real decays can be long, strongly excited moves not)."""
 LAG_SCALE_S = 0.1
@@ -309,11 +315,13 @@ def _prepare(pose: PoseLog, sig: Signal, start: LiquidModel) -> _RunData:
 class _Problem:
     """Residuals of x = [10 (f/f_p - 1), log(zeta/zeta_p), b - b_p, c - c_p, q - q_p, (lag_i - lag0_i) / LAG_SCALE_S ...]
     (p: the priors): each run's, weighing as its NRMSE, with its offset the mean residual (variable projection), then
-    one row per prior, PRIOR_WEIGHT x (distance from it) / its standard deviation."""
+    one row per prior, `weight` x (distance from it) / its standard deviation (`prior_weight`)."""
 
     def __init__(self, data: list[_RunData], priors: dict[str, float], radius_m: float | None, views: float | None):
         self.data, self.priors, self.radius_m, self.views = data, priors, radius_m, views
         self.lags = [d.lag0 for d in data]
+        self.weight = 1.0
+        """Weight of the prior rows (`prior_weight`), set once at the start so that the cost stays one function."""
         self.n_sim = 0
         self._sims: dict[tuple[float, float, float], list[tuple[np.ndarray, np.ndarray, np.ndarray]]] = {}
 
@@ -336,9 +344,9 @@ class _Problem:
         return np.array(lo + [-LAG_SPAN] * n), np.array(hi + [LAG_SPAN] * n)
 
     def prior_rows(self, x: np.ndarray) -> np.ndarray:
-        """PRIOR_WEIGHT x each parameter's distance from its prior over the prior's standard deviation."""
+        """`weight` x each parameter's distance from its prior over the prior's standard deviation."""
         sds = np.array([10 * PRIORS["f_hz"][1], *(PRIORS[k][1] for k in FITTED[1:])])
-        return PRIOR_WEIGHT * x[:N_PARAMS] / sds
+        return self.weight * x[:N_PARAMS] / sds
 
     def lags_at(self, x: np.ndarray) -> list[float]:
         """Each run's lag (s) at x (the starts when x holds the physics alone)."""
@@ -402,10 +410,10 @@ class _Problem:
 
 
 def _best_start(prob: _Problem, candidates_hz: list[float]) -> np.ndarray:
-    """The lowest-cost start among the candidate frequencies (the prior and the decay-only fit's) and a few damping
-    ratios, the wall's reading at its priors."""
+    """The start whose runs' residuals are the smallest among the candidate frequencies (the prior and the decay-only
+    fit's) and a few damping ratios, the others at their priors."""
     starts = [prob.scaled(f, z) for f in candidates_hz for z in START_ZETAS]
-    return min(starts, key=lambda x: float(np.sum(prob.residuals(x) ** 2)))
+    return min(starts, key=lambda x: float(np.sum(prob.run_residuals(x) ** 2)))
 
 
 def fit_io(
@@ -450,8 +458,19 @@ def fit_io(
         views_deg=views_deg,
     )
     prob = _Problem([_prepare(p, s, start) for p, s in zip(poses, signals)], priors, radius_m, views_deg)
-    candidates = [f_prior] + ([f_decay] if abs(f_decay / f_prior - 1) < PRIORS["f_hz"][2][1] - 1 else [])
-    x0 = _best_start(prob, candidates)
+    # a magnitude's decay rings at twice the mode's frequency: the free-decay fit's half is a candidate too, and
+    # without the geometry the better of the two is the prior
+    halves = [f_decay, f_decay / 2]
+    if not geometric:
+        # the runs' residuals alone (prob.priors is `priors`, whose prior rows would favour the first)
+        priors["f_hz"] = min(
+            halves, key=lambda f: float(np.sum(prob.run_residuals(prob.scaled(f, priors["zeta"])) ** 2))
+        )
+        ranges["f_hz"] = tuple(priors["f_hz"] * b for b in PRIORS["f_hz"][2])
+    lo_f, hi_f = ranges["f_hz"]
+    x0 = _best_start(prob, [priors["f_hz"], *(f for f in halves if lo_f < f < hi_f and f != priors["f_hz"])])
+    periods = sum(float(d.t_meas[-1] - d.t_meas[0]) for d in prob.data) * priors["f_hz"]
+    prob.weight = prior_weight(float(np.sum(prob.run_residuals(x0) ** 2)), periods)
     prob.realign(x0)
     lo, hi = prob.bounds()
     x = np.concatenate([x0, np.zeros(len(poses))])
