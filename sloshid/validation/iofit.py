@@ -73,10 +73,10 @@ PRIORS = {
 """Per fitted parameter: (prior, its standard deviation, physical range). f: the geometry's first mode (else the
 decay-only fit's), 3 % (fill height and meniscus), range +-15 % of the prior; zeta: 0.01 (the wall's boundary layer
 and contact line of a small water tank), a factor of 3 (log scale); the breaking drag: 1 per rad (an equivalent
-damping ratio 0.4 x drag x the angle: 0.1 at 15 deg), at least 0.5 (every liquid breaks: below it, vertical pumping
-at twice the mode's frequency and 0.5 g turns the pendulum past 90 deg, a flip no liquid makes); the wave share: linear theory's first-mode wall
-share, range 0.3-1.2 (the sensor's scale is in it); the crest: a Stokes standing wave's k a / 2 over the centre slope
-1.58 a / R, k = 1.84 / R."""
+damping ratio 0.4 x drag x the angle: 0.1 at 15 deg), at least 0.5 (every liquid breaks: vertical pumping at twice
+the mode's frequency and 1 g turns the pendulum to 66 deg with 0.5, past 90 deg with 0.3, a flip no liquid makes); the
+wave share: linear theory's first-mode wall share, range 0.3-1.2 (the sensor's scale is in it); the crest: a Stokes
+standing wave's k a / 2 over the centre slope 1.58 a / R, k = 1.84 / R."""
 
 
 def prior_weight(cost: float, periods: float) -> float:
