@@ -478,7 +478,8 @@ def fit_io(
         prob.residuals, x, bounds=(lo, hi), jac=prob.jacobian, x_scale="jac", max_nfev=MAX_NFEV, **TOLERANCES
     )
     f, zeta, b, c, q = physical = prob.physical(sol.x)
-    at_bound = [nm for nm, v, a, b in zip(FITTED, sol.x, lo, hi) if min(v - a, b - v) < 1e-6]
+    # on its range's edge: within 1 % of the range (the bounded solver approaches a bound without reaching it)
+    at_bound = [nm for nm, v, a, b in zip(FITTED, sol.x, lo, hi) if min(v - a, b - v) < 0.01 * (b - a)]
     params = _estimates(sol, prob, physical, settings.mass_kg)
     mass = settings.mass_kg or 1.0
     physics = SloshParams.from_modal(2 * math.pi * f, zeta, mass)
