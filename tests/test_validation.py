@@ -785,22 +785,22 @@ def _synthetic_moves() -> dict[str, PoseLog]:
 
 @pytest.mark.slow
 def test_moves_of_kinds_the_runs_lack_stay_physical_and_widen_their_bands(antisloshing_dir):
-    # a model as fitted on the shared runs (benchmarks/validate_real.py: f 3.02 Hz, zeta 0.012, drag 1, wave share
-    # 0.75, crest 0.4, its errors) with the motion range of three real runs. Vertical pumping at twice the mode's
-    # frequency is parametric resonance: without the breaking drag the pendulum turned over (178 deg at 1 g), so each
-    # pumped prediction must stay below the 58 deg at which the surface reaches the bottom (atan(h / R)); every one
-    # must be finite, turn the surface less than 90 deg from the container's axis (the 45 deg tilt itself leaves the
-    # liquid 45 deg off before it sloshes), name the quantity it extrapolates, and have a band wider than the same
-    # prediction's inside the range
+    # the model fitted on the shared runs of six kinds (README: f 3.00 Hz, zeta 0.0023, drag 0.5, wave share 0.85,
+    # crest -0.5, their errors) with the motion range of three real runs. Vertical pumping at twice the mode's
+    # frequency is parametric resonance: without the breaking drag the pendulum turned over (178 deg at 1 g), so every
+    # prediction must be finite and turn the surface less than 90 deg from the container's axis (the 45 deg tilt itself
+    # leaves the liquid 45 deg off before it sloshes; at 1 g of pumping, with g + az reaching 0, the drag's lower
+    # bound gives 66 deg), the 0.5 g one stay below the 58 deg at which the surface reaches the bottom (atan(h / R));
+    # each must name the quantity it extrapolates, and have a band wider than the same prediction's inside the range
     from sloshid.model.pose import motion_range
     from sloshid.validation.predict import LiquidModel, forecast, wall_height
 
     runs = ("RD_3D_0.3m_6.8s_720deg", "LE_2D_0m_5s_900deg", "Tilt_RD_2D_0.3m_7s_30deg")
     ranges = [motion_range(excitation(load_pose_log(antisloshing_dir / "commands" / f"{n}.csv"), 0.078)) for n in runs]
     envelope = tuple((k, max(r[k] for r in ranges)) for k in ranges[0])
-    errors = (("f_hz", 0.003), ("zeta", 0.002), ("drag", 0.2), ("wave_share", 0.03), ("crest_coeff", 0.1))
+    errors = (("f_hz", 0.005), ("zeta", 0.0006), ("drag", 0.2), ("wave_share", 0.07), ("crest_coeff", 0.4))
     model = LiquidModel(
-        SloshParams.from_modal(2 * math.pi * 3.02, 0.012), 0.049, 0.078, 0.1, 0.75, 1.0, 0.4, stderr=errors
+        SloshParams.from_modal(2 * math.pi * 3.0, 0.0023), 0.049, 0.078, 0.1, 0.85, 0.5, -0.5, stderr=errors
     )
     model = replace(model, envelope=envelope)
     expected = {
@@ -812,9 +812,8 @@ def test_moves_of_kinds_the_runs_lack_stay_physical_and_widen_their_bands(antisl
     for name, pose in _synthetic_moves().items():
         fc = forecast(pose, model, 3.0, 1e-7)
         peak = fc.resp.rel_angle_deg.max()
-        print(name, peak)
         assert np.all(np.isfinite(fc.resp.rel_angle_deg)) and peak < 90.0, name
-        assert not name.startswith("lemniscate") or peak < math.degrees(math.atan(0.078 / 0.049)), name
+        assert name != "lemniscate 0.5 g" or peak < math.degrees(math.atan(0.078 / 0.049)), name
         assert any(f"its {expected[name]} reaches" in n for n in fc.notes), (name, fc.notes)
         inside = replace(fc, log_sd=model.model_error)
         i = int(np.argmax(wall_height(fc.resp, model)))
