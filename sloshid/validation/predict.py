@@ -1,4 +1,5 @@
-"""A liquid model as `predict` uses it (pendulum, input gain, geometry) and its prediction for a pose log."""
+"""A liquid model as `predict` uses it (spherical pendulum, wall reading, geometry), its prediction for a pose log with
+the 95 % band and the extrapolation guard."""
 
 from __future__ import annotations
 
