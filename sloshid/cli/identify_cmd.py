@@ -10,7 +10,12 @@ import sys
 
 from sloshid.core.errors import UserError
 
-TRAJECTORY_ONLY = {"--axis-offset-m": "axis_offset_m", "--pose-columns": "pose_columns", "--smooth-s": "smooth_s"}
+TRAJECTORY_ONLY = {
+    "--axis-offset-m": "axis_offset_m",
+    "--pose-columns": "pose_columns",
+    "--smooth-s": "smooth_s",
+    "--views-deg": "views_deg",
+}
 """Options of input-output identification, refused without --trajectory (they would be ignored)."""
 FLAGS = {"mass_kg": "--mass", "window_s": "--window", "f_range_hz": "--f-range", "min_fit_percent": "--min-fit"}
 """Library setting -> option name, where they differ (errors name the option the user typed)."""
@@ -65,8 +70,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         action="append",
         metavar="TRAJECTORY",
         help="input-output identification: the trajectory or pose log that caused each signal (once per signal, same "
-        "order); fits f, zeta, the input, output and vertical gains, the crest coefficient and each run's lag and "
-        "offset to the whole records (see `sloshid predict` for the pose options)",
+        "order); fits f, zeta, the wall's wave share and crest coefficient (each toward its physical prior: the "
+        "mode from --container-radius-m and --fill-height-m when given) and each run's lag and offset to the whole "
+        "records (see `sloshid predict` for the pose options)",
     )
     parser.add_argument(
         "--axis-offset-m",
@@ -85,6 +91,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         type=float,
         metavar="S",
         help="with --trajectory: Savitzky-Golay window in s for the pose log's accelerations (default 0.1)",
+    )
+    parser.add_argument(
+        "--views-deg",
+        type=float,
+        metavar="DEG",
+        help="with --trajectory: the wall height is seen in two planes 90 deg apart fixed to the container, the first "
+        "at this azimuth from its x axis (two cameras on the end-effector, as in the shared antisloshing runs: 0); "
+        "default: the whole wall's peak",
     )
 
 
@@ -152,6 +166,7 @@ def run(args: argparse.Namespace) -> int:
             args.axis_offset_m or 0.0,
             SMOOTH_S if args.smooth_s is None else args.smooth_s,
             args.pose_columns,
+            args.views_deg,
         )
     else:
         result = identify_sources(args.signals, settings, columns, warn=warn, progress=True)

@@ -2,8 +2,10 @@
 (time s, position m, orientation as a unit quaternion x,y,z,w or as roll/pitch/yaw; header or not; `,` or `;`).
 The pendulums live in the world frame and are driven by the acceleration of their pivot, `--axis-offset-m` up the
 container axis from the logged point (Savitzky-Golay, order 5, `--smooth-s` window); the output holds the pivot
-acceleration, the surface angles relative to the container and the wall height: R tan(relative angle), times the
-output gain and (1 + crest coefficient x tan) that an input-output `identify --trajectory` fitted."""
+acceleration, the surface angles relative to the container and the wall height (the static surface plus the wave
+share of the first mode, with its crest, as `identify --trajectory` fitted them), each with a 95 % band
+(`_lo`/`_hi` columns: the parameters' errors and a model error calibrated on held-out kinds); a move beyond the
+fitted runs' range is named in a note and its band widened."""
 
 from __future__ import annotations
 
@@ -60,7 +62,7 @@ def run(args: argparse.Namespace) -> int:
     from sloshid.core.outputs import Outputs
     from sloshid.model.pose import load_pose_log
     from sloshid.model.simulate import MAX_SETTLE_S
-    from sloshid.validation.predict import load_model, pivot_for, predict, write_prediction
+    from sloshid.validation.predict import forecast, load_model, pivot_for, wall_height, write_prediction
 
     output = Outputs([args.trajectory, args.params]).file(args.output, "-o", (".csv",))
     model = load_model(args.params).with_geometry(args.container_radius_m, None, args.smooth_s)
@@ -76,13 +78,17 @@ def run(args: argparse.Namespace) -> int:
     model, note = pivot_for(pose, model, args.axis_offset_m)
     if note:
         print(f"sloshid: note: {note}", file=sys.stderr)
-    resp = predict(pose, model, args.settle_s)
-    write_prediction(output, resp, model)
+    fc = forecast(pose, model, args.settle_s)
+    for line in fc.notes:
+        print(f"sloshid: note: {line}", file=sys.stderr)
+    write_prediction(output, fc)
+    resp = fc.resp
     move = resp.move_span_s
     during = (resp.t_s >= move[0]) & (resp.t_s <= move[1])
     wall = ""
     if model.radius_m is not None:
-        wall = f"peak wall height {model.reading(resp, 'wall_height_mm')[during].max():.2f} mm; "
+        lo, hi = (edge[during].max() for edge in fc.band(wall_height))
+        wall = f"peak wall height {wall_height(resp, model)[during].max():.2f} mm (95 % band {lo:.2f}-{hi:.2f}); "
     print(
         f"move {move[0]:.3f}-{move[1]:.3f} s: peak relative angle {resp.rel_angle_deg[during].max():.2f} deg, "
         f"{wall}after it {resp.rel_angle_deg[~during & (resp.t_s > move[1])].max(initial=0):.2f} deg"

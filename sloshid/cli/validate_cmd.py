@@ -2,9 +2,9 @@
 by cross-correlation over the move (lag and correlation reported), and score it as system identification does:
 NRMSE fit % = 100 (1 - |y - yhat| / |y - mean y|) and peak error %, over the record and per phase (during the move,
 after it). Measured wall heights (mm, e.g. the antisloshing .mat files) lose the quiet lead-in's baseline and are
-compared with the model's wall reading, output_gain x R tan(relative angle) x (1 + crest_coeff x tan(relative angle));
-measured angles (deg) with output_gain x the relative angle (x the same crest factor). The gains are those an
-input-output `identify` stores (else 1 and 0: the plane of the pendulum's surface). Several runs give a table and the
+compared with the model's wall reading: R x the slope of the static surface plus wave_share x the first mode's wave,
+with a crest term (an input-output `identify` fits both; else 1 and 0: the plane of the pendulum's surface); measured
+angles (deg) with the arctangent of that slope. Several runs give a table and the
 medians."""
 
 from __future__ import annotations

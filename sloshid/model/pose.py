@@ -179,6 +179,32 @@ def excitation(pose: PoseLog, axis_offset_m: float = 0.0, smooth_s: float = SMOO
     return Excitation(t, acc, rot, pose.move_span_s, smooth_s, axis_offset_m)
 
 
+MOTION_QUANTITIES = {
+    "vertical_accel_m_s2": "vertical acceleration",
+    "horizontal_accel_m_s2": "horizontal acceleration",
+    "speed_m_s": "speed",
+    "tilt_deg": "tilt",
+    "yaw_rate_deg_s": "yaw rate",
+}
+"""The quantities of a move that say how far it is from the ones a model was fitted on (key: words for a user)."""
+
+
+def motion_range(exc: Excitation) -> dict[str, float]:
+    """The largest of each MOTION_QUANTITIES over a move: the pivot's vertical and horizontal acceleration and speed
+    (the acceleration integrated from rest), the container's tilt from upright and its turning rate about the vertical."""
+    dt = float(exc.t_s[1] - exc.t_s[0])
+    vel = np.cumsum(exc.acc_m_s2, axis=0) * dt
+    axis = exc.rot.apply([0.0, 0.0, 1.0])
+    turn = (exc.rot[1:] * exc.rot[:-1].inv()).as_rotvec()[:, 2] / dt
+    return {
+        "vertical_accel_m_s2": float(np.max(np.abs(exc.acc_m_s2[:, 2]))),
+        "horizontal_accel_m_s2": float(np.max(np.linalg.norm(exc.acc_m_s2[:, :2], axis=1))),
+        "speed_m_s": float(np.max(np.linalg.norm(vel, axis=1))),
+        "tilt_deg": float(np.degrees(np.max(np.arccos(np.clip(axis[:, 2], -1.0, 1.0))))),
+        "yaw_rate_deg_s": float(np.degrees(np.max(np.abs(turn)))) if turn.size else 0.0,
+    }
+
+
 MAX_ACCEL_M_S2 = 100.0
 """A pose log whose point accelerates faster than this (about 10 g; a Franka Panda reaches 13 m/s2, fast industrial
 arms some 50) is refused: positions in millimetres read as metres give a thousand times the acceleration."""
@@ -217,6 +243,11 @@ class PoseResponse:
     rel_angle_rad: np.ndarray
     """Angle between surface normal and container axis (N,)."""
     move_span_s: tuple[float, float]
+    slope: np.ndarray | None = None
+    """The pendulum surface's gradient in the container frame (N, 2): its magnitude is tan(relative angle)."""
+    static_slope: np.ndarray | None = None
+    """The gradient of the surface at rest under the pivot's acceleration, normal along (ax, ay, g + az), in the
+    container frame (N, 2): where the liquid's faster modes, which follow the motion, lift it."""
 
     @property
     def rel_angle_deg(self) -> np.ndarray:
@@ -236,16 +267,18 @@ def respond(
     rtol: float = 1e-9,
     atol: float = 1e-12,
     vertical_gain: float = 1.0,
+    spherical: bool = False,
+    drag: float = 0.0,
 ) -> PoseResponse:
-    """Integrate the pendulums (simulate_liquid) under the pivot acceleration; horizontal input scaled by input_gain,
-    vertical by vertical_gain (gravity becomes g + vertical_gain az)."""
+    """Integrate the pendulums (simulate_liquid; `spherical`: one spherical pendulum with its `drag`) under the pivot acceleration;
+    horizontal input scaled by input_gain, vertical by vertical_gain (gravity becomes g + vertical_gain az)."""
     acc = exc.acc_m_s2 * np.array([input_gain, input_gain, vertical_gain])
     zero = np.zeros_like(acc)
     # integrated from the log's start: at a logger's Unix time (1.7e9 s) a tenth of a microsecond is the spacing of
     # the numbers, finer than the solver's steps, and the solver gave up
     t0 = float(exc.t_s[0])
     traj = Trajectory(exc.t_s - t0, zero, zero, acc, zero, zero, name="pivot")  # only t_s and acc_m_s2 drive the liquid
-    res = simulate_liquid(traj, params, settle_s, rtol, atol)
+    res = simulate_liquid(traj, params, settle_s, rtol, atol, spherical, drag)
     n_after = res.t_s.size - exc.t_s.size
     quat = exc.rot.as_quat()
     rot = Rotation.from_quat(np.vstack([quat, np.repeat(quat[-1:], n_after, axis=0)]))  # the last pose is held
@@ -255,7 +288,18 @@ def respond(
     rel = np.column_stack([np.arctan2(-local[:, 1], local[:, 2]), np.arctan2(local[:, 0], local[:, 2])])
     magnitude = np.arccos(np.clip(local[:, 2], -1.0, 1.0))
     acc_all = np.vstack([acc, np.zeros((n_after, 3))])
-    return PoseResponse(res.t_s + t0, acc_all, res.liquid_rad, rel, magnitude, exc.move_span_s)
+    rest = rot.inv().apply(acc_all + np.array([0.0, 0.0, G]))
+    return PoseResponse(
+        res.t_s + t0, acc_all, res.liquid_rad, rel, magnitude, exc.move_span_s, _gradient(local), _gradient(rest)
+    )
+
+
+def _gradient(normal: np.ndarray) -> np.ndarray:
+    """Gradient (dz/dx, dz/dy) of the plane with this normal in the container frame; held to a slope of 5 (79 deg)
+    where the plane stands near upright."""
+    g = -normal[:, :2] / np.maximum(normal[:, 2:3], 1e-9)
+    size = np.linalg.norm(g, axis=1, keepdims=True)
+    return g * np.minimum(1.0, 5.0 / np.maximum(size, 1e-12))
 
 
 def pose_from_trajectory(traj: Trajectory, source: str = "trajectory") -> PoseLog:
@@ -278,6 +322,7 @@ def load_pose_log(path: str | Path, columns: str | None = None) -> PoseLog:
     table = read_table(p)
     header, data = table.header, table.data
     if header is not None and all(c in header for c in CSV_COLUMNS) and columns is None:
+        _check_finite(p, data[:, [header.index(c) for c in CSV_COLUMNS]])
         traj = Trajectory.from_columns(dict(zip(header, data.T)), str(p), p.stem)
         return pose_from_trajectory(traj, str(p))
     names = _column_names(header, columns, data.shape[1], p)
@@ -311,6 +356,13 @@ def _column_names(header: list[str] | None, columns: str | None, ncols: int, p: 
     return names
 
 
+def _check_finite(p: Path, data: np.ndarray) -> None:
+    """Refuse a log whose used columns hold NaN or inf (a logger's dropped sample), naming the first such row."""
+    bad = np.flatnonzero(~np.all(np.isfinite(data), axis=1))
+    if bad.size:
+        raise UserError(f"{p}: data row {bad[0] + 1} holds NaN or an infinite value; drop or fill the incomplete rows.")
+
+
 def _pose_from_columns(names: list[str], data: np.ndarray, p: Path) -> PoseLog:
     """Build the PoseLog from canonical column names; quaternions must be unit."""
     base = [n.split("_")[0] for n in names]
@@ -321,8 +373,7 @@ def _pose_from_columns(names: list[str], data: np.ndarray, p: Path) -> PoseLog:
     if missing or not (quat or rpy):
         what = ", ".join(missing) or "an orientation (qx, qy, qz, qw or roll, pitch, yaw)"
         raise SettingError("pose_columns", f"{p} lacks {what}; name the columns with a header or {{name}}.")
-    if not np.all(np.isfinite(data)):
-        raise UserError(f"{p} holds NaN or infinite values.")
+    _check_finite(p, data[:, [i for i, n in enumerate(names) if n]])
     pos = np.column_stack([col("x"), col("y"), col("z")])
     if quat:
         q = np.column_stack([col("qx"), col("qy"), col("qz"), col("qw")])

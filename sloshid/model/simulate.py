@@ -17,7 +17,7 @@ from functools import lru_cache
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from sloshid.model.pendulum import G, SloshParams, angle_accel, pendulum_rhs_3d
+from sloshid.model.pendulum import G, SloshParams, angle_accel, pendulum_rhs_3d, spherical_accel
 from sloshid.model.trajectory import Trajectory
 
 
@@ -63,6 +63,8 @@ def integrate_pendulums(
     rtol: float = 1e-10,
     atol: float = 1e-12,
     max_step: float = np.inf,
+    spherical: bool = False,
+    drag: float = 0.0,
 ) -> np.ndarray:
     """The integrator for inputs given as functions of time: surface state [phi, theta, phi', theta'] (rad, rad/s)
     at the sorted times `t_eval` under the container acceleration given piece by piece, `pieces` = [(t0, t1, accel),
@@ -71,7 +73,10 @@ def integrate_pendulums(
     The nonlinear pair of the reconstructed seed eq. 3 (vertical acceleration changes gravity to g + uz; -phi tilts
     toward +uy, theta toward +ux) is integrated with solve_ivp (DOP853) one piece at a time, restarting at every
     piece boundary so that a jump or kink of the input is never smeared. Samples before the first piece hold y0;
-    samples after the last hold nothing (the caller's pieces must cover them)."""
+    samples after the last hold nothing (the caller's pieces must cover them). `spherical`: one spherical pendulum in
+    the same angles instead of the pair (`pendulum.spherical_accel`: the horizontal directions coupled), with its
+    `drag`.
+    """
     out = np.zeros((len(t_eval), 4))
     out[t_eval < pieces[0][0]] = y0
     y = np.asarray(y0, dtype=float)
@@ -86,6 +91,8 @@ def integrate_pendulums(
             # plain floats: this runs ~10^5 times per second of motion, so it avoids NumPy scalar overhead
             ux, uy, uz = accel(t)
             g_eff = G + uz
+            if spherical:
+                return [q[2], q[3], *spherical_accel(q[0], q[1], q[2], q[3], ux, uy, g_eff, params, drag)]
             tilt_y_dd = angle_accel(-q[0], -q[2], uy, params, g_eff, math.sin, math.cos)  # -phi tilts toward +uy
             theta_dd = angle_accel(q[1], q[3], ux, params, g_eff, math.sin, math.cos)
             return [q[2], q[3], -tilt_y_dd, theta_dd]
@@ -217,14 +224,43 @@ def _response(traj: Trajectory, state: np.ndarray, dt: float) -> LiquidResponse:
 
 
 def simulate_liquid(
-    traj: Trajectory, params: SloshParams, settle_s: float = 3.0, rtol: float = 1e-9, atol: float = 1e-12
+    traj: Trajectory,
+    params: SloshParams,
+    settle_s: float = 3.0,
+    rtol: float = 1e-9,
+    atol: float = 1e-12,
+    spherical: bool = False,
+    drag: float = 0.0,
 ) -> LiquidResponse:
-    """Integrate the nonlinear pendulums under the trajectory's accelerations, liquid at rest at t0.
+    """Integrate the nonlinear pendulums (or, `spherical`, one spherical pendulum with its `drag`) under the
+    trajectory's accelerations, liquid at rest at t0.
 
     The acceleration is linear between samples and zero after arrival; the container holds its last pose. The inputs
     change only at the samples, so a fixed-step RK4 on the trajectory's grid (`rk4_substeps` per interval, from
     `rtol`) is as exact as an adaptive solver there: it agrees with DOP853 at rtol 1e-12 to 1e-5 deg (tests). `atol`
-    is what callers of the adaptive solver this replaced still pass; a fixed step has no absolute tolerance.
+    applies to the spherical pendulum only, which runs on the adaptive solver (`integrate_pendulums`).
     """
-    del atol
-    return simulate_liquids([traj], params, settle_s, rtol)[0]
+    if not spherical:
+        return simulate_liquids([traj], params, settle_s, rtol)[0]
+    # the spherical pendulum (prediction's model) on the adaptive solver, its acceleration linear between samples
+    t = traj.t_s
+    dt = traj.dt_s
+    n_after = int(np.ceil(settle_s / dt))
+    t_all = np.concatenate([t, t[-1] + dt * np.arange(1, n_after + 1)])
+    t0, t_end, n = float(t[0]), float(t[-1]), len(t)
+    rows = traj.acc_m_s2.tolist()
+
+    def moving(time: float) -> tuple[float, float, float]:
+        # linear between samples (as np.interp), in plain floats for speed
+        s = (time - t0) / dt
+        i = min(max(int(s), 0), n - 2)
+        f = s - i
+        a, b = rows[i], rows[i + 1]
+        return a[0] + f * (b[0] - a[0]), a[1] + f * (b[1] - a[1]), a[2] + f * (b[2] - a[2])
+
+    # max_step only keeps the integrator from stepping over a move that starts after an idle lead-in
+    pieces = [(t0, t_end, moving), (t_end, float(t_all[-1]), lambda _t: (0.0, 0.0, 0.0))]
+    state = integrate_pendulums(
+        pieces, t_all, params, rtol=rtol, atol=atol, max_step=max(2 * dt, 5e-3), spherical=True, drag=drag
+    )
+    return _response(traj, state, dt)

@@ -1,15 +1,15 @@
-"""Input-output identification: the nonlinear pendulum driven by each recorded move, fitted to the whole measured
-record (forced response and free decay) of one or several runs at once.
+"""Input-output identification: the physics-first liquid model driven by each recorded move, fitted to the whole
+measured record (forced response and free decay) of one or several runs at once.
 
-Shared physics: frequency f, damping ratio zeta, the input gain k (how strongly the mode feels the pivot's
-horizontal acceleration: 1 for an ideal pendulum; a real first mode carries only part of the liquid), the output
-gain c (measured wall height per R tan(relative angle): the mode's wall elevation is not that of a plane, and the
-sensor has its own scale; it also scales the container's own tilt, which k cannot) and the crest coefficient q (the
-reading grows by q tan(relative angle): a steep wave's crest rises above the plane) and the vertical gain kv (gravity
-becomes g + kv az: how strongly vertical motion pumps the mode; 1 for a pendulum). Per run: the clock lag (started
-by cross-correlation, then fitted with the physics: a lag held fixed leaves phase errors that the output map would
-absorb) and an offset of the measured zero. Started from the decay-only fit; bounded least squares
-(scipy) on residuals scaled so that every run weighs as its NRMSE; Newey-West intervals.
+Physics fixes the structure (`predict.LiquidModel`: one spherical pendulum in the world frame, pivoted at the surface,
+under gravity g + az; the wall reads the static surface plus the first mode's wave). The fit sets what physics leaves
+open, each parameter pulled toward its physical prior and bounded by its physical range (`PRIORS`): the frequency f
+(prior: the cylinder's first mode from the geometry), the damping ratio zeta (prior 0.01), the breaking drag (prior
+1 per rad: damping that grows with the wave's speed, which bounds parametric resonance), the wall's wave share c
+(prior 2 / (xi^2 - 1) = 0.84) and the crest coefficient q (prior 0.58, a second-order standing wave). Per run: the
+clock lag (started by cross-correlation, then fitted with the physics) and an offset of the measured zero. Bounded
+least squares (scipy) on residuals scaled so that every run weighs as its NRMSE, plus one row per prior; Newey-West
+intervals.
 """
 
 from __future__ import annotations
@@ -36,9 +36,18 @@ from sloshid.identification.estimator import (
 )
 from sloshid.identification.pt2fit import hac_covariance
 from sloshid.identification.signals import Signal
-from sloshid.model.pendulum import G, SloshParams, linear_tf_coeffs
-from sloshid.model.pose import SMOOTH_S, Excitation, PoseLog, excitation, load_pose_log, respond
-from sloshid.validation.predict import LiquidModel, plane_series, read_out
+from sloshid.model.pendulum import XI_CYLINDER, G, SloshParams, cylinder_first_mode_omega, linear_tf_coeffs
+from sloshid.model.pose import (
+    MOTION_QUANTITIES,
+    SMOOTH_S,
+    Excitation,
+    PoseLog,
+    excitation,
+    load_pose_log,
+    motion_range,
+    respond,
+)
+from sloshid.validation.predict import FITTED_ERRORS, STRUCTURE, LiquidModel, read_out, wall_parts
 from sloshid.validation.scoring import LEAD_IN_S, align, baseline
 from sloshid.validation.validate import (
     ValidationRun,
@@ -54,29 +63,47 @@ FIT_RATE_HZ = 50.0
 FIT_RTOL = 1e-5
 LAG_SPAN_S = 0.5
 """Simulated time kept beyond the aligned record's end, so that a fitted lag still finds a prediction there."""
-F_SPAN = 0.3
-"""The frequency is searched within +-30 % of the best start."""
-GAIN_BOUNDS = (0.2, 5.0)
-CREST_BOUNDS = (-1.0, 3.0)
-"""The crest coefficient may come out negative (a reading flatter than the plane); 3 doubles the reading at 18 deg."""
-ZETA_BOUNDS = (1e-3, 0.5)
-START_ZETAS = (0.01, 0.03, 0.1)
-"""Damping ratios tried as starts beside the decay-only one (real decays can be long, strongly excited moves not)."""
+PRIORS = {
+    "f_hz": (None, 0.03, (0.85, 1.15)),
+    "zeta": (0.01, math.log(3.0), (0.002, 0.15)),
+    "drag": (1.0, 1.0, (0.5, 10.0)),
+    "wave_share": (2 / (XI_CYLINDER**2 - 1), 0.2, (0.3, 1.2)),
+    "crest_coeff": (0.58, 0.5, (-0.5, 1.5)),
+}
+"""Per fitted parameter: (prior, its standard deviation, physical range). f: the geometry's first mode (else the
+decay-only fit's), 3 % (fill height and meniscus), range +-15 % of the prior; zeta: 0.01 (the wall's boundary layer
+and contact line of a small water tank), a factor of 3 (log scale); the breaking drag: 1 per rad (an equivalent
+damping ratio 0.4 x drag x the angle: 0.1 at 15 deg), at least 0.5 (every liquid breaks: vertical pumping at twice
+the mode's frequency and 1 g turns the pendulum to 66 deg with 0.5, past 90 deg with 0.3, a flip no liquid makes); the
+wave share: linear theory's first-mode wall share, range 0.3-1.2 (the sensor's scale is in it); the crest: a Stokes
+standing wave's k a / 2 over the centre slope 1.58 a / R, k = 1.84 / R."""
+
+
+def prior_weight(cost: float, periods: float) -> float:
+    """Weight of the prior rows: the runs' residual scale per period of the mode, sqrt(cost / periods), so that a prior
+    counts like one period of data (maximum a posteriori with the residuals' own scale and one independent sample per
+    period, the residuals being correlated over a period): a parameter the records pin moves freely, one they leave
+    open (a kind of motion they lack) stays with its physics."""
+    return math.sqrt(max(cost, 1e-12) / max(periods, 1.0))
+
+
+START_ZETAS = (0.01, 0.02, 0.04)
+"""Damping ratios tried as starts (real decays can be long, strongly excited moves not)."""
 LAG_SCALE_S = 0.1
 """A run's lag enters the scaled vector as (lag - cross-correlation lag) / LAG_SCALE_S."""
 LAG_SPAN = 1.5
 """Each lag is fitted within +-0.15 s of its cross-correlation start: under half a period of the 3 Hz mode."""
-MAX_NFEV = 45
+MAX_NFEV = 30
 TOLERANCES = {"ftol": 1e-4, "xtol": 1e-4, "gtol": 1e-8}
 """Stop when the cost or the scaled step changes by less than 0.01 %: far below the parameters' own uncertainty."""
-FITTED = ("f_hz", "zeta", "input_gain", "output_gain", "crest_coeff", "vertical_gain")
+FITTED = tuple(PRIORS)
 """The shared parameters the fit moves, in the order of the scaled vector."""
 N_PARAMS = len(FITTED)
-SIM_CACHE = 8
-"""Simulated physics kept at once (a Jacobian needs the base point and one step per physical parameter)."""
+SIM_CACHE = 6
+"""Simulated physics kept at once (a Jacobian needs the base point and one step per simulated parameter)."""
 DIFF_STEP = 1e-2
-"""Finite-difference step of the scaled vector (0.1 % of f, 1 % of zeta and the gains, 0.01 of q, 1 ms of a lag):
-well above the integrator's noise."""
+"""Finite-difference step of the scaled vector (0.1 % of f, 1 % of zeta, 0.01 of c and q, 1 ms of a lag): well
+above the integrator's noise."""
 
 
 @dataclass
@@ -106,9 +133,13 @@ class IOFit:
     runs: list[ValidationRun]
     """The runs scored with the fitted model (full-rate prediction, as `validate` does)."""
     decay_runs: list[ValidationRun]
-    """The same runs scored with the decay-only model (input gain 1)."""
+    """The same runs scored with the decay-only model (its f and zeta, the wall reading the pendulum's plane)."""
     at_bound: list[str]
     n_simulations: int
+    priors: dict[str, float]
+    """Each fitted parameter's physical prior."""
+    ranges: dict[str, tuple[float, float]]
+    """Each fitted parameter's physical range (the fit's bounds)."""
 
     @property
     def quality(self) -> str:
@@ -118,7 +149,12 @@ class IOFit:
     @property
     def reasons(self) -> list[str]:
         """Why the verdict is uncertain (empty when good)."""
-        out = [f"{name} ended on its search bound." for name in self.at_bound]
+        out = [
+            f"{name} ended at the edge of its physical range {PRIORS[name][2][0]:g}-{PRIORS[name][2][1]:g}"
+            + (" (times the prior)" if name == "f_hz" else "")
+            + ": the runs ask for a liquid this model does not describe."
+            for name in self.at_bound
+        ]
         fit = medians(self.runs)["all"]["fit_percent"]
         if not fit >= 15.0:
             out.append(f"the median fit over the runs is only {fit:.1f} %.")
@@ -128,7 +164,7 @@ class IOFit:
         """A parameter's verdict and reasons, as identify's JSON gives them: 'uncertain' when it (or, for omega and l,
         f) ended on its search bound or the median fit is low, else 'good'."""
         own = {"omega_rad_s": ("f_hz",), "l_m": ("f_hz",), "d_ns_per_m": ("f_hz", "zeta")}.get(name, (name,))
-        reasons = [r for r in self.reasons if not r.endswith("ended on its search bound.") or r.split(" ", 1)[0] in own]
+        reasons = [r for r in self.reasons if " its physical range " not in r or r.split(" ", 1)[0] in own]
         return {"quality": "uncertain" if reasons else "good", "reasons": reasons}
 
     def comparison(self) -> dict[str, Any]:
@@ -186,20 +222,26 @@ class IOFit:
             # the decay-only start's remarks on its own estimates are marked; those on the inputs stay as they are
             "notes": [
                 n if n in inputs or n.startswith("the mass ") else f"decay-only start: {n}" for n in base["notes"]
-            ]
-            + ([] if "vertical_gain" in self.parameters else [HELD_VERTICAL]),
+            ],
             "parameters": params,
             "decay_only_parameters": base["parameters"],
-            "transfer_function": {**base["transfer_function"], "num": [self.model.input_gain * num[0]], "den": den},
+            "transfer_function": {**base["transfer_function"], "num": num, "den": den},
             "geometry": {
                 "container_radius_m": self.model.radius_m,
                 "axis_offset_m": self.model.axis_offset_m,
                 "smooth_s": self.model.smooth_s,
+                "views_deg": self.model.views_deg,
             },
             "fit": {
-                "model": "nonlinear pendulums (seed eq. 2 per axis, world frame) driven by input_gain x the pivot's "
-                "horizontal acceleration, g + vertical_gain x az; output output_gain x R tan(angle to the container axis) (or x that "
-                "angle) x (1 + crest_coeff x tan(that angle)); per run lag and offset",
+                "structure": STRUCTURE,
+                "model": "one spherical pendulum (world frame, pivot at the surface) under the pivot's acceleration, "
+                "gravity g + az, damped by zeta and the breaking drag; wall = R |static slope + wave_share x wave slope| (1 + crest_coeff x its wave part); "
+                "per run lag and offset",
+                "priors": {
+                    k: {"value": v, "sd": PRIORS[k][1], "range": list(self.ranges[k])} for k, v in self.priors.items()
+                },
+                "motion_range": dict(self.model.envelope),
+                "model_error_log_sd": self.model.model_error,
                 "fit_percent": medians(self.runs)["all"]["fit_percent"],
                 "n_simulations": self.n_simulations,
                 "interval_method": "Newey-West sandwich on the least-squares Jacobian (per-run blocks); normal 95 %",
@@ -216,8 +258,12 @@ class IOFit:
                 f"  {key:<13} = {est.shown()} ± {est.stderr:.2g}  (95 % CI {est.shown(est.ci95[0])} .. "
                 f"{est.shown(est.ci95[1])})"
             )
-        if "vertical_gain" not in self.parameters:
-            lines.append(f"  {HELD_VERTICAL}")
+        lines.append(
+            "  priors: "
+            + ", ".join(
+                f"{k} {v:.3g} (range {self.ranges[k][0]:.3g}-{self.ranges[k][1]:.3g})" for k, v in self.priors.items()
+            )
+        )
         d = self.decay.parameters
         lines.append(f"  decay-only start: f = {d['f_hz'].value:.4g} Hz, zeta = {d['zeta'].value:.3g}")
         for name, run, lag, dec in zip(self.names, self.runs, self.lags_s, self.decay_runs):
@@ -244,23 +290,6 @@ def _thin(exc: Excitation, rate_hz: float) -> Excitation:
     return replace(exc, t_s=exc.t_s[::step], acc_m_s2=exc.acc_m_s2[::step], rot=exc.rot[::step])
 
 
-VERTICAL_SHARE = 0.01
-"""The vertical gain is fitted only when some run's vertical pivot acceleration (RMS) reaches this share of g, against
-which it acts (g + kv az): a move without vertical motion gave it no information, and it was reported as 1.2456 +- 0,
-rated good. The shared 3-D runs lift the container by far more."""
-
-
-HELD_VERTICAL = (
-    f"vertical_gain held at 1 (a pendulum's): no run moves the container vertically (its vertical acceleration stays "
-    f"below {100 * VERTICAL_SHARE:g} % of g, RMS), so the data say nothing of it."
-)
-
-
-def _vertical_share(exc: Excitation) -> float:
-    """RMS of the pivot's vertical acceleration over g."""
-    return float(np.sqrt(np.mean(exc.acc_m_s2[:, 2] ** 2))) / G
-
-
 def _prepare(pose: PoseLog, sig: Signal, start: LiquidModel) -> _RunData:
     """Thin the excitation, align the start model's prediction with the measurement, subtract the baseline; later
     simulations run only as long as the aligned record needs (plus the lag's search span)."""
@@ -268,7 +297,12 @@ def _prepare(pose: PoseLog, sig: Signal, start: LiquidModel) -> _RunData:
     exc = _thin(excitation(pose, start.axis_offset_m, start.smooth_s), FIT_RATE_HZ)
     y_all = measured_magnitude(sig, kind)
     resp = respond(
-        exc, start.params, start.input_gain, float(sig.t_s[-1] - sig.t_s[0]) + 1.0, FIT_RTOL, FIT_RTOL * 1e-3
+        exc,
+        start.params,
+        settle_s=float(sig.t_s[-1] - sig.t_s[0]) + 1.0,
+        rtol=FIT_RTOL,
+        atol=FIT_RTOL * 1e-3,
+        spherical=True,
     )
     al = align(sig.t_s, y_all, resp.t_s, start.reading(resp, kind), exc.move_span_s)
     keep = sig.t_s - al.lag_s >= exc.move_span_s[0] - LEAD_IN_S
@@ -279,31 +313,40 @@ def _prepare(pose: PoseLog, sig: Signal, start: LiquidModel) -> _RunData:
 
 
 class _Problem:
-    """Residuals of x = [10 (f/f0 - 1), log(zeta/zeta0), log k, log c, q, log kv, (lag_i - lag0_i) / LAG_SCALE_S ...]: the
-    shared physics and each run's lag; each run's offset is its mean residual (variable projection), and each run
-    weighs as its NRMSE."""
+    """Residuals of x = [10 (f/f_p - 1), log(zeta/zeta_p), b - b_p, c - c_p, q - q_p, (lag_i - lag0_i) / LAG_SCALE_S ...]
+    (p: the priors): each run's, weighing as its NRMSE, with its offset the mean residual (variable projection), then
+    one row per prior, `weight` x (distance from it) / its standard deviation (`prior_weight`)."""
 
-    def __init__(self, data: list[_RunData], f0: float, zeta0: float, radius_m: float | None):
-        self.data, self.f0, self.zeta0, self.radius_m = data, f0, zeta0, radius_m
-        self.vertical = any(_vertical_share(d.exc) >= VERTICAL_SHARE for d in data)
+    def __init__(self, data: list[_RunData], priors: dict[str, float], radius_m: float | None, views: float | None):
+        self.data, self.priors, self.radius_m, self.views = data, priors, radius_m, views
         self.lags = [d.lag0 for d in data]
+        self.weight = 1.0
+        """Weight of the prior rows (`prior_weight`), set once at the start so that the cost stays one function."""
         self.n_sim = 0
-        self._sims: dict[tuple[float, float, float, float], list[tuple[np.ndarray, np.ndarray, np.ndarray]]] = {}
+        self._sims: dict[tuple[float, float, float], list[tuple[np.ndarray, np.ndarray, np.ndarray]]] = {}
 
-    def physical(self, x: np.ndarray) -> tuple[float, float, float, float, float, float]:
-        """(f, zeta, k, c, q, kv) from the scaled vector."""
-        f, zeta = self.f0 * (1 + x[0] / 10), self.zeta0 * math.exp(x[1])
-        return f, zeta, math.exp(x[2]), math.exp(x[3]), float(x[4]), math.exp(x[5])
+    def physical(self, x: np.ndarray) -> tuple[float, float, float, float, float]:
+        """(f, zeta, drag b, c, q) from the scaled vector."""
+        p = self.priors
+        f, zeta = p["f_hz"] * (1 + x[0] / 10), p["zeta"] * math.exp(x[1])
+        return f, zeta, p["drag"] + x[2], p["wave_share"] + x[3], p["crest_coeff"] + x[4]
+
+    def scaled(self, f: float, zeta: float) -> np.ndarray:
+        """The scaled vector of the physics (f, zeta) with the others at their priors."""
+        return np.array([10 * (f / self.priors["f_hz"] - 1), math.log(zeta / self.priors["zeta"]), 0.0, 0.0, 0.0])
 
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
-        """Lower and upper bounds of the scaled vector (f within F_SPAN of the start, the others their *_BOUNDS)."""
-        n = len(self.data)
-        gain_lo, gain_hi = math.log(GAIN_BOUNDS[0]), math.log(GAIN_BOUNDS[1])
-        lo = [-10 * F_SPAN, math.log(ZETA_BOUNDS[0] / self.zeta0), gain_lo, gain_lo, CREST_BOUNDS[0], gain_lo]
-        hi = [10 * F_SPAN, math.log(ZETA_BOUNDS[1] / self.zeta0), gain_hi, gain_hi, CREST_BOUNDS[1], gain_hi]
-        if not self.vertical:  # nothing to fit the vertical gain on: held at 1 (a pendulum's)
-            lo[5], hi[5] = -1e-12, 1e-12
+        """Lower and upper bounds of the scaled vector: the physical ranges and the lags' spans."""
+        n, (f_lo, f_hi), (z_lo, z_hi) = len(self.data), PRIORS["f_hz"][2], PRIORS["zeta"][2]
+        p = self.priors
+        lo = [10 * (f_lo - 1), math.log(z_lo / p["zeta"]), *(PRIORS[k][2][0] - p[k] for k in FITTED[2:])]
+        hi = [10 * (f_hi - 1), math.log(z_hi / p["zeta"]), *(PRIORS[k][2][1] - p[k] for k in FITTED[2:])]
         return np.array(lo + [-LAG_SPAN] * n), np.array(hi + [LAG_SPAN] * n)
+
+    def prior_rows(self, x: np.ndarray) -> np.ndarray:
+        """`weight` x each parameter's distance from its prior over the prior's standard deviation."""
+        sds = np.array([10 * PRIORS["f_hz"][1], *(PRIORS[k][1] for k in FITTED[1:])])
+        return self.weight * x[:N_PARAMS] / sds
 
     def lags_at(self, x: np.ndarray) -> list[float]:
         """Each run's lag (s) at x (the starts when x holds the physics alone)."""
@@ -312,27 +355,36 @@ class _Problem:
 
     def predictions(self, x: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
         """Predicted (t, series) of every run (trajectory clock); recent physics' simulations are kept, so that a
-        step of the output map alone (gain, crest) simulates nothing."""
-        f, zeta, k, c, q, kv = self.physical(x)
-        if (f, zeta, k, kv) not in self._sims:
+        step of the wall's reading alone (c, q) simulates nothing."""
+        f, zeta, b, c, q = self.physical(x)
+        if (f, zeta, b) not in self._sims:
             params = SloshParams.from_modal(2 * math.pi * f, zeta)
             self.n_sim += 1
             if len(self._sims) >= SIM_CACHE:
                 self._sims.clear()
             sims = []
             for d in self.data:
-                resp = respond(d.exc, params, k, d.settle_s, FIT_RTOL, FIT_RTOL * 1e-3, kv)
-                sims.append((resp.t_s, *plane_series(resp, d.kind, self.radius_m)))
-            self._sims[f, zeta, k, kv] = sims
-        return [(t, read_out(plane, slope, c, q)) for t, plane, slope in self._sims[f, zeta, k, kv]]
+                resp = respond(
+                    d.exc, params, settle_s=d.settle_s, rtol=FIT_RTOL, atol=FIT_RTOL * 1e-3, spherical=True, drag=b
+                )
+                sims.append((resp.t_s, *wall_parts(resp)))
+            self._sims[f, zeta, b] = sims
+        return [
+            (t, read_out(static, wave, c, q, d.kind, self.radius_m, self.views))
+            for d, (t, static, wave) in zip(self.data, self._sims[f, zeta, b])
+        ]
 
-    def residuals(self, x: np.ndarray) -> np.ndarray:
+    def run_residuals(self, x: np.ndarray) -> np.ndarray:
         """Stacked (y - yhat - offset) / |y - mean y| of all runs."""
         parts = []
         for d, (tp, yp), lag in zip(self.data, self.predictions(x), self.lags_at(x)):
             r = d.y - np.interp(d.t_meas - lag, tp, yp, left=yp[0])
             parts.append((r - r.mean()) / d.norm)
         return np.concatenate(parts)
+
+    def residuals(self, x: np.ndarray) -> np.ndarray:
+        """The runs' residuals and the prior rows."""
+        return np.concatenate([self.run_residuals(x), self.prior_rows(x)])
 
     def jacobian(self, x: np.ndarray) -> np.ndarray:
         """Forward differences with fixed steps (scipy's relative steps vanish at x = 0, below integrator noise)."""
@@ -357,17 +409,11 @@ class _Problem:
         ]
 
 
-def _best_start(prob: _Problem, candidates_hz: list[float]) -> None:
-    """Move the problem's reference (f0, zeta0) to the lowest-cost start among the candidate frequencies (the
-    decay-only one and its half: a measured magnitude of a planar slosh repeats at twice the mode's frequency) and
-    a few damping ratios."""
-    best = (math.inf, prob.f0, prob.zeta0)
-    zero, zetas = np.zeros(N_PARAMS), sorted({prob.zeta0, *START_ZETAS})
-    for f in candidates_hz:
-        for z in zetas:
-            prob.f0, prob.zeta0 = f, z
-            best = min(best, (float(np.sum(prob.residuals(zero) ** 2)), f, z))
-    prob.f0, prob.zeta0 = best[1], best[2]
+def _best_start(prob: _Problem, candidates_hz: list[float]) -> np.ndarray:
+    """The start whose runs' residuals are the smallest among the candidate frequencies (the prior and the decay-only
+    fit's) and a few damping ratios, the others at their priors."""
+    starts = [prob.scaled(f, z) for f in candidates_hz for z in START_ZETAS]
+    return min(starts, key=lambda x: float(np.sum(prob.run_residuals(x) ** 2)))
 
 
 def fit_io(
@@ -378,37 +424,73 @@ def fit_io(
     smooth_s: float = SMOOTH_S,
     settings: IdentSettings | None = None,
     names: list[str] | None = None,
+    views_deg: float | None = None,
 ) -> IOFit:
-    """Fit f, zeta, the input, output and vertical gains and the crest coefficient jointly over the runs (own lag and
-    offset each), from the decay-only start."""
+    """Fit f, zeta, the wall's wave share and the crest coefficient jointly over the runs (own lag and offset each),
+    each toward its physical prior and within its physical range; `views_deg`: the wall is read in two views 90 deg
+    apart (`predict.read_out`)."""
     if len(poses) != len(signals):
         raise SettingError(
             "trajectory",
             f"give one {{name}} per signal, in the same order: {len(signals)} signal(s), {len(poses)} trajectories.",
         )
     settings = settings or IdentSettings()
-    decay = Identifier(settings).fit(signals).result  # the start, and the model the result is compared with
-    f0 = decay.parameters["f_hz"].value
-    zeta0 = min(max(decay.parameters["zeta"].value, ZETA_BOUNDS[0]), ZETA_BOUNDS[1])
-    start = LiquidModel(SloshParams.from_modal(2 * math.pi * f0, zeta0), 1.0, radius_m, axis_offset_m, smooth_s)
-    prob = _Problem([_prepare(p, s, start) for p, s in zip(poses, signals)], f0, zeta0, radius_m)
-    _best_start(prob, [f0, f0 / 2])
-    prob.realign(np.zeros(N_PARAMS))
+    decay = Identifier(settings).fit(signals).result  # a start, and the model the result is compared with
+    f_decay = decay.parameters["f_hz"].value
+    geometric = settings.container_radius_m is not None and settings.fill_height_m is not None
+    f_prior = (
+        cylinder_first_mode_omega(settings.container_radius_m, settings.fill_height_m) / (2 * math.pi)
+        if geometric
+        else f_decay
+    )
+    priors = {"f_hz": f_prior, **{k: PRIORS[k][0] for k in FITTED[1:]}}
+    ranges = {
+        k: (priors[k] * lo, priors[k] * hi) if k == "f_hz" else (lo, hi) for k, (_, _, (lo, hi)) in PRIORS.items()
+    }
+    start = LiquidModel(
+        SloshParams.from_modal(2 * math.pi * f_prior, priors["zeta"]),
+        radius_m,
+        axis_offset_m,
+        smooth_s,
+        wave_share=priors["wave_share"],
+        drag=priors["drag"],
+        crest_coeff=priors["crest_coeff"],
+        views_deg=views_deg,
+    )
+    prob = _Problem([_prepare(p, s, start) for p, s in zip(poses, signals)], priors, radius_m, views_deg)
+    # a magnitude's decay rings at twice the mode's frequency: the free-decay fit's half is a candidate too, and
+    # without the geometry the better of the two is the prior
+    halves = [f_decay, f_decay / 2]
+    if not geometric:
+        # the runs' residuals alone (prob.priors is `priors`, whose prior rows would favour the first)
+        priors["f_hz"] = min(
+            halves, key=lambda f: float(np.sum(prob.run_residuals(prob.scaled(f, priors["zeta"])) ** 2))
+        )
+        ranges["f_hz"] = tuple(priors["f_hz"] * b for b in PRIORS["f_hz"][2])
+    lo_f, hi_f = ranges["f_hz"]
+    x0 = _best_start(prob, [priors["f_hz"], *(f for f in halves if lo_f < f < hi_f and f != priors["f_hz"])])
+    periods = sum(float(d.t_meas[-1] - d.t_meas[0]) for d in prob.data) * priors["f_hz"]
+    prob.weight = prior_weight(float(np.sum(prob.run_residuals(x0) ** 2)), periods)
+    prob.realign(x0)
     lo, hi = prob.bounds()
-    x = np.zeros(lo.size)
+    x = np.concatenate([x0, np.zeros(len(poses))])
     sol = least_squares(
         prob.residuals, x, bounds=(lo, hi), jac=prob.jacobian, x_scale="jac", max_nfev=MAX_NFEV, **TOLERANCES
     )
-    f, zeta, k, c, q, kv = physical = prob.physical(sol.x)
-    held = () if prob.vertical else ("vertical_gain",)
-    at_bound = [nm for nm, v, a, b in zip(FITTED, sol.x, lo, hi) if min(v - a, b - v) < 1e-6 and nm not in held]
-    params = {k: v for k, v in _estimates(sol, prob, physical, settings.mass_kg).items() if k not in held}
+    f, zeta, b, c, q = physical = prob.physical(sol.x)
+    # on its range's edge: within 1 % of the range (the bounded solver approaches a bound without reaching it)
+    at_bound = [nm for nm, v, a, b in zip(FITTED, sol.x, lo, hi) if min(v - a, b - v) < 0.01 * (b - a)]
+    params = _estimates(sol, prob, physical, settings.mass_kg)
     mass = settings.mass_kg or 1.0
     physics = SloshParams.from_modal(2 * math.pi * f, zeta, mass)
-    model = LiquidModel(physics, k, radius_m, axis_offset_m, smooth_s, c, q, kv)
+    envelope = {k: max(motion_range(d.exc)[k] for d in prob.data) for k in MOTION_QUANTITIES}
+    stderr = tuple((k, params[k].stderr) for k in FITTED_ERRORS)
+    model = replace(
+        start, params=physics, drag=b, wave_share=c, crest_coeff=q, stderr=stderr, envelope=tuple(envelope.items())
+    )
     names = names or [s.source for s in signals]
     runs = [validate_run(p, s, model, nm) for p, s, nm in zip(poses, signals, names)]
-    decay_model = replace(start, params=decay.params)
+    decay_model = LiquidModel(decay.params, radius_m, axis_offset_m, smooth_s, views_deg=views_deg)
     decay_runs = [validate_run(p, s, decay_model, nm) for p, s, nm in zip(poses, signals, names)]
     return IOFit(
         model,
@@ -422,6 +504,8 @@ def fit_io(
         decay_runs,
         at_bound,
         prob.n_sim,
+        priors,
+        ranges,
     )
 
 
@@ -433,6 +517,7 @@ def fit_io_files(
     axis_offset_m: float,
     smooth_s: float,
     pose_columns: str | None = None,
+    views_deg: float | None = None,
 ) -> IOFit:
     """`identify --trajectory`: check the counts and geometry, read the pose logs, fit."""
     if len(trajectories) != len(signals):
@@ -445,37 +530,32 @@ def fit_io_files(
     if radius_m is None and any(s.unit == "mm" for s in signals):
         raise SettingError("container_radius_m", "wall heights in mm need the container radius: give {name} (m).")
     poses = [load_pose_log(t, pose_columns) for t in trajectories]
-    return fit_io(poses, signals, radius_m, axis_offset_m, smooth_s, settings, [Path(s.source).stem for s in signals])
+    names = [Path(s.source).stem for s in signals]
+    return fit_io(poses, signals, radius_m, axis_offset_m, smooth_s, settings, names, views_deg)
 
 
 def _estimates(
-    sol, prob: _Problem, physical: tuple[float, float, float, float, float, float], mass: float | None
+    sol, prob: _Problem, physical: tuple[float, float, float, float], mass: float | None
 ) -> dict[str, Estimate]:
-    """Parameters (f, zeta, k, c, q, kv) with Newey-West standard errors (per-run blocks), mapped from the scaled
-    vector."""
-    f, zeta, k, c, q, kv = physical
+    """Parameters (f, zeta, c, q) with Newey-West standard errors (per-run blocks; the prior rows one more block),
+    mapped from the scaled vector."""
+    f, zeta, b, c, q = physical
     data = prob.data
-    sizes = np.cumsum([0] + [d.y.size for d in data])
+    sizes = np.cumsum([0] + [d.y.size for d in data] + [N_PARAMS])
     blocks = [slice(a, b) for a, b in itertools.pairwise(sizes)]
-    periods = [max(round(1.0 / (f * np.median(np.diff(d.t_meas)))), 1) for d in data]
-    # a held vertical gain is no parameter: its column would count as one more direction for the others to trade
-    # against (a review: f's standard error 1.69 times too wide)
-    held = 5 if not prob.vertical else None
-    jac = sol.jac if held is None else np.delete(sol.jac, held, axis=1)
-    cov, _naive, _lags = hac_covariance(jac, sol.fun, blocks, periods)
-    variances = np.diag(cov) if held is None else np.insert(np.diag(cov), held, 0.0)
-    d_scaled = np.array([prob.f0 / 10, zeta, k, c, 1.0, kv])
-    se = np.sqrt(np.clip(variances[:N_PARAMS], 0, None)) * d_scaled
+    periods = [max(round(1.0 / (f * np.median(np.diff(d.t_meas)))), 1) for d in data] + [1]
+    cov, _naive, _lags = hac_covariance(sol.jac, sol.fun, blocks, periods)
+    d_scaled = np.array([prob.priors["f_hz"] / 10, zeta, 1.0, 1.0, 1.0])
+    se = np.sqrt(np.clip(np.diag(cov)[:N_PARAMS], 0, None)) * d_scaled
     omega, se_w = 2 * math.pi * f, 2 * math.pi * se[0]
     out = {
         "f_hz": estimate(f, se[0]),
         "omega_rad_s": estimate(omega, se_w),
         "zeta": estimate(zeta, se[1], floor=0.0),
         "l_m": estimate(G / omega**2, 2 * G / omega**3 * se_w),
-        "input_gain": estimate(k, se[2], floor=0.0),
-        "output_gain": estimate(c, se[3], floor=0.0),
+        "drag": estimate(b, se[2], floor=0.0),
+        "wave_share": estimate(c, se[3], floor=0.0),
         "crest_coeff": estimate(q, se[4]),
-        "vertical_gain": estimate(kv, se[5], floor=0.0),
     }
     if mass is not None:
         out["d_ns_per_m"] = estimate(

@@ -1,4 +1,5 @@
-"""A liquid model as `predict` uses it (pendulum, input gain, geometry) and its prediction for a pose log."""
+"""A liquid model as `predict` uses it (spherical pendulum, wall reading, geometry), its prediction for a pose log with
+the 95 % band and the extrapolation guard."""
 
 from __future__ import annotations
 
@@ -15,31 +16,65 @@ from sloshid.core.settings import check_in_metres
 from sloshid.core.tables import write_csv
 from sloshid.identification.stage import check_sampling
 from sloshid.model.pendulum import SloshParams
-from sloshid.model.pose import SMOOTH_S, PoseLog, PoseResponse, excitation, pose_from_trajectory, respond
+from sloshid.model.pose import (
+    MOTION_QUANTITIES,
+    SMOOTH_S,
+    Excitation,
+    PoseLog,
+    PoseResponse,
+    excitation,
+    motion_range,
+    pose_from_trajectory,
+    respond,
+)
 from sloshid.model.trajectory import Trajectory
+
+STRUCTURE = (
+    "spherical pendulum at the surface with breaking drag; wall = static surface + wave_share x the wave (crest_coeff)"
+)
+"""The model structure an identify --trajectory file names (`fit.structure`); a file of another is refused."""
+OLD_GAINS = ("input_gain", "output_gain", "vertical_gain")
+"""Parameters of the input-output model before the physics-first structure: a file holding them is refused."""
+MODEL_ERROR_LOG_SD = 0.10
+"""Model error of a predicted peak (root mean square of log(measured / predicted peak)), calibrated on the held-out
+kinds of the shared runs (benchmarks/validate_real.py, leave-one-kind-out: 0.104 over the nine runs): part of every
+band."""
 
 
 @dataclass(frozen=True)
 class LiquidModel:
-    """Everything a prediction needs besides the motion: the mode, the input gain and the geometry."""
+    """Everything a prediction needs besides the motion: the mode, the wall's reading of it and the geometry.
+
+    Physics fixes the structure: one spherical pendulum in the world frame (both horizontal directions coupled, gravity
+    g + az, so vertical motion pumps it), pivoted at the liquid surface; the wall height is that of the surface at rest
+    under the current acceleration (the faster modes follow the motion) plus `wave_share` times the first mode's
+    excess over it, with a second-order crest."""
 
     params: SloshParams
-    input_gain: float = 1.0
-    """Scale of the horizontal pivot acceleration the mode feels (1 for a decay-only or physical model)."""
     radius_m: float | None = None
-    """Container radius R; wall height = R tan(relative angle)."""
+    """Container radius R; wall height = R x the surface's slope at the wall."""
     axis_offset_m: float = 0.0
     """Distance up the container axis from the logged point to the pendulum pivot."""
     smooth_s: float = SMOOTH_S
     """Savitzky-Golay window for the pose log's accelerations."""
-    output_gain: float = 1.0
-    """Scale of the reading (wall height, or angle) against the plane of the pendulum's surface: the sloshing mode's
-    wall elevation per surface angle and the sensor's own scale (1 for a decay-only or physical model)."""
+    wave_share: float = 1.0
+    """The wall's share of the first mode's wave, beyond the static surface: 2 / (xi^2 - 1) = 0.84 in linear theory for
+    a cylinder (the sensor's own scale too); 1 reads the pendulum's plane."""
+    drag: float = 0.0
+    """Breaking drag (per rad, `pendulum.spherical_accel`): damping that grows with the wave's speed."""
     crest_coeff: float = 0.0
-    """Second-order crest term: the reading grows by this times tan(relative angle) (0: a plane's wall height)."""
-    vertical_gain: float = 1.0
-    """Scale of the vertical pivot acceleration in the effective gravity g + vertical_gain az (1 for a pendulum): how
-    strongly vertical motion pumps the mode."""
+    """Second-order crest: the wave part grows by this times its own slope (Stokes: k a / 2 over the slope, 0.58)."""
+    spherical: bool = True
+    """One spherical pendulum (the physics-first structure); False: seed eq. 2's pendulum pair, uncoupled (the
+    fixed-physics reference of issue 38)."""
+    views_deg: float | None = None
+    """Azimuth of the first of two views 90 deg apart that read the wall (`read_out`); None: the whole wall's peak."""
+    stderr: tuple[tuple[str, float], ...] = ()
+    """Standard errors of the fitted parameters (f_hz, zeta, wave_share, crest_coeff) for the band."""
+    model_error: float = MODEL_ERROR_LOG_SD
+    """The band's model-error term (log standard deviation of a peak), calibrated on held-out folds."""
+    envelope: tuple[tuple[str, float], ...] = ()
+    """The fitted runs' motion range (`pose.motion_range`): a move beyond it is an extrapolation."""
     fitted_on: tuple[Path, ...] = ()
     """The measurement files the model was identified from (identify JSON `sources`, as found from here): a validate
     run of one of them scores the fit, not a prediction."""
@@ -56,10 +91,8 @@ class LiquidModel:
         )
 
     def __post_init__(self) -> None:
-        for name in ("input_gain", "output_gain", "vertical_gain"):
-            value = getattr(self, name)
-            if not (math.isfinite(value) and value > 0):
-                raise UserError(f"the {name.replace('_', ' ')} must be a positive number, got {value!r}.")
+        if not (math.isfinite(self.wave_share) and self.wave_share > 0):
+            raise UserError(f"the wave share must be a positive number, got {self.wave_share!r}.")
         if self.radius_m is not None and not (math.isfinite(self.radius_m) and self.radius_m > 0):
             raise UserError(f"the container radius must be a positive number of m, got {self.radius_m!r}.")
         if not math.isfinite(self.crest_coeff):
@@ -81,46 +114,86 @@ class LiquidModel:
 
     def reading(self, resp: PoseResponse, kind: str) -> np.ndarray:
         """What the sensor reads from the predicted surface: the wall height (mm) for kind 'wall_height_mm', else the
-        relative angle (deg)."""
-        return read_out(*plane_series(resp, kind, self.radius_m), self.output_gain, self.crest_coeff)
+        surface's angle to the container (deg)."""
+        return read_out(*wall_parts(resp), self.wave_share, self.crest_coeff, kind, self.radius_m, self.views_deg)
 
 
-def plane_series(resp: PoseResponse, kind: str, radius_m: float | None) -> tuple[np.ndarray, np.ndarray]:
-    """The plane's value a reading of this kind scales (R tan(relative angle) in mm, or the angle in deg) and the
-    surface slope tan(relative angle)."""
-    slope = np.tan(np.minimum(resp.rel_angle_rad, 1.4))
-    return (resp.wall_height_mm(radius_m) if kind == "wall_height_mm" else resp.rel_angle_deg), slope
+def wall_parts(resp: PoseResponse) -> tuple[np.ndarray, np.ndarray]:
+    """The static surface's gradient and the first mode's excess over it (the pendulum's gradient minus it), in the
+    container frame (N, 2 each)."""
+    return resp.static_slope, resp.slope - resp.static_slope
 
 
-def read_out(plane: np.ndarray, slope: np.ndarray, output_gain: float, crest_coeff: float) -> np.ndarray:
-    """output_gain x the plane's value x (1 + crest_coeff x slope): the first mode's wall elevation is a fraction of
-    the plane's (2 / (xi^2 - 1) = 0.84 in linear theory) and a steep wave's crest rises above it (second order)."""
-    return output_gain * plane * (1.0 + crest_coeff * slope)
+def read_out(
+    static: np.ndarray,
+    wave: np.ndarray,
+    share: float,
+    crest: float,
+    kind: str,
+    radius_m: float | None,
+    views_deg: float | None = None,
+) -> np.ndarray:
+    """|static + share x wave| (1 + crest x share |wave|): the slope at the wall, as a wall height R x it (mm) or an
+    angle atan(it) (deg); the higher modes follow the motion (static), the first mode adds its wave. With `views_deg`
+    the wall is seen in two planes 90 deg apart, the first at that azimuth from the container's x axis (two cameras on
+    the container, as in the shared runs): the larger of the slope's components along them."""
+    part = share * wave
+    total = static + part
+    if views_deg is None:
+        size = np.linalg.norm(total, axis=1)
+    else:
+        a = math.radians(views_deg)
+        size = np.maximum(np.abs(total @ [math.cos(a), math.sin(a)]), np.abs(total @ [-math.sin(a), math.cos(a)]))
+    slope = size * (1.0 + crest * np.linalg.norm(part, axis=1))
+    if kind == "wall_height_mm":
+        return 1000.0 * radius_m * slope
+    return np.degrees(np.arctan(slope))
 
 
 def load_model(path: str | Path) -> LiquidModel:
-    """Read `sloshid identify` JSON: the mode, the input, output and vertical gains (input-output fits; 1 where a file
-    lacks them) and any stored geometry."""
+    """Read `sloshid identify` JSON: the mode, the wall's wave share and crest (identify --trajectory; 1 and 0 for a
+    decay-only file), their errors, the motion range and any stored geometry; a file of another model structure is
+    refused."""
     params = SloshParams.from_identify_json(path)
     data = json.loads(Path(path).read_text(encoding="utf-8"))
+    p, fit = data["parameters"], data.get("fit") if isinstance(data.get("fit"), dict) else {}
+    old = [k for k in OLD_GAINS if k in p]
+    structure = fit.get("structure")
+    if old or (structure is not None and structure != STRUCTURE):
+        what = ", ".join(old) if old else f"'{structure}'"
+        raise UserError(
+            f"parameter file {path} comes from a liquid model of another structure ({what}), whose parameters mean "
+            "something else here; identify the runs again with `sloshid identify --trajectory`."
+        )
     try:
-        gain = float(data["parameters"].get("input_gain", {}).get("value", 1.0))
-        out_gain = float(data["parameters"].get("output_gain", {}).get("value", 1.0))
-        crest = float(data["parameters"].get("crest_coeff", {}).get("value", 0.0))
-        vertical = float(data["parameters"].get("vertical_gain", {}).get("value", 1.0))
+        share = float(p.get("wave_share", {}).get("value", 1.0))
+        crest = float(p.get("crest_coeff", {}).get("value", 0.0))
+        drag = float(p.get("drag", {}).get("value", 0.0))
+        stderr = tuple((k, float(p[k]["stderr"])) for k in FITTED_ERRORS if "stderr" in p.get(k, {}))
+        envelope = tuple((k, float(v)) for k, v in (fit.get("motion_range") or {}).items())
+        model_error = float(fit.get("model_error_log_sd", MODEL_ERROR_LOG_SD))
         geometry = data.get("geometry") or {}
         radius = geometry.get("container_radius_m") or (data.get("prior") or {}).get("container_radius_m")
         radius = None if radius is None else float(radius)
         offset, smooth = float(geometry.get("axis_offset_m", 0.0)), float(geometry.get("smooth_s", SMOOTH_S))
+        views = geometry.get("views_deg")
+        views = None if views is None else float(views)
     except (AttributeError, TypeError, ValueError):
         raise UserError(
-            f"parameter file {path}: a gain, the crest coefficient or the geometry is not a number."
+            f"parameter file {path}: the wave share, the crest coefficient, an error, the motion range or the geometry "
+            "is not a number."
         ) from None
     sources = data.get("sources") if isinstance(data.get("sources"), list) else []
     fitted = tuple(f for src in sources if isinstance(src, str) for f in [_found(src, Path(path).parent)] if f)
     hashes = data.get("source_sha256") if isinstance(data.get("source_sha256"), list) else []
     digests = tuple(h for h in hashes if isinstance(h, str))
-    return LiquidModel(params, gain, radius, offset, smooth, out_gain, crest, vertical, fitted, digests)
+    return LiquidModel(
+        params, radius, offset, smooth, share, drag, crest, True, views, stderr, model_error, envelope, fitted, digests
+    )
+
+
+FITTED_ERRORS = ("f_hz", "zeta", "drag", "wave_share", "crest_coeff")
+"""Parameters whose standard errors widen the band."""
 
 
 def _found(source: str, beside: Path) -> Path | None:
@@ -133,11 +206,11 @@ def _found(source: str, beside: Path) -> Path | None:
 
 
 def planning_note(path: str | Path, trajectory: str = "TRAJ.csv", plan: Trajectory | None = None) -> str | None:
-    """For `plan` and `compare` with an input-output model (`identify --trajectory`, gains other than 1): they plan
-    and score with its f and zeta alone, as a pendulum; the sentence says so, how far the whole model moves the liquid
-    in `plan` (when given: the planned trajectory) and how to check a plan with it (None for a plain model)."""
+    """For `plan` and `compare` with a model from `identify --trajectory` (a wave share other than 1): they plan and
+    score with its f and zeta alone, as a pendulum; the sentence says so, how far the whole model moves the liquid in
+    `plan` (when given: the planned trajectory) and how to check a plan with it (None for a plain model)."""
     model = load_model(path)
-    if model.input_gain == 1 and model.vertical_gain == 1:
+    if model.wave_share == 1 and model.crest_coeff == 0:
         return None
     moved = "the liquid moves during a plan"
     if plan is not None:
@@ -145,9 +218,9 @@ def planning_note(path: str | Path, trajectory: str = "TRAJ.csv", plan: Trajecto
         peak = float(predict(pose, pivot_for(pose, model, None)[0]).rel_angle_deg.max())
         moved = f"this plan moves the liquid by up to {peak:.2g} deg against the container"
     return (
-        f"{path} is an input-output model (input gain {model.input_gain:.3g}, vertical gain {model.vertical_gain:.3g}); "
-        f"plans and scores use its f and zeta alone, as a pendulum with gains of 1, so by the whole model {moved}: "
-        f"check a plan with `sloshid predict {trajectory} --params {path}`."
+        f"{path} is an input-output model (wave share {model.wave_share:.3g}, crest coefficient "
+        f"{model.crest_coeff:.3g}); plans and scores use its f and zeta alone, as a pendulum pair, so by the whole "
+        f"model {moved}: check a plan with `sloshid predict {trajectory} --params {path}`."
     )
 
 
@@ -170,30 +243,138 @@ def pivot_for(pose: PoseLog, model: LiquidModel, axis_offset_m: float | None) ->
 def predict(pose: PoseLog, model: LiquidModel, settle_s: float = 3.0, rtol: float = 1e-9) -> PoseResponse:
     """The liquid's response to the logged motion, held at the last pose for settle_s after the log ends; a log
     sampled too slowly for the liquid's mode (a time column in milliseconds) is refused."""
+    return forecast(pose, model, settle_s, rtol, band=False).resp
+
+
+Z95 = 1.96
+EXTRAPOLATION_MARGIN = 1.1
+"""A move whose quantity exceeds the fitted runs' largest by more than 10 % is an extrapolation (the runs' own
+spread of a quantity within one kind is about that)."""
+
+
+@dataclass
+class Forecast:
+    """A prediction with what its 95 % band needs: the central response, the responses with each fitted parameter one
+    standard error off, the extrapolation notes and the model-error term (widened by them)."""
+
+    resp: PoseResponse
+    model: LiquidModel
+    steps: list[tuple[PoseResponse, LiquidModel]]
+    notes: list[str]
+    log_sd: float
+
+    def band(self, column) -> tuple[np.ndarray, np.ndarray]:
+        """(lo, hi) of `column(resp, model)`: the model error as a factor exp(+-1.96 log_sd) on its size, plus 1.96
+        times the parameters' spread (their one-sigma steps added in quadrature)."""
+        centre = column(self.resp, self.model)
+        spread = np.sqrt(sum((column(r, m) - centre) ** 2 for r, m in self.steps)) if self.steps else 0.0
+        size = np.abs(centre)
+        up, down = size * (math.exp(Z95 * self.log_sd) - 1) + Z95 * spread, size * (1 - math.exp(-Z95 * self.log_sd))
+        down = down + Z95 * spread
+        lo, hi = np.where(centre >= 0, centre - down, centre - up), np.where(centre >= 0, centre + up, centre + down)
+        if np.all(centre >= 0):  # a magnitude stays one
+            lo = np.maximum(lo, 0.0)
+        return lo, hi
+
+
+UNITS = {
+    "vertical_accel_m_s2": "m/s2",
+    "horizontal_accel_m_s2": "m/s2",
+    "speed_m_s": "m/s",
+    "tilt_deg": "deg",
+    "yaw_rate_deg_s": "deg/s",
+}
+MAX_WIDENING = 5.0
+"""The model error is widened at most this many times: a move far beyond the fitted ones is flagged either way."""
+
+
+def extrapolation(exc: Excitation, model: LiquidModel, source: str) -> tuple[list[str], float]:
+    """One line per motion quantity beyond the fitted runs' range (EXTRAPOLATION_MARGIN), and the factor that widens
+    the model error: the largest ratio of the move's quantity to the fitted range (1 inside it, at most MAX_WIDENING)."""
+    if not model.envelope:
+        return [], 1.0
+    fitted, move = dict(model.envelope), motion_range(exc)
+    notes, factor = [], 1.0
+    for key, words in MOTION_QUANTITIES.items():
+        limit = max(fitted.get(key, math.inf), 1e-9)
+        if move[key] <= EXTRAPOLATION_MARGIN * limit:
+            continue
+        ratio = min(move[key] / limit, MAX_WIDENING)
+        factor = max(factor, ratio)
+        notes.append(
+            f"{source}: its {words} reaches {move[key]:.3g} {UNITS[key]}, beyond the {limit:.3g} of the runs the model "
+            f"was fitted on: an extrapolation, its band widened {ratio:.2g} times."
+        )
+    return notes, factor
+
+
+def forecast(
+    pose: PoseLog, model: LiquidModel, settle_s: float = 3.0, rtol: float = 1e-9, band: bool = True
+) -> Forecast:
+    """Predict the move and, with `band`, what its band needs (one simulation more for f and for zeta when they carry
+    an error; the wall's parameters need none); a log sampled too slowly for the mode is refused."""
     f_hz = model.params.f_hz
     check_sampling(pose.source, 1.0 / float(np.median(np.diff(pose.t_s))), (f_hz, f_hz))
     exc = excitation(pose, model.axis_offset_m, model.smooth_s)
-    return respond(exc, model.params, model.input_gain, settle_s, rtol, rtol * 1e-3, model.vertical_gain)
+
+    def run(params: SloshParams, drag: float = model.drag) -> PoseResponse:
+        return respond(
+            exc, params, settle_s=settle_s, rtol=rtol, atol=rtol * 1e-3, spherical=model.spherical, drag=drag
+        )
+
+    resp = run(model.params)
+    if not band:
+        return Forecast(resp, model, [], [], model.model_error)
+    se, p, steps = dict(model.stderr), model.params, []
+    if se.get("f_hz", 0) > 0:
+        steps.append((run(p.scaled(omega_factor=1 + se["f_hz"] / p.f_hz)), model))
+    if se.get("zeta", 0) > 0 and p.zeta > 0:
+        steps.append((run(p.scaled(zeta_factor=1 + se["zeta"] / p.zeta)), model))
+    if se.get("drag", 0) > 0:
+        steps.append((run(p, model.drag + se["drag"]), model))
+    for name in ("wave_share", "crest_coeff"):
+        if se.get(name, 0) > 0:
+            steps.append((resp, replace(model, **{name: getattr(model, name) + se[name]})))
+    notes, factor = extrapolation(exc, model, pose.source)
+    return Forecast(resp, model, steps, notes, model.model_error * factor)
 
 
-def prediction_columns(resp: PoseResponse, model: LiquidModel) -> dict[str, np.ndarray]:
-    """The `sloshid predict` CSV columns (SI, angles in degrees); the wall height is the model's reading."""
+ANGLES = {
+    "liquid_phi_deg": lambda r, m: np.degrees(r.liquid_rad[:, 0]),
+    "liquid_theta_deg": lambda r, m: np.degrees(r.liquid_rad[:, 1]),
+    "rel_roll_deg": lambda r, m: np.degrees(r.rel_rad[:, 0]),
+    "rel_pitch_deg": lambda r, m: np.degrees(r.rel_rad[:, 1]),
+    "rel_angle_deg": lambda r, m: r.rel_angle_deg,
+}
+"""The predicted angles (CSV column: value from a response and model)."""
+
+
+def wall_height(resp: PoseResponse, model: LiquidModel) -> np.ndarray:
+    """The model's wall-height reading (mm)."""
+    return model.reading(resp, "wall_height_mm")
+
+
+def prediction_columns(fc: Forecast) -> dict[str, np.ndarray]:
+    """The `sloshid predict` CSV columns (SI, angles in degrees), each angle and the wall height (the model's reading)
+    with its 95 % band (`_lo`, `_hi`)."""
+    resp, model = fc.resp, fc.model
     cols = {
         "t_s": resp.t_s,
         "ax_m_s2": resp.acc_m_s2[:, 0],
         "ay_m_s2": resp.acc_m_s2[:, 1],
         "az_m_s2": resp.acc_m_s2[:, 2],
-        "liquid_phi_deg": np.degrees(resp.liquid_rad[:, 0]),
-        "liquid_theta_deg": np.degrees(resp.liquid_rad[:, 1]),
-        "rel_roll_deg": np.degrees(resp.rel_rad[:, 0]),
-        "rel_pitch_deg": np.degrees(resp.rel_rad[:, 1]),
-        "rel_angle_deg": resp.rel_angle_deg,
     }
+    columns = dict(ANGLES)
     if model.radius_m is not None:
-        cols["wall_height_mm"] = model.reading(resp, "wall_height_mm")
+        columns["wall_height_mm"] = wall_height
+    for name, column in columns.items():
+        lo, hi = fc.band(column)
+        stem = name.removesuffix("_deg").removesuffix("_mm")
+        unit = name[len(stem) :]
+        cols.update({name: column(resp, model), f"{stem}_lo{unit}": lo, f"{stem}_hi{unit}": hi})
     return cols
 
 
-def write_prediction(path: str | Path, resp: PoseResponse, model: LiquidModel) -> None:
+def write_prediction(path: str | Path, fc: Forecast) -> None:
     """Write the prediction CSV atomically."""
-    write_csv(path, prediction_columns(resp, model))
+    write_csv(path, prediction_columns(fc))

@@ -19,7 +19,7 @@ from sloshid.core.tables import to_pandas
 from sloshid.identification.signals import Signal
 from sloshid.identification.stage import check_sampling
 from sloshid.model.pose import PoseLog
-from sloshid.validation.predict import LiquidModel, predict
+from sloshid.validation.predict import LiquidModel, forecast
 from sloshid.validation.scoring import LEAD_IN_S, Alignment, PhaseScore, align, baseline, score
 
 PHASES = ("all", "during", "after")
@@ -72,8 +72,27 @@ class ValidationRun:
     measured: np.ndarray
     predicted: np.ndarray
     scores: dict[str, PhaseScore]
+    lo: np.ndarray | None = None
+    """The 95 % band's lower edge on the scored samples (None: no band)."""
+    hi: np.ndarray | None = None
+    notes: tuple[str, ...] = ()
+    """The prediction's extrapolation notes."""
     in_sample: bool = False
     """The model was identified from this very measurement: its scores show the fit, not a prediction."""
+
+    @property
+    def band_peak(self) -> tuple[float, float]:
+        """The band's edges for the peak during the move: the peaks of its lower and upper edges."""
+        during = (self.t_s >= self.move_s[0]) & (self.t_s <= self.move_s[1])
+        if self.lo is None or not during.any():
+            return (float("nan"), float("nan"))
+        return float(self.lo[during].max()), float(self.hi[during].max())
+
+    @property
+    def peak_in_band(self) -> bool:
+        """The measured peak during the move lies inside the band of the predicted peak."""
+        lo, hi = self.band_peak
+        return bool(lo <= self.scores["during"].peak_measured <= hi)
 
     @property
     def unit(self) -> str:
@@ -91,6 +110,9 @@ class ValidationRun:
             "baseline": self.baseline,
             "move_s": list(self.move_s),
             "scores": {k: v.to_dict() for k, v in self.scores.items()},
+            "band_peak": list(self.band_peak),
+            "peak_in_band": self.peak_in_band,
+            "notes": list(self.notes),
         }
 
     def plot(self, axes=None):
@@ -105,6 +127,8 @@ class ValidationRun:
         s = self.scores
         axes[0].plot(t, self.measured, color="0.25", lw=0.8, label="measured")
         axes[0].plot(t, self.predicted, color="tab:orange", lw=1.0, label="predicted")
+        if self.lo is not None:
+            axes[0].fill_between(t, self.lo, self.hi, color="tab:orange", alpha=0.2, lw=0, label="95 % band")
         axes[0].set_ylabel(f"{self.kind.rsplit('_', 1)[0].replace('_', ' ')} ({self.unit})")
         axes[0].set_title(
             f"{self.name}: fit {s['all'].fit_percent:.0f} % (during {s['during'].fit_percent:.0f} %, after "
@@ -129,8 +153,10 @@ def validate_run(pose: PoseLog, sig: Signal, model: LiquidModel, name: str = "")
     check_sampling(sig.source, sig.rate_hz, (model.params.f_hz, model.params.f_hz))
     kind = measured_kind(sig, model)
     y_all = measured_magnitude(sig, kind)
-    resp = predict(pose, model, settle_s=float(sig.t_s[-1] - sig.t_s[0]) + 1.0, rtol=FIT_RTOL)
+    fc = forecast(pose, model, settle_s=float(sig.t_s[-1] - sig.t_s[0]) + 1.0, rtol=FIT_RTOL)
+    resp = fc.resp
     pred = model.reading(resp, kind)
+    band = fc.band(lambda r, m: m.reading(r, kind))
     move = resp.move_span_s
     al = align(sig.t_s, y_all, resp.t_s, pred, move)
     base = baseline(sig.t_s, y_all, move[0] + al.lag_s)
@@ -140,7 +166,10 @@ def validate_run(pose: PoseLog, sig: Signal, model: LiquidModel, name: str = "")
     yhat = np.interp(t, resp.t_s, pred, left=pred[0])
     during, after = (t >= move[0]) & (t <= move[1]), t > move[1]
     scores = {"all": score(y, yhat), "during": score(y[during], yhat[during]), "after": score(y[after], yhat[after])}
-    return ValidationRun(name or Path(sig.source).stem, kind, al, base, move, t, y, yhat, scores)
+    lo, hi = (np.interp(t, resp.t_s, edge, left=edge[0]) for edge in band)
+    return ValidationRun(
+        name or Path(sig.source).stem, kind, al, base, move, t, y, yhat, scores, lo, hi, tuple(fc.notes)
+    )
 
 
 def medians(runs: list[ValidationRun]) -> dict[str, dict[str, float]]:
@@ -152,6 +181,7 @@ def medians(runs: list[ValidationRun]) -> dict[str, dict[str, float]]:
         fits = [r.scores[phase].fit_percent for r in runs]
         peaks = [abs(r.scores[phase].peak_error_percent) for r in runs]
         out[phase] = {"fit_percent": _nanmedian(fits), "abs_peak_error_percent": _nanmedian(peaks)}
+    out["band_coverage"] = float(np.mean([r.peak_in_band for r in runs]))
     return out
 
 
@@ -165,7 +195,7 @@ def table_text(runs: list[ValidationRun]) -> str:
     """Aligned plain-text table of the runs, with the median row when there are several."""
     head = (
         f"{'run':34s} {'lag_s':>7s} {'r':>5s} {'fit_%':>6s} {'fit_move_%':>10s} {'fit_after_%':>11s} {'peak_err_%':>10s} "
-        f"{'peak_after_err_%':>16s}"
+        f"{'peak_after_err_%':>16s} {'band_peak':>15s}"
     )
     lines = [head]
     for r in runs:
@@ -174,19 +204,26 @@ def table_text(runs: list[ValidationRun]) -> str:
         lines.append(
             f"{name:34s} {r.alignment.lag_s:7.2f} {r.alignment.correlation:5.2f} {s['all'].fit_percent:6.1f} "
             f"{s['during'].fit_percent:10.1f} {s['after'].fit_percent:11.1f} {s['during'].peak_error_percent:+10.1f} "
-            f"{s['after'].peak_error_percent:+16.1f}"
+            f"{s['after'].peak_error_percent:+16.1f} {_band_cell(r):>15s}"
         )
     if len(runs) > 1:
         m = medians(runs)
         lines.append(
             f"{'median (|peak error|)':34s} {'':7s} {'':5s} {m['all']['fit_percent']:6.1f} "
             f"{m['during']['fit_percent']:10.1f} {m['after']['fit_percent']:11.1f} "
-            f"{m['during']['abs_peak_error_percent']:10.1f} {m['after']['abs_peak_error_percent']:16.1f}"
+            f"{m['during']['abs_peak_error_percent']:10.1f} {m['after']['abs_peak_error_percent']:16.1f} "
+            f"{100 * m['band_coverage']:8.0f} % in"
         )
     if any(r.in_sample for r in runs):
         where = "" if all(r.in_sample for r in runs) else "; the median leaves them out"
         lines.append(f"* the model was identified from this measurement: a fit, not a prediction{where}")
     return "\n".join(lines)
+
+
+def _band_cell(run: ValidationRun) -> str:
+    """The band of the predicted peak, starred when the measured peak lies outside it."""
+    lo, hi = run.band_peak
+    return f"{lo:.3g}-{hi:.3g}{'' if run.peak_in_band else ' !'}"
 
 
 def build_report(runs: list[ValidationRun], model: LiquidModel, title: str = "sloshid validate"):
@@ -196,9 +233,8 @@ def build_report(runs: list[ValidationRun], model: LiquidModel, title: str = "sl
     rep = Report(title)
     p = model.params
     rep.add_text(
-        f"Model: f = {p.f_hz:.4g} Hz, zeta = {p.zeta:.3g}, input gain {model.input_gain:.3g}, output gain "
-        f"{model.output_gain:.3g}, crest coefficient {model.crest_coeff:.3g}, vertical gain "
-        f"{model.vertical_gain:.3g}, radius "
+        f"Model: a spherical pendulum at the surface, f = {p.f_hz:.4g} Hz, zeta = {p.zeta:.3g}; the wall reads the "
+        f"static surface plus {model.wave_share:.3g} of the wave, crest coefficient {model.crest_coeff:.3g}; radius "
         f"{'-' if model.radius_m is None else f'{1000 * model.radius_m:.1f} mm'}, axis offset "
         f"{1000 * model.axis_offset_m:.0f} mm, acceleration smoothing {1000 * model.smooth_s:.0f} ms (Savitzky-Golay)."
     )
@@ -208,7 +244,9 @@ def build_report(runs: list[ValidationRun], model: LiquidModel, title: str = "sl
         "fit % = 100 (1 - |y - yhat| / |y - mean y|) over the whole scored record (from 1 s before the move), during "
         "the move and after it; peak error % = predicted peak over measured peak during the move, minus 1 (after it: "
         "peak_after_err_%, where a model that leaves the liquid at rest reads -100 %); lag: "
-        "measured time minus trajectory time, from the cross-correlation over the move (r)."
+        "measured time minus trajectory time, from the cross-correlation over the move (r); band_peak: the 95 % band of the "
+        "predicted peak (parameters' errors and the model error calibrated on held-out kinds), ! where the measured peak "
+        "lies outside it; the median row gives the share of runs inside."
     )
     rep.add_heading("Measured and predicted")
     for r in runs:
@@ -246,23 +284,27 @@ class Validation:
     def warnings(self) -> list[str]:
         """Runs whose prediction correlates weakly with the measurement at the best lag (WEAK_ALIGNMENT): the lag, and
         every score after it, may be wrong (a measurement of another move, or noise)."""
-        return [
-            f"run {r.name}: the prediction correlates weakly with the measurement (r = {r.alignment.correlation:.2f} "
-            f"at a lag of {r.alignment.lag_s:.2f} s), so the alignment and the scores may be wrong; check that the "
-            "measurement records this move."
-            for r in self.runs
-            if r.alignment.correlation < WEAK_ALIGNMENT
-        ] + [
-            f"run {r.name}: the model was identified from this measurement, so its scores show how well it was fitted, "
-            "not how well it predicts"
-            + (
-                "; the medians leave it out."
-                if not all(q.in_sample for q in self.runs)
-                else "; validate it on a recorded move it was not fitted to."
-            )
-            for r in self.runs
-            if r.in_sample
-        ]
+        return (
+            [n for r in self.runs for n in r.notes]
+            + [
+                f"run {r.name}: the prediction correlates weakly with the measurement (r = {r.alignment.correlation:.2f} "
+                f"at a lag of {r.alignment.lag_s:.2f} s), so the alignment and the scores may be wrong; check that the "
+                "measurement records this move."
+                for r in self.runs
+                if r.alignment.correlation < WEAK_ALIGNMENT
+            ]
+            + [
+                f"run {r.name}: the model was identified from this measurement, so its scores show how well it was fitted, "
+                "not how well it predicts"
+                + (
+                    "; the medians leave it out."
+                    if not all(q.in_sample for q in self.runs)
+                    else "; validate it on a recorded move it was not fitted to."
+                )
+                for r in self.runs
+                if r.in_sample
+            ]
+        )
 
     def to_dict(self) -> dict[str, Any]:
         """The `--json` content: every run's scores, the medians and the warnings."""
