@@ -429,7 +429,10 @@ def test_bad_input_is_one_sentence_and_exit_2_with_nothing_written(tmp_path, run
     out = tmp_path / "out.csv"
     params_out = tmp_path / "out.json"  # identify writes a parameter JSON
     radius, mm_radius = ("--container-radius-m", 0.05), ("--container-radius-m", 49)
+    twice = ("--trajectory", good, "--measured", tmp_path / "meas.csv")
     cases = [
+        # the same pair twice was scored twice and counted twice in the medians
+        (("validate", *twice, *twice, "--params", params, *radius), "is given more than once"),
         (
             ("validate", "--trajectory", good, "--measured", tmp_path / "flat.csv", "--params", params, *radius),
             "constant",

@@ -185,15 +185,18 @@ def spherical_accel(
     g_eff: float,
     params: SloshParams,
     drag: float = 0.0,
-) -> tuple[float, float]:
+    sin: Callable = math.sin,
+    cos: Callable = math.cos,
+    sqrt: Callable = math.sqrt,
+) -> tuple[Any, Any]:
     """(phi'', theta'') of one spherical pendulum in the surface angles (normal = Ry(theta) Rx(phi) z): the two
     horizontal directions coupled (a swirl's precession, Muchacho et al. 2022), damped on the bob's velocity. With
     phi = 0 it is seed eq. 2 for theta; with theta = 0, for -phi (`angle_accel`, up to the damping's cos^2). `drag`
     (per rad) adds damping in proportion to the bob's angular speed: a steep wave's breaking, which bounds what
-    vertical pumping (parametric resonance) can build up."""
-    sp, cp, st, ct = math.sin(phi), math.cos(phi), math.sin(theta), math.cos(theta)
+    vertical pumping (parametric resonance) can build up. `sin`, `cos`, `sqrt`: CasADi's for the compiled integrator."""
+    sp, cp, st, ct = sin(phi), cos(phi), sin(theta), cos(theta)
     w2 = 1.0 / params.l_m
-    c = params.damping_rate_1_s + drag * math.sqrt(dphi * dphi + cp * cp * dtheta * dtheta)
+    c = params.damping_rate_1_s + drag * sqrt(dphi * dphi + cp * cp * dtheta * dtheta)
     phi_dd = -sp * cp * dtheta * dtheta - w2 * (ux * st * sp + uy * cp + g_eff * ct * sp) - c * dphi
     theta_dd = w2 * (ux * ct - g_eff * st) / cp + 2.0 * sp / cp * dphi * dtheta - c * dtheta
     return phi_dd, theta_dd

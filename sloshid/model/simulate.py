@@ -124,18 +124,22 @@ class _Symbols:
 
 
 @lru_cache(maxsize=16)
-def _rk4_chunk(substeps: int, members: int):
-    """CasADi function: `members` pendulum pairs, each over CHUNK_STEPS grid steps of `substeps` RK4 steps.
+def _rk4_chunk(substeps: int, members: int, spherical: bool = False):
+    """CasADi function: `members` pendulum pairs (or, `spherical`, spherical pendulums), each over CHUNK_STEPS grid
+    steps of `substeps` RK4 steps.
 
     Inputs per member: the state [phi, theta, phi', theta'] (4, 1), the acceleration at each step's start and end
-    (3, CHUNK_STEPS) each, linear in between, and (l_m, d/m, dt) per step (3, CHUNK_STEPS); output the state at each
-    step's end. The right-hand side is `pendulum_rhs_3d`, the equations the planner uses."""
+    (3, CHUNK_STEPS) each, linear in between, and (l_m, d/m, dt, drag) per step (4, CHUNK_STEPS); output the state at
+    each step's end. The right-hand side is `pendulum_rhs_3d`, the equations the planner uses, or `spherical_accel`."""
     import casadi as ca
 
-    q, ua, ub, c = ca.SX.sym("q", 4), ca.SX.sym("ua", 3), ca.SX.sym("ub", 3), ca.SX.sym("c", 3)
+    q, ua, ub, c = ca.SX.sym("q", 4), ca.SX.sym("ua", 3), ca.SX.sym("ub", 3), ca.SX.sym("c", 4)
     liquid = _Symbols(c[0], c[1])
 
     def rates(y, u):
+        if spherical:
+            dd = spherical_accel(y[0], y[1], y[2], y[3], u[0], u[1], G + u[2], liquid, c[3], ca.sin, ca.cos, ca.sqrt)
+            return ca.vertcat(y[2], y[3], *dd)
         o = ca.vertcat(0, 0, 0, y[0], y[1], 0, 0, 0, 0, y[2], y[3], 0)
         d = pendulum_rhs_3d(o, [u[0], u[1], u[2]], liquid, ca.sin, ca.cos)
         return ca.vertcat(d[3], d[4], d[9], d[10])
@@ -161,7 +165,12 @@ def rk4_substeps(omega_rad_s: float, dt_s: float, rtol: float) -> int:
 
 
 def simulate_liquids(
-    trajs: Sequence[Trajectory], params: SloshParams | Sequence[SloshParams], settle_s: float = 3.0, rtol: float = 1e-9
+    trajs: Sequence[Trajectory],
+    params: SloshParams | Sequence[SloshParams],
+    settle_s: float = 3.0,
+    rtol: float = 1e-9,
+    spherical: bool = False,
+    drag: float = 0.0,
 ) -> list[LiquidResponse]:
     """The nonlinear pendulums under many trajectories at once, each with its own liquid (or one for all), liquid at
     rest at each start: one compiled integration of the batched state (see `simulate_liquid`)."""
@@ -173,14 +182,21 @@ def simulate_liquids(
     for i, traj in enumerate(trajs):
         by_dt.setdefault(traj.dt_s, []).append(i)
     for dt, members in by_dt.items():
-        states = _integrate_grid([trajs[i] for i in members], [liquids[i] for i in members], dt, settle_s, rtol)
+        batch = [trajs[i] for i in members], [liquids[i] for i in members]
+        states = _integrate_grid(*batch, dt, settle_s, rtol, spherical, drag)
         for i, state in zip(members, states):
             out[i] = _response(trajs[i], state, dt)
     return out  # type: ignore[return-value]
 
 
 def _integrate_grid(
-    trajs: list[Trajectory], liquids: list[SloshParams], dt: float, settle_s: float, rtol: float
+    trajs: list[Trajectory],
+    liquids: list[SloshParams],
+    dt: float,
+    settle_s: float,
+    rtol: float,
+    spherical: bool = False,
+    drag: float = 0.0,
 ) -> list[np.ndarray]:
     """States [phi, theta, phi', theta'] on each trajectory's grid extended by `settle_s` (one array per member):
     the acceleration is linear between samples and zero after arrival."""
@@ -196,10 +212,10 @@ def _integrate_grid(
     for b, traj in enumerate(trajs):  # the step leaving the last sample already sees the container at rest
         ua[b, len(traj.t_s) - 1 :] = 0.0
         ub[b, len(traj.t_s) - 1 :] = 0.0
-    consts = np.array([[p.l_m, p.damping_rate_1_s, dt] for p in liquids])  # (members, 3)
+    consts = np.array([[p.l_m, p.damping_rate_1_s, dt, drag] for p in liquids])  # (members, 4)
     substeps = rk4_substeps(max(p.omega_rad_s for p in liquids), dt, rtol)
-    fn = _rk4_chunk(substeps, members)
-    c = np.repeat(consts.T[:, :, None], CHUNK_STEPS, axis=2).reshape(3, -1)
+    fn = _rk4_chunk(substeps, members, spherical)
+    c = np.repeat(consts.T[:, :, None], CHUNK_STEPS, axis=2).reshape(4, -1)
     # per chunk, member after member along the columns: what map(mapaccum) takes
     ua, ub = (
         a.reshape(members, n_chunks, CHUNK_STEPS, 3).transpose(1, 3, 0, 2).reshape(n_chunks, 3, -1) for a in (ua, ub)
@@ -238,29 +254,7 @@ def simulate_liquid(
     The acceleration is linear between samples and zero after arrival; the container holds its last pose. The inputs
     change only at the samples, so a fixed-step RK4 on the trajectory's grid (`rk4_substeps` per interval, from
     `rtol`) is as exact as an adaptive solver there: it agrees with DOP853 at rtol 1e-12 to 1e-5 deg (tests). `atol`
-    applies to the spherical pendulum only, which runs on the adaptive solver (`integrate_pendulums`).
+    is what callers of the adaptive solver this replaced still pass; a fixed step has no absolute tolerance.
     """
-    if not spherical:
-        return simulate_liquids([traj], params, settle_s, rtol)[0]
-    # the spherical pendulum (prediction's model) on the adaptive solver, its acceleration linear between samples
-    t = traj.t_s
-    dt = traj.dt_s
-    n_after = int(np.ceil(settle_s / dt))
-    t_all = np.concatenate([t, t[-1] + dt * np.arange(1, n_after + 1)])
-    t0, t_end, n = float(t[0]), float(t[-1]), len(t)
-    rows = traj.acc_m_s2.tolist()
-
-    def moving(time: float) -> tuple[float, float, float]:
-        # linear between samples (as np.interp), in plain floats for speed
-        s = (time - t0) / dt
-        i = min(max(int(s), 0), n - 2)
-        f = s - i
-        a, b = rows[i], rows[i + 1]
-        return a[0] + f * (b[0] - a[0]), a[1] + f * (b[1] - a[1]), a[2] + f * (b[2] - a[2])
-
-    # max_step only keeps the integrator from stepping over a move that starts after an idle lead-in
-    pieces = [(t0, t_end, moving), (t_end, float(t_all[-1]), lambda _t: (0.0, 0.0, 0.0))]
-    state = integrate_pendulums(
-        pieces, t_all, params, rtol=rtol, atol=atol, max_step=max(2 * dt, 5e-3), spherical=True, drag=drag
-    )
-    return _response(traj, state, dt)
+    del atol
+    return simulate_liquids([traj], params, settle_s, rtol, spherical, drag)[0]

@@ -181,7 +181,7 @@ def medians(runs: list[ValidationRun]) -> dict[str, dict[str, float]]:
         fits = [r.scores[phase].fit_percent for r in runs]
         peaks = [abs(r.scores[phase].peak_error_percent) for r in runs]
         out[phase] = {"fit_percent": _nanmedian(fits), "abs_peak_error_percent": _nanmedian(peaks)}
-    out["band_coverage"] = float(np.mean([r.peak_in_band for r in runs]))
+    out["band_coverage"] = float(np.mean([r.peak_in_band for r in runs])) if runs else float("nan")
     return out
 
 
@@ -334,6 +334,10 @@ def validate(poses: list[PoseLog], signals: list[Signal], model: LiquidModel) ->
             f"give one {{name}} per measurement, in the same order: {len(poses)} trajectories, "
             f"{len(signals)} measurements.",
         )
+    pairs = [(str(Path(p.source).resolve()), str(Path(s.source).resolve())) for p, s in zip(poses, signals)]
+    twice = next((pair for pair in pairs if pairs.count(pair) > 1), None)
+    if twice is not None:  # it was scored twice, and its run counted twice in the medians
+        raise UserError(f"the run {twice[1]} with {twice[0]} is given more than once; each run is scored once.")
     names = [Path(s.source).stem for s in signals]
     # one measured file against several trajectories (or files of one name): each run named by both
     names = [n if names.count(n) == 1 else f"{n} ({Path(p.source).stem})" for n, p in zip(names, poses)]
