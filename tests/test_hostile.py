@@ -152,3 +152,15 @@ def test_what_a_killed_run_left_is_removed_by_the_next(tmp_path, run_cli):
     assert not list(Path(out.strip()).parent.glob(".running-*"))  # a finished run carries no mark
     parts = sorted(p.name for p in (root / ".cache" / "track").glob(".*.part"))
     assert parts == [live.name]
+
+
+def test_ten_thousand_waypoints_are_refused_before_any_solve(tmp_path, run_cli):
+    # each stop is a segment of its own: 10,000 ran for hours without a word
+    text = DEMO.read_text()
+    points = ", ".join(f"[{0.3 + 1e-4 * k:.4f}, -0.27, 0.2]" for k in range(10_000))
+    start = text.index("start = [")
+    goal_end = text.index("\n", text.index("goal = ["))
+    path = tmp_path / "many.toml"
+    path.write_text(text[:start] + f"waypoints = [{points}]" + text[goal_end:])
+    code, _, err = run_cli("plan", path, "-o", tmp_path / "p.csv")
+    assert code == 2 and "holds 10000 positions; at most 100 stops" in err

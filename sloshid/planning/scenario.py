@@ -28,6 +28,11 @@ ARM_KEYS = ("model", "base_xyz_m", "base_rpy_deg", "tool_offset_m", "q_start", "
 Vec3 = tuple[float, float, float]
 
 
+MAX_WAYPOINTS = 100
+"""Most stops a [move] may make: each is an optimal-control segment of its own (a second or so to solve), and 10,000
+ran for hours without a word."""
+
+
 @dataclass(frozen=True)
 class Move:
     """[move]: either `start` and `goal`, or `waypoints` (the container stops at each), positions in m."""
@@ -46,6 +51,11 @@ class Move:
             raise UserError("[move] needs both start and goal (m), or a waypoints list.")
         if self.waypoints is not None and len(self.waypoints) < 2:
             raise UserError("[move].waypoints needs at least two positions (start and goal).")
+        if self.waypoints is not None and len(self.waypoints) > MAX_WAYPOINTS:
+            raise UserError(
+                f"[move].waypoints holds {len(self.waypoints)} positions; at most {MAX_WAYPOINTS} stops (each is a "
+                "segment solved on its own): a path through many points is a [path] table."
+            )
         points = self.points()
         for i, (a, b) in enumerate(itertools.pairwise(points)):
             if math.dist(a, b) < 1e-6:
