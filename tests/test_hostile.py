@@ -164,3 +164,22 @@ def test_ten_thousand_waypoints_are_refused_before_any_solve(tmp_path, run_cli):
     path.write_text(text[:start] + f"waypoints = [{points}]" + text[goal_end:])
     code, _, err = run_cli("plan", path, "-o", tmp_path / "p.csv")
     assert code == 2 and "holds 10000 positions; at most 100 stops" in err
+
+
+def test_a_home_matplotlib_cannot_write_puts_nothing_on_stderr(tmp_path):
+    # two Matplotlib lines ("mkdir -p failed ...", "created a temporary cache directory ...") before every report
+    # command's output; a HOME whose .config and .cache are files stands in for a read-only one (root writes anywhere)
+    import os
+    import subprocess
+    import sys
+
+    home = tmp_path / "home"
+    home.mkdir()
+    (home / ".config").touch()
+    (home / ".cache").touch()
+    drop = ("MPLCONFIGDIR", "XDG_CONFIG_HOME", "XDG_CACHE_HOME")
+    env = {**{k: v for k, v in os.environ.items() if k not in drop}, "HOME": str(home)}
+    cmd = [sys.executable, "-m", "sloshid", "plan", DEMO, "-o", tmp_path / "p.csv", "--report", tmp_path / "rep"]
+    proc = subprocess.run(cmd, capture_output=True, text=True, env=env, timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    assert "atplotlib" not in proc.stderr and (tmp_path / "rep" / "index.html").exists()

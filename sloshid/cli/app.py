@@ -3,13 +3,16 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import errno
 import importlib
 import os
 import re
 import signal
 import sys
+import tempfile
 from collections.abc import Sequence
+from pathlib import Path
 from typing import NoReturn
 
 from sloshid.core.errors import SettingError, UserError
@@ -138,6 +141,22 @@ _PATH_TROUBLE = {
 """The file system's refusals of a path, in words: any other one is named by the system's own message."""
 
 
+def _matplotlib_folder() -> None:
+    """Matplotlib's settings and font cache in a private folder of the temporary directory when its own folder cannot
+    be written (a read-only or odd HOME): it said so in two lines on stderr before every report command's output."""
+    if "MPLCONFIGDIR" in os.environ:
+        return
+    probe = Path(os.environ.get("XDG_CONFIG_HOME") or Path.home() / ".config") / "matplotlib"
+    while not probe.exists() and probe.parent != probe:
+        probe = probe.parent
+    if probe.is_dir() and os.access(probe, os.W_OK | os.X_OK):
+        return
+    private = Path(tempfile.gettempdir()) / f"sloshid-matplotlib-{os.getuid()}"
+    with contextlib.suppress(OSError):
+        private.mkdir(mode=0o700, exist_ok=True)
+        os.environ["MPLCONFIGDIR"] = str(private)
+
+
 def _reopen_closed_streams() -> None:
     """Standard output or error closed by the caller (`cmd >&-`): /dev/null in its place, so that printing works and no
     file this run opens is given its descriptor (where a library's writes to it would land)."""
@@ -154,6 +173,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     _reopen_closed_streams()
     os.environ.setdefault("MPLBACKEND", "Agg")  # a command draws figures into files, never into windows
+    _matplotlib_folder()
     wanted = next((a for a in argv if a in COMMANDS), None)
     args = None
     previous = signal.signal(signal.SIGTERM, _on_sigterm)
