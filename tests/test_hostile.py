@@ -183,3 +183,14 @@ def test_a_home_matplotlib_cannot_write_puts_nothing_on_stderr(tmp_path):
     proc = subprocess.run(cmd, capture_output=True, text=True, env=env, timeout=300)
     assert proc.returncode == 0, proc.stderr
     assert "atplotlib" not in proc.stderr and (tmp_path / "rep" / "index.html").exists()
+
+
+def test_a_cache_that_is_a_file_is_refused_before_any_stage_runs(tmp_path, run_cli):
+    # every stage ran its work and then failed to store it ("could not write .../.cache/track/...: Not a directory")
+    pipe = tmp_path / "p.toml"
+    pipe.write_text(f'[track]\nvideos = ["{ROOT / "data" / "sample_tap.mp4"}"]\n')
+    (tmp_path / "runs" / "p").mkdir(parents=True)
+    (tmp_path / "runs" / "p" / ".cache").touch()
+    code, out, err = run_cli("run", pipe, "--output-dir", tmp_path / "runs")
+    assert code == 2 and ".cache is a file, not a folder" in err and "[track] running" not in out + err
+    assert [p.name for p in (tmp_path / "runs" / "p").iterdir()] == [".cache"]  # no run folder made

@@ -246,6 +246,7 @@ def _new_run_dir(pipeline: Pipeline, output_dir: str | Path | None) -> tuple[Pat
     run_id = datetime.now(timezone.utc).strftime("%Y%m%d-%H%M%S-%f")
     run_dir = root / run_id
     writable_folder(run_dir, "the run folder", run_dir)
+    writable_folder(root / ".cache" / "stage", "the stages' cache", root / ".cache")  # a file there failed every stage
     if root.is_dir():
         _remove_killed_runs(root)
     try:
