@@ -194,3 +194,23 @@ def test_a_cache_that_is_a_file_is_refused_before_any_stage_runs(tmp_path, run_c
     code, out, err = run_cli("run", pipe, "--output-dir", tmp_path / "runs")
     assert code == 2 and ".cache is a file, not a folder" in err and "[track] running" not in out + err
     assert [p.name for p in (tmp_path / "runs" / "p").iterdir()] == [".cache"]  # no run folder made
+
+
+def test_a_cached_stage_replaced_by_a_link_runs_again_and_leaves_the_target(tmp_path, run_cli):
+    # "OSError: Cannot call rmtree on a symbolic link" once the linked folder differed from what the stage wrote
+    import shutil
+
+    pipe = tmp_path / "p.toml"
+    pipe.write_text(f'[track]\nvideos = ["{ROOT / "data" / "sample_tap.mp4"}"]\n')
+    runs = tmp_path / "runs"
+    assert run_cli("run", pipe, "--output-dir", runs, "--quiet")[0] == 0
+    (cache,) = (runs / "p" / ".cache" / "track").iterdir()
+    elsewhere = tmp_path / "elsewhere"
+    shutil.copytree(cache, elsewhere)
+    (elsewhere / "mine.txt").write_text("a user's file")
+    shutil.rmtree(cache)
+    cache.symlink_to(elsewhere)
+    code, out, err = run_cli("run", pipe, "--output-dir", runs)
+    assert code == 0, err
+    assert "is a link, not the folder it wrote; running it again" in out + err
+    assert cache.is_dir() and not cache.is_symlink() and (elsewhere / "mine.txt").read_text() == "a user's file"

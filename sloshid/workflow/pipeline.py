@@ -260,6 +260,9 @@ def _new_run_dir(pipeline: Pipeline, output_dir: str | Path | None) -> tuple[Pat
 def _run_stage(stage: Stage, settings: Any, key: str, cache: Path, ctx: StageContext, log) -> StageRecord:
     """Run one stage into its cache folder (or reuse it) and record what happened; a failure is recorded."""
     start = time.perf_counter()
+    if cache.is_symlink():  # not the folder the stage wrote: the link goes, what it points at is left alone
+        log(f"[{stage.name}] its cache folder {cache} is a link, not the folder it wrote; running it again")
+        cache.unlink()
     damage = _cache_damage(cache) if cache.is_dir() else None
     if damage is not None:  # run again, not reused with a file lost or edited (a run's folder once linked into it)
         log(f"[{stage.name}] its cached outputs differ from what it wrote ({damage}), running it again")
