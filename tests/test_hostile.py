@@ -127,10 +127,10 @@ def test_a_nul_byte_in_a_pipeline_is_one_sentence(tmp_path, run_cli):
 def test_what_a_killed_run_left_is_removed_by_the_next(tmp_path, run_cli):
     # a run killed outright (SIGKILL) left its run folder without manifest or index, and its stage's half-made cache
     # folder (.part) was never cleaned up by later runs; a live run's are left alone
-    import os
     import subprocess
     import sys
 
+    from sloshid.core.atomic import writer_tag
     from sloshid.synthetic.render import SynthSettings, render_video
 
     video = tmp_path / "v.mp4"
@@ -141,9 +141,9 @@ def test_what_a_killed_run_left_is_removed_by_the_next(tmp_path, run_cli):
     dead = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"], capture_output=True, text=True)
     gone = int(dead.stdout)  # a process id that has just ended
     (root / "20260101-000000-000000").mkdir(parents=True)
-    (root / "20260101-000000-000000" / f".running-{gone}").touch()
-    (root / ".cache" / "track" / f".abc.{gone}-0123456789abcdef.part").mkdir(parents=True)
-    live = root / ".cache" / "track" / f".abc.{os.getpid()}-0123456789abcdef.part"
+    (root / "20260101-000000-000000" / f".running-{writer_tag(gone)}").touch()
+    (root / ".cache" / "track" / f".abc.{writer_tag(gone)}-0123456789abcdef.part").mkdir(parents=True)
+    live = root / ".cache" / "track" / f".abc.{writer_tag()}-0123456789abcdef.part"
     live.mkdir()
     code, out, err = run_cli("run", pipe, "--output-dir", tmp_path / "runs", "--quiet")
     assert code == 0, err
@@ -152,6 +152,12 @@ def test_what_a_killed_run_left_is_removed_by_the_next(tmp_path, run_cli):
     assert not list(Path(out.strip()).parent.glob(".running-*"))  # a finished run carries no mark
     parts = sorted(p.name for p in (root / ".cache" / "track").glob(".*.part"))
     assert parts == [live.name]
+    # another machine's run on a shared folder: its processes cannot be seen from here, so it is never swept
+    other = root / "20260101-000000-000001"
+    other.mkdir()
+    (other / f".running-00000000-{gone}").touch()
+    assert run_cli("run", pipe, "--output-dir", tmp_path / "runs", "--quiet")[0] == 0
+    assert other.is_dir()
 
 
 def test_ten_thousand_waypoints_are_refused_before_any_solve(tmp_path, run_cli):

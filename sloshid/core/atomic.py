@@ -6,11 +6,13 @@ names the output, and the temporary file is removed."""
 from __future__ import annotations
 
 import contextlib
+import hashlib
 import json
 import os
 import re
 import secrets
 import shutil
+import socket
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -24,7 +26,14 @@ def _sibling(target: Path, suffix: str) -> Path:
 
     The name is chosen before anything is created, so that a `finally` can remove whatever exists under it: an
     interruption (SIGTERM, Ctrl-C) between creating the file and entering a `try` would otherwise leave it behind."""
-    return target.parent / f".{target.name}.{os.getpid()}-{secrets.token_hex(8)}{suffix}"
+    return target.parent / f".{target.name}.{writer_tag()}-{secrets.token_hex(8)}{suffix}"
+
+
+def writer_tag(pid: int | None = None) -> str:
+    """`<host>-<pid>` of the writing process (this one by default), the host as 8 hex digits of its name's hash: a
+    folder shared by several machines holds the work of processes this one cannot see."""
+    host = hashlib.sha256(socket.gethostname().encode()).hexdigest()[:8]
+    return f"{host}-{os.getpid() if pid is None else pid}"
 
 
 def _alive(pid: int) -> bool:
@@ -39,10 +48,13 @@ def _alive(pid: int) -> bool:
 
 
 def writer_gone(name: str) -> bool:
-    """Whether the process id in a temporary or marker name (`.<name>.<pid>-<token>.part`, `.running-<pid>`) is of no
-    running process: what it was writing will never be finished (SIGKILL, a power cut)."""
-    match = re.search(r"[.-](\d+)(?:-[0-9a-f]{16})?(?:\.part\b|$)", name)
-    return match is not None and not _alive(int(match.group(1)))
+    """Whether the `writer_tag` in a temporary or marker name (`.<name>.<tag>-<token>.part`, `.running-<tag>`) is of a
+    process of this machine that no longer runs: what it was writing will never be finished (SIGKILL, a power cut).
+    Another machine's processes are never judged gone."""
+    match = re.search(r"[.-]([0-9a-f]{8})-(\d+)(?:-[0-9a-f]{16})?(?:\.part\b|$)", name)
+    if match is None or match.group(1) != writer_tag().split("-")[0]:
+        return False
+    return not _alive(int(match.group(2)))
 
 
 def remove_orphans(folder: Path) -> None:

@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import dataclasses
 import json
-import os
 import shutil
 import time
 from collections.abc import Callable
@@ -19,7 +18,7 @@ from pathlib import Path
 from typing import Any, Literal
 
 from sloshid import __version__
-from sloshid.core.atomic import atomic_dir, remove_orphans, write_text, writer_gone
+from sloshid.core.atomic import atomic_dir, remove_orphans, write_text, writer_gone, writer_tag
 from sloshid.core.errors import SettingError, UserError, input_file
 from sloshid.core.hashing import file_sha256, json_sha256
 from sloshid.core.outputs import writable_folder
@@ -251,7 +250,7 @@ def _new_run_dir(pipeline: Pipeline, output_dir: str | Path | None) -> tuple[Pat
         _remove_killed_runs(root)
     try:
         run_dir.mkdir(parents=True)
-        (run_dir / RUNNING_MARK.format(pid=os.getpid())).touch()
+        (run_dir / RUNNING_MARK.format(writer=writer_tag())).touch()
     except OSError as exc:
         raise UserError(f"could not create the run folder {run_dir}: {exc.strerror or exc}.") from None
     return root, run_dir, run_id
@@ -318,18 +317,19 @@ def run_pipeline(
     except BaseException:  # a run folder that cannot be finished (a full disk, Ctrl-C) is not left half-written
         shutil.rmtree(run_dir, ignore_errors=True)
         raise
-    (run_dir / RUNNING_MARK.format(pid=os.getpid())).unlink()
+    (run_dir / RUNNING_MARK.format(writer=writer_tag())).unlink()
     return PipelineRun(run_dir, index, records)
 
 
-RUNNING_MARK = ".running-{pid}"
-"""In a run folder while its run goes on: one whose process is gone (killed) is removed by the next run."""
+RUNNING_MARK = ".running-{writer}"
+"""In a run folder while its run goes on (`writer_tag`): one whose process is gone (killed) is removed by the next run
+on the same machine."""
 
 
 def _remove_killed_runs(root: Path) -> None:
     """Remove what runs killed outright (SIGKILL, a power cut) left under `root`: their unfinished run folders and
     the temporary folders of the stages they were caching."""
-    for mark in root.glob("*/" + RUNNING_MARK.format(pid="*")):
+    for mark in root.glob("*/" + RUNNING_MARK.format(writer="*")):
         if writer_gone(mark.name):
             shutil.rmtree(mark.parent, ignore_errors=True)
     for stage in (root / ".cache").glob("*"):
