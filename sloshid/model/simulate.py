@@ -117,7 +117,8 @@ CHUNK_STEPS = 1000
 
 
 class _Symbols:
-    """The two constants `angle_accel` reads from a SloshParams, as CasADi symbols (one function for every liquid)."""
+    """The two constants the pendulum equations read from a SloshParams, as CasADi symbols (one function for every
+    liquid)."""
 
     def __init__(self, l_m, damping_rate_1_s) -> None:
         self.l_m, self.damping_rate_1_s = l_m, damping_rate_1_s
