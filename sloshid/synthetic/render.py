@@ -527,27 +527,29 @@ class _FloatScene:
 
 
 def check_in_picture(
-    s: SynthSettings, sc: SceneGeometry, mo: Motion, h2: np.ndarray | float = 0.0, rim: bool = True
+    s: SynthSettings, sc: SceneGeometry, mo: Motion, h2: np.ndarray | float = 0.0, surface: bool = True
 ) -> None:
-    """Refuse a motion whose picture cannot be drawn: the liquid turned past the vertical, or, with `rim` (the dyed
-    surface, whose wall heights are truth), above the container's rim (drawn cut off at it, with the truth going on: a
-    trial's move reached 233 px up a wall and 63 deg); or the container beyond the picture's side at some frame. The
-    float scene's truth is the float's angle, which a liquid above the rim leaves right."""
+    """Refuse a motion whose picture cannot be drawn: the liquid turned past the vertical, or, for the dyed `surface`
+    (whose wall heights are truth), above the container's rim (drawn cut off at it, with the truth going on: a trial's
+    move reached 233 px up a wall and 63 deg); and what is measured beyond the picture's side at some frame: the
+    container's walls for the surface, the float for the float scene (whose truth holds with the liquid above the
+    rim, or the walls cut off by a tight picture)."""
     turn = float(np.max(np.abs(mo.rel)))
     # past the vertical the surface's tangent wraps round: the liquid is over the rim whatever it gives
     peak = math.inf if turn >= math.pi / 2 else float(np.max(sc.inner_w / 2 * np.abs(np.tan(mo.rel)) + np.abs(h2)))
-    if peak > (sc.head if rim else math.inf) or not math.isfinite(peak):
+    if peak > (sc.head if surface else math.inf) or not math.isfinite(peak):
         where = f"reach {peak:.0f} px up a wall" if math.isfinite(peak) else f"turn {math.degrees(turn):.0f} deg"
         raise UserError(
             f"the liquid would {where}, above the container's rim ({sc.head:.0f} px above the liquid at rest): a "
             "picture cannot show it; lower --amplitude, --accel or --second-mode."
         )
-    reach = sc.inner_w / 2 + sc.wall
-    left, right = float(np.min(sc.x0 + mo.dx)) - reach, float(np.max(sc.x0 + mo.dx)) + reach
-    if left < 0 or right > s.width:
+    lo, hi = float(np.min(sc.x0 + mo.dx)), float(np.max(sc.x0 + mo.dx))
+    measured = sc.inner_w / 2 + sc.wall if surface else 0.5 * s.float_length_frac * s.height
+    if lo - measured < 0 or hi + measured > s.width:  # the float leaving, the container (wider) leaves too
+        reach = sc.inner_w / 2 + sc.wall
         raise UserError(
-            f"the container would leave the {s.width} px wide picture (its sides reach x = {left:.0f} to {right:.0f} "
-            "px): lower --travel, --px-per-m or --accel, or widen --width."
+            f"the container would leave the {s.width} px wide picture (its sides reach x = {lo - reach:.0f} to "
+            f"{hi + reach:.0f} px): lower --travel, --px-per-m or --accel, or widen --width."
         )
 
 
@@ -566,7 +568,7 @@ def render_frames(s: SynthSettings):
     mo = _motion(s)
     t, rel, tilt, dx, accel, drift = mo.t, mo.rel, mo.tilt, mo.dx, mo.accel, mo.drift
     scene = _FloatScene(s)
-    check_in_picture(s, scene.sc, mo, rim=False)
+    check_in_picture(s, scene.sc, mo, surface=False)
     sc, roll = scene.sc, math.radians(s.camera_roll_deg)
     noise = NoisePool(scene.base.shape, s.noise_sigma, mo.rng) if s.noise_sigma > 0 else None
     offsets = (np.linspace(0, 1, 5) - 0.5) * s.motion_blur / s.fps if s.motion_blur > 0 else np.zeros(1)
