@@ -190,17 +190,21 @@ def _edge_points(grad: np.ndarray, usable: np.ndarray) -> tuple[np.ndarray, np.n
 
 def detect_walls(
     frame: np.ndarray, float_x: float, float_y: float, float_len: float, roi: tuple[int, int, int, int]
-) -> list[EdgeLine]:
-    """First frame: the strongest long near-vertical Hough lines left and right of the float, within WALL_REACH float
-    lengths of it, as coarse edges (the nearest were often lines inside the liquid: its refraction, a label's edge)."""
+) -> tuple[list[EdgeLine], list[EdgeLine]]:
+    """First frame: long near-vertical Hough lines left and right of the float, as coarse edges: the nearest on each
+    side (whose edges `_follow` fits row by row), and the strongest within WALL_REACH float lengths (the glass's
+    edges' seeds when those rows are too noisy: there the nearest were often lines inside the liquid, its refraction
+    or a label's edge)."""
     x, y, w, h = roi
     gray = cv2.GaussianBlur(cv2.cvtColor(frame[y : y + h, x : x + w], cv2.COLOR_BGR2GRAY), (0, 0), 1.0)
     edges = cv2.Canny(gray, 30, 90)
     min_len = max(20, int(0.6 * float_len))
     lines = cv2.HoughLines(edges, 1, np.pi / 720, min_len, min_theta=0, max_theta=np.pi)
     if lines is None:
-        return []
-    best: dict[int, tuple[float, EdgeLine]] = {}
+        return [], []
+    nearest: dict[int, tuple[float, EdgeLine]] = {}
+    strongest: dict[int, EdgeLine] = {}
+    span = int(1.5 * float_len)
     for rho, theta in lines[:, 0]:
         if theta > np.pi / 2:
             rho, theta = -rho, theta - np.pi
@@ -211,11 +215,14 @@ def detect_walls(
         b = rho / math.cos(theta) - a * y + x  # back to frame coordinates
         xf = a * float_y + b
         side = -1 if xf < float_x - 0.5 * float_len else (1 if xf > float_x + 0.5 * float_len else 0)
-        if side == 0 or side in best or abs(xf - float_x) > WALL_REACH * float_len:
-            continue  # OpenCV lists the lines by their votes: the first on each side is the strongest
-        span = int(1.5 * float_len)
-        best[side] = EdgeLine(a, b, int(float_y - span), int(float_y + span), math.inf, 0)
-    return [best[s] for s in sorted(best)]
+        if side == 0:
+            continue
+        line, dist = EdgeLine(a, b, int(float_y - span), int(float_y + span), math.inf, 0), abs(xf - float_x)
+        if side not in nearest or dist < nearest[side][0]:
+            nearest[side] = (dist, line)
+        if side not in strongest and dist <= WALL_REACH * float_len:  # OpenCV lists the lines by their votes
+            strongest[side] = line
+    return [nearest[s][1] for s in sorted(nearest)], [strongest[s] for s in sorted(strongest)]
 
 
 WALL_REACH = 4.0
@@ -335,7 +342,9 @@ class ContainerTracker:
         self._held = 0  # frames it has been held for since
         self._ends: tuple | None = None  # the measured frame's wall ends: rows, columns, grey, `_edges_of` the grey
         self._on_glass = False  # the walls are found by `glass_edges` (Hough and the rows' edges found none)
-        self._hough: list[EdgeLine] = []  # the last Hough lines whose edges could not be followed row by row
+        self._hough: list[
+            EdgeLine
+        ] = []  # the strongest Hough lines of the last detection whose edges were not followed
 
     def measure(
         self,
@@ -396,10 +405,10 @@ class ContainerTracker:
             m = self._follow(frame, rows, frames)
             if m.found:
                 return m, False
-        self._walls, self._shift = detect_walls(frame, float_x, float_y, float_len, self.roi), 0.0
-        hough = self._walls
-        m = self._follow(frame, rows) if hough else ContainerMeasurement(False)
-        self._hough = [] if m.found else hough
+        self._walls, strongest = detect_walls(frame, float_x, float_y, float_len, self.roi)
+        self._shift = 0.0
+        m = self._follow(frame, rows) if self._walls else ContainerMeasurement(False)
+        self._hough = [] if m.found else strongest
         return m, True
 
     def _glass_seeds(
