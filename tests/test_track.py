@@ -36,6 +36,7 @@ from sloshid.tracking.surface import (
     SurfaceMeasurement,
     _container_axes,
     _crossings_first,
+    _front_below,
     _inside,
     _sustained,
 )
@@ -844,6 +845,26 @@ def test_the_front_edge_is_the_crossing_into_the_body_not_a_pale_band_above_it()
     edge, found = _crossings_first(body, _sustained(inside), axis=0)
     assert (plain < 15).any()  # the bare 0.5 crossing lands on the band in some columns
     assert found.all() and np.allclose(edge, 15.5)
+
+
+def test_the_front_edge_below_a_surface_band_that_reads_as_liquid_in_some_columns():
+    # a dark dye's surface ellipse seen from above reflects its own colour in some columns: there the first crossing is
+    # the ellipse's back edge (row 10), in the others its front edge (row 18). Below a gap of two rows without liquid
+    # the body is solid: each column's front edge is at 17.5 (membership 0.0 -> 1.0 between rows 17 and 18)
+    body = np.zeros((40, 30))
+    body[10:13, 0::2] = 1.0  # the band's liquid-coloured top rows in every second column
+    body[18:] = 1.0
+    inside = _inside(body)
+    held = _sustained(inside)
+    first, found = _crossings_first(body, held, axis=0)
+    assert found.all() and np.allclose(first[0::2], 9.5) and np.allclose(first[1::2], 17.5)
+    below = _front_below(body, inside, held, first, found, reach=12)
+    assert np.allclose(below, 17.5)
+    # a gap further than `reach` below the first crossing (a label's edge, a graduation mark) is not taken
+    body[30:32] = 0.0
+    inside = _inside(body)
+    held = _sustained(inside)
+    assert np.allclose(_front_below(body, inside, held, first, found, reach=12), 17.5)
 
 
 def test_surface_target_on_a_float_video_is_a_user_error(tmp_path, run_cli):

@@ -125,6 +125,12 @@ SUSTAIN_ROWS = 3
 """A column's front edge is its first crossing of 0.5 into at least this many rows of liquid (`_sustained`)."""
 LINE_SLOPE_OF_CUBIC = 0.6
 """Least-squares line slope of s^3 over s in [-1, 1]: the cubic's contribution to the best-fit line."""
+FIRST_EDGE_QUALITY = 0.2
+"""A fit of the first crossings at least this good is kept; below it, the crossings below them (`_front_below`) are
+taken where they fit better."""
+MAX_ELEVATION_SIN = 0.3
+"""Largest camera elevation's sine looked for (17 deg): the surface ellipse seen from above is at most this share of
+the inner width tall, so a column's front edge is searched that far below its first crossing (`_front_below`)."""
 
 
 @dataclass
@@ -474,23 +480,31 @@ class SurfaceFinder:
         inner = 1 - margin / half
         span = slice(cols[0], cols[-1] + 1, cols[1] - cols[0])  # views, not copies: the columns are evenly spaced
         start = max(0, first - 1)  # no row above the top one crosses; one row of it keeps a crossing there found
-        colour, found = _crossings_first(body[start:, span], _sustained(inside[start:, span]), axis=0)
+        held_rows = _sustained(inside[start:, span])
+        colour, found = _crossings_first(body[start:, span], held_rows, axis=0)
+        reach = 2 * half * (MAX_ELEVATION_SIN if self._held is None else self._held) + 3
+        below = _front_below(body[start:, span], inside[start:, span], held_rows, colour, found, reach)
         colour += start
+        below += start
         # the elevation and the edge source are chosen in the first frames and then held (a static camera, one dye)
         if self._held is None and len(self._k) >= HOLD_ELEVATION_AFTER:
             self._held = median(np.array(self._k))  # np.median would import numpy.ma (40 ms) in every span worker
             self._edges = self._edge_source()
         du, n = cols - ox, max(10, len(cols) // 3)
-        points = {}  # per edge source: s, w, usable columns, dw, the edge rows
+        # per edge source: (s, w, usable columns, dw, the edge rows) of the first crossings and of those below them
+        points = {}
         for source in ("luma", "colour") if self._edges is None else (self._edges,):
-            front = refine_on_luma(gray[:, span], colour, found) if source == "luma" else colour
-            dw = front - oy
-            wv = du * ewx + dw * ewy
-            sv = (du * eux + dw * euy - uc) / half
-            usable = _continuous(wv, found & (np.abs(sv) <= inner), cols)
-            points[source] = (sv, wv, usable & _locally_consistent(wv, usable), dw, front)
-        if self._edges is None:  # how much each source's edge scatters about a free fit of it
-            fits = [_fit_front(p[0][p[2]], p[1][p[2]], n) for p in (points["luma"], points["colour"])]
+            edges = []
+            for rows in (colour, below) if np.any(below != colour) else (colour,):
+                front = refine_on_luma(gray[:, span], rows, found) if source == "luma" else rows
+                dw = front - oy
+                wv = du * ewx + dw * ewy
+                sv = (du * eux + dw * euy - uc) / half
+                usable = _continuous(wv, found & (np.abs(sv) <= inner), cols)
+                edges.append((sv, wv, usable & _locally_consistent(wv, usable), dw, front))
+            points[source] = tuple(edges)
+        if self._edges is None:  # how much each source's first crossings scatter about a free fit of them
+            fits = [_fit_front(p[0][0][p[0][2]], p[0][1][p[0][2]], n) for p in (points["luma"], points["colour"])]
             if all(fits):
                 self._scatter.append((fits[0][2], fits[1][2]))
         # the measurement from these edge points with a given elevation (k / R; None: fitted with them) and edge
@@ -499,8 +513,8 @@ class SurfaceFinder:
         source = self._edges or "luma"
         m = fitted(self._held, source)
         if m.found:
-            _, _, ok, _, front = points[source]
-            m.band, m.luma = _band(front[ok], cols, (X0, Y0)), (gray, (X0, Y0))
+            fronts = np.concatenate([front[ok] for _, _, ok, _, front in points[source]])
+            m.band, m.luma = _band(fronts, cols, (X0, Y0)), (gray, (X0, Y0))
             m.refit = fitted if self._held is None else None
         return m
 
@@ -521,13 +535,19 @@ def _fitted(points, min_points, geom, origin, where, held, source) -> SurfaceMea
     (aL, _), (aR, _) = walls
     (ox, oy), (eux, euy), (ewx, ewy) = (map(float, v) for v in (o, e_u, e_w))
     ytop, uL, uR, du = where
-    s, wv, ok, dw, _ = points[source]
     half, uc = 0.5 * (uR - uL), 0.5 * (uR + uL)
-    fit = _fit_front(s[ok], wv[ok], min_points, None if held is None else held * half)
-    if fit is None:
+    # the first crossings, or those below them where those fit better and the first ones fit badly (a label's
+    # straight top below a faint dye's surface fits well too)
+    best = None
+    for s, wv, ok, dw, _ in points[source]:
+        fit = _fit_front(s[ok], wv[ok], min_points, None if held is None else held * half)
+        if fit is not None:
+            score = np.count_nonzero(fit[1]) / ok.size * min(1.0, max(0.0, 1.5 - fit[2]))
+            if best is None or (best[0] < FIRST_EDGE_QUALITY and score > best[0]):
+                best = (score, fit, ok, dw)
+    if best is None:
         return SurfaceMeasurement(False, liquid=True)
-    (c0, c1, c3, k), keep, rms = fit
-    kept = np.count_nonzero(keep) / keep.size * np.count_nonzero(ok) / ok.size
+    quality, ((c0, c1, c3, k), _, _), ok, dw = best
     left, right = c0 - c1 - c3, c0 + c1 + c3
     to_img = lambda uu, ww: (X0 + ox + uu * eux + ww * ewx, Y0 + oy + uu * euy + ww * ewy)  # noqa: E731
     line = c1 + LINE_SLOPE_OF_CUBIC * c3
@@ -552,7 +572,7 @@ def _fitted(points, min_points, geom, origin, where, held, source) -> SurfaceMea
         float(2 * k),
         float(pc[0]),
         float(pc[1]),
-        float(kept * min(1.0, max(0.0, 1.5 - rms))),
+        float(quality),
         wall_lines,
         (line_l, line_r, pl, pr),
         low=low,
@@ -716,6 +736,32 @@ def _column_end(centre: np.ndarray, left: np.ndarray, right: np.ndarray) -> int:
     out[:hi] = False
     steps = np.flatnonzero(out[:-2] & out[1:-1] & out[2:])
     return int(steps[0]) if steps.size else length
+
+
+def _front_below(
+    body: np.ndarray, inside: np.ndarray, held: np.ndarray, first: np.ndarray, found: np.ndarray, reach: float
+) -> np.ndarray:
+    """Each column's last crossing into sustained liquid (`held`, as `_sustained` gives it) within `reach` rows below
+    its first one (`first`, sub-pixel; that one where there is none). The surface ellipse seen from above can read as
+    liquid in parts (a dark dye reflecting its own colour), so the first crossing is its back edge in some columns
+    and its front edge in others; below the last gap of two rows without liquid, the body is solid."""
+    rows = body.shape[0]
+    base = np.minimum(np.floor(np.where(found, first, 0)).astype(np.intp), rows - 1)
+    depth = int(min(math.ceil(reach), rows - 2))
+    if depth < 2:
+        return first.copy()
+    r = base[None, :] + np.arange(depth)[:, None]
+    cols = np.arange(body.shape[1])[None, :]
+    within = r + 2 < rows
+    rc = np.minimum(r, rows - 3)
+    # a gap: two rows without liquid, followed by sustained liquid from the next row on
+    gap = ~inside[rc, cols] & ~inside[rc + 1, cols] & held[rc + 2, cols] & within
+    last = depth - 1 - np.argmax(gap[::-1], axis=0)
+    has = gap.any(axis=0) & found
+    q = np.minimum(base + last + 2, rows - 1)
+    a, b = body[q - 1, cols[0]], body[q, cols[0]]
+    frac = np.where(b > a, (0.5 - a) / np.where(b > a, b - a, 1), 0.5)
+    return np.where(has, q - 1 + np.clip(frac, 0, 1), first)
 
 
 def _liquid_rows(inside: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -47,7 +47,7 @@ PRESETS: dict[str, ColorPreset] = {
     "yellow": ColorPreset((30, 215, 235), HsvRange((22, 110, 90), (35, 255, 255))),
     "green": ColorPreset((60, 190, 40), HsvRange((45, 110, 60), (80, 255, 255))),
     "blue": ColorPreset((215, 80, 30), HsvRange((100, 140, 60), (125, 255, 255))),
-    "magenta": ColorPreset((200, 40, 205), HsvRange((140, 110, 60), (165, 255, 255))),
+    "magenta": ColorPreset((200, 40, 205), HsvRange((140, 110, 60), (172, 255, 255))),
     "dark": ColorPreset((22, 26, 34), HsvRange((0, 0, 0), (179, 255, 60))),
 }
 """Float and dye colour presets; the HSV ranges are wide enough for sensor noise, blur and compression. "dark" is any
