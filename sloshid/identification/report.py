@@ -5,13 +5,16 @@ from __future__ import annotations
 import html
 import math
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import matplotlib.pyplot as plt
 from tqdm import tqdm
 
-from sloshid.identification.estimator import IdentResult
 from sloshid.identification.verdict import PARAMETER_LABELS
 from sloshid.report.html import Report
+
+if TYPE_CHECKING:  # the result calls this module to draw itself: its class is named for the annotations only
+    from sloshid.identification.estimator import IdentResult
 
 GROUP_LABELS = {"frequency": "Frequency (f, omega, l)", "damping": "Damping (zeta, d)"}
 

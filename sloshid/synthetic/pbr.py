@@ -19,7 +19,7 @@ from dataclasses import dataclass, replace
 import cv2
 import numpy as np
 
-from sloshid.core.errors import SettingError, UserError
+from sloshid.core.errors import UserError
 from sloshid.synthetic.pbr_scene import (
     Mesh,
     PbrScene,
@@ -31,7 +31,7 @@ from sloshid.synthetic.pbr_scene import (
     float_mesh,
     json_ready,
 )
-from sloshid.synthetic.render import NoisePool, SynthSettings, _motion, _smoothstep, move_position_m
+from sloshid.synthetic.scene import NoisePool, SynthSettings, _motion, _smoothstep, move_position_m
 from sloshid.synthetic.surface_scene import _second_mode_height
 from sloshid.video.colors import preset
 
@@ -185,44 +185,6 @@ def _travel_m(s: SynthSettings, sc: PbrScene, t: np.ndarray, m_per_px: float) ->
     if s.motion == "move":
         return move_position_m(s, t)
     return s.travel_px * m_per_px * _smoothstep(t / max(s.duration_s, 1e-9))
-
-
-PAINTED_ONLY = (
-    "px_per_m",
-    "camera_roll_deg",
-    "noise_sigma",
-    "blur_px",
-    "flicker",
-    "float_color",
-    "float_length_frac",
-    "float_rounded",
-    "float_bend_px",
-    "float_specular",
-    "float_submerged",
-    "motion_blur",
-    "liquid_color",
-    "elevation_deg",
-    "meniscus_px",
-    "meniscus_dark",
-    "specular",
-    "reflection",
-    "second_mode",
-    "container_diameter_m",
-)
-"""SynthSettings fields the pbr renderer draws from the scene seed (or has no use for): refused there when set."""
-
-
-def check_pbr_settings(s: SynthSettings) -> None:
-    """Refuse a painted-only setting given with the pbr renderer: one sentence naming it."""
-    for name in PAINTED_ONLY:
-        if getattr(s, name) != getattr(SynthSettings, name):
-            raise SettingError(
-                name,
-                "{name} is not an option of the pbr renderer (it draws the scene from {scene_seed}); leave it out or "
-                "use {renderer} painted.",
-                "scene_seed",
-                "renderer",
-            )
 
 
 def _load_in_order(mi, d: dict, tries: int = 50):
