@@ -557,7 +557,7 @@ def test_an_automatic_dye_names_the_other_colour_it_passed_over(tmp_path):
     res = track_video(tmp_path / "r.mp4", TrackSettings(target="surface", smooth=False))
     assert res.dye == "red (chosen from the first frame)"
     assert any(
-        "blue covers a region at least a quarter as large" in w and "--liquid-color blue" in w for w in res.warnings
+        "blue covers a region at least a quarter as large" in w and "`liquid_color` blue" in w for w in res.warnings
     )
     alone = track_video(tmp_path / "r.mp4", TrackSettings(target="surface", liquid_color="blue", smooth=False))
     assert not any("quarter as large" in w for w in alone.warnings)
@@ -649,7 +649,7 @@ def test_surface_angle_and_wall_heights_match_truth(surface_video, reference, co
     assert list(cols)[:11] == ["frame", "t_s", "angle_deg", "surface_angle_deg", *TRACK_COLUMNS[4:]]
     # against the image the angle includes the container's +-2 deg tilt, and track says so (3.9 deg measured)
     turned = [w for w in res.warnings if "container turned by" in w]
-    assert len(turned) == (reference == "image") and all("--reference container" in w for w in turned)
+    assert len(turned) == (reference == "image") and all("`reference` container" in w for w in turned)
     # the dye chosen automatically is named (a trial's orange robot link was tracked as the liquid without a word)
     assert res.dye == f"{SURFACE['liquid_color']} (chosen from the first frame)" and res.to_dict()["dye"] == res.dye
     assert res.summary().endswith(f", dye {res.dye}")
@@ -1595,7 +1595,7 @@ def test_a_float_that_never_moves_draws_a_warning(decay_video, tmp_path):
     render_video(still, SynthSettings(**{**SMALL, "duration_s": 1.0}, amplitude_deg=0.0))
     res = track_video(still, TrackSettings())
     assert res.valid.mean() > 0.9
-    assert any("nothing moved it" in w and "--overlay" in w for w in res.warnings), res.warnings
+    assert any("nothing moved it" in w and "`overlay`" in w for w in res.warnings), res.warnings
     moving = track_video(decay_video[0], TrackSettings())
     assert not any("nothing moved it" in w for w in moving.warnings)
 

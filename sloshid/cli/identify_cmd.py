@@ -8,6 +8,7 @@ from __future__ import annotations
 import argparse
 import sys
 
+from sloshid.cli.naming import as_typed
 from sloshid.core.errors import UserError
 
 TRAJECTORY_ONLY = {
@@ -148,7 +149,7 @@ def run(args: argparse.Namespace) -> int:
     columns = SignalColumns(args.time_col, args.value_col, args.time_var, args.value_var)
 
     def warn(text: str) -> None:
-        print(f"sloshid: warning: {text}", file=sys.stderr)
+        print(f"sloshid: warning: {as_typed(text, args)}", file=sys.stderr)
 
     if args.trajectory is not None:  # input-output: the whole record, forced response and free decay
         from sloshid.model.pose import SMOOTH_S
@@ -174,7 +175,7 @@ def run(args: argparse.Namespace) -> int:
     if report_dir is not None:
         result.report(report_dir)
     write_json(output, doc)
-    print(result.summary())
+    print(as_typed(result.summary(), args))
     print(f"wrote {output}" + (f" and {report_dir / 'index.html'}" if report_dir else ""))
     print(f"next: sloshid plan SCENARIO.toml --params {output} -o TRAJ.csv plans a slosh-free move for this liquid.")
     return 0

@@ -158,7 +158,8 @@ def note_io_model(params_path: str | None, trajectory: str, planned=None) -> Non
 
         note = planning_note(params_path, trajectory, planned)
         if note:
-            print(f"sloshid: note: {note}", file=sys.stderr)
+            check = f"`sloshid predict {trajectory} --params {params_path}`"
+            print(f"sloshid: note: {note.removesuffix('.')} ({check}).", file=sys.stderr)
 
 
 def warn_doubtful_parameters(params_path: str | None, scenario) -> None:

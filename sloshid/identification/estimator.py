@@ -679,8 +679,7 @@ class Identifier:
                     f"{sig.source}: no free ring-down of {MIN_PERIODS_ERROR:g} periods ({f_guess:.3g} Hz): the signal "
                     f"is driven (its mean over a period moves by more than half its swing) until {driven:.2f} s of "
                     f"{sig.t_s[-1]:.2f} s; give {{name}} (start and end, s) where it rings down freely, or track a "
-                    "container that moves in the picture against the container (`sloshid track --reference "
-                    'container`, or reference = "container" in a pipeline\'s [track]).',
+                    'container that moves in the picture against the container (tracking with `reference` = "container").',
                 )
             raise UserError(
                 f"{sig.source}: no oscillatory mode found; nowhere does a ring-down of {MIN_PERIODS_ERROR:g} "

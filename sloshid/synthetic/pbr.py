@@ -244,15 +244,15 @@ class PbrRenderer:
         if peak > room:
             raise UserError(
                 f"the liquid would rise {1000 * peak:.0f} mm up a wall, above the rim ({1000 * room:.0f} mm above the "
-                f"liquid at rest in scene {sc.seed}): lower --amplitude or --accel, or draw another --scene-seed."
+                f"liquid at rest in scene {sc.seed}): lower `amplitude_deg` or `accel_m_s2`, or draw another `scene_seed`."
             )
         for k in (int(np.argmin(self.dx_m)), int(np.argmax(self.dx_m))):
             box = self.box_px(self.frame_pose(k))
             if box[0] < 0 or box[1] < 0 or box[2] > self.s.width - 1 or box[3] > self.s.height - 1:
                 raise UserError(
                     f"the container would leave the {self.s.width}x{self.s.height} picture (scene {sc.seed} spans x = "
-                    f"{box[0]:.0f} to {box[2]:.0f} px, y = {box[1]:.0f} to {box[3]:.0f} px): lower --travel or "
-                    "--accel, shorten --move-duration, or draw another --scene-seed."
+                    f"{box[0]:.0f} to {box[2]:.0f} px, y = {box[1]:.0f} to {box[3]:.0f} px): lower `travel_px` or "
+                    "`accel_m_s2`, shorten `move_duration_s`, or draw another `scene_seed`."
                 )
 
     def box_px(self, pose: Pose) -> np.ndarray:

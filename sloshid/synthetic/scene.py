@@ -191,7 +191,7 @@ class SynthSettings:
         for name, label in SCENE_ONLY[other].items():
             if getattr(self, name) != getattr(SynthSettings, name):
                 raise UserError(
-                    f"{label} applies only to the {other} scene (--scene {other}), not the {self.scene} one."
+                    f"{label} applies only to the {other} scene (`scene` {other}), not the {self.scene} one."
                 )
         if self.renderer == "pbr":
             check_pbr_settings(self)
@@ -477,7 +477,7 @@ def check_in_picture(
         where = f"reach {peak:.0f} px up a wall" if math.isfinite(peak) else f"turn {math.degrees(turn):.0f} deg"
         raise UserError(
             f"the liquid would {where}, above the container's rim ({sc.head:.0f} px above the liquid at rest): a "
-            "picture cannot show it; lower --amplitude, --accel or --second-mode."
+            "picture cannot show it; lower `amplitude_deg`, `accel_m_s2` or `second_mode`."
         )
     lo, hi = float(np.min(sc.x0 + mo.dx)), float(np.max(sc.x0 + mo.dx))
     measured = sc.inner_w / 2 + sc.wall if surface else 0.5 * s.float_length_frac * s.height
@@ -485,7 +485,7 @@ def check_in_picture(
         reach = sc.inner_w / 2 + sc.wall
         raise UserError(
             f"the container would leave the {s.width} px wide picture (its sides reach x = {lo - reach:.0f} to "
-            f"{hi + reach:.0f} px): lower --travel, --px-per-m or --accel, or widen --width."
+            f"{hi + reach:.0f} px): lower `travel_px`, `px_per_m` or `accel_m_s2`, or widen `width`."
         )
 
 

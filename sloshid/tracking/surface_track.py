@@ -29,7 +29,7 @@ CENTRE_SHARE = 0.05
 width from its rest level is not valid: a planar slosh keeps the centre there. Rendered clips stay within 2 px (0.01
 of the width) up to 40 deg of slosh and 20 deg of camera elevation; a liquid reaching the rim read 115 px (0.5)."""
 TILT_NOTE_DEG = 1.0
-"""With `--reference image`, a container that turns by more than this in the picture (its walls as the liquid's sides
+"""With ``reference` image`, a container that turns by more than this in the picture (its walls as the liquid's sides
 give them, 1st to 99th percentile of the valid frames) draws a warning: the angle includes its tilt. A still
 container's sides span up to 0.7 deg (their fits move a little at each colour refit)."""
 
@@ -187,13 +187,13 @@ class SurfaceStep:
             notes.append(
                 f"another region of the dye's colour ({w}x{h} px at x {x}-{x + w}, y {y}-{y + h}) was left out: it is "
                 "not beside the largest one, which was measured as the liquid; if the liquid is elsewhere, or the "
-                "measured region is not liquid, set --roi around the container."
+                "measured region is not liquid, set `roi` around the container."
             )
         if not rest.any():  # heights from the median of every valid frame: said, as they are not above rest
             window = f"the first {n_rest} frames" if n_rest else "the first second"
             notes.append(
                 f"the surface was measured in none of {window} (the rest window), so left/right_wall_px and _mm are "
-                "heights above the median of all valid frames, not above rest; give --rest-frames for frames where "
+                "heights above the median of all valid frames, not above rest; give `rest_frames` for frames where "
                 "the surface was at rest and measured."
             )
             rest = valid
@@ -201,7 +201,7 @@ class SurfaceStep:
             notes.append(
                 f"the video lasts {t[-1] - t[0]:.2f} s, less than the rest window (the first second), so "
                 "left/right_wall_px and _mm are heights above the median of all valid frames, not above rest; give "
-                "--rest-frames for frames where the surface was at rest."
+                "`rest_frames` for frames where the surface was at rest."
             )
         walls = {}
         for name, w in (("left_wall", left), ("right_wall", right)):
@@ -258,7 +258,7 @@ def _regions(m: SurfaceMeasurement, cm: ContainerMeasurement | None) -> list[tup
 
 
 def check_rest_frames(n_rest: int | None, frames: int) -> None:
-    """Refuse a rest window (`--rest-frames`) that covers the whole video of `frames` frames (0: not known yet)."""
+    """Refuse a rest window (``rest_frames``) that covers the whole video of `frames` frames (0: not known yet)."""
     if n_rest and frames and n_rest >= frames:
         raise SettingError(
             "rest_frames",
@@ -274,6 +274,6 @@ def _tilt_notes(cang: np.ndarray) -> list[str]:
         return []
     return [
         f"the container turned by {span:.1f} deg in the picture (1st to 99th percentile of the valid frames): "
-        "angle_deg is measured against the image and includes that tilt; --reference container measures the "
+        "angle_deg is measured against the image and includes that tilt; `reference` container measures the "
         "liquid against the container."
     ]

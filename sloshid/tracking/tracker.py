@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import contextlib
 import itertools
+import logging
 import math
 import multiprocessing
 import os
@@ -25,7 +26,7 @@ import numpy as np
 from tqdm import tqdm
 
 from sloshid.core.atomic import atomic_path
-from sloshid.core.errors import SettingError, UserError
+from sloshid.core.errors import SettingError, UserError, warn
 from sloshid.core.outputs import Outputs
 from sloshid.core.parallel import die_with_parent, signals_held
 from sloshid.core.settings import check_in_metres
@@ -41,6 +42,9 @@ from sloshid.tracking.surface_track import SurfaceStep, check_rest_frames
 from sloshid.video.colors import DEFAULT_FLOAT_COLOR, HsvRange, preset
 from sloshid.video.frames import FrameReader, Picture, VideoInfo, VideoWriter, lost_share
 from sloshid.video.keyframes import key_frame_times
+
+log = logging.getLogger("sloshid.tracking")
+"""Progress of a tracking run (INFO); its doubts are SloshidWarnings and the result's `warnings`."""
 
 TRACK_COLUMNS = (
     "frame",
@@ -66,7 +70,7 @@ SURFACE_COLUMNS = (
     "left_wall_mm",
     "right_wall_mm",
 )
-"""Output columns with --target surface: the same contract plus the wall heights (surface_angle_deg is the
+"""Output columns with `target` surface: the same contract plus the wall heights (surface_angle_deg is the
 surface's angle against the image horizontal, where the float target writes float_angle_deg)."""
 
 VALID_QUALITY = 0.5
@@ -378,14 +382,14 @@ class _FloatStep:
         notes = []
         if self.cut:
             notes.append(
-                f"the float reached the edge of the searched region (--roi, or the picture) in {self.cut} of "
-                f"{len(rows)} frames: part of it was outside, so those frames have valid = 0; widen --roi."
+                f"the float reached the edge of the searched region (`roi`, or the picture) in {self.cut} of "
+                f"{len(rows)} frames: part of it was outside, so those frames have valid = 0; widen `roi`."
             )
         if self.liquid_width:
             notes.append(
                 f"what was tracked as the float looks like dyed liquid in its container (a body {self.liquid_width:.0f}"
                 " px wide between straight side walls, with a surface across them): angle_deg is then that body's "
-                "principal axis, not the surface's angle; for a dyed liquid use --target surface."
+                "principal axis, not the surface's angle; for a dyed liquid use `target` surface."
             )
         return [r[:9] for r in rows], {}, notes
 
@@ -444,6 +448,7 @@ def track_video(
         roi = roi_box(settings, width, height)
         key_times = key_frame_times(path)
         spans = _spans(reader.info, key_times)
+        log.info("tracking %s (%s target) in %d span(s)", path, settings.target, len(spans))
         reader.end_s = spans[0][1]
         liquid, dye, rival = settings.liquid_hsv, "", None
         if settings.target == "surface" and liquid is None:  # one automatic dye colour for every span: the first's
@@ -503,10 +508,13 @@ def track_video(
     if rival is not None:
         res.warnings.append(
             f"the dye's colour was chosen from the first frame as {dye.split()[0]}, the largest region of a preset "
-            f"colour; {rival} covers a region at least a quarter as large: if that is the liquid, give --liquid-color "
+            f"colour; {rival} covers a region at least a quarter as large: if that is the liquid, give `liquid_color` "
             f"{rival}."
         )
     res.key_frame = _at_key_frames(np.array([r[1] for r in body], float), key_times)  # the file's own times
+    for warning in res.warnings:
+        warn(warning)
+    log.info("tracked %s: %d frames, %.1f %% valid", path, len(res.t_s), 100 * float(np.mean(res.valid)))
     return res
 
 
@@ -574,7 +582,7 @@ def _step(settings: TrackSettings, roi: tuple[int, int, int, int], liquid: HsvRa
 def measure_frame(
     frame: np.ndarray, t_s: float, settings: TrackSettings, roi: tuple[int, int, int, int], liquid: HsvRange | None
 ) -> tuple[tuple, np.ndarray, _FloatStep | SurfaceStep]:
-    """One frame measured as `track_video` measures the first frame of a span and draws it in `--overlay` (the target's
+    """One frame measured as `track_video` measures the first frame of a span and draws it in ``overlay`` (the target's
     step, then, for a valid frame, its finish): the table row (frame, t_s, angle_deg, ..., valid), the overlay picture,
     and the step, which holds what it found (`walls_record`, `liquid_frames`, ...). `sloshid inspect` calls it, so that
     its picture shows what track would do."""
@@ -738,8 +746,8 @@ def _result(
             other = "something of the float's colour that is not the float" if target == "float" else "not its surface"
             res.warnings.append(
                 f"the {target}'s angle spans only {span:.3f} deg over the valid frames (1st to 99th percentile): "
-                f"nothing moved it. A liquid at rest, or what was measured is {other}: check with --overlay, or "
-                "narrow --roi."
+                f"nothing moved it. A liquid at rest, or what was measured is {other}: check with `overlay`, or "
+                "narrow `roi`."
             )
     lost, repeats = int(np.sum((valid == 0) & ~repeated)), int(repeated.sum())
     if lost > 0:

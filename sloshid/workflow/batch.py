@@ -193,10 +193,10 @@ def check_out_dir(out: Path) -> None:
             with open(path, encoding="utf-8", errors="replace") as fh:
                 ours = fh.readline().startswith(head)
             if not ours:
-                raise UserError(f"--out {out} holds a {name} that sloshid batch did not write; choose another folder.")
+                raise UserError(f"`out` {out} holds a {name} that sloshid batch did not write; choose another folder.")
     if (out / "summary.html").is_file() and not is_sloshid_page(out / "summary.html"):
-        raise UserError(f"--out {out} holds a summary.html that sloshid batch did not write; choose another folder.")
-    writable_folder(out / "videos", "--out", out)  # where every video's folder goes
+        raise UserError(f"`out` {out} holds a summary.html that sloshid batch did not write; choose another folder.")
+    writable_folder(out / "videos", "`out`", out)  # where every video's folder goes
 
 
 def run_batch(

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import logging
 import shutil
 import time
 from collections.abc import Callable
@@ -24,6 +25,9 @@ from sloshid.core.hashing import file_sha256, json_sha256
 from sloshid.core.outputs import writable_folder
 from sloshid.core.parallel import check_workers
 from sloshid.core.settings import did_you_mean, from_dict, load_toml
+
+logger = logging.getLogger("sloshid.workflow")
+"""Each stage's progress in a pipeline run (INFO), unless the caller passes its own `log`."""
 
 
 @dataclass
@@ -294,9 +298,11 @@ def run_pipeline(
     pipeline: Pipeline,
     output_dir: str | Path | None = None,
     write_index: Callable[[Path, list[StageRecord]], Path] | None = None,
-    log: Callable[[str], None] = print,
+    log: Callable[[str], None] | None = None,
 ) -> PipelineRun:
-    """Run every stage (or reuse its cached outputs) and write the run directory with manifest and index."""
+    """Run every stage (or reuse its cached outputs) and write the run directory with manifest and index; each stage's
+    progress goes to `log` (default: the `sloshid.workflow` logger, at INFO)."""
+    log = log or logger.info
     root, run_dir, run_id = _new_run_dir(pipeline, output_dir)
     input_hashes: dict[str, str] = {}
     try:
