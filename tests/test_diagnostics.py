@@ -47,4 +47,6 @@ def test_the_command_line_prints_each_warning_once_with_its_options(still_clip, 
 def test_a_setting_in_backticks_is_renamed_and_an_unknown_one_kept():
     rename = {"window_s": "--window"}.get
     text = "give a longer window (`window_s`), or check `sloshid track` and `other_setting`"
-    assert rename_settings(text, rename) == "give a longer window (--window), or check `sloshid track` and `other_setting`"
+    assert (
+        rename_settings(text, rename) == "give a longer window (--window), or check `sloshid track` and `other_setting`"
+    )

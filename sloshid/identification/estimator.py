@@ -186,7 +186,7 @@ def ljung_box_p(resid: np.ndarray, lags: int) -> float:
     return float(stats.chi2.sf(q, lags))
 
 
-@dataclass
+@dataclass(kw_only=True)
 class IdentResult:
     """Everything `identify` found: parameters with intervals, the windows and spectra behind them, the verdict."""
 
@@ -679,7 +679,8 @@ class Identifier:
                     f"{sig.source}: no free ring-down of {MIN_PERIODS_ERROR:g} periods ({f_guess:.3g} Hz): the signal "
                     f"is driven (its mean over a period moves by more than half its swing) until {driven:.2f} s of "
                     f"{sig.t_s[-1]:.2f} s; give {{name}} (start and end, s) where it rings down freely, or track a "
-                    'container that moves in the picture against the container (tracking with `reference` = "container").',
+                    'container that moves in the picture against the container (tracking with `reference` = "container", '
+                    'or reference = "container" in a pipeline\'s [track]).',
                 )
             raise UserError(
                 f"{sig.source}: no oscillatory mode found; nowhere does a ring-down of {MIN_PERIODS_ERROR:g} "
@@ -769,22 +770,22 @@ class Identifier:
             if note:
                 notes.append(note)
         return IdentResult(
-            sigs,
-            windows,
-            spectra,
-            fit,
-            checks,
-            params,
-            verdict.quality,
-            verdict.reasons,
-            notes,
-            st.mass_kg,
-            prior,
-            lb,
-            lb_lags,
-            second,
-            verdict.groups,
-            between,
+            signals=sigs,
+            windows=windows,
+            spectra=spectra,
+            fit=fit,
+            cross_checks=checks,
+            parameters=params,
+            quality=verdict.quality,
+            reasons=verdict.reasons,
+            notes=notes,
+            mass_kg=st.mass_kg,
+            prior=prior,
+            ljung_box=lb,
+            lb_lags=lb_lags,
+            second_mode=second,
+            groups=verdict.groups,
+            between=between,
         )
 
     @property

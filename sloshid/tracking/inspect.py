@@ -25,6 +25,7 @@ from sloshid.core.atomic import atomic_path
 from sloshid.core.errors import UserError
 from sloshid.core.outputs import Outputs
 from sloshid.tracking.float_angle import MIN_AREA_PX, hsv_mask, principal_axis
+from sloshid.tracking.rows import TrackRow
 from sloshid.tracking.surface import MIN_LIQUID_SHARE
 from sloshid.tracking.tracker import TrackSettings, measure_frame, roi_box
 from sloshid.video.colors import PRESETS, HsvRange, format_hsv
@@ -138,7 +139,7 @@ class FloatLook:
     """What the float target would take is a liquid body between straight walls: dyed liquid, not a float."""
 
 
-@dataclass
+@dataclass(kw_only=True)
 class InspectResult:
     """What `sloshid inspect` found in one frame and the tracking settings it suggests."""
 
@@ -345,7 +346,7 @@ def _candidates(name: str, labels: np.ndarray, keep: list[int], roi: tuple) -> l
     return out
 
 
-def _measure(frame: np.ndarray, t_s: float, settings: TrackSettings, roi: tuple) -> tuple[tuple, np.ndarray, object]:
+def _measure(frame: np.ndarray, t_s: float, settings: TrackSettings, roi: tuple) -> tuple[TrackRow, np.ndarray, object]:
     """The tracker's own measurement of one frame (the one call into it: `measure_frame`, what track runs per frame)."""
     return measure_frame(frame, t_s, settings, roi, None)
 
@@ -355,9 +356,11 @@ def _look_at_surface(frame, t_s, colour: ColourMatch, roi: tuple) -> tuple[Surfa
     settings = TrackSettings(target="surface", reference="container", roi=roi, **colour.settings("liquid"))
     row, drawn, step = _measure(frame, t_s, settings, roi)
     walls = bool(step.walls_record.measured)
-    look = SurfaceLook(colour.name, step.liquid_frames > 0, bool(row[8]), walls=walls, quality=float(row[7]), roi=roi)
+    look = SurfaceLook(
+        colour.name, step.liquid_frames > 0, bool(row.valid), walls=walls, quality=float(row.quality), roi=roi
+    )
     if look.measured:
-        look.angle_deg, look.container_angle_deg = float(row[3]), float(row[4])
+        look.angle_deg, look.container_angle_deg = float(row.float_angle_deg), float(row.container_angle_deg)
     return look, drawn
 
 
@@ -365,12 +368,12 @@ def _look_at_float(frame, t_s, colour: ColourMatch, roi: tuple) -> tuple[FloatLo
     """Measure `colour` as the float, against the image (is it measured?) and the container (are walls there?)."""
     named = colour.settings("float")
     row, drawn, step = _measure(frame, t_s, TrackSettings(roi=roi, **named), roi)
-    look = FloatLook(colour.name, step.found > 0, bool(row[8]), float(row[3]), float(row[7]))
+    look = FloatLook(colour.name, step.found > 0, bool(row.valid), float(row.float_angle_deg), float(row.quality))
     look.liquid_like = bool(step.liquid_width)
     if look.found:
         row, _, walled = _measure(frame, t_s, TrackSettings(reference="container", roi=roi, **named), roi)
         look.walls = bool(walled.walls_record.measured)
-        look.container_angle_deg = float(row[4]) if look.walls else math.nan
+        look.container_angle_deg = float(row.container_angle_deg) if look.walls else math.nan
     return look, drawn
 
 
@@ -500,7 +503,18 @@ def inspect_video(
     frame, t_s = read_frame(video, at_s)
     size = (frame.shape[1], frame.shape[0])
     box = roi_box(TrackSettings(roi=None if roi is None else tuple(roi)), *size)
-    res = InspectResult(video, t_s, size, box, [], [], [], [], None, None)
+    res = InspectResult(
+        video=video,
+        t_s=t_s,
+        size=size,
+        roi=box,
+        colours=[],
+        surfaces=[],
+        floats=[],
+        candidates=[],
+        suggested_roi=None,
+        target=None,
+    )
     labels, drawn = {}, {}
     _look_at_colours(res, frame, {name: p.hsv for name, p in PRESETS.items()}, labels, drawn)
     if not any(s.liquid for s in res.surfaces) and not any(f.found for f in res.floats):

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from sloshid.core.atomic import remove_empty, write_json, write_text
+from sloshid.core.atomic import check_schema, remove_empty, write_json, write_text
 from sloshid.core.errors import SettingError, UserError
 from sloshid.core.hashing import file_sha256, json_sha256
 from sloshid.core.outputs import is_sloshid_page, writable_folder
@@ -85,7 +85,7 @@ def process_video(video: str, config: BatchConfig, out_root: str) -> dict[str, A
     marker = out / "result.json"
     key = {"video_sha256": video_hash, "config": settings}
     if _finished(marker, key):
-        done = json.loads(marker.read_text())
+        done = json.loads(marker.read_text())  # checked by _finished
         # this run's names: the same video may sit in another folder, and the output folder may have been moved
         return {**done["row"], "file": video, "outputs": str(out), "status": "cached"}
     created = not out.exists()
@@ -137,6 +137,7 @@ def _finished(marker: Path, key: dict[str, str]) -> bool:
     upgrade."""
     try:
         done = json.loads(marker.read_text())
+        check_schema(done, marker)
         if "outputs" not in done:
             return done.get("key") == key and all((marker.parent / name).is_file() for name in OUTPUT_FILES[:2])
         return done.get("key") == key and all(
