@@ -222,7 +222,7 @@ def _fit_cost(result, scenario, params) -> str:
 
 def _warnings(result, fit: list) -> None:
     """Robot limits exceeded, a failed verification, a path left, and joint re-planning, one line each."""
-    from sloshid.planning.planner import VERIFY_AFTER_DEG
+    from sloshid.planning.result import VERIFY_AFTER_DEG
 
     for usage in result.limits:
         if not usage.ok:
