@@ -51,7 +51,8 @@ def inspect(
 ) -> InspectResult:
     """Look at one frame of `video` (the first, or the one shown at `at` seconds) as each target would track it:
     the colour presets found, the liquid's surface and walls, the float candidates, a suggested ROI and the
-    `sloshid track` command to run (`.command`, `.summary()`); `picture` also writes the annotated frame (PNG)."""
+    settings to track it with (`.track_settings`: `sloshid.track(video, **result.track_settings)`; `.summary()`);
+    `picture` also writes the annotated frame (PNG)."""
     from sloshid.tracking.inspect import inspect_video
 
     result = inspect_video(video, at, roi)

@@ -204,6 +204,7 @@ def test_the_api_gives_the_commands_result(tmp_path, run_cli):
     assert isinstance(res, sloshid.InspectResult)
     assert res.target == "float" and res.measured and res.track_settings["float_color"] == "red"
     assert "float_color='red'" in res.summary()  # the Python call, in the library's own names
+    assert sloshid.track(clip, **res.track_settings, smooth=False).valid.mean() > 0.9  # and the call tracks
     assert res.suggested_roi is not None and (tmp_path / "api.png").exists()
     doc = json.loads(json.dumps(res.to_dict(), allow_nan=False))
     assert doc["target"] == "float" and doc["float_candidates"][0]["color"] == "red"
