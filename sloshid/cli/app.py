@@ -14,6 +14,7 @@ import tempfile
 import warnings
 from collections.abc import Sequence
 from pathlib import Path
+from types import ModuleType
 from typing import NoReturn
 
 from sloshid.cli.naming import as_typed, flag_for, options_of
@@ -182,10 +183,9 @@ def _main(argv: Sequence[str] | None) -> int:
     wanted = next((a for a in argv if a in COMMANDS), None)
     args = None
     previous = signal.signal(signal.SIGTERM, _on_sigterm)
-    smooth = None
+    smooth: ModuleType | None = None
     if wanted == "track" and not {"-h", "--help", "--no-smooth"} & set(argv):
-        from sloshid.tracking import smooth  # NumPy only; forks before the command's imports (see start_early)
-
+        smooth = importlib.import_module("sloshid.tracking.smooth")  # NumPy only; forks early (see start_early)
         smooth.start_early()
     try:
         parser = build_parser(only=wanted)
@@ -214,7 +214,9 @@ def _main(argv: Sequence[str] | None) -> int:
             return _fail(f"could not write to standard output ({exc.strerror}).")
         if exc.filename is None:
             raise
-        return _fail(f"could not use {exc.filename}: {_PATH_TROUBLE.get(exc.errno, exc.strerror or 'unknown error')}.")
+        return _fail(
+            f"could not use {exc.filename}: {_PATH_TROUBLE.get(exc.errno or 0, exc.strerror or 'unknown error')}."
+        )
     except ValueError as exc:
         if "null byte" not in str(exc):
             raise

@@ -10,6 +10,7 @@ import sys
 
 from sloshid.cli.naming import as_typed
 from sloshid.core.errors import UserError
+from sloshid.core.results import TableResult
 
 TRAJECTORY_ONLY = {
     "--axis-offset-m": "axis_offset_m",
@@ -151,6 +152,7 @@ def run(args: argparse.Namespace) -> int:
     def warn(text: str) -> None:
         print(f"sloshid: warning: {as_typed(text, args)}", file=sys.stderr)
 
+    result: TableResult  # an IOFit or an IdentResult: the same contract
     if args.trajectory is not None:  # input-output: the whole record, forced response and free decay
         from sloshid.model.pose import SMOOTH_S
         from sloshid.validation.iofit import fit_io_files

@@ -84,7 +84,8 @@ def run(args: argparse.Namespace) -> int:
     if args.fit_joints and not args.joints:
         raise UserError("--fit-joints needs --joints JOINTS.csv.")
     scenario = load_scenario(args.scenario)
-    path_csv = [scenario.path.source] if scenario.path is not None and scenario.path_table.points_csv else []
+    table = scenario.path_table
+    path_csv = [scenario.path.source] if scenario.path is not None and table is not None and table.points_csv else []
     outputs = Outputs([p for p in (args.scenario, args.params, *path_csv) if p])
     output = outputs.file(args.output, "-o", (".csv",))
     joints = outputs.file(args.joints, "--joints", (".csv",)) if args.joints else None

@@ -90,7 +90,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
 
 
-def roi_from_args(text: str | None) -> tuple[int, ...] | None:
+def roi_from_args(text: str | None) -> tuple[int, int, int, int] | None:
     """Parse --roi X,Y,W,H (four whole numbers) or None (track and inspect)."""
     if text is None:
         return None
@@ -100,7 +100,7 @@ def roi_from_args(text: str | None) -> tuple[int, ...] | None:
         values = ()
     if len(values) != 4:
         raise UserError(f"--roi must be four whole numbers X,Y,W,H in pixels, got '{text}'.")
-    return values
+    return values[0], values[1], values[2], values[3]
 
 
 def run(args: argparse.Namespace) -> int:
