@@ -114,9 +114,9 @@ def identify_sources(
     # the columns name every source's when all are tracker results; beside files they are the files' (a sensor
     # CSV's "height"), and the tracker results keep their angle
     mixed = not all(_tracked(s) for s in sources)
-    files = [s for s in sources if isinstance(s, (str, Path))]
+    named = [s for s in sources if isinstance(s, (str, Path))]
     chosen = columns or SignalColumns()
-    check_csv_options(files, chosen.time_col, chosen.value_col, chosen.time_var, chosen.value_var)
+    check_csv_options(named, chosen.time_col, chosen.value_col, chosen.time_var, chosen.value_var)
     signals = [to_signal(s, SignalColumns() if mixed and _tracked(s) else columns, progress) for s in sources]
     for i, a in enumerate(signals):  # a copy under another name counts the same evidence twice as well
         for b in signals[:i]:

@@ -88,7 +88,7 @@ class VerdictInput:
     min_periods: float
     second_mode_ratio: float
     second: SecondMode | None = None
-    prior: dict[str, float] = field(default_factory=dict)
+    prior: dict[str, Any] = field(default_factory=dict)
     """The geometric prior (empty without container geometry); its presence settles which peak is the first mode."""
     band_hz: tuple[float, float] | None = None
     """The band searched for the mode (--f-range, narrowed by the prior)."""
@@ -140,7 +140,7 @@ def judge(inp: VerdictInput) -> Verdict:
     doubts, notes = _Doubts(), []
     fit, f = inp.fit, inp.parameters["f_hz"].value
     f2 = fit.second.omega_rad_s / (2 * math.pi) if fit.second else None
-    if inp.second is not None and inp.second.separated:
+    if inp.second is not None and inp.second.separated and fit.second is not None:  # a separated mode was fitted
         notes.append(
             f"a second mode at {f2:.4g} Hz (zeta {fit.second.zeta:.2g}) was fitted beside the main one; "
             f"the main mode's numbers account for it."

@@ -84,7 +84,8 @@ class PlanResult:
     @property
     def path_ok(self) -> bool:
         """True for free moves, and for [path] plans within the path tolerance."""
-        return self.max_path_deviation_m is None or self.max_path_deviation_m <= self.path_tolerance_m
+        deviation, tolerance = self.max_path_deviation_m, self.path_tolerance_m
+        return deviation is None or tolerance is None or deviation <= tolerance
 
     def segment_of_samples(self) -> np.ndarray:
         """The segment of every 1 kHz sample (each segment's samples follow the last one's)."""

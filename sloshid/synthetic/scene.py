@@ -216,7 +216,7 @@ class SynthSettings:
     @property
     def params(self) -> SloshParams:
         """The liquid's pendulum parameters, from (f_hz, zeta) if given, else (m_kg, l_m, d_ns_per_m)."""
-        if self.f_hz is not None:
+        if self.f_hz is not None and self.zeta is not None:  # given together (checked on construction)
             return SloshParams.from_modal(2 * math.pi * self.f_hz, self.zeta, self.m_kg)
         return SloshParams(self.m_kg, self.l_m, self.d_ns_per_m)
 

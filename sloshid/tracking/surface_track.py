@@ -258,8 +258,12 @@ def _regions(m: SurfaceMeasurement, cm: ContainerMeasurement | None) -> list[tup
     """Where a surface measurement was read, for `Copies`: the front edge's band, the liquid's sides (the inner walls,
     from the surface to the bottom) and the bottom between them, and the container's whole wall edges when measured."""
     (aL, bL, _, y_bottom), (aR, bR, _, _) = m.walls
-    bottom = (math.floor(aL * y_bottom + bL) - 4, math.floor(y_bottom) - 4)
-    bottom += (math.ceil(aR * y_bottom + bR) + 5, math.ceil(y_bottom) + 5)
+    bottom = (
+        math.floor(aL * y_bottom + bL) - 4,
+        math.floor(y_bottom) - 4,
+        math.ceil(aR * y_bottom + bR) + 5,
+        math.ceil(y_bottom) + 5,
+    )
     regions = [(m.band, True), *line_regions(m.walls), (bottom, True)]
     return regions + line_regions(cm.edges) if cm is not None and cm.edges else regions
 
