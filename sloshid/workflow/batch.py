@@ -12,12 +12,13 @@ import dataclasses
 import io
 import json
 import traceback
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from sloshid.core.atomic import check_schema, remove_empty, write_json, write_text
-from sloshid.core.errors import SettingError, UserError
+from sloshid.core.errors import SettingError, SloshidWarning, UserError
 from sloshid.core.hashing import file_sha256, json_sha256
 from sloshid.core.outputs import is_sloshid_page, writable_folder
 from sloshid.core.parallel import dask_client, wait_with_workers
@@ -94,7 +95,9 @@ def process_video(video: str, config: BatchConfig, out_root: str) -> dict[str, A
     table = "[track]"
     try:
         overlay = out / "overlay.mp4" if config.track.overlay else None
-        tracked = track_video(video, config.track.track_settings(), overlay=overlay, multithreaded=False)
+        with warnings.catch_warnings():  # on a worker they would reach no one: the row's `warnings` carries them
+            warnings.simplefilter("ignore", SloshidWarning)
+            tracked = track_video(video, config.track.track_settings(), overlay=overlay, multithreaded=False)
         tracked.to_csv(out / "angles.csv")
         row.update(
             frames=len(tracked.t_s),
@@ -103,7 +106,9 @@ def process_video(video: str, config: BatchConfig, out_root: str) -> dict[str, A
             warnings=" ".join(tracked.warnings),  # a truncated video, repeated pictures, ...: as `track` says them
         )
         table = "[identify]"
-        doc = identify_sources([tracked], config.identify.ident_settings(), config.identify.columns()).to_dict()
+        with warnings.catch_warnings():  # the skipped frames' note: the tracked rows' validity says it
+            warnings.simplefilter("ignore", SloshidWarning)
+            doc = identify_sources([tracked], config.identify.ident_settings(), config.identify.columns()).to_dict()
         write_json(out / "params.json", doc)
     except SettingError as exc:  # named as the config file's key, the place the user can change it
         return _failed(row, out, created, str(exc.named(lambda setting: f"{table}.{setting}")))
