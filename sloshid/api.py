@@ -23,6 +23,10 @@ if TYPE_CHECKING:
     from sloshid.tracking.inspect import InspectResult
     from sloshid.tracking.tracker import TrackResult
 
+    Liquid = SloshParams | IdentResult | str | Path | None
+    """What `plan` and `compare` take as the liquid: parameters, an identification, its JSON file, or None (the
+    scenario's own [liquid])."""
+
 
 def track(
     video: str | Path, *, overlay: str | Path | None = None, progress: bool = False, **settings: Any
@@ -51,7 +55,8 @@ def inspect(
 ) -> InspectResult:
     """Look at one frame of `video` (the first, or the one shown at `at` seconds) as each target would track it:
     the colour presets found, the liquid's surface and walls, the float candidates, a suggested ROI and the
-    `sloshid track` command to run (`.command`, `.summary()`); `picture` also writes the annotated frame (PNG)."""
+    settings to track it with (`.track_settings`: `sloshid.track(video, **result.track_settings)`; `.summary()`);
+    `picture` also writes the annotated frame (PNG)."""
     from sloshid.tracking.inspect import inspect_video
 
     result = inspect_video(video, at, roi)
@@ -93,7 +98,9 @@ def load_scenario(path: str | Path) -> Scenario:
     return load(path)
 
 
-def _scenario_and_liquid(scenario: Scenario | str | Path, params: Any) -> tuple[Scenario, SloshParams, Any]:
+def _scenario_and_liquid(
+    scenario: Scenario | str | Path, params: Liquid
+) -> tuple[Scenario, SloshParams, tuple[float, float] | None]:
     """The scenario (loaded if a path), the liquid and the identified 95 % interval of f (None when unknown).
     `params` is SloshParams, an IdentResult, an identify JSON path, or None for the scenario's own [liquid]."""
     from sloshid.core.errors import UserError
@@ -106,22 +113,22 @@ def _scenario_and_liquid(scenario: Scenario | str | Path, params: Any) -> tuple[
         raise UserError(f"scenario must be a Scenario or a scenario TOML's path, got {type(scenario).__name__}.")
     if isinstance(params, SloshParams):
         return scenario, params, None
-    if hasattr(params, "params") and isinstance(params.params, SloshParams):  # an IdentResult
-        band = getattr(params, "frequency_band_hz", None) or params.parameters["f_hz"].ci95  # IdentResult, IOFit
-        return scenario, params.params, band
-    if params is not None and not isinstance(params, (str, Path)):
+    if params is None or isinstance(params, (str, Path)):
+        liquid = resolve_liquid(scenario, params)  # reads and checks the file first: the interval's reader does not
+        interval = IdentifiedFrequency.from_identify_json(params).ci95_hz if params is not None else None
+        return scenario, liquid, interval
+    if not isinstance(getattr(params, "params", None), SloshParams):  # an IdentResult
         raise UserError(
             "params must be SloshParams, an IdentResult, the path of a `sloshid identify` JSON or None (the "
             f"scenario's [liquid]), got {type(params).__name__}."
         )
-    liquid = resolve_liquid(scenario, params)  # reads and checks the file first: the interval's reader does not
-    interval = IdentifiedFrequency.from_identify_json(params).ci95_hz if params is not None else None
-    return scenario, liquid, interval
+    band = getattr(params, "frequency_band_hz", None) or params.parameters["f_hz"].ci95  # IdentResult, IOFit
+    return scenario, params.params, band
 
 
 def plan(
     scenario: Scenario | str | Path,
-    params: Any = None,
+    params: Liquid = None,
     *,
     robust: bool = False,
     robust_omega_factors: Sequence[float] | None = None,
@@ -141,15 +148,15 @@ def plan(
         raise UserError(
             f"robust_omega_factors must be numbers such as (0.9, 1.1), got the string {robust_omega_factors!r}."
         )
-    scenario, liquid, _ = _scenario_and_liquid(scenario, params)
+    loaded, liquid, _ = _scenario_and_liquid(scenario, params)
     if robust:
-        scenario = robust_scenario(scenario)
-    return solve(scenario, liquid, robust_omega_factors=robust_omega_factors, progress=progress)
+        loaded = robust_scenario(loaded)
+    return solve(loaded, liquid, robust_omega_factors=robust_omega_factors, progress=progress)
 
 
 def compare(
     scenario: Scenario | str | Path,
-    params: Any = None,
+    params: Liquid = None,
     plan: PlanResult | None = None,
     *,
     progress: bool = False,

@@ -75,4 +75,4 @@ def test_every_doubt_says_what_to_do():
     reasons = res.to_dict()["reasons"]
     assert res.to_dict()["quality"] == "uncertain" and len(reasons) == 2
     assert "record a longer decay" in reasons[0] or "record a longer decay" in reasons[1]
-    assert all("(--window)" in r for r in reasons)  # and how to give the window that helps
+    assert all("(`window_s`)" in r for r in reasons)  # and how to give the window that helps

@@ -210,7 +210,7 @@ def test_an_empty_smoothed_column_names_no_smooth(tmp_path, run_cli):
     path = tmp_path / "nosmooth.csv"
     path.write_text(",".join(cols) + "\n" + "\n".join(",".join(f"{c[i]:g}" for c in cols.values()) for i in range(240)))
     code, _, err = run_cli("identify", path, "-o", tmp_path / "p.json", "--value-col", "angle_smoothed_deg")
-    assert code == 2 and "--no-smooth` leaves it empty" in err and not (tmp_path / "p.json").exists()
+    assert code == 2 and "with `smooth` off leaves it empty" in err and not (tmp_path / "p.json").exists()
 
 
 def test_an_empty_wall_mm_column_names_the_diameter(tmp_path, run_cli):
@@ -221,7 +221,7 @@ def test_an_empty_wall_mm_column_names_the_diameter(tmp_path, run_cli):
     path = tmp_path / "surface.csv"
     path.write_text(",".join(cols) + "\n" + "\n".join(",".join(f"{c[i]:g}" for c in cols.values()) for i in range(240)))
     code, _, err = run_cli("identify", path, "-o", tmp_path / "p.json", "--value-col", "left_wall_mm")
-    assert code == 2 and "only with --container-diameter-m" in err and not (tmp_path / "p.json").exists()
+    assert code == 2 and "with `container_diameter_m`" in err and not (tmp_path / "p.json").exists()
 
 
 def test_the_window_identify_prints_can_be_given_back(tmp_path, decay, run_cli):

@@ -202,12 +202,17 @@ def test_the_api_gives_the_commands_result(tmp_path, run_cli):
     assert run_cli("synth", clip, *SMALL)[0] == 0
     res = sloshid.inspect(clip, picture=tmp_path / "api.png")
     assert isinstance(res, sloshid.InspectResult)
-    assert res.target == "float" and res.measured and "--float-color red" in res.command_line()
+    assert res.target == "float" and res.measured and res.track_settings["float_color"] == "red"
+    assert "float_color='red'" in res.summary()  # the Python call, in the library's own names
+    assert sloshid.track(clip, **res.track_settings, smooth=False).valid.mean() > 0.9  # and the call tracks
     assert res.suggested_roi is not None and (tmp_path / "api.png").exists()
     doc = json.loads(json.dumps(res.to_dict(), allow_nan=False))
     assert doc["target"] == "float" and doc["float_candidates"][0]["color"] == "red"
     code, out, _ = run_cli("inspect", clip, "-o", tmp_path / "cli.png")
-    assert code == 0 and _next_command(out) == res.command and res.summary() in out
+    from sloshid.cli.inspect_cmd import track_command, track_options
+
+    assert code == 0 and shlex.join(_next_command(out)) == track_command(clip, res.track_settings, track_options())
+    assert all(line in out for line in res.summary().splitlines() if "`" not in line and "sloshid.track(" not in line)
 
 
 @pytest.mark.parametrize("target", ["float", "surface"])

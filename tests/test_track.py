@@ -30,6 +30,7 @@ from sloshid.tracking.container_ref import (
 )
 from sloshid.tracking.float_angle import FloatFinder
 from sloshid.tracking.repeats import REPEAT_SHARE, Copies, line_regions, repeated_share, stale_repeats
+from sloshid.tracking.rows import SurfaceGeometry, TrackRow
 from sloshid.tracking.smooth import smooth_angle
 from sloshid.tracking.surface import (
     SurfaceFinder,
@@ -558,7 +559,7 @@ def test_an_automatic_dye_names_the_other_colour_it_passed_over(tmp_path):
     res = track_video(tmp_path / "r.mp4", TrackSettings(target="surface", smooth=False))
     assert res.dye == "red (chosen from the first frame)"
     assert any(
-        "blue covers a region at least a quarter as large" in w and "--liquid-color blue" in w for w in res.warnings
+        "blue covers a region at least a quarter as large" in w and "`liquid_color` blue" in w for w in res.warnings
     )
     alone = track_video(tmp_path / "r.mp4", TrackSettings(target="surface", liquid_color="blue", smooth=False))
     assert not any("quarter as large" in w for w in alone.warnings)
@@ -650,7 +651,7 @@ def test_surface_angle_and_wall_heights_match_truth(surface_video, reference, co
     assert list(cols)[:11] == ["frame", "t_s", "angle_deg", "surface_angle_deg", *TRACK_COLUMNS[4:]]
     # against the image the angle includes the container's +-2 deg tilt, and track says so (3.9 deg measured)
     turned = [w for w in res.warnings if "container turned by" in w]
-    assert len(turned) == (reference == "image") and all("--reference container" in w for w in turned)
+    assert len(turned) == (reference == "image") and all("`reference` container" in w for w in turned)
     # the dye chosen automatically is named (a trial's orange robot link was tracked as the liquid without a word)
     assert res.dye == f"{SURFACE['liquid_color']} (chosen from the first frame)" and res.to_dict()["dye"] == res.dye
     assert res.summary().endswith(f", dye {res.dye}")
@@ -1197,16 +1198,16 @@ def test_held_walls_give_both_targets_rows_their_interpolated_angles():
     m = SurfaceMeasurement(True, True, 0.0, 0.0, 10.0, 10.0, 100.0, 0.0, 320.0, 240.0, 1.0)
     surface.walls_record = WallsRecord(list(MEASURED), list(HELD))
     surface.held_surfaces = {i: replace(m) for i in HELD}
-    rows = [(i / 30, *surface._row(replace(m), ContainerMeasurement(True, 0.0))) for i in range(50)]
+    rows = [surface._row(replace(m), ContainerMeasurement(True, 0.0))._replace(t_s=i / 30) for i in range(50)]
     surface.revise(rows)
-    np.testing.assert_allclose([rows[i][3] for i in HELD], HELD_ANGLES, atol=1e-12)  # container_angle_deg
+    np.testing.assert_allclose([rows[i].container_angle_deg for i in HELD], HELD_ANGLES, atol=1e-12)
     floats = tracker._FloatStep(TrackSettings(reference="container"), (0, 0, 640, 480))
     floats.walls_record = WallsRecord(list(MEASURED), list(HELD))
-    rows = [(i / 30, 5.0, 5.0, 0.0, 320.0, 240.0, 1.0, 1) for i in range(50)]  # t, angle, float, container, ...
+    rows = [TrackRow(0, i / 30, 5.0, 5.0, 0.0, 320.0, 240.0, 1.0, 1) for i in range(50)]
     floats.revise(rows)
-    np.testing.assert_allclose([rows[i][3] for i in HELD], HELD_ANGLES, atol=1e-12)
-    np.testing.assert_allclose([rows[i][1] for i in HELD], 5.0 - np.array(HELD_ANGLES), atol=1e-12)
-    assert [r[1] for r in rows[12:]] == [5.0] * 38  # measured rows are left as they were
+    np.testing.assert_allclose([rows[i].container_angle_deg for i in HELD], HELD_ANGLES, atol=1e-12)
+    np.testing.assert_allclose([rows[i].angle_deg for i in HELD], 5.0 - np.array(HELD_ANGLES), atol=1e-12)
+    assert [r.angle_deg for r in rows[12:]] == [5.0] * 38  # measured rows are left as they were
 
 
 @pytest.fixture(scope="module")
@@ -1616,7 +1617,7 @@ def test_a_float_that_never_moves_draws_a_warning(decay_video, tmp_path):
     render_video(still, SynthSettings(**{**SMALL, "duration_s": 1.0}, amplitude_deg=0.0))
     res = track_video(still, TrackSettings())
     assert res.valid.mean() > 0.9
-    assert any("nothing moved it" in w and "--overlay" in w for w in res.warnings), res.warnings
+    assert any("nothing moved it" in w and "`overlay`" in w for w in res.warnings), res.warnings
     moving = track_video(decay_video[0], TrackSettings())
     assert not any("nothing moved it" in w for w in moving.warnings)
 
@@ -1649,8 +1650,8 @@ def test_columns_beside_a_sensor_file_are_the_files(surface_video, tmp_path):
 def test_a_surface_whose_centre_leaves_its_rest_level_is_not_valid():
     # a move that slopped the liquid to the rim read a flat line there, 0.005 deg against 46 deg and both walls 115 px
     # up, valid with quality 1 (a trial): a planar slosh keeps the mean of the wall heights at rest, so such a frame
-    # is dropped. Rows as the step keeps them: (frame, t, angle, angle vs image, container angle, x, y, quality,
-    # valid, slope, container angle, left, right, width, opening); a 200 px inner width sloshing +-10 px at its walls
+    # is dropped. Rows as the step keeps them (TrackRow, with the surface's raw geometry: slope, container angle,
+    # left, right, width, opening); a 200 px inner width sloshing +-10 px at its walls
     step = SurfaceStep(TrackSettings(target="surface"), (0, 0, 320, 240))
     rows = []
     for k in range(60):
@@ -1658,11 +1659,14 @@ def test_a_surface_whose_centre_leaves_its_rest_level_is_not_valid():
         left, right = 100 - swing, 100 + swing
         if k == 45:
             left = right = 130  # both walls 30 px (0.15 of the width) up: the rim, not the surface
-        rows.append((k, k / 30, 0.0, 0.0, 0.0, 160, 120, 1.0, 1, swing / 100, 0.0, left, right, 200.0, 0.0))
+        raw = SurfaceGeometry(swing / 100, 0.0, left, right, 200.0, 0.0)
+        rows.append(TrackRow(k, k / 30, 0.0, 0.0, 0.0, 160, 120, 1.0, 1, raw))
     body, walls, notes = step.finish(rows)
-    valid = np.array([b[-1] for b in body])
+    valid = np.array([b.valid for b in body])
     assert valid.sum() == 59 and valid[45] == 0
-    assert np.isnan(walls["left_wall_px"][45]) and walls["right_wall_px"][46] == pytest.approx(rows[46][12] - 100)
+    assert np.isnan(walls["left_wall_px"][45]) and walls["right_wall_px"][46] == pytest.approx(
+        rows[46].surface.right_w - 100
+    )
     assert any("centre left its rest level" in n and "1 frame(s), first at 1.50 s" in n for n in notes)
 
 

@@ -685,7 +685,10 @@ def test_plan_notes_an_input_output_models_wall_reading(tmp_path):
     io.write_text(json.dumps(doc))
     assert planning_note(plain) is None
     note = planning_note(io, "t.csv")
-    assert "wave share 0.72, crest coefficient 0.3" in note and f"sloshid predict t.csv --params {io}" in note
+    assert (
+        "wave share 0.72, crest coefficient 0.3" in note
+        and f"predicting the liquid's response to t.csv with {io}" in note
+    )
     assert "plans and scores use its f and zeta alone" in note
 
 

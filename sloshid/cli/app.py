@@ -11,11 +11,14 @@ import re
 import signal
 import sys
 import tempfile
+import warnings
 from collections.abc import Sequence
 from pathlib import Path
+from types import ModuleType
 from typing import NoReturn
 
-from sloshid.core.errors import SettingError, UserError
+from sloshid.cli.naming import as_typed, flag_for, options_of
+from sloshid.core.errors import SettingError, SloshidWarning, UserError
 
 COMMANDS: dict[str, str] = {
     "synth": "render a synthetic float or dyed-liquid video with exact ground truth (for testing the tracker)",
@@ -84,13 +87,8 @@ def build_parser(only: str | None = None) -> argparse.ArgumentParser:
         module = importlib.import_module(f"sloshid.cli.{name}_cmd")
         p = sub.add_parser(name, help=help_text, description=module.__doc__, formatter_class=_Formatter)
         module.add_arguments(p)
-        p.set_defaults(_run=module.run, _flags=getattr(module, "FLAGS", {}))
+        p.set_defaults(_run=module.run, _flags=getattr(module, "FLAGS", {}), _options=options_of(p))
     return parser
-
-
-def flag_for(setting: str, flags: dict[str, str]) -> str:
-    """The command-line name of a library setting: the command's own mapping, else --setting-with-hyphens."""
-    return flags.get(setting, "--" + setting.replace("_", "-"))
 
 
 def _subparser(parser: argparse.ArgumentParser, name: str | None) -> argparse.ArgumentParser | None:
@@ -170,6 +168,14 @@ def _reopen_closed_streams() -> None:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point: parse, dispatch, and turn a UserError into one line on stderr with exit code 2."""
+    with warnings.catch_warnings():
+        # a command prints the warnings its results collect, in its own words: Python's copy would repeat each one
+        warnings.simplefilter("ignore", SloshidWarning)
+        return _main(argv)
+
+
+def _main(argv: Sequence[str] | None) -> int:
+    """main's work, with the library's warnings left to the command to print."""
     argv = list(sys.argv[1:] if argv is None else argv)
     _reopen_closed_streams()
     os.environ.setdefault("MPLBACKEND", "Agg")  # a command draws figures into files, never into windows
@@ -177,10 +183,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     wanted = next((a for a in argv if a in COMMANDS), None)
     args = None
     previous = signal.signal(signal.SIGTERM, _on_sigterm)
-    smooth = None
+    smooth: ModuleType | None = None
     if wanted == "track" and not {"-h", "--help", "--no-smooth"} & set(argv):
-        from sloshid.tracking import smooth  # NumPy only; forks before the command's imports (see start_early)
-
+        smooth = importlib.import_module("sloshid.tracking.smooth")  # NumPy only; forks early (see start_early)
         smooth.start_early()
     try:
         parser = build_parser(only=wanted)
@@ -197,9 +202,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         return code
     except SettingError as exc:
         flags = getattr(args, "_flags", {})
-        return _fail(str(exc.named(lambda setting: flag_for(setting, flags))))
+        return _fail(as_typed(str(exc.named(lambda setting: flag_for(setting, flags))), args))
     except UserError as exc:
-        return _fail(str(exc))
+        return _fail(as_typed(str(exc), args))
     except PermissionError as exc:  # a file or folder of the user's that this user may not read or enter
         what = f" {exc.filename}" if exc.filename else ""
         return _fail(f"permission denied for{what}: this user may not read or write it, or enter its folder.")
@@ -209,7 +214,9 @@ def main(argv: Sequence[str] | None = None) -> int:
             return _fail(f"could not write to standard output ({exc.strerror}).")
         if exc.filename is None:
             raise
-        return _fail(f"could not use {exc.filename}: {_PATH_TROUBLE.get(exc.errno, exc.strerror or 'unknown error')}.")
+        return _fail(
+            f"could not use {exc.filename}: {_PATH_TROUBLE.get(exc.errno or 0, exc.strerror or 'unknown error')}."
+        )
     except ValueError as exc:
         if "null byte" not in str(exc):
             raise

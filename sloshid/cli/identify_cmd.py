@@ -8,7 +8,9 @@ from __future__ import annotations
 import argparse
 import sys
 
+from sloshid.cli.naming import as_typed
 from sloshid.core.errors import UserError
+from sloshid.core.results import TableResult
 
 TRAJECTORY_ONLY = {
     "--axis-offset-m": "axis_offset_m",
@@ -148,8 +150,9 @@ def run(args: argparse.Namespace) -> int:
     columns = SignalColumns(args.time_col, args.value_col, args.time_var, args.value_var)
 
     def warn(text: str) -> None:
-        print(f"sloshid: warning: {text}", file=sys.stderr)
+        print(f"sloshid: warning: {as_typed(text, args)}", file=sys.stderr)
 
+    result: TableResult  # an IOFit or an IdentResult: the same contract
     if args.trajectory is not None:  # input-output: the whole record, forced response and free decay
         from sloshid.model.pose import SMOOTH_S
         from sloshid.validation.iofit import fit_io_files
@@ -174,7 +177,7 @@ def run(args: argparse.Namespace) -> int:
     if report_dir is not None:
         result.report(report_dir)
     write_json(output, doc)
-    print(result.summary())
+    print(as_typed(result.summary(), args))
     print(f"wrote {output}" + (f" and {report_dir / 'index.html'}" if report_dir else ""))
     print(f"next: sloshid plan SCENARIO.toml --params {output} -o TRAJ.csv plans a slosh-free move for this liquid.")
     return 0

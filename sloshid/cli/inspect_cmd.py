@@ -22,13 +22,35 @@ for bad input.
 from __future__ import annotations
 
 import argparse
+import shlex
 import sys
 from pathlib import Path
+from typing import Any
 
+from sloshid.cli import track_cmd
+from sloshid.cli.naming import as_typed, options_of
 from sloshid.cli.track_cmd import roi_from_args
 from sloshid.core.errors import UserError
 from sloshid.core.outputs import Outputs
 from sloshid.tracking.inspect import inspect_video
+
+FLAGS = {"at_s": "--at"}
+"""Library setting -> option name, where they differ (errors name the option the user typed)."""
+
+
+def track_options() -> dict[str, str]:
+    """`sloshid track`'s options by setting: the suggestions and notes speak of them."""
+    parser = argparse.ArgumentParser(add_help=False)
+    track_cmd.add_arguments(parser)
+    return options_of(parser)
+
+
+def track_command(video: Path, settings: dict[str, Any], options: dict[str, str]) -> str:
+    """The `sloshid track VIDEO -o STEM_angles.csv ...` line that tracks with `settings` (quoted where needed)."""
+    words = ["sloshid", "track", str(video), "-o", str(video.with_name(f"{video.stem}_angles.csv"))]
+    for name, value in settings.items():
+        words += [options[name], ",".join(str(v) for v in value) if isinstance(value, tuple) else str(value)]
+    return shlex.join(words)
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -70,7 +92,8 @@ def run(args: argparse.Namespace) -> int:
     picture = _picture_path(args)
     result = inspect_video(args.video, args.at, roi_from_args(args.roi))
     result.save_picture(picture)
-    print(result.summary())
+    options = track_options()
+    print(as_typed(result.summary(lambda settings: track_command(args.video, settings, options)), args, options))
     print(f"wrote {picture}")
     if result.target is None:
         print(

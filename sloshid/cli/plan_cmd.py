@@ -84,7 +84,8 @@ def run(args: argparse.Namespace) -> int:
     if args.fit_joints and not args.joints:
         raise UserError("--fit-joints needs --joints JOINTS.csv.")
     scenario = load_scenario(args.scenario)
-    path_csv = [scenario.path.source] if scenario.path is not None and scenario.path_table.points_csv else []
+    table = scenario.path_table
+    path_csv = [scenario.path.source] if scenario.path is not None and table is not None and table.points_csv else []
     outputs = Outputs([p for p in (args.scenario, args.params, *path_csv) if p])
     output = outputs.file(args.output, "-o", (".csv",))
     joints = outputs.file(args.joints, "--joints", (".csv",)) if args.joints else None
@@ -158,7 +159,8 @@ def note_io_model(params_path: str | None, trajectory: str, planned=None) -> Non
 
         note = planning_note(params_path, trajectory, planned)
         if note:
-            print(f"sloshid: note: {note}", file=sys.stderr)
+            check = f"`sloshid predict {trajectory} --params {params_path}`"
+            print(f"sloshid: note: {note.removesuffix('.')} ({check}).", file=sys.stderr)
 
 
 def warn_doubtful_parameters(params_path: str | None, scenario) -> None:
@@ -221,7 +223,7 @@ def _fit_cost(result, scenario, params) -> str:
 
 def _warnings(result, fit: list) -> None:
     """Robot limits exceeded, a failed verification, a path left, and joint re-planning, one line each."""
-    from sloshid.planning.planner import VERIFY_AFTER_DEG
+    from sloshid.planning.result import VERIFY_AFTER_DEG
 
     for usage in result.limits:
         if not usage.ok:

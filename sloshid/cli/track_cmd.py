@@ -22,6 +22,7 @@ import argparse
 import sys
 from pathlib import Path
 
+from sloshid.cli.naming import as_typed
 from sloshid.core.errors import UserError
 from sloshid.core.outputs import Outputs
 from sloshid.tracking.tracker import LOST_NOTE, TrackSettings, track_video
@@ -89,7 +90,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
 
 
-def roi_from_args(text: str | None) -> tuple[int, ...] | None:
+def roi_from_args(text: str | None) -> tuple[int, int, int, int] | None:
     """Parse --roi X,Y,W,H (four whole numbers) or None (track and inspect)."""
     if text is None:
         return None
@@ -99,7 +100,7 @@ def roi_from_args(text: str | None) -> tuple[int, ...] | None:
         values = ()
     if len(values) != 4:
         raise UserError(f"--roi must be four whole numbers X,Y,W,H in pixels, got '{text}'.")
-    return values
+    return values[0], values[1], values[2], values[3]
 
 
 def run(args: argparse.Namespace) -> int:
@@ -124,7 +125,7 @@ def run(args: argparse.Namespace) -> int:
     result = track_video(args.video, settings, overlay=overlay, progress=True)
     result.to_csv(output)
     for warning in result.warnings:
-        print(f"sloshid: warning: {warning}", file=sys.stderr)
+        print(f"sloshid: warning: {as_typed(warning, args)}", file=sys.stderr)
     print(result.summary() + f"; wrote {output}" + (f" and {overlay}" if overlay else ""))
     print(f"next: sloshid identify {output} -o params.json identifies the liquid from this angle trace.")
     return 1 if result.lost_share > LOST_NOTE else 0

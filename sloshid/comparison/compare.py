@@ -470,7 +470,7 @@ class LinearityPoint:
     max_gap_deg: float
 
 
-@dataclass
+@dataclass(kw_only=True)
 class Comparison:
     """All methods scored on one move, with the closed-loop, robustness, camera-rate and linearity studies."""
 
@@ -694,7 +694,16 @@ def compare(inp: CompareInput, progress: bool = False) -> Comparison:
     step(studies[2])
     camera, reference = camera_study(inp, built, progress)
     step(studies[3])
-    comp = Comparison(inp.params, s, results, closed, robust, camera, reference, linearity_study(inp))
+    comp = Comparison(
+        params=inp.params,
+        settings=s,
+        results=results,
+        closed_loop=closed,
+        robustness=robust,
+        camera=camera,
+        no_feedback_at_camera_error=reference,
+        linearity=linearity_study(inp),
+    )
     step(studies[4])
     comp.recommendation = recommend(results, inp.params, s, inp.f_interval_hz, progress)
     step(studies[5])

@@ -3,12 +3,15 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import matplotlib.pyplot as plt
 import numpy as np
 
-from sloshid.comparison.compare import Comparison
 from sloshid.report.html import Report
+
+if TYPE_CHECKING:  # the comparison draws itself through this module: its class is named for the annotations only
+    from sloshid.comparison.compare import Comparison
 
 SCORE_HEADER = (
     "method",

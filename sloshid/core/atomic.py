@@ -116,8 +116,35 @@ def write_text(path: str | os.PathLike, text: str) -> None:
         tmp.write_text(text, encoding="utf-8")
 
 
+SCHEMA_VERSION = "1.0"
+"""The layout of the JSON files sloshid writes, stated in each as `schema_version`: the major number changes when a
+reader of the old layout would misread the new one. A file without it was written before versions were stated (1.x)."""
+
+
+def versioned(doc: dict[str, Any]) -> dict[str, Any]:
+    """`doc` with `schema_version` first (an object that already states one keeps it)."""
+    return {"schema_version": SCHEMA_VERSION, **doc}
+
+
+def check_schema(doc: Any, path: str | os.PathLike) -> None:
+    """Refuse, in one sentence, a file written by a newer sloshid in a layout this one cannot read (a newer major
+    version); a file without a version is an older one's and is read."""
+    version = doc.get("schema_version") if isinstance(doc, dict) else None
+    if version is None:
+        return
+    major, ours = str(version).split(".")[0], int(SCHEMA_VERSION.split(".")[0])
+    if not major.isdigit() or int(major) > ours:
+        raise UserError(
+            f"{path} was written by a newer sloshid (schema_version {version}, this one reads {ours}.x); update sloshid "
+            "to read it."
+        )
+
+
 def write_json(path: str | os.PathLike, doc: Any) -> None:
-    """Write a JSON document atomically; non-finite numbers are refused (JSON has none), nothing is written then."""
+    """Write a JSON document atomically, an object with its `schema_version`; non-finite numbers are refused (JSON has
+    none), nothing is written then."""
+    if isinstance(doc, dict):
+        doc = versioned(doc)
     try:
         text = json.dumps(doc, indent=2, allow_nan=False)
     except ValueError:

@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import os
+import re
 import stat
+import warnings
 from collections.abc import Callable
 from pathlib import Path
 
@@ -37,6 +39,26 @@ class SettingError(UserError):
         fn = (lambda s: rename if s == self.setting else s) if isinstance(rename, str) else rename
         err.args = (self._render(fn),)
         return err
+
+
+class SloshidWarning(UserWarning):
+    """A doubt about a result sloshid still returns (a truncated video, a tracker that lost frames, ...). Emitted through
+    `warnings.warn`, so that a notebook can filter or capture it, and kept in the result's `warnings` list too."""
+
+
+def warn(message: str, stacklevel: int = 3) -> None:
+    """Emit `message` as a SloshidWarning (stacklevel 3: pointing at the caller of the library function that warns)."""
+    warnings.warn(message, SloshidWarning, stacklevel=stacklevel)
+
+
+SETTING_IN_TEXT = re.compile(r"`([a-z][a-z0-9_]*)`")
+"""How a message outside an error names a setting: in backticks, as the library knows it (`window_s`)."""
+
+
+def rename_settings(text: str, rename: Callable[[str], str | None]) -> str:
+    """`text` with each setting named in backticks re-worded by the front-end's `rename` (the CLI gives its option);
+    a name `rename` does not know (None) stays as it is."""
+    return SETTING_IN_TEXT.sub(lambda m: rename(m.group(1)) or m.group(0), text)
 
 
 SMALL_FILE_BYTES = 64 * 2**20

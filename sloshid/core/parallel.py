@@ -42,7 +42,7 @@ def _stop_signals_handled_by(handler: Callable[[int, object], None]) -> Iterator
     outside the main thread, or where a handler set outside Python could not be put back. A signal the process ignores
     stays ignored (a command started with nohup, or in the background by a script): a solve that ended on it reported
     "did not converge" and carried on, where an interruption was never asked for."""
-    wanted = (signal.SIGINT, signal.SIGTERM)
+    wanted: tuple[signal.Signals, ...] = (signal.SIGINT, signal.SIGTERM)
     if threading.current_thread() is not threading.main_thread() or None in map(signal.getsignal, wanted):
         yield
         return

@@ -68,7 +68,7 @@ def _check(value: Any, tp: Any, where: str) -> Any:
     if dataclasses.is_dataclass(tp):
         if not isinstance(value, dict):
             raise UserError(f"{where} must be a table, got {value!r}.")
-        return from_dict(tp, value, where)
+        return from_dict(typing.cast(Any, tp), value, where)
     if origin in (tuple, list):
         if not isinstance(value, (list, tuple)):
             raise UserError(f"{where} must be a list, got {value!r}.")
@@ -114,7 +114,7 @@ def from_dict(cls: type[T], data: dict[str, Any], where: str = "") -> T:
     checks afterwards, so range checks live with the field definitions.
     """
     hints = typing.get_type_hints(cls)
-    fields = {f.name: f for f in dataclasses.fields(cls) if f.init}
+    fields = {f.name: f for f in dataclasses.fields(typing.cast(Any, cls)) if f.init}
     prefix = f"{where}." if where else ""
     for key in data:
         if key not in fields:

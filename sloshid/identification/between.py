@@ -187,7 +187,7 @@ def between_signals(
     # the random-effects error of the mean, and how far that mean lies from the joint estimate, as a systematic error
     wanted = [math.hypot(t.stderr, t.mean - x) for t, x in zip(tests, joint_x)]
     factor = np.array([max(1.0, w / s) if t.disagree and s > 0 else 1.0 for t, w, s in zip(tests, wanted, joint_se)])
-    test = BetweenSignals(*tests, tuple(map(float, factor)))
+    test = BetweenSignals(tests[0], tests[1], (float(factor[0]), float(factor[1])))
     if (factor == 1).all():
         return joint, test
     return replace(joint, cov=joint.cov * np.outer(factor, factor)), test

@@ -124,8 +124,9 @@ class IdentSettings:
             raise SettingError(
                 missing, "the geometric prior needs both the container radius and the fill height; give {name} too."
             )
-        if self.container_radius_m is not None and not (self.container_radius_m > 0 and self.fill_height_m > 0):
-            bad = "container_radius_m" if not self.container_radius_m > 0 else "fill_height_m"
+        radius, fill = self.container_radius_m, self.fill_height_m
+        if radius is not None and fill is not None and not (radius > 0 and fill > 0):
+            bad = "container_radius_m" if not radius > 0 else "fill_height_m"
             raise SettingError(bad, f"{{name}} must be positive (m), got {getattr(self, bad):g}.")
         for key in ("container_radius_m", "fill_height_m"):
             check_in_metres(key, getattr(self, key))  # millimetres typed as metres move the prior a 30-fold
@@ -186,7 +187,7 @@ def ljung_box_p(resid: np.ndarray, lags: int) -> float:
     return float(stats.chi2.sf(q, lags))
 
 
-@dataclass
+@dataclass(kw_only=True)
 class IdentResult:
     """Everything `identify` found: parameters with intervals, the windows and spectra behind them, the verdict."""
 
@@ -200,7 +201,7 @@ class IdentResult:
     reasons: list[str]
     notes: list[str]
     mass_kg: float | None
-    prior: dict[str, float] = field(default_factory=dict)
+    prior: dict[str, Any] = field(default_factory=dict)
     ljung_box: list[float] = field(default_factory=list)
     lb_lags: list[int] = field(default_factory=list)
     second_mode: SecondMode | None = None
@@ -220,7 +221,8 @@ class IdentResult:
         """The band of f a move must hold over: the 95 % interval, or, when jointly identified runs disagreed, where
         one more run may land (the between-signal prediction interval, as `IdentifiedFrequency` reads the JSON)."""
         if self.between is not None and self.between.omega.disagree:
-            return tuple(v / (2 * math.pi) for v in self.between.omega.prediction95)
+            lo, hi = self.between.omega.prediction95
+            return lo / (2 * math.pi), hi / (2 * math.pi)
         return self.parameters["f_hz"].ci95
 
     @property
@@ -679,8 +681,8 @@ class Identifier:
                     f"{sig.source}: no free ring-down of {MIN_PERIODS_ERROR:g} periods ({f_guess:.3g} Hz): the signal "
                     f"is driven (its mean over a period moves by more than half its swing) until {driven:.2f} s of "
                     f"{sig.t_s[-1]:.2f} s; give {{name}} (start and end, s) where it rings down freely, or track a "
-                    "container that moves in the picture against the container (`sloshid track --reference "
-                    'container`, or reference = "container" in a pipeline\'s [track]).',
+                    'container that moves in the picture against the container (tracking with `reference` = "container", '
+                    'or reference = "container" in a pipeline\'s [track]).',
                 )
             raise UserError(
                 f"{sig.source}: no oscillatory mode found; nowhere does a ring-down of {MIN_PERIODS_ERROR:g} "
@@ -770,22 +772,22 @@ class Identifier:
             if note:
                 notes.append(note)
         return IdentResult(
-            sigs,
-            windows,
-            spectra,
-            fit,
-            checks,
-            params,
-            verdict.quality,
-            verdict.reasons,
-            notes,
-            st.mass_kg,
-            prior,
-            lb,
-            lb_lags,
-            second,
-            verdict.groups,
-            between,
+            signals=sigs,
+            windows=windows,
+            spectra=spectra,
+            fit=fit,
+            cross_checks=checks,
+            parameters=params,
+            quality=verdict.quality,
+            reasons=verdict.reasons,
+            notes=notes,
+            mass_kg=st.mass_kg,
+            prior=prior,
+            ljung_box=lb,
+            lb_lags=lb_lags,
+            second_mode=second,
+            groups=verdict.groups,
+            between=between,
         )
 
     @property
@@ -882,7 +884,7 @@ WATER_KG_M3 = 1000.0
 def mass_against_geometry(st: IdentSettings) -> str | None:
     """The note when the given mass is more than 3 times off the water a cylinder of the given radius and fill height
     holds (a mass in grams read as kg is a thousand times), or None."""
-    if st.mass_kg is None or st.container_radius_m is None:
+    if st.mass_kg is None or st.container_radius_m is None or st.fill_height_m is None:
         return None
     water = WATER_KG_M3 * math.pi * st.container_radius_m**2 * st.fill_height_m
     ratio = st.mass_kg / water
@@ -899,7 +901,7 @@ def mass_against_geometry(st: IdentSettings) -> str | None:
 def geometric_prior(st: IdentSettings) -> dict[str, Any]:
     """The cylinder's analytic first mode and the band where it, not the second azimuthal mode, is the nearer one
     (split at their geometric mean), or {} without geometry."""
-    if st.container_radius_m is None:
+    if st.container_radius_m is None or st.fill_height_m is None:  # given together (checked on construction)
         return {}
     w1 = cylinder_first_mode_omega(st.container_radius_m, st.fill_height_m)
     w2 = cylinder_first_mode_omega(st.container_radius_m, st.fill_height_m, XI_CYLINDER_SECOND)

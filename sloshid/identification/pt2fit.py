@@ -86,7 +86,7 @@ class HoldFit:
     """How far the refit's zeta moves when the shrink grows by the residual's rms: a systematic error of zeta too."""
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class PT2Fit:
     """Result of the (joint) PT2 fit with its corrected covariance."""
 
@@ -471,21 +471,21 @@ def _solve(
             for t, lin, nl in zip(model.t, lins, model.nl)
         )
     return PT2Fit(
-        float(x[0]),
-        float(x[1]),
-        cov[:2, :2],
-        naive[:2, :2],
-        tuple(lins),
-        tuple(model.split(se)),
-        tuple(fitted),
-        tuple(y - f for y, f in zip(model.y, fitted)),
-        tuple(lags),
-        model.drift,
-        tuple(at_bound),
-        len(screened),
-        second,
-        second_fitted,
-        None
+        omega_rad_s=float(x[0]),
+        zeta=float(x[1]),
+        cov=cov[:2, :2],
+        cov_naive=naive[:2, :2],
+        linear=tuple(lins),
+        linear_se=tuple(model.split(se)),
+        fitted=tuple(fitted),
+        residuals=tuple(y - f for y, f in zip(model.y, fitted)),
+        hac_lags=tuple(lags),
+        drift=model.drift,
+        at_bound=tuple(at_bound),
+        n_starts=len(screened),
+        second=second,
+        second_fitted=second_fitted,
+        hold=None
         if plain is None
         else HoldFit(
             float(x[-1]),
@@ -494,8 +494,8 @@ def _solve(
             plain.cov,
             shrink=float(x[-2]) if ne == 2 else 0.0,
         ),
-        model.slow_s,
-        tuple(z @ lin[2 : 2 + z.shape[1]] for z, lin in zip(model.zero, lins)),
+        slow_s=model.slow_s,
+        zero_fitted=tuple(z @ lin[2 : 2 + z.shape[1]] for z, lin in zip(model.zero, lins)),
     )
 
 

@@ -5,13 +5,17 @@ from __future__ import annotations
 import html
 import math
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import matplotlib.pyplot as plt
 from tqdm import tqdm
 
-from sloshid.identification.estimator import IdentResult
 from sloshid.identification.verdict import PARAMETER_LABELS
 from sloshid.report.html import Report
+
+if TYPE_CHECKING:  # the result calls this module to draw itself: its class is named for the annotations only
+    from sloshid.identification.estimator import IdentResult
+    from sloshid.identification.second_mode import SecondMode
 
 GROUP_LABELS = {"frequency": "Frequency (f, omega, l)", "damping": "Damping (zeta, d)"}
 
@@ -27,7 +31,7 @@ def build_report(res: IdentResult, links: dict[str, str] | None = None) -> Repor
         _signal_section(rep, res, i)
     _parameter_section(rep, res)
     if res.second_mode is not None:
-        _second_mode_section(rep, res)
+        _second_mode_section(rep, res, res.second_mode)
     _cross_check_section(rep, res)
     _model_section(rep, res)
     return rep
@@ -136,9 +140,9 @@ def _parameter_section(rep: Report, res: IdentResult) -> None:
         )
 
 
-def _second_mode_section(rep: Report, res: IdentResult) -> None:
+def _second_mode_section(rep: Report, res: IdentResult, sm: SecondMode) -> None:
     """The two-mode fit tried for a strong second PSD peak, and whether it separated the modes."""
-    sm, m = res.second_mode, res.second_mode.to_dict()
+    m = sm.to_dict()
     rep.add_heading("Second mode")
     rows = [
         ["second mode f2 (Hz)", m["f_hz"]["value"], m["f_hz"]["stderr"]],

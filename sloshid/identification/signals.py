@@ -106,9 +106,9 @@ def make_signal(t, y, label: str, unit: str = "", source: str = "array", n_dropp
     if bad.sum() > MAX_BAD_FRACTION * max(t.size, 1):
         why = ""
         if label == "angle_smoothed_deg" and bad.all():
-            why = " (`sloshid track --no-smooth` leaves it empty)"
+            why = " (tracking with `smooth` off leaves it empty)"
         elif label.endswith("_wall_mm") and bad.all():
-            why = " (`sloshid track --target surface` fills it only with --container-diameter-m; _wall_px is in pixels)"
+            why = " (tracking fills it only for `target` surface with `container_diameter_m`; _wall_px is in pixels)"
         raise UserError(
             f"{source}: {bad.sum()} of {t.size} samples of '{label}' are NaN or infinite{why}, too many to identify "
             "from."

@@ -3,6 +3,7 @@ IdentResult out. The CLI, the pipeline, the batch and `sloshid.identify` all cal
 
 from __future__ import annotations
 
+import logging
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -10,11 +11,15 @@ from pathlib import Path
 import numpy as np
 
 from sloshid.core.errors import UserError
+from sloshid.core.errors import warn as sloshid_warn
 from sloshid.identification.estimator import Identifier, IdentResult, IdentSettings, mass_against_geometry
 from sloshid.identification.signals import Signal, TracedAngles, check_csv_options, load_signal, signal_from_track
 
 Source = str | Path | Signal | TracedAngles
 """Anything identification reads: a signal file, a Signal, or a tracker result."""
+
+log = logging.getLogger("sloshid.identification")
+"""Progress of an identification (INFO); doubts about the inputs are SloshidWarnings."""
 
 
 @dataclass(frozen=True)
@@ -64,7 +69,7 @@ def check_sampling(source: str, rate_hz: float, f_range_hz: tuple[float, float])
         users_band = lo != hi and f_range_hz != IdentSettings().f_range_hz and rate_hz >= MIN_SAMPLES_PER_PERIOD
         cure = "the time column must be in seconds (is it in milliseconds?)"
         if users_band:
-            cure = "lower --f-range below that (or, if the time column is not in seconds, convert it)"
+            cure = "lower `f_range_hz` below that (or, if the time column is not in seconds, convert it)"
         elif lo != hi:  # identify's search band, which the user may also lower
             cure += ", and the band below that"
         raise UserError(
@@ -109,9 +114,9 @@ def identify_sources(
     # the columns name every source's when all are tracker results; beside files they are the files' (a sensor
     # CSV's "height"), and the tracker results keep their angle
     mixed = not all(_tracked(s) for s in sources)
-    files = [s for s in sources if isinstance(s, (str, Path))]
+    named = [s for s in sources if isinstance(s, (str, Path))]
     chosen = columns or SignalColumns()
-    check_csv_options(files, chosen.time_col, chosen.value_col, chosen.time_var, chosen.value_var)
+    check_csv_options(named, chosen.time_col, chosen.value_col, chosen.time_var, chosen.value_var)
     signals = [to_signal(s, SignalColumns() if mixed and _tracked(s) else columns, progress) for s in sources]
     for i, a in enumerate(signals):  # a copy under another name counts the same evidence twice as well
         for b in signals[:i]:
@@ -120,12 +125,11 @@ def identify_sources(
     settings = settings or IdentSettings()
     for sig in signals:
         check_sampling(sig.source, sig.rate_hz, settings.f_range_hz)
-    if warn is not None:
-        for sig in signals:
-            for w in [*sig.warnings, past_nyquist(sig.source, sig.rate_hz, settings.f_range_hz)]:
-                if w:
-                    warn(w)
-        mass_note = mass_against_geometry(settings)  # also among the result's notes
-        if mass_note:
-            warn(mass_note)
+    notes = [w for sig in signals for w in [*sig.warnings, past_nyquist(sig.source, sig.rate_hz, settings.f_range_hz)]]
+    notes.append(mass_against_geometry(settings))  # also among the result's notes
+    for note in filter(None, notes):
+        sloshid_warn(note)
+        if warn is not None:
+            warn(note)
+    log.info("identifying from %d signal(s): %s", len(signals), ", ".join(s.source for s in signals))
     return Identifier(settings).fit(signals, progress).result

@@ -88,7 +88,7 @@ class VerdictInput:
     min_periods: float
     second_mode_ratio: float
     second: SecondMode | None = None
-    prior: dict[str, float] = field(default_factory=dict)
+    prior: dict[str, Any] = field(default_factory=dict)
     """The geometric prior (empty without container geometry); its presence settles which peak is the first mode."""
     band_hz: tuple[float, float] | None = None
     """The band searched for the mode (--f-range, narrowed by the prior)."""
@@ -140,7 +140,7 @@ def judge(inp: VerdictInput) -> Verdict:
     doubts, notes = _Doubts(), []
     fit, f = inp.fit, inp.parameters["f_hz"].value
     f2 = fit.second.omega_rad_s / (2 * math.pi) if fit.second else None
-    if inp.second is not None and inp.second.separated:
+    if inp.second is not None and inp.second.separated and fit.second is not None:  # a separated mode was fitted
         notes.append(
             f"a second mode at {f2:.4g} Hz (zeta {fit.second.zeta:.2g}) was fitted beside the main one; "
             f"the main mode's numbers account for it."
@@ -222,7 +222,7 @@ def _judge_signal(inp: VerdictInput, i: int, name: str, f: float, f2: float | No
             "uncertain",
             f"{name}: fit {inp.fit_percent[i]:.1f} % is below {inp.min_fit_percent:g} %: noise, or a trace that is "
             "not the liquid's angle alone; check the tracked angle in the report (another colour range if frames "
-            "were lost or jump), or fit its clean decay (--window).",
+            "were lost or jump), or fit its clean decay (`window_s`).",
         )
     periods = inp.windows[i].duration_s * f
     if periods < inp.min_periods:
@@ -230,7 +230,7 @@ def _judge_signal(inp: VerdictInput, i: int, name: str, f: float, f2: float | No
             BOTH,
             "uncertain",
             f"{name}: only {periods:.1f} periods in the window (fewer than {inp.min_periods:g}); record a longer "
-            "decay (a stronger tap rings longer) or give a longer window (--window).",
+            "decay (a stronger tap rings longer) or give a longer window (`window_s`).",
         )
     # a peak the fitted second mode accounts for (within one bin) is no longer a doubt; any other one is
     strong = [
@@ -246,7 +246,7 @@ def _judge_signal(inp: VerdictInput, i: int, name: str, f: float, f2: float | No
             "uncertain",
             f"{name}: strong second mode at {p.f_hz:.3g} Hz ({100 * p.relative:.0f} % of the main peak's PSD)"
             + (f" that a two-mode fit could not separate ({why})" if why else "")
-            + "; give --f-range around the mode you want, or the container geometry to pick the first mode.",
+            + "; give `f_range_hz` around the mode you want, or the container geometry to pick the first mode.",
         )
     if inp.windows[i].near_mode_noise:
         doubts.add(
@@ -255,7 +255,7 @@ def _judge_signal(inp: VerdictInput, i: int, name: str, f: float, f2: float | No
             f"{name}: the noise is correlated from sample to sample ({inp.windows[i].near_mode_noise:.3g} standard "
             "deviation near the mode, several times its broadband level): the window was chosen against that level, "
             "and the fit, which assumes little correlation, can be off by more than its intervals; check the window "
-            "in the report or give it yourself (--window).",
+            "in the report or give it yourself (`window_s`).",
         )
     w = inp.windows[i]
     sig = inp.signals[i]
@@ -267,7 +267,7 @@ def _judge_signal(inp: VerdictInput, i: int, name: str, f: float, f2: float | No
             "unreliable",
             f"{name}: {peaks} peaks stop flat at {level:.6g} {sig.unit}".rstrip()
             + ": the signal is clipped (a saturated sensor, a float or surface at the end of its range), and a cut "
-            "swing decays more slowly than the mode does; fit a window after the clipping ends (--window).",
+            "swing decays more slowly than the mode does; fit a window after the clipping ends (`window_s`).",
         )
     if w.chosen_by == "user" and w.excitation_end_s is not None and w.t0_s < w.excitation_end_s:
         doubts.add(
@@ -275,7 +275,7 @@ def _judge_signal(inp: VerdictInput, i: int, name: str, f: float, f2: float | No
             "uncertain",
             f"{name}: the given window starts at {w.t0_s:g} s, before the forced motion in it ends (at about "
             f"{w.excitation_end_s:.2f} s): the fit reads a driven response as a free decay; start it after that "
-            "(--window).",
+            "(`window_s`).",
         )
     if sig.n_dropped:
         lost = sig.n_dropped / (sig.n_dropped + sig.t_s.size)
@@ -309,7 +309,7 @@ def _judge_residual(inp: VerdictInput, i: int, name: str, doubts: _Doubts, notes
             "uncertain",
             f"{name}: the residual is not white (Ljung-Box p = {lb:.2g}) and fades with the oscillation (p = "
             f"{p_grow:.2g}): the model misfits the mode, which bends the envelope the damping is read from; fit a later "
-            "window with smaller swings (--window), or tap more gently so that the slosh stays linear.",
+            "window with smaller swings (`window_s`), or tap more gently so that the slosh stays linear.",
         )
     else:
         notes.append(
@@ -329,7 +329,7 @@ def _judge_cross_checks(inp: VerdictInput, i: int, name: str, f: float, doubts: 
                 ("frequency",),
                 "uncertain",
                 f"{name}: {c.method} gives f = {c.f_hz:.4g} Hz, more than 2 % from the fit's {f:.4g} Hz; check the "
-                "window and the tracked trace in the report (lost or mis-tracked frames), or give the window (--window).",
+                "window and the tracked trace in the report (lost or mis-tracked frames), or give the window (`window_s`).",
             )
         if c.method == "logarithmic decrement" and math.isfinite(c.zeta):
             outside = not z.ci95[0] <= c.zeta <= z.ci95[1]
@@ -340,7 +340,7 @@ def _judge_cross_checks(inp: VerdictInput, i: int, name: str, f: float, doubts: 
                     "uncertain",
                     f"{name}: the logarithmic decrement gives zeta = {c.zeta:.2g}, outside the fit's 95 % interval "
                     f"{z.ci95[0]:.2g}-{z.ci95[1]:.2g} and more than a factor {LOG_DECREMENT_FACTOR:g} from {z.value:.2g}; "
-                    "give the window yourself where the decay is clean (--window), or record a longer decay.",
+                    "give the window yourself where the decay is clean (`window_s`), or record a longer decay.",
                 )
 
 
@@ -353,15 +353,15 @@ def _judge_bounds(inp: VerdictInput, doubts: _Doubts, notes: list[str]) -> None:
                 ("damping",),
                 "unreliable",
                 "zeta ended on its search bound 0: the oscillation does not decay in the window (no free decay); "
-                "fit a window after the excitation ends (--window).",
+                "fit a window after the excitation ends (`window_s`).",
             )
         elif name == "omega":
-            doubts.add(("frequency",), "unreliable", "omega ended on its search bound; widen the band (--f-range).")
+            doubts.add(("frequency",), "unreliable", "omega ended on its search bound; widen the band (`f_range_hz`).")
         else:
             doubts.add(
                 BOTH,
                 "uncertain",
-                f"{name} ended on its search bound; check that the window holds one free decay (--window).",
+                f"{name} ended on its search bound; check that the window holds one free decay (`window_s`).",
             )
     z = inp.parameters["zeta"]
     if "zeta" not in fit.at_bound and z.ci95[0] <= 0:  # a wide but valid interval: reported, not a doubt
@@ -380,8 +380,8 @@ def _judge_mode_choice(inp: VerdictInput, f: float, f2: float | None, doubts: _D
         doubts.add(
             ("frequency",),
             "unreliable",
-            f"f = {f:.4g} Hz lies outside the searched band {lo:g}-{hi:g} Hz (--f-range): the fit found a mode outside "
-            "it, not one inside (to fit a mode beside a stronger one, give --window where it rings alone).",
+            f"f = {f:.4g} Hz lies outside the searched band {lo:g}-{hi:g} Hz (`f_range_hz`): the fit found a mode outside "
+            "it, not one inside (to fit a mode beside a stronger one, give `window_s` where it rings alone).",
         )
     if inp.prior:
         lo, hi = inp.prior["band_hz"]
@@ -391,7 +391,7 @@ def _judge_mode_choice(inp: VerdictInput, f: float, f2: float | None, doubts: _D
                 "unreliable",
                 f"f = {f:.4g} Hz lies outside {lo:.3g}-{hi:.3g} Hz, the band where the container's first mode "
                 f"({inp.prior['f_hz']:.3g} Hz) is nearer than its second azimuthal mode: not the first mode; check "
-                "the container's radius and fill, or fit where the first mode rings (--window, --f-range).",
+                "the container's radius and fill, or fit where the first mode rings (`window_s`, `f_range_hz`).",
             )
         return
     lower = [f2] if f2 is not None and f2 < f else []

@@ -15,6 +15,7 @@ from typing import Any
 
 import numpy as np
 
+from sloshid.core.atomic import check_schema
 from sloshid.core.errors import SMALL_FILE_BYTES, UserError, input_file
 from sloshid.model.conventions import G
 
@@ -87,6 +88,7 @@ class SloshParams:
             raise UserError(f"parameter file {path} is not valid JSON ({exc}).") from None
         except RecursionError:
             raise UserError(f"parameter file {path} nests arrays too deeply to be a parameter file.") from None
+        check_schema(data, path)
         try:
             p = data["parameters"]
             omega = float(p["omega_rad_s"]["value"])

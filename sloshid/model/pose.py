@@ -225,7 +225,7 @@ def _check_plausible(source: str, acc: np.ndarray, start_axis: np.ndarray) -> No
     if tilt > MAX_START_TILT_DEG:
         raise UserError(
             f"{source}: the container starts tilted {tilt:.0f} deg from upright (180: upside down), where it holds no "
-            "liquid; is the quaternion order x, y, z, w (w last; --pose-columns names it)?"
+            "liquid; is the quaternion order x, y, z, w (w last; `pose_columns` names it)?"
         )
 
 
@@ -317,7 +317,7 @@ def load_pose_log(path: str | Path, columns: str | None = None) -> PoseLog:
     if p.suffix.lower() == ".mat":  # read as text it is "not UTF-8", which sends the user to the wrong fix
         raise UserError(
             f"{p} is a .mat file, a measured signal: the trajectory is the robot's pose log or a sloshid trajectory "
-            "(CSV); a measurement goes to --measured (validate) or identify."
+            "(CSV); a measurement is validated against (`measured`) or identified."
         )
     table = read_table(p)
     header, data = table.header, table.data

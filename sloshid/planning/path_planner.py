@@ -38,6 +38,7 @@ from sloshid.planning.path_problem import (
     path_parameters,
 )
 from sloshid.planning.problem import constraint_bounds
+from sloshid.planning.result import PlanResult, limit_usages
 from sloshid.planning.scenario import Scenario
 from sloshid.planning.transcription import MultipleShooting, graded_mesh
 
@@ -176,8 +177,6 @@ def _as_segment(scenario: Scenario, traj: Trajectory, T, status, iters, elapsed,
 
 def plan_path(scenario: Scenario, params: SloshParams, *, progress: bool = False):
     """Solve the [path] scenario for liquid `params` (PlanResult); raises UserError for bad paths and failures."""
-    from sloshid.planning.planner import PlanResult, limit_usages
-
     t_wall = time.perf_counter()
     check_path(scenario)
     lower, T0 = _time_estimate(scenario)

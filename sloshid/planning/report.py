@@ -3,12 +3,16 @@ z-axis arrows), robot-limit usage over time and the independent liquid verificat
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from sloshid.model.trajectory import limit_profiles
-from sloshid.planning.planner import VERIFY_AFTER_DEG, PlanResult
 from sloshid.planning.scenario import Scenario
 from sloshid.report.html import Report
+
+if TYPE_CHECKING:  # the result draws itself through this module: its class is named for the annotations only
+    from sloshid.planning.result import PlanResult
 
 LIMIT_LABELS = {
     "vel_m_s": "speed (m/s)",
@@ -147,7 +151,8 @@ def verification_figure(result: PlanResult):
     ax.semilogy(v.t_s, np.maximum(v.rel_angle_deg, 1e-9), lw=1, label="|liquid - container| (simulated)")
     during = result.verify_during_deg
     ax.axhline(during, color="C1", ls="--", lw=1, label=f"{during:g} deg (during)")
-    ax.axhline(VERIFY_AFTER_DEG, color="C3", ls=":", lw=1, label=f"{VERIFY_AFTER_DEG} deg (after arrival)")
+    after = result.verify_after_deg
+    ax.axhline(after, color="C3", ls=":", lw=1, label=f"{after} deg (after arrival)")
     ax.axvline(v.t_arrival_s, color="k", lw=0.8)
     ax.set_xlabel("time (s)")
     ax.set_ylabel("relative angle (deg)")

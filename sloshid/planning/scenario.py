@@ -20,6 +20,7 @@ from sloshid.core.errors import SettingError, UserError
 from sloshid.core.settings import did_you_mean, from_dict, load_toml
 from sloshid.model.pendulum import SloshParams
 from sloshid.model.trajectory import RobotLimits
+from sloshid.planning.arm_settings import arm_settings
 from sloshid.planning.path import PathGeometry, PathTable, build_geometry
 
 ARM_KEYS = ("model", "base_xyz_m", "base_rpy_deg", "tool_offset_m", "q_start", "fit_joints")
@@ -350,8 +351,6 @@ def scenario_from_dict(data: dict[str, Any], source: str = "") -> Scenario:
     arm_raw = {k: robot_raw.pop(k) for k in list(robot_raw) if k in ARM_KEYS}
     arm = None
     if arm_raw:
-        from sloshid.planning.arm import arm_settings
-
         arm = arm_settings(arm_raw)
     container = from_dict(Container, data.get("container", {}), "[container]")
     return Scenario(

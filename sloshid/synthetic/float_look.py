@@ -12,7 +12,7 @@ import math
 
 import numpy as np
 
-from sloshid.synthetic.render import LIQUID_BGR, SynthSettings
+from sloshid.synthetic.scene import LIQUID_BGR, SynthSettings
 
 
 def _float_distance(x: np.ndarray, y: np.ndarray, L: float, T: float, bend: float, rounded: bool) -> np.ndarray:

@@ -19,7 +19,7 @@ from dataclasses import dataclass, replace
 import cv2
 import numpy as np
 
-from sloshid.core.errors import SettingError, UserError
+from sloshid.core.errors import UserError
 from sloshid.synthetic.pbr_scene import (
     Mesh,
     PbrScene,
@@ -31,7 +31,7 @@ from sloshid.synthetic.pbr_scene import (
     float_mesh,
     json_ready,
 )
-from sloshid.synthetic.render import NoisePool, SynthSettings, _motion, _smoothstep, move_position_m
+from sloshid.synthetic.scene import NoisePool, SynthSettings, _motion, _smoothstep, move_position_m
 from sloshid.synthetic.surface_scene import _second_mode_height
 from sloshid.video.colors import preset
 
@@ -187,44 +187,6 @@ def _travel_m(s: SynthSettings, sc: PbrScene, t: np.ndarray, m_per_px: float) ->
     return s.travel_px * m_per_px * _smoothstep(t / max(s.duration_s, 1e-9))
 
 
-PAINTED_ONLY = (
-    "px_per_m",
-    "camera_roll_deg",
-    "noise_sigma",
-    "blur_px",
-    "flicker",
-    "float_color",
-    "float_length_frac",
-    "float_rounded",
-    "float_bend_px",
-    "float_specular",
-    "float_submerged",
-    "motion_blur",
-    "liquid_color",
-    "elevation_deg",
-    "meniscus_px",
-    "meniscus_dark",
-    "specular",
-    "reflection",
-    "second_mode",
-    "container_diameter_m",
-)
-"""SynthSettings fields the pbr renderer draws from the scene seed (or has no use for): refused there when set."""
-
-
-def check_pbr_settings(s: SynthSettings) -> None:
-    """Refuse a painted-only setting given with the pbr renderer: one sentence naming it."""
-    for name in PAINTED_ONLY:
-        if getattr(s, name) != getattr(SynthSettings, name):
-            raise SettingError(
-                name,
-                "{name} is not an option of the pbr renderer (it draws the scene from {scene_seed}); leave it out or "
-                "use {renderer} painted.",
-                "scene_seed",
-                "renderer",
-            )
-
-
 def _load_in_order(mi, d: dict, tries: int = 50):
     """The scene with its shapes in the order given: Mitsuba's loader put two of them the other way round about one
     time in twenty, which reorders the lights a sample picks from and so changes every pixel; such a load is
@@ -282,15 +244,15 @@ class PbrRenderer:
         if peak > room:
             raise UserError(
                 f"the liquid would rise {1000 * peak:.0f} mm up a wall, above the rim ({1000 * room:.0f} mm above the "
-                f"liquid at rest in scene {sc.seed}): lower --amplitude or --accel, or draw another --scene-seed."
+                f"liquid at rest in scene {sc.seed}): lower `amplitude_deg` or `accel_m_s2`, or draw another `scene_seed`."
             )
         for k in (int(np.argmin(self.dx_m)), int(np.argmax(self.dx_m))):
             box = self.box_px(self.frame_pose(k))
             if box[0] < 0 or box[1] < 0 or box[2] > self.s.width - 1 or box[3] > self.s.height - 1:
                 raise UserError(
                     f"the container would leave the {self.s.width}x{self.s.height} picture (scene {sc.seed} spans x = "
-                    f"{box[0]:.0f} to {box[2]:.0f} px, y = {box[1]:.0f} to {box[3]:.0f} px): lower --travel or "
-                    "--accel, shorten --move-duration, or draw another --scene-seed."
+                    f"{box[0]:.0f} to {box[2]:.0f} px, y = {box[1]:.0f} to {box[3]:.0f} px): lower `travel_px` or "
+                    "`accel_m_s2`, shorten `move_duration_s`, or draw another `scene_seed`."
                 )
 
     def box_px(self, pose: Pose) -> np.ndarray:

@@ -16,7 +16,7 @@ import math
 
 import numpy as np
 
-from sloshid.synthetic.render import (
+from sloshid.synthetic.scene import (
     Motion,
     NoisePool,
     SynthSettings,

@@ -13,9 +13,10 @@ largest with an HSV range of its own.
 from __future__ import annotations
 
 import math
-import shlex
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import cv2
 import numpy as np
@@ -24,6 +25,7 @@ from sloshid.core.atomic import atomic_path
 from sloshid.core.errors import UserError
 from sloshid.core.outputs import Outputs
 from sloshid.tracking.float_angle import MIN_AREA_PX, hsv_mask, principal_axis
+from sloshid.tracking.rows import TrackRow
 from sloshid.tracking.surface import MIN_LIQUID_SHARE
 from sloshid.tracking.tracker import TrackSettings, measure_frame, roi_box
 from sloshid.video.colors import PRESETS, HsvRange, format_hsv
@@ -66,14 +68,8 @@ class ColourMatch:
 
     @property
     def preset(self) -> bool:
-        """A named preset (`--liquid-color NAME`), not an HSV range of inspect's making."""
+        """A named preset (`liquid_color` NAME), not an HSV range of inspect's making."""
         return self.name in PRESETS
-
-    def words(self, kind: str) -> list[str]:
-        """The track options that name this colour for `kind` 'liquid' or 'float'."""
-        if self.preset:
-            return [f"--{kind}-color", self.name]
-        return [f"--{kind}-hsv-low", format_hsv(self.hsv.low), f"--{kind}-hsv-high", format_hsv(self.hsv.high)]
 
     def settings(self, kind: str) -> dict:
         """The TrackSettings fields that name this colour for `kind` 'liquid' or 'float'."""
@@ -143,9 +139,9 @@ class FloatLook:
     """What the float target would take is a liquid body between straight walls: dyed liquid, not a float."""
 
 
-@dataclass
+@dataclass(kw_only=True)
 class InspectResult:
-    """What `sloshid inspect` found in one frame and the `sloshid track` command it suggests."""
+    """What `sloshid inspect` found in one frame and the tracking settings it suggests."""
 
     video: Path
     t_s: float
@@ -167,8 +163,10 @@ class InspectResult:
     found first), else the largest liquid region found (its measurement in the suggested ROI when that one was)."""
     float_look: FloatLook | None = None
     """The float the right panel shows: the best measured, not liquid, not of the measured liquid's colour."""
-    command: list[str] = field(default_factory=list)
-    """The `sloshid track ...` command line (words), empty when nothing was found."""
+    track_settings: dict[str, Any] = field(default_factory=dict)
+    """The keywords of `sloshid.track` (TrackSettings fields) that track this video, empty when nothing was found."""
+    alternative: dict[str, Any] = field(default_factory=dict)
+    """The keywords that track a float measured on the dyed liquid instead (empty: none)."""
     notes: list[str] = field(default_factory=list)
     """Sentences on what was found, in the order `summary` prints them."""
     seen: str = ""
@@ -185,20 +183,26 @@ class InspectResult:
         look = self.liquid if self.target == "surface" else self.float_look if self.target == "float" else None
         return look is not None and look.measured
 
-    def command_line(self) -> str:
-        """The suggested command as one shell line (quoted where needed)."""
-        return shlex.join(self.command)
+    def suggestion(self, settings: dict[str, Any]) -> str:
+        """Tracking settings as the Python call that uses them (the default way `summary` shows them)."""
+        keywords = "".join(f", {k}={v!r}" for k, v in settings.items())
+        return f"sloshid.track({str(self.video)!r}{keywords})"
 
-    def summary(self) -> str:
-        """The text `sloshid inspect` prints: what was found per target and the command to run next."""
+    def summary(self, suggest: Callable[[dict[str, Any]], str] | None = None) -> str:
+        """What was found per target and what to run next; `suggest` shows a settings dict as its front-end does (the
+        command line gives a `sloshid track` command; default: the Python call)."""
+        suggest = suggest or self.suggestion
         w, h = self.size
         lines = [
             f"{self.video}: frame at {self.t_s:.3f} s, {w}x{h} px",
             *([self.seen] if self.seen else []),
             *self.notes,
         ]
-        if self.command:
-            lines.append("next: " + self.command_line())
+        if self.alternative:
+            color = self.alternative.get("float_color", "a")
+            lines.append(f"a {color} float is measured too; to track it instead: {suggest(self.alternative)}")
+        if self.track_settings:
+            lines.append("next: " + suggest(self.track_settings))
         return "\n".join(lines)
 
     def to_dict(self) -> dict:
@@ -235,7 +239,7 @@ class InspectResult:
             "target": self.target,
             "liquid": self.liquid.dye if self.liquid else None,
             "float": self.float_look.color if self.float_look else None,
-            "command": self.command_line() if self.command else None,
+            "track_settings": {k: list(v) if isinstance(v, tuple) else v for k, v in self.track_settings.items()},
             "notes": list(self.notes),
             "seen": self.seen or None,
         }
@@ -275,7 +279,7 @@ def read_frame(path: str | Path, at_s: float | None) -> tuple[np.ndarray, float]
     """The BGR frame on screen at `at_s` seconds (the last whose presentation time is not after it; None: the first)
     and its time; a single picture, a negative time or one after the last frame's time on screen is refused."""
     if at_s is not None and not (math.isfinite(at_s) and at_s >= 0):
-        raise UserError(f"--at must be a time of 0 s or more into the video, got {at_s:g}.")
+        raise UserError(f"`at_s` must be a time of 0 s or more into the video, got {at_s:g}.")
     frames = iter(FrameReader(Path(path), False))
     try:
         first, second = next(frames), next(frames, None)
@@ -297,11 +301,11 @@ def read_frame(path: str | Path, at_s: float | None) -> tuple[np.ndarray, float]
         frames.close()
     if shown is None:  # every frame lies more than AT_BEFORE_S before the time asked for
         lasts = f", which lasts {reader.info.duration_s:.3f} s" if reader.info.duration_s else ""
-        raise UserError(f"--at {at_s:g} s is beyond the end of {path}{lasts}; give a time within the video.")
+        raise UserError(f"`at_s` {at_s:g} s is beyond the end of {path}{lasts}; give a time within the video.")
     end = shown[1] + 1 / (reader.info.fps or 30.0)  # the last frame stays on screen for a frame's time
     if not after and at_s >= end:
         raise UserError(
-            f"--at {at_s:g} s is beyond the end of {path}, whose last frame is shown from {shown[1]:.3f} s to "
+            f"`at_s` {at_s:g} s is beyond the end of {path}, whose last frame is shown from {shown[1]:.3f} s to "
             f"{end:.3f} s; give a time within the video."
         )
     return shown
@@ -342,7 +346,7 @@ def _candidates(name: str, labels: np.ndarray, keep: list[int], roi: tuple) -> l
     return out
 
 
-def _measure(frame: np.ndarray, t_s: float, settings: TrackSettings, roi: tuple) -> tuple[tuple, np.ndarray, object]:
+def _measure(frame: np.ndarray, t_s: float, settings: TrackSettings, roi: tuple) -> tuple[TrackRow, np.ndarray, object]:
     """The tracker's own measurement of one frame (the one call into it: `measure_frame`, what track runs per frame)."""
     return measure_frame(frame, t_s, settings, roi, None)
 
@@ -352,9 +356,11 @@ def _look_at_surface(frame, t_s, colour: ColourMatch, roi: tuple) -> tuple[Surfa
     settings = TrackSettings(target="surface", reference="container", roi=roi, **colour.settings("liquid"))
     row, drawn, step = _measure(frame, t_s, settings, roi)
     walls = bool(step.walls_record.measured)
-    look = SurfaceLook(colour.name, step.liquid_frames > 0, bool(row[8]), walls=walls, quality=float(row[7]), roi=roi)
+    look = SurfaceLook(
+        colour.name, step.liquid_frames > 0, bool(row.valid), walls=walls, quality=float(row.quality), roi=roi
+    )
     if look.measured:
-        look.angle_deg, look.container_angle_deg = float(row[3]), float(row[4])
+        look.angle_deg, look.container_angle_deg = float(row.float_angle_deg), float(row.container_angle_deg)
     return look, drawn
 
 
@@ -362,12 +368,12 @@ def _look_at_float(frame, t_s, colour: ColourMatch, roi: tuple) -> tuple[FloatLo
     """Measure `colour` as the float, against the image (is it measured?) and the container (are walls there?)."""
     named = colour.settings("float")
     row, drawn, step = _measure(frame, t_s, TrackSettings(roi=roi, **named), roi)
-    look = FloatLook(colour.name, step.found > 0, bool(row[8]), float(row[3]), float(row[7]))
+    look = FloatLook(colour.name, step.found > 0, bool(row.valid), float(row.float_angle_deg), float(row.quality))
     look.liquid_like = bool(step.liquid_width)
     if look.found:
         row, _, walled = _measure(frame, t_s, TrackSettings(reference="container", roi=roi, **named), roi)
         look.walls = bool(walled.walls_record.measured)
-        look.container_angle_deg = float(row[4]) if look.walls else math.nan
+        look.container_angle_deg = float(row.container_angle_deg) if look.walls else math.nan
     return look, drawn
 
 
@@ -458,7 +464,7 @@ def what_it_saw(frame: np.ndarray, roi: tuple[int, int, int, int]) -> tuple[str,
             (
                 f"no preset colour here, and no coloured region (saturation {SATURATED[0]} or more) of {MIN_AREA_PX} px or more, "
                 f"{greys}: a grey picture. Track needs a float or a dye of a clear colour (red, orange, yellow, green, "
-                "blue, magenta); check the file, the lighting, or the time given with --at."
+                "blue, magenta); check the file, the lighting, or the time given (`at_s`)."
             ),
             f"a grey picture (no coloured region, median saturation {s_med} of 255)",
             {},
@@ -478,8 +484,8 @@ def what_it_saw(frame: np.ndarray, roi: tuple[int, int, int, int]) -> tuple[str,
     return (
         (
             f"no preset colour measured here ({greys}); the largest coloured regions: {'; '.join(parts)}; the "
-            f"largest is looked at below with --liquid-hsv-low {format_hsv(r.low)} --liquid-hsv-high {format_hsv(r.high)} "
-            "(--float-hsv-low/-high for a float)."
+            f"largest is looked at below with `liquid_hsv_low` {format_hsv(r.low)} `liquid_hsv_high` "
+            f"{format_hsv(r.high)} (`float_hsv_low` and `float_hsv_high` for a float)."
         ),
         f"its largest coloured region, {parts[0]}, in no preset's range",
         {f"{_hue_name(hue)} ({r.describe()})": r},
@@ -497,7 +503,18 @@ def inspect_video(
     frame, t_s = read_frame(video, at_s)
     size = (frame.shape[1], frame.shape[0])
     box = roi_box(TrackSettings(roi=None if roi is None else tuple(roi)), *size)
-    res = InspectResult(video, t_s, size, box, [], [], [], [], None, None)
+    res = InspectResult(
+        video=video,
+        t_s=t_s,
+        size=size,
+        roi=box,
+        colours=[],
+        surfaces=[],
+        floats=[],
+        candidates=[],
+        suggested_roi=None,
+        target=None,
+    )
     labels, drawn = {}, {}
     _look_at_colours(res, frame, {name: p.hsv for name, p in PRESETS.items()}, labels, drawn)
     if not any(s.liquid for s in res.surfaces) and not any(f.found for f in res.floats):
@@ -566,30 +583,29 @@ def _decide(res: InspectResult, frame: np.ndarray, labels: dict, drawn: dict) ->
         around = "the container the liquid stands in" if surface is not None else "the float and the walls beside it"
         used = f", used below: {why}" if use_roi else ""
         res.notes.append(
-            f"suggested ROI: --roi {_fmt_roi(res.suggested_roi)} (around {around}; white on the picture){used}"
+            f"suggested ROI: `roi` {_fmt_roi(res.suggested_roi)} (around {around}; white on the picture){used}"
         )
     if surface is not None:
         res.target = "surface"
-        words = ["--target", "surface", *_match(res, surface.dye).words("liquid")]
-        res.command = _command(res, words, res.suggested_roi if use_roi else given, surface.walls)
-        if flt is not None and flt.measured:  # a float on the dyed liquid: its command too
-            other = _command(res, _match(res, flt.color).words("float"), given, flt.walls)
-            res.notes.append(f"a {flt.color} float is measured too; to track it instead: {shlex.join(other)}")
+        colour = {"target": "surface", **_match(res, surface.dye).settings("liquid")}
+        res.track_settings = _track_settings(colour, res.suggested_roi if use_roi else given, surface.walls)
+        if flt is not None and flt.measured:  # a float on the dyed liquid: its settings too
+            res.alternative = _track_settings(_match(res, flt.color).settings("float"), given, flt.walls)
     elif flt is not None:
         res.target = "float"
-        words = _match(res, flt.color).words("float")
-        res.command = _command(res, words, res.suggested_roi if use_roi else given, flt.walls)
+        colour = _match(res, flt.color).settings("float")
+        res.track_settings = _track_settings(colour, res.suggested_roi if use_roi else given, flt.walls)
     elif res.colours:
         names = ", ".join(c.name for c in res.colours)
         res.saw = (res.saw + "; " if res.saw else "") + f"{names} found, but neither as a liquid nor as a float"
         res.notes.append(
             "nothing here is a dyed liquid or a float: the colours found cover too little of the area, or are not "
-            "elongated; try --roi around the liquid or float, or a frame where they show (--at)"
+            "elongated; try `roi` around the liquid or float, or a frame where they show (`at_s`)"
         )
-    if res.command and not res.measured:
+    if res.track_settings and not res.measured:
         res.notes.append(
-            "track would not measure this frame with that command today; run it to see its message, with "
-            "--overlay OUT.mp4 to see what it found"
+            "track would not measure this frame with those settings today; run it to see its message, with "
+            "`overlay` OUT.mp4 to see what it found"
         )
 
 
@@ -609,7 +625,7 @@ def _around_liquid(
         retry, drawn[("surface", "roi")] = _look_at_surface(frame, res.t_s, p, res.suggested_roi)
         res.surfaces.append(retry)
         found = "measured, " + _surface_numbers(retry) if retry.measured else "not measured either"
-        res.notes.append(f"  with --roi {_fmt_roi(res.suggested_roi)}: {found}")
+        res.notes.append(f"  with `roi` {_fmt_roi(res.suggested_roi)}: {found}")
         if retry.measured:
             surface = res.liquid = retry
         return surface, f"the liquid was not measured in the {'ROI given' if given else 'whole picture'}"
@@ -620,15 +636,14 @@ def _around_liquid(
     return surface, ""
 
 
-def _command(res: InspectResult, words: list[str], roi: tuple | None, walls: bool) -> list[str]:
-    """`sloshid track VIDEO -o STEM_angles.csv WORDS [--roi ...] [--reference container]`."""
-    out = res.video.with_name(f"{res.video.stem}_angles.csv")
-    cmd = ["sloshid", "track", str(res.video), "-o", str(out), *words]
+def _track_settings(colour: dict[str, Any], roi: tuple | None, walls: bool) -> dict[str, Any]:
+    """The target and colour settings, then the ROI (when one is needed) and the container reference (walls found)."""
+    settings = dict(colour)
     if roi is not None:
-        cmd += ["--roi", _fmt_roi(roi)]
+        settings["roi"] = tuple(int(v) for v in roi)
     if walls:
-        cmd += ["--reference", "container"]
-    return cmd
+        settings["reference"] = "container"
+    return settings
 
 
 def _fmt_roi(roi: tuple) -> str:
@@ -638,7 +653,7 @@ def _fmt_roi(roi: tuple) -> str:
 def _surface_numbers(s: SurfaceLook) -> str:
     """The measured surface's numbers in words."""
     walls = (
-        f"the container's wall edges found at {s.container_angle_deg:+.2f} deg from vertical (--reference container)"
+        f"the container's wall edges found at {s.container_angle_deg:+.2f} deg from vertical (`reference` container)"
         if s.walls
         else f"the liquid's sides at {s.container_angle_deg:+.2f} deg from vertical; the container's wall edges not found"
     )
@@ -671,7 +686,7 @@ def _float_note(f: FloatLook, cands: list[FloatCandidate]) -> str:
         walls = (
             f"walls found beside it, {f.container_angle_deg:+.2f} deg from vertical"
             if f.walls
-            else "no walls beside it (--reference image only)"
+            else "no walls beside it (`reference` image only)"
         )
         verdict = f"track takes the largest: {f.angle_deg:+.2f} deg, quality {f.quality:.2f}, {walls}"
     elif f.found:

@@ -99,11 +99,13 @@ class Copies:
         the object was not found, so no frame copies it)."""
         self.last = None if regions is None else (index, frame, regions, kept)
 
-    def fill(self, rows: list[tuple]) -> None:
-        """Give each copied frame (in `rows`: the span's, time first, changed in place) its measured frame's row; the
-        measured frame is let go (its picture holds the decoder's buffers)."""
+    def fill(self, rows: list) -> None:
+        """Give each copied frame (in `rows`: the span's TrackRows, or tuples with the time first; changed in place)
+        its measured frame's row at its own time; the measured frame is let go (its picture holds the decoder's
+        buffers)."""
         for i, source in self.of.items():  # a source is a measured frame, final by now
-            rows[i] = (rows[i][0], *rows[source][1:])
+            own = rows[i]
+            rows[i] = rows[source]._replace(t_s=own.t_s) if hasattr(own, "t_s") else (own[0], *rows[source][1:])
         self.of, self.last = {}, None
 
 

@@ -144,7 +144,7 @@ class SmoothingWorker:
 
     def smooth(self, t_s: np.ndarray, angle_deg: np.ndarray, valid: np.ndarray, quality: np.ndarray) -> np.ndarray:
         """`smooth_angle` of the arguments, computed by the worker when there is one."""
-        if self._proc is not None:
+        if self._proc is not None and self._conn is not None:
             try:
                 self._conn.send((t_s, angle_deg, valid, quality))
                 done, smoothed = self._conn.recv()
@@ -159,7 +159,8 @@ class SmoothingWorker:
     def close(self) -> None:
         """Stop the worker: it has sent its result and ended, or it was given nothing and is ended now."""
         if self._proc is not None:
-            self._conn.close()
+            if self._conn is not None:
+                self._conn.close()
             if self._proc.is_alive():
                 self._proc.terminate()
             self._proc.join()

@@ -19,6 +19,7 @@ from sloshid.tracking.container_ref import GUARD_ROWS, ContainerMeasurement, Con
 from sloshid.tracking.overlay import draw_surface_overlay
 from sloshid.tracking.repeats import REPEAT_SHARE, Copies, line_regions, repeated_share
 from sloshid.tracking.robust import median, percentile_span
+from sloshid.tracking.rows import SurfaceGeometry, TrackRow, step_row
 from sloshid.tracking.surface import SurfaceFinder, SurfaceMeasurement
 from sloshid.video.colors import HsvRange
 
@@ -29,7 +30,7 @@ CENTRE_SHARE = 0.05
 width from its rest level is not valid: a planar slosh keeps the centre there. Rendered clips stay within 2 px (0.01
 of the width) up to 40 deg of slosh and 20 deg of camera elevation; a liquid reaching the rim read 115 px (0.5)."""
 TILT_NOTE_DEG = 1.0
-"""With `--reference image`, a container that turns by more than this in the picture (its walls as the liquid's sides
+"""With ``reference` image`, a container that turns by more than this in the picture (its walls as the liquid's sides
 give them, 1st to 99th percentile of the valid frames) draws a warning: the angle includes its tilt. A still
 container's sides span up to 0.7 deg (their fits move a little at each colour refit)."""
 
@@ -66,7 +67,9 @@ class SurfaceStep:
             self.liquid_frames += 1
             self.previous, self.previous_luma = frame, None  # the next frame is compared with this one
             reference = self.settings.reference
-            return row, draw_surface_overlay(frame, m, row[0], bool(row[6]), self.roi, reference) if draw else None
+            return row, draw_surface_overlay(
+                frame, m, row.angle_deg, bool(row.valid), self.roi, reference
+            ) if draw else None
         m = self.finder.measure(frame)
         self.liquid_frames += m.liquid
         # the glass's edges along the liquid's sides, from above the liquid to its bottom, give the container's angle
@@ -90,11 +93,13 @@ class SurfaceStep:
         row = self._row(m, cm)
         self.copies.measured(len(self.repeated) - 1, frame, _regions(m, cm) if m.found else None, (m, row))
         drawn = (
-            draw_surface_overlay(frame, m, row[0], bool(row[6]), self.roi, self.settings.reference) if draw else None
+            draw_surface_overlay(frame, m, row.angle_deg, bool(row.valid), self.roi, self.settings.reference)
+            if draw
+            else None
         )
         return row, drawn
 
-    def _row(self, m: SurfaceMeasurement, cm: ContainerMeasurement | None) -> tuple:
+    def _row(self, m: SurfaceMeasurement, cm: ContainerMeasurement | None) -> TrackRow:
         """The track row's fields, then the raw surface geometry, of a measurement (turned onto the container's walls
         `cm` when they were measured: `m` is changed)."""
         if cm is not None and cm.found:
@@ -109,10 +114,10 @@ class SurfaceStep:
         rel = math.degrees(math.atan(m.rel_slope)) if m.found else math.nan
         cang = m.container_angle_deg if self.settings.reference == "container" else 0.0
         angle = rel if self.settings.reference == "container" else rel + m.container_angle_deg
-        row = (angle, rel + m.container_angle_deg, cang, m.x_px, m.y_px, m.quality, int(ok))
-        return (*row, m.rel_slope, m.container_angle_deg, m.left_w, m.right_w, m.width_px, m.opening_px)
+        raw = SurfaceGeometry(m.rel_slope, m.container_angle_deg, m.left_w, m.right_w, m.width_px, m.opening_px)
+        return step_row(angle, rel + m.container_angle_deg, cang, m.x_px, m.y_px, m.quality, int(ok), raw)
 
-    def revise(self, rows: list[tuple]) -> None:
+    def revise(self, rows: list[TrackRow]) -> None:
         """Measure the span's first frames again, with the camera's elevation and the edge source that were held
         after them (`rows`: this span's, time first, changed in place): their own fits of the elevation scatter, and
         on a yellow liquid with a strong reflection a few tilted the line by a degree and moved a wall by 20 px.
@@ -122,12 +127,12 @@ class SurfaceStep:
         walls = {}
         for i, value in self.walls_record.held_angles().items():
             walls[i] = ContainerMeasurement(True, value)
-            rows[i] = (rows[i][0], *self._row(self.held_surfaces[i], walls[i]))
+            rows[i] = self._row(self.held_surfaces[i], walls[i])._replace(t_s=rows[i].t_s)
         held, source = self.finder.settled()
         for i, refit, cm in self.pending if held is not None else ():
             m = refit(held, source)
             if m.found:
-                rows[i] = (rows[i][0], *self._row(m, walls.get(i, cm)))
+                rows[i] = self._row(m, walls.get(i, cm))._replace(t_s=rows[i].t_s)
         self.copies.fill(rows)
         self.pending, self.held_surfaces = [], {}
 
@@ -167,17 +172,19 @@ class SurfaceStep:
             "overlay",
         )
 
-    def finish(self, rows: list[tuple]) -> tuple[list[tuple], dict[str, np.ndarray], list[str]]:
+    def finish(self, rows: list[TrackRow]) -> tuple[list[TrackRow], dict[str, np.ndarray], list[str]]:
         """Elevation-corrected angles, the wall heights above rest (px, and mm with the diameter) and warnings."""
-        t = np.array([r[1] for r in rows], float)
-        valid = np.array([r[8] for r in rows], bool)
-        slope, cang, left, right, width, opening = (np.array(c, float) for c in zip(*[r[9:] for r in rows]))
+        t = np.array([r.t_s for r in rows], float)
+        valid = np.array([r.valid for r in rows], bool)
+        slope, cang, left, right, width, opening = (np.array(c, float) for c in zip(*[r.surface for r in rows]))
         sin_e = float(np.clip(median(opening[valid]) / median(width[valid]), 0, 0.5))
         cos_e = math.sqrt(1 - sin_e * sin_e)
         rel = np.degrees(np.arctan(slope / cos_e))
         container = self.settings.reference == "container"
         angle = rel if container else rel + cang
-        body = [(*r[:2], a, rv + c, *r[4:9]) for r, a, rv, c in zip(rows, angle, rel, cang)]
+        body = [
+            r._replace(angle_deg=a, float_angle_deg=rv + c, surface=None) for r, a, rv, c in zip(rows, angle, rel, cang)
+        ]
         n_rest = self.settings.rest_frames
         check_rest_frames(n_rest, len(t))
         rest = valid & (np.arange(len(t)) < n_rest if n_rest else t < t[0] + 1.0)
@@ -187,13 +194,13 @@ class SurfaceStep:
             notes.append(
                 f"another region of the dye's colour ({w}x{h} px at x {x}-{x + w}, y {y}-{y + h}) was left out: it is "
                 "not beside the largest one, which was measured as the liquid; if the liquid is elsewhere, or the "
-                "measured region is not liquid, set --roi around the container."
+                "measured region is not liquid, set `roi` around the container."
             )
         if not rest.any():  # heights from the median of every valid frame: said, as they are not above rest
             window = f"the first {n_rest} frames" if n_rest else "the first second"
             notes.append(
                 f"the surface was measured in none of {window} (the rest window), so left/right_wall_px and _mm are "
-                "heights above the median of all valid frames, not above rest; give --rest-frames for frames where "
+                "heights above the median of all valid frames, not above rest; give `rest_frames` for frames where "
                 "the surface was at rest and measured."
             )
             rest = valid
@@ -201,7 +208,7 @@ class SurfaceStep:
             notes.append(
                 f"the video lasts {t[-1] - t[0]:.2f} s, less than the rest window (the first second), so "
                 "left/right_wall_px and _mm are heights above the median of all valid frames, not above rest; give "
-                "--rest-frames for frames where the surface was at rest."
+                "`rest_frames` for frames where the surface was at rest."
             )
         walls = {}
         for name, w in (("left_wall", left), ("right_wall", right)):
@@ -211,7 +218,7 @@ class SurfaceStep:
         off = valid & (np.abs(centre) > CENTRE_SHARE * median(width[valid]))
         if off.any():
             valid &= ~off
-            body = [(*b[:-1], 0) if o else b for b, o in zip(body, off)]
+            body = [b._replace(valid=0) if o else b for b, o in zip(body, off)]
             walls = {name: np.where(valid, w, np.nan) for name, w in walls.items()}
             first = int(np.argmax(off))
             notes.append(
@@ -251,14 +258,18 @@ def _regions(m: SurfaceMeasurement, cm: ContainerMeasurement | None) -> list[tup
     """Where a surface measurement was read, for `Copies`: the front edge's band, the liquid's sides (the inner walls,
     from the surface to the bottom) and the bottom between them, and the container's whole wall edges when measured."""
     (aL, bL, _, y_bottom), (aR, bR, _, _) = m.walls
-    bottom = (math.floor(aL * y_bottom + bL) - 4, math.floor(y_bottom) - 4)
-    bottom += (math.ceil(aR * y_bottom + bR) + 5, math.ceil(y_bottom) + 5)
+    bottom = (
+        math.floor(aL * y_bottom + bL) - 4,
+        math.floor(y_bottom) - 4,
+        math.ceil(aR * y_bottom + bR) + 5,
+        math.ceil(y_bottom) + 5,
+    )
     regions = [(m.band, True), *line_regions(m.walls), (bottom, True)]
     return regions + line_regions(cm.edges) if cm is not None and cm.edges else regions
 
 
 def check_rest_frames(n_rest: int | None, frames: int) -> None:
-    """Refuse a rest window (`--rest-frames`) that covers the whole video of `frames` frames (0: not known yet)."""
+    """Refuse a rest window (``rest_frames``) that covers the whole video of `frames` frames (0: not known yet)."""
     if n_rest and frames and n_rest >= frames:
         raise SettingError(
             "rest_frames",
@@ -274,6 +285,6 @@ def _tilt_notes(cang: np.ndarray) -> list[str]:
         return []
     return [
         f"the container turned by {span:.1f} deg in the picture (1st to 99th percentile of the valid frames): "
-        "angle_deg is measured against the image and includes that tilt; --reference container measures the "
+        "angle_deg is measured against the image and includes that tilt; `reference` container measures the "
         "liquid against the container."
     ]

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import contextlib
 import itertools
+import logging
 import math
 import multiprocessing
 import os
@@ -25,7 +26,7 @@ import numpy as np
 from tqdm import tqdm
 
 from sloshid.core.atomic import atomic_path
-from sloshid.core.errors import SettingError, UserError
+from sloshid.core.errors import SettingError, UserError, warn
 from sloshid.core.outputs import Outputs
 from sloshid.core.parallel import die_with_parent, signals_held
 from sloshid.core.settings import check_in_metres
@@ -35,12 +36,16 @@ from sloshid.tracking.float_angle import FloatFinder
 from sloshid.tracking.overlay import draw_overlay
 from sloshid.tracking.repeats import REPEAT_SHARE, Copies, line_regions, repeated_share, stale_repeats
 from sloshid.tracking.robust import percentile_span
+from sloshid.tracking.rows import TrackRow, step_row
 from sloshid.tracking.smooth import smoothing_worker
 from sloshid.tracking.surface import SurfaceFinder, auto_liquid_preset
 from sloshid.tracking.surface_track import SurfaceStep, check_rest_frames
 from sloshid.video.colors import DEFAULT_FLOAT_COLOR, HsvRange, preset
 from sloshid.video.frames import FrameReader, Picture, VideoInfo, VideoWriter, lost_share
 from sloshid.video.keyframes import key_frame_times
+
+log = logging.getLogger("sloshid.tracking")
+"""Progress of a tracking run (INFO); its doubts are SloshidWarnings and the result's `warnings`."""
 
 TRACK_COLUMNS = (
     "frame",
@@ -66,7 +71,7 @@ SURFACE_COLUMNS = (
     "left_wall_mm",
     "right_wall_mm",
 )
-"""Output columns with --target surface: the same contract plus the wall heights (surface_angle_deg is the
+"""Output columns with `target` surface: the same contract plus the wall heights (surface_angle_deg is the
 surface's angle against the image horizontal, where the float target writes float_angle_deg)."""
 
 VALID_QUALITY = 0.5
@@ -173,7 +178,7 @@ class TrackSettings:
         return preset(self.float_color or DEFAULT_FLOAT_COLOR).hsv
 
 
-@dataclass
+@dataclass(kw_only=True)
 class TrackResult:
     """Per-frame measurements (arrays of equal length) plus what went wrong along the way."""
 
@@ -317,7 +322,7 @@ class _FloatStep:
         self.liquid_width: float | None = None  # `_liquid_width` of the first frame the float was found in
         self.copies = Copies()
 
-    def __call__(self, frame: np.ndarray, draw: bool) -> tuple[tuple, np.ndarray | None]:
+    def __call__(self, frame: np.ndarray, draw: bool) -> tuple[TrackRow, np.ndarray | None]:
         """(row, overlay frame or None) of one frame; a frame whose picture around the last measured float is an exact
         copy of that frame's is not measured again (`Copies`: its row is that measurement's, after `revise`)."""
         copied = self.copies.source(frame, len(self.repeated))
@@ -330,7 +335,7 @@ class _FloatStep:
                 self.walls_record.copied.append(len(self.repeated))
             self.repeated.append(True)
             self.previous = frame
-            return row, draw_overlay(frame, fm, cm, row[0], bool(row[6]), self.roi) if draw else None
+            return row, draw_overlay(frame, fm, cm, row.angle_deg, bool(row.valid), self.roi) if draw else None
         fm = self.finder.measure(frame)
         self.found += fm.found
         self.cut += fm.cut
@@ -350,19 +355,18 @@ class _FloatStep:
         if ok:
             self.last_angle = float_angle
         angle = float_angle - cm.angle_deg
-        row = (angle, float_angle, cm.angle_deg, fm.x_px, fm.y_px, fm.quality if cm.found else 0.0, int(ok))
+        row = step_row(angle, float_angle, cm.angle_deg, fm.x_px, fm.y_px, fm.quality if cm.found else 0.0, int(ok))
         # the float's outline, and the container's wall edges when they are measured
         regions = [(fm.bbox, False), *line_regions(cm.edges if self.walls is not None else ())] if fm.found else None
         self.copies.measured(len(self.repeated) - 1, frame, regions, (fm, cm, row))
         return row, draw_overlay(frame, fm, cm, angle, ok, self.roi) if draw else None
 
-    def revise(self, rows: list[tuple]) -> None:
+    def revise(self, rows: list[TrackRow]) -> None:
         """Turn the frames whose container walls were held onto the container angle interpolated between the
         measurements around them (`held_angles`; `rows`: this span's, time first, changed in place); then give the
         copied frames their measured frame's row."""
         for i, value in self.walls_record.held_angles().items():
-            t, _, float_angle, _, *rest = rows[i]
-            rows[i] = (t, float_angle - value, float_angle, value, *rest)
+            rows[i] = rows[i]._replace(angle_deg=rows[i].float_angle_deg - value, container_angle_deg=value)
         self.copies.fill(rows)
 
     def merge(self, later: _FloatStep) -> None:
@@ -372,22 +376,22 @@ class _FloatStep:
         if self.liquid_width is None:
             self.liquid_width = later.liquid_width
 
-    def finish(self, rows: list[tuple]) -> tuple[list[tuple], dict[str, np.ndarray], list[str]]:
+    def finish(self, rows: list[TrackRow]) -> tuple[list[TrackRow], dict[str, np.ndarray], list[str]]:
         """The table's rows as measured, no wall columns, and the warnings: a float cut by the ROI, a 'float' that is
         dyed liquid."""
         notes = []
         if self.cut:
             notes.append(
-                f"the float reached the edge of the searched region (--roi, or the picture) in {self.cut} of "
-                f"{len(rows)} frames: part of it was outside, so those frames have valid = 0; widen --roi."
+                f"the float reached the edge of the searched region (`roi`, or the picture) in {self.cut} of "
+                f"{len(rows)} frames: part of it was outside, so those frames have valid = 0; widen `roi`."
             )
         if self.liquid_width:
             notes.append(
                 f"what was tracked as the float looks like dyed liquid in its container (a body {self.liquid_width:.0f}"
                 " px wide between straight side walls, with a surface across them): angle_deg is then that body's "
-                "principal axis, not the surface's angle; for a dyed liquid use --target surface."
+                "principal axis, not the surface's angle; for a dyed liquid use `target` surface."
             )
-        return [r[:9] for r in rows], {}, notes
+        return list(rows), {}, notes
 
     def nothing_found(self, n: int, path: Path, hint: str) -> UserError:
         """The one-sentence error when no frame was valid."""
@@ -444,6 +448,7 @@ def track_video(
         roi = roi_box(settings, width, height)
         key_times = key_frame_times(path)
         spans = _spans(reader.info, key_times)
+        log.info("tracking %s (%s target) in %d span(s)", path, settings.target, len(spans))
         reader.end_s = spans[0][1]
         liquid, dye, rival = settings.liquid_hsv, "", None
         if settings.target == "surface" and liquid is None:  # one automatic dye colour for every span: the first's
@@ -473,12 +478,12 @@ def track_video(
             step = parts[0].step
             for part in parts[1:]:
                 step.merge(part.step)
-            rows = [(index, *row) for index, row in enumerate(row for part in parts for row in part.rows)]
+            rows = [row._replace(frame=index) for index, row in enumerate(row for part in parts for row in part.rows)]
             if len(rows) < 2:  # an image (PNG, JPEG) opens as a video of one frame
                 raise UserError(
                     f"{path} holds a single picture, not a video: track measures the frames of a tap test or a move."
                 )
-            found = any(r[8] for r in rows)
+            found = any(r.valid for r in rows)
             if kept is not None and not found:  # raised here, the new overlay is not put in place
                 hint = f"{kept} was kept; write the overlay to a new path ({{overlay}}) to see what was searched"
                 raise step.nothing_found(len(rows), path, hint)
@@ -493,8 +498,8 @@ def track_video(
             raise step.nothing_found(len(rows), path, hint)
         body, walls, notes = step.finish(rows)
         flags = [flag for part in parts for flag in part.repeated]
-        repeated = stale_repeats(np.array([r[2] for r in body]), np.array([r[8] for r in body], bool), flags)
-        body = [(*r[:8], int(r[8] and not rep)) for r, rep in zip(body, repeated)]
+        repeated = stale_repeats(np.array([r.angle_deg for r in body]), np.array([r.valid for r in body], bool), flags)
+        body = [r._replace(valid=int(r.valid and not rep)) for r, rep in zip(body, repeated)]
         smooth = smoother.smooth if smoother is not None else None
         lost = lost_share(reader.info.frame_count, len(rows))
         res = _result(Path(path), body, lost, reader.info, smooth, repeated, settings.target)
@@ -503,10 +508,13 @@ def track_video(
     if rival is not None:
         res.warnings.append(
             f"the dye's colour was chosen from the first frame as {dye.split()[0]}, the largest region of a preset "
-            f"colour; {rival} covers a region at least a quarter as large: if that is the liquid, give --liquid-color "
+            f"colour; {rival} covers a region at least a quarter as large: if that is the liquid, give `liquid_color` "
             f"{rival}."
         )
-    res.key_frame = _at_key_frames(np.array([r[1] for r in body], float), key_times)  # the file's own times
+    res.key_frame = _at_key_frames(np.array([r.t_s for r in body], float), key_times)  # the file's own times
+    for warning in res.warnings:
+        warn(warning)
+    log.info("tracked %s: %d frames, %.1f %% valid", path, len(res.t_s), 100 * float(np.mean(res.valid)))
     return res
 
 
@@ -548,7 +556,7 @@ every mode tracks the same spans, so the table does not depend on how many ran a
 class _Span:
     """One span's table rows (time first, no frame index), repeat flags, and its tracker step (what it found)."""
 
-    rows: list[tuple]
+    rows: list[TrackRow]
     repeated: list[bool]
     step: _FloatStep | SurfaceStep
 
@@ -573,29 +581,28 @@ def _step(settings: TrackSettings, roi: tuple[int, int, int, int], liquid: HsvRa
 
 def measure_frame(
     frame: np.ndarray, t_s: float, settings: TrackSettings, roi: tuple[int, int, int, int], liquid: HsvRange | None
-) -> tuple[tuple, np.ndarray, _FloatStep | SurfaceStep]:
-    """One frame measured as `track_video` measures the first frame of a span and draws it in `--overlay` (the target's
+) -> tuple[TrackRow, np.ndarray, _FloatStep | SurfaceStep]:
+    """One frame measured as `track_video` measures the first frame of a span and draws it in ``overlay`` (the target's
     step, then, for a valid frame, its finish): the table row (frame, t_s, angle_deg, ..., valid), the overlay picture,
     and the step, which holds what it found (`walls_record`, `liquid_frames`, ...). `sloshid inspect` calls it, so that
     its picture shows what track would do."""
     step = _step(settings, roi, liquid)
     row, drawn = step(frame, True)
-    rows = [(t_s, *row)]
+    row = row._replace(t_s=t_s)
     step.previous = None
-    if rows[0][7]:  # finish corrects a valid surface for the camera's elevation; it needs a valid frame
-        body = step.finish([(0, *rows[0])])[0]
-        return body[0], drawn, step
-    return (0, *rows[0][:8]), drawn, step
+    if row.valid:  # finish corrects a valid surface for the camera's elevation; it needs a valid frame
+        return step.finish([row])[0][0], drawn, step
+    return row._replace(surface=None), drawn, step
 
 
 def _track_frames(reader: FrameReader, step, tick: Callable[[int], object], writer: VideoWriter | None = None) -> _Span:
     """Measure every frame the reader yields with `step` (drawing the overlay into `writer`); tick(1) per frame."""
-    rows: list[tuple] = []
+    rows: list[TrackRow] = []
     for _, t, frame in reader:
         if writer is not None and isinstance(frame, Picture):  # the overlay is drawn on the whole picture
             frame.convert_all()
         row, drawn = step(frame, writer is not None)
-        rows.append((t, *row))
+        rows.append(row._replace(t_s=t))
         if writer is not None:
             writer.write(drawn, t)
         tick(1)
@@ -688,7 +695,7 @@ def _increasing_times(t: np.ndarray, fps: float) -> tuple[np.ndarray, int]:
 
 def _result(
     video: Path,
-    rows: list[tuple],
+    rows: list[TrackRow],
     lost_share: float,
     info: VideoInfo,
     smooth: Callable[..., np.ndarray] | None,
@@ -697,9 +704,7 @@ def _result(
 ) -> TrackResult:
     """Assemble the TrackResult, smooth the angle (with `smooth`, a SmoothingWorker's; None: not) and collect
     warnings."""
-    cols = list(zip(*rows))
-    arr = [np.asarray(c) for c in cols]
-    frame, t, angle, fang, cang, x, y, q, valid = arr
+    frame, t, angle, fang, cang, x, y, q, valid = (np.asarray(c) for c in list(zip(*rows))[:9])
     frame, valid = frame.astype(int), valid.astype(int)
     declared = info.frame_count
     t, retimed = _increasing_times(t.astype(float), info.fps)
@@ -708,18 +713,18 @@ def _result(
     measured = valid.astype(bool) | repeated
     smoothed = smooth(t, angle, measured, q) if smooth is not None else np.full(len(t), np.nan)
     res = TrackResult(
-        video,
-        frame,
-        t.astype(float),
-        angle.astype(float),
-        fang.astype(float),
-        cang.astype(float),
-        x.astype(float),
-        y.astype(float),
-        q.astype(float),
-        valid,
-        smoothed,
-        lost_share,
+        video=video,
+        frame=frame,
+        t_s=t.astype(float),
+        angle_deg=angle.astype(float),
+        float_angle_deg=fang.astype(float),
+        container_angle_deg=cang.astype(float),
+        x_px=x.astype(float),
+        y_px=y.astype(float),
+        quality=q.astype(float),
+        valid=valid,
+        angle_smoothed_deg=smoothed,
+        lost_share=lost_share,
     )
     if retimed:
         res.warnings.append(
@@ -738,8 +743,8 @@ def _result(
             other = "something of the float's colour that is not the float" if target == "float" else "not its surface"
             res.warnings.append(
                 f"the {target}'s angle spans only {span:.3f} deg over the valid frames (1st to 99th percentile): "
-                f"nothing moved it. A liquid at rest, or what was measured is {other}: check with --overlay, or "
-                "narrow --roi."
+                f"nothing moved it. A liquid at rest, or what was measured is {other}: check with `overlay`, or "
+                "narrow `roi`."
             )
     lost, repeats = int(np.sum((valid == 0) & ~repeated)), int(repeated.sum())
     if lost > 0:

@@ -119,7 +119,7 @@ class _RunData:
     kind: str
 
 
-@dataclass
+@dataclass(kw_only=True)
 class IOFit:
     """Result of the input-output fit: the model, its intervals, per-run alignment and scores, the decay-only start."""
 
@@ -493,19 +493,19 @@ def fit_io(
     decay_model = LiquidModel(decay.params, radius_m, axis_offset_m, smooth_s, views_deg=views_deg)
     decay_runs = [validate_run(p, s, decay_model, nm) for p, s, nm in zip(poses, signals, names)]
     return IOFit(
-        model,
-        params,
-        decay,
-        names,
-        [p.source for p in poses],
-        prob.lags_at(sol.x),
-        prob.offsets(sol.x),
-        runs,
-        decay_runs,
-        at_bound,
-        prob.n_sim,
-        priors,
-        ranges,
+        model=model,
+        parameters=params,
+        decay=decay,
+        names=names,
+        trajectories=[p.source for p in poses],
+        lags_s=prob.lags_at(sol.x),
+        offsets=prob.offsets(sol.x),
+        runs=runs,
+        decay_runs=decay_runs,
+        at_bound=at_bound,
+        n_simulations=prob.n_sim,
+        priors=priors,
+        ranges=ranges,
     )
 
 

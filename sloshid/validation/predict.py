@@ -163,7 +163,7 @@ def load_model(path: str | Path) -> LiquidModel:
         what = ", ".join(old) if old else f"'{structure}'"
         raise UserError(
             f"parameter file {path} comes from a liquid model of another structure ({what}), whose parameters mean "
-            "something else here; identify the runs again with `sloshid identify --trajectory`."
+            "something else here; identify the runs again against their `trajectory`."
         )
     try:
         share = float(p.get("wave_share", {}).get("value", 1.0))
@@ -208,7 +208,8 @@ def _found(source: str, beside: Path) -> Path | None:
 def planning_note(path: str | Path, trajectory: str = "TRAJ.csv", plan: Trajectory | None = None) -> str | None:
     """For `plan` and `compare` with a model from `identify --trajectory` (a wave share other than 1): they plan and
     score with its f and zeta alone, as a pendulum; the sentence says so, how far the whole model moves the liquid in
-    `plan` (when given: the planned trajectory) and how to check a plan with it (None for a plain model)."""
+    `plan` (when given: the planned trajectory) and how to check a plan with it (None for a plain model); a front-end
+    adds its own command for that check."""
     model = load_model(path)
     if model.wave_share == 1 and model.crest_coeff == 0:
         return None
@@ -220,7 +221,7 @@ def planning_note(path: str | Path, trajectory: str = "TRAJ.csv", plan: Trajecto
     return (
         f"{path} is an input-output model (wave share {model.wave_share:.3g}, crest coefficient "
         f"{model.crest_coeff:.3g}); plans and scores use its f and zeta alone, as a pendulum pair, so by the whole "
-        f"model {moved}: check a plan with `sloshid predict {trajectory} --params {path}`."
+        f"model {moved}: check a plan by predicting the liquid's response to {trajectory} with {path}."
     )
 
 
@@ -235,7 +236,7 @@ def pivot_for(pose: PoseLog, model: LiquidModel, axis_offset_m: float | None) ->
     note = (
         f"{pose.source} is a sloshid trajectory, whose point is the pivot (the liquid surface's centre), so the "
         f"parameters' axis offset of {model.axis_offset_m:g} m (from the robot logs they were fitted to) is not "
-        "applied; give --axis-offset-m to apply one."
+        "applied; give `axis_offset_m` to apply one."
     )
     return model.with_geometry(axis_offset_m=0.0), note
 

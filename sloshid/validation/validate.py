@@ -268,7 +268,7 @@ def _score_rows(runs: list[ValidationRun]) -> dict[str, list]:
     }
 
 
-@dataclass
+@dataclass(kw_only=True)
 class Validation:
     """Several recorded moves validated against one model: the result of `sloshid validate`, which behaves like
     every stage result (summary, to_dict, plot, report, to_pandas)."""
@@ -344,4 +344,4 @@ def validate(poses: list[PoseLog], signals: list[Signal], model: LiquidModel) ->
     runs = [validate_run(p, s, model, n) for p, s, n in zip(poses, signals, names)]
     for run, sig in zip(runs, signals):
         run.in_sample = model.fitted_to(sig.source)
-    return Validation(runs, model)
+    return Validation(runs=runs, model=model)

@@ -12,12 +12,13 @@ import dataclasses
 import io
 import json
 import traceback
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from sloshid.core.atomic import remove_empty, write_json, write_text
-from sloshid.core.errors import SettingError, UserError
+from sloshid.core.atomic import check_schema, remove_empty, write_json, write_text
+from sloshid.core.errors import SettingError, SloshidWarning, UserError
 from sloshid.core.hashing import file_sha256, json_sha256
 from sloshid.core.outputs import is_sloshid_page, writable_folder
 from sloshid.core.parallel import dask_client, wait_with_workers
@@ -85,7 +86,7 @@ def process_video(video: str, config: BatchConfig, out_root: str) -> dict[str, A
     marker = out / "result.json"
     key = {"video_sha256": video_hash, "config": settings}
     if _finished(marker, key):
-        done = json.loads(marker.read_text())
+        done = json.loads(marker.read_text())  # checked by _finished
         # this run's names: the same video may sit in another folder, and the output folder may have been moved
         return {**done["row"], "file": video, "outputs": str(out), "status": "cached"}
     created = not out.exists()
@@ -94,7 +95,9 @@ def process_video(video: str, config: BatchConfig, out_root: str) -> dict[str, A
     table = "[track]"
     try:
         overlay = out / "overlay.mp4" if config.track.overlay else None
-        tracked = track_video(video, config.track.track_settings(), overlay=overlay, multithreaded=False)
+        with warnings.catch_warnings():  # on a worker they would reach no one: the row's `warnings` carries them
+            warnings.simplefilter("ignore", SloshidWarning)
+            tracked = track_video(video, config.track.track_settings(), overlay=overlay, multithreaded=False)
         tracked.to_csv(out / "angles.csv")
         row.update(
             frames=len(tracked.t_s),
@@ -103,7 +106,9 @@ def process_video(video: str, config: BatchConfig, out_root: str) -> dict[str, A
             warnings=" ".join(tracked.warnings),  # a truncated video, repeated pictures, ...: as `track` says them
         )
         table = "[identify]"
-        doc = identify_sources([tracked], config.identify.ident_settings(), config.identify.columns()).to_dict()
+        with warnings.catch_warnings():  # the skipped frames' note: the tracked rows' validity says it
+            warnings.simplefilter("ignore", SloshidWarning)
+            doc = identify_sources([tracked], config.identify.ident_settings(), config.identify.columns()).to_dict()
         write_json(out / "params.json", doc)
     except SettingError as exc:  # named as the config file's key, the place the user can change it
         return _failed(row, out, created, str(exc.named(lambda setting: f"{table}.{setting}")))
@@ -137,6 +142,7 @@ def _finished(marker: Path, key: dict[str, str]) -> bool:
     upgrade."""
     try:
         done = json.loads(marker.read_text())
+        check_schema(done, marker)
         if "outputs" not in done:
             return done.get("key") == key and all((marker.parent / name).is_file() for name in OUTPUT_FILES[:2])
         return done.get("key") == key and all(
@@ -193,10 +199,10 @@ def check_out_dir(out: Path) -> None:
             with open(path, encoding="utf-8", errors="replace") as fh:
                 ours = fh.readline().startswith(head)
             if not ours:
-                raise UserError(f"--out {out} holds a {name} that sloshid batch did not write; choose another folder.")
+                raise UserError(f"`out` {out} holds a {name} that sloshid batch did not write; choose another folder.")
     if (out / "summary.html").is_file() and not is_sloshid_page(out / "summary.html"):
-        raise UserError(f"--out {out} holds a summary.html that sloshid batch did not write; choose another folder.")
-    writable_folder(out / "videos", "--out", out)  # where every video's folder goes
+        raise UserError(f"`out` {out} holds a summary.html that sloshid batch did not write; choose another folder.")
+    writable_folder(out / "videos", "`out`", out)  # where every video's folder goes
 
 
 def run_batch(

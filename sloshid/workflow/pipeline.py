@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import logging
 import shutil
 import time
 from collections.abc import Callable
@@ -18,12 +19,24 @@ from pathlib import Path
 from typing import Any, Literal
 
 from sloshid import __version__
-from sloshid.core.atomic import atomic_dir, remove_orphans, write_text, writer_gone, writer_tag
+from sloshid.core.atomic import (
+    SCHEMA_VERSION,
+    atomic_dir,
+    check_schema,
+    remove_orphans,
+    versioned,
+    write_text,
+    writer_gone,
+    writer_tag,
+)
 from sloshid.core.errors import SettingError, UserError, input_file
 from sloshid.core.hashing import file_sha256, json_sha256
 from sloshid.core.outputs import writable_folder
 from sloshid.core.parallel import check_workers
 from sloshid.core.settings import did_you_mean, from_dict, load_toml
+
+logger = logging.getLogger("sloshid.workflow")
+"""Each stage's progress in a pipeline run (INFO), unless the caller passes its own `log`."""
 
 
 @dataclass
@@ -222,6 +235,8 @@ def _cache_damage(cache: Path) -> str | None:
         written = None
     if not isinstance(written, dict):
         return "it has no readable file hashes (an older sloshid wrote none)"
+    check_schema(written, cache / FILES_JSON)
+    written.pop("schema_version", None)
     now = _file_hashes(cache)
     for name, digest in written.items():
         if name not in now:
@@ -274,8 +289,8 @@ def _run_stage(stage: Stage, settings: Any, key: str, cache: Path, ctx: StageCon
         try:
             with atomic_dir(cache) as tmp:
                 summary = stage.run(settings, replace(ctx, out_dir=tmp))
-                write_text(tmp / "summary.json", json.dumps(summary, indent=2, default=str))
-                write_text(tmp / FILES_JSON, json.dumps(_file_hashes(tmp), indent=1))
+                write_text(tmp / "summary.json", json.dumps(versioned(summary), indent=2, default=str))
+                write_text(tmp / FILES_JSON, json.dumps(versioned(_file_hashes(tmp)), indent=1))
             status = "ran"
         except Exception as exc:  # recorded, so the run still gets its manifest and index
             if not (cache / "summary.json").exists() or _cache_damage(cache) is not None:
@@ -287,6 +302,8 @@ def _run_stage(stage: Stage, settings: Any, key: str, cache: Path, ctx: StageCon
             status = "cached"
     _copy_tree(cache, ctx.out_dir)
     summary = json.loads((cache / "summary.json").read_text())
+    check_schema(summary, cache / "summary.json")
+    summary.pop("schema_version", None)
     return StageRecord(stage.name, key, status, time.perf_counter() - start, summary)
 
 
@@ -294,14 +311,17 @@ def run_pipeline(
     pipeline: Pipeline,
     output_dir: str | Path | None = None,
     write_index: Callable[[Path, list[StageRecord]], Path] | None = None,
-    log: Callable[[str], None] = print,
+    log: Callable[[str], None] | None = None,
 ) -> PipelineRun:
-    """Run every stage (or reuse its cached outputs) and write the run directory with manifest and index."""
+    """Run every stage (or reuse its cached outputs) and write the run directory with manifest and index; each stage's
+    progress goes to `log` (default: the `sloshid.workflow` logger, at INFO)."""
+    log = log or logger.info
     root, run_dir, run_id = _new_run_dir(pipeline, output_dir)
     input_hashes: dict[str, str] = {}
     try:
         records = _run_stages(pipeline, root, run_dir, input_hashes, log)
         manifest = {
+            "schema_version": SCHEMA_VERSION,
             "pipeline": str(pipeline.path.resolve()),
             "run_id": run_id,
             "sloshid_version": __version__,
