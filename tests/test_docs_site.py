@@ -1,12 +1,15 @@
 """The documentation site builds with no warning (`mkdocs build --strict`), every page is in its navigation, and its
-generated parts are complete: every command and option in the command-line reference, every benchmark report
-included. Its code blocks are run by test_docs.py."""
+generated parts are complete: every command and option in the command-line reference, every field of the settings
+classes on the settings page, every benchmark report included. Its code blocks are run by test_docs.py."""
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
+import importlib
 import importlib.util
 import os
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -51,6 +54,14 @@ def test_the_site_builds_without_warnings(tmp_path):
     log = done.stdout + done.stderr
     assert done.returncode == 0 and "WARNING" not in log, log
     assert (tmp_path / "site" / "reference" / "cli" / "index.html").is_file()
+    # every field of every settings class the settings page names is documented there
+    page = (tmp_path / "site" / "reference" / "settings" / "index.html").read_text(encoding="utf-8")
+    names = re.findall(r"^::: (\S+)$", (DOCS / "reference" / "settings.md").read_text(encoding="utf-8"), flags=re.M)
+    assert len(names) >= 5
+    for name in names:
+        module, cls = name.rsplit(".", 1)
+        for field in dataclasses.fields(getattr(importlib.import_module(module), cls)):
+            assert f'id="{name}.{field.name}"' in page, f"{name}.{field.name}"
 
 
 def test_every_page_is_in_the_navigation():
