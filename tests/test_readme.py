@@ -1,45 +1,31 @@
 """The README's examples are real: every Python block runs (in order, in a scratch folder beside the bundled data)
-and every `sloshid` command line in a bash block is a valid invocation of that command."""
+and every `sloshid` command line in a bash block is a valid invocation of that command. The documentation site's
+pages get the same treatment in test_docs.py."""
 
 from __future__ import annotations
 
 import json
 import os
-import re
-import shlex
 from pathlib import Path
 
 import matplotlib.figure
 import pytest
+from docblocks import blocks, command_lines
 
-from sloshid.cli.app import COMMANDS, build_parser
+from sloshid.cli.app import build_parser
 from sloshid.core.outputs import REPORT_MARK
 
 ROOT = Path(__file__).resolve().parents[1]
 README = (ROOT / "README.md").read_text(encoding="utf-8")
+MAX_LINES = 150  # the README is the front page; the manual is the site (docs/)
 
 
-def _blocks(lang: str) -> list[str]:
-    """The README's fenced code blocks of one language, in order."""
-    return re.findall(rf"```{lang}\n(.*?)```", README, flags=re.S)
-
-
-def _command_lines() -> list[list[str]]:
-    """Every `sloshid ...` / `python3 -m sloshid ...` invocation in the bash blocks, split into arguments."""
-    found = []
-    for block in _blocks("bash"):
-        text = block.replace("\\\n", " ")
-        for line in text.splitlines():
-            for part in re.split(r"&&|;", line.split("#")[0]):
-                words = shlex.split(part.split(">")[0])
-                for start in range(len(words)):
-                    if words[start].endswith("sloshid") and start + 1 < len(words) and words[start + 1] in COMMANDS:
-                        found.append(words[start + 1 :])
-    return found
+def test_the_readme_is_a_front_page():
+    assert len(README.splitlines()) <= MAX_LINES
 
 
 def test_every_command_line_in_the_readme_parses():
-    lines = _command_lines()
+    lines = [words for block in blocks(README, "bash") for words in command_lines(block.code)]
     assert {words[0] for words in lines} >= {"synth", "track", "identify", "plan", "compare", "run", "batch"}
     for words in lines:
         parser = build_parser(only=words[0])
@@ -54,7 +40,7 @@ def test_ci_runs_exactly_the_readmes_test_command():
     # the README's opening (before its first section)
     command = (ROOT / ".ci" / "run").read_text(encoding="utf-8").strip().splitlines()[-1]
     opening = README.split("\n## ", 1)[0]
-    assert "pytest" in command and command in re.findall(r"```bash\n(.*?)\n```", opening, flags=re.S)
+    assert "pytest" in command and command in [block.code.strip() for block in blocks(opening, "bash")]
 
 
 def test_python_blocks_run_in_order(tmp_path, monkeypatch):
@@ -64,10 +50,10 @@ def test_python_blocks_run_in_order(tmp_path, monkeypatch):
     os.symlink(ROOT / "data", tmp_path / "data")
     (tmp_path / "out").mkdir()
     namespace: dict = {}
-    blocks = _blocks("python")
-    assert len(blocks) >= 4
-    for block in blocks:
-        exec(compile(block, "README.md", "exec"), namespace)
+    python = blocks(README, "python")
+    assert python
+    for block in python:
+        exec(compile(block.code, "README.md", "exec"), namespace)
     # the chain's outputs are the real thing: the sample's liquid (Table I, f = 3.44 Hz) and a verified plan
     assert namespace["ident"].parameters["f_hz"].value == pytest.approx(3.44, rel=0.01)
     assert namespace["plan"].verification_ok

@@ -1406,7 +1406,7 @@ def test_consumer_bit_rate_float_zeta_interval_covers_the_truth(tmp_path):
     # issue 37's outside check: zeta from H.264 floats at 60-120 fps came out 6-10 % high. The realistic float at
     # the synth's default CRF 23 (60 fps, Table I liquid, 8 deg): P-frames take 0.1-0.3 deg off every swing, and zeta
     # reads +13.3 % high, outside the held fit's interval (+8.3 .. +18.3 %, measured); the codec-shrink allowance
-    # widens it to -4.2 .. +30.8 % (docs/zeta_from_video.md). f keeps the issue's 0.3 % (measured -0.02 %)
+    # widens it to -4.2 .. +30.8 % (docs/design/zeta_from_video.md). f keeps the issue's 0.3 % (measured -0.02 %)
     s = SynthSettings(
         width=640,
         height=480,

@@ -5,7 +5,7 @@ tilt-compensated), sloshid's plan and its robust variant, and camera feedback on
 plan; scores each by the nonlinear liquid's angle relative to the container (transfer time s, peak during
 the move deg, residual after arrival deg, tilt deg and deg/s, robot and move limits), runs the closed-loop,
 robustness (frequency +-20 %, damping x0.5..x2) and camera-rate studies, and prints a verdict. Tune it in
-the scenario's [compare] table (keys: see the README).
+the scenario's [compare] table (keys: docs/guides/compare.md).
 """
 
 from __future__ import annotations

@@ -23,7 +23,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "scenario",
         help="scenario TOML: [move] start/goal (m) or waypoints, [limits], "
-        "[[obstacles]], [container], [solver], [liquid], [robot] (see README)",
+        "[[obstacles]], [container], [solver], [liquid], [robot] (see docs/guides/plan.md)",
     )
     parser.add_argument(
         "--params",

@@ -244,7 +244,7 @@ class IdentResult:
         return self.signals[i].between(self.windows[i].t0_s, self.windows[i].t1_s)
 
     def to_dict(self) -> dict[str, Any]:
-        """The `sloshid identify` JSON (schema in README; read back by SloshParams.from_identify_json). Long, but it
+        """The `sloshid identify` JSON (schema: docs/reference/formats.md; read back by SloshParams.from_identify_json). Long, but it
         is the file's schema written out in one place, which is easier to check than pieces."""
         num, den = linear_tf_coeffs(self.params)
         params = {}
@@ -762,8 +762,8 @@ class Identifier:
                 "shrinks the smallest swings most for their size and the decay looks faster; no model of that held "
                 "on all rendered clips, so zeta's interval holds how far zeta moves in a refit with such a shrink and "
                 "with a shrink one residual rms larger. At H.264 CRF 23 (60-120 fps) rendered floats' zeta came out "
-                "up to 13 % high, inside intervals of +-7 to +-25 %; film at a high bit rate (README: identify, "
-                "video-tracked signals)."
+                "up to 13 % high, inside intervals of +-7 to +-25 %; film at a high bit rate (the documentation's "
+                "design note: identifying from compressed video)."
             )
         for note in (
             between.note(distinct_names([s.source for s in sigs])) if between else None,

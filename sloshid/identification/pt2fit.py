@@ -586,7 +586,7 @@ def fit_pt2_shrink(windows: list[WindowData], held: PT2Fit, keep: int = 2) -> PT
     """The held fit with zeta's variance widened for the codec's shrink of every swing (H.264 takes about the same
     angle off each, with little lag, which the hold cannot model): the zeta shifts of a refit with a fitted constant
     shrink (`_ShrunkHeldModel`) and of one with that shrink a residual rms larger are added as systematic errors. The
-    values stay the held fit's: as the value the shrink over-corrected high-bit-rate floats (docs/zeta_from_video.md).
+    values stay the held fit's: as the value the shrink over-corrected high-bit-rate floats (docs/design/zeta_from_video.md).
     For the final fit only, like `with_codec_share`: one camera and codec shrink every window alike."""
     modes, lower, upper, widest = _refit_bounds(windows, held)
     most = 2 * SHRINK_MAX_SHARE * widest  # widest is half the smallest starting amplitude

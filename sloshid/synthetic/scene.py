@@ -223,7 +223,7 @@ class SynthSettings:
 
 @dataclass
 class Truth:
-    """Ground truth of a rendered video, one entry per frame (the truth CSV's columns, listed in the README; angles
+    """Ground truth of a rendered video, one entry per frame (the truth CSV's columns, listed in docs/guides/synth.md; angles
     counter-clockwise positive as seen, pixel coordinates with (0,0) the top-left pixel centre)."""
 
     columns: dict[str, np.ndarray] = field(default_factory=dict)

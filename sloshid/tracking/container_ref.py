@@ -38,13 +38,8 @@ GUARD_ROWS = 8
 """Rows at each end of a wall's band that a frame compares with the last measurement's (GUARD_PX)."""
 GUARD_PX = 0.25
 """A frame is held only when each wall's two ends (GUARD_ROWS rows at the top and at the bottom of the edges followed)
-moved by less than this since the walls were measured: a Lucas-Kanade shift of their grey profiles against the
-measured frame's luma (and their edges' centroid by less than a pixel: one step misreads larger moves). On ten seeded
-5-s float clips (30-120 fps, H.264 and MPEG-4, noise 3-7) a still container's ends moved by less than 0.15 px in 99 %
-of the frames (0.23 px at most, at 120 fps with noise 7): more is a jolt or a turn (0.3 deg about the picture's centre
-moves the walls' lower ends in a 320x240 test clip by 0.4 px), measured at once; a slower turn shows in the next
-measurement (STEADY_DEG), a sudden smaller one is missed until then. The surface's band frames watch the container's
-bottom, which a turn of tenths of a degree can escape: the ends see it."""
+moved by less than this since the walls were measured (a Lucas-Kanade shift of their grey profiles against the
+measured frame's luma, and their edges' centroid by less than a pixel); more is a jolt or a turn, measured at once."""
 
 
 @dataclass

@@ -40,23 +40,15 @@ REFIT_EVERY = 48
 the luma, so a model that lags a lighting change by a second or two moves no edge; a refit reads the whole body."""
 EXPOSURE_SHARE = 0.1
 """The colour model is fitted again, in the frame itself, when the liquid's mean grey level (`_liquid_level`) has moved
-by this share from its level at the last fit (a camera's exposure step): fitted before the step, the model moved the
-bottom's colour edge, and with it both wall heights, by 2 px until the next refit (a yellow dye at 60 % brightness,
-H.264 CRF 14, 640x480: wall RMSE 0.99 -> 0.20 px; steps to 60 % on four dyes at CRF 18: 0.15-0.42 -> 0.09-0.25 px;
-to 140 %, and at CRF 23, within 0.03 px of before but one yellow clip, whose refits at other frames read 0.82 px
-instead of 0.43: a yellow dye's colour model is fragile at that bit rate)."""
+by this share from its level at the last fit (a camera's exposure step)."""
 EXPOSURE_EVERY = 4
 """Frames after a colour refit in which the exposure is not watched: under a light flickering by 30 % the model was
 refitted in every frame (1.8 times the CPU time) and measured no better."""
 HOLD_ELEVATION_AFTER = 15
 """The camera's elevation is fitted in this many frames, then held at their median."""
 HOLD_AXES_FRAMES = REFIT_EVERY
-"""The container's axes (three robust line fits) are held while the container stands still, until the next colour
-refit (which reads the whole body anyway and may move the fitted walls a little): its last two fits (with the same
-colour model) agreed within STILL_PX, and since then the liquid's sides and bottom have not moved by a pixel in
-whole-body frames, nor the ANCHOR_PX strip in band frames (a change there means the container moved: its axes are
-fitted again at once). A moving container is measured every frame. Fitting a still container's axes anew every 30
-frames as well measured the same (angle and wall-height RMSE within 0.001 deg and 0.01 px) in 3 % more time."""
+"""The container's axes are held while the container stands still (its last two fits agreed within STILL_PX, and its
+sides, bottom and ANCHOR_PX strip have not moved since), until the next colour refit; a moving one is measured every frame."""
 STILL_PX = 0.1
 """Largest shift of the bottom centre or of a wall between two measurements of a container that stands still."""
 ANCHOR_PX = 0.5
@@ -78,22 +70,11 @@ BAND_BELOW = 12
 plus twice the last frame's sinking below the last frame's lowest front-edge point, and in the ANCHOR_PX strip:
 the rest of the body is not read then."""
 LUMA_EDGE_SCATTER = 0.3
-"""The front edge is placed on the colour alone, not refined on the luma, when in a span's first frames the luma edge
-scatters about its fit by more than this (px, median rms) and the colour edge by less: a dye whose luma is close to
-the background's (yellow on a pale wall) gives a luma edge that noise moves more than its colour does. Measured
-(luma / colour scatter, angle RMSE on luma / on colour): 0.76 / 0.30 px, 0.31 / 0.11 deg (640x480, noise 9);
-0.54 / 0.47 px, 0.42 / 0.18 deg (H.264 CRF 24); a yellow dye with a strong reflection 0.49 / 0.97 px, luma better
-(0.099 / 0.111 deg). Below this the luma edge is kept whatever the colour edge does: at rest before a tap a flat
-surface's colour crossings fall on one row and fit to 0.003 px without being more accurate (a seeded clip: luma
-0.075 px, angle RMSE 0.051 deg on luma, 0.056 on colour); the seeded clips' luma edges scatter 0.06-0.2 px."""
+"""The front edge stays on the colour, not refined on the luma, when in a span's first frames the luma edge scatters
+about its fit by more than this (px, median rms) and the colour edge by less (a dye whose luma is close to the background's)."""
 GREY_WEIGHT = 0.25
-"""Neutral greys, black to white, join the colour model's background with this share of its pixels' weight when the
-dye's HSV range holds no grey (every preset's): fitted on the crop alone, a model that must tell a saturated dye from
-its own paler surface (a camera 12-20 deg above it) gave the container's dark walls a membership of 0.4-0.6, so their
-outer faces were taken for the inner walls by turns, at each colour refit. Measured at 16 deg (640x480, six dyes, 6 s):
-blue and orange dyes read 0.61 and 0.81 deg angle RMSE and 5.7 px wall RMSE before, 0.02-0.05 deg and 0.1 px after;
-with a dark meniscus and noise 6, five dyes 0.18-0.36 deg and up to 3.3 px before, 0.02-0.05 deg and 0.4 px after; at
-0-8 deg every dye measured as before (within 0.01 deg and 0.02 px)."""
+"""Neutral greys join the colour model's background with this share of its pixels' weight when the dye's HSV range holds
+no grey (every preset's), so that the container's dark walls are not taken for liquid."""
 RIVAL_SHARE = 0.25
 """A second preset colour whose largest region in the first frame is at least this share of the chosen one's is
 named in a warning when the dye is chosen automatically (a trial's red label beside blue water was measured as the
@@ -115,10 +96,8 @@ STEP_FIT = 10
 STEP_RUNS = 8
 """More steps than this are a ragged edge, not something in front of the glass: `_continuous` leaves them."""
 STEP_KEEP = 0.5
-"""Share of the columns the surface's runs must keep (`_continuous`), else nothing is measured. A label over more than
-half of the surface is taken for it (over 56-60 % its flat edge was measured as the surface, 2.4 deg RMSE in valid rows
-of a reviewer's clip): nothing in one frame tells the two apart; a float breaking the surface over 46 % of the
-columns is left out."""
+"""Share of the columns the surface's runs must keep (`_continuous`), else nothing is measured; a label over more than
+half of the surface is taken for it."""
 STEP_SPREAD = 0.1
 """How far that line may miss a run beyond the step, per pixel of gap (the surface's curvature, px per px)."""
 SUSTAIN_ROWS = 3
