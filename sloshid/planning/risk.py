@@ -3,7 +3,7 @@ model that estimates the probability of breaking the spill margin, and the scena
 
 Draws: per container, omega ~ N(omega, sd_omega) and zeta ~ N(zeta, sd_zeta), from the identify JSON's standard
 errors, or a band the user gives ([risk] omega_ci95_rel, zeta_ci95_rel: the 95 % half-width as a share, so
-sd = share x value / 1.96). Every draw is seeded. The Monte Carlo integrates every drawn liquid under the move with
+sd = share x value / 1.96) for a liquid that came without them. Every draw is seeded. The Monte Carlo integrates every drawn liquid under the move with
 the compiled RK4 (`model.simulate.simulate_liquids`, many pendulums per call).
 
 The robust plan holds the margin for N sampled models (the scenario approach). Its guarantee is the one of the
@@ -47,11 +47,11 @@ class Spread:
 
 
 def spreads(vessels: Sequence[Vessel], settings: RiskSettings | None) -> list[Spread] | None:
-    """Per container: the user's band if [risk] gives one, else the identify JSON's standard errors; None when some
-    container's uncertainty is unknown (no risk can be stated)."""
+    """Per container: the identify JSON's standard errors where its liquid came from one, else the band [risk]
+    gives; None when some container's uncertainty is unknown (no risk can be stated)."""
     out = []
     for v in vessels:
-        if settings is not None and settings.omega_ci95_rel is not None:
+        if v.omega_sd_rad_s is None and settings is not None and settings.omega_ci95_rel is not None:
             zeta_rel = settings.zeta_ci95_rel or 0.0
             out.append(Spread(settings.omega_ci95_rel * v.liquid.omega_rad_s / Z95, zeta_rel * v.liquid.zeta / Z95))
         elif v.omega_sd_rad_s is not None:

@@ -255,8 +255,8 @@ class RiskSettings:
     scenarios: int = 0
     """Sampled models the robust plan holds the margin for (scenario approach); 0: the nominal plan only."""
     omega_ci95_rel: float | None = None
-    """A band the user gives: the natural frequency's 95 % interval as a share of it (0.05: +-5 %); default the
-    identify JSON's standard errors (`--params`)."""
+    """A band the user gives: the natural frequency's 95 % interval as a share of it (0.05: +-5 %), for liquids that
+    come without standard errors (a [liquid] table, fill_m); an identify JSON's own standard errors take precedence."""
     zeta_ci95_rel: float | None = None
     """The damping ratio's 95 % interval as a share of it."""
     beta: float = 1e-3
