@@ -87,19 +87,25 @@ class WallFigures:
 
 def wall_figures(traj: Trajectory, vessels: Sequence[Vessel], models: Sequence[Sequence[SloshParams]]) -> WallFigures:
     """Integrate every drawn liquid of every container under `traj` (nonlinear, batched) and read its wall."""
-    flat = [(j, m) for draw in models for j, m in enumerate(draw)]
-    slowest = min(m.omega_rad_s for _, m in flat)
-    settle = max(1.0, SETTLE_PERIODS * 2 * math.pi / slowest)
-    peaks, residuals = np.zeros(len(flat)), np.zeros(len(flat))
-    for lo in range(0, len(flat), MC_BATCH):
-        chunk = flat[lo : lo + MC_BATCH]
-        responses = simulate_liquids([traj] * len(chunk), [m for _, m in chunk], settle_s=settle)
-        for i, ((j, _), r) in enumerate(zip(chunk, responses)):
-            wall = r.wall_height_mm(vessels[j].radius_m)
-            peaks[lo + i] = wall.max()
-            residuals[lo + i] = wall[r.t_s > r.t_arrival_s].max()
+    peaks, residuals = walls_of([(traj, vessels[j], m) for draw in models for j, m in enumerate(draw)])
     shape = (len(models), len(vessels))
     return WallFigures(peaks.reshape(shape), residuals.reshape(shape))
+
+
+def walls_of(members: Sequence[tuple[Trajectory, Vessel, SloshParams]]) -> tuple[np.ndarray, np.ndarray]:
+    """Peak wall height during and after the move, and after arrival (mm), of each (move, container, liquid), in
+    batches of MC_BATCH pendulums per compiled call."""
+    slowest = min(m.omega_rad_s for _, _, m in members)
+    settle = max(1.0, SETTLE_PERIODS * 2 * math.pi / slowest)
+    peaks, residuals = np.zeros(len(members)), np.zeros(len(members))
+    for lo in range(0, len(members), MC_BATCH):
+        chunk = members[lo : lo + MC_BATCH]
+        responses = simulate_liquids([t for t, _, _ in chunk], [m for _, _, m in chunk], settle_s=settle)
+        for i, ((_, vessel, _), r) in enumerate(zip(chunk, responses)):
+            wall = r.wall_height_mm(vessel.radius_m)
+            peaks[lo + i] = wall.max()
+            residuals[lo + i] = wall[r.t_s > r.t_arrival_s].max()
+    return peaks, residuals
 
 
 @dataclass(frozen=True)
