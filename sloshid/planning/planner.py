@@ -460,14 +460,14 @@ def plan(
     always checked against the scenario's own limits
     (`PlanResult.tightened` says what the solver was given).
     """
-    if scenario.path is not None:
-        from sloshid.planning.path_planner import plan_path
-
-        return plan_path(scenario, params, progress=progress)
     if scenario.limits.upright:  # no tilt: the fastest move within the spill margin (an UprightPlan)
         from sloshid.planning.upright import plan_upright
 
         return plan_upright(scenario, params)
+    if scenario.path is not None:
+        from sloshid.planning.path_planner import plan_path
+
+        return plan_path(scenario, params, progress=progress)
     result = _plan_free(scenario, params, robust_omega_factors, progress, warm_from)
     solver_scenario, worst = scenario, _worst_overshoot(result)
     for _ in range(LIMIT_TRIES):
