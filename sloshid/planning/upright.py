@@ -119,7 +119,8 @@ def _solver(s: UprightStructure) -> tuple[UprightProblem, MultipleShooting, ca.F
     if s not in _CACHE:
         prob = build_upright_problem(s)
         ms = MultipleShooting(prob)
-        _CACHE[s] = (prob, ms, ca.nlpsol("upright", "ipopt", ms.nlp, ipopt_options(s)))
+        # expanded to SX: many pendulum copies make the MX graph's iterations several times slower
+        _CACHE[s] = (prob, ms, ca.nlpsol("upright", "ipopt", ms.nlp, {**ipopt_options(s), "expand": True}))
     return _CACHE[s]
 
 
