@@ -141,10 +141,34 @@ def plan(
         raise UserError(
             f"robust_omega_factors must be numbers such as (0.9, 1.1), got the string {robust_omega_factors!r}."
         )
+    if isinstance(scenario, (str, Path)):
+        scenario = load_scenario(scenario)
+    if getattr(getattr(scenario, "limits", None), "upright", False):
+        return plan_upright_scenario(scenario, params, robust)
     scenario, liquid, _ = _scenario_and_liquid(scenario, params)
     if robust:
         scenario = robust_scenario(scenario)
     return solve(scenario, liquid, robust_omega_factors=robust_omega_factors, progress=progress)
+
+
+def plan_upright_scenario(scenario: Scenario, params: Any, robust: bool = False) -> Any:
+    """An upright scenario's plan (`planning.upright.UprightPlan`): a tray needs no [liquid], and an identify JSON's
+    standard errors give the risk's draws; robust=True holds the margin for sampled models ([risk].scenarios, or
+    50) as `sloshid plan --robust` does."""
+    from sloshid.planning.upright import plan_upright
+
+    path = params if isinstance(params, (str, Path)) else None
+    liquid = None
+    if params is not None or scenario.liquid is not None:
+        _, liquid, _ = _scenario_and_liquid(scenario, params)
+    samples = None
+    if robust:
+        samples = scenario.risk.scenarios if scenario.risk and scenario.risk.scenarios else ROBUST_UPRIGHT_SAMPLES
+    return plan_upright(scenario, liquid, params_path=path, robust_samples=samples)
+
+
+ROBUST_UPRIGHT_SAMPLES = 50
+"""Sampled liquid models a robust upright plan holds when [risk].scenarios does not say (`sloshid plan --robust`)."""
 
 
 def compare(

@@ -161,10 +161,6 @@ def run(args: argparse.Namespace) -> int:
     return 0 if result.limits_ok and result.verification_ok and result.path_ok else 1
 
 
-ROBUST_SAMPLES = 50
-"""Sampled liquid models `--robust` holds an upright move's margin for when [risk].scenarios does not say."""
-
-
 def _sweep_margins(text: str) -> list[float]:
     """MIN:MAX:COUNT (mm) as the margins to plan at."""
     import numpy as np
@@ -183,7 +179,8 @@ def _run_upright(args, scenario, outputs, output: Path, report_dir: Path | None)
     """An upright move within the spill margin: plan (robust with --robust), its risk, an optional margin sweep;
     exit code 1 when a margin or limit is broken in the independent simulation (the files are still written where
     none is yet)."""
-    from sloshid.planning.upright import plan_upright, sweep_margin
+    from sloshid.api import plan_upright_scenario
+    from sloshid.planning.upright import sweep_margin
 
     if args.joints:
         raise UserError("--joints takes tilting moves of a [robot] arm; an upright move (tilt_max_deg = 0) has no arm.")
@@ -193,15 +190,9 @@ def _run_upright(args, scenario, outputs, output: Path, report_dir: Path | None)
         if margins
         else None
     )
-    liquid = None
-    if args.params or scenario.liquid is not None:
-        from sloshid.planning.scenario import resolve_liquid
-
-        liquid = resolve_liquid(scenario, args.params)
-    samples = None
-    if args.robust:
-        samples = scenario.risk.scenarios if scenario.risk and scenario.risk.scenarios else ROBUST_SAMPLES
-    result = plan_upright(scenario, liquid, params_path=args.params, robust_samples=samples)
+    result = plan_upright_scenario(scenario, args.params, args.robust)
+    liquid = result.vessels[0].liquid if not scenario.containers else None
+    samples = result.guarantee.samples if result.guarantee is not None else None
     sweep = sweep_margin(scenario, liquid, margins, args.params, samples) if margins else None
     passed = result.verification_ok and result.limits_ok
     report_page = report_dir / "index.html" if report_dir is not None else None
