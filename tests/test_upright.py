@@ -174,8 +174,10 @@ def test_upright_scenario_keys_are_checked():
 
 def test_plan_cli_prints_risk_and_draws_the_margin_sweep(run_cli, tmp_path):
     out = tmp_path / "up.csv"
-    code, stdout, err = run_cli("plan", UPRIGHT, "-o", out, "--sweep-margin", "12:16:2")
+    code, stdout, err = run_cli("plan", UPRIGHT, "-o", out, "--sweep-margin", "12:16:2", "--report", tmp_path / "rep")
     assert code == 0, err
+    page = (tmp_path / "rep" / "index.html").read_text(encoding="utf-8")
+    assert "sloshid upright plan" in page and "data:image/png;base64" in page
     assert "risk of breaking the spill margin" in stdout and "margin sweep: 12 mm: T = " in stdout
     figure = tmp_path / "up_margin_sweep.png"
     assert out.exists() and figure.stat().st_size > 10_000
@@ -217,3 +219,19 @@ def test_upright_compare_ranks_by_risk_and_sloshid_is_fastest_among_those_that_m
     assert meeting and all(ours.T_s < r.T_s for r in meeting), [(r.key, r.T_s) for r in meeting]
     assert all(r.peak_use <= 1.0 and r.residual_mm <= 0.5 for r in meeting)  # what 'meets' claims, nominally
     assert "ranked by risk" in comp.summary()
+
+
+def test_a_diagonal_upright_move_holds_the_margin_with_both_angles():
+    # x and y both move: phi and theta both swing, and the wall reads their combined tilt
+    data = _raw(UPRIGHT)
+    data["move"] = {"start": [0.0, 0.0, 0.2], "goal": [0.3, 0.4, 0.2]}
+    data["limits"]["spill_margin_mm"] = 16.0  # 4 mm of rise: the wall bound is active
+    data.pop("risk")
+    sc = scenario_from_dict(data, str(UPRIGHT))
+    result = plan_upright(sc, resolve_liquid(sc, None))
+    resp = simulate_liquid(result.trajectory, result.vessels[0].liquid, settle_s=3.0)
+    assert np.abs(resp.liquid_rad).max(axis=0).min() > 0.01  # both angles swing (rad)
+    wall = resp.wall_height_mm(0.04)
+    assert wall.max() <= 4.0 and wall[resp.t_s > resp.t_arrival_s].max() <= 0.5, wall.max()
+    assert result.risk is None and "risk: not estimated" in result.summary()
+    assert result.trajectory.pos_m[-1] == pytest.approx([0.3, 0.4, 0.2], abs=1e-6)
