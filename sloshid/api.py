@@ -155,6 +155,7 @@ def plan_upright_scenario(scenario: Scenario, params: Any, robust: bool = False)
     """An upright scenario's plan (`planning.upright.UprightPlan`): a tray needs no [liquid], and an identify JSON's
     standard errors give the risk's draws; robust=True holds the margin for sampled models ([risk].scenarios, or
     50) as `sloshid plan --robust` does."""
+    from sloshid.planning.risk import ROBUST_UPRIGHT_SAMPLES
     from sloshid.planning.upright import plan_upright
 
     path = params if isinstance(params, (str, Path)) else None
@@ -165,10 +166,6 @@ def plan_upright_scenario(scenario: Scenario, params: Any, robust: bool = False)
     if robust:
         samples = scenario.risk.scenarios if scenario.risk and scenario.risk.scenarios else ROBUST_UPRIGHT_SAMPLES
     return plan_upright(scenario, liquid, params_path=path, robust_samples=samples)
-
-
-ROBUST_UPRIGHT_SAMPLES = 50
-"""Sampled liquid models a robust upright plan holds when [risk].scenarios does not say (`sloshid plan --robust`)."""
 
 
 def compare(

@@ -104,6 +104,12 @@ def run(args: argparse.Namespace) -> int:
         return _run_upright(args, scenario, outputs, output, report_dir)
     if args.sweep_margin:
         raise UserError("--sweep-margin plans upright moves: the scenario needs [limits] tilt_max_deg = 0.")
+    if scenario.limits.spill_margin_mm is not None:
+        print(
+            "sloshid: note: [limits].spill_margin_mm is planned for upright moves (tilt_max_deg = 0); this tilting move "
+            "keeps the liquid level with the container instead, which holds any margin the verification below holds.",
+            file=sys.stderr,
+        )
     if args.robust:
         from sloshid.comparison.compare import robust_scenario
 

@@ -24,7 +24,7 @@ from sloshid.comparison.shapers import design_shaper, shape, shaped_constant_acc
 from sloshid.comparison.toppra_moves import toppra_profile
 from sloshid.model.pendulum import SloshParams
 from sloshid.model.trajectory import Trajectory
-from sloshid.planning.risk import RiskEstimate, monte_carlo, spreads, walls_of
+from sloshid.planning.risk import ROBUST_UPRIGHT_SAMPLES, RiskEstimate, monte_carlo, spreads, walls_of
 from sloshid.planning.scenario import Scenario
 from sloshid.planning.upright import UprightPlan, line_limits, plan_upright
 from sloshid.planning.vessels import Vessel
@@ -222,16 +222,19 @@ def compare_upright(
     scenario: Scenario,
     liquid: SloshParams | None,
     params_path: str | Path | None = None,
-    robust_samples: int = 50,
+    robust_samples: int | None = None,
     draws: int | None = None,
 ) -> UprightComparison:
-    """sloshid's upright plan (and its robust variant when the uncertainty is known) against every baseline."""
+    """sloshid's upright plan (and its robust variant over `robust_samples` sampled models, default [risk].scenarios or
+    50, when the uncertainty is known) against every baseline."""
     plan = plan_upright(scenario, liquid, params_path=params_path, risk_draws=draws)
     vessels = plan.vessels
     settings = scenario.risk
     spread = spreads(vessels, settings)
     n = draws if draws is not None else (settings.draws if settings else 1000)
     seed = settings.seed if settings else 1
+    if robust_samples is None:
+        robust_samples = settings.scenarios if settings and settings.scenarios else ROBUST_UPRIGHT_SAMPLES
     residual_max = min(1000 * min(v.residual_max_m, v.rise_allowed_m) for v in vessels)
     rows, moves = [], []
     for key, build in _builders(scenario, _mode(vessels)).items():

@@ -31,6 +31,8 @@ from sloshid.planning.vessels import Vessel
 
 Z95 = 1.959964
 """Two-sided 95 % quantile of the normal distribution."""
+ROBUST_UPRIGHT_SAMPLES = 50
+"""Sampled liquid models a robust upright plan holds when [risk].scenarios does not say (`sloshid plan --robust`)."""
 MC_BATCH = 256
 """Pendulums per compiled integration call (memory: the call holds every member's inputs on the 1 kHz grid)."""
 SETTLE_PERIODS = 4.0
