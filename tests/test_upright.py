@@ -235,3 +235,21 @@ def test_a_diagonal_upright_move_holds_the_margin_with_both_angles():
     assert wall.max() <= 4.0 and wall[resp.t_s > resp.t_arrival_s].max() <= 0.5, wall.max()
     assert result.risk is None and "risk: not estimated" in result.summary()
     assert result.trajectory.pos_m[-1] == pytest.approx([0.3, 0.4, 0.2], abs=1e-6)
+
+
+def test_a_tilting_path_move_with_a_spill_margin_uses_both():
+    from sloshid.model.pendulum import TABLE_I
+    from sloshid.planning.planner import plan
+
+    data = _raw(ROOT / "data" / "scenarios" / "path_arc.toml")
+    data.pop("robot")
+    data["limits"].pop("rel_angle_max_deg")
+    data["limits"]["spill_margin_mm"] = 18.0  # rim 20 mm: 2 mm of rise at the 40 mm container's wall
+    data["container"]["rim_above_surface_m"] = 0.02
+    sc = scenario_from_dict(data, str(ROOT / "data" / "scenarios" / "path_arc.toml"))
+    assert sc.limits.rel_angle_max_deg == pytest.approx(math.degrees(math.atan(2 / 40)), rel=1e-12)
+    result = plan(sc, TABLE_I)
+    assert result.verification_ok and result.max_tilt_deg > 1.0  # it tilts
+    rel = np.radians(result.verification.rel_angle_deg)
+    assert 1000 * 0.04 * np.tan(rel).max() <= 2.0  # and the liquid uses the margin within it
+    assert result.verification.peak_during_deg > 1.0

@@ -10,7 +10,7 @@ from __future__ import annotations
 import itertools
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, Literal
 
@@ -500,6 +500,8 @@ def scenario_from_dict(data: dict[str, Any], source: str = "") -> Scenario:
     if not isinstance(containers_raw, list):
         raise UserError("containers must be an array of tables [[containers]].")
     containers = [from_dict(TrayContainer, c, f"[[containers]] #{i + 1}") for i, c in enumerate(containers_raw)]
+    if geometry is not None:
+        limits = _path_margin(limits, container, "rel_angle_max_deg" in data.get("limits", {}))
     tray = from_dict(Tray, data["tray"], "[tray]") if "tray" in data else None
     risk = from_dict(RiskSettings, data["risk"], "[risk]") if "risk" in data else None
     return Scenario(
@@ -521,6 +523,22 @@ def scenario_from_dict(data: dict[str, Any], source: str = "") -> Scenario:
         tray=tray,
         risk=risk,
     )
+
+
+def _path_margin(limits: Limits, container: Container, rel_given: bool) -> Limits:
+    """A tilting [path] move with a spill margin uses both: the liquid may leave the container's axis by the angle at
+    which its wall height R tan(angle) reaches rim - margin (at most 10 deg, and at most rel_angle_max_deg when that is
+    given too)."""
+    if limits.spill_margin_mm is None or container.rim_above_surface_m is None or limits.upright:
+        return limits
+    rise = container.rim_above_surface_m - limits.spill_margin_mm / 1000
+    if rise <= 0:
+        raise UserError(
+            f"[container]: the spill margin of {limits.spill_margin_mm:g} mm is not below the rim's "
+            f"{1000 * container.rim_above_surface_m:g} mm above the liquid, so the liquid would break it at rest."
+        )
+    angle = min(10.0, math.degrees(math.atan(rise / max(container.radius_m, 1e-9))))
+    return replace(limits, rel_angle_max_deg=min(angle, limits.rel_angle_max_deg) if rel_given else angle)
 
 
 def load_scenario(path: str | Path) -> Scenario:
