@@ -166,6 +166,10 @@ def test_bad_upright_input_is_one_sentence_and_exit_2(run_cli, tmp_path, case, k
 def test_upright_scenario_keys_are_checked():
     with pytest.raises(UserError, match=r"rim_above_surface_m must lie in \(0, 1\] m"):
         scenario_from_dict({**_raw(UPRIGHT), "container": {"radius_m": 0.04, "rim_above_surface_m": 20}})
+    tilting = _raw(TRAY)
+    tilting["limits"]["tilt_max_deg"] = 10
+    with pytest.raises(UserError, match=r"tray of \[\[containers\]\], which is planned upright"):
+        scenario_from_dict(tilting)
     with pytest.raises(UserError, match=r"needs \[limits\]\.spill_margin_mm"):
         data = _raw(UPRIGHT)
         del data["limits"]["spill_margin_mm"]

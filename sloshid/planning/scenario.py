@@ -502,6 +502,11 @@ def scenario_from_dict(data: dict[str, Any], source: str = "") -> Scenario:
     containers = [from_dict(TrayContainer, c, f"[[containers]] #{i + 1}") for i, c in enumerate(containers_raw)]
     if geometry is not None:
         limits = _path_margin(limits, container, "rel_angle_max_deg" in data.get("limits", {}))
+    if containers and not limits.upright:
+        raise UserError(
+            f"{source or 'the scenario'} carries a tray of [[containers]], which is planned upright: set [limits] "
+            "tilt_max_deg = 0."
+        )
     tray = from_dict(Tray, data["tray"], "[tray]") if "tray" in data else None
     risk = from_dict(RiskSettings, data["risk"], "[risk]") if "risk" in data else None
     return Scenario(
