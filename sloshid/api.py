@@ -148,10 +148,31 @@ def plan(
         raise UserError(
             f"robust_omega_factors must be numbers such as (0.9, 1.1), got the string {robust_omega_factors!r}."
         )
+    if isinstance(scenario, (str, Path)):
+        scenario = load_scenario(scenario)
+    if getattr(getattr(scenario, "limits", None), "upright", False):
+        return plan_upright_scenario(scenario, params, robust)
     loaded, liquid, _ = _scenario_and_liquid(scenario, params)
     if robust:
         loaded = robust_scenario(loaded)
     return solve(loaded, liquid, robust_omega_factors=robust_omega_factors, progress=progress)
+
+
+def plan_upright_scenario(scenario: Scenario, params: Liquid, robust: bool = False) -> Any:
+    """An upright scenario's plan (`planning.upright.UprightPlan`): a tray needs no [liquid], and an identify JSON's
+    standard errors give the risk's draws; robust=True holds the margin for sampled models ([risk].scenarios, or
+    50) as `sloshid plan --robust` does."""
+    from sloshid.planning.risk import ROBUST_UPRIGHT_SAMPLES
+    from sloshid.planning.upright import plan_upright
+
+    path = params if isinstance(params, (str, Path)) else None
+    liquid = None
+    if params is not None or scenario.liquid is not None:
+        _, liquid, _ = _scenario_and_liquid(scenario, params)
+    samples = None
+    if robust:
+        samples = scenario.risk.scenarios if scenario.risk and scenario.risk.scenarios else ROBUST_UPRIGHT_SAMPLES
+    return plan_upright(scenario, liquid, params_path=path, robust_samples=samples)
 
 
 def compare(

@@ -63,6 +63,8 @@ def run(args: argparse.Namespace) -> int:
     if output is not None:
         outputs.file(output.with_suffix(".json"), "-o's description beside it", (".json",))
     scenario = load_scenario(args.scenario)
+    if scenario.limits.upright:
+        return _run_upright(args, scenario, inputs, output, report_dir)
     params = resolve_liquid(scenario, args.params)
     note_io_model(args.params, "TRAJ.csv")
     warn_doubtful_parameters(args.params, scenario)
@@ -74,6 +76,27 @@ def run(args: argparse.Namespace) -> int:
     written = comp.write_recommended(output, tuple(inputs)) if output is not None else None
     given = args.scenario + (f" --params {args.params}" if args.params else "")
     print(next_line(comp, given, written), file=sys.stderr if args.json else sys.stdout)  # JSON stays JSON
+    return 0
+
+
+def _run_upright(args, scenario, inputs: list, output, report_dir) -> int:
+    """Upright scenarios (tilt_max_deg = 0): sloshid's upright plans against the upright baselines, ranked by risk;
+    -o writes the first-ranked move that meets the margin."""
+    from sloshid.comparison.upright_compare import compare_upright
+    from sloshid.planning.scenario import resolve_liquid
+
+    liquid = resolve_liquid(scenario, args.params) if (args.params or scenario.liquid is not None) else None
+    comp = compare_upright(scenario, liquid, params_path=args.params)
+    page = comp.report_page() if report_dir is not None else None  # drawn before anything is written
+    written = comp.write_first(output, tuple(inputs)) if output is not None else None
+    if page is not None:
+        print(f"report written to {page.save(report_dir)}", file=sys.stderr)
+    print(json.dumps(comp.to_dict(), indent=2) if args.json else comp.summary())
+    if written is not None:
+        print(
+            f"wrote {written}: the first-ranked move that meets the margin.",
+            file=sys.stderr if args.json else sys.stdout,
+        )
     return 0
 
 

@@ -67,6 +67,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "frequency factor of the scenario's [compare] robust_omega_factors (default 0.9, 1.0, 1.1) ends at rest",
     )
     parser.add_argument(
+        "--sweep-margin",
+        metavar="MIN:MAX:COUNT",
+        default=None,
+        help="upright moves (tilt_max_deg = 0): also plan at COUNT spill margins from MIN to MAX mm and draw transfer "
+        "time and risk against the margin in OUTPUT_margin_sweep.png beside the trajectory CSV",
+    )
+    parser.add_argument(
         "--json",
         action="store_true",
         help="print a JSON summary (T_s in s, solve_time_s in s, iterations, status, max_tilt_deg, "
@@ -93,6 +100,16 @@ def run(args: argparse.Namespace) -> int:
     if joints is not None and scenario.arm is None:
         raise UserError(
             '--joints needs a [robot] table with model = "panda" in the scenario (base_xyz_m and q_start are optional).'
+        )
+    if scenario.limits.upright:
+        return _run_upright(args, scenario, outputs, output, report_dir)
+    if args.sweep_margin:
+        raise UserError("--sweep-margin plans upright moves: the scenario needs [limits] tilt_max_deg = 0.")
+    if scenario.limits.spill_margin_mm is not None:
+        print(
+            "sloshid: note: [limits].spill_margin_mm is planned for upright moves (tilt_max_deg = 0); this tilting move "
+            "keeps the liquid level with the container instead, which holds any margin the verification below holds.",
+            file=sys.stderr,
         )
     if args.robust:
         from sloshid.comparison.compare import robust_scenario
@@ -149,6 +166,74 @@ def run(args: argparse.Namespace) -> int:
         return 1
     # a plan past a limit, unverified or off its path is written for inspection, but a script must not run it
     return 0 if result.limits_ok and result.verification_ok and result.path_ok else 1
+
+
+def _sweep_margins(text: str) -> list[float]:
+    """MIN:MAX:COUNT (mm) as the margins to plan at."""
+    import numpy as np
+
+    try:
+        lo, hi, count = text.split(":")
+        lo_mm, hi_mm, n = float(lo), float(hi), int(count)
+    except ValueError:
+        raise UserError(f"--sweep-margin takes MIN:MAX:COUNT in mm (e.g. 4:14:6), got {text!r}.") from None
+    if not (0 <= lo_mm < hi_mm and 2 <= n <= 50):
+        raise UserError(f"--sweep-margin needs 0 <= MIN < MAX (mm) and a COUNT of 2 to 50, got {text!r}.")
+    return [float(v) for v in np.linspace(lo_mm, hi_mm, n)]
+
+
+def _run_upright(args, scenario, outputs, output: Path, report_dir: Path | None) -> int:
+    """An upright move within the spill margin: plan (robust with --robust), its risk, an optional margin sweep;
+    exit code 1 when a margin or limit is broken in the independent simulation (the files are still written where
+    none is yet)."""
+    from sloshid.api import plan_upright_scenario
+    from sloshid.planning.upright import sweep_margin
+
+    if args.joints:
+        raise UserError("--joints takes tilting moves of a [robot] arm; an upright move (tilt_max_deg = 0) has no arm.")
+    margins = _sweep_margins(args.sweep_margin) if args.sweep_margin else None
+    figure = (
+        outputs.file(output.with_name(output.stem + "_margin_sweep.png"), "--sweep-margin", (".png",))
+        if margins
+        else None
+    )
+    result = plan_upright_scenario(scenario, args.params, args.robust)
+    liquid = result.vessels[0].liquid if not scenario.containers else None
+    samples = result.guarantee.samples if result.guarantee is not None else None
+    sweep = sweep_margin(scenario, liquid, margins, args.params, samples) if margins else None
+    passed = result.verification_ok and result.limits_ok
+    report_page = report_dir / "index.html" if report_dir is not None else None
+    kept = [] if passed else [p for p in (output, report_page) if p is not None and p.exists()]
+    page = None
+    if report_dir is not None and not kept:
+        csv = os.path.relpath(os.path.abspath(output), os.path.abspath(report_dir))
+        page = result.report_page({"trajectory CSV": csv})
+    if not kept:
+        result.to_csv(output)
+    if sweep is not None:
+        sweep.save_figure(figure)
+    if page is not None:
+        page.save(report_dir)
+    if args.json:
+        summary = result.to_dict()
+        summary["margin_sweep"] = sweep.to_dict() if sweep is not None else None
+        print(json.dumps(summary, indent=2))
+    else:
+        print(result.summary())
+        if sweep is not None:
+            print(sweep.summary() + f"; drew {figure}")
+        print(
+            f"wrote {output}"
+            if not kept
+            else f"sloshid: kept {output}: a plan that breaks its margin does not replace it."
+        )
+    if not passed:
+        broken = [c.name for c in result.checks if not c.ok]
+        print(
+            f"sloshid: warning: {', '.join(broken) or 'a limit'} broken in the independent simulation; raise [solver].N.",
+            file=sys.stderr,
+        )
+    return 0 if passed else 1
 
 
 def note_io_model(params_path: str | None, trajectory: str, planned=None) -> None:

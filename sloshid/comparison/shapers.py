@@ -1,7 +1,8 @@
 """ZV and ZVD input shapers tuned to the identified sloshing mode, applied to the constant-acceleration move.
 
 Closed forms (Singer & Seering): K = exp(-zeta pi / sqrt(1 - zeta^2)), damped period Td = 2 pi / omega_d;
-ZV puts impulses [1, K] / (1 + K) at [0, Td/2], ZVD [1, 2K, K^2] / (1 + K)^2 at [0, Td/2, Td]. Amplitudes are
+ZV puts impulses [1, K] / (1 + K) at [0, Td/2], ZVD [1, 2K, K^2] / (1 + K)^2 at [0, Td/2, Td], ZVDD (the robust
+one: a flatter notch around the mode) [1, 3K, 3K^2, K^3] / (1 + K)^3 at [0, Td/2, Td, 3Td/2]. Amplitudes are
 positive and sum to one, so the shaped move keeps the acceleration and velocity limits of the unshaped one.
 """
 
@@ -32,8 +33,8 @@ class Shaper:
         return self.times_s[-1]
 
 
-def design_shaper(kind: Literal["ZV", "ZVD"], params: SloshParams) -> Shaper:
-    """ZV or ZVD shaper for the mode (omega, zeta) of `params`."""
+def design_shaper(kind: Literal["ZV", "ZVD", "ZVDD"], params: SloshParams) -> Shaper:
+    """ZV, ZVD or ZVDD shaper for the mode (omega, zeta) of `params`."""
     zeta = params.zeta
     root = math.sqrt(1.0 - zeta * zeta)
     k = math.exp(-zeta * math.pi / root)
@@ -43,6 +44,10 @@ def design_shaper(kind: Literal["ZV", "ZVD"], params: SloshParams) -> Shaper:
     if kind == "ZVD":
         norm = (1 + k) ** 2
         return Shaper("ZVD", (0.0, half_period, 2 * half_period), (1 / norm, 2 * k / norm, k * k / norm))
+    if kind == "ZVDD":
+        norm = (1 + k) ** 3
+        amps = (1 / norm, 3 * k / norm, 3 * k * k / norm, k**3 / norm)
+        return Shaper("ZVDD", tuple(i * half_period for i in range(4)), amps)
     raise ValueError(f"unknown shaper {kind!r}")
 
 
@@ -56,8 +61,8 @@ def shape(profile: PathProfile, shaper: Shaper) -> PathProfile:
     return PathProfile(profile.length_m, profile.duration_s + shaper.duration_s, evaluate)
 
 
-def shaped_constant_acceleration(move: MoveTask, params: SloshParams, kind: Literal["ZV", "ZVD"]) -> Trajectory:
-    """Method 2: the constant-acceleration move of every leg shaped with a ZV or ZVD shaper, container upright."""
+def shaped_constant_acceleration(move: MoveTask, params: SloshParams, kind: Literal["ZV", "ZVD", "ZVDD"]) -> Trajectory:
+    """Method 2: the constant-acceleration move of every leg shaped with a ZV, ZVD or ZVDD shaper, container upright."""
     shaper = design_shaper(kind, params)
     profiles = [
         shape(

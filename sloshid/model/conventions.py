@@ -33,3 +33,14 @@ SEEN_SIGN = -1.0
 def steady_tilt(ux: Any, uy: Any, uz: Any = 0.0) -> tuple[Any, Any]:
     """(phi, theta) in rad at which the surface settles under a constant acceleration (numbers or arrays)."""
     return -np.arctan2(uy, G + uz), np.arctan2(ux, G + uz)
+
+
+WALL_ANGLE_CAP_RAD = 1.4
+"""Relative angles are capped here (80 deg) before the tangent of the wall reading: a surface past the vertical has
+no wall height."""
+
+
+def wall_height_mm(radius_m: float, rel_angle_rad: Any) -> Any:
+    """The wall reading of a planar surface tilted `rel_angle_rad` from the container's axis: its highest point at the
+    wall of a container of `radius_m`, R tan(angle), in mm (numbers or arrays)."""
+    return 1000.0 * radius_m * np.tan(np.minimum(rel_angle_rad, WALL_ANGLE_CAP_RAD))

@@ -22,7 +22,7 @@ from scipy.spatial.transform import Rotation, Slerp
 
 from sloshid.core.errors import SettingError, UserError, input_file
 from sloshid.core.tables import read_table
-from sloshid.model.conventions import G
+from sloshid.model.conventions import G, wall_height_mm
 from sloshid.model.pendulum import SloshParams
 from sloshid.model.simulate import simulate_liquid
 from sloshid.model.trajectory import CSV_COLUMNS, Trajectory
@@ -256,7 +256,7 @@ class PoseResponse:
 
     def wall_height_mm(self, radius_m: float) -> np.ndarray:
         """Highest point of the tilted plane at the wall, R tan(relative angle), in mm."""
-        return 1000.0 * radius_m * np.tan(np.minimum(self.rel_angle_rad, 1.4))
+        return wall_height_mm(radius_m, self.rel_angle_rad)
 
 
 def respond(

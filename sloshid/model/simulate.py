@@ -17,6 +17,7 @@ from functools import lru_cache
 import numpy as np
 from scipy.integrate import solve_ivp
 
+from sloshid.model.conventions import wall_height_mm
 from sloshid.model.pendulum import G, SloshParams, angle_accel, pendulum_rhs_3d, spherical_accel
 from sloshid.model.trajectory import Trajectory
 
@@ -38,6 +39,11 @@ class LiquidResponse:
     def rel_angle_deg(self) -> np.ndarray:
         """Magnitude of the relative tilt between liquid surface and container, degrees (N,)."""
         return np.degrees(np.hypot(self.rel_rad[:, 0], self.rel_rad[:, 1]))
+
+    def wall_height_mm(self, radius_m: float) -> np.ndarray:
+        """Highest point of the tilted surface at the wall of a container of `radius_m`, R tan(relative angle), in mm
+        (the reading of `pose.PoseResponse.wall_height_mm`) (N,)."""
+        return wall_height_mm(radius_m, np.hypot(self.rel_rad[:, 0], self.rel_rad[:, 1]))
 
     @property
     def peak_during_deg(self) -> float:

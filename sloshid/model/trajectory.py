@@ -251,6 +251,8 @@ def check_move_limits(
     }
     usages = []
     for name, (values, bound) in checks.items():
-        k, axis = np.unravel_index(int(np.argmax(values / bound)), values.shape)
+        with np.errstate(invalid="ignore", divide="ignore"):  # an upright move's tilt: 0 of 0 deg
+            use = np.nan_to_num(values / bound, nan=0.0)
+        k, axis = np.unravel_index(int(np.argmax(use)), values.shape)
         usages.append(LimitUsage(name, float(values[k, axis]), float(bound[axis]), float(traj.t_s[k])))
     return usages

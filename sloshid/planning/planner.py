@@ -280,6 +280,10 @@ def plan(
     always checked against the scenario's own limits
     (`PlanResult.tightened` says what the solver was given).
     """
+    if scenario.limits.upright:  # no tilt: the fastest move within the spill margin (an UprightPlan)
+        from sloshid.planning.upright import plan_upright
+
+        return plan_upright(scenario, params)
     if scenario.path is not None:
         from sloshid.planning.path_planner import plan_path
 

@@ -10,7 +10,7 @@ from __future__ import annotations
 import itertools
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, Literal
 
@@ -88,6 +88,11 @@ class Limits:
     rel_angle_max_deg: float = 0.5
     """[path] plans: largest angle between the liquid surface and the container while moving (deg); free moves keep
     the container on the liquid's surface (0 deg)."""
+    spill_margin_mm: float | None = None
+    """Least distance the liquid may come to the rim, anywhere on the wall, during and after the move (mm); with
+    tilt_max_deg = 0 the planner keeps the predicted wall height within it (`planning.upright`)."""
+    residual_wall_height_max_mm: float = 0.5
+    """Largest wall height the liquid may keep swinging to after arrival (mm): calm enough to fill or pour."""
 
     def __post_init__(self) -> None:
         for name in ("acc_max", "vel_max", "jerk_max"):
@@ -95,14 +100,25 @@ class Limits:
                 raise UserError(f"[limits].{name} must be three positive numbers, got {getattr(self, name)}.")
         if not self.z_range[0] < self.z_range[1]:
             raise UserError(f"[limits].z_range must be [low, high] with low < high (m), got {list(self.z_range)}.")
-        if not 0 < self.tilt_max_deg < 90:
-            raise UserError(f"[limits].tilt_max_deg must lie in (0, 90) deg, got {self.tilt_max_deg}.")
+        if not 0 <= self.tilt_max_deg < 90:
+            raise UserError(f"[limits].tilt_max_deg must lie in [0, 90) deg (0: upright), got {self.tilt_max_deg}.")
         if not self.tilt_rate_max_deg_s > 0:
             raise UserError(f"[limits].tilt_rate_max_deg_s must be positive, got {self.tilt_rate_max_deg_s}.")
         if not self.t_max_s > 0:
             raise UserError(f"[limits].t_max_s must be positive, got {self.t_max_s}.")
         if not 0 < self.rel_angle_max_deg <= 10:
             raise UserError(f"[limits].rel_angle_max_deg must lie in (0, 10] deg, got {self.rel_angle_max_deg}.")
+        if self.spill_margin_mm is not None and not (math.isfinite(self.spill_margin_mm) and self.spill_margin_mm >= 0):
+            raise UserError(f"[limits].spill_margin_mm must be zero or positive (mm), got {self.spill_margin_mm}.")
+        if not (math.isfinite(self.residual_wall_height_max_mm) and self.residual_wall_height_max_mm > 0):
+            raise UserError(
+                f"[limits].residual_wall_height_max_mm must be positive (mm), got {self.residual_wall_height_max_mm}."
+            )
+
+    @property
+    def upright(self) -> bool:
+        """The container may not tilt: an upright move within the spill margin."""
+        return self.tilt_max_deg == 0
 
 
 @dataclass(frozen=True)
@@ -155,14 +171,116 @@ class Container:
     depth_m: float = 0.0
     """How far the container's body reaches below the liquid surface's centre (the point the plan moves) along its
     axis (m): it must clear the obstacles too, tilted as the plan tilts it (`body_clearance`); 0: the sphere only."""
+    rim_above_surface_m: float | None = None
+    """Height of the rim above the liquid surface at rest (m): the spill margin is measured down from it."""
 
     def __post_init__(self) -> None:
         if not self.radius_m >= 0:
             raise UserError(f"[container].radius_m must be zero or positive, got {self.radius_m}.")
+        if self.rim_above_surface_m is not None:
+            try:
+                check_rim(self.rim_above_surface_m, "rim_above_surface_m")
+            except SettingError as exc:
+                raise UserError(str(exc.named("[container].rim_above_surface_m"))) from None
         if not 0 <= self.depth_m <= MAX_DEPTH_M:
             raise UserError(
                 f"[container].depth_m must lie in [0, {MAX_DEPTH_M:g}] m (metres, not millimetres), got {self.depth_m}."
             )
+
+
+MAX_RIM_M = 1.0
+"""The highest rim above the liquid a container takes (m): a rim in millimetres would read as metres."""
+
+
+def check_rim(rim_m: float | None, where: str) -> None:
+    """Refuse a rim height that is not a positive number of metres (None: not given); `where` names the setting."""
+    if rim_m is not None and not (math.isfinite(rim_m) and 0 < rim_m <= MAX_RIM_M):
+        raise SettingError(where, f"{{name}} must lie in (0, {MAX_RIM_M:g}] m (metres, not millimetres), got {rim_m}.")
+
+
+@dataclass(frozen=True)
+class TrayContainer:
+    """[[containers]]: one container on the tool's tray, with its own geometry and liquid."""
+
+    radius_m: float
+    """Inner radius (m): the wall height is radius x tan(the surface's tilt)."""
+    rim_above_surface_m: float
+    """Height of its rim above its liquid's surface at rest (m)."""
+    position_m: tuple[float, float] = (0.0, 0.0)
+    """Centre on the tray (m), in the tool's x and y from the point the plan moves."""
+    name: str = ""
+    """Name in reports (default: container 1, 2, ...)."""
+    spill_margin_mm: float | None = None
+    """Its own spill margin (mm); default [limits].spill_margin_mm."""
+    m_kg: float | None = None
+    """Liquid as a pendulum (seed Table I units): m_kg, l_m and d_ns_per_m together."""
+    l_m: float | None = None
+    d_ns_per_m: float | None = None
+    params: str | None = None
+    """Or an identify JSON (path relative to the scenario) for this container's liquid."""
+    fill_m: float | None = None
+    """Or the fill height (m) with `zeta`: the cylinder's first mode omega^2 = (g xi / R) tanh(xi h / R)."""
+    zeta: float | None = None
+    """Damping ratio that goes with `fill_m`."""
+
+    def __post_init__(self) -> None:
+        if not (math.isfinite(self.radius_m) and 0 < self.radius_m <= MAX_RIM_M):
+            raise SettingError("radius_m", f"{{name}} must lie in (0, {MAX_RIM_M:g}] m, got {self.radius_m}.")
+        check_rim(self.rim_above_surface_m, "rim_above_surface_m")
+        if self.fill_m is not None and not (math.isfinite(self.fill_m) and self.fill_m > 0):
+            raise SettingError("fill_m", f"{{name}} must be a positive height (m), got {self.fill_m}.")
+        if self.zeta is not None and not 0 <= self.zeta < 1:
+            raise SettingError("zeta", f"{{name}} must lie in [0, 1), got {self.zeta}.")
+
+
+@dataclass(frozen=True)
+class Tray:
+    """[tray]: the tool plate the containers stand on, centred on the point the plan moves."""
+
+    size_m: tuple[float, float]
+    """Its extent along the tool's x and y (m)."""
+
+    def __post_init__(self) -> None:
+        if not all(math.isfinite(v) and v > 0 for v in self.size_m):
+            raise UserError(f"[tray].size_m must be two positive lengths (m), got {list(self.size_m)}.")
+
+
+@dataclass(frozen=True)
+class RiskSettings:
+    """[risk]: how sure the plan is, from the liquid's uncertainty (`planning.risk`)."""
+
+    draws: int = 1000
+    """Monte-Carlo draws of the liquid models that estimate the probability of breaking the margin."""
+    seed: int = 1
+    """Seed of the Monte-Carlo draws (the robust plan's scenarios use seed + 1)."""
+    scenarios: int = 0
+    """Sampled models the robust plan holds the margin for (scenario approach); 0: the nominal plan only."""
+    omega_ci95_rel: float | None = None
+    """A band the user gives: the natural frequency's 95 % interval as a share of it (0.05: +-5 %), for liquids that
+    come without standard errors (a [liquid] table, fill_m); an identify JSON's own standard errors take precedence."""
+    zeta_ci95_rel: float | None = None
+    """The damping ratio's 95 % interval as a share of it."""
+    beta: float = 1e-3
+    """Confidence parameter of the scenario guarantee: the bound on the violation probability holds with 1 - beta."""
+
+    def __post_init__(self) -> None:
+        if not 100 <= self.draws <= 1_000_000:
+            raise UserError(f"[risk].draws must lie in 100..1000000, got {self.draws}.")
+        if not 0 <= self.scenarios <= MAX_RISK_SCENARIOS:
+            raise UserError(
+                f"[risk].scenarios must lie in 0..{MAX_RISK_SCENARIOS} (each adds the liquids to the plan's problem), "
+                f"got {self.scenarios}."
+            )
+        for name in ("omega_ci95_rel", "zeta_ci95_rel"):
+            v = getattr(self, name)
+            if v is not None and not (math.isfinite(v) and 0 <= v < 1):
+                raise UserError(f"[risk].{name} must lie in [0, 1) (a share, not per cent), got {v}.")
+        if not 0 < self.beta < 1:
+            raise UserError(f"[risk].beta must lie in (0, 1), got {self.beta}.")
+
+
+MAX_RISK_SCENARIOS = 200
+"""Most sampled models a robust upright plan holds: each adds a pendulum per container to the problem."""
 
 
 MAX_DEPTH_M = 2.0
@@ -301,6 +419,14 @@ class Scenario:
     """[robot] model = "panda" ...: the arm for joint-space checks (sloshid.planning.arm.ArmSettings), else None."""
     container_depth_m: float = 0.0
     """[container].depth_m: the container's body below the liquid surface's centre that clears the obstacles too."""
+    rim_above_surface_m: float | None = None
+    """[container].rim_above_surface_m: the rim's height above the liquid at rest (m)."""
+    containers: list[TrayContainer] = field(default_factory=list)
+    """[[containers]]: a tray of containers on the tool (then [container] is not used for the margin)."""
+    tray: Tray | None = None
+    """[tray]: the tool plate's size, which every container must stand on."""
+    risk: RiskSettings | None = None
+    """[risk]: Monte-Carlo draws and the robust plan's sampled models."""
 
     def container_clearance(self, pos_m, z_axis=None, obstacles=None):
         """`body_clearance` of this scenario's container (its radius and depth) at positions `pos_m` of the surface's
@@ -315,7 +441,22 @@ class Scenario:
         return self.limits.jerk_max if self.solver.jerk_limited else None
 
 
-_TABLES = ("move", "path", "limits", "obstacles", "container", "solver", "liquid", "robot", "compare")
+_TABLES = (
+    "move",
+    "path",
+    "limits",
+    "obstacles",
+    "container",
+    "containers",
+    "tray",
+    "risk",
+    "solver",
+    "liquid",
+    "robot",
+    "compare",
+)
+_ARRAYS = ("obstacles", "containers")
+"""Tables given as arrays of tables [[name]]."""
 
 
 def scenario_from_dict(data: dict[str, Any], source: str = "") -> Scenario:
@@ -323,7 +464,7 @@ def scenario_from_dict(data: dict[str, Any], source: str = "") -> Scenario:
     for key in data:
         if key not in _TABLES:
             raise UserError(f"unknown table '[{key}]'{did_you_mean(key, _TABLES)} in {source or 'the scenario'}.")
-        if key != "obstacles" and not isinstance(data[key], dict):
+        if key not in _ARRAYS and not isinstance(data[key], dict):
             raise UserError(f"'{key}' must be a table [{key}], got {data[key]!r}.")
     misplaced = [k for k in data.get("solver", {}) if k in Limits.__dataclass_fields__]
     if misplaced:
@@ -353,9 +494,23 @@ def scenario_from_dict(data: dict[str, Any], source: str = "") -> Scenario:
     if arm_raw:
         arm = arm_settings(arm_raw)
     container = from_dict(Container, data.get("container", {}), "[container]")
+    limits = from_dict(Limits, data.get("limits", {}), "[limits]")
+    containers_raw = data.get("containers", [])
+    if not isinstance(containers_raw, list):
+        raise UserError("containers must be an array of tables [[containers]].")
+    containers = [from_dict(TrayContainer, c, f"[[containers]] #{i + 1}") for i, c in enumerate(containers_raw)]
+    if geometry is not None:
+        limits = _path_margin(limits, container, "rel_angle_max_deg" in data.get("limits", {}))
+    if containers and not limits.upright:
+        raise UserError(
+            f"{source or 'the scenario'} carries a tray of [[containers]], which is planned upright: set [limits] "
+            "tilt_max_deg = 0."
+        )
+    tray = from_dict(Tray, data["tray"], "[tray]") if "tray" in data else None
+    risk = from_dict(RiskSettings, data["risk"], "[risk]") if "risk" in data else None
     return Scenario(
         waypoints=points,
-        limits=from_dict(Limits, data.get("limits", {}), "[limits]"),
+        limits=limits,
         obstacles=obstacles,
         container_radius_m=container.radius_m,
         container_depth_m=container.depth_m,
@@ -367,7 +522,27 @@ def scenario_from_dict(data: dict[str, Any], source: str = "") -> Scenario:
         path=geometry,
         path_table=path_table,
         arm=arm,
+        rim_above_surface_m=container.rim_above_surface_m,
+        containers=containers,
+        tray=tray,
+        risk=risk,
     )
+
+
+def _path_margin(limits: Limits, container: Container, rel_given: bool) -> Limits:
+    """A tilting [path] move with a spill margin uses both: the liquid may leave the container's axis by the angle at
+    which its wall height R tan(angle) reaches rim - margin (at most 10 deg, and at most rel_angle_max_deg when that is
+    given too)."""
+    if limits.spill_margin_mm is None or container.rim_above_surface_m is None or limits.upright:
+        return limits
+    rise = container.rim_above_surface_m - limits.spill_margin_mm / 1000
+    if rise <= 0:
+        raise UserError(
+            f"[container]: the spill margin of {limits.spill_margin_mm:g} mm is not below the rim's "
+            f"{1000 * container.rim_above_surface_m:g} mm above the liquid, so the liquid would break it at rest."
+        )
+    angle = min(10.0, math.degrees(math.atan(rise / max(container.radius_m, 1e-9))))
+    return replace(limits, rel_angle_max_deg=min(angle, limits.rel_angle_max_deg) if rel_given else angle)
 
 
 def load_scenario(path: str | Path) -> Scenario:

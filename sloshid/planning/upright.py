@@ -1,0 +1,639 @@
+"""Upright moves within a spill margin ([limits] tilt_max_deg = 0): the fastest straight move that keeps every
+container's liquid below its rim minus the margin, during and after the move, and calm on arrival.
+
+The container does not tilt, so the liquid's surface angle IS its angle relative to the container; its wall height is
+R tan(angle) (`model.conventions.wall_height_mm`). The problem is stated along the straight line from start to goal:
+the path coordinate s with its velocity, acceleration and (jerk-limited) jerk, and for every liquid model (each
+container's nominal liquid, and in the robust variant its sampled ones) the pendulum angles that the line's direction
+drives (`model.pendulum.pendulum_rhs_3d`, the planner's equations). Constraints at the nodes: the wall angle within
+the allowed rise (shrunk by cos(omega h / 2), the most a swing can pass between two nodes); at arrival each model's
+swing amplitude within the residual limit (a box on angle and rate inside the amplitude's circle). It is transcribed
+by the planner's own `MultipleShooting` and solved by IPOPT; the 1 kHz result is verified independently with the
+compiled nonlinear integrator (`simulate_liquids`) and re-solved with tighter bounds if a wall passed between nodes.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from types import SimpleNamespace
+
+import casadi as ca
+import numpy as np
+
+from sloshid.core.errors import UserError
+from sloshid.core.parallel import solver_interruptible
+from sloshid.model.pendulum import SloshParams, pendulum_rhs_3d
+from sloshid.model.trajectory import LimitUsage, Trajectory
+from sloshid.planning.ocp import OK_STATUSES, SegmentResult, bang_bang_time, ipopt_options
+from sloshid.planning.planner import check_feasible, limit_usages
+from sloshid.planning.problem import constraint_bounds
+from sloshid.planning.risk import RiskEstimate, ScenarioGuarantee, draw_models, monte_carlo, spreads, wall_figures
+from sloshid.planning.sampling import sample_segments
+from sloshid.planning.scenario import Scenario
+from sloshid.planning.transcription import MultipleShooting, graded_mesh
+from sloshid.planning.vessels import Vessel, vessels_of
+
+WALL_TRIES = 4
+"""Re-solves with a tighter wall bound when the 1 kHz verification finds a wall passing it between the nodes."""
+WALL_SAFETY = 0.998
+"""A passed bound is lowered to this share of bound / peak for the next solve."""
+ACTIVE_TOL = 0.995
+"""A sampled model's constraint counts as active (support) when it uses this share of its bound."""
+ROBUST_SEED_OFFSET = 1
+"""The robust plan's sampled models use [risk].seed + this (apart from the Monte Carlo's draws)."""
+
+
+@dataclass(frozen=True)
+class UprightStructure:
+    """What fixes the shape of the upright NLP (one cached solver per value)."""
+
+    N: int
+    n_models: int
+    angles: tuple[int, ...]
+    """Driven pendulum angles: 0 = phi (by the line's y component), 1 = theta (by its x component)."""
+    jerk_limited: bool
+    rk4_steps: int
+    max_iter: int = 1000
+    tol: float = 1e-8
+    warm: bool = False
+    clearance_points: int = 0
+
+
+@dataclass
+class UprightProblem:
+    """The continuous-time problem in the interface `MultipleShooting` transcribes (as `problem.SegmentProblem`)."""
+
+    s: UprightStructure
+    x: ca.SX
+    u: ca.SX
+    p: ca.SX
+    """direction (3), kappa_r, kappa_j, then per model: l, d/m, allowed wall angle."""
+    rhs: ca.Function
+    running_cost: ca.SX
+    path: list[tuple[ca.SX, str]]
+    clearance: None = None
+
+    @property
+    def n_path(self) -> int:
+        """Path states: s, s', [s'']."""
+        return 3 if self.s.jerk_limited else 2
+
+
+def build_upright_problem(s: UprightStructure) -> UprightProblem:
+    """The upright problem in CasADi SX symbols."""
+    n_path, na = (3 if s.jerk_limited else 2), len(s.angles)
+    x, u = ca.SX.sym("x", n_path + 2 * na * s.n_models), ca.SX.sym("u", 1)
+    direction, weights = ca.SX.sym("e", 3), ca.SX.sym("w", 2)
+    models = ca.SX.sym("m", 3 * s.n_models)
+    p = ca.vertcat(direction, weights, models)
+    acc = x[2] if s.jerk_limited else u[0]
+    acc3 = acc * direction
+    parts = [x[1], acc] + ([u[0]] if s.jerk_limited else [])
+    path: list[tuple[ca.SX, str]] = []
+    zero = ca.SX(0)
+    for k in range(s.n_models):
+        off = n_path + 2 * na * k
+        ang, rate = x[off : off + na], x[off + na : off + 2 * na]
+        liquid = SimpleNamespace(l_m=models[3 * k], damping_rate_1_s=models[3 * k + 1])
+        o = [zero] * 12
+        for i, a in enumerate(s.angles):
+            o[3 + a], o[9 + a] = ang[i], rate[i]
+        rhs = pendulum_rhs_3d(o, [acc3[0], acc3[1], acc3[2]], liquid, ca.sin, ca.cos)
+        parts += [rate, ca.vertcat(*(rhs[9 + a] for a in s.angles))]
+        bound = models[3 * k + 2]
+        path.append((ang / bound, "unit") if na == 1 else (ca.sumsqr(ang) / bound**2, "norm"))
+    f = ca.Function("f", [x, u, p], [ca.vertcat(*parts)])
+    cost = weights[0] / 2 * acc**2 + (weights[1] / 2 * u[0] ** 2 if s.jerk_limited else 0)
+    return UprightProblem(s, x, u, p, f, cost, path)
+
+
+_CACHE: dict[UprightStructure, tuple[UprightProblem, MultipleShooting, ca.Function]] = {}
+
+
+def _solver(s: UprightStructure) -> tuple[UprightProblem, MultipleShooting, ca.Function]:
+    """The cached problem, transcription and IPOPT solver of a structure."""
+    if s not in _CACHE:
+        prob = build_upright_problem(s)
+        ms = MultipleShooting(prob)
+        # expanded to SX: many pendulum copies make the MX graph's iterations several times slower
+        _CACHE[s] = (prob, ms, ca.nlpsol("upright", "ipopt", ms.nlp, {**ipopt_options(s), "expand": True}))
+    return _CACHE[s]
+
+
+@dataclass(frozen=True)
+class LineLimits:
+    """The scenario's limits along the move's line (the tightest axis decides), and its length."""
+
+    length_m: float
+    direction: np.ndarray
+    vel: float
+    acc: float
+    jerk: float
+
+    @property
+    def t_no_liquid_s(self) -> float:
+        """The fastest rest-to-rest move these acceleration and velocity limits allow, with no liquid (bang-bang)."""
+        return bang_bang_time(self.length_m, self.acc, self.vel)
+
+
+def line_limits(scenario: Scenario) -> LineLimits:
+    """Per-axis [limits] and the robot's norm limits turned into limits along the line start -> goal."""
+    start, goal = (np.asarray(p, dtype=float) for p in scenario.waypoints)
+    delta = goal - start
+    length = float(np.linalg.norm(delta))
+    e = delta / length
+    lim, robot = scenario.limits, scenario.robot
+
+    def along(box, norm) -> float:
+        return min([norm] + [b / abs(c) for b, c in zip(box, e) if abs(c) > 1e-12])
+
+    return LineLimits(
+        length,
+        e,
+        along(lim.vel_max, robot.vel_m_s),
+        along(lim.acc_max, robot.acc_m_s2),
+        along(lim.jerk_max, robot.jerk_m_s3),
+    )
+
+
+@dataclass
+class VesselCheck:
+    """One container's wall in the independent nonlinear simulation of the planned move (mm)."""
+
+    name: str
+    peak_mm: float
+    """Highest wall height during and after the move."""
+    allowed_mm: float
+    """Rim minus margin above the surface at rest."""
+    residual_mm: float
+    """Highest wall height after arrival."""
+    residual_max_mm: float
+
+    @property
+    def ok(self) -> bool:
+        """Within its margin and calm enough on arrival."""
+        return self.peak_mm <= self.allowed_mm and self.residual_mm <= self.residual_max_mm
+
+    @property
+    def use(self) -> float:
+        """The larger share of its two allowances it uses (1: at a bound)."""
+        return max(self.peak_mm / self.allowed_mm, self.residual_mm / self.residual_max_mm)
+
+
+@dataclass
+class UprightPlan:
+    """A solved upright move: the 1 kHz trajectory, each container's wall, the limiting one, and the risk."""
+
+    trajectory: Trajectory
+    T_s: float
+    status: str
+    solve_time_s: float
+    iterations: int
+    vessels: list[Vessel]
+    checks: list[VesselCheck]
+    t_no_liquid_s: float
+    """The fastest move the same acceleration and velocity limits allow with no liquid at all."""
+    limits: list[LimitUsage]
+    move_limits: list[LimitUsage]
+    scenario: Scenario | None = None
+    risk: RiskEstimate | None = None
+    guarantee: ScenarioGuarantee | None = None
+    """The robust variant's sampled models and bound (None: the nominal plan)."""
+    wall_bound_share: list[float] = field(default_factory=list)
+    """Share of each container's allowed wall angle the solver was given (below 1 after a wall passed between nodes)."""
+    joints: None = None
+    path_ok: bool = True
+
+    @property
+    def limits_ok(self) -> bool:
+        """Robot and [limits] held on the 1 kHz trajectory."""
+        return all(u.ok for u in self.limits + self.move_limits)
+
+    @property
+    def verification_ok(self) -> bool:
+        """Every container within its margin and residual in the independent simulation."""
+        return all(c.ok for c in self.checks)
+
+    @property
+    def limiting(self) -> VesselCheck:
+        """The container closest to one of its allowances: the one that sets the move's duration."""
+        return max(self.checks, key=lambda c: c.use)
+
+    def summary(self) -> str:
+        """What `sloshid plan` prints for an upright move."""
+        walls = "; ".join(
+            f"{c.name}: wall {c.peak_mm:.2f} of {c.allowed_mm:.2f} mm, {c.residual_mm:.2f} mm after "
+            f"(<= {c.residual_max_mm:.2f})"
+            for c in self.checks
+        )
+        lines = [
+            f"planned an upright move: T = {self.T_s:.4f} s ({self.T_s / self.t_no_liquid_s:.3f} x the "
+            f"{self.t_no_liquid_s:.4f} s of a move with no liquid), solved in {self.solve_time_s:.2f} s "
+            f"({self.status}); {walls}; limiting: {self.limiting.name}; margins "
+            f"{'held' if self.verification_ok else 'BROKEN'}; limits {'ok' if self.limits_ok else 'EXCEEDED'}"
+        ]
+        if self.guarantee is not None:
+            lines.append(self.guarantee.summary())
+        lines.append(self.risk.summary() if self.risk is not None else "risk: not estimated (no parameter band)")
+        return "\n".join(lines)
+
+    def to_dict(self) -> dict:
+        """The `--json` content."""
+        return {
+            "kind": "upright",
+            "T_s": self.T_s,
+            "t_no_liquid_s": self.t_no_liquid_s,
+            "time_ratio": self.T_s / self.t_no_liquid_s,
+            "status": self.status,
+            "solve_time_s": self.solve_time_s,
+            "iterations": self.iterations,
+            "containers": [
+                {
+                    "name": c.name,
+                    "peak_wall_mm": c.peak_mm,
+                    "allowed_wall_mm": c.allowed_mm,
+                    "residual_wall_mm": c.residual_mm,
+                    "residual_max_mm": c.residual_max_mm,
+                    "f_hz": v.liquid.f_hz,
+                    "zeta": v.liquid.zeta,
+                    "ok": c.ok,
+                }
+                for c, v in zip(self.checks, self.vessels)
+            ],
+            "limiting_container": self.limiting.name,
+            "verification_ok": self.verification_ok,
+            "limits_ok": self.limits_ok,
+            "limits": [vars(u) for u in self.limits],
+            "move_limits": [vars(u) for u in self.move_limits],
+            "wall_bound_share": list(self.wall_bound_share),
+            "robust": self.guarantee.to_dict() if self.guarantee is not None else None,
+            "risk": self.risk.to_dict() if self.risk is not None else None,
+            "samples": len(self.trajectory.t_s),
+        }
+
+    def to_csv(self, path: str | Path) -> None:
+        """Write the 1 kHz trajectory CSV, never over the scenario it was planned from."""
+        self.trajectory.to_csv(path, (self.scenario.source,) if self.scenario and self.scenario.source else ())
+
+    def plot(self, ax=None):
+        """Each container's wall height in the nonlinear simulation with its allowance; returns the figure."""
+        import matplotlib.pyplot as plt
+
+        own = ax is None
+        if own:
+            _, ax = plt.subplots(figsize=(9, 3.4))
+        from sloshid.model.simulate import simulate_liquids
+
+        responses = simulate_liquids([self.trajectory] * len(self.vessels), [v.liquid for v in self.vessels], 1.5)
+        for v, r, c in zip(self.vessels, responses, self.checks):
+            (line,) = ax.plot(r.t_s, r.wall_height_mm(v.radius_m), lw=1, label=f"{v.name} ({v.liquid.f_hz:.2f} Hz)")
+            ax.axhline(c.allowed_mm, color=line.get_color(), ls="--", lw=0.8)
+        ax.axvline(self.T_s, color="0.5", ls=":", lw=0.8)
+        ax.set(xlabel="time t (s)", ylabel="wall height (mm)", title=f"upright move, T = {self.T_s:.3f} s")
+        ax.legend(fontsize=8)
+        if own:
+            ax.figure.tight_layout()
+        return ax.figure
+
+    def report_page(self, links: dict[str, str] | None = None, liquid_source: str = ""):
+        """The upright plan's report (summary, wall heights, containers), drawn but not written."""
+        from sloshid.report.html import Report
+
+        rep = Report("sloshid upright plan")
+        if links:
+            rep.add_links(links)
+        rep.add_text(self.summary())
+        if liquid_source:
+            rep.add_text(f"liquid: {liquid_source}")
+        rep.add_figure(self.plot(), "wall height of each container in the independent nonlinear simulation")
+        rows = [[c.name, c.peak_mm, c.allowed_mm, c.residual_mm, c.residual_max_mm, c.ok] for c in self.checks]
+        rep.add_table(["container", "peak (mm)", "allowed (mm)", "after (mm)", "after max (mm)", "ok"], rows)
+        return rep
+
+    def report(self, directory: str | Path, links: dict[str, str] | None = None, liquid_source: str = "") -> Path:
+        """Write the report to directory/index.html."""
+        return self.report_page(links, liquid_source).save(directory)
+
+
+def _check_request(scenario: Scenario) -> None:
+    """Refuse what the upright planner does not take (one sentence each)."""
+    src = scenario.source or "the scenario"
+    if scenario.path is not None:
+        raise UserError(f"{src}: an upright move (tilt_max_deg = 0) follows a straight [move], not a [path].")
+    if len(scenario.waypoints) != 2:
+        raise UserError(f"{src}: an upright move (tilt_max_deg = 0) takes one start and goal, not waypoints.")
+    if scenario.obstacles:
+        raise UserError(f"{src}: an upright move (tilt_max_deg = 0) is a straight line and takes no [[obstacles]].")
+
+
+def _driven_angles(e: np.ndarray) -> tuple[int, ...]:
+    """The pendulum angles a move along e drives: phi by its y component, theta by its x component."""
+    angles = tuple(a for a, axis in ((0, 1), (1, 0)) if abs(e[axis]) > 1e-12)
+    return angles or (1,)
+
+
+def _bounds(s: UprightStructure, line: LineLimits, models, residual_angles, T_bounds, ms: MultipleShooting):
+    """(lbx, ubx): rest at the start, the line's limits on the way, each model's swing within its residual box at
+    the goal, T within T_bounds."""
+    n_path, na = (3 if s.jerk_limited else 2), len(s.angles)
+    nx = n_path + 2 * na * len(models)
+    lo, hi = np.full((3, nx), -np.inf), np.full((3, nx), np.inf)  # rows: start, path, goal
+    lo[:, 1], hi[:, 1] = -line.vel, line.vel
+    if s.jerk_limited:
+        lo[:, 2], hi[:, 2] = -line.acc, line.acc
+    lo[0], hi[0] = 0.0, 0.0
+    lo[2, :n_path], hi[2, :n_path] = 0.0, 0.0
+    lo[2, 0] = hi[2, 0] = line.length_m
+    for k, (m, a_res) in enumerate(zip(models, residual_angles)):
+        # inside the amplitude circle: angle and (rate + zeta omega angle) / omega_d each within a_res / sqrt(2 na)
+        box = a_res / math.sqrt(2 * na) / (1 + m.zeta)
+        off = n_path + 2 * na * k
+        lo[2, off : off + na], hi[2, off : off + na] = -box, box
+        w = m.omega_rad_s * math.sqrt(1 - m.zeta**2)
+        lo[2, off + na : off + 2 * na], hi[2, off + na : off + 2 * na] = -box * w, box * w
+    ulim = line.jerk if s.jerk_limited else line.acc
+    rows = np.r_[0, np.ones(s.N - 1, dtype=int), 2]
+    lbx = ms.join(T_bounds[0], lo[rows], np.full((s.N, 1), -ulim))
+    ubx = ms.join(T_bounds[1], hi[rows], np.full((s.N, 1), ulim))
+    return lbx, ubx
+
+
+def _guess(s: UprightStructure, line: LineLimits, n_models: int, T0: float, mesh: np.ndarray, ms) -> np.ndarray:
+    """A minimum-jerk profile along the line over T0, liquids at rest."""
+    tau = (np.concatenate([[0.0], np.cumsum(mesh)]) / s.N)[:, None]
+    L = line.length_m
+    cols = [L * (10 * tau**3 - 15 * tau**4 + 6 * tau**5), L * (30 * tau**2 - 60 * tau**3 + 30 * tau**4) / T0]
+    if s.jerk_limited:
+        cols.append(L * (60 * tau - 180 * tau**2 + 120 * tau**3) / T0**2)
+    X = np.hstack([*cols, np.zeros((s.N + 1, 2 * len(s.angles) * n_models))])
+    mid = (tau[:-1] + tau[1:]) / 2
+    U = L * (60 - 360 * mid + 360 * mid**2) / T0**3 if s.jerk_limited else L * (60 * mid - 180 * mid**2) / T0**2
+    return ms.join(T0, X, U)
+
+
+@dataclass
+class _Solved:
+    """One IPOPT solve of the upright problem."""
+
+    T_s: float
+    status: str
+    iterations: int
+    solve_time_s: float
+    X: np.ndarray
+    U: np.ndarray
+    mesh: np.ndarray
+    w: np.ndarray
+    wall_node: list[float]
+    """The wall bound each model was held to at the nodes (rad)."""
+
+
+def _solve(
+    scenario: Scenario,
+    line: LineLimits,
+    models: Sequence[SloshParams],
+    wall_angles: Sequence[float],
+    residual_angles: Sequence[float],
+    warm: _Solved | None,
+) -> _Solved:
+    """Solve the upright problem for these liquid models and wall bounds (rad)."""
+    sv = scenario.solver
+    s = UprightStructure(sv.N, len(models), _driven_angles(line.direction), sv.jerk_limited, sv.rk4_steps, sv.max_iter,
+                         sv.tol)  # fmt: skip
+    _prob, ms, nlp = _solver(s)
+    t_lb = line.t_no_liquid_s
+    mesh = graded_mesh(s.N, sv.grid_grading) if sv.grid != "uniform" else np.ones(s.N)
+    h_max = float(mesh.max()) * 1.3 * t_lb / s.N
+    # the most a swing passes its node values between two nodes: 1 / cos(omega h / 2)
+    node = [bound * math.cos(min(m.omega_rad_s * h_max / 2, 1.0)) for m, bound in zip(models, wall_angles)]
+    params = [*line.direction, sv.kappa_r, sv.kappa_j]
+    for m, bound in zip(models, node):
+        params += [m.l_m, m.damping_rate_1_s, bound]
+    lbx, ubx = _bounds(s, line, models, residual_angles, (t_lb, scenario.limits.t_max_s), ms)
+    lbg, ubg = constraint_bounds(ms.kinds, sv)
+    x0 = warm.w if warm is not None else _guess(s, line, len(models), 1.1 * t_lb, mesh, ms)
+    t0 = time.perf_counter()
+    with solver_interruptible():
+        sol = nlp(x0=x0, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg, p=np.concatenate([params, mesh]))
+    elapsed = time.perf_counter() - t0
+    stats = nlp.stats()
+    w = np.asarray(sol["x"]).ravel()
+    T, X, U = ms.split(w)
+    return _Solved(T, str(stats.get("return_status")), int(stats.get("iter_count", 0)), elapsed, X, U, mesh, w, node)
+
+
+def _trajectory(scenario: Scenario, line: LineLimits, sol: _Solved, liquid: SloshParams) -> Trajectory:
+    """The exact 1 kHz samples of the solution's piecewise-constant input along the line, container upright."""
+    start, goal = scenario.waypoints
+    seg = SegmentResult(
+        0, tuple(start), tuple(goal), None, scenario.solver.jerk_limited, sol.T_s, sol.status, sol.iterations,
+        sol.solve_time_s, sol.X, sol.U[:, :1] * line.direction[None, :], mesh=sol.mesh,
+    )  # fmt: skip
+    moved = sample_segments([seg], liquid, name="sloshid upright plan")
+    still = np.zeros_like(moved.euler_rad)
+    return Trajectory(moved.t_s, moved.pos_m, moved.vel_m_s, moved.acc_m_s2, still, still, name=moved.name)
+
+
+def _checks(traj: Trajectory, vessels: Sequence[Vessel]) -> list[VesselCheck]:
+    """Each container's wall under the move in the independent nonlinear simulation."""
+    fig = wall_figures(traj, vessels, [[v.liquid for v in vessels]])
+    return [
+        VesselCheck(v.name, float(fig.peak_mm[0, j]), 1000 * v.rise_allowed_m, float(fig.residual_mm[0, j]),
+                    1000 * min(v.residual_max_m, v.rise_allowed_m))
+        for j, v in enumerate(vessels)
+    ]  # fmt: skip
+
+
+def _support(sol: _Solved, models: Sequence[SloshParams], residual: Sequence[float], n_path: int, first: int) -> int:
+    """Sampled models (from index `first`) whose wall bound or arrival box is active at the optimum."""
+    na = (sol.X.shape[1] - n_path) // (2 * len(models))
+    count = 0
+    for k in range(first, len(models)):
+        off = n_path + 2 * na * k
+        ang, rate = sol.X[:, off : off + na], sol.X[-1, off + na : off + 2 * na]
+        box = residual[k] / math.sqrt(2 * na) / (1 + models[k].zeta)
+        w = models[k].omega_rad_s * math.sqrt(1 - models[k].zeta ** 2)
+        wall_use = float(np.sqrt((ang**2).sum(axis=1)).max()) / sol.wall_node[k]
+        end_use = max(float(np.abs(ang[-1]).max()) / box, float(np.abs(rate).max()) / (box * w))
+        count += wall_use >= ACTIVE_TOL or end_use >= ACTIVE_TOL
+    return count
+
+
+def plan_upright(
+    scenario: Scenario,
+    liquid: SloshParams | None,
+    *,
+    params_path: str | Path | None = None,
+    robust_samples: int | None = None,
+    risk_draws: int | None = None,
+) -> UprightPlan:
+    """Plan the scenario's upright move for its containers; `robust_samples` (default [risk].scenarios) sampled models
+    per container are held too; the risk is estimated over `risk_draws` (default [risk].draws) Monte-Carlo draws
+    when every container's uncertainty is known. UserError for requests it cannot plan or solve."""
+    _check_request(scenario)
+    check_feasible(scenario)
+    vessels = vessels_of(scenario, liquid, params_path)
+    line = line_limits(scenario)
+    settings = scenario.risk
+    spread = spreads(vessels, settings)
+    n_samples = robust_samples if robust_samples is not None else (settings.scenarios if settings else 0)
+    if n_samples and spread is None:
+        raise UserError(
+            "a robust upright plan samples the liquids from their uncertainty: give [risk] omega_ci95_rel, or --params "
+            "with an identify JSON that holds standard errors."
+        )
+    seed = settings.seed if settings else 1
+    models = [v.liquid for v in vessels]
+    of_vessel = list(range(len(vessels)))
+    if n_samples:
+        for draw in draw_models(vessels, spread, n_samples, seed + ROBUST_SEED_OFFSET):
+            models += draw
+            of_vessel += list(range(len(vessels)))
+    share = [1.0] * len(vessels)
+    residual = [vessels[j].residual_angle_rad for j in of_vessel]
+    sol, total_time, total_iter = None, 0.0, 0
+    for attempt in range(WALL_TRIES + 1):
+        wall = [vessels[j].angle_allowed_rad * share[j] for j in of_vessel]
+        sol = _solve(scenario, line, models, wall, residual, sol)
+        total_time, total_iter = total_time + sol.solve_time_s, total_iter + sol.iterations
+        if sol.status not in OK_STATUSES:
+            raise UserError(
+                f"the upright move did not solve: IPOPT status {sol.status} after {sol.iterations} iterations; raise "
+                "[limits].t_max_s, lower the spill margin, or loosen [solver].tol."
+            )
+        traj = _trajectory(scenario, line, sol, vessels[0].liquid)
+        checks = _checks(traj, vessels)
+        passed = [c.peak_mm / c.allowed_mm for c in checks]
+        if all(c.ok for c in checks) or attempt == WALL_TRIES:
+            break
+        share = [sh * WALL_SAFETY / r if r > 1 else sh for sh, r in zip(share, passed)]
+    usages, move = limit_usages(traj, scenario)
+    guarantee = None
+    if n_samples:
+        k = _support(sol, models, residual, 3 if scenario.solver.jerk_limited else 2, len(vessels))
+        guarantee = ScenarioGuarantee(n_samples, k, settings.beta if settings else 1e-3, seed + ROBUST_SEED_OFFSET)
+    risk = None
+    if spread is not None:
+        draws = risk_draws if risk_draws is not None else (settings.draws if settings else 1000)
+        risk = monte_carlo(traj, vessels, spread, draws, seed)
+    return UprightPlan(
+        trajectory=traj,
+        T_s=sol.T_s,
+        status=sol.status,
+        solve_time_s=total_time,
+        iterations=total_iter,
+        vessels=vessels,
+        checks=checks,
+        t_no_liquid_s=line.t_no_liquid_s,
+        limits=usages,
+        move_limits=move,
+        scenario=scenario,
+        risk=risk,
+        guarantee=guarantee,
+        wall_bound_share=share,
+    )
+
+
+@dataclass
+class MarginSweep:
+    """Transfer time and risk of upright plans over a range of spill margins: the trade-off a user picks from."""
+
+    margins_mm: list[float]
+    T_s: list[float | None]
+    """Each margin's transfer time (None: no move meets it)."""
+    risk: list[RiskEstimate | None]
+    ok: list[bool]
+    t_no_liquid_s: float
+
+    def summary(self) -> str:
+        """One line per margin, joined."""
+        parts = []
+        for m, T, r in zip(self.margins_mm, self.T_s, self.risk):
+            risk = f", risk {100 * r.p:.2f} +- {100 * r.stderr:.2f} %" if r is not None else ""
+            parts.append(f"{m:g} mm: " + (f"T = {T:.3f} s{risk}" if T is not None else "no move meets it"))
+        return "margin sweep: " + "; ".join(parts)
+
+    def to_dict(self) -> dict:
+        """JSON form."""
+        return {
+            "margins_mm": self.margins_mm,
+            "T_s": self.T_s,
+            "risk": [r.to_dict() if r is not None else None for r in self.risk],
+            "verification_ok": self.ok,
+            "t_no_liquid_s": self.t_no_liquid_s,
+        }
+
+    def plot(self, ax=None):
+        """Transfer time (left axis) and risk with its sampling error (right axis) against the margin."""
+        import matplotlib.pyplot as plt
+
+        own = ax is None
+        if own:
+            _, ax = plt.subplots(figsize=(7, 3.6))
+        got = [(m, T) for m, T in zip(self.margins_mm, self.T_s) if T is not None]
+        ax.plot([m for m, _ in got], [T for _, T in got], "o-", color="#36c", label="transfer time")
+        ax.axhline(self.t_no_liquid_s, color="#36c", ls=":", lw=0.8, label="no liquid")
+        ax.set(xlabel="spill margin (mm)", ylabel="transfer time T (s)", title="upright move: time and risk vs margin")
+        risks = [(m, r) for m, r in zip(self.margins_mm, self.risk) if r is not None]
+        if risks:
+            right = ax.twinx()
+            right.errorbar(
+                [m for m, _ in risks],
+                [100 * r.p for _, r in risks],
+                yerr=[100 * 1.96 * r.stderr for _, r in risks],
+                fmt="s--",
+                color="tab:red",
+                capsize=3,
+                label="risk (95 % sampling error)",
+            )
+            right.set_ylabel("P(margin broken) (%)", color="tab:red")
+        ax.figure.legend(loc="upper center", fontsize=8, ncols=3)
+        if own:
+            ax.figure.tight_layout(rect=(0, 0, 1, 0.9))
+        return ax.figure
+
+    def save_figure(self, path: str | Path) -> None:
+        """Draw and write the figure atomically."""
+        import matplotlib.pyplot as plt
+
+        from sloshid.core.atomic import atomic_path
+
+        fig = self.plot()
+        with atomic_path(path) as tmp:
+            fig.savefig(tmp, dpi=150, format="png")
+        plt.close(fig)
+
+
+def sweep_margin(
+    scenario: Scenario,
+    liquid: SloshParams | None,
+    margins_mm: Sequence[float],
+    params_path: str | Path | None = None,
+    robust_samples: int | None = None,
+) -> MarginSweep:
+    """Plan the upright move at every spill margin (every container's margin set to it); a margin no move meets is a
+    gap in the sweep, not an error."""
+    import dataclasses
+
+    T, risk, ok = [], [], []
+    t_free = line_limits(scenario).t_no_liquid_s
+    for m in margins_mm:
+        trial = dataclasses.replace(
+            scenario,
+            limits=dataclasses.replace(scenario.limits, spill_margin_mm=float(m)),
+            containers=[dataclasses.replace(c, spill_margin_mm=None) for c in scenario.containers],
+        )
+        try:
+            got = plan_upright(trial, liquid, params_path=params_path, robust_samples=robust_samples)
+        except UserError:
+            T.append(None)
+            risk.append(None)
+            ok.append(False)
+            continue
+        T.append(got.T_s)
+        risk.append(got.risk)
+        ok.append(got.verification_ok)
+    return MarginSweep([float(m) for m in margins_mm], T, risk, ok, t_free)
