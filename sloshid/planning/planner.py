@@ -22,6 +22,7 @@ from sloshid.model.simulate import simulate_liquid
 from sloshid.model.trajectory import (
     Trajectory,
 )
+from sloshid.planning.feasible import check_feasible  # kept importable here
 from sloshid.planning.ocp import (
     OK_STATUSES,
     SegmentResult,
@@ -50,33 +51,6 @@ MAX_OMEGA_H = 0.9
 the liquid's oscillation: RK4 with two steps stays accurate there; coarser grids get less or no grading."""
 NEAR_M = 0.1
 """A segment's problem includes the obstacles that come this close to its straight line (all, if the check fails)."""
-
-
-def check_feasible(scenario: Scenario) -> None:
-    """Reject requests no solver can meet, naming the constraint at fault (UserError)."""
-    lim = scenario.limits
-    R = scenario.container_radius_m + scenario.solver.clearance_margin_m  # what the hard constraint keeps clear
-    for i, p in enumerate(scenario.waypoints):
-        label = "start" if i == 0 else "goal" if i == len(scenario.waypoints) - 1 else f"waypoint {i}"
-        if not lim.z_range[0] <= p[2] <= lim.z_range[1]:
-            raise UserError(
-                f"the {label} {list(p)} has z = {p[2]:g} m outside [limits].z_range "
-                f"[{lim.z_range[0]:g}, {lim.z_range[1]:g}] m."
-            )
-        for j, obstacle in enumerate(scenario.obstacles):
-            if body_clearance([obstacle], p, R, scenario.container_depth_m) < 0:
-                body = f", and the body {scenario.container_depth_m:g} m below it" if scenario.container_depth_m else ""
-                raise UserError(
-                    f"the {label} {list(p)} lies inside obstacle {j + 1} ({obstacle.describe(R)}: container "
-                    f"radius plus [solver].clearance_margin_m{body}); move it out or shrink the obstacle."
-                )
-    for i, (a, b) in enumerate(zip(scenario.waypoints[:-1], scenario.waypoints[1:])):
-        t_lb = time_lower_bound(a, b, lim, scenario.solver.kappa_T)
-        if t_lb > lim.t_max_s:
-            raise UserError(
-                f"segment {i + 1} ({list(a)} -> {list(b)}) needs at least {t_lb:.3g} s under [limits].acc_max and "
-                f"vel_max (and [solver].kappa_T), more than [limits].t_max_s = {lim.t_max_s:g} s; raise one of them."
-            )
 
 
 def near_obstacles(scenario: Scenario, start, goal) -> list[Obstacle]:

@@ -28,9 +28,10 @@ from sloshid.core.errors import UserError
 from sloshid.core.parallel import solver_interruptible
 from sloshid.model.pendulum import SloshParams, pendulum_rhs_3d
 from sloshid.model.trajectory import LimitUsage, Trajectory
+from sloshid.planning.feasible import check_feasible
 from sloshid.planning.ocp import OK_STATUSES, SegmentResult, bang_bang_time, ipopt_options
-from sloshid.planning.planner import check_feasible, limit_usages
 from sloshid.planning.problem import constraint_bounds
+from sloshid.planning.result import limit_usages
 from sloshid.planning.risk import RiskEstimate, ScenarioGuarantee, draw_models, monte_carlo, spreads, wall_figures
 from sloshid.planning.sampling import sample_segments
 from sloshid.planning.scenario import Scenario
@@ -482,8 +483,8 @@ def plan_upright(
     n_samples = robust_samples if robust_samples is not None else (settings.scenarios if settings else 0)
     if n_samples and spread is None:
         raise UserError(
-            "a robust upright plan samples the liquids from their uncertainty: give [risk] omega_ci95_rel, or --params "
-            "with an identify JSON that holds standard errors."
+            "a robust upright plan samples the liquids from their uncertainty: give [risk] omega_ci95_rel, or `params` "
+            "as an identify JSON that holds standard errors."
         )
     seed = settings.seed if settings else 1
     models = [v.liquid for v in vessels]

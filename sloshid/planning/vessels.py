@@ -117,7 +117,7 @@ def vessels_of(scenario: Scenario, liquid: SloshParams | None, params_path: str 
         if scenario.rim_above_surface_m is None:
             raise UserError(f"{src}: an upright move needs [container].rim_above_surface_m (m), or [[containers]].")
         if liquid is None:
-            raise UserError(f"{src} has no [liquid] table; add one or pass --params PARAMS.json.")
+            raise UserError(f"{src} has no [liquid] table; add one or give `params` (an identify JSON).")
         margin = lim.spill_margin_mm / 1000
         _check_margin(margin, scenario.rim_above_surface_m, "[container]")
         sd = identified_spread(params_path) if params_path is not None else (None, None)
