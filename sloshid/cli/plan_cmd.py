@@ -210,7 +210,7 @@ def _run_upright(args, scenario, outputs, output: Path, report_dir: Path | None)
         page = result.report_page({"trajectory CSV": csv})
     if not kept:
         result.to_csv(output)
-    if sweep is not None:
+    if sweep is not None and figure is not None:
         sweep.save_figure(figure)
     if page is not None:
         page.save(report_dir)
