@@ -306,3 +306,13 @@ def test_the_index_says_whether_joint_signals_agree_and_keeps_fs_digits(tmp_path
     from sloshid.identification.estimator import shown_with_error
 
     assert f"<td>{shown_with_error(f['value'], f['stderr'])}</td>" in page
+
+
+@pytest.mark.parametrize("stage", ["plan", "compare"])
+def test_an_upright_scenario_is_refused_before_any_stage_runs(video, tmp_path, run_cli, stage):
+    # an upright plan and comparison have results of their own, which the stages, cache and index do not hold
+    scenario = ROOT / "data" / "scenarios" / "upright_move.toml"
+    pipe = _write(tmp_path / "p.toml", f'[track]\nvideos = ["{video}"]\n\n[{stage}]\nscenario = "{scenario}"\n')
+    code, _, err = run_cli("run", pipe, "--output-dir", tmp_path / "runs")
+    assert code == 2 and "upright move (tilt_max_deg = 0) is planned by `sloshid plan`" in err
+    assert err.count("\n") == 1 and not (tmp_path / "runs").exists()  # one sentence; nothing tracked or written

@@ -16,7 +16,7 @@ from sloshid.core.parallel import parallel_map
 from sloshid.identification.stage import identify_sources, to_signal
 from sloshid.model.pendulum import IdentifiedFrequency
 from sloshid.planning.planner import plan
-from sloshid.planning.scenario import load_scenario, resolve_liquid
+from sloshid.planning.scenario import Scenario, load_scenario, resolve_liquid
 from sloshid.tracking.tracker import track_video
 from sloshid.workflow.options import IdentifyOptions, TrackOptions, check_tracked_columns
 from sloshid.workflow.pipeline import Stage, StageContext
@@ -93,15 +93,26 @@ def _in_scenario(path: Path) -> Iterator[None]:
 
 
 def _check_scenario(opts: PlanOptions | CompareOptions) -> None:
-    """The scenario file is a valid scenario (loading it validates every table)."""
+    """The scenario file is a valid scenario (loading it validates every table) of a tilting move."""
     with _in_scenario(opts.scenario):
-        load_scenario(opts.scenario)
+        _tilting(load_scenario(opts.scenario))
 
 
 def _check_compare(opts: CompareOptions) -> None:
     """The scenario is valid and so is its [compare] table, which only the compare stage reads."""
     with _in_scenario(opts.scenario):
-        compare_settings(load_scenario(opts.scenario))
+        compare_settings(_tilting(load_scenario(opts.scenario)))
+
+
+def _tilting(scenario: Scenario) -> Scenario:
+    """The scenario, refused when it is upright: its plan and comparison have their own results, which a pipeline's
+    stages, cache and index do not hold yet."""
+    if scenario.limits.upright:
+        raise UserError(
+            "an upright move (tilt_max_deg = 0) is planned by `sloshid plan` and compared by `sloshid compare`; "
+            "a pipeline plans tilting moves only so far."
+        )
+    return scenario
 
 
 def run_identify(opts: IdentifyOptions, ctx: StageContext) -> dict[str, Any]:
