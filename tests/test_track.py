@@ -859,13 +859,13 @@ def test_the_front_edge_below_a_surface_band_that_reads_as_liquid_in_some_column
     held = _sustained(inside)
     first, found = _crossings_first(body, held, axis=0)
     assert found.all() and np.allclose(first[0::2], 9.5) and np.allclose(first[1::2], 17.5)
-    below = _front_below(body, inside, held, first, found, reach=12)
-    assert np.allclose(below, 17.5)
+    below, gap = _front_below(body, inside, held, first, found, reach=12)
+    assert np.allclose(below, 17.5) and gap[0::2].all() and not gap[1::2].any()
     # a gap further than `reach` below the first crossing (a label's edge, a graduation mark) is not taken
     body[30:32] = 0.0
     inside = _inside(body)
     held = _sustained(inside)
-    assert np.allclose(_front_below(body, inside, held, first, found, reach=12), 17.5)
+    assert np.allclose(_front_below(body, inside, held, first, found, reach=12)[0], 17.5)
 
 
 def test_surface_target_on_a_float_video_is_a_user_error(tmp_path, run_cli):

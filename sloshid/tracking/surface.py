@@ -462,7 +462,7 @@ class SurfaceFinder:
         held_rows = _sustained(inside[start:, span])
         colour, found = _crossings_first(body[start:, span], held_rows, axis=0)
         reach = 2 * half * (MAX_ELEVATION_SIN if self._held is None else self._held) + 3
-        below = _front_below(body[start:, span], inside[start:, span], held_rows, colour, found, reach)
+        below, gap = _front_below(body[start:, span], inside[start:, span], held_rows, colour, found, reach)
         colour += start
         below += start
         # the elevation and the edge source are chosen in the first frames and then held (a static camera, one dye)
@@ -474,13 +474,16 @@ class SurfaceFinder:
         points = {}
         for source in ("luma", "colour") if self._edges is None else (self._edges,):
             edges = []
-            for rows in (colour, below) if np.any(below != colour) else (colour,):
+            for rows, sure in ((colour, found), (below, gap)) if gap.any() else ((colour, found),):
                 front = refine_on_luma(gray[:, span], rows, found) if source == "luma" else rows
                 dw = front - oy
                 wv = du * ewx + dw * ewy
                 sv = (du * eux + dw * euy - uc) / half
                 usable = _continuous(wv, found & (np.abs(sv) <= inner), cols)
-                edges.append((sv, wv, usable & _locally_consistent(wv, usable), dw, front))
+                usable &= _locally_consistent(wv, usable)
+                edges.append(
+                    (sv, wv, usable, dw, front, np.count_nonzero(sure & usable) / max(np.count_nonzero(usable), 1))
+                )
             points[source] = tuple(edges)
         if self._edges is None:  # how much each source's first crossings scatter about a free fit of them
             fits = [_fit_front(p[0][0][p[0][2]], p[0][1][p[0][2]], n) for p in (points["luma"], points["colour"])]
@@ -492,7 +495,7 @@ class SurfaceFinder:
         source = self._edges or "luma"
         m = fitted(self._held, source)
         if m.found:
-            fronts = np.concatenate([front[ok] for _, _, ok, _, front in points[source]])
+            fronts = np.concatenate([front[ok] for _, _, ok, _, front, _ in points[source]])
             m.band, m.luma = _band(fronts, cols, (X0, Y0)), (gray, (X0, Y0))
             m.refit = fitted if self._held is None else None
         return m
@@ -518,10 +521,11 @@ def _fitted(points, min_points, geom, origin, where, held, source) -> SurfaceMea
     # the first crossings, or those below them where those fit better and the first ones fit badly (a label's
     # straight top below a faint dye's surface fits well too)
     best = None
-    for s, wv, ok, dw, _ in points[source]:
+    for s, wv, ok, dw, _, sure in points[source]:
         fit = _fit_front(s[ok], wv[ok], min_points, None if held is None else held * half)
         if fit is not None:
-            score = np.count_nonzero(fit[1]) / ok.size * min(1.0, max(0.0, 1.5 - fit[2]))
+            # below the first crossings, a column without a gap may still show the back edge: it counts as unsure
+            score = (0.5 + 0.5 * sure) * np.count_nonzero(fit[1]) / ok.size * min(1.0, max(0.0, 1.5 - fit[2]))
             if best is None or (best[0] < FIRST_EDGE_QUALITY and score > best[0]):
                 best = (score, fit, ok, dw)
     if best is None:
@@ -719,16 +723,16 @@ def _column_end(centre: np.ndarray, left: np.ndarray, right: np.ndarray) -> int:
 
 def _front_below(
     body: np.ndarray, inside: np.ndarray, held: np.ndarray, first: np.ndarray, found: np.ndarray, reach: float
-) -> np.ndarray:
+) -> tuple[np.ndarray, np.ndarray]:
     """Each column's last crossing into sustained liquid (`held`, as `_sustained` gives it) within `reach` rows below
-    its first one (`first`, sub-pixel; that one where there is none). The surface ellipse seen from above can read as
+    its first one (`first`, sub-pixel; that one where there is none), and where there is one. The surface ellipse seen from above can read as
     liquid in parts (a dark dye reflecting its own colour), so the first crossing is its back edge in some columns
     and its front edge in others; below the last gap of two rows without liquid, the body is solid."""
     rows = body.shape[0]
     base = np.minimum(np.floor(np.where(found, first, 0)).astype(np.intp), rows - 1)
     depth = int(min(math.ceil(reach), rows - 2))
     if depth < 2:
-        return first.copy()
+        return first.copy(), np.zeros(first.shape, bool)
     r = base[None, :] + np.arange(depth)[:, None]
     cols = np.arange(body.shape[1])[None, :]
     within = r + 2 < rows
@@ -740,7 +744,7 @@ def _front_below(
     q = np.minimum(base + last + 2, rows - 1)
     a, b = body[q - 1, cols[0]], body[q, cols[0]]
     frac = np.where(b > a, (0.5 - a) / np.where(b > a, b - a, 1), 0.5)
-    return np.where(has, q - 1 + np.clip(frac, 0, 1), first)
+    return np.where(has, q - 1 + np.clip(frac, 0, 1), first), has
 
 
 def _liquid_rows(inside: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
