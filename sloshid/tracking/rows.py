@@ -5,6 +5,9 @@ from __future__ import annotations
 import math
 from typing import NamedTuple
 
+VALID_QUALITY = 0.5
+"""Frames whose quality (float or surface) is below this are marked valid = 0 (not used by the smoother)."""
+
 
 class SurfaceGeometry(NamedTuple):
     """The surface step's raw measurement of a frame, which its `finish` turns into elevation-corrected angles and

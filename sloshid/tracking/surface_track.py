@@ -19,12 +19,10 @@ from sloshid.tracking.container_ref import GUARD_ROWS, ContainerMeasurement, Con
 from sloshid.tracking.overlay import draw_surface_overlay
 from sloshid.tracking.repeats import REPEAT_SHARE, Copies, line_regions, repeated_share
 from sloshid.tracking.robust import median, percentile_span
-from sloshid.tracking.rows import SurfaceGeometry, TrackRow, step_row
+from sloshid.tracking.rows import VALID_QUALITY, SurfaceGeometry, TrackRow, step_row
 from sloshid.tracking.surface import SurfaceFinder, SurfaceMeasurement
 from sloshid.video.colors import HsvRange
 
-VALID_QUALITY = 0.5
-"""Frames whose surface quality is below this are marked valid = 0."""
 CENTRE_SHARE = 0.05
 """A frame whose surface centre (the mean of the two wall heights above rest) is further than this share of the inner
 width from its rest level is not valid: a planar slosh keeps the centre there. Rendered clips stay within 2 px (0.01

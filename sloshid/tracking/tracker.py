@@ -36,7 +36,7 @@ from sloshid.tracking.float_angle import FloatFinder
 from sloshid.tracking.overlay import draw_overlay
 from sloshid.tracking.repeats import REPEAT_SHARE, Copies, line_regions, repeated_share, stale_repeats
 from sloshid.tracking.robust import percentile_span
-from sloshid.tracking.rows import TrackRow, step_row
+from sloshid.tracking.rows import VALID_QUALITY, TrackRow, step_row
 from sloshid.tracking.smooth import smoothing_worker
 from sloshid.tracking.surface import SurfaceFinder, auto_liquid_preset
 from sloshid.tracking.surface_track import SurfaceStep, check_rest_frames
@@ -73,9 +73,6 @@ SURFACE_COLUMNS = (
 )
 """Output columns with `target` surface: the same contract plus the wall heights (surface_angle_deg is the
 surface's angle against the image horizontal, where the float target writes float_angle_deg)."""
-
-VALID_QUALITY = 0.5
-"""Frames whose quality is below this are marked valid = 0 (not used by the smoother)."""
 
 
 SURFACE_ONLY = ("liquid_color", "liquid_hsv_low", "liquid_hsv_high", "rest_frames")
