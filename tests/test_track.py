@@ -1312,6 +1312,43 @@ def test_a_wall_is_placed_on_luma_in_every_row_or_in_none(contrast_rows):
     assert b_left == pytest.approx(21.5 if contrast_rows.stop is None else 20.4, abs=1e-6)
 
 
+def test_a_beakers_graduation_marks_are_not_its_bottom():
+    # marks two rows high across the left third of the liquid below mid-height (a beaker's scale, white through a
+    # dark cola): taken for the bottom there, the bottom read as tilted by tens of degrees and the raised "corner"
+    # dropped the left wall's rows (every other frame of a path-traced beaker lost); the bottom stays at row 110
+    x = np.arange(100, dtype=np.float32)
+    body = np.zeros((130, 100), np.float32)
+    body[10:111] = np.clip(0.5 + 0.5 * np.minimum(x - 20.4, 80.4 - x), 0, 1)
+    for row in (64, 74, 84, 94):
+        body[row : row + 2, 21:45] = 0.0
+    gray = np.full((130, 100), 80, np.uint8)
+    geom = _container_axes(body, body >= 0.5, gray, (0, 0), (20, 10, 81, 111))
+    assert geom is not None
+    ((a_left, b_left), (a_right, b_right)), origin, _, _ = geom
+    assert a_left == pytest.approx(0.0, abs=1e-9) and a_right == pytest.approx(0.0, abs=1e-9)
+    assert (b_left, b_right) == (pytest.approx(20.4, abs=1e-4), pytest.approx(80.4, abs=1e-4))  # float32 map
+    assert origin[1] == pytest.approx(110.5, abs=0.5)  # the last liquid row is 110
+
+
+def test_a_label_of_the_liquids_colour_on_the_glass_is_not_a_wall():
+    # a band of the dye's colour round the glass, 5 px outside the liquid's sides in rows 45-84 (its edges straighter
+    # than the liquid's speckled ones, as a path tracer draws them): its edge had been taken for the wall and the
+    # liquid's rows above it dropped as a slosh's run, or no wall found at all; the walls stay the liquid's sides
+    rng = np.random.default_rng(4)
+    x = np.arange(100, dtype=np.float32)
+    body = np.zeros((130, 100), np.float32)
+    sides = np.array([20.4, 80.4]) + rng.normal(0, 0.6, (101, 2))
+    body[10:111] = np.clip(0.5 + 0.5 * np.minimum(x - sides[:, :1], sides[:, 1:] - x), 0, 1)
+    body[45:85] = np.clip(0.5 + 0.5 * np.minimum(x - 15.4, 85.4 - x), 0, 1)
+    gray = np.full((130, 100), 80, np.uint8)
+    geom = _container_axes(body, body >= 0.5, gray, (0, 0), (15, 10, 86, 111))
+    assert geom is not None
+    ((a_left, b_left), (a_right, b_right)), _, _, _ = geom
+    # the sides' scatter of 0.6 px over about 60 rows moves a fitted wall by about 0.1 px and 0.005 in slope
+    assert abs(a_left) < 0.02 and abs(a_right) < 0.02
+    assert abs(b_left - 20.4) < 0.5 and abs(b_right - 80.4) < 0.5
+
+
 def test_surface_overlay_draws_the_line_and_wall_points(surface_video, tmp_path):
     path, truth = surface_video
     track_video(path, TrackSettings(target="surface"), overlay=tmp_path / "o.mp4")

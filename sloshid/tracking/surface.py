@@ -102,6 +102,9 @@ STEP_SPREAD = 0.1
 """How far that line may miss a run beyond the step, per pixel of gap (the surface's curvature, px per px)."""
 SUSTAIN_ROWS = 3
 """A column's front edge is its first crossing of 0.5 into at least this many rows of liquid (`_sustained`)."""
+BOTTOM_ROWS = 6
+"""The liquid's bottom is where it ends for at least this many rows: a beaker's graduation marks, a few pixels high,
+cross it above (at 640x480, two to three rows)."""
 LINE_SLOPE_OF_CUBIC = 0.6
 """Least-squares line slope of s^3 over s in [-1, 1]: the cubic's contribution to the best-fit line."""
 FIRST_EDGE_QUALITY = 0.2
@@ -634,12 +637,12 @@ def _inside(body: np.ndarray) -> np.ndarray:
     return body >= 0.5
 
 
-def _sustained(inside: np.ndarray) -> np.ndarray:
-    """Where a column's membership is at least 0.5 in this row and the SUSTAIN_ROWS - 1 rows below (`inside` as
-    `_inside` gives it): the body below the surface's front edge is solid, while the surface ellipse seen from above
-    (a pale band over a yellow dye) can hover about 0.5 and cross it in some columns only, a back edge 2k above."""
+def _sustained(inside: np.ndarray, rows: int = SUSTAIN_ROWS) -> np.ndarray:
+    """Where a mask (`inside` as `_inside` gives it, or its complement) holds in this row and the `rows` - 1 rows
+    below: the body below the surface's front edge is solid, while the surface ellipse seen from above (a pale band
+    over a yellow dye) can hover about 0.5 and cross it in some columns only, a back edge 2k above."""
     held = inside.copy()
-    for k in range(1, SUSTAIN_ROWS):
+    for k in range(1, rows):
         held[:-k] &= inside[k:]
         held[-k:] = False
     return held
@@ -899,6 +902,64 @@ def _on_wall(x: np.ndarray, ok: np.ndarray, inward: float) -> np.ndarray:
     return on if np.count_nonzero(ok & ~on) >= 0.1 * x.size else ok
 
 
+LABEL_SHARE = 0.1
+"""A label in front of the liquid (`_in_front`) takes at least this share of a side's rows, and the liquid above and
+below it as many each."""
+LABEL_SPLITS = 96
+"""A label's ends are looked for at this many evenly spaced places along a side's rows (every split of a side's few
+hundred rows cost 16 ms per frame); the rows between them are told apart by their distance from the liquid's line."""
+LABEL_LIFT_PX = 4.5
+"""A label's rows lie at least this far outside the liquid's (on average): the glass's thickness and the label's; a
+lens's barrel distortion bows a wall's middle rows out by up to 3.5 px (640x480, k1 = 0.05)."""
+
+
+def _in_front(rows: np.ndarray, x: np.ndarray, ok: np.ndarray) -> np.ndarray:
+    """Per side (row 0 left, 1 right), the rows of a band of the liquid's colour round the glass: a label or print,
+    outside the liquid's sides on both, at the same rows, with the liquid inside it above and below on one line (a
+    liquid is never outside its container, and a surface running down a wall lies above it only; one wall bowed out
+    by the glass is one side). Its edge, straighter than the liquid's seen through the glass, had been taken for the
+    wall, or a line between the two."""
+    front, spans = np.zeros_like(ok), []
+    for side, inward in enumerate((1.0, -1.0)):
+        at = np.flatnonzero(ok[side])
+        least = max(5, int(LABEL_SHARE * rows.size))
+        if at.size < 3 * least:
+            continue
+        r = rows[at].astype(float)
+        out = -inward * x[side, at]  # outward
+        # rows far inside every line (a dark band where no liquid was seen) held at the liquid's depth
+        ((a, b),), _ = robust_lines(r[None], out[None], np.ones((1, at.size), bool), WALL_TOL_PX)
+        out = a * r + b + np.maximum(out - a * r - b, -2 * WALL_STEP_PX)
+        # splits into rows above, a run, rows below (at LABEL_SPLITS places): the line through the rows above and
+        # below, and how far the run lies outside it (sums over prefixes: the run's from i to j, the others' the rest)
+        cum = np.vstack([np.zeros(5), np.cumsum(np.column_stack([np.ones_like(r), r, out, r * r, r * out]), axis=0)])
+        cut = np.unique(np.linspace(0, at.size, LABEL_SPLITS + 1).astype(int))
+        i, j = (cut[k] for k in np.triu_indices(cut.size, 1))
+        i, j = i[j - i >= least], j[j - i >= least]
+        run = cum[j] - cum[i]
+        n, sr, so, srr, sro = (cum[-1] - run).T
+        det = n * srr - sr * sr
+        fine = (i >= least) & (j <= at.size - least) & (det > 0)
+        slope = (n * sro - sr * so) / np.where(fine, det, 1.0)
+        icpt = (so - slope * sr) / np.maximum(n, 1.0)
+        lift = np.where(fine, (run[:, 2] - slope * run[:, 1] - icpt * run[:, 0]) / run[:, 0], -np.inf)
+        best = int(np.argmax(lift))
+        if lift[best] < LABEL_LIFT_PX:
+            continue
+        res = out - slope[best] * r - icpt[best]
+        rest = np.r_[0 : i[best], j[best] : at.size]
+        if 1.4826 * median(np.abs(res[rest])) > WALL_STEP_PX:  # the rows above and below are not on one line
+            continue
+        mid = np.arange(i[best], j[best])
+        front[side, at[mid[res[mid] >= WALL_STEP_PX]]] = True
+        spans.append((r[i[best]], r[j[best] - 1]))
+    if len(spans) < 2 or min(spans[0][1], spans[1][1]) - max(spans[0][0], spans[1][0]) < 0.5 * min(
+        b - a for a, b in spans
+    ):
+        return np.zeros_like(ok)
+    return front
+
+
 WALL_FROM = 0.1
 """The walls are read from this share of the liquid column's height below its top (the meniscus above) to a tenth
 above its end; `_on_wall` and `straight_part` leave out the rows a slosh, a bottom corner or a holder takes."""
@@ -951,9 +1012,10 @@ def _container_axes(
     right, okr = _crossings_first(band[:, ::-1], band_in[:, ::-1], axis=1)
     right = band.shape[1] - 1 - right
     c0, c1 = int(0.2 * (x1 - x0)) + x0 - X0, int(0.8 * (x1 - x0)) + x0 - X0
-    # the bottom: where the liquid ends going down from mid-height (a holder of its colour may go on below)
+    # the bottom: where the liquid ends going down from mid-height for BOTTOM_ROWS rows at least (a holder of its
+    # colour may go on below; a beaker's graduation marks cross the liquid above it)
     mid = (y0 + y1) // 2 - Y0
-    bottom, okb = _crossings_first(1.0 - body[mid:, c0:c1], ~inside[mid:, c0:c1], axis=0)
+    bottom, okb = _crossings_first(1.0 - body[mid:, c0:c1], _sustained(~inside[mid:, c0:c1], BOTTOM_ROWS), axis=0)
     bottom += mid
     if np.count_nonzero(okb) < okb.size // 3:  # the liquid runs on below (a label or holder of its colour): the
         bottom[:], okb[:] = y1 - Y0, True  # column's end, where that begins, stands for the bottom
@@ -962,11 +1024,15 @@ def _container_axes(
     margin = min(CORNER_SHARE * (x1 - x0), 0.1 * (y1 - y0) + 2)
     corner = _bottom_at(np.arange(c0, c1), bottom, okb, margin)
     n = len(rows)
-    wall_rows = [n, n]  # rows that may be a wall's: a third of them must be (robust_lines' min_points)
+    wall_rows = [n, n]  # rows that may be a wall's: a quarter of them must be (robust_lines' min_points)
     if corner is not None:  # a container tilted in the picture: its raised side's lower rows end on the bottom
         above = rows < corner(left), rows < corner(right)
         okl, okr = okl & above[0], okr & above[1]
         wall_rows = [int(np.count_nonzero(a)) for a in above]
+    # a label of the liquid's colour on the glass: its rows are not the wall's (they still count among those that may
+    # be: what is left of a wall beside a label must be a quarter of its rows, or the label's curved end made one)
+    front = _in_front(rows, np.vstack([left, right]), np.vstack([okl, okr]))
+    okl, okr = okl & ~front[0], okr & ~front[1]
     okl, okr = okl & _on_wall(left, okl, 1.0), okr & _on_wall(right, okr, -1.0)
     okl, okr = straight_part(rows, np.vstack([left, right]), np.vstack([okl, okr]), WALL_TOL_PX, WALL_MAX_SLOPE)
     # both walls in one call: each row's luma is read at its left and at its right crossing
