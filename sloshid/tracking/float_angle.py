@@ -199,6 +199,12 @@ class FloatFinder:
         if n <= 1:
             return FloatMeasurement(False)
         areas = stats[1:, cv2.CC_STAT_AREA]
+        edge = (
+            (stats[1:, 0] == 0)
+            | (stats[1:, 1] == 0)
+            | (stats[1:, 0] + stats[1:, 2] == x1 - x0)
+            | (stats[1:, 1] + stats[1:, 3] == y1 - y0)
+        )
         if local and self._last is not None:
             # closest sizeable blob to the last position
             d = np.hypot(cents[1:, 0] + x0 - self._last.x_px, cents[1:, 1] + y0 - self._last.y_px)
@@ -207,11 +213,11 @@ class FloatFinder:
             if not np.isfinite(d[k]):
                 return FloatMeasurement(False)
         else:
-            k = int(np.argmax(areas))
+            k = _likeliest(labels, stats, edge)
         if areas[k] < MIN_AREA_PX:
             return FloatMeasurement(False)
         bx, by, bw, bh = stats[k + 1, :4]
-        cut = bx == 0 or by == 0 or bx + bw == x1 - x0 or by + bh == y1 - y0
+        cut = bool(edge[k])
         if local and cut:
             return FloatMeasurement(False)  # cut by the window: measure on the whole ROI instead
         m = self._refine(frame, labels == k + 1, (x0, y0), (bx, by, bw, bh))
@@ -257,3 +263,20 @@ class FloatFinder:
         return FloatMeasurement(
             True, X0 + cx, Y0 + cy, angle, quality, area, math.sqrt(12 * max(lam1, 0)), (X0, Y0, X1, Y1)
         )
+
+
+def _likeliest(labels: np.ndarray, stats: np.ndarray, edge: np.ndarray) -> int:
+    """Index (into `stats[1:]`) of the blob likeliest to be the float: of the 8 largest, one the searched box does not
+    cut, lying within 45 deg of the horizontal as a float on a liquid does (or roundish), the largest such. A label, a
+    packet or a container edge of the float's colour stands upright or is cut."""
+    areas = stats[1:, cv2.CC_STAT_AREA]
+    order = [int(k) for k in np.argsort(-areas) if areas[k] >= MIN_AREA_PX][:8]
+    if not order:
+        return int(np.argmax(areas))
+
+    def flat(k: int) -> bool:
+        x, y, w, h = stats[k + 1, :4]
+        angle, elong, _ = principal_axis(cv2.moments((labels[y : y + h, x : x + w] == k + 1).astype(np.uint8), True))
+        return elong < 0.5 or abs(angle) <= 45
+
+    return min(order, key=lambda k: (bool(edge[k]), not flat(k), -int(areas[k])))

@@ -1,0 +1,52 @@
+"""The float finder on constructed frames whose float angle and centre are known exactly."""
+
+from __future__ import annotations
+
+import math
+
+import cv2
+import numpy as np
+
+from sloshid.tracking.float_angle import FloatFinder
+from sloshid.video.colors import preset
+
+UP = 8
+"""Frames are drawn this many times larger and shrunk (INTER_AREA): edges are anti-aliased as a camera's are."""
+RED = preset("red")
+
+
+def _bar(cx: float, cy: float, length: float, thick: float, angle_deg: float) -> np.ndarray:
+    """Corners of a bar centred at (cx, cy), its long axis `angle_deg` CCW as seen from the image horizontal."""
+    a = math.radians(angle_deg)
+    u, v = np.array([math.cos(a), -math.sin(a)]), np.array([math.sin(a), math.cos(a)])
+    return np.array(
+        [[cx, cy] + su * length / 2 * u + sv * thick / 2 * v for su, sv in ((-1, -1), (1, -1), (1, 1), (-1, 1))]
+    )
+
+
+def _frame(shapes: list[tuple[np.ndarray, tuple[int, int, int]]], size=(320, 240), seed=0) -> np.ndarray:
+    """A grey wall over a dark green liquid (from y = 130) with the given polygons (corners in px, BGR) painted on."""
+    w, h = size
+    big = np.full((h * UP, w * UP, 3), 150, np.uint8)
+    big[130 * UP :] = (40, 90, 30)
+    for corners, bgr in shapes:
+        pts = np.round((corners + 0.5) * UP - 0.5).astype(np.int32)
+        cv2.fillPoly(big, [pts], bgr, lineType=cv2.LINE_8)
+    img = cv2.resize(big, (w, h), interpolation=cv2.INTER_AREA).astype(np.float32)
+    img += np.random.default_rng(seed).normal(0, 2.0, img.shape)
+    return np.clip(img + 0.5, 0, 255).astype(np.uint8)
+
+
+def _measure(frame: np.ndarray, roi=None):
+    h, w = frame.shape[:2]
+    return FloatFinder(RED.hsv, roi or (0, 0, w, h)).measure(frame)
+
+
+def test_an_upright_box_or_a_cut_one_of_the_float_colour_is_passed_over_for_the_float():
+    # a float (60 x 8 px at 3 deg) beside a box of its colour 4 times its area: upright (a label, a packet) or lying
+    # but cut by the picture's edge; the float is measured, not the largest blob
+    float_bar = (_bar(170.0, 128.0, 60.0, 8.0, 3.0), RED.bgr)
+    for box in (_bar(280.0, 80.0, 90.0, 24.0, 88.0), _bar(10.0, 60.0, 90.0, 24.0, 2.0)):
+        m = _measure(_frame([float_bar, (box, RED.bgr)]))
+        assert m.found and not m.cut
+        assert abs(m.angle_deg - 3.0) < 0.1 and math.hypot(m.x_px - 170.0, m.y_px - 128.0) < 0.3
