@@ -8,6 +8,7 @@ import cv2
 import numpy as np
 
 from sloshid.tracking.float_angle import FloatFinder
+from sloshid.tracking.rows import VALID_QUALITY
 from sloshid.video.colors import preset
 
 UP = 8
@@ -50,3 +51,19 @@ def test_an_upright_box_or_a_cut_one_of_the_float_colour_is_passed_over_for_the_
         m = _measure(_frame([float_bar, (box, RED.bgr)]))
         assert m.found and not m.cut
         assert abs(m.angle_deg - 3.0) < 0.1 and math.hypot(m.x_px - 170.0, m.y_px - 128.0) < 0.3
+
+
+def test_the_expected_area_follows_the_float_after_a_first_frame_that_saw_part_of_it():
+    # in the first frame glare pales the float's left half out of the red range (S 89 against 110), so the first blob
+    # is half the float; in the next ones the whole float shows. The expected area follows what is measured frame after
+    # frame, so their quality is not held below the valid threshold by the first frame's half area
+    bar = _bar(160.0, 126.0, 60.0, 8.0, 2.0)
+    half = _bar(160.0 - 15 * math.cos(math.radians(2.0)), 126.0 + 15 * math.sin(math.radians(2.0)), 30.0, 8.0, 2.0)
+    pale = tuple(int(0.45 * c + 0.55 * 235) for c in RED.bgr)
+    assert cv2.cvtColor(np.uint8([[pale]]), cv2.COLOR_BGR2HSV)[0, 0, 1] < RED.hsv.low[1]
+    frames = [_frame([(bar, RED.bgr), (half, pale)])] + [_frame([(bar, RED.bgr)], seed=k) for k in range(1, 10)]
+    finder = FloatFinder(RED.hsv, (0, 0, 320, 240))
+    ms = [finder.measure(f) for f in frames]
+    assert ms[0].area_px < 0.6 * ms[-1].area_px  # the first blob: half the float
+    assert all(m.quality >= VALID_QUALITY for m in ms[5:])
+    assert all(abs(m.angle_deg - 2.0) < 0.1 for m in ms[1:])

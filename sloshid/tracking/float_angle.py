@@ -11,6 +11,7 @@ map give the centre and the principal-axis angle. The next frame is searched nea
 from __future__ import annotations
 
 import math
+from collections import deque
 from dataclasses import dataclass
 
 import cv2
@@ -23,6 +24,9 @@ MIN_AREA_PX = 12
 """Blobs smaller than this many pixels are not taken for the float."""
 REFIT_EVERY = 8
 """The colour model is refitted every this many frames (and after every loss): lighting drifts slowly."""
+AREA_FRAMES = 9
+"""The float's expected area is the median of its last this many measured areas (a rigid body's picture keeps its
+size; a frame whose blob differs from it gets a lower quality)."""
 
 
 @dataclass
@@ -124,6 +128,7 @@ class FloatFinder:
         self.roi = roi  # x, y, w, h within the frame
         self._last: FloatMeasurement | None = None
         self._ref_area = 0.0
+        self._areas: deque[float] = deque(maxlen=AREA_FRAMES)
         self._velocity = (0.0, 0.0)  # px per frame
         self._model: tuple[np.ndarray, float] | None = None
         self._frames_since_fit = 0
@@ -174,8 +179,9 @@ class FloatFinder:
         last = self._last
         self._velocity = (m.x_px - last.x_px, m.y_px - last.y_px) if (m.found and last is not None) else (0.0, 0.0)
         self._last = m if m.found else None
-        if m.found and m.quality > 0.5:
-            self._ref_area = m.area_px if self._ref_area == 0 else 0.9 * self._ref_area + 0.1 * m.area_px
+        if m.found and not m.cut:  # every measured frame: a first blob that was part of the float is soon outvoted
+            self._areas.append(m.area_px)
+            self._ref_area = float(np.median(self._areas))
         return m
 
     def _measure_in(self, frame: np.ndarray, box: tuple[int, int, int, int], local: bool) -> FloatMeasurement:
