@@ -67,3 +67,17 @@ def test_the_expected_area_follows_the_float_after_a_first_frame_that_saw_part_o
     assert ms[0].area_px < 0.6 * ms[-1].area_px  # the first blob: half the float
     assert all(m.quality >= VALID_QUALITY for m in ms[5:])
     assert all(abs(m.angle_deg - 2.0) < 0.1 for m in ms[1:])
+
+
+def test_a_float_cut_in_two_by_a_highlight_is_measured_whole_and_its_reflection_left_out():
+    # a 60 x 6 px float at 1.5 deg with a highlight across it 10 px left of its centre (pieces of 20 and 36 px) and
+    # its mirror image in the surface 14 px below (30 px, -1.5 deg): both pieces are the float, the image is not
+    a = math.radians(1.5)
+    along = np.array([math.cos(a), -math.sin(a)])
+    bar = _bar(160.0, 120.0, 60.0, 6.0, 1.5)
+    glare = _bar(*(np.array([160.0, 120.0]) - 8 * along), 4.0, 10.0, 1.5)
+    image = _bar(160.0, 134.0, 30.0, 4.0, -1.5)
+    frame = _frame([(bar, RED.bgr), (glare, (235, 235, 235)), (image, (30, 30, 160))])
+    m = _measure(frame)
+    assert m.found and abs(m.angle_deg - 1.5) < 0.1
+    assert abs(m.x_px - 160.57) < 0.5 and abs(m.y_px - 120.0) < 0.5  # the two pieces' centre

@@ -226,7 +226,12 @@ class FloatFinder:
         cut = bool(edge[k])
         if local and cut:
             return FloatMeasurement(False)  # cut by the window: measure on the whole ROI instead
-        m = self._refine(frame, labels == k + 1, (x0, y0), (bx, by, bw, bh))
+        blob = _with_pieces(labels, stats, cents, k)
+        if blob is not None:  # the box over all pieces
+            bx, by, bw, bh = cv2.boundingRect(blob.astype(np.uint8))
+        else:
+            blob = labels == k + 1
+        m = self._refine(frame, blob, (x0, y0), (bx, by, bw, bh))
         if cut and m.found:  # cut by the ROI itself
             m.cut, m.quality = True, 0.0
         return m
@@ -269,6 +274,25 @@ class FloatFinder:
         return FloatMeasurement(
             True, X0 + cx, Y0 + cy, angle, quality, area, math.sqrt(12 * max(lam1, 0)), (X0, Y0, X1, Y1)
         )
+
+
+def _with_pieces(labels: np.ndarray, stats: np.ndarray, cents: np.ndarray, k: int) -> np.ndarray | None:
+    """Blob k with the other blobs (of MIN_AREA_PX or more) centred on its long axis's line, within its thickness and
+    at most one blob length beyond its ends: a float is one straight body, which a highlight or glare can cut in
+    pieces (a reflection or the submerged part seen through the liquid lies beside it). None when there are none."""
+    x, y, w, h = stats[k + 1, :4]
+    mo = cv2.moments((labels[y : y + h, x : x + w] == k + 1).astype(np.uint8), True)
+    angle, elong, lam1 = principal_axis(mo)
+    a = math.radians(angle)
+    half_len, half_thick = math.sqrt(3 * lam1), math.sqrt(3 * lam1 * (1 - elong)) + 1.0
+    d = cents[1:] - cents[k + 1]
+    along = np.abs(d[:, 0] * math.cos(a) - d[:, 1] * math.sin(a))
+    across = np.abs(d[:, 0] * math.sin(a) + d[:, 1] * math.cos(a))
+    near = (stats[1:, cv2.CC_STAT_AREA] >= MIN_AREA_PX) & (across <= half_thick) & (along <= 3 * half_len)
+    near[k] = False
+    if elong < 0.5 or not near.any():
+        return None
+    return np.isin(labels, np.flatnonzero(near) + 1) | (labels == k + 1)
 
 
 def _likeliest(labels: np.ndarray, stats: np.ndarray, edge: np.ndarray) -> int:
