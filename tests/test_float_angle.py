@@ -81,3 +81,11 @@ def test_a_float_cut_in_two_by_a_highlight_is_measured_whole_and_its_reflection_
     m = _measure(frame)
     assert m.found and abs(m.angle_deg - 1.5) < 0.1
     assert abs(m.x_px - 160.57) < 0.5 and abs(m.y_px - 120.0) < 0.5  # the two pieces' centre
+
+
+def test_a_float_cut_by_the_roi_is_not_traded_for_a_speck_of_its_colour():
+    # the ROI's right edge cuts the float; a 5 x 5 px speck of its colour lies inside it: the float is still the one
+    # measured, as cut (quality 0, so the track asks for a wider ROI), not the speck as if it were the float
+    frame = _frame([(_bar(170.0, 120.0, 60.0, 8.0, 3.0), RED.bgr), (_bar(60.0, 60.0, 5.0, 5.0, 0.0), RED.bgr)])
+    m = _measure(frame, roi=(20, 20, 170, 200))
+    assert m.found and m.cut and m.quality == 0.0 and m.x_px > 150

@@ -296,17 +296,15 @@ def _with_pieces(labels: np.ndarray, stats: np.ndarray, cents: np.ndarray, k: in
 
 
 def _likeliest(labels: np.ndarray, stats: np.ndarray, edge: np.ndarray) -> int:
-    """Index (into `stats[1:]`) of the blob likeliest to be the float: of the 8 largest, one the searched box does not
-    cut, lying within 45 deg of the horizontal as a float on a liquid does (or roundish), the largest such. A label, a
-    packet or a container edge of the float's colour stands upright or is cut."""
+    """Index (into `stats[1:]`) of the blob likeliest to be the float: of the 8 largest, the largest that looks like one
+    (not cut by the searched box, elongated as the quality asks, within 45 deg of the horizontal as a float on a liquid
+    lies), else the largest. A label, a packet or a container edge of the float's colour stands upright or is cut."""
     areas = stats[1:, cv2.CC_STAT_AREA]
     order = [int(k) for k in np.argsort(-areas) if areas[k] >= MIN_AREA_PX][:8]
-    if not order:
-        return int(np.argmax(areas))
 
-    def flat(k: int) -> bool:
+    def float_like(k: int) -> bool:
         x, y, w, h = stats[k + 1, :4]
         angle, elong, _ = principal_axis(cv2.moments((labels[y : y + h, x : x + w] == k + 1).astype(np.uint8), True))
-        return elong < 0.5 or abs(angle) <= 45
+        return not edge[k] and elong >= 0.5 and abs(angle) <= 45
 
-    return min(order, key=lambda k: (bool(edge[k]), not flat(k), -int(areas[k])))
+    return next((k for k in order if float_like(k)), int(np.argmax(areas)))
