@@ -11,6 +11,7 @@ map give the centre and the principal-axis angle. The next frame is searched nea
 from __future__ import annotations
 
 import math
+from collections import deque
 from dataclasses import dataclass
 
 import cv2
@@ -23,6 +24,9 @@ MIN_AREA_PX = 12
 """Blobs smaller than this many pixels are not taken for the float."""
 REFIT_EVERY = 8
 """The colour model is refitted every this many frames (and after every loss): lighting drifts slowly."""
+AREA_FRAMES = 9
+"""The float's expected area is the median of its last this many measured areas (a rigid body's picture keeps its
+size; a frame whose blob differs from it gets a lower quality)."""
 
 
 @dataclass
@@ -124,6 +128,7 @@ class FloatFinder:
         self.roi = roi  # x, y, w, h within the frame
         self._last: FloatMeasurement | None = None
         self._ref_area = 0.0
+        self._areas: deque[float] = deque(maxlen=AREA_FRAMES)
         self._velocity = (0.0, 0.0)  # px per frame
         self._model: tuple[np.ndarray, float] | None = None
         self._frames_since_fit = 0
@@ -174,8 +179,9 @@ class FloatFinder:
         last = self._last
         self._velocity = (m.x_px - last.x_px, m.y_px - last.y_px) if (m.found and last is not None) else (0.0, 0.0)
         self._last = m if m.found else None
-        if m.found and m.quality > 0.5:
-            self._ref_area = m.area_px if self._ref_area == 0 else 0.9 * self._ref_area + 0.1 * m.area_px
+        if m.found and not m.cut:  # every measured frame: a first blob that was part of the float is soon outvoted
+            self._areas.append(m.area_px)
+            self._ref_area = float(np.median(self._areas))
         return m
 
     def _measure_in(self, frame: np.ndarray, box: tuple[int, int, int, int], local: bool) -> FloatMeasurement:
@@ -199,6 +205,12 @@ class FloatFinder:
         if n <= 1:
             return FloatMeasurement(False)
         areas = stats[1:, cv2.CC_STAT_AREA]
+        edge = (
+            (stats[1:, 0] == 0)
+            | (stats[1:, 1] == 0)
+            | (stats[1:, 0] + stats[1:, 2] == x1 - x0)
+            | (stats[1:, 1] + stats[1:, 3] == y1 - y0)
+        )
         if local and self._last is not None:
             # closest sizeable blob to the last position
             d = np.hypot(cents[1:, 0] + x0 - self._last.x_px, cents[1:, 1] + y0 - self._last.y_px)
@@ -207,14 +219,19 @@ class FloatFinder:
             if not np.isfinite(d[k]):
                 return FloatMeasurement(False)
         else:
-            k = int(np.argmax(areas))
+            k = _likeliest(labels, stats, edge)
         if areas[k] < MIN_AREA_PX:
             return FloatMeasurement(False)
         bx, by, bw, bh = stats[k + 1, :4]
-        cut = bx == 0 or by == 0 or bx + bw == x1 - x0 or by + bh == y1 - y0
+        cut = bool(edge[k])
         if local and cut:
             return FloatMeasurement(False)  # cut by the window: measure on the whole ROI instead
-        m = self._refine(frame, labels == k + 1, (x0, y0), (bx, by, bw, bh))
+        blob = _with_pieces(labels, stats, cents, k)
+        if blob is not None:  # the box over all pieces
+            bx, by, bw, bh = cv2.boundingRect(blob.astype(np.uint8))
+        else:
+            blob = labels == k + 1
+        m = self._refine(frame, blob, (x0, y0), (bx, by, bw, bh))
         if cut and m.found:  # cut by the ROI itself
             m.cut, m.quality = True, 0.0
         return m
@@ -257,3 +274,37 @@ class FloatFinder:
         return FloatMeasurement(
             True, X0 + cx, Y0 + cy, angle, quality, area, math.sqrt(12 * max(lam1, 0)), (X0, Y0, X1, Y1)
         )
+
+
+def _with_pieces(labels: np.ndarray, stats: np.ndarray, cents: np.ndarray, k: int) -> np.ndarray | None:
+    """Blob k with the other blobs (of MIN_AREA_PX or more) centred on its long axis's line, within its thickness and
+    at most one blob length beyond its ends: a float is one straight body, which a highlight or glare can cut in
+    pieces (a reflection or the submerged part seen through the liquid lies beside it). None when there are none."""
+    x, y, w, h = stats[k + 1, :4]
+    mo = cv2.moments((labels[y : y + h, x : x + w] == k + 1).astype(np.uint8), True)
+    angle, elong, lam1 = principal_axis(mo)
+    a = math.radians(angle)
+    half_len, half_thick = math.sqrt(3 * lam1), math.sqrt(3 * lam1 * (1 - elong)) + 1.0
+    d = cents[1:] - cents[k + 1]
+    along = np.abs(d[:, 0] * math.cos(a) - d[:, 1] * math.sin(a))
+    across = np.abs(d[:, 0] * math.sin(a) + d[:, 1] * math.cos(a))
+    near = (stats[1:, cv2.CC_STAT_AREA] >= MIN_AREA_PX) & (across <= half_thick) & (along <= 3 * half_len)
+    near[k] = False
+    if elong < 0.5 or not near.any():
+        return None
+    return np.isin(labels, np.flatnonzero(near) + 1) | (labels == k + 1)
+
+
+def _likeliest(labels: np.ndarray, stats: np.ndarray, edge: np.ndarray) -> int:
+    """Index (into `stats[1:]`) of the blob likeliest to be the float: of the 8 largest, the largest that looks like one
+    (not cut by the searched box, elongated as the quality asks, within 45 deg of the horizontal as a float on a liquid
+    lies), else the largest. A label, a packet or a container edge of the float's colour stands upright or is cut."""
+    areas = stats[1:, cv2.CC_STAT_AREA]
+    order = [int(k) for k in np.argsort(-areas) if areas[k] >= MIN_AREA_PX][:8]
+
+    def float_like(k: int) -> bool:
+        x, y, w, h = stats[k + 1, :4]
+        angle, elong, _ = principal_axis(cv2.moments((labels[y : y + h, x : x + w] == k + 1).astype(np.uint8), True))
+        return not edge[k] and elong >= 0.5 and abs(angle) <= 45
+
+    return next((k for k in order if float_like(k)), int(np.argmax(areas)))
