@@ -605,26 +605,23 @@ class ContainerTracker:
     ) -> ContainerMeasurement:
         """The walls as the glass's edges near the seed lines (the surface's: `glass_walls`, followed from frame to
         frame; the float's: `glass_edges`); their ends watched in rows `ends`."""
-        if self._surface:
-            # about the last frame's walls (moved on at their last shift; their rows with the liquid's bottom), so
-            # that the same edges are followed
-            lift = seeds[0].y1 - self._found_bottom if seeds else 0
-            move, turn = self._shift * frames, self._turn * frames
-            prior = [[(_moved(f, move, turn, lift), sign) for f, sign in faces] for faces in self._found]
-            found = (len(prior) == len(seeds) and glass_walls(frame, seeds, rows, prior)) or glass_walls(
-                frame, seeds, rows
-            )
-            if found and len(found) == len(self._found):
-                self._turn = sum(
-                    _mean_line([f for f, _ in new]).a - _mean_line([f for f, _ in old]).a
-                    for new, old in zip(found, self._found)
-                ) / (len(found) * frames)
-            else:
-                self._turn = 0.0
-            self._found = found if len(found) == len(seeds) else []
-            self._found_bottom = seeds[0].y1 if seeds else 0
-            walls = [_mean_line([f for f, _ in faces]) for faces in found]
+        # about the last frame's walls (moved on at their last shift; a surface's rows with the liquid's bottom), so that
+        # the same edges are followed; a float's walls too faint for that: the old band search about the Hough lines
+        lift = seeds[0].y1 - self._found_bottom if self._surface else 0
+        move, turn = self._shift * frames, (self._turn * frames if self._surface else 0.0)
+        prior = [[(_moved(f, move, turn, lift), sign) for f, sign in faces] for faces in self._found]
+        found = (len(prior) == len(seeds) and glass_walls(frame, seeds, rows, prior)) or glass_walls(frame, seeds, rows)
+        if found and len(found) == len(self._found):
+            self._turn = sum(
+                _mean_line([f for f, _ in new]).a - _mean_line([f for f, _ in old]).a
+                for new, old in zip(found, self._found)
+            ) / (len(found) * frames)
         else:
+            self._turn = 0.0
+        self._found = found if len(found) == len(seeds) else []
+        self._found_bottom = seeds[0].y1 if seeds else 0
+        walls = [_mean_line([f for f, _ in faces]) for faces in found]
+        if not walls and not self._surface:
             walls = glass_edges(frame, seeds, rows)
         if len(walls) < len(seeds):
             self._walls = []
