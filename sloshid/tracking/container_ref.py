@@ -6,7 +6,11 @@ strongest falling and rising intensity edge is located to sub-pixel precision (p
 gradient peak, unbiased for any edge contrast), and a robust straight-line fit per edge gives the wall's
 angle. Each wall's angle is the precision-weighted mean of its well-fitting edges, and the container
 angle is the mean of the two walls (CCW positive as seen, 0 when the walls are vertical in the picture),
-so a tapered glass, whose walls lean in opposite directions, reads upright.
+so a tapered glass, whose walls lean in opposite directions, reads upright. That mean is the projected axis of a
+body of revolution seen by a camera whose view centre lies in the plane of the axis and the camera (its two outlines
+are mirror images in that plane); on the physically based renders it is within 0.04 deg of the axis. Where the rows'
+edges do not hold (faint glass), the walls are the glass's longest straight edges near the liquid's sides or the Hough
+lines (`glass_walls`).
 """
 
 from __future__ import annotations
@@ -274,6 +278,183 @@ def glass_edges(frame: np.ndarray | Picture, seeds: list[EdgeLine], rows: tuple[
 GLASS_WEAK = 0.3
 """A wall's weaker face counts when its line sum is above this share of the stronger one's."""
 
+WALL_SLOPES = 0.25
+"""Slopes (x per row, about +-14 deg) about a seed that `glass_walls` tries: a liquid's side cut by a label or a holder
+of its colour gave seeds 15 deg off."""
+WALL_NEAR = 0.12
+"""How far (share of the width between the seeds, at least BAND_PX) a wall may pass from its seed at the pivot row."""
+WALL_TOL_PX = 0.8
+"""Edge points this close to a line (px) support it."""
+WALL_CANDIDATES = 24
+"""The lines with the most points whose runs `glass_walls` compares."""
+WALL_FACE = 0.5
+"""A wall's second face (the other polarity's longest run) counts when it runs at least this share of the first's
+length: a wall read as one face on one side and as two on the other tilts the axis (0.15 deg on a painted glass)."""
+FOLLOW_SLOPE = 0.04
+"""Slope change (x per row, about 2.3 deg) about a wall's last line, predicted on at its last turn, searched in the next
+frame; FOLLOW_PX its sideways shift: a container swung by 20 deg at 0.3 Hz turns by 1.3 deg per frame at 30 fps."""
+FOLLOW_PX = 4.0
+WALL_GAP = 8
+"""Rows without a point that a run of a wall's edge bridges (a faint stretch of glass, a highlight)."""
+
+
+def _longest_run(rows: np.ndarray) -> tuple[int, float, float]:
+    """The longest run of sorted rows with gaps of at most WALL_GAP: (rows in it, first, last)."""
+    if rows.size == 0:
+        return 0, 0.0, 0.0
+    breaks = np.flatnonzero(np.diff(rows) > WALL_GAP + 1)
+    starts, ends = np.r_[0, breaks + 1], np.r_[breaks, rows.size - 1]
+    n = int(np.argmax(ends - starts))
+    return int(ends[n] - starts[n] + 1), float(rows[starts[n]]), float(rows[ends[n]])
+
+
+def _edge_points_2d(grey: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Each row's sub-pixel edge points in a grey box: the local maxima of the horizontal gradient's magnitude above
+    three robust standard deviations of it, as (row, column, sign of the gradient)."""
+    g = cv2.Sobel(cv2.GaussianBlur(grey.astype(np.float32), (0, 0), GLASS_BLUR), cv2.CV_32F, 1, 0, ksize=3)
+    m = np.abs(g)
+    c = m[:, 1:-1]
+    r, j = np.nonzero((c > 3 * 1.4826 * float(np.median(m)) + 1.0) & (c >= m[:, :-2]) & (c > m[:, 2:]))
+    j = j + 1
+    g0, g1, g2 = m[r, j - 1], m[r, j], m[r, j + 1]
+    den = g0 - 2 * g1 + g2
+    return r, j + 0.5 * (g0 - g2) / np.where(den < 0, den, -np.inf), np.sign(g[r, j])
+
+
+def _votes(dy: np.ndarray, dx: np.ndarray, slopes: np.ndarray, reach: float) -> np.ndarray:
+    """How many points lie on each line dx = o + a dy (a in `slopes`, o = -reach..reach in 1 px steps) within a pixel:
+    a Hough transform's votes (slopes x offsets)."""
+    bins = int(2 * reach) + 3
+    out = np.empty((slopes.size, bins - 2), int)
+    for n, a in enumerate(slopes):
+        k = np.rint(dx - a * dy + reach + 1).astype(np.intp)
+        votes = np.bincount(k[(k >= 0) & (k < bins)], minlength=bins)
+        out[n] = votes[:-2] + votes[1:-1] + votes[2:]
+    return out
+
+
+def glass_walls(
+    frame: np.ndarray | Picture, seeds: list[EdgeLine], rows: tuple[int, int], prior: list | None = None
+) -> list[list[tuple[EdgeLine, int]]]:
+    """The container's walls as the straight edges near the seeds (the liquid's sides over rows y0..y1) that run
+    unbroken along the most rows of `rows`, each with its polarity: a Hough vote of every row's sub-pixel edge points
+    picks the candidates, the longest run of points on a line wins, and the line sums of the gradient along its run
+    place it. An edge counts by its length, so the glass's outline wins over a label's edge, a bent liquid side or a
+    background edge that leaves the line at the rim. `prior`: the last frame's walls and polarities, placed again
+    over their own rows (a few pixels and a degree about them)."""
+    h = frame.shape[0]
+    ys = np.arange(max(0, rows[0]), min(h, rows[1]))
+    if ys.size < 20 or len(seeds) < 2:
+        return []
+    for seed in seeds:  # a wall whose band (as `glass_edges` reads it) leaves the picture is not measured
+        xs = seed.x_at(ys)
+        if xs.min() - BAND_PX - 6 < 0 or xs.max() + BAND_PX + 7 > frame.shape[1]:
+            return []
+    mid = [s.x_at(0.5 * (s.y0 + s.y1)) for s in seeds]
+    reach = max(BAND_PX, WALL_NEAR * abs(mid[-1] - mid[0]))
+    out = []
+    for i, seed in enumerate(seeds):
+        if prior is not None:
+            faces = []
+            for line, sign in prior[i]:
+                y0, y1 = max(line.y0, ys[0]), min(line.y1, ys[-1] + 1)
+                faces.append(_place(frame, line.a, line.x_at(0.5 * (y0 + y1)), (y0, y1), sign, FOLLOW_SLOPE, FOLLOW_PX))
+        else:
+            faces = _longest_edges(frame, seed, ys, reach)
+        if not faces or None in faces:
+            return []
+        out.append(faces)
+    return out
+
+
+def _longest_edges(frame: np.ndarray | Picture, seed: EdgeLine, ys: np.ndarray, reach: float):
+    """`glass_walls`' search about one seed: the longest run of each polarity that is at least WALL_FACE as long as
+    the longest (a glass wall's two faces), as (line, polarity); none found: []."""
+    w = frame.shape[1]
+    yc = 0.5 * (seed.y0 + seed.y1)
+    xc = seed.x_at(yc)
+    slopes = seed.a + np.arange(-WALL_SLOPES, WALL_SLOPES + 1e-9, 0.005)
+    corners = [xc + a * (y - yc) for a in (slopes[0], slopes[-1]) for y in (ys[0], ys[-1])]
+    x0, x1 = max(0, int(min(corners) - reach) - 4), min(w, int(max(corners) + reach) + 5)
+    if x1 - x0 < 8:
+        return None
+    box = (slice(ys[0], ys[-1] + 1), slice(x0, x1))
+    grey = frame.luma[box] if isinstance(frame, Picture) else cv2.cvtColor(frame[box], cv2.COLOR_BGR2GRAY)
+    r, x, sg = _edge_points_2d(grey)
+    dy, dx = (r + ys[0] - yc).astype(float), x + x0 - xc
+    found = []
+    for sign in (1, -1):
+        best = (0, 0.0, 0.0, 0, 0.0, 0.0)
+        on = sg == sign
+        votes = _votes(dy[on], dx[on], slopes, reach)
+        # the longest unbroken run among the lines with the most points: a line that crosses from one edge to
+        # another (or through a textured liquid) gathers points, but in pieces
+        for cell in np.argsort(votes, axis=None)[::-1][:WALL_CANDIDATES]:
+            k, j = np.unravel_index(cell, votes.shape)
+            near = np.abs(dx[on] - (j - reach) - slopes[k] * dy[on]) < 1.0
+            run = _longest_run(np.unique(dy[on][near]))
+            if run[0] > best[0]:
+                best = (run[0], float(slopes[k]), float(j - reach), sign, run[1] + yc, run[2] + yc)
+        found.append(best)
+    longest = max(f[0] for f in found)
+    faces = []
+    for n, a, o, sign, y0, y1 in found:
+        if n >= max(20, WALL_FACE * longest):
+            faces.append(
+                _place(frame, a, xc + o + a * (0.5 * (y0 + y1) - yc), (int(y0), int(y1) + 1), sign, 0.005, 1.5)
+            )
+    return [f for f in faces if f is not None]
+
+
+def _moved(line: EdgeLine, shift: float, turn: float, lift: float) -> EdgeLine:
+    """A line moved sideways by `shift` (px, at its rows' middle), turned by `turn` (slope) about there and its rows
+    moved down by `lift`."""
+    ym = 0.5 * (line.y0 + line.y1)
+    x = line.x_at(ym) + shift
+    a = line.a + turn
+    return replace(line, a=a, b=x - a * (ym + lift), y0=int(line.y0 + lift), y1=int(line.y1 + lift))
+
+
+def _mean_line(faces: list[EdgeLine]) -> EdgeLine:
+    """A wall as the mean of its faces' lines (slope, and position at their rows' middle), over their rows."""
+    y0, y1 = min(f.y0 for f in faces), max(f.y1 for f in faces)
+    ym = 0.5 * (y0 + y1)
+    a = sum(f.a for f in faces) / len(faces)
+    x = sum(f.x_at(ym) for f in faces) / len(faces)
+    return EdgeLine(a, x - a * ym, y0, y1, 0.0, sum(f.rows for f in faces))
+
+
+def _place(frame: np.ndarray | Picture, a: float, xm: float, rows: tuple[int, int], sign: int, da: float, do: float):
+    """The line of one polarity near (xm, the rows' middle), within slope +-da and +-do px, along which the gradient
+    sums to a peak over `rows` (the peak nearest xm: a wall's other face may be stronger), to a fraction of a pixel
+    (line sums, parabola vertices): (line, sign), or None."""
+    h, w = frame.shape[:2]
+    y0, y1 = max(0, rows[0]), min(h, rows[1])
+    yc = 0.5 * (rows[0] + rows[1])
+    spread = abs(a) * (y1 - y0) / 2 + da * (y1 - y0) / 2 + do + 6
+    x0, x1 = max(0, int(xm - spread)), min(w, int(xm + spread) + 1)
+    if y1 - y0 < 20 or x1 - x0 < 8:
+        return None
+    box = (slice(y0, y1), slice(x0, x1))
+    grey = frame.luma[box] if isinstance(frame, Picture) else cv2.cvtColor(frame[box], cv2.COLOR_BGR2GRAY)
+    smooth = cv2.GaussianBlur(grey.astype(np.float32), (0, 0), GLASS_BLUR)
+    dy = (np.arange(y0, y1) - yc).astype(np.float32)[:, None]
+    line = _LineSums(sign * cv2.Sobel(smooth, cv2.CV_32F, 1, 0, ksize=3), xm - x0, dy)
+    slopes = a + np.linspace(-da, da, 2 * max(1, round(da / 0.002)) + 1)
+    offs = np.arange(-do, do + 0.125, 0.25, dtype=np.float32)
+    score = line.sums(slopes, offs)
+    best = score.max(axis=0)
+    peaks = np.flatnonzero((best[1:-1] > best[:-2]) & (best[1:-1] >= best[2:]) & (best[1:-1] > 0)) + 1
+    if peaks.size == 0:
+        return None
+    j = int(peaks[np.argmin(np.abs(offs[peaks]))])
+    k = int(np.argmax(score[:, j]))
+    step = slopes[1] - slopes[0] if slopes.size > 1 else 0.0
+    dk = _vertex(*score[k - 1 : k + 2, j]) if 0 < k < slopes.size - 1 else 0.0
+    dj = _vertex(*score[k, j - 1 : j + 2])
+    a_fit, x_fit = slopes[k] + dk * step, xm + offs[j] + 0.25 * dj
+    return EdgeLine(float(a_fit), float(x_fit - a_fit * yc), y0, y1, 0.0, y1 - y0), sign
+
 
 def _edge_line(line: _LineSums, coarse: np.ndarray, a0: float, offs: np.ndarray, sign: int):
     """The best line of one polarity (`coarse`: its signed sums on GLASS_SLOPES x `offs`, sign applied), searched
@@ -336,7 +517,11 @@ class ContainerTracker:
         self._steady = False  # the walls moved slowly enough to be held since the measurement before (STEADY_DEG, _PX)
         self._held = 0  # frames it has been held for since
         self._ends: tuple | None = None  # the measured frame's wall ends: rows, columns, grey, `_edges_of` the grey
-        self._on_glass = False  # the walls are found by `glass_edges` (Hough and the rows' edges found none)
+        self._surface = False  # the walls are the surface target's (`glass_walls` about the liquid's sides)
+        self._found: list[list[tuple[EdgeLine, int]]] = []  # their faces' last lines and polarities
+        self._found_bottom = 0  # the liquid's bottom row then
+        self._turn = 0.0  # their slope's change per frame between the last two measurements
+        self._on_glass = False  # the walls are found on the glass (`glass_walls`, `glass_edges`: Hough and the rows' edges found none)
         self._hough: list[
             EdgeLine
         ] = []  # the strongest Hough lines of the last detection whose edges were not followed
@@ -354,10 +539,11 @@ class ContainerTracker:
         caller saw no motion of the container (or cannot tell), so the walls may be held if their ends agree (see
         HOLD_FRAMES); False: measured in this frame. `glass`: the surface target's (seed walls, their rows, the rows of
         their ends to watch): when Hough and the rows' edges find no walls (faint glass, as in real footage), the walls
-        are the glass's edges along the liquid's sides (`glass_edges`), in this frame and every later one. Without it (the
+        are the glass's longest straight edges near the liquid's sides (`glass_walls`), in this frame and every later one. Without it (the
         float), Hough lines whose edges are too noisy to follow row by row seed `glass_edges` likewise."""
         if not np.isfinite(float_x):
             return ContainerMeasurement(False)
+        self._surface = glass is not None
         unmoved = None  # the walls' ends where the last measurement saw them: asked when a hold may go on or ends
         if still and self._steady and self._held < HOLD_FRAMES - 1:
             unmoved = self._unmoved(frame)
@@ -421,8 +607,26 @@ class ContainerTracker:
     def _glass(
         self, frame: np.ndarray, seeds: list[EdgeLine], rows: tuple[int, int], ends: tuple[int, int], frames: int
     ) -> ContainerMeasurement:
-        """The walls as the glass's edges along the seed lines (`glass_edges`); their ends watched in rows `ends`."""
-        walls = glass_edges(frame, seeds, rows)
+        """The walls as the glass's edges near the seed lines (the surface's: `glass_walls`, followed from frame to
+        frame; the float's: `glass_edges`); their ends watched in rows `ends`."""
+        # about the last frame's walls (moved on at their last shift; a surface's rows with the liquid's bottom), so that
+        # the same edges are followed; a float's walls too faint for that: the old band search about the Hough lines
+        lift = seeds[0].y1 - self._found_bottom if self._surface else 0
+        move, turn = self._shift * frames, (self._turn * frames if self._surface else 0.0)
+        prior = [[(_moved(f, move, turn, lift), sign) for f, sign in faces] for faces in self._found]
+        found = (len(prior) == len(seeds) and glass_walls(frame, seeds, rows, prior)) or glass_walls(frame, seeds, rows)
+        if found and len(found) == len(self._found):
+            self._turn = sum(
+                _mean_line([f for f, _ in new]).a - _mean_line([f for f, _ in old]).a
+                for new, old in zip(found, self._found)
+            ) / (len(found) * frames)
+        else:
+            self._turn = 0.0
+        self._found = found if len(found) == len(seeds) else []
+        self._found_bottom = seeds[0].y1 if seeds else 0
+        walls = [_mean_line([f for f, _ in faces]) for faces in found]
+        if not walls and not self._surface:
+            walls = glass_edges(frame, seeds, rows)
         if len(walls) < len(seeds):
             self._walls = []
             return ContainerMeasurement(False)

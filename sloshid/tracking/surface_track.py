@@ -241,12 +241,12 @@ the liquid's bottom."""
 
 
 def _glass(m: SurfaceMeasurement) -> tuple[list[EdgeLine], tuple[int, int], tuple[int, int]]:
-    """What `ContainerTracker.measure` needs to find the walls on the glass: the liquid's sides as seed lines, the rows
-    from GLASS_ABOVE widths above the surface to the last tenth above the bottom, and the rows whose two ends are
-    watched for a move of the container while it stands still: the glass just above the liquid and the liquid's side
+    """What `ContainerTracker.measure` needs to find the walls on the glass: the liquid's sides as seed lines (over the
+    liquid's rows), the rows from GLASS_ABOVE widths above the surface to the last tenth above the bottom, and the rows
+    whose two ends are watched for a move of the container while it stands still: the glass just above the liquid and the liquid's side
     near the bottom (far apart, so that a turn about either end moves the other)."""
     (aL, bL, top, bottom), (aR, bR, _, _) = m.walls
-    seeds = [EdgeLine(aL, bL, 0, 0, 0.0, 0), EdgeLine(aR, bR, 0, 0, 0.0, 0)]
+    seeds = [EdgeLine(aL, bL, int(top), int(bottom), 0.0, 0), EdgeLine(aR, bR, int(top), int(bottom), 0.0, 0)]
     low = int(bottom - 0.1 * (bottom - top))
     rows = (max(0, int(m.y_px - GLASS_ABOVE * m.width_px)), low)
     return seeds, rows, (max(rows[0], int(top) - 4 - GUARD_ROWS), low)
