@@ -36,6 +36,7 @@ _LAZY = {
     "IdentSettings": "sloshid.identification.estimator",
     "SignalColumns": "sloshid.identification.stage",
     "IOSettings": "sloshid.validation.iofit",
+    "GeometrySettings": "sloshid.validation.predict",
     "SynthSettings": "sloshid.synthetic.scene",
     "SolverSettings": "sloshid.planning.scenario",
     "RiskSettings": "sloshid.planning.scenario",
@@ -48,6 +49,7 @@ __all__ = [
     "CompareSettings",
     "Comparison",
     "FeedbackSettings",
+    "GeometrySettings",
     "IOSettings",
     "IdentResult",
     "IdentSettings",
@@ -85,6 +87,7 @@ if TYPE_CHECKING:
     from sloshid.tracking.inspect import InspectResult
     from sloshid.tracking.tracker import TrackResult, TrackSettings
     from sloshid.validation.iofit import IOSettings
+    from sloshid.validation.predict import GeometrySettings
 
 
 def _installed_version() -> str:

@@ -18,6 +18,7 @@ from sloshid.identification.stage import SignalColumns
 from sloshid.synthetic.scene import SynthSettings
 from sloshid.tracking.tracker import TrackSettings
 from sloshid.validation.iofit import IOSettings
+from sloshid.validation.predict import GeometrySettings
 from sloshid.workflow.options import IdentifyOptions, TrackOptions
 
 COMMANDS = [
@@ -27,6 +28,8 @@ COMMANDS = [
     ("identify", IOSettings),
     ("validate", SignalColumns),
     ("synth", SynthSettings),
+    ("predict", GeometrySettings),
+    ("validate", GeometrySettings),
 ]
 """Each command's settings classes, whose every field is one of its options."""
 
@@ -123,7 +126,7 @@ def test_the_api_takes_a_settings_object_or_keywords_not_both():
 
 
 def test_the_settings_classes_are_exported():
-    for cls in (TrackSettings, IdentSettings, SignalColumns, IOSettings, SynthSettings):
+    for cls in (TrackSettings, IdentSettings, SignalColumns, IOSettings, GeometrySettings, SynthSettings):
         assert getattr(sloshid, cls.__name__) is cls
         assert cls.__name__ in sloshid.__all__
 
