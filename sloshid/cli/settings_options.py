@@ -1,5 +1,5 @@
 """Command-line options made from a settings dataclass: one option per field, named, typed, explained and defaulted by
-the field itself (its annotation, default, attribute docstring and `core.settings.setting` metadata), so that an option
+the field itself (its annotation, default, attribute docstring and `core.settings.setting_field` metadata), so that an option
 cannot drift from the setting it fills. A small generator of our own rather than tyro or cyclopts: those build the
 whole parser, while sloshid's commands mix settings with inputs and outputs, keep their options' historical names
 (`--mass` for `mass_kg`) and argparse's one-line errors, and start in a few milliseconds."""
@@ -92,28 +92,23 @@ def _argument(field: dataclasses.Field, annotation: Any, option: str, help: str)
     return {**kwargs, "type": kind if kind in (int, float, Path) else str, "metavar": metavar}
 
 
-def add_settings(
-    parser: argparse.ArgumentParser,
-    cls: type,
-    groups: dict[str, str] | None = None,
-    skip: typing.Collection[str] = (),
-) -> None:
-    """Add one option per field of settings class `cls` (but those in `skip`) to `parser`; a field whose metadata names
-    a group goes into the argument group titled `groups[group]` (made once per title)."""
+def add_settings(parser: argparse.ArgumentParser, cls: type, groups: dict[str, str] | None = None) -> None:
+    """Add one option per field of settings class `cls` to `parser`; a field whose metadata names a group goes into the
+    argument group titled `groups[group]` (made once per title)."""
     hints = typing.get_type_hints(cls)
     docs = field_docs(cls)
     options = options_of_settings(cls)
     made: dict[str, argparse._ArgumentGroup] = {}
     for field in init_fields(cls):
         option = options.get(field.name)
-        if option is None or field.name in skip:
+        if option is None:
             continue
         group = field.metadata.get("group")
         target: Any = parser
         if group is not None and groups is not None:
             title = groups[group]
             target = made.get(title) or made.setdefault(title, parser.add_argument_group(title))
-        help = help_text(field, docs[field.name], options)
+        help = help_text(field, docs.get(field.name, ""), options)  # no docstring only where no source was shipped
         target.add_argument(option, **_argument(field, hints[field.name], option, help))
 
 
