@@ -31,15 +31,38 @@ _LAZY = {
     "Comparison": "sloshid.comparison.compare",
     "Scenario": "sloshid.planning.scenario",
     "UserError": "sloshid.core.errors",
+    # the settings classes: the command's options, the TOML tables and the functions' keywords all fill them
+    "TrackSettings": "sloshid.tracking.tracker",
+    "IdentSettings": "sloshid.identification.estimator",
+    "SignalColumns": "sloshid.identification.stage",
+    "IOSettings": "sloshid.validation.iofit",
+    "GeometrySettings": "sloshid.validation.predict",
+    "SynthSettings": "sloshid.synthetic.scene",
+    "SolverSettings": "sloshid.planning.scenario",
+    "RiskSettings": "sloshid.planning.scenario",
+    "ArmSettings": "sloshid.planning.arm_settings",
+    "CompareSettings": "sloshid.comparison.compare",
+    "FeedbackSettings": "sloshid.comparison.feedback",
 }
 __all__ = [
+    "ArmSettings",
+    "CompareSettings",
     "Comparison",
+    "FeedbackSettings",
+    "GeometrySettings",
+    "IOSettings",
     "IdentResult",
+    "IdentSettings",
     "InspectResult",
     "PlanResult",
+    "RiskSettings",
     "Scenario",
+    "SignalColumns",
     "SloshParams",
+    "SolverSettings",
+    "SynthSettings",
     "TrackResult",
+    "TrackSettings",
     "UserError",
     "compare",
     "identify",
@@ -51,14 +74,20 @@ __all__ = [
 
 if TYPE_CHECKING:
     from sloshid.api import compare, identify, inspect, load_scenario, plan, track
-    from sloshid.comparison.compare import Comparison
+    from sloshid.comparison.compare import CompareSettings, Comparison
+    from sloshid.comparison.feedback import FeedbackSettings
     from sloshid.core.errors import UserError
-    from sloshid.identification.estimator import IdentResult
+    from sloshid.identification.estimator import IdentResult, IdentSettings
+    from sloshid.identification.stage import SignalColumns
     from sloshid.model.pendulum import SloshParams
+    from sloshid.planning.arm_settings import ArmSettings
     from sloshid.planning.planner import PlanResult
-    from sloshid.planning.scenario import Scenario
+    from sloshid.planning.scenario import RiskSettings, Scenario, SolverSettings
+    from sloshid.synthetic.scene import SynthSettings
     from sloshid.tracking.inspect import InspectResult
-    from sloshid.tracking.tracker import TrackResult
+    from sloshid.tracking.tracker import TrackResult, TrackSettings
+    from sloshid.validation.iofit import IOSettings
+    from sloshid.validation.predict import GeometrySettings
 
 
 def _installed_version() -> str:

@@ -7,7 +7,7 @@ from __future__ import annotations
 import os
 from dataclasses import replace
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, TypeVar
 
 from sloshid.core.settings import from_dict
 
@@ -15,32 +15,38 @@ if TYPE_CHECKING:
     from collections.abc import Sequence
 
     from sloshid.comparison.compare import Comparison
-    from sloshid.identification.estimator import IdentResult
-    from sloshid.identification.stage import Source
+    from sloshid.identification.estimator import IdentResult, IdentSettings
+    from sloshid.identification.stage import SignalColumns, Source
     from sloshid.model.pendulum import SloshParams
     from sloshid.planning.planner import PlanResult
     from sloshid.planning.scenario import Scenario
     from sloshid.tracking.inspect import InspectResult
-    from sloshid.tracking.tracker import TrackResult
+    from sloshid.tracking.tracker import TrackResult, TrackSettings
 
     Liquid = SloshParams | IdentResult | str | Path | None
     """What `plan` and `compare` take as the liquid: parameters, an identification, its JSON file, or None (the
     scenario's own [liquid])."""
 
+S = TypeVar("S")
+
 
 def track(
-    video: str | Path, *, overlay: str | Path | None = None, progress: bool = False, **settings: Any
+    video: str | Path,
+    settings: TrackSettings | None = None,
+    *,
+    overlay: str | Path | None = None,
+    progress: bool = False,
+    **keywords: Any,
 ) -> TrackResult:
-    """Track the float (or, with target="surface", the dyed liquid's surface) in every frame of `video`; keywords
-    are TrackSettings fields (float_color, float_hsv_low, float_hsv_high, roi, reference, smooth, target,
-    liquid_color, liquid_hsv_low, liquid_hsv_high, rest_frames, container_diameter_m). `overlay` also writes the
-    annotated video."""
+    """Track the float (or, with target="surface", the dyed liquid's surface) in every frame of `video`, with
+    `settings` (a `sloshid.TrackSettings`, typed) or its fields as keywords (`reference="container"`, checked, an
+    unknown one refused). `overlay` also writes the annotated video."""
     from sloshid.core.outputs import Outputs
     from sloshid.tracking.tracker import TrackSettings, track_video
     from sloshid.video.frames import VIDEO_SUFFIXES
 
     _check_path(video, "video")
-    track_settings = from_dict(TrackSettings, settings)
+    track_settings = _settings(TrackSettings, settings, keywords)
     if overlay is not None:  # the command line's check: never over the video, and a video the overlay writer makes
         overlay = Outputs([video]).file(overlay, "overlay", VIDEO_SUFFIXES)
     return track_video(video, track_settings, overlay=overlay, progress=progress)
@@ -65,22 +71,40 @@ def inspect(
     return result
 
 
-def identify(*sources: Source, **settings: Any) -> IdentResult:
-    """Identify the sloshing mode jointly from signal files, Signals or TrackResults (or one list of them); keywords
-    are IdentSettings fields (mass_kg, window_s, f_range_hz, drift, min_fit_percent, container_radius_m, ...) and
-    the SignalColumns fields (time_col, value_col, time_var, value_var): the files' columns, or, when every source is
-    a TrackResult, the tracked tables' (value_col="left_wall_mm")."""
+def identify(
+    *sources: Source, settings: IdentSettings | None = None, columns: SignalColumns | None = None, **keywords: Any
+) -> IdentResult:
+    """Identify the sloshing mode jointly from signal files, Signals or TrackResults (or one list of them), with
+    `settings` (a `sloshid.IdentSettings`) and `columns` (a `sloshid.SignalColumns`: the files' columns, or, when every
+    source is a TrackResult, the tracked tables', value_col="left_wall_mm"), or the fields of either as keywords
+    (`mass_kg=0.5`, checked, an unknown one refused)."""
+    from dataclasses import fields
+
     from sloshid.identification.estimator import IdentSettings
     from sloshid.identification.stage import SignalColumns, identify_sources
 
     if len(sources) == 1 and isinstance(sources[0], (list, tuple)):  # identify(["a.csv", tracked]) as well
         sources = tuple(sources[0])
-    column_keys = {"time_col", "value_col", "time_var", "value_var"}
+    column_keys = {f.name for f in fields(SignalColumns)}
     # a column by its 0-based index, as the command line's `--time-col 0` gives it
-    given = {k: str(v) if isinstance(v, int) and not isinstance(v, bool) else v for k, v in settings.items()}
-    columns = from_dict(SignalColumns, {k: v for k, v in given.items() if k in column_keys})
-    ident = from_dict(IdentSettings, {k: v for k, v in settings.items() if k not in column_keys})
-    return identify_sources(sources, ident, columns)
+    given = {k: str(v) if isinstance(v, int) and not isinstance(v, bool) else v for k, v in keywords.items()}
+    picked = _settings(SignalColumns, columns, {k: v for k, v in given.items() if k in column_keys})
+    ident = _settings(IdentSettings, settings, {k: v for k, v in keywords.items() if k not in column_keys})
+    return identify_sources(sources, ident, picked)
+
+
+def _settings(cls: type[S], given: S | None, keywords: dict[str, Any]) -> S:
+    """Settings class `cls` from an instance or from keywords (each checked, an unknown one refused with a "did you
+    mean"), not both."""
+    from sloshid.core.errors import UserError
+
+    if given is None:
+        return from_dict(cls, keywords)
+    if not isinstance(given, cls):
+        raise UserError(f"settings must be a {cls.__name__}, got {type(given).__name__}.")
+    if keywords:
+        raise UserError(f"give a {cls.__name__} or its fields as keywords ({', '.join(keywords)}), not both.")
+    return given
 
 
 def _check_path(value: Any, what: str) -> None:

@@ -1,6 +1,8 @@
 """MkDocs hook: the pages' generated parts, made from the code at build time so that they cannot drift from it.
 
 - `<!-- generated: cli -->` becomes every command's `--help`, from `sloshid.cli.app.build_parser`;
+- `<!-- generated: settings -->` becomes a table per settings class: each field's key (TOML and Python keyword),
+  command-line option, unit and default, read from the field itself as the command line reads it;
 - the benchmarks' pictures (`reports/benchmarks/*.png`) are served beside the benchmark pages that include
   their tables (`--8<--` snippets), so the tables' own picture links resolve.
 """
@@ -47,7 +49,46 @@ def cli_reference() -> str:
     return "\n".join(parts)
 
 
-GENERATORS = {"<!-- generated: cli -->": cli_reference}
+SETTINGS = {
+    "sloshid.tracking.tracker.TrackSettings": "`sloshid track`; the pipeline's and batch's `[track]`; `sloshid.track`",
+    "sloshid.identification.estimator.IdentSettings": "`sloshid identify`; `[identify]`; `sloshid.identify`",
+    "sloshid.identification.stage.SignalColumns": "`sloshid identify` and `validate`; `[identify]`; `sloshid.identify`",
+    "sloshid.validation.iofit.IOSettings": "`sloshid identify --trajectory`",
+    "sloshid.validation.predict.GeometrySettings": "`sloshid predict` and `sloshid validate`",
+    "sloshid.synthetic.scene.SynthSettings": "`sloshid synth`",
+}
+"""The settings classes whose fields are made into options, and where each is filled."""
+
+
+def _cell(text: str) -> str:
+    return text.replace("|", "\\|")
+
+
+def settings_tables() -> str:
+    """One table per class of SETTINGS: key, option, unit, default and help of every field."""
+    import dataclasses
+    import importlib
+
+    from sloshid.cli.settings_options import option_of
+    from sloshid.core.settings import field_docs, init_fields
+
+    parts = []
+    for path, where in SETTINGS.items():
+        module, name = path.rsplit(".", 1)
+        cls = getattr(importlib.import_module(module), name)
+        rows = ["| key | option | unit | default | what |", "|---|---|---|---|---|"]
+        for field in init_fields(cls):
+            default = "" if field.default in (None, dataclasses.MISSING) else f"`{field.default!r}`"
+            option = option_of(field)
+            rows.append(
+                f"| `{field.name}` | {f'`{option}`' if option else ''} | {_cell(field.metadata.get('unit', ''))} | "
+                f"{_cell(default)} | {_cell(field_docs(cls)[field.name])} |"
+            )
+        parts.append(f"### {name}\n\nFilled by {where}.\n\n" + "\n".join(rows) + "\n")
+    return "\n".join(parts)
+
+
+GENERATORS = {"<!-- generated: cli -->": cli_reference, "<!-- generated: settings -->": settings_tables}
 
 
 def on_page_markdown(markdown: str, page, config, files) -> str:

@@ -87,7 +87,7 @@ def build_parser(only: str | None = None) -> argparse.ArgumentParser:
         module = importlib.import_module(f"sloshid.cli.{name}_cmd")
         p = sub.add_parser(name, help=help_text, description=module.__doc__, formatter_class=_Formatter)
         module.add_arguments(p)
-        p.set_defaults(_run=module.run, _flags=getattr(module, "FLAGS", {}), _options=options_of(p))
+        p.set_defaults(_run=module.run, _options=options_of(p))
     return parser
 
 
@@ -201,8 +201,8 @@ def _main(argv: Sequence[str] | None) -> int:
         sys.stdout.flush()
         return code
     except SettingError as exc:
-        flags = getattr(args, "_flags", {})
-        return _fail(as_typed(str(exc.named(lambda setting: flag_for(setting, flags))), args))
+        options = getattr(args, "_options", {})
+        return _fail(as_typed(str(exc.named(lambda setting: flag_for(setting, options))), args))
     except UserError as exc:
         return _fail(as_typed(str(exc), args))
     except PermissionError as exc:  # a file or folder of the user's that this user may not read or enter

@@ -9,31 +9,20 @@ import argparse
 import sys
 
 from sloshid.cli.naming import as_typed
+from sloshid.cli.settings_options import add_settings, given_settings, options_of_settings, settings_from
 from sloshid.core.errors import UserError
 from sloshid.core.results import TableResult
 
-TRAJECTORY_ONLY = {
-    "--axis-offset-m": "axis_offset_m",
-    "--pose-columns": "pose_columns",
-    "--smooth-s": "smooth_s",
-    "--views-deg": "views_deg",
-}
-"""Options of input-output identification, refused without --trajectory (they would be ignored)."""
-FLAGS = {"mass_kg": "--mass", "window_s": "--window", "f_range_hz": "--f-range", "min_fit_percent": "--min-fit"}
-"""Library setting -> option name, where they differ (errors name the option the user typed)."""
-
-
-def _pair(text: str) -> tuple[float, float]:
-    """Parse 'A,B' into two floats."""
-    try:
-        a, b = (float(x) for x in text.split(","))
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected two numbers A,B, got {text!r}") from None
-    return a, b
+GROUPS = {"io": "input-output identification (with --trajectory)"}
+"""Titles of the help's groups of settings fields."""
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    """Options of `sloshid identify`."""
+    """Options of `sloshid identify`: inputs and outputs, then one per IdentSettings, SignalColumns and IOSettings
+    field (settings_options)."""
+    from sloshid.identification.estimator import IdentSettings
+    from sloshid.validation.iofit import IOSettings
+
     parser.add_argument(
         "signals",
         nargs="+",
@@ -42,31 +31,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "a time column in seconds, or a MATLAB .mat file",
     )
     parser.add_argument("-o", "--output", required=True, metavar="PARAMS.json", help="parameter JSON to write")
-    parser.add_argument("--mass", type=float, metavar="KG", help="liquid mass in kg; needed for the damping constant d")
     parser.add_argument("--report", metavar="DIR", help="write a self-contained HTML report to DIR/index.html")
-    parser.add_argument(
-        "--window",
-        type=_pair,
-        metavar="T0,T1",
-        help="fit window in seconds of the signals' own time axis; without it the free decay is found automatically",
-    )
-    parser.add_argument(
-        "--f-range",
-        type=_pair,
-        metavar="LO,HI",
-        help="frequency band in Hz searched for the sloshing mode (0.5,30 when not given)",
-    )
-    parser.add_argument("--drift", action="store_true", help="also fit a slow linear drift of the signal's zero")
-    parser.add_argument(
-        "--min-fit",
-        type=float,
-        default=15.0,
-        metavar="PERCENT",
-        help="NRMSE fit %% below which the verdict is 'uncertain'",
-    )
+    add_settings(parser, IdentSettings)
     add_column_arguments(parser)
-    parser.add_argument("--container-radius-m", type=float, metavar="M", help="cylinder radius in m (geometric prior)")
-    parser.add_argument("--fill-height-m", type=float, metavar="M", help="liquid fill height in m (geometric prior)")
     parser.add_argument(
         "--trajectory",
         action="append",
@@ -76,51 +43,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "mode from --container-radius-m and --fill-height-m when given) and each run's lag and offset to the whole "
         "records (see `sloshid predict` for the pose options)",
     )
-    parser.add_argument(
-        "--axis-offset-m",
-        type=float,
-        metavar="M",
-        help="with --trajectory: distance in m along the container axis from the logged point up to the pendulum "
-        "pivot (about the liquid surface at rest; default 0)",
-    )
-    parser.add_argument(
-        "--pose-columns",
-        metavar="NAMES",
-        help="with --trajectory: a headerless log's column names in order (see `sloshid predict --help`)",
-    )
-    parser.add_argument(
-        "--smooth-s",
-        type=float,
-        metavar="S",
-        help="with --trajectory: Savitzky-Golay window in s for the pose log's accelerations (default 0.1)",
-    )
-    parser.add_argument(
-        "--views-deg",
-        type=float,
-        metavar="DEG",
-        help="with --trajectory: the wall height is seen in two planes 90 deg apart fixed to the container, the first "
-        "at this azimuth from its x axis (two cameras on the end-effector, as in the shared antisloshing runs: 0); "
-        "default: the whole wall's peak",
-    )
+    add_settings(parser, IOSettings, GROUPS)
 
 
 def add_column_arguments(parser: argparse.ArgumentParser) -> None:
     """Which column (CSV) or variable (.mat) of a signal file holds the time and the signal: identify's and
-    validate's measured files."""
-    parser.add_argument(
-        "--time-col",
-        metavar="NAME|INDEX",
-        help="CSV time column in seconds (name or 0-based index; default: the column named t_s, time_s, t, time, "
-        "times or timestamp, else the first)",
-    )
-    parser.add_argument(
-        "--value-col",
-        metavar="NAME|INDEX",
-        help="CSV signal column (name or 0-based index; default: a track CSV's angle_deg, of two columns the one "
-        "that is not the time; needed for more)",
-    )
-    parser.add_argument("--time-var", metavar="NAME", help=".mat variable holding the time in seconds")
-    parser.add_argument("--value-var", metavar="NAME", help=".mat variable holding the signal")
+    validate's measured files (the SignalColumns fields)."""
+    from sloshid.identification.stage import SignalColumns
+
+    add_settings(parser, SignalColumns)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -129,32 +60,26 @@ def run(args: argparse.Namespace) -> int:
     from sloshid.core.outputs import Outputs
     from sloshid.identification.estimator import IdentSettings
     from sloshid.identification.stage import SignalColumns, identify_sources, to_signal
+    from sloshid.validation.iofit import IOSettings
 
-    settings = IdentSettings(
-        mass_kg=args.mass,
-        window_s=args.window,
-        f_range_hz=args.f_range or IdentSettings.f_range_hz,
-        drift=args.drift,
-        min_fit_percent=args.min_fit,
-        # the input-output fit needs the radius alone (for wall heights); the prior needs it with the fill height
-        container_radius_m=args.container_radius_m if args.trajectory is None or args.fill_height_m else None,
-        fill_height_m=args.fill_height_m,
-    )
-    given = [f for f, v in TRAJECTORY_ONLY.items() if getattr(args, v) is not None]
+    # the input-output fit needs the radius alone (for wall heights); the prior needs it with the fill height
+    prior_radius = args.container_radius_m if args.trajectory is None or args.fill_height_m else None
+    settings = settings_from(args, IdentSettings, container_radius_m=prior_radius)
+    io_options = options_of_settings(IOSettings)
+    given = [io_options[name] for name in given_settings(args, IOSettings)]
     if args.trajectory is None and given:
         verb = "applies" if len(given) == 1 else "apply"
         raise UserError(f"{' and '.join(given)} {verb} only with --trajectory (input-output identification).")
     outputs = Outputs([*args.signals, *(args.trajectory or [])])
     output = outputs.file(args.output, "-o", (".json",))
     report_dir = outputs.report_dir(args.report, "--report") if args.report else None
-    columns = SignalColumns(args.time_col, args.value_col, args.time_var, args.value_var)
+    columns = settings_from(args, SignalColumns)
 
     def warn(text: str) -> None:
         print(f"sloshid: warning: {as_typed(text, args)}", file=sys.stderr)
 
     result: TableResult  # an IOFit or an IdentResult: the same contract
     if args.trajectory is not None:  # input-output: the whole record, forced response and free decay
-        from sloshid.model.pose import SMOOTH_S
         from sloshid.validation.iofit import fit_io_files
 
         signals = [to_signal(p, columns, progress=True) for p in args.signals]
@@ -166,10 +91,7 @@ def run(args: argparse.Namespace) -> int:
             signals,
             settings,
             args.container_radius_m,
-            args.axis_offset_m or 0.0,
-            SMOOTH_S if args.smooth_s is None else args.smooth_s,
-            args.pose_columns,
-            args.views_deg,
+            settings_from(args, IOSettings),
         )
     else:
         result = identify_sources(args.signals, settings, columns, warn=warn, progress=True)

@@ -29,13 +29,10 @@ from typing import Any
 
 from sloshid.cli import track_cmd
 from sloshid.cli.naming import as_typed, options_of
-from sloshid.cli.track_cmd import roi_from_args
+from sloshid.cli.settings_options import comma_values
 from sloshid.core.errors import UserError
 from sloshid.core.outputs import Outputs
 from sloshid.tracking.inspect import inspect_video
-
-FLAGS = {"at_s": "--at"}
-"""Library setting -> option name, where they differ (errors name the option the user typed)."""
 
 
 def track_options() -> dict[str, str]:
@@ -90,7 +87,8 @@ def _picture_path(args: argparse.Namespace) -> Path:
 def run(args: argparse.Namespace) -> int:
     """Check the output, look at the frame, write the picture, print what was found and the command to run."""
     picture = _picture_path(args)
-    result = inspect_video(args.video, args.at, roi_from_args(args.roi))
+    roi = comma_values(args.roi, int, 4, "--roi", "X,Y,W,H") if args.roi is not None else None
+    result = inspect_video(args.video, args.at, roi)
     result.save_picture(picture)
     options = track_options()
     print(as_typed(result.summary(lambda settings: track_command(args.video, settings, options)), args, options))

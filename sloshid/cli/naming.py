@@ -9,9 +9,10 @@ from collections.abc import Callable
 from sloshid.core.errors import rename_settings
 
 
-def flag_for(setting: str, flags: dict[str, str]) -> str:
-    """The command-line name of a library setting: the command's own mapping, else --setting-with-hyphens."""
-    return flags.get(setting, "--" + setting.replace("_", "-"))
+def flag_for(setting: str, options: dict[str, str]) -> str:
+    """The command-line name of a library setting: the command's option that fills it (`options_of`), else
+    --setting-with-hyphens."""
+    return options.get(setting, "--" + setting.replace("_", "-"))
 
 
 def options_of(parser: argparse.ArgumentParser) -> dict[str, str]:
@@ -20,11 +21,10 @@ def options_of(parser: argparse.ArgumentParser) -> dict[str, str]:
 
 
 def option_namer(args: argparse.Namespace | None, also: dict[str, str] | None = None) -> Callable[[str], str | None]:
-    """A setting's option in the command `args` came from (the command's FLAGS, else its option of that name, else one
-    of `also`: another command's options the text speaks of), or None (the message keeps the library's name)."""
-    flags: dict[str, str] = getattr(args, "_flags", {})
+    """A setting's option in the command `args` came from (the option that fills it, else one of `also`: another
+    command's options the text speaks of), or None (the message keeps the library's name)."""
     options: dict[str, str] = {**(also or {}), **getattr(args, "_options", {})}
-    return lambda setting: flags.get(setting) or options.get(setting)
+    return options.get
 
 
 def as_typed(text: str, args: argparse.Namespace | None, also: dict[str, str] | None = None) -> str:

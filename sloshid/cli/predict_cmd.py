@@ -12,38 +12,15 @@ from __future__ import annotations
 import argparse
 import sys
 
+from sloshid.cli.settings_options import add_settings
 from sloshid.core.errors import UserError
 
 
 def add_geometry_arguments(parser: argparse.ArgumentParser) -> None:
-    """The geometry and pose-log options shared by predict, validate and identify --trajectory."""
-    parser.add_argument(
-        "--axis-offset-m",
-        type=float,
-        metavar="M",
-        help="distance along the container axis from the logged point up to the pendulum pivot (about the liquid "
-        "surface at rest); default: the value stored in the parameters, else 0 (predict: 0 for a sloshid "
-        "trajectory, whose point is the pivot)",
-    )
-    parser.add_argument(
-        "--container-radius-m",
-        type=float,
-        metavar="M",
-        help="container radius R in m, for the wall height (default: the radius the parameters were identified with, "
-        "when identify had --container-radius-m; without one only the angles are written)",
-    )
-    parser.add_argument(
-        "--pose-columns",
-        metavar="NAMES",
-        help="names of a headerless pose log's columns in order, e.g. t,x,y,z,qx,qy,qz,qw (the default for 8 "
-        "columns) or t,x,y,z,roll_deg,pitch_deg,yaw_deg; `_` skips a column",
-    )
-    parser.add_argument(
-        "--smooth-s",
-        type=float,
-        metavar="S",
-        help="Savitzky-Golay window for accelerations from a pose log (default 0.1 s: gain 0.999 at 3 Hz)",
-    )
+    """The geometry and pose-log options shared by predict and validate: the GeometrySettings fields."""
+    from sloshid.validation.predict import GeometrySettings
+
+    add_settings(parser, GeometrySettings)
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

@@ -20,105 +20,40 @@ from __future__ import annotations
 
 import argparse
 import sys
+import textwrap
 from pathlib import Path
 
 from sloshid.cli.naming import as_typed
-from sloshid.core.errors import UserError
+from sloshid.cli.settings_options import add_settings, settings_from
 from sloshid.core.outputs import Outputs
 from sloshid.tracking.tracker import LOST_NOTE, TrackSettings, track_video
-from sloshid.video.colors import DEFAULT_FLOAT_COLOR, PRESETS, format_hsv, parse_hsv
+from sloshid.video.colors import DEFAULT_FLOAT_COLOR, PRESETS, format_hsv
 from sloshid.video.frames import VIDEO_SUFFIXES
+
+GROUPS = {"surface": "liquid surface (--target surface)"}
+"""Titles of the help's groups of TrackSettings fields."""
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    """Options of `sloshid track`, each with its unit."""
+    """Options of `sloshid track`: the input and outputs, then one per TrackSettings field (settings_options)."""
     parser.add_argument("video", type=Path, metavar="VIDEO", help="video file FFmpeg can decode")
     parser.add_argument("-o", "--output", type=Path, required=True, metavar="ANGLES.csv", help="CSV file to write")
-    presets = ", ".join(f"{n} ({format_hsv(p.hsv.low)} .. {format_hsv(p.hsv.high)})" for n, p in PRESETS.items())
-    parser.add_argument(
-        "--float-color",
-        metavar="NAME",
-        help=f"named float colour preset (OpenCV HSV low .. high), default {DEFAULT_FLOAT_COLOR}: {presets}",
-    )
-    parser.add_argument(
-        "--float-hsv-low",
-        metavar="H,S,V",
-        help="lower corner of the float colour in OpenCV HSV (H 0..179 hue, S and V 0..255); "
-        "overrides --float-color; give with --float-hsv-high; H low > H high wraps through red",
-    )
-    parser.add_argument("--float-hsv-high", metavar="H,S,V", help="upper corner of the float colour in OpenCV HSV")
-    parser.add_argument(
-        "--roi",
-        metavar="X,Y,W,H",
-        help="search only this region: left x, top y, width, height in pixels (default: whole frame)",
-    )
-    parser.add_argument(
-        "--reference",
-        choices=("image", "container"),
-        default="image",
-        help="angle against the image horizontal, or against the container's side walls (measured in every frame "
-        "while the container moves, in every 6th while it stands still)",
-    )
     parser.add_argument(
         "--overlay",
         type=Path,
         metavar="OUT.mp4",
         help="also write the video with the detected float, the reference and the angle drawn on it",
     )
-    parser.add_argument("--no-smooth", action="store_true", help="skip the Kalman/RTS angle_smoothed_deg column (NaN)")
-    g = parser.add_argument_group("liquid surface (--target surface)")
-    g.add_argument(
-        "--target",
-        choices=("float", "surface"),
-        default="float",
-        help="float: a coloured float's angle; surface: the dyed liquid's surface angle and its height at each wall",
+    add_settings(parser, TrackSettings, GROUPS)
+    presets = ", ".join(f"{n} ({format_hsv(p.hsv.low)} .. {format_hsv(p.hsv.high)})" for n, p in PRESETS.items())
+    parser.epilog = textwrap.fill(
+        f"Colour presets (OpenCV HSV low .. high): {presets}; the float's default is {DEFAULT_FLOAT_COLOR}.", 100
     )
-    g.add_argument(
-        "--liquid-color", metavar="NAME", help="dye colour preset (default: the one covering most of frame 0)"
-    )
-    g.add_argument(
-        "--liquid-hsv-low",
-        metavar="H,S,V",
-        help="lower corner of the dye colour in OpenCV HSV; overrides --liquid-color; give with --liquid-hsv-high",
-    )
-    g.add_argument("--liquid-hsv-high", metavar="H,S,V", help="upper corner of the dye colour in OpenCV HSV")
-    g.add_argument(
-        "--rest-frames", type=int, metavar="N", help="the first N frames define rest (default: first second)"
-    )
-    g.add_argument(
-        "--container-diameter-m", type=float, metavar="D", help="inner diameter, m: adds the wall heights in mm"
-    )
-
-
-def roi_from_args(text: str | None) -> tuple[int, int, int, int] | None:
-    """Parse --roi X,Y,W,H (four whole numbers) or None (track and inspect)."""
-    if text is None:
-        return None
-    try:
-        values = tuple(int(v) for v in text.split(","))
-    except ValueError:
-        values = ()
-    if len(values) != 4:
-        raise UserError(f"--roi must be four whole numbers X,Y,W,H in pixels, got '{text}'.")
-    return values[0], values[1], values[2], values[3]
 
 
 def run(args: argparse.Namespace) -> int:
     """Check the outputs, track, write the CSV (and overlay), report warnings; exit 1 when the video was truncated."""
-    settings = TrackSettings(
-        float_color=args.float_color,
-        float_hsv_low=parse_hsv(args.float_hsv_low, "--float-hsv-low") if args.float_hsv_low else None,
-        float_hsv_high=parse_hsv(args.float_hsv_high, "--float-hsv-high") if args.float_hsv_high else None,
-        roi=roi_from_args(args.roi),
-        reference=args.reference,
-        smooth=not args.no_smooth,
-        target=args.target,
-        liquid_color=args.liquid_color,
-        liquid_hsv_low=parse_hsv(args.liquid_hsv_low, "--liquid-hsv-low") if args.liquid_hsv_low else None,
-        liquid_hsv_high=parse_hsv(args.liquid_hsv_high, "--liquid-hsv-high") if args.liquid_hsv_high else None,
-        rest_frames=args.rest_frames,
-        container_diameter_m=args.container_diameter_m,
-    )
+    settings = settings_from(args, TrackSettings)
     outputs = Outputs([args.video])
     output = outputs.file(args.output, "-o", (".csv",))
     overlay = outputs.file(args.overlay, "--overlay", VIDEO_SUFFIXES) if args.overlay else None

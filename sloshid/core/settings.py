@@ -2,11 +2,16 @@
 
 from __future__ import annotations
 
+import ast
 import dataclasses
 import difflib
+import functools
+import inspect
+import itertools
 import math
 import numbers
 import sys
+import textwrap
 import types
 import typing
 from pathlib import Path
@@ -152,3 +157,50 @@ def check_in_metres(key: str, value: float | None, example: str = "0.05 for 50 m
         )
     if value < MIN_GEOMETRY_M:
         raise SettingError(key, f"{{name}} must be in metres, at least {MIN_GEOMETRY_M:g} ({example}), got {value:g}.")
+
+
+def setting_field(
+    default: Any = dataclasses.MISSING,
+    *,
+    unit: str | None = None,
+    option: str | None = None,
+    metavar: str | None = None,
+    group: str | None = None,
+    cli: bool = True,
+) -> Any:
+    """A settings dataclass field with what a front-end needs besides its type, default and attribute docstring (the
+    help text): its `unit`, its command-line `option` when not the field's name with hyphens (written without the
+    dashes: the library never spells a flag), the value's `metavar`, the help `group` and whether it is on the command
+    line at all (`cli`). The field's name is its TOML key and its Python keyword."""
+    metadata = {"unit": unit, "option": option, "metavar": metavar, "group": group, "cli": cli}
+    return dataclasses.field(default=default, metadata={k: v for k, v in metadata.items() if v is not None})
+
+
+@functools.cache
+def field_docs(cls: type) -> dict[str, str]:
+    """Each dataclass field's attribute docstring (the string under it), inherited ones too, on one line: the one help
+    text of a setting, which the settings reference, the command line's help and the API's docstrings all show."""
+    docs: dict[str, str] = {}
+    for klass in reversed(cls.__mro__):
+        if klass is object or not dataclasses.is_dataclass(klass):
+            continue
+        try:
+            tree = ast.parse(textwrap.dedent(inspect.getsource(klass)))
+        except (OSError, TypeError):  # no source (a frozen application): no help text rather than a failure
+            continue
+        body = typing.cast(ast.ClassDef, tree.body[0]).body
+        for node, after in itertools.pairwise(body):
+            if (
+                isinstance(node, ast.AnnAssign)
+                and isinstance(node.target, ast.Name)
+                and isinstance(after, ast.Expr)
+                and isinstance(after.value, ast.Constant)
+                and isinstance(after.value.value, str)
+            ):
+                docs[node.target.id] = " ".join(after.value.value.split())
+    return docs
+
+
+def init_fields(cls: type) -> list[dataclasses.Field]:
+    """The fields of settings class `cls` a caller may set (those of its __init__)."""
+    return [f for f in dataclasses.fields(typing.cast(Any, cls)) if f.init]

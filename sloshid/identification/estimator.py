@@ -16,7 +16,7 @@ from tqdm import tqdm
 from sloshid import __version__
 from sloshid.core.errors import SettingError, UserError
 from sloshid.core.hashing import file_sha256
-from sloshid.core.settings import check_in_metres
+from sloshid.core.settings import check_in_metres, setting_field
 from sloshid.core.spectrum import MIN_PROMINENCE, Spectrum, welch_spectrum
 from sloshid.core.tables import PROGRESS_DELAY_S, distinct_names, to_pandas
 from sloshid.identification.between import BetweenSignals, between_signals
@@ -81,25 +81,25 @@ MAX_MASS_KG = 1e4
 class IdentSettings:
     """How to identify (all optional; defaults suit tracker traces and wall-height sensors alike)."""
 
-    mass_kg: float | None = None
+    mass_kg: float | None = setting_field(None, unit="kg", option="mass", metavar="KG")
     """Liquid mass m; needed for the damping constant d = 2 m omega zeta (seed Table I uses 0.5 kg)."""
-    window_s: tuple[float, float] | None = None
-    """Fit window (t0, t1) in the signals' own seconds; None finds the free decay automatically."""
-    f_range_hz: tuple[float, float] = (0.5, 30.0)
+    window_s: tuple[float, float] | None = setting_field(None, unit="s", option="window", metavar="T0,T1")
+    """Fit window (t0, t1) in the signals' own seconds; not given: the free decay is found automatically."""
+    f_range_hz: tuple[float, float] = setting_field((0.5, 30.0), unit="Hz", option="f-range", metavar="LO,HI")
     """Frequency band searched for the sloshing mode."""
     drift: bool = False
     """Also fit a slow linear drift of the signal's zero (e.g. a float creeping across the surface)."""
-    min_fit_percent: float = 15.0
+    min_fit_percent: float = setting_field(15.0, unit="%", option="min-fit", metavar="PERCENT")
     """Below this NRMSE fit % the mode does not dominate the window and the verdict is uncertain. Fit % scores
     the whole waveform: clean tracker angles reach 80-99 %, wall-height sensors with nonlinear crests 35-65 %."""
-    min_periods: float = 4.0
+    min_periods: float = setting_field(4.0, unit="periods", metavar="N")
     """Fewer decay periods than this in a window make the verdict uncertain (fewer than 3 is an error)."""
-    second_mode_ratio: float = 0.25
+    second_mode_ratio: float = setting_field(0.25, metavar="RATIO")
     """A non-harmonic PSD peak above this fraction of the dominant one counts as a strong second mode (-6 dB): it is
     fitted as a second damped mode, and only when the data cannot separate the two is the verdict uncertain."""
-    container_radius_m: float | None = None
-    """Cylinder radius R for the analytic first-mode prior (needs fill_height_m)."""
-    fill_height_m: float | None = None
+    container_radius_m: float | None = setting_field(None, unit="m", metavar="M")
+    """Cylinder radius R for the analytic first-mode prior (needs `fill_height_m`)."""
+    fill_height_m: float | None = setting_field(None, unit="m", metavar="M")
     """Liquid fill height h for the prior."""
 
     def __post_init__(self) -> None:

@@ -12,6 +12,7 @@ import numpy as np
 
 from sloshid.core.errors import UserError
 from sloshid.core.errors import warn as sloshid_warn
+from sloshid.core.settings import setting_field
 from sloshid.identification.estimator import Identifier, IdentResult, IdentSettings, mass_against_geometry
 from sloshid.identification.signals import Signal, TracedAngles, check_csv_options, load_signal, signal_from_track
 
@@ -27,13 +28,15 @@ class SignalColumns:
     """Which columns (CSV) or variables (.mat) of a signal file hold the time in seconds and the signal; the columns
     of a tracker result's table too when every source is one (`identify_sources`)."""
 
-    time_col: str | None = None
-    """CSV time column, by name or 0-based index; default: a column named like a time (t_s, time, ...)."""
-    value_col: str | None = None
-    """CSV signal column, by name or index; default: angle_deg of a tracker CSV, or the second of two columns."""
-    time_var: str | None = None
+    time_col: str | None = setting_field(None, metavar="NAME|INDEX")
+    """CSV time column in seconds (name or 0-based index); not given: the column named t_s, time_s, t, time, times or
+    timestamp, else the first."""
+    value_col: str | None = setting_field(None, metavar="NAME|INDEX")
+    """CSV signal column (name or 0-based index); not given: a track CSV's angle_deg, of two columns the one that is
+    not the time (needed for more)."""
+    time_var: str | None = setting_field(None, metavar="NAME")
     """.mat variable holding the time in seconds."""
-    value_var: str | None = None
+    value_var: str | None = setting_field(None, metavar="NAME")
     """.mat variable holding the signal."""
 
 

@@ -15,7 +15,7 @@ import cv2
 import numpy as np
 
 from sloshid.core.errors import SettingError, UserError
-from sloshid.core.settings import check_in_metres
+from sloshid.core.settings import check_in_metres, setting_field
 from sloshid.core.tables import write_csv
 from sloshid.model.conventions import SEEN_SIGN
 from sloshid.model.pendulum import TABLE_I, SloshParams
@@ -34,98 +34,98 @@ BACKGROUND_BOTTOM_BGR = np.array([165, 170, 175], np.float32)
 class SynthSettings:
     """Everything `sloshid synth` can vary; the defaults give a clean 640x480 30 fps tap test of Table I."""
 
-    width: int = 640
+    width: int = setting_field(640, unit="px", group="timing")
     """Frame width in pixels."""
-    height: int = 480
+    height: int = setting_field(480, unit="px", group="timing")
     """Frame height in pixels."""
-    fps: float = 30.0
+    fps: float = setting_field(30.0, unit="frames/s", group="timing")
     """Nominal frame rate in frames per second."""
-    duration_s: float = 4.0
+    duration_s: float = setting_field(4.0, unit="s", option="duration", group="timing")
     """Length of the video in seconds."""
-    vfr_jitter: float = 0.0
+    vfr_jitter: float = setting_field(0.0, unit="frame intervals", group="timing")
     """Variable frame rate: each timestamp moves by up to this fraction of a frame interval (0..0.45)."""
-    motion: Literal["decay", "move"] = "decay"
+    motion: Literal["decay", "move"] = setting_field("decay", group="motion")
     """'decay': tap-test free decay; 'move': response to a constant-acceleration move to the image right."""
-    f_hz: float | None = None
-    """Natural frequency (with zeta); None uses l_m/d_ns_per_m/m_kg."""
-    zeta: float | None = None
-    """Damping ratio (with f_hz)."""
-    m_kg: float = TABLE_I.m_kg
+    f_hz: float | None = setting_field(None, unit="Hz", group="motion")
+    """Natural frequency (give with `zeta`); not given: the liquid of `l_m`, `d_ns_per_m` and `m_kg`."""
+    zeta: float | None = setting_field(None, group="motion")
+    """Damping ratio (give with `f_hz`)."""
+    m_kg: float = setting_field(TABLE_I.m_kg, unit="kg", group="motion")
     """Liquid mass (seed Table I by default)."""
-    l_m: float = TABLE_I.l_m
+    l_m: float = setting_field(TABLE_I.l_m, unit="m", group="motion")
     """Pendulum length l = g/omega^2."""
-    d_ns_per_m: float = TABLE_I.d_ns_per_m
+    d_ns_per_m: float = setting_field(TABLE_I.d_ns_per_m, unit="N s/m", group="motion")
     """Damping constant d = 2 m omega zeta."""
-    amplitude_deg: float = 8.0
+    amplitude_deg: float = setting_field(8.0, unit="deg", option="amplitude", group="motion")
     """Decay: first peak of the relative angle after the tap, in degrees (linearised estimate)."""
-    tap_s: float = 0.5
+    tap_s: float = setting_field(0.5, unit="s", option="tap", group="motion")
     """Decay: time of the tap; the liquid is at rest before it."""
-    accel_m_s2: float = 2.0
+    accel_m_s2: float = setting_field(2.0, unit="m/s^2", option="accel", group="motion")
     """Move: acceleration magnitude of the accelerate/decelerate profile."""
-    move_start_s: float = 0.5
+    move_start_s: float = setting_field(0.5, unit="s", option="move-start", group="motion")
     """Move: start time."""
-    move_duration_s: float = 1.0
+    move_duration_s: float = setting_field(1.0, unit="s", option="move-duration", group="motion")
     """Move: total time (half accelerating, half decelerating)."""
-    px_per_m: float = 500.0
+    px_per_m: float = setting_field(500.0, unit="px/m", group="motion")
     """Move: image scale used to translate the container with the move."""
-    travel_px: float = 0.0
+    travel_px: float = setting_field(0.0, unit="px", option="travel", group="camera")
     """Decay: the container crosses this many pixels to the right over the video (smooth start and stop)."""
-    container_tilt_deg: float = 0.0
+    container_tilt_deg: float = setting_field(0.0, unit="deg", option="tilt", group="camera")
     """Amplitude of a sinusoidal container tilt in the picture, degrees."""
-    container_tilt_hz: float = 0.4
+    container_tilt_hz: float = setting_field(0.4, unit="Hz", option="tilt-hz", group="camera")
     """Frequency of that tilt."""
-    camera_roll_deg: float = 0.0
+    camera_roll_deg: float = setting_field(0.0, unit="deg", option="roll", group="camera")
     """Camera not level: the whole scene appears rotated by this angle (CCW as seen)."""
-    noise_sigma: float = 0.0
+    noise_sigma: float = setting_field(0.0, unit="grey levels", option="noise", group="camera")
     """Sensor noise: standard deviation in grey levels (0..255 scale), per channel and pixel."""
-    blur_px: float = 0.0
+    blur_px: float = setting_field(0.0, unit="px", option="blur", group="camera")
     """Optical blur: Gaussian sigma in pixels (0 = sharp)."""
-    flicker: float = 0.0
+    flicker: float = setting_field(0.0, group="camera")
     """Lighting flicker: relative brightness swing (0.05 = +-5 %), 100 Hz mains beat plus random drift."""
-    codec: Codec = "h264"
+    codec: Codec = setting_field("h264", group="camera")
     """Compression: 'h264' (libx264) or 'mpeg4' (MPEG-4 Part 2)."""
-    quality: float | None = None
+    quality: float | None = setting_field(None, group="camera")
     """Codec quality: x264 CRF 0..51 (default 23) or MPEG-4 qscale 1..31 (default 4); lower is better."""
-    float_color: str = DEFAULT_FLOAT_COLOR
+    float_color: str = setting_field(DEFAULT_FLOAT_COLOR, metavar="NAME", group="camera")
     """Float colour preset name (see sloshid.video.colors.PRESETS)."""
-    float_length_frac: float = 0.2
+    float_length_frac: float = setting_field(0.2, unit="frame heights", option="float-length", group="camera")
     """Float length as a fraction of the frame height."""
-    seed: int = 0
+    seed: int = setting_field(0, group="camera")
     """Seed of every random draw (noise, flicker, frame-time jitter)."""
-    float_rounded: bool = False
+    float_rounded: bool = setting_field(False, group="camera")
     """Float scene: rounded float ends (a capsule) instead of square ones."""
-    float_bend_px: float = 0.0
+    float_bend_px: float = setting_field(0.0, unit="px", option="float-bend", group="camera")
     """Float scene: the float's ends sag this many pixels below its middle (a slightly curved float)."""
-    float_specular: float = 0.0
+    float_specular: float = setting_field(0.0, group="camera")
     """Float scene: opacity of a specular spot fixed to the light, so the float turns under it (0 = none)."""
-    float_submerged: float = 0.0
+    float_submerged: float = setting_field(0.0, group="camera")
     """Float scene: share of the float's thickness under the tinted liquid, seen through it (0..1)."""
-    motion_blur: float = 0.0
+    motion_blur: float = setting_field(0.0, unit="frame intervals", group="camera")
     """Exposure as a share of the frame interval (0..1): each frame averages 5 poses across it, centred."""
-    scene: Literal["float", "surface"] = "float"
+    scene: Literal["float", "surface"] = setting_field("float", group="surface")
     """'float': a coloured float on pale liquid; 'surface': dyed liquid whose surface itself is measured."""
-    liquid_color: str = "blue"
+    liquid_color: str = setting_field("blue", metavar="NAME", group="surface")
     """Surface scene: dye colour preset name (the liquid body's colour)."""
-    elevation_deg: float = 0.0
+    elevation_deg: float = setting_field(0.0, unit="deg", option="elevation", group="surface")
     """Surface scene: camera this far above the surface plane, so the round surface shows as a thin ellipse."""
-    meniscus_px: float = 0.0
+    meniscus_px: float = setting_field(0.0, unit="px", option="meniscus", group="surface")
     """Surface scene: thickness of the meniscus band along the surface (curls up 3x as high at the walls)."""
-    meniscus_dark: bool = False
+    meniscus_dark: bool = setting_field(False, group="surface")
     """Surface scene: a dark meniscus band instead of a bright one."""
-    specular: float = 0.0
+    specular: float = setting_field(0.0, group="surface")
     """Surface scene: opacity of two vertical highlight stripes on the glass (0 = none)."""
-    reflection: float = 0.0
+    reflection: float = setting_field(0.0, group="surface")
     """Surface scene: opacity of the surface's mirror image on the wall near each side (0 = none)."""
-    second_mode: float = 0.0
+    second_mode: float = setting_field(0.0, group="surface")
     """Surface scene: wall height of an antisymmetric second mode (1.7 f, 2 zeta) relative to the first mode's."""
-    container_diameter_m: float = 0.1
+    container_diameter_m: float = setting_field(0.1, unit="m", option="container-diameter", group="surface")
     """Surface scene: the container's inner diameter, which sets the millimetre scale of the wall-height truth."""
-    renderer: Literal["painted", "pbr"] = "painted"
+    renderer: Literal["painted", "pbr"] = setting_field("painted", group="renderer")
     """'painted': analytic polygons (exact edges, fast); 'pbr': a Mitsuba 3 path tracer of a random scene
-    (sloshid.synthetic.pbr), drawn from scene_seed."""
-    scene_seed: int = 0
+    (sloshid.synthetic.pbr), drawn from `scene_seed`."""
+    scene_seed: int = setting_field(0, group="renderer")
     """pbr: seed of the scene's random draw (container, liquid, background, camera, lens, light, sensor, float)."""
-    spp: int = 8
+    spp: int = setting_field(8, unit="samples/pixel", group="renderer")
     """pbr: path-tracing samples per pixel: a 640x480 frame takes about 0.65 s of CPU per sample per pixel (8: 5.2 s,
     2.6 s on two free cores)."""
 

@@ -275,11 +275,11 @@ class InspectResult:
         return page.save(directory)
 
 
-def read_frame(path: str | Path, at_s: float | None) -> tuple[np.ndarray, float]:
-    """The BGR frame on screen at `at_s` seconds (the last whose presentation time is not after it; None: the first)
+def read_frame(path: str | Path, at: float | None) -> tuple[np.ndarray, float]:
+    """The BGR frame on screen at `at` seconds (the last whose presentation time is not after it; None: the first)
     and its time; a single picture, a negative time or one after the last frame's time on screen is refused."""
-    if at_s is not None and not (math.isfinite(at_s) and at_s >= 0):
-        raise UserError(f"`at_s` must be a time of 0 s or more into the video, got {at_s:g}.")
+    if at is not None and not (math.isfinite(at) and at >= 0):
+        raise UserError(f"`at` must be a time of 0 s or more into the video, got {at:g}.")
     frames = iter(FrameReader(Path(path), False))
     try:
         first, second = next(frames), next(frames, None)
@@ -287,13 +287,13 @@ def read_frame(path: str | Path, at_s: float | None) -> tuple[np.ndarray, float]
         frames.close()
     if second is None:  # an image (PNG, JPEG) opens as a video of one frame
         raise UserError(f"{path} holds a single picture, not a video: inspect looks at a frame of the video to track.")
-    if not at_s:
+    if not at:
         return first[2], float(first[1])
-    reader = FrameReader(Path(path), False, start_s=max(0.0, at_s - AT_BEFORE_S))
+    reader = FrameReader(Path(path), False, start_s=max(0.0, at - AT_BEFORE_S))
     frames, shown, after = iter(reader), None, False
     try:
         for _, t, frame in frames:
-            if t > at_s + AT_TOLERANCE_S:
+            if t > at + AT_TOLERANCE_S:
                 after = True
                 break
             shown = (frame, float(t))
@@ -301,11 +301,11 @@ def read_frame(path: str | Path, at_s: float | None) -> tuple[np.ndarray, float]
         frames.close()
     if shown is None:  # every frame lies more than AT_BEFORE_S before the time asked for
         lasts = f", which lasts {reader.info.duration_s:.3f} s" if reader.info.duration_s else ""
-        raise UserError(f"`at_s` {at_s:g} s is beyond the end of {path}{lasts}; give a time within the video.")
+        raise UserError(f"`at` {at:g} s is beyond the end of {path}{lasts}; give a time within the video.")
     end = shown[1] + 1 / (reader.info.fps or 30.0)  # the last frame stays on screen for a frame's time
-    if not after and at_s >= end:
+    if not after and at >= end:
         raise UserError(
-            f"`at_s` {at_s:g} s is beyond the end of {path}, whose last frame is shown from {shown[1]:.3f} s to "
+            f"`at` {at:g} s is beyond the end of {path}, whose last frame is shown from {shown[1]:.3f} s to "
             f"{end:.3f} s; give a time within the video."
         )
     return shown
@@ -464,7 +464,7 @@ def what_it_saw(frame: np.ndarray, roi: tuple[int, int, int, int]) -> tuple[str,
             (
                 f"no preset colour here, and no coloured region (saturation {SATURATED[0]} or more) of {MIN_AREA_PX} px or more, "
                 f"{greys}: a grey picture. Track needs a float or a dye of a clear colour (red, orange, yellow, green, "
-                "blue, magenta); check the file, the lighting, or the time given (`at_s`)."
+                "blue, magenta); check the file, the lighting, or the time given (`at`)."
             ),
             f"a grey picture (no coloured region, median saturation {s_med} of 255)",
             {},
@@ -493,14 +493,14 @@ def what_it_saw(frame: np.ndarray, roi: tuple[int, int, int, int]) -> tuple[str,
 
 
 def inspect_video(
-    path: str | Path, at_s: float | None = None, roi: tuple[int, int, int, int] | None = None
+    path: str | Path, at: float | None = None, roi: tuple[int, int, int, int] | None = None
 ) -> InspectResult:
-    """Look at one frame of `path` (the first, or the one at `at_s` seconds) as each target would track it.
+    """Look at one frame of `path` (the first, or the one at `at` seconds) as each target would track it.
 
     Raises UserError for a file that is not a video, a single picture, a time outside the video and a ROI outside the
     frame. Finding nothing is not an error here: the result says what was seen (`seen`) and has no `target`."""
     video = Path(path)
-    frame, t_s = read_frame(video, at_s)
+    frame, t_s = read_frame(video, at)
     size = (frame.shape[1], frame.shape[0])
     box = roi_box(TrackSettings(roi=None if roi is None else tuple(roi)), *size)
     res = InspectResult(
@@ -600,7 +600,7 @@ def _decide(res: InspectResult, frame: np.ndarray, labels: dict, drawn: dict) ->
         res.saw = (res.saw + "; " if res.saw else "") + f"{names} found, but neither as a liquid nor as a float"
         res.notes.append(
             "nothing here is a dyed liquid or a float: the colours found cover too little of the area, or are not "
-            "elongated; try `roi` around the liquid or float, or a frame where they show (`at_s`)"
+            "elongated; try `roi` around the liquid or float, or a frame where they show (`at`)"
         )
     if res.track_settings and not res.measured:
         res.notes.append(

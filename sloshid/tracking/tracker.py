@@ -29,7 +29,7 @@ from sloshid.core.atomic import atomic_path
 from sloshid.core.errors import SettingError, UserError, warn
 from sloshid.core.outputs import Outputs
 from sloshid.core.parallel import die_with_parent, signals_held
-from sloshid.core.settings import check_in_metres
+from sloshid.core.settings import check_in_metres, setting_field
 from sloshid.core.tables import to_pandas, write_csv
 from sloshid.tracking.container_ref import ContainerMeasurement, ContainerTracker, WallsRecord
 from sloshid.tracking.float_angle import FloatFinder
@@ -87,31 +87,34 @@ class TrackSettings:
     settings object of the tracker, which `sloshid track` options, the pipeline's and batch's [track] table and
     `sloshid.track(...)` keywords all fill."""
 
-    float_color: str | None = None
+    float_color: str | None = setting_field(None, metavar="NAME")
     """Named float colour preset (red, orange, yellow, green, blue, magenta); not given: red for the float target."""
-    float_hsv_low: tuple[int, int, int] | None = None
-    """Lower OpenCV HSV corner (H 0..179, S and V 0..255); overrides float_color, needs float_hsv_high. A hue
-    low above the hue high wraps through red."""
-    float_hsv_high: tuple[int, int, int] | None = None
-    """Upper OpenCV HSV corner."""
-    roi: tuple[int, int, int, int] | None = None
-    """Region of interest x, y, width, height in pixels; None = whole frame."""
+    float_hsv_low: tuple[int, int, int] | None = setting_field(None, metavar="H,S,V")
+    """Lower OpenCV HSV corner of the float's colour (H 0..179, S and V 0..255); overrides `float_color`, needs
+    `float_hsv_high`. A hue low above the hue high wraps through red."""
+    float_hsv_high: tuple[int, int, int] | None = setting_field(None, metavar="H,S,V")
+    """Upper OpenCV HSV corner of the float's colour."""
+    roi: tuple[int, int, int, int] | None = setting_field(None, unit="px", metavar="X,Y,W,H")
+    """Search only this region: left x, top y, width, height; not given: the whole frame."""
     reference: Literal["image", "container"] = "image"
-    """'image': angle against the image horizontal; 'container': against the container's measured walls."""
+    """'image': the angle against the image horizontal; 'container': against the container's side walls (measured in
+    every frame while the container moves, in every 6th while it stands still)."""
     smooth: bool = True
-    """Compute angle_smoothed_deg (Kalman + RTS); off saves a little time on very long videos."""
-    target: Literal["float", "surface"] = "float"
-    """'float': a coloured float's angle; 'surface': the dyed liquid's surface angle and wall heights."""
-    liquid_color: str | None = None
-    """Surface target: named dye colour preset; with neither it nor liquid_hsv_low/high, the preset covering most
-    of the first frame is taken."""
-    liquid_hsv_low: tuple[int, int, int] | None = None
-    """Surface target: lower OpenCV HSV corner of the dyed liquid; overrides liquid_color, needs liquid_hsv_high."""
-    liquid_hsv_high: tuple[int, int, int] | None = None
+    """Compute angle_smoothed_deg (Kalman + RTS smoother); off saves a little time on very long videos (NaN column)."""
+    target: Literal["float", "surface"] = setting_field("float", group="surface")
+    """'float': a coloured float's angle; 'surface': the dyed liquid's surface angle and its height at each wall."""
+    liquid_color: str | None = setting_field(None, metavar="NAME", group="surface")
+    """Surface target: named dye colour preset; with neither it nor `liquid_hsv_low`/`liquid_hsv_high`, the preset
+    covering most of the first frame is taken."""
+    liquid_hsv_low: tuple[int, int, int] | None = setting_field(None, metavar="H,S,V", group="surface")
+    """Surface target: lower OpenCV HSV corner of the dyed liquid; overrides `liquid_color`, needs
+    `liquid_hsv_high`."""
+    liquid_hsv_high: tuple[int, int, int] | None = setting_field(None, metavar="H,S,V", group="surface")
     """Surface target: upper OpenCV HSV corner of the dyed liquid."""
-    rest_frames: int | None = None
-    """Surface target: the first this many frames define the rest level of the wall heights; None = the first second."""
-    container_diameter_m: float | None = None
+    rest_frames: int | None = setting_field(None, unit="frames", metavar="N", group="surface")
+    """Surface target: the first this many frames define the rest level of the wall heights; not given: the first
+    second."""
+    container_diameter_m: float | None = setting_field(None, unit="m", metavar="D", group="surface")
     """Surface target: the container's inner diameter, for the wall heights in millimetres (the walls give px/m)."""
 
     def __post_init__(self) -> None:

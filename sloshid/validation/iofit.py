@@ -25,7 +25,7 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from sloshid.core.errors import SettingError
-from sloshid.core.settings import check_in_metres
+from sloshid.core.settings import check_in_metres, setting_field
 from sloshid.identification.estimator import (
     Estimate,
     Identifier,
@@ -509,17 +509,31 @@ def fit_io(
     )
 
 
+@dataclass(frozen=True)
+class IOSettings:
+    """How input-output identification (`identify --trajectory`) reads the pose logs beside the signals."""
+
+    axis_offset_m: float = setting_field(0.0, unit="m", metavar="M", group="io")
+    """Distance along the container axis from the logged point up to the pendulum pivot (about the liquid surface at
+    rest)."""
+    pose_columns: str | None = setting_field(None, metavar="NAMES", group="io")
+    """A headerless pose log's column names in order, e.g. t,x,y,z,qx,qy,qz,qw (as `sloshid predict` reads them)."""
+    smooth_s: float = setting_field(SMOOTH_S, unit="s", metavar="S", group="io")
+    """Savitzky-Golay window for the pose log's accelerations."""
+    views_deg: float | None = setting_field(None, unit="deg", metavar="DEG", group="io")
+    """The wall height is seen in two planes 90 deg apart fixed to the container, the first at this azimuth from its x
+    axis (two cameras on the end-effector, as in the shared antisloshing runs: 0); not given: the whole wall's peak."""
+
+
 def fit_io_files(
     trajectories: list[str],
     signals: list[Signal],
     settings: IdentSettings,
     radius_m: float | None,
-    axis_offset_m: float,
-    smooth_s: float,
-    pose_columns: str | None = None,
-    views_deg: float | None = None,
+    io: IOSettings | None = None,
 ) -> IOFit:
     """`identify --trajectory`: check the counts and geometry, read the pose logs, fit."""
+    io = io or IOSettings()
     if len(trajectories) != len(signals):
         raise SettingError(
             "trajectory",
@@ -529,9 +543,9 @@ def fit_io_files(
     check_in_metres("container_radius_m", radius_m)
     if radius_m is None and any(s.unit == "mm" for s in signals):
         raise SettingError("container_radius_m", "wall heights in mm need the container radius: give {name} (m).")
-    poses = [load_pose_log(t, pose_columns) for t in trajectories]
+    poses = [load_pose_log(t, io.pose_columns) for t in trajectories]
     names = [Path(s.source).stem for s in signals]
-    return fit_io(poses, signals, radius_m, axis_offset_m, smooth_s, settings, names, views_deg)
+    return fit_io(poses, signals, radius_m, io.axis_offset_m, io.smooth_s, settings, names, io.views_deg)
 
 
 def _estimates(

@@ -12,7 +12,7 @@ import numpy as np
 
 from sloshid.core.errors import UserError
 from sloshid.core.hashing import file_sha256
-from sloshid.core.settings import check_in_metres
+from sloshid.core.settings import check_in_metres, setting_field
 from sloshid.core.tables import write_csv
 from sloshid.identification.stage import check_sampling
 from sloshid.model.pendulum import SloshParams
@@ -39,6 +39,26 @@ MODEL_ERROR_LOG_SD = 0.10
 """Model error of a predicted peak (root mean square of log(measured / predicted peak)), calibrated on the held-out
 kinds of the shared runs (benchmarks/validate_real.py, leave-one-kind-out: 0.104 over the nine runs): part of every
 band."""
+
+
+@dataclass(frozen=True)
+class GeometrySettings:
+    """The container's geometry and the pose log's reading for `predict` and `validate`, each replacing what the
+    parameters store (`LiquidModel.with_geometry`); not given: the stored value."""
+
+    axis_offset_m: float | None = setting_field(None, unit="m", metavar="M")
+    """Distance along the container axis from the logged point up to the pendulum pivot (about the liquid surface at
+    rest); not given: the value stored in the parameters, else 0 (predict: 0 for a sloshid trajectory, whose point is
+    the pivot)."""
+    container_radius_m: float | None = setting_field(None, unit="m", metavar="M")
+    """Container radius R, for the wall height; not given: the radius the parameters were identified with (when
+    identify had `container_radius_m`); without one only the angles are written."""
+    pose_columns: str | None = setting_field(None, metavar="NAMES")
+    """Names of a headerless pose log's columns in order, e.g. t,x,y,z,qx,qy,qz,qw (the default for 8 columns) or
+    t,x,y,z,roll_deg,pitch_deg,yaw_deg; _ skips a column."""
+    smooth_s: float | None = setting_field(None, unit="s", metavar="S")
+    """Savitzky-Golay window for accelerations from a pose log; not given: the stored one (0.1 s by default: gain
+    0.999 at 3 Hz)."""
 
 
 @dataclass(frozen=True)

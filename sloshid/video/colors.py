@@ -67,18 +67,6 @@ def preset(name: str) -> ColorPreset:
         ) from None
 
 
-def parse_hsv(text: str, what: str) -> tuple[int, int, int]:
-    """Parse 'H,S,V' (three whole numbers) or raise a one-sentence UserError naming the option `what`."""
-    parts = [p.strip() for p in str(text).split(",")]
-    try:
-        values = tuple(int(p) for p in parts)
-    except ValueError:
-        values = ()
-    if len(values) != 3:
-        raise UserError(f"{what} must be three whole numbers H,S,V (H 0..179, S and V 0..255), got '{text}'.")
-    return values
-
-
 def format_hsv(triple: tuple[int, int, int]) -> str:
     """'H,S,V' as written on the command line."""
     return ",".join(str(v) for v in triple)
