@@ -112,7 +112,7 @@ def sample_move(
 ) -> Trajectory:
     """Chain one PathProfile per segment of `move` on a uniform grid (each leg ends at rest on a grid point)."""
     legs = move.segments()
-    chunks = []
+    chunks: list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = []
     t0 = 0.0
     for (start, direction, _length), prof in zip(legs, profiles):
         n = math.ceil(prof.duration_s / dt_s - 1e-9)

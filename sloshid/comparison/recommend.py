@@ -3,6 +3,7 @@ knows (the identified 95 % interval of f widened by a margin), within robot and 
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
@@ -77,9 +78,15 @@ def frequency_band(f_hz: float, interval_hz: tuple[float, float] | None, margin:
     return band, f"the nominal {f_hz:.4g} Hz widened by {100 * margin:g} % (no identified interval)"
 
 
+def _transfer_time(r: MethodResult) -> float:
+    """A scored method's transfer time (s); an unscored one's is infinite."""
+    return r.score.transfer_time_s if r.score is not None else math.inf
+
+
 def _static_failure(r: MethodResult) -> str:
     """Why a method loses before any band check: limits or a collision (empty when it passes)."""
     s = r.score
+    assert s is not None  # an applicable method is scored
     if s.min_clearance_m is not None and s.min_clearance_m < 0:
         return "collides with an obstacle"
     if s.limits_failed:
@@ -115,10 +122,10 @@ def recommend(
     truths = [params.scaled(f / params.f_hz, 1.0) for f in freqs]
     checks: dict[str, BandCheck] = {}
     losers: list[str] = []
-    ranked = sorted((r for r in results if r.applicable), key=lambda r: r.score.transfer_time_s)
+    ranked = sorted((r for r in results if r.applicable), key=_transfer_time)
     for r in ranked:
         why = _static_failure(r)
-        if not why:
+        if not why and r.replay is not None:
             resp = band_responses({r.label: r.replay}, truths, settings.settle_s, progress)[r.label]
             check = BandCheck(freqs, tuple(resp[:, 0]), tuple(resp[:, 1]))
             why = _band_failure(check, settings)

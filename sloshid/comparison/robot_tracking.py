@@ -81,9 +81,11 @@ def executed_moves(trajs: list[Trajectory], robot: control.TransferFunction) -> 
     filtered, every trajectory in one recursion)."""
     channels = [np.hstack([tr.pos_m, tr.vel_m_s, tr.acc_m_s2, tr.euler_rad, tr.euler_rate_rad_s]) for tr in trajs]
     done = forced_columns(robot, [(tr.t_s, ch - ch[0]) for tr, ch in zip(trajs, channels)])
-    return [
-        Trajectory(tr.t_s, *np.split(ch[0] + f, 5, axis=1), name=tr.name) for tr, ch, f in zip(trajs, channels, done)
-    ]
+    moves = []
+    for tr, ch, f in zip(trajs, channels, done):
+        pos, vel, acc, euler, rate = np.split(ch[0] + f, 5, axis=1)
+        moves.append(Trajectory(tr.t_s, pos, vel, acc, euler, rate, name=tr.name))
+    return moves
 
 
 @dataclass

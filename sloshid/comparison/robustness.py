@@ -55,6 +55,7 @@ class Replay:
         """Feedback only: run the loop against every true liquid not yet run, all of them in one pass."""
         todo = list({_liquid_key(t): t for t in truths if _liquid_key(t) not in self.runs}.values())
         if todo:
+            assert self.model is not None and self.feedback is not None  # called for feedback loops only
             done = run_feedbacks(self.trajectory, self.model, todo, self.feedback, self.bandwidth_hz)
             self.runs.update({_liquid_key(t): run.trajectory for t, run in zip(todo, done)})
 
@@ -156,11 +157,11 @@ def sweep(
     The residual peaks in the first slosh period after arrival, so `settle_s` = 1 s covers it for f > 1 Hz;
     `workers` > 1 spreads the feedback loops over that many processes.
     """
-    omega_factors = np.asarray(sorted(set(omega_factors) | {1.0}), float)  # the nominal point is always swept
-    zeta_factors = np.asarray(sorted(set(zeta_factors) | {1.0}), float)
-    truths = [params.scaled(f, 1.0) for f in omega_factors] + [params.scaled(1.0, z) for z in zeta_factors]
+    omegas = np.asarray(sorted(set(omega_factors) | {1.0}), float)  # the nominal point is always swept
+    zetas = np.asarray(sorted(set(zeta_factors) | {1.0}), float)
+    truths = [params.scaled(f, 1.0) for f in omegas] + [params.scaled(1.0, z) for z in zetas]
     by_truth = band_responses(replays, truths, settle_s, progress, workers)
     by_omega, by_zeta = {}, {}
     for label, resp in by_truth.items():
-        by_omega[label], by_zeta[label] = resp[: len(omega_factors), 1], resp[len(omega_factors) :, 1]
-    return RobustnessResult(omega_factors, zeta_factors, by_omega, by_zeta)
+        by_omega[label], by_zeta[label] = resp[: len(omegas), 1], resp[len(omegas) :, 1]
+    return RobustnessResult(omegas, zetas, by_omega, by_zeta)

@@ -37,7 +37,10 @@ def ruckig_leg(start, goal, move: MoveTask, jerk_max_m_s3: float) -> RuckigTraje
 
 def jerk_limited(move: MoveTask, jerk_max_m_s3: float, tilt: bool = False, dt_s: float = DT_S) -> Trajectory:
     """Methods 3 and 4: ruckig's time-optimal jerk-limited move through the waypoints (stop at each)."""
-    t_parts, pos_parts, vel_parts, acc_parts = [], [], [], []
+    t_parts: list[np.ndarray] = []
+    pos_parts: list[np.ndarray] = []
+    vel_parts: list[np.ndarray] = []
+    acc_parts: list[np.ndarray] = []
     t0 = 0.0
     for _k, (start, goal) in enumerate(zip(move.waypoints[:-1], move.waypoints[1:])):
         if np.allclose(start, goal):

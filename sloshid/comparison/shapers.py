@@ -56,7 +56,9 @@ def shape(profile: PathProfile, shaper: Shaper) -> PathProfile:
 
     def evaluate(t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         parts = [profile.evaluate(np.asarray(t, float) - ti) for ti in shaper.times_s]
-        return tuple(sum(a * p[k] for a, p in zip(shaper.amplitudes, parts)) for k in range(3))
+        zero = np.zeros(np.shape(t))
+        pos, vel, acc = (sum((a * p[k] for a, p in zip(shaper.amplitudes, parts)), zero) for k in range(3))
+        return pos, vel, acc
 
     return PathProfile(profile.length_m, profile.duration_s + shaper.duration_s, evaluate)
 

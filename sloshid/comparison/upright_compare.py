@@ -15,6 +15,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import SimpleNamespace
+from typing import cast
 
 import numpy as np
 
@@ -25,7 +26,7 @@ from sloshid.comparison.toppra_moves import toppra_profile
 from sloshid.model.pendulum import SloshParams
 from sloshid.model.trajectory import Trajectory
 from sloshid.planning.risk import ROBUST_UPRIGHT_SAMPLES, RiskEstimate, monte_carlo, spreads, walls_of
-from sloshid.planning.scenario import Scenario
+from sloshid.planning.scenario import Scenario, Vec3
 from sloshid.planning.upright import UprightPlan, line_limits, plan_upright
 from sloshid.planning.vessels import Vessel
 
@@ -59,7 +60,8 @@ def _builders(scenario: Scenario, mode: SloshParams) -> dict[str, Callable[[floa
     def task(c: float) -> MoveTask:
         acc = tuple(min(a, scenario.robot.acc_m_s2) * c for a in scenario.limits.acc_max)
         vel = tuple(min(v, scenario.robot.vel_m_s) for v in scenario.limits.vel_max)
-        return MoveTask(tuple(map(tuple, scenario.waypoints)), acc, vel)
+        points = tuple(cast(Vec3, tuple(w)) for w in scenario.waypoints)
+        return MoveTask(points, cast(Vec3, acc), cast(Vec3, vel))
 
     def toppra(c: float, shaped: bool) -> Trajectory:
         t = task(c)
@@ -146,17 +148,17 @@ class UprightComparison:
             )
             share = f" at {100 * r.acc_share:.1f} % acc" if r.acc_share is not None and r.acc_share < 1 else ""
             lines.append(
-                f"  {i}. {r.label}: T = {r.T_s:.3f} s{share}; wall {100 * r.peak_use:.0f} % of allowed, "
+                f"  {i}. {r.label}: T = {r.T_s:.3f} s{share}; wall {100 * (r.peak_use if r.peak_use is not None else math.nan):.0f} % of allowed, "
                 f"{r.residual_mm:.2f} mm after; {'meets' if r.meets else 'BREAKS'} margin and residual; {risk}"
             )
         return "\n".join(lines)
 
     def write_first(self, path: str | Path, inputs: tuple[str | Path, ...] = ()) -> Path | None:
         """Write the first-ranked move that meets margin and residual as a 1 kHz trajectory CSV (None: none does)."""
-        best = next((r for r in self.ranked() if r.meets and r.trajectory is not None), None)
+        best = next((r.trajectory for r in self.ranked() if r.meets and r.trajectory is not None), None)
         if best is None:
             return None
-        best.trajectory.to_csv(path, inputs)
+        best.to_csv(path, inputs)
         return Path(path)
 
     def report_page(self):

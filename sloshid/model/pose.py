@@ -340,7 +340,7 @@ def _column_names(header: list[str] | None, columns: str | None, ncols: int, p: 
                 "(e.g. t,x,y,z,qx,qy,qz,qw or t,x,y,z,roll_deg,pitch_deg,yaw_deg).",
             )
         given = list(DEFAULT_COLUMNS)
-    raw = given if given is not None else [h.strip().lower() for h in header]
+    raw = given if given is not None else [h.strip().lower() for h in header or ()]
     if len(raw) != ncols:
         raise SettingError("pose_columns", f"{{name}} names {len(raw)} columns but {p} has {ncols}.")
     names = []

@@ -65,7 +65,7 @@ def integrate_pendulums(
     pieces: Sequence[tuple[float, float, Accel]],
     t_eval: np.ndarray,
     params: SloshParams,
-    y0: Sequence[float] = (0.0, 0.0, 0.0, 0.0),
+    y0: Sequence[float] | np.ndarray = (0.0, 0.0, 0.0, 0.0),
     rtol: float = 1e-10,
     atol: float = 1e-12,
     max_step: float = np.inf,

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import cast
 
 import casadi as ca
 import numpy as np
@@ -86,6 +87,7 @@ class PathProblem:
     def between(self, h: ca.SX) -> tuple[ca.SX, list[str]]:
         """Per-axis velocity and acceleration at BETWEEN_POINTS inside each interval (sigma exact under sigma''')."""
         x, u, out, kinds = self.x, self.u, [], []
+        assert self.geometry is not None and self.lim is not None  # set by build_path_problem
         for i in range(1, BETWEEN_POINTS + 1):
             tau = h * i / (BETWEEN_POINTS + 1)
             sd = x[SD] + x[SDD] * tau + u[0] * tau**2 / 2
@@ -123,7 +125,8 @@ def build_path_problem(s: PathStructure, geo: PathGeometry) -> PathProblem:
     _p0, p1, p2, p3 = _curve(sigma, poly, knots, jumps)
     acc = p2 * sd**2 + p1 * sdd
     jerk = p3 * sd**3 + 3 * p2 * sd * sdd + p1 * u[0]
-    fluid = type("Liquid", (), {"l_m": liquid[0], "damping_rate_1_s": liquid[1]})
+    # the pendulum's two parameters as symbols, where SloshParams holds numbers
+    fluid = cast(SloshParams, type("Liquid", (), {"l_m": liquid[0], "damping_rate_1_s": liquid[1]}))
     zero = ca.SX(0)
     o = [zero, zero, zero, x[3], x[4], zero, zero, zero, zero, x[5], x[6], zero]
     dd = pendulum_rhs_3d(o, [acc[0], acc[1], acc[2]], fluid, ca.sin, ca.cos)

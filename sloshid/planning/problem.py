@@ -110,7 +110,7 @@ class SegmentProblem:
     def position_at(self, tau: ca.SX) -> ca.SX:
         """Exact position tau after a node under the constant input u (the input's polynomial)."""
         x, u, lay = self.x, self.u, self.lay
-        acc = x[lay.acc] if self.s.jerk_limited else u
+        acc = x[lay.acc] if lay.acc is not None else u  # acceleration is a state when the jerk is the input
         return x[lay.pos] + x[lay.vel] * tau + acc * tau**2 / 2 + (u * tau**3 / 6 if self.s.jerk_limited else 0)
 
 
@@ -272,7 +272,7 @@ def parameter_values(
         if o.kind == "sphere":
             params += [*o.center, o.radius + inflate_m]
     for o in obstacles:
-        if o.kind == "cylinder":
+        if o.kind == "cylinder" and o.z_range is not None:  # a cylinder always has one (Obstacle checks)
             params += [*o.center[:2], o.z_range[0] - inflate_m, o.z_range[1] + inflate_m, o.radius + inflate_m]
     return params
 

@@ -98,7 +98,7 @@ def path_figure(result: PlanResult, scenario: Scenario):
         if o.kind == "sphere":
             _sphere(ax, o.center, o.radius, "C3")
             _sphere(ax, o.center, o.radius + R, "0.75")
-        else:
+        elif o.z_range is not None:  # a cylinder always has one (Obstacle checks)
             _cylinder(ax, o.center, o.radius, o.z_range, "C3")
             _cylinder(ax, o.center, o.radius + R, (o.z_range[0] - R, o.z_range[1] + R), "0.75")
     step = max(1, round(0.08 / tr.dt_s))
@@ -302,7 +302,7 @@ def _limits_section(rep: Report, result: PlanResult, scenario: Scenario) -> None
 
 def _path_and_joints_section(rep: Report, result: PlanResult) -> None:
     """How close a [path] plan stays to the user's path, and whether the Panda can follow the trajectory."""
-    if result.max_path_deviation_m is not None:
+    if result.max_path_deviation_m is not None and result.path_tolerance_m is not None:
         rep.add_text(
             f"Prescribed path: the 1 kHz trajectory stays within {result.max_path_deviation_m * 1e3:.3f} mm of it "
             f"(tolerance {result.path_tolerance_m * 1e3:g} mm); the liquid may lean against the container by up to "

@@ -12,7 +12,7 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any, Literal, cast
 
 import numpy as np
 
@@ -64,7 +64,10 @@ class Move:
 
     def points(self) -> list[Vec3]:
         """Start ... goal as a list."""
-        return list(self.waypoints) if self.waypoints is not None else [self.start, self.goal]
+        if self.waypoints is not None:
+            return list(self.waypoints)
+        assert self.start is not None and self.goal is not None  # __post_init__ asks for both
+        return [self.start, self.goal]
 
 
 @dataclass(frozen=True)
@@ -151,6 +154,7 @@ class Obstacle:
         if self.kind == "sphere":
             return np.linalg.norm(p - np.asarray(self.center), axis=-1) - r
         radial = np.hypot(p[..., 0] - self.center[0], p[..., 1] - self.center[1]) - r
+        assert self.z_range is not None  # a cylinder's, checked in __post_init__
         lo, hi = self.z_range[0] - inflate_m, self.z_range[1] + inflate_m
         vertical = np.maximum(lo - p[..., 2], p[..., 2] - hi)
         return np.maximum(radial, vertical)
@@ -477,7 +481,7 @@ def scenario_from_dict(data: dict[str, Any], source: str = "") -> Scenario:
     if "path" in data:
         path_table = from_dict(PathTable, data["path"], "[path]")
         geometry = build_geometry(path_table, Path(source).parent if source else None)
-        points = [tuple(map(float, geometry.start)), tuple(map(float, geometry.end))]
+        points = [cast(Vec3, tuple(map(float, p))) for p in (geometry.start, geometry.end)]
     else:
         points = from_dict(Move, data["move"], "[move]").points()
     obstacles_raw = data.get("obstacles", [])

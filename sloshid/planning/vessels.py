@@ -69,8 +69,7 @@ def identified_spread(path: str | Path) -> tuple[float | None, float | None]:
 
 def _tray_liquid(c: TrayContainer, label: str, folder: Path) -> tuple[SloshParams, float | None, float | None]:
     """A tray container's liquid: its pendulum keys, its identify JSON, or its fill with a damping ratio."""
-    pendulum = (c.m_kg, c.l_m, c.d_ns_per_m)
-    if all(v is not None for v in pendulum):
+    if c.m_kg is not None and c.l_m is not None and c.d_ns_per_m is not None:
         return SloshParams(c.m_kg, c.l_m, c.d_ns_per_m), None, None
     if c.params is not None:
         path = folder / c.params

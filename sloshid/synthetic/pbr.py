@@ -410,7 +410,7 @@ class PbrRenderer:
     # --- pictures and truth --------------------------------------------------------------------------------------
     def radiance(self, k: int, spp: int) -> np.ndarray:
         """The linear RGB picture of frame k (undistorted, seeded by the frame's index)."""
-        img = self.mi.render(self.scene(self.frame_pose(k), spp), seed=int(k))
+        img = self.mi.render(self.scene(self.frame_pose(k), spp), seed=int(k))  # type: ignore[arg-type]  # stub: UInt32
         return np.array(img, dtype=np.float32)[..., :3]
 
     def develop(self, rgb: np.ndarray, noise: NoisePool | None) -> np.ndarray:

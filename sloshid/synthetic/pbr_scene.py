@@ -13,10 +13,14 @@ from __future__ import annotations
 
 import math
 from dataclasses import asdict, dataclass
+from typing import cast
 
 import numpy as np
 
 from sloshid.synthetic.surface_scene import _G1
+
+RGB = tuple[float, float, float]
+"""A linear RGB colour, each channel 0-1."""
 
 CONTAINERS = ("cylinder", "tumbler", "beaker", "square")
 LIQUIDS = ("strong_dye", "faint_dye", "juice", "cola")
@@ -54,8 +58,8 @@ class PbrScene:
     liquid_color: str
     """The dye's colour preset, or 'none' (cola)."""
     background: str
-    wall_rgb: tuple[float, float, float]
-    table_rgb: tuple[float, float, float]
+    wall_rgb: RGB
+    table_rgb: RGB
     clutter: tuple[tuple[float, ...], ...]
     """Boxes behind the container: (x, y, half width, half depth, height, r, g, b) each."""
     elevation_deg: float
@@ -118,8 +122,8 @@ def draw_scene(seed: int, scene: str = "surface") -> PbrScene:
     dye = str(rng.choice(JUICE_COLORS if liquid == "juice" else DYE_COLORS)) if liquid != "cola" else "none"
     background = str(rng.choice(BACKGROUNDS))
     grey = u(0.55, 0.9)
-    wall = tuple(float(grey * c) for c in u(0.92, 1.0, 3))
-    table = tuple(float(c) for c in (u(0.35, 0.75) * np.array([1.0, 0.85, 0.65]) * u(0.9, 1.0, 3)))
+    wall = cast(RGB, tuple(float(grey * c) for c in u(0.92, 1.0, 3)))
+    table = cast(RGB, tuple(float(c) for c in (u(0.35, 0.75) * np.array([1.0, 0.85, 0.65]) * u(0.9, 1.0, 3))))
     n_clutter = int(rng.integers(3, 7)) if background == "clutter" else 0
     clutter = tuple(
         (

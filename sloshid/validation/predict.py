@@ -141,6 +141,7 @@ class LiquidModel:
 def wall_parts(resp: PoseResponse) -> tuple[np.ndarray, np.ndarray]:
     """The static surface's gradient and the first mode's excess over it (the pendulum's gradient minus it), in the
     container frame (N, 2 each)."""
+    assert resp.slope is not None and resp.static_slope is not None  # a response computed with its slopes
     return resp.static_slope, resp.slope - resp.static_slope
 
 
@@ -166,6 +167,8 @@ def read_out(
         size = np.maximum(np.abs(total @ [math.cos(a), math.sin(a)]), np.abs(total @ [-math.sin(a), math.cos(a)]))
     slope = size * (1.0 + crest * np.linalg.norm(part, axis=1))
     if kind == "wall_height_mm":
+        if radius_m is None:
+            raise ValueError("a wall height needs the container's radius")
         return 1000.0 * radius_m * slope
     return np.degrees(np.arctan(slope))
 

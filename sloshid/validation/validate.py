@@ -84,7 +84,7 @@ class ValidationRun:
     def band_peak(self) -> tuple[float, float]:
         """The band's edges for the peak during the move: the peaks of its lower and upper edges."""
         during = (self.t_s >= self.move_s[0]) & (self.t_s <= self.move_s[1])
-        if self.lo is None or not during.any():
+        if self.lo is None or self.hi is None or not during.any():
             return (float("nan"), float("nan"))
         return float(self.lo[during].max()), float(self.hi[during].max())
 
@@ -172,11 +172,11 @@ def validate_run(pose: PoseLog, sig: Signal, model: LiquidModel, name: str = "")
     )
 
 
-def medians(runs: list[ValidationRun]) -> dict[str, dict[str, float]]:
+def medians(runs: list[ValidationRun]) -> dict[str, Any]:
     """Median of each phase's fit % and |peak error| % over the runs the model was not fitted on (over all of them
     when it was fitted on every one)."""
     runs = [r for r in runs if not r.in_sample] or runs
-    out = {}
+    out: dict[str, Any] = {}
     for phase in PHASES:
         fits = [r.scores[phase].fit_percent for r in runs]
         peaks = [abs(r.scores[phase].peak_error_percent) for r in runs]
