@@ -88,6 +88,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     g.add_argument(
         "--container-diameter-m", type=float, metavar="D", help="inner diameter, m: adds the wall heights in mm"
     )
+    g.add_argument(
+        "--fov-deg",
+        type=float,
+        metavar="DEG",
+        help="the camera's horizontal field of view, degrees: corrects the angle for the perspective of a camera "
+        "above the liquid and a container off the picture's centre (up to a degree or two in a wide view)",
+    )
 
 
 def roi_from_args(text: str | None) -> tuple[int, int, int, int] | None:
@@ -118,6 +125,7 @@ def run(args: argparse.Namespace) -> int:
         liquid_hsv_high=parse_hsv(args.liquid_hsv_high, "--liquid-hsv-high") if args.liquid_hsv_high else None,
         rest_frames=args.rest_frames,
         container_diameter_m=args.container_diameter_m,
+        fov_deg=args.fov_deg,
     )
     outputs = Outputs([args.video])
     output = outputs.file(args.output, "-o", (".csv",))
