@@ -49,12 +49,14 @@ class SurfaceStep:
         self.walls_record = WallsRecord()  # by frame in the span
         self.held_surfaces: dict[int, SurfaceMeasurement] = {}  # the frames whose walls were held: their surface
         self.copies = Copies()
+        self.picture_width: int | None = None  # for the perspective correction (`perspective_deg`)
 
     def __call__(self, frame: np.ndarray, draw: bool) -> tuple[tuple, np.ndarray | None]:
         """(row, overlay frame or None): the track row's fields, then the raw surface geometry.
 
         A frame whose picture around the last measured surface is an exact copy of that frame's is not measured again
         (`Copies`): its row is that measurement's (after `revise`), and it is marked repeated."""
+        self.picture_width = frame.shape[1]
         copied = self.copies.source(frame, len(self.repeated))
         if copied is not None:
             m, row = copied
@@ -137,6 +139,7 @@ class SurfaceStep:
     def merge(self, later: SurfaceStep) -> None:
         """Take in what the step of a later span of the same video found (for `nothing_found`)."""
         self.liquid_frames += later.liquid_frames
+        self.picture_width = self.picture_width or later.picture_width
         self.finder.hsv = self.finder.hsv or later.finder.hsv
         others = [e for e in (self.finder.elsewhere, later.finder.elsewhere) if e is not None]
         self.finder.elsewhere = max(others, default=None)
@@ -178,6 +181,9 @@ class SurfaceStep:
         sin_e = float(np.clip(median(opening[valid]) / median(width[valid]), 0, 0.5))
         cos_e = math.sqrt(1 - sin_e * sin_e)
         rel = np.degrees(np.arctan(slope / cos_e))
+        if self.settings.fov_deg is not None and self.picture_width:
+            x = np.array([r.x_px for r in rows], float)
+            rel += np.nan_to_num(perspective_deg(x, self.picture_width, sin_e, self.settings.fov_deg))
         container = self.settings.reference == "container"
         angle = rel if container else rel + cang
         body = [
@@ -238,6 +244,18 @@ class SurfaceStep:
 GLASS_ABOVE = 1.2
 """The glass's edges are read from this many inner widths above the surface's centre (or the picture's top) down to
 the liquid's bottom."""
+
+
+def perspective_deg(x_px, picture_width: int, sin_elevation: float, fov_deg: float):
+    """What a pinhole camera above the liquid turns the surface's line by, in degrees, for a container centred at
+    column `x_px`: sin(e) tan(psi), e the camera's elevation (the ellipse's opening over its width), psi the container's
+    azimuth off the optical axis (the picture's centre). The tracker's line joins the surface ellipse's ends as seen,
+    where the lines of sight graze the wall; the line across the container's plane parallel to the picture lies psi
+    round the wall from them, in front of the axis at one end and behind it at the other, so that the camera's elevation
+    lowers one end and lifts the other. A sheared ellipse is still a line plus a symmetric chord: the focal length is
+    not in the picture."""
+    focal = 0.5 * picture_width / math.tan(math.radians(fov_deg) / 2)
+    return np.degrees(sin_elevation * (np.asarray(x_px, float) - 0.5 * (picture_width - 1)) / focal)
 
 
 def _glass(m: SurfaceMeasurement) -> tuple[list[EdgeLine], tuple[int, int], tuple[int, int]]:

@@ -75,7 +75,7 @@ SURFACE_COLUMNS = (
 surface's angle against the image horizontal, where the float target writes float_angle_deg)."""
 
 
-SURFACE_ONLY = ("liquid_color", "liquid_hsv_low", "liquid_hsv_high", "rest_frames")
+SURFACE_ONLY = ("liquid_color", "liquid_hsv_low", "liquid_hsv_high", "rest_frames", "fov_deg")
 """Settings only the surface target reads (container_diameter_m too, refused with its own reason)."""
 FLOAT_ONLY = ("float_color", "float_hsv_low", "float_hsv_high")
 """Settings only the float target reads."""
@@ -116,6 +116,10 @@ class TrackSettings:
     second."""
     container_diameter_m: float | None = setting_field(None, unit="m", metavar="D", group="surface")
     """Surface target: the container's inner diameter, for the wall heights in millimetres (the walls give px/m)."""
+    fov_deg: float | None = setting_field(None, unit="deg", metavar="DEG", group="surface")
+    """Surface target: the camera's horizontal field of view (degrees, of the whole picture); given, the angle is
+    corrected for the perspective of a camera above the liquid looking at a container off the picture's centre
+    (`perspective_deg`); the picture alone does not show it."""
 
     def __post_init__(self) -> None:
         if self.reference not in ("image", "container"):
@@ -147,6 +151,8 @@ class TrackSettings:
         if self.target == "float" and self.float_color is None:  # the default, filled in once nothing can be refused
             object.__setattr__(self, "float_color", DEFAULT_FLOAT_COLOR)
         check_in_metres("container_diameter_m", self.container_diameter_m, "0.1 for 100 mm")
+        if self.fov_deg is not None and not 0 < self.fov_deg < 180:
+            raise SettingError("fov_deg", f"{{name}} must be between 0 and 180 degrees, got {self.fov_deg}.")
         if self.rest_frames is not None and self.rest_frames < 1:
             raise SettingError("rest_frames", f"{{name}} must be at least 1, got {self.rest_frames}.")
         if self.roi is not None:
