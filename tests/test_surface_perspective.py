@@ -10,7 +10,7 @@ import pytest
 
 from sloshid.core.errors import UserError
 from sloshid.tracking.surface import _fit_front
-from sloshid.tracking.surface_track import perspective_deg
+from sloshid.tracking.surface_track import USUAL_FOV_DEG, perspective_deg, perspective_notes
 from sloshid.tracking.tracker import TrackSettings
 
 WIDTH, HEIGHT, FOCAL = 640, 480, 400.0
@@ -87,3 +87,17 @@ def test_fov_on_the_command_line(tmp_path, run_cli):
         "track", tmp_path / "none.mp4", "-o", tmp_path / "a.csv", "--target", "surface", "--fov-deg", "200"
     )
     assert code == 2 and "--fov-deg must be between 0 and 180 degrees" in err
+
+
+def test_a_perspective_that_matters_is_named_when_no_field_of_view_is_given():
+    # seen from 12 deg above, a container 40 px off the centre of a 400 px picture turns the line by 1.7 deg with a
+    # usual lens: the warning says by how much (as perspective_deg gives it) and what to give; a centred container,
+    # or one seen from the side, gets none (under 0.1 deg)
+    sin_e = math.sin(math.radians(12.0))
+    x = np.array([159.5, 199.5, 239.5])
+    (note,) = perspective_notes(x, 400, sin_e)
+    turn = perspective_deg(x, 400, sin_e, USUAL_FOV_DEG)
+    assert f"{turn.min():+.2f} to {turn.max():+.2f} deg" in note and "`fov_deg`" in note
+    assert abs(turn.max() - 1.66) < 0.01  # 0.208 x 40 / 286 rad
+    assert perspective_notes(np.array([199.0, 200.0]), 400, sin_e) == []
+    assert perspective_notes(x, 400, math.sin(math.radians(0.3))) == []

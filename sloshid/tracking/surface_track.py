@@ -181,8 +181,8 @@ class SurfaceStep:
         sin_e = float(np.clip(median(opening[valid]) / median(width[valid]), 0, 0.5))
         cos_e = math.sqrt(1 - sin_e * sin_e)
         rel = np.degrees(np.arctan(slope / cos_e))
+        x = np.array([r.x_px for r in rows], float)
         if self.settings.fov_deg is not None and self.picture_width:
-            x = np.array([r.x_px for r in rows], float)
             rel += np.nan_to_num(perspective_deg(x, self.picture_width, sin_e, self.settings.fov_deg))
         container = self.settings.reference == "container"
         angle = rel if container else rel + cang
@@ -193,6 +193,8 @@ class SurfaceStep:
         check_rest_frames(n_rest, len(t))
         rest = valid & (np.arange(len(t)) < n_rest if n_rest else t < t[0] + 1.0)
         notes = [] if container else _tilt_notes(cang[valid])
+        if self.settings.fov_deg is None and self.picture_width:
+            notes += perspective_notes(x[valid], self.picture_width, sin_e)
         if self.finder.elsewhere is not None:
             x, y, w, h = self.finder.elsewhere[1]
             notes.append(
@@ -256,6 +258,30 @@ def perspective_deg(x_px, picture_width: int, sin_elevation: float, fov_deg: flo
     not in the picture."""
     focal = 0.5 * picture_width / math.tan(math.radians(fov_deg) / 2)
     return np.degrees(sin_elevation * (np.asarray(x_px, float) - 0.5 * (picture_width - 1)) / focal)
+
+
+USUAL_FOV_DEG = 70.0
+"""A phone's or a webcam's horizontal field of view: what `perspective_notes` assumes where none was given."""
+PERSPECTIVE_NOTE_DEG = 0.1
+"""The perspective's turn of the surface's line worth a warning: a third of the angle accuracy aimed at (0.3 deg)."""
+
+
+def perspective_notes(x_px: np.ndarray, picture_width: int, sin_elevation: float) -> list[str]:
+    """The warning that perspective turns the surface's line by PERSPECTIVE_NOTE_DEG or more with a usual lens, where
+    no field of view was given (`x_px`: the surface's centre in the valid frames)."""
+    if x_px.size == 0:
+        return []
+    turn = perspective_deg(x_px, picture_width, sin_elevation, USUAL_FOV_DEG)
+    if np.max(np.abs(turn)) < PERSPECTIVE_NOTE_DEG:
+        return []
+    off = np.max(np.abs(x_px - 0.5 * (picture_width - 1)))
+    return [
+        f"the camera looks down on the surface (about {math.degrees(math.asin(sin_elevation)):.0f} deg) at a "
+        f"container up to {off:.0f} px off the picture's centre: perspective turns the surface's line by "
+        f"{np.min(turn):+.2f} to {np.max(turn):+.2f} deg with a usual lens ({USUAL_FOV_DEG:g} deg wide), which the "
+        "picture cannot show; give `fov_deg` (the camera's horizontal field of view) to correct it, or centre the "
+        "container in the picture."
+    ]
 
 
 def _glass(m: SurfaceMeasurement) -> tuple[list[EdgeLine], tuple[int, int], tuple[int, int]]:
