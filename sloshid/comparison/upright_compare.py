@@ -147,8 +147,9 @@ class UprightComparison:
                 else "risk n/a (no parameter band)"
             )
             share = f" at {100 * r.acc_share:.1f} % acc" if r.acc_share is not None and r.acc_share < 1 else ""
+            use = 100 * r.peak_use if r.peak_use is not None else math.nan
             lines.append(
-                f"  {i}. {r.label}: T = {r.T_s:.3f} s{share}; wall {100 * (r.peak_use if r.peak_use is not None else math.nan):.0f} % of allowed, "
+                f"  {i}. {r.label}: T = {r.T_s:.3f} s{share}; wall {use:.0f} % of allowed, "
                 f"{r.residual_mm:.2f} mm after; {'meets' if r.meets else 'BREAKS'} margin and residual; {risk}"
             )
         return "\n".join(lines)
