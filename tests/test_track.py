@@ -41,7 +41,7 @@ from sloshid.tracking.surface import (
     _inside,
     _sustained,
 )
-from sloshid.tracking.surface_track import SurfaceStep
+from sloshid.tracking.surface_track import SurfaceStep, _spikes
 from sloshid.tracking.tracker import TRACK_COLUMNS, TrackResult, TrackSettings, track_video
 from sloshid.video.colors import PRESETS
 from sloshid.video.frames import FrameReader, Picture, VideoInfo, VideoWriter
@@ -1310,6 +1310,24 @@ def test_a_wall_is_placed_on_luma_in_every_row_or_in_none(contrast_rows):
     (a_left, b_left), _ = geom[0]
     assert a_left == pytest.approx(0.0, abs=1e-9)
     assert b_left == pytest.approx(21.5 if contrast_rows.stop is None else 20.4, abs=1e-6)
+
+
+def test_a_frame_whose_angle_jumps_away_and_back_is_a_spike_and_a_fast_slosh_is_not():
+    # a 3 Hz decay of 8 deg at 30 fps (the most curved a slosh gets in a tracked clip: 0.63 rad a frame) with 0.05 deg
+    # of noise: no frame is a spike; two frames read 3 and 5 deg off (a fit that strayed to the back edge) are, and
+    # only they, not their neighbours (whose cubics they move by two thirds of their error)
+    rng = np.random.default_rng(7)
+    t = np.arange(120) / 30.0
+    angle = 8 * np.exp(-0.3 * t) * np.cos(2 * np.pi * 3 * t) + rng.normal(0, 0.05, t.size)
+    valid = np.ones(t.size, bool)
+    assert not _spikes(angle, valid).any()
+    angle[[40, 77]] += [3.0, -5.0]
+    assert np.flatnonzero(_spikes(angle, valid)).tolist() == [40, 77]
+    valid[76] = False  # a frame whose neighbours are not all valid is not judged
+    assert np.flatnonzero(_spikes(angle, valid)).tolist() == [40]
+    # a tap starts the swing at once (a kink: at rest, then 2.4 deg a frame): not a spike
+    tap = np.where(t < 1, 0.0, 8 * np.sin(2 * np.pi * 3 * (t - 1)) * np.exp(-0.3 * (t - 1)))
+    assert not _spikes(tap + rng.normal(0, 0.05, t.size), np.ones(t.size, bool)).any()
 
 
 def test_a_beakers_graduation_marks_are_not_its_bottom():

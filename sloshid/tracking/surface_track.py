@@ -233,6 +233,16 @@ class SurfaceStep:
                 "px), where a slosh keeps it (the liquid's volume): what was measured there is not the surface (the "
                 "liquid at the rim or spilling, or another object); those rows have valid = 0."
             )
+        spikes = _spikes(np.array([b.angle_deg for b in body], float), valid)
+        if spikes.any():
+            valid &= ~spikes
+            body = [b._replace(valid=0) if k else b for b, k in zip(body, spikes)]
+            walls = {name: np.where(valid, w, np.nan) for name, w in walls.items()}
+            notes.append(
+                f"the surface's angle jumped away from the frames around it and back in {int(spikes.sum())} frame(s), "
+                f"first at {t[int(np.argmax(spikes))]:.2f} s, faster than a slosh moves it (the edge read there "
+                "strayed, e.g. to the ellipse's back edge): those rows have valid = 0."
+            )
         mm_per_px = (
             1000 * self.settings.container_diameter_m / median(width[valid])
             if self.settings.container_diameter_m
@@ -258,6 +268,37 @@ def perspective_deg(x_px, picture_width: int, sin_elevation: float, fov_deg: flo
     not in the picture."""
     focal = 0.5 * picture_width / math.tan(math.radians(fov_deg) / 2)
     return np.degrees(sin_elevation * (np.asarray(x_px, float) - 0.5 * (picture_width - 1)) / focal)
+
+
+SPIKE_DEG = 0.5
+"""A frame is a spike only when it leaves the cubic through its neighbours (`_spikes`) by at least this much."""
+SPIKE_SCATTER = 6.0
+"""... and by this many robust scatters of every frame's distance from its neighbours' cubic."""
+
+
+def _spikes(angle: np.ndarray, valid: np.ndarray) -> np.ndarray:
+    """Valid frames whose angle leaves the cubic through the two frames before and the two after it (all valid) by
+    more than SPIKE_DEG and SPIKE_SCATTER robust scatters, and by more than either neighbour does (a spike also moves
+    its neighbours' cubics, by two thirds of it), away from both neighbours and back (a tap's sudden start is a kink,
+    not a spike): a slosh well below half the frame rate moves the surface smoothly,
+    within a few hundredths of its swing of that cubic (3 Hz at 30 fps: 2.5 %), while a fit that strayed to the
+    ellipse's back edge in one frame reads degrees off (a path-traced cola clip: 2.6-5.9 deg in 4 of 120 frames)."""
+    out = np.zeros(angle.size, bool)
+    if angle.size < 5:
+        return out
+    a = np.nan_to_num(angle)
+    miss = np.zeros(angle.size)
+    miss[2:-2] = np.abs(a[2:-2] - (4 * (a[1:-3] + a[3:-1]) - a[:-4] - a[4:]) / 6)
+    whole = np.zeros(angle.size, bool)
+    whole[2:-2] = valid[:-4] & valid[1:-3] & valid[2:-2] & valid[3:-1] & valid[4:]
+    if np.count_nonzero(whole) < 10:
+        return out
+    limit = max(SPIKE_DEG, SPIKE_SCATTER * 1.4826 * median(miss[whole]))
+    up, down = a[2:-2] - a[1:-3], a[2:-2] - a[3:-1]
+    away_and_back = (up * down > 0) & (np.minimum(np.abs(up), np.abs(down)) > limit / 2)  # not a tap's kink
+    out[2:-2] = whole[2:-2] & (miss[2:-2] > limit) & (miss[2:-2] >= miss[1:-3]) & (miss[2:-2] >= miss[3:-1])
+    out[2:-2] &= away_and_back
+    return out
 
 
 USUAL_FOV_DEG = 70.0
