@@ -327,19 +327,24 @@ def _load_csv(p: Path, time_col: str | None, value_col: str | None, progress: bo
         return list(chosen.values())
 
     table = read_table(p, pick, progress)
-    if not table.data.shape[0]:
+    values, header = table.values, table.header or []
+    del table  # the columns not kept below (valid, key_frame) are freed as soon as they are read
+    t, y = values[0], values[1]
+    if not t.size:
         raise UserError(f"{p} has a header but no data rows.")
-    t, y = table.data[:, 0], table.data[:, 1]
-    keep = table.data[:, 2] == 1 if "valid" in chosen else np.ones(t.size, bool)
-    dropped = int((~keep).sum())
+    keep = values[2] == 1 if "valid" in chosen else np.ones(t.size, bool)
+    dropped = int(t.size - np.count_nonzero(keep))
     if "valid" in chosen and not keep.any():
         raise UserError(f"{p}: no tracker frame is valid (valid == 1), so there is no measurement to identify from.")
-    header = table.header or []
     label = header[chosen["v"]] if header else f"column {chosen['v']}"
     tracked = ("surface" if "surface_angle_deg" in header else "float") if set(TRACKER_COLUMNS) <= set(header) else ""
-    keys = t[table.data[:, 3] == 1] if "key" in chosen else None
+    keys = t[values[3] == 1] if "key" in chosen else None
+    del values
+    if dropped:  # else the columns are taken as they are: no copy of ten million rows
+        t, y = t[keep], y[keep]
+    del keep
     sig = replace(
-        make_signal(t[keep], y[keep], label, unit_from_name(label), str(p), n_dropped=dropped),
+        make_signal(t, y, label, unit_from_name(label), str(p), n_dropped=dropped),
         tracked=tracked,
         key_t_s=keys,
     )
