@@ -422,7 +422,7 @@ class IdentResult:
         """The whole recording with the fit window shaded and the end of the excitation marked."""
         ax = _axes(ax)
         sig, w = self.signals[i], self.windows[i]
-        ax.plot(sig.t_s, sig.value, lw=0.7, color="0.2", label=sig.label)
+        ax.plot(*min_max_envelope(sig.t_s, sig.value), lw=0.7, color="0.2", label=sig.label)
         ax.axvspan(w.t0_s, w.t1_s, color="tab:green", alpha=0.15, label=f"fit window ({w.chosen_by})")
         if w.excitation_end_s is not None:
             ax.axvline(w.excitation_end_s, color="tab:red", ls="--", lw=1, label="end of forced motion")
@@ -539,6 +539,27 @@ def _axes(ax):
 
         _, ax = plt.subplots(figsize=(8, 3.2))
     return ax
+
+
+PLOT_COLUMNS = 4000
+"""A long recording is drawn as the minimum and maximum of this many stretches (more than a report figure's pixel
+columns): the same picture as every sample, without handing matplotlib ten million points."""
+
+
+def min_max_envelope(t: np.ndarray, y: np.ndarray, columns: int = PLOT_COLUMNS) -> tuple[np.ndarray, np.ndarray]:
+    """The samples that are a minimum or maximum of each of `columns` equal stretches, in time order; a short record
+    as it is."""
+    if y.size <= 4 * columns:
+        return t, y
+    k = y.size // columns
+    full = y.size // k * k
+    rows = y[:full].reshape(-1, k)  # a view: no copy of the samples
+    starts = np.arange(rows.shape[0]) * k
+    idx = [starts + rows.argmin(axis=1), starts + rows.argmax(axis=1)]
+    if full < y.size:  # the last samples, fewer than a stretch
+        idx.append(full + np.array([int(y[full:].argmin()), int(y[full:].argmax())]))
+    keep = np.unique(np.concatenate(idx))
+    return t[keep], y[keep]
 
 
 def _ylabel(sig: Signal) -> str:
@@ -697,7 +718,9 @@ class Identifier:
                 f"{sig.source}: the window {win.t0_s:.2f}-{win.t1_s:.2f} s holds only {_fewer(periods)} periods of "
                 f"the {spec.peak_f_hz:.3g} Hz mode; at least {MIN_PERIODS_ERROR:g} are needed."
             )
-        return win, spec, whole
+        # only the record's noise level is read from here on: its arrays (half a million bins per million samples)
+        # are not kept through the fit
+        return win, spec, replace(whole, f_hz=np.empty(0), psd=np.empty(0))
 
     def _assemble(
         self,
