@@ -258,12 +258,13 @@ def _secondary_peaks(f: np.ndarray, p: np.ndarray, k: int, f0: float, resolution
     # peaks too weak to be listed are left out before the distance rule, which only ever drops the weaker of two
     # neighbours: the same list, without millions of noise peaks in a long record's spectrum
     idx, _ = sps.find_peaks(p, height=SECONDARY_MIN_RATIO * p[k], distance=max(1, round(resolution / (f[1] - f[0]))))
+    # a long record's noise floor may lie above that fraction of a short ring-down's peak: its candidates are
+    # ranked as arrays and only the six listed become objects
+    idx = idx[~((np.abs(f[idx] - f[k]) < 2 * resolution) | (f[idx] < 1.5 * resolution))]
+    idx = idx[np.argsort(-p[idx], kind="stable")[:6]]  # strongest first, ties in frequency order
     out = []
     for i in idx:
-        if abs(f[i] - f[k]) < 2 * resolution or f[i] < 1.5 * resolution or p[i] < SECONDARY_MIN_RATIO * p[k]:
-            continue
         order = round(f[i] / f0)
         harmonic = order if order >= 2 and abs(f[i] - order * f0) <= resolution else 0
         out.append(SpectralPeak(float(f[i]), float(p[i]), float(p[i] / p[k]), harmonic))
-    out.sort(key=lambda s: -s.psd)
-    return tuple(out[:6])
+    return tuple(out)

@@ -671,18 +671,20 @@ class Identifier:
         st = self.settings
         f_guess = rough_mode_frequency(sig, f_range)
         whole = welch_spectrum(sig.t_s, sig.value, f_range)
+        near, period_noise = whole.noise_near_mode(), whole.period_mean_noise(f_guess)
+        # only these numbers and the record's noise level are read from here on: its arrays (half a million bins per
+        # million samples) are not held through the window search and the fit
+        whole = replace(whole, f_hz=np.empty(0), psd=np.empty(0))
         if st.window_s is not None:
             # forcing is judged as the automatic search judges it, against the noise near the mode when that is
             # correlated (red noise's slow wander otherwise passes for forcing)
-            near = whole.noise_near_mode()
             red = near > CORRELATED_NOISE_RATIO * whole.noise_std
-            noise, mean = (near, whole.period_mean_noise(f_guess)) if red else (whole.noise_std, None)
+            noise, mean = (near, period_noise) if red else (whole.noise_std, None)
             win = user_window(sig, *st.window_s, f_guess, noise, st.drift, mean)
         else:
             win = find_decay_window(sig, f_guess, whole.noise_std, st.drift)
-            near = whole.noise_near_mode()
             if near > CORRELATED_NOISE_RATIO * whole.noise_std and not _ring_down(sig, win, f_guess, near):
-                again = find_decay_window(sig, f_guess, near, st.drift, whole.period_mean_noise(f_guess))
+                again = find_decay_window(sig, f_guess, near, st.drift, period_noise)
                 if _ring_down(sig, again, f_guess, near):
                     win, whole = replace(again, near_mode_noise=near), replace(whole, noise_std=near)
         part = sig.between(win.t0_s, win.t1_s)
@@ -718,9 +720,7 @@ class Identifier:
                 f"{sig.source}: the window {win.t0_s:.2f}-{win.t1_s:.2f} s holds only {_fewer(periods)} periods of "
                 f"the {spec.peak_f_hz:.3g} Hz mode; at least {MIN_PERIODS_ERROR:g} are needed."
             )
-        # only the record's noise level is read from here on: its arrays (half a million bins per million samples)
-        # are not kept through the fit
-        return win, spec, replace(whole, f_hz=np.empty(0), psd=np.empty(0))
+        return win, spec, whole
 
     def _assemble(
         self,
