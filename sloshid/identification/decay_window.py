@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -146,22 +147,27 @@ def rough_mode_frequency(sig: Signal, f_range_hz: tuple[float, float]) -> float:
 def period_mean(t: np.ndarray, y: np.ndarray, period_s: float) -> np.ndarray:
     """Running mean over exactly one period (fractional ends from the interpolated running integral), which
     cancels the mode and all its harmonics even with few samples per period; ends are held at the edge value."""
-    # the same arithmetic as (interp(lo + T) - interp(lo)) / T on 0.5 (y[1:] + y[:-1]) dt's running sum, done in place:
-    # a record of ten million samples holds four arrays of its length here, not ten
-    area = y[1:] + y[:-1]
-    area *= 0.5
-    area *= np.diff(t)
+    # the arithmetic of (interp(lo + T) - interp(lo)) / T on the running sum of 0.5 (y[1:] + y[:-1]) dt, a block at a
+    # time (the sum carried from block to block, in order): a long record holds two arrays of its length here
     integral = np.empty(t.size)
     integral[0] = 0.0
-    np.cumsum(area, out=integral[1:])
-    del area
-    lo = t - period_s / 2
-    np.clip(lo, t[0], t[-1] - period_s, out=lo)
-    hi = lo + period_s
-    mean = np.interp(hi, t, integral)
-    del hi
-    mean -= np.interp(lo, t, integral)
-    mean /= period_s
+    for a in range(0, t.size - 1, SWING_BLOCK):
+        b = min(a + SWING_BLOCK, t.size - 1)
+        area = y[a + 1 : b + 1] + y[a:b]
+        area *= 0.5
+        area *= np.diff(t[a : b + 1])
+        if a:
+            area[0] += integral[a]
+        np.cumsum(area, out=integral[a + 1 : b + 1])
+    mean = np.empty(t.size)
+    for a in range(0, t.size, SWING_BLOCK):
+        b = min(a + SWING_BLOCK, t.size)
+        lo = t[a:b] - period_s / 2
+        np.clip(lo, t[0], t[-1] - period_s, out=lo)
+        part = np.interp(lo + period_s, t, integral)
+        part -= np.interp(lo, t, integral)
+        part /= period_s
+        mean[a:b] = part
     return mean
 
 
@@ -373,34 +379,43 @@ SWING_BLOCK = 1 << 18
 def _swing(y: np.ndarray, n: int, minus: np.ndarray | None = None) -> np.ndarray:
     """Oscillation amplitude per sample: half the max-min range over one period (n samples), smoothed over one more;
     of y - minus when that is given (without a copy of the difference)."""
-    span = np.empty(y.shape)
-    for a in range(0, y.size, SWING_BLOCK):  # a running max or min is local: blocks with a period's margin each side
-        b = min(a + SWING_BLOCK, y.size)  # give the same numbers as the whole line
-        lo, hi = max(a - n, 0), min(b + n, y.size)
-        x = y[lo:hi] if minus is None else y[lo:hi] - minus[lo:hi]
+
+    def span(lo: int, hi: int) -> np.ndarray:
+        """The max-min range at samples lo..hi-1: a running max or min is local, so a block with a period's margin
+        each side gives the same numbers as the whole line."""
+        a, b = max(lo - n, 0), min(hi + n, y.size)
+        x = y[a:b] if minus is None else y[a:b] - minus[a:b]
         ext = ndimage.maximum_filter1d(x, n, mode="nearest")
         ext -= ndimage.minimum_filter1d(x, n, mode="nearest")
-        span[a:b] = ext[a - lo : b - lo]
-    swing = ndimage.uniform_filter1d(span, n, mode="nearest") if span.size <= SWING_BLOCK else _running_mean(span, n)
-    del span
+        return ext[lo - a : hi - a]
+
+    if y.size <= SWING_BLOCK:
+        swing = ndimage.uniform_filter1d(span(0, y.size), n, mode="nearest")
+    else:  # the range is made block by block as the running mean reaches it, never as a whole array
+        swing = _running_mean(span, y.size, n)
     swing /= 2
     return swing
 
 
-def _running_mean(x: np.ndarray, n: int) -> np.ndarray:
-    """SciPy's uniform_filter1d(x, n, mode="nearest") a block at a time: its running sum (each step adds the entering
-    sample's difference from the leaving one, in order) carried from block to block, divided by n at the end: the same
-    numbers, without the two line buffers of the record's length that SciPy allocates."""
-    left, right, last = n // 2, n - n // 2 - 1, x.size - 1
-    out = np.empty(x.size)
-    carry = float(np.cumsum(x[np.clip(np.arange(-left, right + 1), 0, last)])[-1])  # the first window, summed in order
+def _running_mean(values: Callable[[int, int], np.ndarray], size: int, n: int) -> np.ndarray:
+    """SciPy's uniform_filter1d(x, n, mode="nearest") of the `size` samples that values(lo, hi) gives as x[lo:hi], a
+    block at a time: its running sum (each step adds the entering sample's difference from the leaving one, in order)
+    carried from block to block, divided by n at the end: the same numbers, without the two line buffers of the
+    record's length that SciPy allocates."""
+    left, right, last = n // 2, n - n // 2 - 1, size - 1
+    out = np.empty(size)
+    head = values(0, min(right + 1, size))
+    carry = float(np.cumsum(head[np.clip(np.arange(-left, right + 1), 0, last)])[-1])  # the first window, in order
     out[0] = carry
-    for a in range(1, x.size, SWING_BLOCK):
-        at = np.arange(a, min(a + SWING_BLOCK, x.size))
-        step = x[np.clip(at + right, 0, last)] - x[np.clip(at - left - 1, 0, last)]
+    for a in range(1, size, SWING_BLOCK):
+        b = min(a + SWING_BLOCK, size)
+        at = np.arange(a, b)
+        lo, hi = max(a - left - 1, 0), min(b - 1 + right, last) + 1
+        x = values(lo, hi)
+        step = x[np.clip(at + right, 0, last) - lo] - x[np.clip(at - left - 1, 0, last) - lo]
         step[0] += carry
-        np.cumsum(step, out=out[a : a + at.size])
-        carry = float(out[a + at.size - 1])
+        np.cumsum(step, out=out[a:b])
+        carry = float(out[b - 1])
     out /= n
     return out
 
