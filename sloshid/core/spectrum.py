@@ -5,6 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy import fft as sp_fft
 from scipy import signal as sps
 
 from sloshid.core.tables import GAP_STEP_FACTOR
@@ -38,13 +39,13 @@ class Uniform:
 def to_uniform(t: np.ndarray, y: np.ndarray) -> Uniform:
     """Put samples on a uniform grid at the median rate; linear interpolation when timestamps jitter or gaps exist."""
     dt = np.diff(t)
-    step = float(np.median(dt))
-    jitter = float(np.max(np.abs(dt - step))) / step
+    step = float(np.median(dt, overwrite_input=True))  # reorders dt, which only order-free sums read below
+    jitter = max(float(dt.max()) - step, step - float(dt.min())) / step  # max |dt - step|, without a temporary
     if jitter < 1e-3:
         return Uniform(t, y, 1.0 / step, "samples already uniform, used as they are")
     n = int(np.floor((t[-1] - t[0]) / step)) + 1
     tu = t[0] + step * np.arange(n)
-    gaps = int(np.sum(dt > GAP_STEP_FACTOR * step))
+    gaps = int(np.count_nonzero(dt > GAP_STEP_FACTOR * step))
     note = (
         f"timestamps uneven (max step deviation {100 * jitter:.0f} % of {1000 * step:.2f} ms, {gaps} gaps): "
         f"linearly interpolated onto a uniform {1 / step:.2f} Hz grid"
@@ -139,12 +140,15 @@ def welch_spectrum(
     the one dominant-frequency estimate of the package. `per_octave` picks the peak on f * PSD (power per octave),
     so that a slow drift of the resting level cannot win over the mode."""
     u = to_uniform(t, y)
-    x = u.value - np.mean(u.value)
-    n = x.size
+    n = u.value.size
     seg = int(nperseg) if nperseg else max(16, n // 2)
     seg = min(seg, n)
     nfft = max(_pow2(seg), min(_pow2(16 * seg), MAX_PADDED_NFFT))
-    f, p = sps.welch(x, fs=u.fs_hz, window="hann", nperseg=seg, noverlap=seg // 2, nfft=nfft, detrend="linear")
+    if seg >= LEAN_WELCH_SAMPLES:
+        f, p = _lean_welch(u.value, u.fs_hz, seg, nfft)
+    else:
+        x = u.value - np.mean(u.value)
+        f, p = sps.welch(x, fs=u.fs_hz, window="hann", nperseg=seg, noverlap=seg // 2, nfft=nfft, detrend="linear")
     n_avg = 1 + (n - seg) // (seg - seg // 2)
     resolution = u.fs_hz / seg
     band = (f >= max(f_range_hz[0], 1.5 * resolution)) & (f <= f_range_hz[1])
@@ -180,6 +184,58 @@ def welch_spectrum(
     )
 
 
+LEAN_WELCH_SAMPLES = 1 << 18
+"""Segments this long (a record of over half a million samples) are transformed one at a time by `_lean_welch`:
+SciPy's welch holds every segment detrended, windowed, padded and transformed at once, some 60 bytes per sample."""
+
+BLOCK = 1 << 18
+"""Samples detrended and windowed at a time by `_lean_welch`."""
+
+
+def _lean_welch(y: np.ndarray, fs_hz: float, seg: int, nfft: int) -> tuple[np.ndarray, np.ndarray]:
+    """SciPy's welch (Hann window, 50 % overlap, linear detrend per segment, density scaling, one-sided) computed one
+    segment at a time and the segment in blocks, so that it holds one padded segment and its transform, not all of
+    them; equal to SciPy's up to rounding (the detrending line from closed-form sums, not a least-squares solver)."""
+    step = seg - seg // 2
+    n_seg = 1 + (y.size - seg) // step
+    i = np.arange(1, seg + 1, dtype=float) / seg  # SciPy's detrend regresses on (1..N)/N
+    i_mean = float(np.mean(i))
+    i_var = float(np.dot(i - i_mean, i - i_mean))
+    del i
+    win_sq = 0.0
+    psd = np.zeros(nfft // 2 + 1)
+    for k in range(n_seg):
+        x = y[k * step : k * step + seg]
+        x_mean = float(np.mean(x))
+        cov = 0.0
+        for a in range(0, seg, BLOCK):
+            b = min(a + BLOCK, seg)
+            cov += float(np.dot(np.arange(a + 1, b + 1, dtype=float) / seg - i_mean, x[a:b] - x_mean))
+        slope = cov / i_var
+        buf = np.zeros(nfft)  # the zero-padded segment, freed once transformed
+        for a in range(0, seg, BLOCK):
+            b = min(a + BLOCK, seg)
+            win = _hann(seg, a, b)
+            if k == 0:
+                win_sq += float(np.dot(win, win))
+            line = x_mean + slope * (np.arange(a + 1, b + 1, dtype=float) / seg - i_mean)
+            buf[a:b] = win * (x[a:b] - line)
+        spec = sp_fft.rfft(buf)
+        del buf
+        for a in range(0, spec.size, BLOCK):
+            part = spec[a : a + BLOCK]
+            psd[a : a + BLOCK] += part.real**2 + part.imag**2
+        del spec
+    psd *= 1.0 / (fs_hz * win_sq) / n_seg
+    psd[1 : -1 if nfft % 2 == 0 else None] *= 2
+    return sp_fft.rfftfreq(nfft, 1 / fs_hz), psd
+
+
+def _hann(n: int, a: int, b: int) -> np.ndarray:
+    """Samples a..b-1 of the periodic Hann window of length n (SciPy's get_window("hann", n))."""
+    return 0.5 - 0.5 * np.cos(2 * np.pi * np.arange(a, b, dtype=float) / n)
+
+
 def _pow2(n: int) -> int:
     """The smallest power of two >= n."""
     return 1 << int(np.ceil(np.log2(n)))
@@ -199,13 +255,16 @@ def _refine_peak(f: np.ndarray, p: np.ndarray, k: int, resolution: float) -> flo
 
 def _secondary_peaks(f: np.ndarray, p: np.ndarray, k: int, f0: float, resolution: float) -> tuple[SpectralPeak, ...]:
     """Other local maxima at least 2 resolutions from the dominant one, strongest first, marked when harmonic."""
-    idx, _ = sps.find_peaks(p, distance=max(1, round(resolution / (f[1] - f[0]))))
+    # peaks too weak to be listed are left out before the distance rule, which only ever drops the weaker of two
+    # neighbours: the same list, without millions of noise peaks in a long record's spectrum
+    idx, _ = sps.find_peaks(p, height=SECONDARY_MIN_RATIO * p[k], distance=max(1, round(resolution / (f[1] - f[0]))))
+    # a long record's noise floor may lie above that fraction of a short ring-down's peak: its candidates are
+    # ranked as arrays and only the six listed become objects
+    idx = idx[~((np.abs(f[idx] - f[k]) < 2 * resolution) | (f[idx] < 1.5 * resolution))]
+    idx = idx[np.argsort(-p[idx], kind="stable")[:6]]  # strongest first, ties in frequency order
     out = []
     for i in idx:
-        if abs(f[i] - f[k]) < 2 * resolution or f[i] < 1.5 * resolution or p[i] < SECONDARY_MIN_RATIO * p[k]:
-            continue
         order = round(f[i] / f0)
         harmonic = order if order >= 2 and abs(f[i] - order * f0) <= resolution else 0
         out.append(SpectralPeak(float(f[i]), float(p[i]), float(p[i] / p[k]), harmonic))
-    out.sort(key=lambda s: -s.psd)
-    return tuple(out[:6])
+    return tuple(out)

@@ -66,7 +66,7 @@ def read_csv(path: str | Path) -> dict[str, np.ndarray]:
     table = read_table(p)
     if table.header is None:
         raise UserError(f"{p} has no header row naming its columns.")
-    return {name: table.data[:, i] for i, name in enumerate(table.header)}
+    return dict(zip(table.header, table.values))
 
 
 def to_pandas(columns: dict[str, Any]):
@@ -101,8 +101,14 @@ class Table:
     ncols: int
     columns: tuple[int, ...]
     """Indices of the kept columns, in the order of `data`'s columns."""
-    data: np.ndarray
-    """Float matrix, one row per data line; blank, nan and inf cells are NaN/inf."""
+    values: tuple[np.ndarray, ...]
+    """One float array per kept column (each its own contiguous block, so a caller can keep one and free the others);
+    blank, nan and inf cells are NaN/inf."""
+
+    @property
+    def data(self) -> np.ndarray:
+        """The kept columns as a float matrix, one row per data line (a copy)."""
+        return np.column_stack(self.values) if self.values else np.empty((0, 0))
 
 
 VIDEO_LIKE = (".mp4", ".mov", ".m4v", ".avi", ".mkv", ".webm")
@@ -143,10 +149,39 @@ def read_table(p: Path, pick: Pick | None = None, progress: bool = False) -> Tab
         data_lines = _data_lines(lines, first_line, header is not None and header is first_row)
         ncols = len(_split([data_lines[0][1]], delimiter)[0]) if data_lines else len(first_row)
         cols = tuple(pick(header, ncols)) if pick is not None else tuple(range(ncols))
-        blocks = [_parse(data_lines, delimiter, cols, ncols, p, header)]
+        # the rows the file holds if its lines are as long as the first chunk's: the columns are allocated once and
+        # grown in place if not, so that reading never holds the parsed numbers twice
+        text_bytes = sum(len(line) + 1 for line in lines)
+        rows = int(p.stat().st_size * max(len(data_lines), 1) / max(text_bytes, 1) * 1.05) + 1024
+        out = _Columns(len(cols), rows)
+        out.append(_parse(data_lines, delimiter, cols, ncols, p, header))
         del lines, data_lines  # only one chunk of text is held at a time
-        blocks += [_parse(_data_lines(ls, k, False), delimiter, cols, ncols, p, header) for k, ls in chunks]
-    return Table(header, ncols, cols, np.concatenate(blocks))
+        for k, ls in chunks:
+            out.append(_parse(_data_lines(ls, k, False), delimiter, cols, ncols, p, header))
+    return Table(header, ncols, cols, out.finish())
+
+
+class _Columns:
+    """Float columns filled chunk by chunk: preallocated, grown and trimmed in place (realloc: no second copy)."""
+
+    def __init__(self, k: int, rows: int):
+        self.cols = [np.empty(rows) for _ in range(k)]
+        self.n = 0
+
+    def append(self, block: np.ndarray) -> None:
+        """Copy a chunk's (rows, k) floats in after the rows already held."""
+        end = self.n + block.shape[0]
+        for j, col in enumerate(self.cols):
+            if end > col.size:
+                col.resize(max(end, col.size + col.size // 4), refcheck=False)  # zero-filled: grow modestly
+            col[self.n : end] = block[:, j]
+        self.n = end
+
+    def finish(self) -> tuple[np.ndarray, ...]:
+        """The columns cut to the rows read."""
+        for col in self.cols:
+            col.resize(self.n, refcheck=False)
+        return tuple(self.cols)
 
 
 def _decoded_chunks(p: Path, fh: BinaryIO, bar: tqdm) -> Iterator[tuple[int, list[str]]]:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -146,9 +147,28 @@ def rough_mode_frequency(sig: Signal, f_range_hz: tuple[float, float]) -> float:
 def period_mean(t: np.ndarray, y: np.ndarray, period_s: float) -> np.ndarray:
     """Running mean over exactly one period (fractional ends from the interpolated running integral), which
     cancels the mode and all its harmonics even with few samples per period; ends are held at the edge value."""
-    integral = np.concatenate([[0.0], np.cumsum(0.5 * (y[1:] + y[:-1]) * np.diff(t))])
-    lo = np.clip(t - period_s / 2, t[0], t[-1] - period_s)
-    return (np.interp(lo + period_s, t, integral) - np.interp(lo, t, integral)) / period_s
+    # the arithmetic of (interp(lo + T) - interp(lo)) / T on the running sum of 0.5 (y[1:] + y[:-1]) dt, a block at a
+    # time (the sum carried from block to block, in order): a long record holds two arrays of its length here
+    integral = np.empty(t.size)
+    integral[0] = 0.0
+    for a in range(0, t.size - 1, SWING_BLOCK):
+        b = min(a + SWING_BLOCK, t.size - 1)
+        area = y[a + 1 : b + 1] + y[a:b]
+        area *= 0.5
+        area *= np.diff(t[a : b + 1])
+        if a:
+            area[0] += integral[a]
+        np.cumsum(area, out=integral[a + 1 : b + 1])
+    mean = np.empty(t.size)
+    for a in range(0, t.size, SWING_BLOCK):
+        b = min(a + SWING_BLOCK, t.size)
+        lo = t[a:b] - period_s / 2
+        np.clip(lo, t[0], t[-1] - period_s, out=lo)
+        part = np.interp(lo + period_s, t, integral)
+        part -= np.interp(lo, t, integral)
+        part /= period_s
+        mean[a:b] = part
+    return mean
 
 
 def _forcing(sig: Signal, f_guess_hz: float, noise_std: float, drift: bool, mean_noise: float | None):
@@ -162,8 +182,14 @@ def _forcing(sig: Signal, f_guess_hz: float, noise_std: float, drift: bool, mean
     floor = max(0.2 * float(dev.max()), 0.1 * float(amp.max()), 5 * mean_noise, SWAY_FACTOR * reach * moving)
     if moving:  # the zero sways: the oscillation is judged without it
         amp = free
+    else:  # neither is read again: a long record's arrays go now
+        slow = None
+    del free
     gap = _in_gaps(sig.t_s, u.t_s, 1.0 / f_guess_hz)
-    forced = np.flatnonzero(dev > np.maximum(FORCED_RATIO * amp, floor))
+    limit = FORCED_RATIO * amp
+    np.maximum(limit, floor, out=limit)
+    forced = np.flatnonzero(dev > limit)
+    del limit
     forced = forced[(forced >= n) & (forced < dev.size - n)]  # running means are padded at the edges: no evidence
     # nor are they across a gap (lost frames), where the grid holds a straight line: its mean strays, its swing is 0
     forced = forced[~_near(gap, n)[forced]]
@@ -197,9 +223,14 @@ def find_decay_window(
             swing = np.abs(u.value[lo : peak + 1] - rest)
             i0 = lo + int(np.argmax(swing > ONSET_FRACTION * swing.max()))
     quiet = amp <= END_NOISE_FACTOR * noise_std
-    quiet = (quiet & ~_near(gap & ~_quiet_around(gap, quiet), n))[i0:].astype(int)
-    run = np.convolve(quiet, np.ones(QUIET_PERIODS * n, int), mode="valid")  # quiet samples in each stretch
-    fades = np.flatnonzero(run == QUIET_PERIODS * n)
+    quiet = (quiet & ~_near(gap & ~_quiet_around(gap, quiet), n))[i0:]
+    # quiet samples in each stretch of QUIET_PERIODS periods, as differences of their running count (whole numbers:
+    # the same as a convolution with ones, in two arrays of 4-byte counts instead of three of 8-byte ones)
+    count = np.zeros(quiet.size + 1, np.int32 if quiet.size < 2**31 else np.int64)
+    np.cumsum(quiet, out=count[1:])
+    stretch = QUIET_PERIODS * n
+    run = count[stretch:] - count[:-stretch] if quiet.size >= stretch else count[:0]
+    fades = np.flatnonzero(run == stretch)
     i1 = min(i0 + int(fades[0]) + n // 2, u.value.size - 1) if fades.size else u.value.size - 1
     return DecayWindow(float(u.t_s[i0]), float(u.t_s[i1]), "auto", excitation_end, f_guess_hz, reach * moving)
 
@@ -208,9 +239,12 @@ def _in_gaps(t: np.ndarray, grid: np.ndarray, period_s: float) -> np.ndarray:
     """Which points of the uniform `grid` lie inside a gap of the samples `t` (lost frames: a step over 1.5 times the
     median and over GAP_PERIODS of the mode's period), where `to_uniform` interpolated a straight line. A frame or
     two dropped here and there (an encoder's repeated pictures) leave steps too short to bend the running measures."""
+    limit = max(GAP_STEP_FACTOR * float(np.median(np.diff(t), overwrite_input=True)), GAP_PERIODS * period_s)
+    if not np.diff(t).max(initial=0.0) > limit:  # no gap: spare the per-point look-ups (arrays as long as the record)
+        return np.zeros(grid.shape, bool)
     dt = np.diff(t)
     k = np.clip(np.searchsorted(t, grid, side="right") - 1, 0, dt.size - 1)
-    long = dt[k] > max(GAP_STEP_FACTOR * float(np.median(dt)), GAP_PERIODS * period_s)
+    long = dt[k] > limit
     return long & (grid > t[k]) & (grid < t[k] + dt[k])
 
 
@@ -228,6 +262,8 @@ def _quiet_around(gap: np.ndarray, quiet: np.ndarray) -> np.ndarray:
 
 def _near(mask: np.ndarray, n: int) -> np.ndarray:
     """The mask widened by n samples each way: the running measures over one period (n samples) see that far."""
+    if not mask.any():  # nothing to widen (a record without gaps): no filter buffering the whole line in doubles
+        return np.zeros(mask.shape, bool)
     return ndimage.maximum_filter1d(mask.astype(np.uint8), 2 * n + 1, mode="constant").astype(bool)
 
 
@@ -250,7 +286,7 @@ def _zero_motion(u, n: int, amp: np.ndarray, dev: np.ndarray, f_guess_hz: float,
     that count nothing changes: a reach the noise could explain is no evidence of a sway (a window chosen with it
     then, about a final level the sway has shifted, started before the tap or in the tail, rated good)."""
     slow = _slow_part(u.value, u.fs_hz, SLOW_CUTOFF * f_guess_hz)
-    free = _swing(u.value - slow, n)
+    free = _swing(u.value, n, minus=slow)
     reach = _reach_after_fade(dev, free, n, noise_std)
     return slow, free, reach, reach > _moving_floor(noise_std, float(amp.max()))
 
@@ -291,7 +327,30 @@ def _slow_part(y: np.ndarray, fs_hz: float, cutoff_hz: float) -> np.ndarray:
     sos = sps.butter(6, min(cutoff_hz, 0.45 * fs_hz), fs=fs_hz, output="sos")
     if y.size <= 3 * (2 * len(sos) + 1):  # too short for sosfiltfilt's edge padding: its mean
         return np.full(y.shape, float(np.mean(y)))
-    return sps.sosfiltfilt(sos, y, padlen=min(y.size - 1, round(3 * fs_hz / cutoff_hz)))
+    padlen = min(y.size - 1, round(3 * fs_hz / cutoff_hz))
+    if y.size <= SWING_BLOCK or padlen < 1:
+        return sps.sosfiltfilt(sos, y, padlen=padlen)
+    return _sosfiltfilt_blocks(sos, y, padlen)
+
+
+def _sosfiltfilt_blocks(sos: np.ndarray, y: np.ndarray, padlen: int) -> np.ndarray:
+    """SciPy's sosfiltfilt (odd padding of `padlen`) run a block at a time, the filter's state carried from block to
+    block: the same numbers, holding one output array instead of the padded signal and three filtered copies."""
+    zi = sps.sosfilt_zi(sos)
+    pieces = [2 * y[0] - y[padlen:0:-1]]  # SciPy's odd extension at either end
+    pieces += [y[a : a + SWING_BLOCK] for a in range(0, y.size, SWING_BLOCK)]
+    pieces.append(2 * y[-1] - y[-2 : -(padlen + 2) : -1])
+    out = np.empty(y.size + 2 * padlen)
+    state, at = zi * pieces[0][0], 0
+    for piece in pieces:  # forward
+        out[at : at + piece.size], state = sps.sosfilt(sos, piece, zi=state)
+        at += piece.size
+    state = zi * out[-1]
+    for b in range(out.size, 0, -SWING_BLOCK):  # backward, in place, from the end
+        a = max(b - SWING_BLOCK, 0)
+        back, state = sps.sosfilt(sos, out[a:b][::-1], zi=state)
+        out[a:b] = back[::-1]
+    return out[padlen:-padlen]
 
 
 def _reach_after_fade(dev: np.ndarray, free: np.ndarray, n: int, noise_std: float) -> float:
@@ -313,10 +372,52 @@ def _period_samples(fs_hz: float, f_hz: float) -> int:
     return max(3, round(fs_hz / f_hz))
 
 
-def _swing(y: np.ndarray, n: int) -> np.ndarray:
-    """Oscillation amplitude per sample: half the max-min range over one period (n samples), smoothed over one more."""
-    span = ndimage.maximum_filter1d(y, n, mode="nearest") - ndimage.minimum_filter1d(y, n, mode="nearest")
-    return ndimage.uniform_filter1d(span, n, mode="nearest") / 2
+SWING_BLOCK = 1 << 18
+"""Samples of a long record whose running max and min `_swing` takes at a time (SciPy's filters buffer a whole line)."""
+
+
+def _swing(y: np.ndarray, n: int, minus: np.ndarray | None = None) -> np.ndarray:
+    """Oscillation amplitude per sample: half the max-min range over one period (n samples), smoothed over one more;
+    of y - minus when that is given (without a copy of the difference)."""
+
+    def span(lo: int, hi: int) -> np.ndarray:
+        """The max-min range at samples lo..hi-1: a running max or min is local, so a block with a period's margin
+        each side gives the same numbers as the whole line."""
+        a, b = max(lo - n, 0), min(hi + n, y.size)
+        x = y[a:b] if minus is None else y[a:b] - minus[a:b]
+        ext = ndimage.maximum_filter1d(x, n, mode="nearest")
+        ext -= ndimage.minimum_filter1d(x, n, mode="nearest")
+        return ext[lo - a : hi - a]
+
+    if y.size <= SWING_BLOCK:
+        swing = ndimage.uniform_filter1d(span(0, y.size), n, mode="nearest")
+    else:  # the range is made block by block as the running mean reaches it, never as a whole array
+        swing = _running_mean(span, y.size, n)
+    swing /= 2
+    return swing
+
+
+def _running_mean(values: Callable[[int, int], np.ndarray], size: int, n: int) -> np.ndarray:
+    """SciPy's uniform_filter1d(x, n, mode="nearest") of the `size` samples that values(lo, hi) gives as x[lo:hi], a
+    block at a time: its running sum (each step adds the entering sample's difference from the leaving one, in order)
+    carried from block to block, divided by n at the end: the same numbers, without the two line buffers of the
+    record's length that SciPy allocates."""
+    left, right, last = n // 2, n - n // 2 - 1, size - 1
+    out = np.empty(size)
+    head = values(0, min(right + 1, size))
+    carry = float(np.cumsum(head[np.clip(np.arange(-left, right + 1), 0, last)])[-1])  # the first window, in order
+    out[0] = carry
+    for a in range(1, size, SWING_BLOCK):
+        b = min(a + SWING_BLOCK, size)
+        at = np.arange(a, b)
+        lo, hi = max(a - left - 1, 0), min(b - 1 + right, last) + 1
+        x = values(lo, hi)
+        step = x[np.clip(at + right, 0, last) - lo] - x[np.clip(at - left - 1, 0, last) - lo]
+        step[0] += carry
+        np.cumsum(step, out=out[a:b])
+        carry = float(out[b - 1])
+    out /= n
+    return out
 
 
 def extend_tail(sig: Signal, win: DecayWindow, f_hz: float, decay_rate_1_s: float, noise_std: float) -> DecayWindow:

@@ -422,7 +422,7 @@ class IdentResult:
         """The whole recording with the fit window shaded and the end of the excitation marked."""
         ax = _axes(ax)
         sig, w = self.signals[i], self.windows[i]
-        ax.plot(sig.t_s, sig.value, lw=0.7, color="0.2", label=sig.label)
+        ax.plot(*min_max_envelope(sig.t_s, sig.value), lw=0.7, color="0.2", label=sig.label)
         ax.axvspan(w.t0_s, w.t1_s, color="tab:green", alpha=0.15, label=f"fit window ({w.chosen_by})")
         if w.excitation_end_s is not None:
             ax.axvline(w.excitation_end_s, color="tab:red", ls="--", lw=1, label="end of forced motion")
@@ -541,6 +541,27 @@ def _axes(ax):
     return ax
 
 
+PLOT_COLUMNS = 4000
+"""A long recording is drawn as the minimum and maximum of this many stretches (more than a report figure's pixel
+columns): the same picture as every sample, without handing matplotlib ten million points."""
+
+
+def min_max_envelope(t: np.ndarray, y: np.ndarray, columns: int = PLOT_COLUMNS) -> tuple[np.ndarray, np.ndarray]:
+    """The samples that are a minimum or maximum of each of `columns` equal stretches, in time order; a short record
+    as it is."""
+    if y.size <= 4 * columns:
+        return t, y
+    k = y.size // columns
+    full = y.size // k * k
+    rows = y[:full].reshape(-1, k)  # a view: no copy of the samples
+    starts = np.arange(rows.shape[0]) * k
+    idx = [starts + rows.argmin(axis=1), starts + rows.argmax(axis=1)]
+    if full < y.size:  # the last samples, fewer than a stretch
+        idx.append(full + np.array([int(y[full:].argmin()), int(y[full:].argmax())]))
+    keep = np.unique(np.concatenate(idx))
+    return t[keep], y[keep]
+
+
 def _ylabel(sig: Signal) -> str:
     """Axis label with unit."""
     return f"{sig.label} ({sig.unit})" if sig.unit else sig.label
@@ -650,18 +671,20 @@ class Identifier:
         st = self.settings
         f_guess = rough_mode_frequency(sig, f_range)
         whole = welch_spectrum(sig.t_s, sig.value, f_range)
+        near, period_noise = whole.noise_near_mode(), whole.period_mean_noise(f_guess)
+        # only these numbers and the record's noise level are read from here on: its arrays (half a million bins per
+        # million samples) are not held through the window search and the fit
+        whole = replace(whole, f_hz=np.empty(0), psd=np.empty(0))
         if st.window_s is not None:
             # forcing is judged as the automatic search judges it, against the noise near the mode when that is
             # correlated (red noise's slow wander otherwise passes for forcing)
-            near = whole.noise_near_mode()
             red = near > CORRELATED_NOISE_RATIO * whole.noise_std
-            noise, mean = (near, whole.period_mean_noise(f_guess)) if red else (whole.noise_std, None)
+            noise, mean = (near, period_noise) if red else (whole.noise_std, None)
             win = user_window(sig, *st.window_s, f_guess, noise, st.drift, mean)
         else:
             win = find_decay_window(sig, f_guess, whole.noise_std, st.drift)
-            near = whole.noise_near_mode()
             if near > CORRELATED_NOISE_RATIO * whole.noise_std and not _ring_down(sig, win, f_guess, near):
-                again = find_decay_window(sig, f_guess, near, st.drift, whole.period_mean_noise(f_guess))
+                again = find_decay_window(sig, f_guess, near, st.drift, period_noise)
                 if _ring_down(sig, again, f_guess, near):
                     win, whole = replace(again, near_mode_noise=near), replace(whole, noise_std=near)
         part = sig.between(win.t0_s, win.t1_s)

@@ -56,20 +56,21 @@ class Signal:
     @property
     def rate_hz(self) -> float:
         """Nominal sampling rate: 1 / median time step."""
-        return float(1.0 / np.median(np.diff(self.t_s)))
+        return float(1.0 / np.median(np.diff(self.t_s), overwrite_input=True))  # no copy of the steps
 
     @property
     def jitter_s(self) -> float:
         """Timestamp jitter: standard deviation of the time steps that are not gaps."""
         dt = np.diff(self.t_s)
-        regular = dt[dt < GAP_STEP_FACTOR * np.median(dt)]
+        mask = dt < GAP_STEP_FACTOR * np.median(dt)
+        regular = dt if mask.all() else dt[mask]  # no copy when there is no gap
         return float(np.std(regular)) if regular.size else 0.0
 
     @property
     def n_gaps(self) -> int:
         """Number of time steps longer than 1.5 nominal steps (dropped or missing frames)."""
         dt = np.diff(self.t_s)
-        return int(np.sum(dt > GAP_STEP_FACTOR * np.median(dt)))
+        return int(np.count_nonzero(dt > GAP_STEP_FACTOR * np.median(dt)))
 
     def sampling(self) -> dict[str, float | int]:
         """Sampling facts for reports and JSON."""
@@ -327,19 +328,24 @@ def _load_csv(p: Path, time_col: str | None, value_col: str | None, progress: bo
         return list(chosen.values())
 
     table = read_table(p, pick, progress)
-    if not table.data.shape[0]:
+    values, header = table.values, table.header or []
+    del table  # the columns not kept below (valid, key_frame) are freed as soon as they are read
+    t, y = values[0], values[1]
+    if not t.size:
         raise UserError(f"{p} has a header but no data rows.")
-    t, y = table.data[:, 0], table.data[:, 1]
-    keep = table.data[:, 2] == 1 if "valid" in chosen else np.ones(t.size, bool)
-    dropped = int((~keep).sum())
+    keep = values[2] == 1 if "valid" in chosen else np.ones(t.size, bool)
+    dropped = int(t.size - np.count_nonzero(keep))
     if "valid" in chosen and not keep.any():
         raise UserError(f"{p}: no tracker frame is valid (valid == 1), so there is no measurement to identify from.")
-    header = table.header or []
     label = header[chosen["v"]] if header else f"column {chosen['v']}"
     tracked = ("surface" if "surface_angle_deg" in header else "float") if set(TRACKER_COLUMNS) <= set(header) else ""
-    keys = t[table.data[:, 3] == 1] if "key" in chosen else None
+    keys = t[values[3] == 1] if "key" in chosen else None
+    del values
+    if dropped:  # else the columns are taken as they are: no copy of ten million rows
+        t, y = t[keep], y[keep]
+    del keep
     sig = replace(
-        make_signal(t[keep], y[keep], label, unit_from_name(label), str(p), n_dropped=dropped),
+        make_signal(t, y, label, unit_from_name(label), str(p), n_dropped=dropped),
         tracked=tracked,
         key_t_s=keys,
     )
