@@ -21,7 +21,7 @@ from dataclasses import dataclass, field, replace
 import cv2
 import numpy as np
 
-from sloshid.tracking.robust import masked_median, robust_lines
+from sloshid.tracking.robust import MAD_SIGMA, masked_median, robust_lines
 from sloshid.video.frames import Picture
 
 BAND_PX = 9
@@ -314,7 +314,7 @@ def _edge_points_2d(grey: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarra
     g = cv2.Sobel(cv2.GaussianBlur(grey.astype(np.float32), (0, 0), GLASS_BLUR), cv2.CV_32F, 1, 0, ksize=3)
     m = np.abs(g)
     c = m[:, 1:-1]
-    r, j = np.nonzero((c > 3 * 1.4826 * float(np.median(m)) + 1.0) & (c >= m[:, :-2]) & (c > m[:, 2:]))
+    r, j = np.nonzero((c > 3 * MAD_SIGMA * float(np.median(m)) + 1.0) & (c >= m[:, :-2]) & (c > m[:, 2:]))
     j = j + 1
     g0, g1, g2 = m[r, j - 1], m[r, j], m[r, j + 1]
     den = g0 - 2 * g1 + g2

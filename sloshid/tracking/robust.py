@@ -4,6 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 
+MAD_SIGMA = 1.4826
+"""Standard deviations per median absolute deviation of normally distributed residuals: a robust scale."""
+
 
 def robust_lines(
     t: np.ndarray,
@@ -42,7 +45,7 @@ def robust_lines(
         if passes == iterations:
             break
         res = np.abs(values - intercept[:, None] - slope[:, None] * tc)
-        new = finite & (res < np.maximum(3 * 1.4826 * masked_median(res, keep), floor)[:, None])
+        new = finite & (res < np.maximum(3 * MAD_SIGMA * masked_median(res, keep), floor)[:, None])
         alive &= new.sum(axis=1) >= min_points  # a row once short of points stays without a line
         new[~alive] = keep[~alive]
         if not (new ^ keep).any():  # converged: further passes would repeat these fits

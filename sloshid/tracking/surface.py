@@ -27,7 +27,7 @@ import cv2
 import numpy as np
 
 from sloshid.tracking.float_angle import fit_colour_model, hsv_mask, membership_map
-from sloshid.tracking.robust import median, normal_solve, robust_lines, straight_part
+from sloshid.tracking.robust import MAD_SIGMA, median, normal_solve, robust_lines, straight_part
 from sloshid.video.colors import PRESETS, HsvRange
 from sloshid.video.frames import Picture
 
@@ -819,7 +819,7 @@ def _locally_consistent(w: np.ndarray, ok: np.ndarray) -> np.ndarray:
     windows = np.ndarray((v.size, size), padded.dtype, padded, strides=(step, step))
     r = v - np.partition(windows, size // 2, axis=1)[:, size // 2]
     dev = np.abs(r - median(r))
-    keep[ok] = dev < max(3 * 1.4826 * median(dev), 0.7)
+    keep[ok] = dev < max(3 * MAD_SIGMA * median(dev), 0.7)
     return keep
 
 
@@ -853,7 +853,7 @@ def _fit_front_basis(basis: np.ndarray, w: np.ndarray, min_points: int):
         res = np.abs(w - basis @ coef)
         if passes == 4:
             break
-        new = res < max(3 * 1.4826 * median(res[keep]), 0.5)
+        new = res < max(3 * MAD_SIGMA * median(res[keep]), 0.5)
         if np.array_equal(new, keep):  # converged: further passes would repeat this fit
             break
         keep = new
@@ -948,7 +948,7 @@ def _in_front(rows: np.ndarray, x: np.ndarray, ok: np.ndarray) -> np.ndarray:
             continue
         res = out - slope[best] * r - icpt[best]
         rest = np.r_[0 : i[best], j[best] : at.size]
-        if 1.4826 * median(np.abs(res[rest])) > WALL_STEP_PX:  # the rows above and below are not on one line
+        if MAD_SIGMA * median(np.abs(res[rest])) > WALL_STEP_PX:  # the rows above and below are not on one line
             continue
         mid = np.arange(i[best], j[best])
         front[side, at[mid[res[mid] >= WALL_STEP_PX]]] = True

@@ -18,7 +18,7 @@ from sloshid.core.errors import SettingError, UserError
 from sloshid.tracking.container_ref import GUARD_ROWS, ContainerMeasurement, ContainerTracker, EdgeLine, WallsRecord
 from sloshid.tracking.overlay import draw_surface_overlay
 from sloshid.tracking.repeats import REPEAT_SHARE, Copies, line_regions, repeated_share
-from sloshid.tracking.robust import median, percentile_span
+from sloshid.tracking.robust import MAD_SIGMA, median, percentile_span
 from sloshid.tracking.rows import VALID_QUALITY, SurfaceGeometry, TrackRow, step_row
 from sloshid.tracking.surface import SurfaceFinder, SurfaceMeasurement
 from sloshid.video.colors import HsvRange
@@ -293,7 +293,7 @@ def _spikes(angle: np.ndarray, valid: np.ndarray) -> np.ndarray:
     whole[2:-2] = valid[:-4] & valid[1:-3] & valid[2:-2] & valid[3:-1] & valid[4:]
     if np.count_nonzero(whole) < 10:
         return out
-    limit = max(SPIKE_DEG, SPIKE_SCATTER * 1.4826 * median(miss[whole]))
+    limit = max(SPIKE_DEG, SPIKE_SCATTER * MAD_SIGMA * median(miss[whole]))
     up, down = a[2:-2] - a[1:-3], a[2:-2] - a[3:-1]
     away_and_back = (up * down > 0) & (np.minimum(np.abs(up), np.abs(down)) > limit / 2)  # not a tap's kink
     out[2:-2] = whole[2:-2] & (miss[2:-2] > limit) & (miss[2:-2] >= miss[1:-3]) & (miss[2:-2] >= miss[3:-1])
