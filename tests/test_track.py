@@ -868,6 +868,20 @@ def test_the_front_edge_below_a_surface_band_that_reads_as_liquid_in_some_column
     assert np.allclose(_front_below(body, inside, held, first, found, reach=12)[0], 17.5)
 
 
+def test_a_surface_found_but_never_clear_is_refused_for_that_not_for_the_walls(tmp_path):
+    # walls and a surface line found in every frame, each under the valid quality (a dye whose colour changes with
+    # what stands behind it: the boundary between its two looks was read): the refusal says so and what to try,
+    # not that the walls were missing
+    step = SurfaceStep(TrackSettings(target="surface"), (0, 0, 640, 480))
+    step.finder.hsv = PRESETS["magenta"].hsv
+    step.liquid_frames = step.line_frames = 15
+    text = str(step.nothing_found(15, tmp_path / "clip.mp4", "see the overlay x.mp4"))
+    assert "walls were found in 15 of 15 frames" in text and "quality under 0.5" in text
+    assert "not the container's inner walls" not in text
+    step.line_frames = 0
+    assert "not the container's inner walls" in str(step.nothing_found(15, tmp_path / "clip.mp4", "see x.mp4"))
+
+
 def test_surface_target_on_a_float_video_is_a_user_error(tmp_path, run_cli):
     # a float video has no dyed liquid: the pale water (the dye the automatic choice finds) has no straight inner
     # walls inside the picture, and walls fitted to its ragged sides once left the mapped box (a crash)
@@ -1306,7 +1320,7 @@ def test_a_wall_is_placed_on_luma_in_every_row_or_in_none(contrast_rows):
     body[10:111] = np.clip(0.5 + 0.5 * np.minimum(x - 20.4, 80.4 - x), 0, 1)
     gray = np.full((130, 100), 80, np.uint8)
     gray[contrast_rows] = np.where(x < 22, 60, 100)[None, :]
-    geom = _container_axes(body, body >= 0.5, gray, (0, 0), (20, 10, 81, 111))
+    geom = _container_axes(body, body >= 0.5, gray, cv2.cvtColor(gray, cv2.COLOR_GRAY2BGR), (0, 0), (20, 10, 81, 111))
     (a_left, b_left), _ = geom[0]
     assert a_left == pytest.approx(0.0, abs=1e-9)
     assert b_left == pytest.approx(21.5 if contrast_rows.stop is None else 20.4, abs=1e-6)
@@ -1340,7 +1354,7 @@ def test_a_beakers_graduation_marks_are_not_its_bottom():
     for row in (64, 74, 84, 94):
         body[row : row + 2, 21:45] = 0.0
     gray = np.full((130, 100), 80, np.uint8)
-    geom = _container_axes(body, body >= 0.5, gray, (0, 0), (20, 10, 81, 111))
+    geom = _container_axes(body, body >= 0.5, gray, cv2.cvtColor(gray, cv2.COLOR_GRAY2BGR), (0, 0), (20, 10, 81, 111))
     assert geom is not None
     ((a_left, b_left), (a_right, b_right)), origin, _, _ = geom
     assert a_left == pytest.approx(0.0, abs=1e-9) and a_right == pytest.approx(0.0, abs=1e-9)
@@ -1359,12 +1373,32 @@ def test_a_label_of_the_liquids_colour_on_the_glass_is_not_a_wall():
     body[10:111] = np.clip(0.5 + 0.5 * np.minimum(x - sides[:, :1], sides[:, 1:] - x), 0, 1)
     body[45:85] = np.clip(0.5 + 0.5 * np.minimum(x - 15.4, 85.4 - x), 0, 1)
     gray = np.full((130, 100), 80, np.uint8)
-    geom = _container_axes(body, body >= 0.5, gray, (0, 0), (15, 10, 86, 111))
+    geom = _container_axes(body, body >= 0.5, gray, cv2.cvtColor(gray, cv2.COLOR_GRAY2BGR), (0, 0), (15, 10, 86, 111))
     assert geom is not None
     ((a_left, b_left), (a_right, b_right)), _, _, _ = geom
     # the sides' scatter of 0.6 px over about 60 rows moves a fitted wall by about 0.1 px and 0.005 in slope
     assert abs(a_left) < 0.02 and abs(a_right) < 0.02
     assert abs(b_left - 20.4) < 0.5 and abs(b_right - 80.4) < 0.5
+
+
+def test_walls_are_the_glass_edges_where_the_liquids_sides_are_not_straight():
+    # a liquid whose sides zig-zag by +-10 px (a print on the glass, a holder of its colour round it): no straight side,
+    # and the frame had been refused ("the liquid was found ... but not the container's inner walls"); the walls are
+    # then the glass's own straight edges, dark lines over columns 16-17 and 85-86 on a pale picture
+    x = np.arange(104, dtype=np.float32)
+    rows = np.arange(101, dtype=np.float32)[:, None]
+    wander = 10 - np.abs(rows % 40 - 20)
+    body = np.zeros((130, 104), np.float32)
+    body[10:111] = np.clip(0.5 + 0.5 * np.minimum(x - 22 - wander, 80 + wander - x), 0, 1)
+    gray = np.full((130, 104), 200, np.uint8)
+    gray[:, 16:18] = gray[:, 85:87] = 60
+    geom = _container_axes(body, body >= 0.5, gray, cv2.cvtColor(gray, cv2.COLOR_GRAY2BGR), (0, 0), (18, 10, 85, 111))
+    assert geom is not None
+    ((a_left, b_left), (a_right, b_right)), _, _, _ = geom
+    # a wall is the mean of its two faces (the dark line's edges at 15.5 and 17.5, 84.5 and 86.5), placed by line sums
+    # on a slope grid of 0.005 (measured: slopes +-0.005, at 16.2 and 85.8)
+    assert abs(a_left) <= 0.0051 and abs(a_right) <= 0.0051
+    assert abs(b_left - 16.5) < 0.5 and abs(b_right - 85.5) < 0.5
 
 
 def test_surface_overlay_draws_the_line_and_wall_points(surface_video, tmp_path):

@@ -415,7 +415,7 @@ def _moved(line: EdgeLine, shift: float, turn: float, lift: float) -> EdgeLine:
     return replace(line, a=a, b=x - a * (ym + lift), y0=int(line.y0 + lift), y1=int(line.y1 + lift))
 
 
-def _mean_line(faces: list[EdgeLine]) -> EdgeLine:
+def mean_line(faces: list[EdgeLine]) -> EdgeLine:
     """A wall as the mean of its faces' lines (slope, and position at their rows' middle), over their rows."""
     y0, y1 = min(f.y0 for f in faces), max(f.y1 for f in faces)
     ym = 0.5 * (y0 + y1)
@@ -617,14 +617,14 @@ class ContainerTracker:
         found = (len(prior) == len(seeds) and glass_walls(frame, seeds, rows, prior)) or glass_walls(frame, seeds, rows)
         if found and len(found) == len(self._found):
             self._turn = sum(
-                _mean_line([f for f, _ in new]).a - _mean_line([f for f, _ in old]).a
+                mean_line([f for f, _ in new]).a - mean_line([f for f, _ in old]).a
                 for new, old in zip(found, self._found)
             ) / (len(found) * frames)
         else:
             self._turn = 0.0
         self._found = found if len(found) == len(seeds) else []
         self._found_bottom = seeds[0].y1 if seeds else 0
-        walls = [_mean_line([f for f, _ in faces]) for faces in found]
+        walls = [mean_line([f for f, _ in faces]) for faces in found]
         if not walls and not self._surface:
             walls = glass_edges(frame, seeds, rows)
         if len(walls) < len(seeds):

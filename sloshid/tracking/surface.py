@@ -26,6 +26,7 @@ from functools import partial
 import cv2
 import numpy as np
 
+from sloshid.tracking.container_ref import EdgeLine, glass_walls, mean_line
 from sloshid.tracking.float_angle import fit_colour_model, hsv_mask, membership_map
 from sloshid.tracking.robust import MAD_SIGMA, median, normal_solve, robust_lines, straight_part
 from sloshid.video.colors import PRESETS, HsvRange
@@ -426,7 +427,7 @@ class SurfaceFinder:
             frame_geom = _shifted(held[1], (-X0, -Y0))
             self._axes = (key, held[1], held[2] + 1, held[3])
         else:
-            frame_geom = _container_axes(body, inside, gray, (X0, Y0), box)
+            frame_geom = _container_axes(body, inside, gray, frame, (X0, Y0), box)
             if frame_geom is None:
                 self._axes = None
                 return SurfaceMeasurement(False, liquid=True)
@@ -993,8 +994,26 @@ def _bottom_at(cols: np.ndarray, bottom: np.ndarray, ok: np.ndarray, margin: flo
     return lambda x: yl + slope * (x - xl) - margin
 
 
+def _glass_sides(frame: np.ndarray | Picture, origin: tuple[int, int], sides: tuple[int, int], rows: tuple[int, int]):
+    """The walls (x = a y + b per row in the crop at `origin`, NaN when not found) as the glass's longest straight
+    edges near the liquid's sides (`glass_walls` about vertical seeds at the body box's sides), over `rows` (crop's)."""
+    X0, Y0 = origin
+    y0, y1 = rows[0] + Y0, rows[1] + Y0
+    seeds = [EdgeLine(0.0, float(x + X0), y0, y1, 0.0, y1 - y0) for x in sides]
+    found = glass_walls(frame, seeds, (y0, y1))
+    if len(found) < 2:
+        return np.full((2, 2), np.nan)
+    walls = [mean_line([f for f, _ in faces]) for faces in found]
+    return np.array([[w.a, w.b + w.a * Y0 - X0] for w in walls])
+
+
 def _container_axes(
-    body: np.ndarray, inside: np.ndarray, gray: np.ndarray, origin: tuple[int, int], box: tuple[int, int, int, int]
+    body: np.ndarray,
+    inside: np.ndarray,
+    gray: np.ndarray,
+    frame: np.ndarray | Picture,
+    origin: tuple[int, int],
+    box: tuple[int, int, int, int],
 ):
     """Inner walls (robust lines from the body's side crossings) and bottom; the container's axes, or None.
 
@@ -1053,6 +1072,8 @@ def _container_axes(
     v[0, :n], v[1, :n], v[2, :m] = left, right, bottom
     ok[0, :n], ok[1, :n], ok[2, :m] = okl, okr, okb
     lines, _ = robust_lines(t, v, ok, 0.3, min_points=np.array([max(10, k // WALL_SHARE) for k in (*wall_rows, m)]))
+    if np.isnan(lines[:2]).any():  # the liquid's sides are not straight (a label, a holder, clutter of its colour)
+        lines[:2] = _glass_sides(frame, origin, (x0 - X0, x1 - X0), (r0, r1))
     if np.isnan(lines).any():
         return None
     (aL, bL), (aR, bR), (k, d) = lines

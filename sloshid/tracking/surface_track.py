@@ -41,6 +41,7 @@ class SurfaceStep:
         self.settings, self.roi = settings, roi
         self.finder = SurfaceFinder(liquid or settings.liquid_hsv, roi)
         self.liquid_frames = 0
+        self.line_frames = 0  # frames where the walls and a surface line were found, valid or not
         self.previous: np.ndarray | None = None
         self.previous_luma: tuple | None = None  # the last measurement's luma crop, for the repeat check
         self.repeated: list[bool] = []
@@ -65,6 +66,7 @@ class SurfaceStep:
                 self.walls_record.copied.append(len(self.repeated))
             self.repeated.append(True)
             self.liquid_frames += 1
+            self.line_frames += m.found
             self.previous, self.previous_luma = frame, None  # the next frame is compared with this one
             reference = self.settings.reference
             return row, draw_surface_overlay(
@@ -72,6 +74,7 @@ class SurfaceStep:
             ) if draw else None
         m = self.finder.measure(frame)
         self.liquid_frames += m.liquid
+        self.line_frames += m.found
         # the glass's edges along the liquid's sides, from above the liquid to its bottom, give the container's angle
         # more precisely than the liquid's sides alone
         cm = (
@@ -139,6 +142,7 @@ class SurfaceStep:
     def merge(self, later: SurfaceStep) -> None:
         """Take in what the step of a later span of the same video found (for `nothing_found`)."""
         self.liquid_frames += later.liquid_frames
+        self.line_frames += later.line_frames
         self.picture_width = self.picture_width or later.picture_width
         self.finder.hsv = self.finder.hsv or later.finder.hsv
         others = [e for e in (self.finder.elsewhere, later.finder.elsewhere) if e is not None]
@@ -163,6 +167,17 @@ class SurfaceStep:
                 "overlay",
                 "liquid_hsv_low",
                 "liquid_hsv_high",
+            )
+        if self.line_frames:
+            return SettingError(
+                "roi",
+                f"the liquid and the container's walls were found in {self.line_frames} of {n} frames of {path}, but "
+                f"the surface's edge in none of them clearly enough to measure (quality under {VALID_QUALITY}: "
+                f"edges of other things of the dye's colour, or the surface's front and back edges, crossed it); "
+                f"{hint}, and set {{name}} tightly around the liquid's top, or give {{liquid_color}} if another preset "
+                "is the dye's.",
+                "overlay",
+                "liquid_color",
             )
         return SettingError(
             "roi",
