@@ -76,7 +76,11 @@ def draw_surface_overlay(
     if valid:
         text = f"angle {angle_deg:+.2f} deg  q {m.quality:.2f}"
     else:
-        text = "surface not valid" if m.found else ("container not found" if m.liquid else "liquid not found")
+        text = (
+            f"surface not valid  q {m.quality:.2f}"
+            if m.found
+            else ("container not found" if m.liquid else "liquid not found")
+        )
     _label(out, text, valid)
     return out
 
