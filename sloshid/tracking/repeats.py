@@ -30,8 +30,8 @@ MOVED_DEG) and moved only after it is a copy of an object at rest (a tap after a
 
 
 def repeated_share(
-    frame: np.ndarray,
-    previous: np.ndarray | None,
+    frame: np.ndarray | Picture,
+    previous: np.ndarray | Picture | None,
     box: tuple[int, int, int, int],
     dy_only: bool,
     lumas: tuple = (None, None),

@@ -259,7 +259,7 @@ class FrameReader:
                 return
             yield t_s, picture
 
-    def __iter__(self) -> Iterator[tuple[int, float, np.ndarray | Picture]]:
+    def __iter__(self) -> Generator[tuple[int, float, np.ndarray | Picture], None, None]:
         """Frames in order (decoded in a background thread unless multithreaded is off)."""
         items = self._threaded() if self.multithreaded else self._produce()
         try:
