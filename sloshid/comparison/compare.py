@@ -11,9 +11,10 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Iterable
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 from tqdm import tqdm
@@ -30,8 +31,12 @@ from sloshid.core.tables import to_pandas
 from sloshid.model.pendulum import SloshParams
 from sloshid.model.simulate import MAX_SETTLE_S, LiquidResponse, simulate_liquid, simulate_liquids
 from sloshid.model.trajectory import RobotLimits, Trajectory, check_limits, check_move_limits, tilt_profiles
+from sloshid.planning.path import PathGeometry
 from sloshid.planning.planner import check_feasible
-from sloshid.planning.scenario import body_clearance, check_robust_factors
+from sloshid.planning.scenario import Obstacle, Scenario, Vec3, body_clearance, check_robust_factors
+
+if TYPE_CHECKING:
+    from sloshid.planning.result import PlanResult
 
 METHODS: dict[str, str] = {
     "constant_acc": "constant acceleration",
@@ -184,6 +189,30 @@ class MethodResult:
         """True when the method produced a trajectory."""
         return self.trajectory is not None
 
+    def require_trajectory(self) -> Trajectory:
+        """The trajectory of an applicable method; ValueError for one that is not applicable."""
+        if self.trajectory is None:
+            raise ValueError(f"{self.label} is not applicable ({self.reason}): it has no trajectory")
+        return self.trajectory
+
+    def require_score(self) -> Score:
+        """The score of an applicable method once scored; ValueError before."""
+        if self.score is None:
+            raise ValueError(f"{self.label} has not been scored")
+        return self.score
+
+    def require_response(self) -> LiquidResponse:
+        """The liquid's simulated response to an applicable method once scored; ValueError before."""
+        if self.response is None:
+            raise ValueError(f"{self.label} has not been simulated")
+        return self.response
+
+    def require_replay(self) -> Replay:
+        """What an applicable method executes against a true liquid; ValueError for one that is not applicable."""
+        if self.replay is None:
+            raise ValueError(f"{self.label} is not applicable ({self.reason}): it has nothing to replay")
+        return self.replay
+
 
 @dataclass
 class MoveLimits:
@@ -193,13 +222,13 @@ class MoveLimits:
     tilt_max_deg: float = 90.0
     tilt_rate_max_deg_s: float = math.inf
     robot: RobotLimits = field(default_factory=RobotLimits)
-    obstacles: list[Any] = field(default_factory=list)
-    """Objects with `clearance(points, inflate_m)` (sloshid.planning.scenario.Obstacle)."""
+    obstacles: list[Obstacle] = field(default_factory=list)
+    """The scenario's obstacles (their `clearance(points, inflate_m)` is scored)."""
     container_radius_m: float = 0.0
     container_depth_m: float = 0.0
     """How far the container's body reaches below the point the move carries (sloshid.planning.scenario.body_clearance)."""
-    path: Any = None
-    """sloshid.planning.path.PathGeometry of a [path] scenario (deviations are scored against it), else None."""
+    path: PathGeometry | None = None
+    """The prescribed curve of a [path] scenario (deviations are scored against it), else None."""
     jerk_max_m_s3: tuple[float, float, float] | None = None
     """Per-axis jerk limit of the move ([limits].jerk_max with the jerk-limited formulation), else None."""
 
@@ -249,11 +278,11 @@ class CompareInput:
     limits: MoveLimits
     params: SloshParams
     settings: CompareSettings
-    scenario: Any = None
-    """sloshid.planning.scenario.Scenario for the planner methods (None: those are not applicable)."""
+    scenario: Scenario | None = None
+    """The scenario, for the planner methods (None: those are not applicable)."""
     f_interval_hz: tuple[float, float] | None = None
     """The identified 95 % interval of the natural frequency (None: only the nominal value is known)."""
-    plan: Any = None
+    plan: PlanResult | None = None
     """An existing nominal PlanResult of this scenario and liquid, reused instead of solving again."""
 
     @property
@@ -268,9 +297,9 @@ class CompareInput:
 
 
 def compare_scenario(
-    scenario: Any,
+    scenario: Scenario,
     params: SloshParams,
-    plan: Any = None,
+    plan: PlanResult | None = None,
     f_interval_hz: tuple[float, float] | None = None,
     progress: bool = False,
 ) -> Comparison:
@@ -288,7 +317,7 @@ def compare_scenario(
     return compare(replace(from_scenario(scenario, params, f_interval_hz), plan=plan), progress=progress)
 
 
-def _move(scenario: Any) -> tuple:
+def _move(scenario: Scenario) -> tuple:
     """What makes a scenario's move: a plan of another one must not be scored as this one's."""
     return (
         scenario.waypoints,
@@ -300,7 +329,7 @@ def _move(scenario: Any) -> tuple:
     )
 
 
-def compare_settings(scenario: Any) -> CompareSettings:
+def compare_settings(scenario: Scenario) -> CompareSettings:
     """The scenario's [compare] table, validated (UserError naming the key); a [path] scenario's default methods are
     the path methods."""
     from sloshid.core.settings import from_dict
@@ -311,12 +340,15 @@ def compare_settings(scenario: Any) -> CompareSettings:
     return settings
 
 
-def from_scenario(scenario: Any, params: SloshParams, f_interval_hz: tuple[float, float] | None = None) -> CompareInput:
+def from_scenario(
+    scenario: Scenario, params: SloshParams, f_interval_hz: tuple[float, float] | None = None
+) -> CompareInput:
     """The comparison's input from a loaded sloshid.planning.scenario.Scenario (and the identified frequency
     interval when the liquid was identified); the [compare] table is validated here."""
     settings = compare_settings(scenario)
     lim = scenario.limits
-    task = MoveTask(tuple(tuple(map(float, p)) for p in scenario.waypoints), tuple(lim.acc_max), tuple(lim.vel_max))
+    waypoints = tuple(_triple(map(float, p)) for p in scenario.waypoints)
+    task = MoveTask(waypoints, _triple(lim.acc_max), _triple(lim.vel_max))
     limits = MoveLimits(
         task,
         lim.tilt_max_deg,
@@ -329,6 +361,12 @@ def from_scenario(scenario: Any, params: SloshParams, f_interval_hz: tuple[float
         scenario.move_jerk_max,
     )
     return CompareInput(limits, params, settings, scenario, f_interval_hz)
+
+
+def _triple(values: Iterable[float]) -> Vec3:
+    """One of the scenario's 3-vectors (Vec3) as a tuple; tuple() keeps its three numbers three, which mypy cannot
+    tell."""
+    return cast("Vec3", tuple(values))
 
 
 def _path_only(key: str, inp: CompareInput) -> None:
@@ -346,7 +384,7 @@ def _path_only(key: str, inp: CompareInput) -> None:
         raise NotApplicable("camera feedback corrects the acceleration and would leave the [path].")
 
 
-def robust_scenario(scenario: Any) -> Any:
+def robust_scenario(scenario: Scenario) -> Scenario:
     """The scenario whose plan is compare's 'sloshid robust plan' (`sloshid plan --robust`, `sloshid.plan(...,
     robust=True)`): [solver].robust_omega_factors set to its [compare].robust_omega_factors (default 0.9, 1.0, 1.1:
     the liquid at -10 %, 0 and +10 % of its frequency must all end at rest); UserError for a [path] scenario."""
@@ -356,7 +394,7 @@ def robust_scenario(scenario: Any) -> Any:
     return replace(scenario, solver=replace(scenario.solver, robust_omega_factors=factors))
 
 
-def _copies(factors: Any) -> tuple[float, ...]:
+def _copies(factors: Iterable[float]) -> tuple[float, ...]:
     """The extra pendulum copies a plan with these factors holds (1.0 is the nominal one, always there)."""
     return tuple(float(f) for f in factors if abs(f - 1.0) > 1e-9)
 
@@ -394,7 +432,7 @@ def build_method(key: str, inp: CompareInput, built: dict[str, MethodResult]) ->
     NotApplicable."""
     res = build_trajectory(key, inp, built)
     if res.applicable:
-        res.score, res.response = score(res.trajectory, inp.params, inp.limits, inp.settings.settle_s)
+        res.score, res.response = score(res.require_trajectory(), inp.params, inp.limits, inp.settings.settle_s)
     return res
 
 
@@ -419,7 +457,7 @@ def build_trajectory(key: str, inp: CompareInput, built: dict[str, MethodResult]
         elif key == "constant_acc":
             traj = constant_acceleration(task)
         elif key in ("zv", "zvd"):
-            traj = shaped_constant_acceleration(task, inp.params, key.upper())
+            traj = shaped_constant_acceleration(task, inp.params, "ZV" if key == "zv" else "ZVD")
         elif key in ("ruckig", "ruckig_tilt"):
             traj = jerk_limited(task, inp.jerk_max_m_s3, tilt=key == "ruckig_tilt")
         elif key in ("sloshid", "sloshid_robust"):
@@ -431,7 +469,7 @@ def build_trajectory(key: str, inp: CompareInput, built: dict[str, MethodResult]
                 base = build_trajectory(base_key, inp, built)
             if not base.applicable:
                 raise NotApplicable(f"its feedforward '{base.label}' is not applicable.")
-            res.replay = with_feedback(inp, base.trajectory)
+            res.replay = with_feedback(inp, base.require_trajectory())
             traj = res.replay(inp.params)
     except NotApplicable as exc:
         res.reason = str(exc)
@@ -501,13 +539,13 @@ class Comparison:
         """What the sidecar JSON of the recommended move says: the method, why, the band it holds over, and for a
         feedback method that the CSV is its feedforward (the camera loop corrects it on the robot)."""
         r, rec = self.recommended, self.recommendation
-        if r is None:
+        if r is None or rec is None:  # a recommended row comes with its recommendation
             return None
         closed = r.replay is not None and r.replay.closed_loop
         return {
             "method": r.key,
             "label": r.label,
-            "transfer_time_s": r.score.transfer_time_s,
+            "transfer_time_s": r.require_score().transfer_time_s,
             "band_hz": list(rec.band_hz),
             "risk": rec.risk,
             "reason": rec.reason,
@@ -521,13 +559,13 @@ class Comparison:
         from sloshid.core.atomic import write_json
         from sloshid.core.outputs import Outputs
 
-        move = self.recommended_move()
-        if move is None:
+        move, r = self.recommended_move(), self.recommended
+        if move is None or r is None:  # the move is described when a method is recommended
             return None
         outputs = Outputs(inputs)
         csv = outputs.file(path, "the recommended move", (".csv",))
         sidecar = outputs.file(csv.with_suffix(".json"), "the recommended move's description", (".json",))
-        self.recommended.replay.trajectory.to_csv(csv, inputs)
+        r.require_replay().trajectory.to_csv(csv, inputs)
         write_json(sidecar, {**move, "trajectory_csv": csv.name})
         return csv
 
@@ -539,7 +577,7 @@ class Comparison:
             if not r.applicable:
                 lines.append(f"{r.label:34s} not applicable: {r.reason}")
                 continue
-            sc = r.score
+            sc = r.require_score()
             collides = sc.min_clearance_m is not None and sc.min_clearance_m < 0
             ok = "COLLIDE" if collides else "ok" if sc.robot_limits_ok and sc.move_limits_ok else "FAIL"
             lines.append(
@@ -561,7 +599,7 @@ class Comparison:
             _, ax = plt.subplots(figsize=(10, 3.6))
         for r in self.results:
             if r.applicable:
-                resp = r.response
+                resp = r.require_response()
                 (line,) = ax.plot(resp.t_s, resp.rel_angle_deg, lw=1.2, label=r.label)
                 i = int(np.searchsorted(resp.t_s, resp.t_arrival_s))
                 ax.plot(resp.t_s[i], resp.rel_angle_deg[i], "o", color=line.get_color(), ms=5)
@@ -637,16 +675,17 @@ def camera_study(
             fb = FeedbackSettings(**{**vars(s.feedback), "camera_fps": fps})
             own = built[f"{base.key}_feedback"].replay  # the configured camera: its loop at this liquid may have run
             loops[base.label, fps] = (
-                own if own is not None and fb == own.feedback else with_feedback(inp, base.trajectory, fb)
+                own if own is not None and fb == own.feedback else with_feedback(inp, base.require_trajectory(), fb)
             )
-    pairs = [(Replay(b.trajectory), truth) for b in bases] + [(loop, truth) for loop in loops.values()]
+    pairs = [(Replay(b.require_trajectory()), truth) for b in bases] + [(loop, truth) for loop in loops.values()]
     resp = replay_responses(pairs, s.settle_s, progress, s.workers)
     reference = {b.label: r.residual_deg for b, r in zip(bases, resp)}
     points = []
     for ((label, fps), loop), r in zip(loops.items(), resp[len(bases) :]):
         base = next(b for b in bases if b.label == label)
-        rel = base.response.rel_angle_deg[: len(base.trajectory.t_s)]  # while moving
-        seen = camera_seen_peak(rel, base.trajectory.dt_s, fps)
+        traj = base.require_trajectory()
+        rel = base.require_response().rel_angle_deg[: len(traj.t_s)]  # while moving
+        seen = camera_seen_peak(rel, traj.dt_s, fps)
         points.append(
             CameraPoint(label, fps, loop(truth).duration_s, r.peak_during_deg, r.residual_deg, seen, float(rel.max()))
         )
@@ -683,13 +722,14 @@ def compare(inp: CompareInput, progress: bool = False) -> Comparison:
         bar.update()
     results = [built[k] for k in s.methods]
     ok = [r for r in results if r.applicable]
-    for r, resp in zip(ok, simulate_liquids([r.trajectory for r in ok], inp.params, s.settle_s)):
-        r.score, r.response = score(r.trajectory, inp.params, inp.limits, s.settle_s, resp)
+    moves = [r.require_trajectory() for r in ok]
+    for r, traj, resp in zip(ok, moves, simulate_liquids(moves, inp.params, s.settle_s)):
+        r.score, r.response = score(traj, inp.params, inp.limits, s.settle_s, resp)
     step(studies[0])
-    cls = closed_loop_responses([r.trajectory for r in ok], inp.params, s.robot_bandwidth_hz, s.settle_s)
+    cls = closed_loop_responses(moves, inp.params, s.robot_bandwidth_hz, s.settle_s)
     closed = {r.key: cl for r, cl in zip(ok, cls)}
     step(studies[1])
-    replays = {r.label: r.replay for r in ok}
+    replays = {r.label: r.require_replay() for r in ok}
     robust = sweep(replays, inp.params, s.omega_factors, s.zeta_factors, progress=progress, workers=s.workers)
     step(studies[2])
     camera, reference = camera_study(inp, built, progress)
@@ -717,13 +757,14 @@ def verdict(comp: Comparison) -> str:
     alternatives cost and how robust they are."""
     limit = comp.settings.residual_ok_deg
     ok = [r for r in comp.results if r.applicable]
-    collides = [r for r in ok if r.score.min_clearance_m is not None and r.score.min_clearance_m < 0]
+    scores = {r.key: r.require_score() for r in ok}
+    collides = [r for r in ok if (c := scores[r.key].min_clearance_m) is not None and c < 0]
     parts = [comp.recommendation.reason] if comp.recommendation is not None else []
     const = comp.result("constant_acc")
     if const is not None and const.applicable:
         parts.append(
-            f"The constant-acceleration profile sloshes to {const.score.peak_during_deg:.3g} deg during the "
-            f"move and leaves {const.score.residual_deg:.3g} deg behind."
+            f"The constant-acceleration profile sloshes to {scores[const.key].peak_during_deg:.3g} deg during the "
+            f"move and leaves {scores[const.key].residual_deg:.3g} deg behind."
         )
     bands = []
     for r in ok:
@@ -734,16 +775,16 @@ def verdict(comp: Comparison) -> str:
         parts.append(f"Frequency error tolerated with residual <= {limit:g} deg: " + ", ".join(bands) + ".")
     nominal, rob = comp.result("sloshid"), comp.result("sloshid_robust")
     if nominal is not None and rob is not None and nominal.applicable and rob.applicable:
-        cost = rob.score.transfer_time_s / nominal.score.transfer_time_s - 1
+        cost = scores[rob.key].transfer_time_s / scores[nominal.key].transfer_time_s - 1
         parts.append(f"The robust plan costs {100 * cost:.1f} % more transfer time.")
     if collides:
         parts.append(
             "Going straight between waypoints collides with an obstacle: " + ", ".join(r.label for r in collides) + "."
         )
-    broken = [r.label for r in ok if not r.score.robot_limits_ok]
+    broken = [r.label for r in ok if not scores[r.key].robot_limits_ok]
     if broken:
         parts.append("Robot limits fail for: " + ", ".join(broken) + ".")
-    passed = [r.label for r in ok if not r.score.move_limits_ok]
+    passed = [r.label for r in ok if not scores[r.key].move_limits_ok]
     if passed:
         parts.append("The scenario's [limits] fail for: " + ", ".join(passed) + ".")
     return " ".join(parts)

@@ -12,6 +12,7 @@ from sloshid.report.html import Report
 
 if TYPE_CHECKING:  # the comparison draws itself through this module: its class is named for the annotations only
     from sloshid.comparison.compare import Comparison
+    from sloshid.comparison.recommend import Recommendation
 
 SCORE_HEADER = (
     "method",
@@ -28,14 +29,14 @@ SCORE_HEADER = (
 )
 
 
-def score_rows(comp: Comparison) -> list[list]:
+def score_rows(comp: Comparison) -> list[list[object]]:
     """One table row per method; a method that could not be built says 'not applicable' and why."""
-    rows = []
+    rows: list[list[object]] = []
     for r in comp.results:
         if not r.applicable:
-            rows.append([r.label] + ["not applicable"] + [""] * 8 + [r.reason])
+            rows.append([r.label, "not applicable", *[""] * 8, r.reason])
             continue
-        s = r.score
+        s = r.require_score()
         clearance = "-" if s.min_clearance_m is None else s.min_clearance_m
         notes = "; ".join(
             s.limits_failed
@@ -65,7 +66,7 @@ def fig7(comp: Comparison):
     for r in comp.results:
         if not r.applicable:
             continue
-        resp = r.response
+        resp = r.require_response()
         for ax in axes:
             (line,) = ax.plot(resp.t_s, resp.rel_angle_deg, lw=1.2, label=r.label)
             i = int(np.searchsorted(resp.t_s, resp.t_arrival_s))
@@ -83,6 +84,7 @@ def fig7(comp: Comparison):
 def closed_loop_figure(comp: Comparison):
     """Per method: relative angle through robot tracking, linear (python-control) vs nonlinear pendulum."""
     keys = list(comp.closed_loop)
+    labels = {r.key: r.label for r in comp.results}
     cols = 3
     rows = max(1, int(np.ceil(len(keys) / cols)))
     fig, axes = plt.subplots(rows, cols, figsize=(12, 2.8 * rows), squeeze=False)
@@ -91,7 +93,7 @@ def closed_loop_figure(comp: Comparison):
         ax.plot(cl.t_s, cl.rel_linear_deg, lw=1.5, label="linear (python-control)")
         ax.plot(cl.t_s, cl.rel_nonlinear_deg, lw=1, ls="--", label="nonlinear (RK4)")
         ax.axvline(cl.t_arrival_s, color="grey", lw=0.7)
-        ax.set_title(f"{comp.result(key).label}: gap {cl.max_gap_deg:.2g} deg", fontsize=9)
+        ax.set_title(f"{labels[key]}: gap {cl.max_gap_deg:.2g} deg", fontsize=9)
         ax.set_xlabel("t (s)")
         ax.set_ylabel("deg")
     for ax in list(axes.flat)[len(keys) :]:
@@ -159,9 +161,9 @@ def camera_figure(comp: Comparison):
     return fig
 
 
-def _recommendation_table(rep: Report, comp: Comparison) -> None:
-    """The band check behind the recommendation: each method tried, fastest first, at the band's ends and middle."""
-    rec = comp.recommendation
+def _recommendation_table(rep: Report, comp: Comparison, rec: Recommendation) -> None:
+    """The band check behind the recommendation (`rec`, the comparison's): each method tried, fastest first, at the
+    band's ends and middle."""
     labels = {r.key: r.label for r in comp.results}
     rows = []
     for key, c in rec.checks.items():
@@ -188,7 +190,7 @@ def build_report(
     rec = comp.recommendation
     rep.add_text(comp.verdict, f"verdict-{rec.risk if rec else 'uncertain'}")
     if rec is not None:
-        _recommendation_table(rep, comp)
+        _recommendation_table(rep, comp, rec)
     rep.add_text(
         f"Liquid: f = {p.f_hz:.3g} Hz, zeta = {p.zeta:.3g} (l = {p.l_m:.4g} m, d = {p.d_ns_per_m:.3g} Ns/m). "
         "Every method is scored by the same nonlinear pendulum simulation (RK4 on the 1 kHz grid): the relative angle "

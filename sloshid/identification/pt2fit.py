@@ -12,7 +12,9 @@ from __future__ import annotations
 
 import itertools
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, replace
+from typing import Literal, overload
 
 import numpy as np
 from scipy import interpolate, optimize, stats
@@ -301,6 +303,10 @@ class _ShrunkHeldModel(_HeldModel):
 
     n_extra = 2
 
+    @overload
+    def _unheld(self, x: np.ndarray, jacobian: Literal[True] = ...) -> tuple[list[np.ndarray], np.ndarray]: ...
+    @overload
+    def _unheld(self, x: np.ndarray, jacobian: Literal[False]) -> tuple[list[np.ndarray], None]: ...
     def _unheld(self, x: np.ndarray, jacobian: bool = True) -> tuple[list[np.ndarray], np.ndarray | None]:
         """Model values per window before the hold, and (when asked) their Jacobian with the hold's width column
         zero: the plain model's, with the main mode's columns (omega, zeta, a, b) and the shrink's for the shrunk
@@ -355,7 +361,7 @@ def correlation_lags(r: np.ndarray, period: int) -> int:
     for lag in outside:  # the first run of `period` quiet lags ends the correlated part
         if lag - last > period:
             break
-        last = lag
+        last = int(lag)
     return int(min(max(rule, last), cap))
 
 
@@ -415,7 +421,12 @@ def hac_covariance(
 
 
 def _solve(
-    model: _JointModel, starts: list[tuple[float, ...]], lower_q, upper_q, keep: int = 5, plain: PT2Fit | None = None
+    model: _JointModel,
+    starts: Sequence[tuple[float, ...]],
+    lower_q: Sequence[float],
+    upper_q: Sequence[float],
+    keep: int = 5,
+    plain: PT2Fit | None = None,
 ) -> PT2Fit:
     """Screen the starts by variable projection, polish the best `keep` with bounded least squares, keep the lowest
     cost, and attach the corrected covariance. Starts and bounds cover the nonlinear parameters and then any extra
@@ -449,6 +460,8 @@ def _solve(
         )
         if best is None or res.cost < best.cost:
             best = res
+    if best is None:
+        raise ValueError("no start to fit the model from (keep must be at least 1)")
     x = best.x
     resid = model.residuals(x)
     jac = model.jacobian(x)
@@ -560,13 +573,21 @@ def fit_pt2_hold(windows: list[WindowData], plain: PT2Fit, keep: int = len(HOLD_
     rms = float(np.sqrt(np.mean(np.concatenate(plain.residuals) ** 2)))
     starts = [(*modes, min(f * rms, widest)) for f in HOLD_STARTS]
     fit = _solve(model, starts, (*lower, 0.0), (*upper, widest), keep, plain=plain)
+    hold = _hold(fit)
     return replace(
         fit,
-        hold=replace(fit.hold, restarts=sum(int(np.sum(w.restarts)) for w in windows if w.restarts is not None)),
-        cov=fit.cov + np.outer(fit.hold.shift, fit.hold.shift),
+        hold=replace(hold, restarts=sum(int(np.sum(w.restarts)) for w in windows if w.restarts is not None)),
+        cov=fit.cov + np.outer(hold.shift, hold.shift),
         # a width of zero is a signal without a hold, not a search that ran out of room
-        at_bound=tuple(n for n in fit.at_bound if n != "hold" or fit.hold.width > widest / 2),
+        at_bound=tuple(n for n in fit.at_bound if n != "hold" or hold.width > widest / 2),
     )
+
+
+def _hold(fit: PT2Fit) -> HoldFit:
+    """The encoder hold fitted with `fit` (`fit_pt2_hold`)."""
+    if fit.hold is None:
+        raise ValueError("the fit has no encoder hold: fit it through one first (fit_pt2_hold)")
+    return fit.hold
 
 
 def _refit_bounds(windows: list[WindowData], fit: PT2Fit) -> tuple[list[float], list[float], list[float], float]:
@@ -593,13 +614,14 @@ def fit_pt2_shrink(windows: list[WindowData], held: PT2Fit, keep: int = 2) -> PT
     lower, upper = [*lower, 0.0, 0.0], [*upper, most, widest]  # then the shrink and the hold's width
     rms = float(np.sqrt(np.mean(np.concatenate(held.residuals) ** 2)))
     # from the held fit's width and from none: a hold can take a shrink's place in a local minimum
-    starts = [(*modes, min(f * rms, most), w) for f in SHRINK_STARTS for w in (held.hold.width, 0.0)]
+    starts = [(*modes, min(f * rms, most), w) for f in SHRINK_STARTS for w in (_hold(held).width, 0.0)]
     model = _ShrunkHeldModel(windows, held.drift, 2 if held.second else 1, held.slow_s)
     shrunk = _solve(model, starts, lower, upper, keep, plain=held)
     # the same fit with the codec taking another residual rms off every swing, a shrink the fit cannot tell from
     # the one it found (held to that value by bounds a hair apart: least squares wants them apart)
-    more = min(shrunk.hold.shrink + rms, most)
-    x_more = (shrunk.omega_rad_s, shrunk.zeta, *modes[2:], more, shrunk.hold.width)
+    shrunk_hold = _hold(shrunk)
+    more = min(shrunk_hold.shrink + rms, most)
+    x_more = (shrunk.omega_rad_s, shrunk.zeta, *modes[2:], more, shrunk_hold.width)
     lower_more, upper_more = list(lower), list(upper)
     lower_more[-2], upper_more[-2] = more, more * (1 + 1e-9) + 1e-12
     hidden = _solve(model, [x_more], lower_more, upper_more, 1).zeta - shrunk.zeta
@@ -609,5 +631,5 @@ def fit_pt2_shrink(windows: list[WindowData], held: PT2Fit, keep: int = 2) -> PT
     return replace(
         held,
         cov=held.cov * np.outer([1.0, scale], [1.0, scale]),
-        hold=replace(held.hold, shrink=shrunk.hold.shrink, shrink_shift=shift, shrink_hidden=hidden),
+        hold=replace(_hold(held), shrink=shrunk_hold.shrink, shrink_shift=shift, shrink_hidden=hidden),
     )

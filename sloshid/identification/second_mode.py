@@ -9,7 +9,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from sloshid.core.spectrum import SpectralPeak, Spectrum
-from sloshid.identification.pt2fit import Z95, PT2Fit, WindowData, fit_two_modes
+from sloshid.identification.pt2fit import Z95, ModeFit, PT2Fit, WindowData, fit_two_modes
 
 MIN_SEPARATION_BINS = 2.0
 """The fitted modes must lie at least this many Welch resolution bins apart (about four beats in the window):
@@ -45,7 +45,7 @@ class SecondMode:
 
     def to_dict(self) -> dict:
         """f_hz and zeta of the second mode with errors, per-signal amplitude share, the verdict on separation."""
-        m = self.fit.second
+        m = _second(self.fit)
         se_w, se_z = np.sqrt(np.clip(np.diag(m.cov), 0, None))
         f, sf = m.omega_rad_s / (2 * math.pi), se_w / (2 * math.pi)
         return {
@@ -66,7 +66,7 @@ class SecondMode:
 
     def summary(self) -> str:
         """One line for stdout."""
-        m = self.fit.second
+        m = _second(self.fit)
         se_f = math.sqrt(max(m.cov[0, 0], 0)) / (2 * math.pi)
         share = ", ".join(f"{100 * self.amplitude_share(i):.0f} %" for i in range(len(self.fit.linear)))
         head = (
@@ -80,19 +80,26 @@ class SecondMode:
         )
 
 
+def _second(fit: PT2Fit) -> ModeFit:
+    """The second mode of a two-mode fit (`fit_two_modes`)."""
+    if fit.second is None:
+        raise ValueError("the fit has no second mode: fit two modes first (fit_two_modes)")
+    return fit.second
+
+
 def strong_peaks(spectrum: Spectrum, ratio: float, fitted_hz: float | None = None) -> list[SpectralPeak]:
     """Non-harmonic secondary PSD peaks stronger than `ratio` of the main peak, strongest first; not those within a
     resolution bin of the `fitted_hz` mode or of its harmonics, which are that mode (a fit that left the searched band
     for a stronger mode beside it found that mode, not a second one)."""
 
-    def of_fitted(f: float) -> bool:
-        k = max(1, round(f / fitted_hz))
-        return abs(f - k * fitted_hz) <= spectrum.resolution_hz
+    def of_fitted(f: float, fitted: float) -> bool:
+        k = max(1, round(f / fitted))
+        return abs(f - k * fitted) <= spectrum.resolution_hz
 
     return [
         p
         for p in spectrum.secondary
-        if not p.harmonic and p.relative > ratio and (fitted_hz is None or not of_fitted(p.f_hz))
+        if not p.harmonic and p.relative > ratio and (fitted_hz is None or not of_fitted(p.f_hz, fitted_hz))
     ]
 
 
@@ -115,7 +122,7 @@ def separation_problems(two: PT2Fit, single: PT2Fit, resolution_hz: float, min_a
     mode's amplitude significant in some window, the two frequency intervals apart, and the main mode's intervals
     not widened more than MAX_SE_GROWTH-fold by the extra mode."""
     out = []
-    m = two.second
+    m = _second(two)
     f1, f2 = two.omega_rad_s / (2 * math.pi), m.omega_rad_s / (2 * math.pi)
     if two.at_bound:
         out.append(f"{', '.join(two.at_bound)} ended on a search bound")

@@ -261,18 +261,12 @@ def _load_mat(p: Path, time_var: str | None, value_var: str | None) -> Signal:
         ) from None
     except Exception as exc:  # scipy raises several types for non-MAT content
         raise UserError(f"{p} is not a readable MATLAB .mat file ({type(exc).__name__}).") from None
-    names = sorted(k for k in data if not k.startswith("__"))
     tname = time_var or next((n for n in TIME_NAMES if n in data), None)
     unit = ""
     if value_var is None and tname in MAT_DEFAULTS and MAT_DEFAULTS[tname][0] in data:
         value_var, unit = MAT_DEFAULTS[tname]
-    for role, name in (("time", tname), ("value", value_var)):
-        if name is None:
-            raise SettingError(
-                f"{role}_var", f"{p}: say which variable holds the {role} with {{name}}; it has: {', '.join(names)}."
-            )
-        if name not in data:
-            raise UserError(f"{p} has no variable '{name}'; it has: {', '.join(names)}.")
+    tname = _mat_variable(p, data, "time", tname)
+    value_var = _mat_variable(p, data, "value", value_var)
     arrays = []
     for name in (tname, value_var):
         arr = np.asarray(data[name])
@@ -280,6 +274,19 @@ def _load_mat(p: Path, time_var: str | None, value_var: str | None) -> Signal:
             raise UserError(f"{p}: variable '{name}' is not a numeric vector (shape {arr.shape}, type {arr.dtype}).")
         arrays.append(arr.ravel())
     return make_signal(arrays[0], arrays[1], value_var, unit or unit_from_name(value_var), str(p))
+
+
+def _mat_variable(p: Path, data: dict, role: str, name: str | None) -> str:
+    """The name of the .mat file's variable that holds the `role` (time or value): a refusal when none was chosen or
+    the file lacks it."""
+    names = sorted(k for k in data if not k.startswith("__"))
+    if name is None:
+        raise SettingError(
+            f"{role}_var", f"{p}: say which variable holds the {role} with {{name}}; it has: {', '.join(names)}."
+        )
+    if name not in data:
+        raise UserError(f"{p} has no variable '{name}'; it has: {', '.join(names)}.")
+    return name
 
 
 def _column_index(spec: str, header: list[str] | None, ncols: int, p: Path, role: str) -> int:
@@ -321,7 +328,7 @@ def _load_csv(p: Path, time_col: str | None, value_col: str | None, progress: bo
         if chosen["t"] == chosen["v"]:
             name = header[chosen["v"]] if header else vcol
             raise UserError(f"{p}: the time and the signal would be the same column ({name}); choose the signal's.")
-        if is_tracker and header[chosen["v"]] not in WHOLE_TRACKER_COLUMNS:
+        if is_tracker and header is not None and header[chosen["v"]] not in WHOLE_TRACKER_COLUMNS:
             chosen["valid"] = header.index("valid")
             if "key_frame" in header:  # written since the tracker reports key frames; older files lack it
                 chosen["key"] = header.index("key_frame")

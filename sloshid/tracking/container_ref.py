@@ -16,7 +16,9 @@ lines (`glass_walls`).
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
+from typing import overload
 
 import cv2
 import numpy as np
@@ -57,6 +59,10 @@ class EdgeLine:
     rms_px: float
     rows: int
 
+    @overload
+    def x_at(self, y: float) -> float: ...
+    @overload
+    def x_at(self, y: np.ndarray) -> np.ndarray: ...
     def x_at(self, y: np.ndarray | float) -> np.ndarray | float:
         """x of the line at image row(s) y."""
         return self.a * y + self.b
@@ -123,7 +129,7 @@ def _band_shift(reference: np.ndarray, edges: tuple, now: np.ndarray) -> np.ndar
     return np.where((energy > 1.0) & (np.abs(_edges_of(now)[2] - centroid) < 1.0), shift, np.nan)
 
 
-def held_angles(measured: list[tuple[int, float, bool]], held: list[int], copied: list[int] = ()) -> np.ndarray:
+def held_angles(measured: list[tuple[int, float, bool]], held: list[int], copied: Sequence[int] = ()) -> np.ndarray:
     """Container angles of the held frames `held` (frame numbers, each after a measurement) from the measured ones
     (frame number, angle, `ContainerMeasurement.unmoved`; in order): linear between the measurements that began and
     ended a frame's hold when the walls' ends at its end were where they were at its start (a slow tilt); else the
@@ -164,7 +170,7 @@ class WallsRecord:
 
     def held_angles(self) -> dict[int, float]:
         """The held frames' container angles (`held_angles`); the record starts afresh."""
-        angles = held_angles(self.measured, self.held, self.copied) if self.held else []
+        angles: np.ndarray | list[float] = held_angles(self.measured, self.held, self.copied) if self.held else []
         out = dict(zip(self.held, map(float, angles)))
         self.measured, self.held, self.copied = [], [], []
         return out

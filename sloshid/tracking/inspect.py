@@ -16,7 +16,7 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeAlias, cast
 
 import cv2
 import numpy as np
@@ -27,7 +27,8 @@ from sloshid.core.outputs import Outputs
 from sloshid.tracking.float_angle import MIN_AREA_PX, hsv_mask, principal_axis
 from sloshid.tracking.rows import TrackRow
 from sloshid.tracking.surface import MIN_LIQUID_SHARE
-from sloshid.tracking.tracker import TrackSettings, measure_frame, roi_box
+from sloshid.tracking.surface_track import SurfaceStep
+from sloshid.tracking.tracker import MeasureStep, TrackSettings, measure_frame, roi_box
 from sloshid.video.colors import PRESETS, HsvRange, format_hsv
 from sloshid.video.frames import FrameReader
 
@@ -51,6 +52,12 @@ HUE_REACH = 8
 hue: the presets' ranges are 14-35 wide."""
 _HUES = ((8, "red"), (22, "orange"), (35, "yellow"), (85, "green"), (100, "cyan"), (125, "blue"), (170, "magenta"))
 """Upper hue bounds (OpenCV, 0..179) of the colour names used to say what was seen; above the last: red again."""
+
+
+Labels: TypeAlias = dict[str, tuple[np.ndarray, list[int]]]
+"""Each colour's region labels in the ROI (OpenCV's label image) and the labels of its regions kept, largest first."""
+Drawn: TypeAlias = dict[tuple[str, str], np.ndarray]
+"""The tracker's overlay of the frame for each (target, colour) measured."""
 
 
 @dataclass
@@ -84,8 +91,9 @@ class ColourMatch:
         else:
             lo, hi = self.hsv.low[0], self.hsv.high[0]
             hue = ((lo + hi + (180 if lo > hi else 0)) // 2) % 180
-            bgr = cv2.cvtColor(np.uint8([[[hue, 220, 220]]]), cv2.COLOR_HSV2BGR)[0, 0]
-        return tuple(255 - int(v) for v in bgr)
+            bgr = cv2.cvtColor(np.array([[[hue, 220, 220]]], np.uint8), cv2.COLOR_HSV2BGR)[0, 0]
+        b, g, r = bgr
+        return 255 - int(b), 255 - int(g), 255 - int(r)
 
 
 @dataclass
@@ -288,7 +296,7 @@ def read_frame(path: str | Path, at: float | None) -> tuple[np.ndarray, float]:
     if second is None:  # an image (PNG, JPEG) opens as a video of one frame
         raise UserError(f"{path} holds a single picture, not a video: inspect looks at a frame of the video to track.")
     if not at:
-        return first[2], float(first[1])
+        return cast(np.ndarray, first[2]), float(first[1])  # a BGR array: the reader makes no `Picture`s
     reader = FrameReader(Path(path), False, start_s=max(0.0, at - AT_BEFORE_S))
     frames, shown, after = iter(reader), None, False
     try:
@@ -296,7 +304,7 @@ def read_frame(path: str | Path, at: float | None) -> tuple[np.ndarray, float]:
             if t > at + AT_TOLERANCE_S:
                 after = True
                 break
-            shown = (frame, float(t))
+            shown = (cast(np.ndarray, frame), float(t))  # a BGR array: the reader makes no `Picture`s
     finally:
         frames.close()
     if shown is None:  # every frame lies more than AT_BEFORE_S before the time asked for
@@ -313,12 +321,13 @@ def read_frame(path: str | Path, at: float | None) -> tuple[np.ndarray, float]:
 
 def _colour_matches(
     frame: np.ndarray, roi: tuple[int, int, int, int], colours: dict[str, HsvRange]
-) -> tuple[list[ColourMatch], dict]:
+) -> tuple[list[ColourMatch], Labels]:
     """Every one of `colours` found in the ROI (largest share first) and each one's region labels (for drawing)."""
     x, y, w, h = roi
     crop = frame[y : y + h, x : x + w]
     least = max(MIN_AREA_PX, LISTED_SHARE * w * h)
-    found, labels = [], {}
+    found: list[ColourMatch] = []
+    labels: Labels = {}
     for name, hsv in colours.items():
         mask = hsv_mask(crop, hsv)
         n, lab, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=8)
@@ -326,7 +335,10 @@ def _colour_matches(
         if not keep:
             continue
         keep.sort(key=lambda k: -stats[k, cv2.CC_STAT_AREA])
-        regions = [(x + int(stats[k, 0]), y + int(stats[k, 1]), *(int(v) for v in stats[k, 2:5])) for k in keep]
+        regions = [
+            (x + int(stats[k, 0]), y + int(stats[k, 1]), int(stats[k, 2]), int(stats[k, 3]), int(stats[k, 4]))
+            for k in keep
+        ]
         found.append(ColourMatch(name, hsv, cv2.countNonZero(mask) / (w * h), regions))
         labels[name] = (lab, keep)
     found.sort(key=lambda m: -m.share)
@@ -346,7 +358,9 @@ def _candidates(name: str, labels: np.ndarray, keep: list[int], roi: tuple) -> l
     return out
 
 
-def _measure(frame: np.ndarray, t_s: float, settings: TrackSettings, roi: tuple) -> tuple[TrackRow, np.ndarray, object]:
+def _measure(
+    frame: np.ndarray, t_s: float, settings: TrackSettings, roi: tuple
+) -> tuple[TrackRow, np.ndarray, MeasureStep]:
     """The tracker's own measurement of one frame (the one call into it: `measure_frame`, what track runs per frame)."""
     return measure_frame(frame, t_s, settings, roi, None)
 
@@ -355,6 +369,8 @@ def _look_at_surface(frame, t_s, colour: ColourMatch, roi: tuple) -> tuple[Surfa
     """Measure `colour` as the dyed liquid (against the container's walls, to learn whether they are found)."""
     settings = TrackSettings(target="surface", reference="container", roi=roi, **colour.settings("liquid"))
     row, drawn, step = _measure(frame, t_s, settings, roi)
+    if not isinstance(step, SurfaceStep):
+        raise TypeError(f"the surface target was measured by a {type(step).__name__}")
     walls = bool(step.walls_record.measured)
     look = SurfaceLook(
         colour.name, step.liquid_frames > 0, bool(row.valid), walls=walls, quality=float(row.quality), roi=roi
@@ -368,6 +384,8 @@ def _look_at_float(frame, t_s, colour: ColourMatch, roi: tuple) -> tuple[FloatLo
     """Measure `colour` as the float, against the image (is it measured?) and the container (are walls there?)."""
     named = colour.settings("float")
     row, drawn, step = _measure(frame, t_s, TrackSettings(roi=roi, **named), roi)
+    if isinstance(step, SurfaceStep):
+        raise TypeError("the float target was measured by a SurfaceStep")
     look = FloatLook(colour.name, step.found > 0, bool(row.valid), float(row.float_angle_deg), float(row.quality))
     look.liquid_like = bool(step.liquid_width)
     if look.found:
@@ -405,7 +423,7 @@ def liquid_roi(
     meets = bool(run.any())
     size = float(np.median(width[full])) if len(full) >= 3 else float(width.max())
     bottom = rows[int(np.argmax(run))] if meets else rows[-1] + 1 + int(0.05 * size)
-    if left_line is not None:  # the sides' extent between the top and the bottom (a container tilted in the picture)
+    if left_line is not None and right_line is not None:  # the sides' extent from top to bottom (a tilted container)
         ends = np.array([rows[0], bottom])
         lo, hi = np.polyval(left_line, ends).min(), np.polyval(right_line, ends).max()
     pad = int(0.08 * size) + 4
@@ -479,8 +497,8 @@ def what_it_saw(frame: np.ndarray, roi: tuple[int, int, int, int]) -> tuple[str,
         )
     px = hsv[lab == big[0]]
     hue = float(np.median(px[:, 0]))
-    floor = [max(20, int(np.percentile(px[:, c], 5)) - 10) for c in (1, 2)]  # its paler and darker pixels too
-    r = HsvRange((int(hue - HUE_REACH) % 180, *floor), (int(hue + HUE_REACH) % 180, 255, 255))
+    s_floor, v_floor = (max(20, int(np.percentile(px[:, c], 5)) - 10) for c in (1, 2))  # paler and darker pixels too
+    r = HsvRange((int(hue - HUE_REACH) % 180, s_floor, v_floor), (int(hue + HUE_REACH) % 180, 255, 255))
     return (
         (
             f"no preset colour measured here ({greys}); the largest coloured regions: {'; '.join(parts)}; the "
@@ -502,7 +520,8 @@ def inspect_video(
     video = Path(path)
     frame, t_s = read_frame(video, at)
     size = (frame.shape[1], frame.shape[0])
-    box = roi_box(TrackSettings(roi=None if roi is None else tuple(roi)), *size)
+    # tuple() keeps the ROI's four numbers four (and makes a list a tuple); mypy only knows tuple[int, ...]
+    box = roi_box(TrackSettings(roi=None if roi is None else cast("tuple[int, int, int, int]", tuple(roi))), *size)
     res = InspectResult(
         video=video,
         t_s=t_s,
@@ -515,7 +534,8 @@ def inspect_video(
         suggested_roi=None,
         target=None,
     )
-    labels, drawn = {}, {}
+    labels: Labels = {}
+    drawn: Drawn = {}
     _look_at_colours(res, frame, {name: p.hsv for name, p in PRESETS.items()}, labels, drawn)
     if not any(s.liquid for s in res.surfaces) and not any(f.found for f in res.floats):
         # a colour no preset takes (or too little of one): the largest coloured region's own range is looked at
@@ -526,21 +546,21 @@ def inspect_video(
     return res
 
 
-def _look_at_colours(res: InspectResult, frame: np.ndarray, colours: dict, labels: dict, drawn: dict) -> None:
+def _look_at_colours(res: InspectResult, frame: np.ndarray, colours: dict, labels: Labels, drawn: Drawn) -> None:
     """Find `colours` (name: HSV range) in the frame and measure each one found as the liquid and as a float; the
     region labels and the tracker's overlays go into `labels` and `drawn`."""
     found, more = _colour_matches(frame, res.roi, colours)
     labels.update(more)
     for p in found:
-        look, drawn[("surface", p.name)] = _look_at_surface(frame, res.t_s, p, res.roi)
-        res.surfaces.append(look)
+        surface, drawn[("surface", p.name)] = _look_at_surface(frame, res.t_s, p, res.roi)
+        res.surfaces.append(surface)
         res.candidates += _candidates(p.name, *labels[p.name], res.roi)
-        look, drawn[("float", p.name)] = _look_at_float(frame, res.t_s, p, res.roi)
-        res.floats.append(look)
+        floating, drawn[("float", p.name)] = _look_at_float(frame, res.t_s, p, res.roi)
+        res.floats.append(floating)
     res.colours += found
 
 
-def _decide(res: InspectResult, frame: np.ndarray, labels: dict, drawn: dict) -> None:
+def _decide(res: InspectResult, frame: np.ndarray, labels: Labels, drawn: Drawn) -> None:
     """Choose the target (a measured surface, else a measured float, else liquid found, else a float found), the
     preset and the ROI, and write the notes and the command."""
     size, box = res.size, res.roi
@@ -610,7 +630,7 @@ def _decide(res: InspectResult, frame: np.ndarray, labels: dict, drawn: dict) ->
 
 
 def _around_liquid(
-    res: InspectResult, surface: SurfaceLook, frame: np.ndarray, labels: dict, drawn: dict
+    res: InspectResult, surface: SurfaceLook, frame: np.ndarray, labels: Labels, drawn: Drawn
 ) -> tuple[SurfaceLook, str]:
     """Suggest the ROI around the liquid `surface` shows; measure it there when it was not measured in the whole area.
     Returns the surface to track (that measurement when it succeeded) and why the command needs the ROI ("": not)."""
@@ -696,7 +716,7 @@ def _float_note(f: FloatLook, cands: list[FloatCandidate]) -> str:
     return f"float, {f.color}: {len(cands)} candidate(s): {listed}{more}: {verdict}"
 
 
-def _picture(res: InspectResult, frame: np.ndarray, labels: dict, drawn: dict) -> np.ndarray:
+def _picture(res: InspectResult, frame: np.ndarray, labels: Labels, drawn: Drawn) -> np.ndarray:
     """Two panels: the surface target (the tracker's overlay, every preset's regions) and the float target (its
     overlay, the candidates); the suggested ROI in white on both; a title bar over each."""
     chosen = res.liquid

@@ -30,8 +30,8 @@ MOVED_DEG) and moved only after it is a copy of an object at rest (a tap after a
 
 
 def repeated_share(
-    frame: np.ndarray,
-    previous: np.ndarray | None,
+    frame: np.ndarray | Picture,
+    previous: np.ndarray | Picture | None,
     box: tuple[int, int, int, int],
     dy_only: bool,
     lumas: tuple = (None, None),
@@ -60,7 +60,8 @@ def repeated_share(
     if not dy_only:
         grad = cv2.add(grad, cv2.convertScaleAbs(cv2.Sobel(cur, cv2.CV_16S, 1, 0, ksize=3), alpha=0.25))
     top = cv2.minMaxLoc(grad)[1]
-    edges = cv2.compare(grad, 0.3 * top, cv2.CMP_GT)
+    # OpenCV's stubs type compare's src2 as an array only; OpenCV takes a scalar there too (its docs: "array or scalar")
+    edges = cv2.compare(grad, 0.3 * top, cv2.CMP_GT)  # type: ignore[call-overload]
     n = cv2.countNonZero(edges)
     if top <= 0 or n == 0:
         return 0.0

@@ -20,7 +20,7 @@ import sys
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Literal
+from typing import TYPE_CHECKING, Literal, Protocol, TypeAlias, cast
 
 import numpy as np
 from tqdm import tqdm
@@ -32,7 +32,7 @@ from sloshid.core.parallel import die_with_parent, signals_held
 from sloshid.core.settings import check_in_metres, setting_field
 from sloshid.core.tables import to_pandas, write_csv
 from sloshid.tracking.container_ref import ContainerMeasurement, ContainerTracker, WallsRecord
-from sloshid.tracking.float_angle import FloatFinder
+from sloshid.tracking.float_angle import FloatFinder, FloatMeasurement
 from sloshid.tracking.overlay import draw_overlay
 from sloshid.tracking.repeats import REPEAT_SHARE, Copies, line_regions, repeated_share, stale_repeats
 from sloshid.tracking.robust import percentile_span
@@ -43,6 +43,11 @@ from sloshid.tracking.surface_track import SurfaceStep, check_rest_frames
 from sloshid.video.colors import DEFAULT_FLOAT_COLOR, HsvRange, preset
 from sloshid.video.frames import FrameReader, Picture, VideoInfo, VideoWriter, lost_share
 from sloshid.video.keyframes import key_frame_times
+
+if TYPE_CHECKING:
+    from multiprocessing.sharedctypes import Synchronized
+
+    from typing_extensions import Self
 
 log = logging.getLogger("sloshid.tracking")
 """Progress of a tracking run (INFO); its doubts are SloshidWarnings and the result's `warnings`."""
@@ -173,15 +178,25 @@ class TrackSettings:
     def liquid_hsv(self) -> HsvRange | None:
         """The HSV box searched for the dyed liquid, or None to choose it from the first frame."""
         if self.liquid_hsv_low is not None:
-            return HsvRange(tuple(self.liquid_hsv_low), tuple(self.liquid_hsv_high))
+            return _hsv_box("liquid", self.liquid_hsv_low, self.liquid_hsv_high)
         return preset(self.liquid_color).hsv if self.liquid_color else None
 
     @property
     def hsv(self) -> HsvRange:
         """The OpenCV HSV box searched for the float: the explicit corners, else the named preset's."""
         if self.float_hsv_low is not None:
-            return HsvRange(tuple(self.float_hsv_low), tuple(self.float_hsv_high))
+            return _hsv_box("float", self.float_hsv_low, self.float_hsv_high)
         return preset(self.float_color or DEFAULT_FLOAT_COLOR).hsv
+
+
+def _hsv_box(kind: str, low: tuple[int, int, int], high: tuple[int, int, int] | None) -> HsvRange:
+    """The HSV box between two corners given (a TOML array as well as a tuple)."""
+    if high is None:  # refused when the settings were made (`TrackSettings.__post_init__`)
+        raise SettingError(
+            f"{kind}_hsv_high", f"the {kind}'s HSV range needs both corners given together; add {{name}}."
+        )
+    # tuple() keeps a declared triple a triple (and makes a TOML array's list one); mypy only knows tuple[int, ...]
+    return HsvRange(cast("tuple[int, int, int]", tuple(low)), cast("tuple[int, int, int]", tuple(high)))
 
 
 @dataclass(kw_only=True)
@@ -305,6 +320,13 @@ def roi_box(settings: TrackSettings, width: int, height: int) -> tuple[int, int,
     return x, y, w, h
 
 
+def _box(fm: FloatMeasurement) -> tuple[int, int, int, int]:
+    """The box (x0, y0, x1, y1) around a float found."""
+    if fm.bbox is None:
+        raise ValueError("a float measured as found has no box")
+    return fm.bbox
+
+
 def _unwrap(angle: float, previous: float) -> float:
     """Choose angle + k*180 closest to the previous angle (the float is a line: no head or tail)."""
     if not math.isfinite(previous):
@@ -347,7 +369,7 @@ class _FloatStep:
         self.cut += fm.cut
         if fm.found and self.liquid_width is None:
             self.liquid_width = _liquid_width(frame, self.settings.hsv, self.roi)
-        repeat = fm.found and repeated_share(frame, self.previous, fm.bbox, dy_only=False) >= REPEAT_SHARE
+        repeat = fm.found and repeated_share(frame, self.previous, _box(fm), dy_only=False) >= REPEAT_SHARE
         self.previous = frame
         cm = ContainerMeasurement(True, 0.0)
         if self.walls is not None:  # nothing here tells whether the container moved: its walls' ends judge
@@ -458,10 +480,11 @@ def track_video(
         reader.end_s = spans[0][1]
         liquid, dye, rival = settings.liquid_hsv, "", None
         if settings.target == "surface" and liquid is None:  # one automatic dye colour for every span: the first's
-            name, rival = auto_liquid_preset(reader.first_picture(), roi)
+            x, y, w, h = roi  # the ROI's pixels only (a Picture converts just them), as auto_liquid_preset reads them
+            name, rival = auto_liquid_preset(reader.first_picture()[y : y + h, x : x + w], (0, 0, w, h))
             liquid = preset(name).hsv if name else None
             dye = f"{name} (chosen from the first frame)" if name else ""
-        elif settings.target == "surface":
+        elif settings.target == "surface" and liquid is not None:
             dye = settings.liquid_color or liquid.describe()
         parallel = multithreaded and overlay is None and len(spans) > 1 and _can_fork()
         # a run that finds nothing writes its overlay as the diagnosis, but does not replace one already there
@@ -492,7 +515,7 @@ def track_video(
             found = any(r.valid for r in rows)
             if kept is not None and not found:  # raised here, the new overlay is not put in place
                 hint = f"{kept} was kept; write the overlay to a new path ({{overlay}}) to see what was searched"
-                raise step.nothing_found(len(rows), path, hint)
+                raise step.nothing_found(len(rows), Path(path), hint)
         # raised after the overlay is finished: when nothing is found, the overlay is the user's diagnosis
         if not found:
             hint = (
@@ -501,7 +524,7 @@ def track_video(
                 else "look at a frame with `sloshid inspect` (it draws what each target finds and suggests a command), "
                 "or write an overlay video ({overlay}) to see what was searched"
             )
-            raise step.nothing_found(len(rows), path, hint)
+            raise step.nothing_found(len(rows), Path(path), hint)
         body, walls, notes = step.finish(rows)
         flags = [flag for part in parts for flag in part.repeated]
         repeated = stale_repeats(np.array([r.angle_deg for r in body]), np.array([r.valid for r in body], bool), flags)
@@ -564,7 +587,17 @@ class _Span:
 
     rows: list[TrackRow]
     repeated: list[bool]
-    step: _FloatStep | SurfaceStep
+    step: _Step
+
+
+class _Step(Protocol):
+    """What a span's step (`_FloatStep`, `SurfaceStep`) tells `track_video` once its frames are measured."""
+
+    def merge(self, later: Self) -> None: ...
+
+    def nothing_found(self, n: int, path: Path, hint: str) -> UserError: ...
+
+    def finish(self, rows: list[TrackRow]) -> tuple[list[TrackRow], dict[str, np.ndarray], list[str]]: ...
 
 
 def _spans(info: VideoInfo, key_times: np.ndarray) -> list[tuple[float | None, float | None]]:
@@ -580,6 +613,10 @@ def _spans(info: VideoInfo, key_times: np.ndarray) -> list[tuple[float | None, f
     return list(itertools.pairwise(bounds))
 
 
+MeasureStep: TypeAlias = "_FloatStep | SurfaceStep"
+"""A per-frame measurement step of the float or the surface target (`measure_frame`)."""
+
+
 def _step(settings: TrackSettings, roi: tuple[int, int, int, int], liquid: HsvRange | None):
     """A fresh per-frame measurement step of the target."""
     return _FloatStep(settings, roi) if settings.target == "float" else SurfaceStep(settings, roi, liquid)
@@ -587,7 +624,7 @@ def _step(settings: TrackSettings, roi: tuple[int, int, int, int], liquid: HsvRa
 
 def measure_frame(
     frame: np.ndarray, t_s: float, settings: TrackSettings, roi: tuple[int, int, int, int], liquid: HsvRange | None
-) -> tuple[TrackRow, np.ndarray, _FloatStep | SurfaceStep]:
+) -> tuple[TrackRow, np.ndarray, MeasureStep]:
     """One frame measured as `track_video` measures the first frame of a span and draws it in ``overlay`` (the target's
     step, then, for a valid frame, its finish): the table row (frame, t_s, angle_deg, ..., valid), the overlay picture,
     and the step, which holds what it found (`walls_record`, `liquid_frames`, ...). `sloshid inspect` calls it, so that
@@ -627,7 +664,7 @@ def _can_fork() -> bool:
     return sys.platform.startswith("linux") and not multiprocessing.current_process().daemon
 
 
-_done = None
+_done: Synchronized[int] | None = None
 """In a span worker: the shared count of frames tracked, which the parent's progress bar shows."""
 
 
@@ -660,7 +697,7 @@ def _length(span: tuple[float | None, float | None], duration: float) -> float:
     return (duration if end is None else end) - (start or 0.0)
 
 
-def _start_worker(done, parent_pid: int) -> None:
+def _start_worker(done: Synchronized[int], parent_pid: int) -> None:
     """A span worker: SIGTERM (the pool's terminate) ends it at once, and so does the end of the parent (or of the
     pool's thread that started it); Ctrl-C is the parent's to handle."""
     global _done
@@ -673,13 +710,16 @@ def _start_worker(done, parent_pid: int) -> None:
 def _span_job(job: tuple) -> _Span:
     """Track one span in a worker (decoding in this process's one thread)."""
     path, settings, roi, liquid, (start, end) = job
+    if _done is None:
+        raise RuntimeError("a span job runs in a worker process started by `_start_worker`")
+    done = _done
     counted = [0]
 
     def tick(n: int) -> None:
         counted[0] += n
         if counted[0] >= 30:  # the shared counter's lock costs more than a frame's bookkeeping
-            with _done.get_lock():
-                _done.value += counted[0]
+            with done.get_lock():
+                done.value += counted[0]
             counted[0] = 0
 
     part = _track_frames(

@@ -16,11 +16,11 @@ import itertools
 import os
 import queue
 import threading
-from collections.abc import Iterator
+from collections.abc import Generator, Iterator
 from dataclasses import dataclass, field
 from fractions import Fraction
 from pathlib import Path
-from typing import Literal
+from typing import TYPE_CHECKING, Literal
 
 import cv2
 import numpy as np
@@ -28,8 +28,11 @@ import numpy as np
 from sloshid.core.errors import UserError
 from sloshid.core.parallel import signals_held
 
+if TYPE_CHECKING:
+    import av
+
 Codec = Literal["h264", "mpeg4"]
-_ENCODERS = {"h264": "libx264", "mpeg4": "mpeg4"}
+_ENCODERS: dict[str, Literal["libx264", "mpeg4"]] = {"h264": "libx264", "mpeg4": "mpeg4"}
 _TIME_BASES = {"h264": Fraction(1, 90000), "mpeg4": Fraction(1, 60000)}
 """Time base of written files: the MPEG 90 kHz clock; MPEG-4 Part 2 allows at most 65535 ticks per second."""
 
@@ -117,13 +120,13 @@ _ROTATIONS = {90: cv2.ROTATE_90_COUNTERCLOCKWISE, 180: cv2.ROTATE_180, 270: cv2.
 """Display-matrix rotations (counter-clockwise degrees, as FFmpeg reports them) and the turn that shows the picture."""
 
 
-def _plane(frame, index: int) -> np.ndarray:
+def _plane(frame: av.VideoFrame, index: int) -> np.ndarray:
     """One plane of a decoded frame as a 2-D uint8 view (no copy; row padding cut off)."""
     plane = frame.planes[index]
-    return np.frombuffer(plane, np.uint8).reshape(plane.height, plane.line_size)[:, : plane.width]
+    return np.frombuffer(memoryview(plane), np.uint8).reshape(plane.height, plane.line_size)[:, : plane.width]
 
 
-def _as_shown(frame, lazy: bool) -> np.ndarray | Picture:
+def _as_shown(frame: av.VideoFrame, lazy: bool) -> np.ndarray | Picture:
     """The decoded frame as displayed: a Picture (when `lazy`) or a BGR array; other pixel formats, full-range
     video and turned pictures go through FFmpeg's own conversion to BGR."""
     rotation = round(frame.rotation) % 360
@@ -204,7 +207,7 @@ class FrameReader:
         stream.thread_type, stream.thread_count = ("AUTO" if threads > 1 else "NONE"), threads
         self._start = stream.start_time or 0
         if self.start_s is not None:  # the last key frame at or before start_s: a frame early, never a frame late
-            ticks = int(self.start_s / stream.time_base) + self._start
+            ticks = int(self.start_s / self._time_base()) + self._start
             self._container.seek(ticks, stream=stream, backward=True, any_frame=False)
         self._frames = self._decode_frames(av.FFmpegError)
         self._first = next(self._frames, None)
@@ -213,10 +216,16 @@ class FrameReader:
             raise UserError(f"{self.path} contains no video frames.")
         h, w = _as_shown(self._first, True).shape[:2]
         fps = float(stream.average_rate or stream.guessed_rate or 0.0)
-        count = stream.frames or (round(float(stream.duration * stream.time_base) * fps) if stream.duration else 0)
+        count = stream.frames or (round(float(stream.duration * self._time_base()) * fps) if stream.duration else 0)
         self.info = VideoInfo(self.path, w, h, fps, int(count), self._first.pts is not None)
 
-    def _decode_frames(self, errors: type[Exception]) -> Iterator:
+    def _time_base(self) -> Fraction:
+        """The video stream's time base (seconds per timestamp tick)."""
+        if self._stream.time_base is None:
+            raise UserError(f"{self.path}: its video stream has no time base, so its timestamps cannot be read.")
+        return self._stream.time_base
+
+    def _decode_frames(self, errors: type[Exception]) -> Generator[av.VideoFrame, None, None]:
         """PyAV frames in order until the end or the first undecodable data (a truncated file)."""
         frames = self._container.decode(self._stream)
         while True:
@@ -226,17 +235,19 @@ class FrameReader:
                 return
             yield frame
 
-    def _timed(self, frame) -> tuple[float, np.ndarray | Picture]:
+    def _timed(self, frame: av.VideoFrame) -> tuple[float, np.ndarray | Picture]:
         """(presentation time in seconds from the stream's start, picture as shown)."""
         if frame.pts is None:  # no timestamp: evenly spaced at the declared rate
             t_s = self.decoded / (self.info.fps or 30.0)
+        elif frame.time_base is None:
+            raise UserError(f"{self.path}: frame {self.decoded} has a timestamp but no time base.")
         else:
             t_s = float((frame.pts - self._start) * frame.time_base)
         return t_s, _as_shown(frame, self.pictures)
 
-    def _produce(self) -> Iterator[tuple[float, np.ndarray | Picture]]:
+    def _produce(self) -> Generator[tuple[float, np.ndarray | Picture], None, None]:
         """(t_s, picture) of every frame of the span, the one decoded at opening first."""
-        frames = self._frames
+        frames: Iterator[av.VideoFrame] = self._frames
         if self._first is not None:
             frames = itertools.chain([self._first], frames)
             self._first = None
@@ -248,7 +259,7 @@ class FrameReader:
                 return
             yield t_s, picture
 
-    def __iter__(self) -> Iterator[tuple[int, float, np.ndarray | Picture]]:
+    def __iter__(self) -> Generator[tuple[int, float, np.ndarray | Picture], None, None]:
         """Frames in order (decoded in a background thread unless multithreaded is off)."""
         items = self._threaded() if self.multithreaded else self._produce()
         try:
@@ -259,9 +270,9 @@ class FrameReader:
             items.close()  # stops and joins the decoding thread: closing the file under it crashes FFmpeg
             self._container.close()
 
-    def _threaded(self) -> Iterator[tuple[float, np.ndarray | Picture]]:
+    def _threaded(self) -> Generator[tuple[float, np.ndarray | Picture], None, None]:
         """The producer's items, decoded and converted in a background thread (FFmpeg releases the GIL)."""
-        frames: queue.Queue = queue.Queue(maxsize=8)
+        frames: queue.Queue[tuple[float, np.ndarray | Picture] | None] = queue.Queue(maxsize=8)
         stop = threading.Event()
 
         def produce() -> None:
@@ -301,6 +312,8 @@ class FrameReader:
 
     def first_picture(self) -> np.ndarray | Picture:
         """The first frame decoded at opening, as iterating would give it (without taking it from the iteration)."""
+        if self._first is None:
+            raise ValueError("the reader's first picture was already taken by iterating it (or it was closed)")
         return _as_shown(self._first, self.pictures)
 
     @property
