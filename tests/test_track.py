@@ -1337,7 +1337,11 @@ def test_a_frame_whose_angle_jumps_away_and_back_is_a_spike_and_a_fast_slosh_is_
     assert not _spikes(angle, valid).any()
     angle[[40, 77]] += [3.0, -5.0]
     assert np.flatnonzero(_spikes(angle, valid)).tolist() == [40, 77]
-    valid[76] = False  # a frame whose neighbours are not all valid is not judged
+    # beside an invalid frame (too low a quality: the cola clip's doublet) it is judged against the valid frames
+    # beyond it; with three invalid frames on one side (a gap past SPIKE_REACH) it is not judged
+    valid[76] = False
+    assert np.flatnonzero(_spikes(angle, valid)).tolist() == [40, 77]
+    valid[74:76] = False
     assert np.flatnonzero(_spikes(angle, valid)).tolist() == [40]
     # a tap starts the swing at once (a kink: at rest, then 2.4 deg a frame): not a spike
     tap = np.where(t < 1, 0.0, 8 * np.sin(2 * np.pi * 3 * (t - 1)) * np.exp(-0.3 * (t - 1)))

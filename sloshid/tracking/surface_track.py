@@ -289,30 +289,45 @@ SPIKE_DEG = 0.5
 """A frame is a spike only when it leaves the cubic through its neighbours (`_spikes`) by at least this much."""
 SPIKE_SCATTER = 6.0
 """... and by this many robust scatters of every frame's distance from its neighbours' cubic."""
+SPIKE_REACH = 3
+"""The four frames a frame is judged against lie within this many frames of it: one invalid frame beside it
+leaves a gap of two."""
 
 
 def _spikes(angle: np.ndarray, valid: np.ndarray) -> np.ndarray:
-    """Valid frames whose angle leaves the cubic through the two frames before and the two after it (all valid) by
-    more than SPIKE_DEG and SPIKE_SCATTER robust scatters, and by more than either neighbour does (a spike also moves
-    its neighbours' cubics, by two thirds of it), away from both neighbours and back (a tap's sudden start is a kink,
-    not a spike): a slosh well below half the frame rate moves the surface smoothly,
+    """Valid frames whose angle leaves the cubic through the two valid frames before and the two after it (within
+    SPIKE_REACH frames) by more than SPIKE_DEG and SPIKE_SCATTER robust scatters, and by more than either of those
+    next to it does (a spike also moves its neighbours' cubics, by two thirds of it), away from both and back (a tap's
+    sudden start is a kink, not a spike): a slosh well below half the frame rate moves the surface smoothly,
     within a few hundredths of its swing of that cubic (3 Hz at 30 fps: 2.5 %), while a fit that strayed to the
-    ellipse's back edge in one frame reads degrees off (a path-traced cola clip: 2.6-5.9 deg in 4 of 120 frames)."""
+    ellipse's back edge in one frame reads degrees off (a path-traced cola clip: 2.6-5.9 deg in 4 of 120 frames,
+    one of them beside a frame of too low a quality)."""
     out = np.zeros(angle.size, bool)
     if angle.size < 5:
         return out
     a = np.nan_to_num(angle)
-    miss = np.zeros(angle.size)
-    miss[2:-2] = np.abs(a[2:-2] - (4 * (a[1:-3] + a[3:-1]) - a[:-4] - a[4:]) / 6)
-    whole = np.zeros(angle.size, bool)
-    whole[2:-2] = valid[:-4] & valid[1:-3] & valid[2:-2] & valid[3:-1] & valid[4:]
-    if np.count_nonzero(whole) < 10:
+    i = np.arange(angle.size)
+    before = np.maximum.accumulate(np.where(valid, i, -1))  # the last valid frame up to each frame
+    after = np.minimum.accumulate(np.where(valid, i, angle.size)[::-1])[::-1]  # the first valid frame from each
+    p1 = np.r_[-1, before[:-1]]
+    n1 = np.r_[after[1:], angle.size]
+    p2 = np.where(p1 > 0, np.r_[-1, before[:-1]][np.maximum(p1, 0)], -1)
+    n2 = np.where(n1 < angle.size - 1, np.r_[after[1:], angle.size][np.minimum(n1, angle.size - 1)], angle.size)
+    judged = valid & (p2 >= 0) & (n2 < angle.size) & (i - p2 <= SPIKE_REACH) & (n2 - i <= SPIKE_REACH)
+    if np.count_nonzero(judged) < 10:
         return out
-    limit = max(SPIKE_DEG, SPIKE_SCATTER * MAD_SIGMA * median(miss[whole]))
-    up, down = a[2:-2] - a[1:-3], a[2:-2] - a[3:-1]
+    j = np.flatnonzero(judged)
+    nodes = np.vstack([p2[j], p1[j], n1[j], n2[j]]).astype(float) - j  # frame offsets of the four, about the frame
+    guess = np.zeros(j.size)
+    for k in range(4):  # the cubic through the four (Lagrange) at the frame itself
+        others = np.delete(nodes, k, axis=0)
+        guess += a[(nodes[k] + j).astype(int)] * np.prod(-others / (nodes[k] - others), axis=0)
+    miss = np.zeros(angle.size)
+    miss[j] = np.abs(a[j] - guess)
+    limit = max(SPIKE_DEG, SPIKE_SCATTER * MAD_SIGMA * median(miss[j]))
+    up, down = a[j] - a[p1[j]], a[j] - a[n1[j]]
     away_and_back = (up * down > 0) & (np.minimum(np.abs(up), np.abs(down)) > limit / 2)  # not a tap's kink
-    out[2:-2] = whole[2:-2] & (miss[2:-2] > limit) & (miss[2:-2] >= miss[1:-3]) & (miss[2:-2] >= miss[3:-1])
-    out[2:-2] &= away_and_back
+    out[j] = (miss[j] > limit) & (miss[j] >= miss[p1[j]]) & (miss[j] >= miss[n1[j]]) & away_and_back
     return out
 
 
