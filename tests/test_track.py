@@ -891,6 +891,14 @@ def test_surface_target_on_a_float_video_is_a_user_error(tmp_path, run_cli):
     code, _, err = run_cli("track", path, "-o", out, "--target", "surface")
     assert code == 2 and "not the container's inner walls" in err and "Traceback" not in err
     assert not out.exists()
+    # what was found is drawn (inspect's picture of the first frame, beside the video) and the sentence points to it
+    picture = tmp_path / "float_inspect.png"
+    assert f"see {picture} (what each target finds" in err
+    assert cv2.imread(str(picture)).shape[0] > 0
+    # a file already there is kept, and the sentence points to inspect instead
+    picture.write_bytes(b"mine")
+    code, _, err = run_cli("track", path, "-o", out, "--target", "surface")
+    assert code == 2 and picture.read_bytes() == b"mine" and "look at a frame with `sloshid inspect`" in err
 
 
 # A container that stands still is measured in a band of rows around the surface (plus two strips that watch the

@@ -25,7 +25,9 @@ from pathlib import Path
 
 from sloshid.cli.naming import as_typed
 from sloshid.cli.settings_options import add_settings, settings_from
+from sloshid.core.errors import NothingFound, UserError
 from sloshid.core.outputs import Outputs
+from sloshid.tracking.inspect import inspect_video
 from sloshid.tracking.tracker import LOST_NOTE, TrackSettings, track_video
 from sloshid.video.colors import DEFAULT_FLOAT_COLOR, PRESETS, format_hsv
 from sloshid.video.frames import VIDEO_SUFFIXES
@@ -51,13 +53,33 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
 
 
+def _first_look(video: Path, roi: tuple[int, int, int, int] | None) -> Path | None:
+    """Where nothing could be tracked: `sloshid inspect`'s picture of the first frame, written beside the video as
+    VIDEO_inspect.png when no file is there (None when one is, or the picture cannot be made)."""
+    picture = video.with_name(f"{video.stem}_inspect.png")
+    if picture.exists() or picture.is_symlink():
+        return None
+    try:
+        return inspect_video(video, None, roi).save_picture(picture)
+    except UserError:
+        return None
+
+
 def run(args: argparse.Namespace) -> int:
     """Check the outputs, track, write the CSV (and overlay), report warnings; exit 1 when the video was truncated."""
     settings = settings_from(args, TrackSettings)
     outputs = Outputs([args.video])
     output = outputs.file(args.output, "-o", (".csv",))
     overlay = outputs.file(args.overlay, "--overlay", VIDEO_SUFFIXES) if args.overlay else None
-    result = track_video(args.video, settings, overlay=overlay, progress=True)
+    try:
+        result = track_video(args.video, settings, overlay=overlay, progress=True)
+    except NothingFound as err:
+        picture = None if overlay else _first_look(args.video, settings.roi)
+        if picture is None:
+            raise
+        raise err.with_hint(
+            f"see {picture} (what each target finds in the video's first frame, drawn as `sloshid inspect` does)"
+        ) from None
     result.to_csv(output)
     for warning in result.warnings:
         print(f"sloshid: warning: {as_typed(warning, args)}", file=sys.stderr)

@@ -41,6 +41,19 @@ class SettingError(UserError):
         return err
 
 
+class NothingFound(SettingError):
+    """No frame held what a tracker measures; the message ends with `hint`, where to look, which a front-end that can
+    draw a picture of the video's first frame replaces (`with_hint`)."""
+
+    def __init__(self, setting: str, template: str, *others: str, hint: str) -> None:
+        super().__init__(setting, template, *others)
+        self.hint = hint
+
+    def with_hint(self, hint: str) -> NothingFound:
+        """The same error pointing at `hint` instead."""
+        return NothingFound(self.setting, self.template.replace(self.hint, hint), *self.others, hint=hint)
+
+
 class SloshidWarning(UserWarning):
     """A doubt about a result sloshid still returns (a truncated video, a tracker that lost frames, ...). Emitted through
     `warnings.warn`, so that a notebook can filter or capture it, and kept in the result's `warnings` list too."""

@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from sloshid.core.errors import SettingError, UserError
+from sloshid.core.errors import NothingFound, SettingError
 from sloshid.tracking.container_ref import GUARD_ROWS, ContainerMeasurement, ContainerTracker, EdgeLine, WallsRecord
 from sloshid.tracking.overlay import draw_surface_overlay
 from sloshid.tracking.repeats import REPEAT_SHARE, Copies, line_regions, repeated_share
@@ -148,28 +148,30 @@ class SurfaceStep:
         others = [e for e in (self.finder.elsewhere, later.finder.elsewhere) if e is not None]
         self.finder.elsewhere = max(others, default=None)
 
-    def nothing_found(self, n: int, path: Path, hint: str) -> UserError:
+    def nothing_found(self, n: int, path: Path, hint: str) -> NothingFound:
         """The one-sentence error when no frame was valid: no liquid of that colour, or no container around it."""
         if self.finder.hsv is None:
-            return SettingError(
+            return NothingFound(
                 "liquid_color",
                 f"no dyed liquid of any preset colour found in the {n} frames of {path}; {hint} and give {{name}} "
                 "or {liquid_hsv_low}/{liquid_hsv_high}.",
                 "overlay",
                 "liquid_hsv_low",
                 "liquid_hsv_high",
+                hint=hint,
             )
         if self.liquid_frames == 0:
-            return SettingError(
+            return NothingFound(
                 "liquid_color",
                 f"no liquid of colour {self.finder.hsv.describe()} found in any of the {n} frames of {path}; "
                 f"{hint} and adjust {{name}} or {{liquid_hsv_low}}/{{liquid_hsv_high}}.",
                 "overlay",
                 "liquid_hsv_low",
                 "liquid_hsv_high",
+                hint=hint,
             )
         if self.line_frames:
-            return SettingError(
+            return NothingFound(
                 "roi",
                 f"the liquid and the container's walls were found in {self.line_frames} of {n} frames of {path}, but "
                 f"the surface's edge in none of them clearly enough to measure (quality under {VALID_QUALITY}: "
@@ -178,14 +180,16 @@ class SurfaceStep:
                 "is the dye's.",
                 "overlay",
                 "liquid_color",
+                hint=hint,
             )
-        return SettingError(
+        return NothingFound(
             "roi",
             f"the liquid was found in {self.liquid_frames} of {n} frames of {path} but not the container's inner "
             f"walls (straight sides of the liquid inside the picture) in any of them; {hint}, and set {{name}} around "
             "the container: wider when the picture's edge cuts it, narrower when something else of the dye's colour "
             "touches it or the colour range takes in the background.",
             "overlay",
+            hint=hint,
         )
 
     def finish(self, rows: list[TrackRow]) -> tuple[list[TrackRow], dict[str, np.ndarray], list[str]]:

@@ -26,7 +26,7 @@ import numpy as np
 from tqdm import tqdm
 
 from sloshid.core.atomic import atomic_path
-from sloshid.core.errors import SettingError, UserError, warn
+from sloshid.core.errors import NothingFound, SettingError, UserError, warn
 from sloshid.core.outputs import Outputs
 from sloshid.core.parallel import die_with_parent, signals_held
 from sloshid.core.settings import check_in_metres, setting_field
@@ -421,29 +421,32 @@ class _FloatStep:
             )
         return list(rows), {}, notes
 
-    def nothing_found(self, n: int, path: Path, hint: str) -> UserError:
+    def nothing_found(self, n: int, path: Path, hint: str) -> NothingFound:
         """The one-sentence error when no frame was valid."""
         if self.cut and self.cut == self.found:
-            return SettingError(
+            return NothingFound(
                 "roi",
                 f"the float was found in {self.found} of {n} frames of {path} but always at the edge of the searched "
                 f"region, partly outside it; {hint} and widen {{name}}.",
                 "overlay",
+                hint=hint,
             )
         if self.walls is not None and self.found:
-            return SettingError(
+            return NothingFound(
                 "reference",
                 f"the float was found in {self.found} of {n} frames of {path} but the container's "
                 f"side walls in none of them; {hint}, or use {{name}} image.",
                 "overlay",
+                hint=hint,
             )
-        return SettingError(
+        return NothingFound(
             "float_color",
             f"no float found in any of the {n} frames of {path} with HSV range "
             f"{self.settings.hsv.describe()}; {hint} and adjust {{float_hsv_low}}/{{float_hsv_high}} or {{name}}.",
             "overlay",
             "float_hsv_low",
             "float_hsv_high",
+            hint=hint,
         )
 
 
@@ -595,7 +598,7 @@ class _Step(Protocol):
 
     def merge(self, later: Self) -> None: ...
 
-    def nothing_found(self, n: int, path: Path, hint: str) -> UserError: ...
+    def nothing_found(self, n: int, path: Path, hint: str) -> NothingFound: ...
 
     def finish(self, rows: list[TrackRow]) -> tuple[list[TrackRow], dict[str, np.ndarray], list[str]]: ...
 
