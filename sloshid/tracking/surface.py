@@ -83,6 +83,8 @@ liquid, with no word of the blue)."""
 PIECE_GAP = 0.1
 """Largest gap between pieces of one liquid body, as a share of the largest piece's width (`_beside`): highlight
 stripes are a few pixels wide."""
+FOLLOW_DOWN = 3
+"""How many times a body box is reached further down, by half its width each, when the liquid goes on below it."""
 OUTWARD_PX = 3.0
 """Both sides of the liquid's run stepping outward from the walls' lines by more than this (or OUTWARD_SHARE of the
 inner width) in three successive rows end the container's column: a holder or table of the dye's colour below it."""
@@ -282,16 +284,30 @@ class SurfaceFinder:
                 self._since_fit = REFIT_EVERY
         m = self._measure_band(frame) if self._band_ready() else None
         if m is None and self._box is not None:
-            m = self._measure_body(frame, self._box, follow=True)
+            m = self._follow(frame, self._box)
         if m is None:  # lost, or the body left the box it had: search around it (or the whole ROI)
             box = self._find_body(frame)
-            m = SurfaceMeasurement(False) if box is None else self._measure_body(frame, box, follow=False)
+            m = None if box is None else self._follow(frame, box)
+            if m is None:
+                m = SurfaceMeasurement(False) if box is None else self._measure_body(frame, box, follow=False)
         if not m.found:
             self._box = None
         self._sink = max(0.0, m.low - self._last.low) if m.found and self._last is not None else 0.0
         if m.found and self._held is None:
             self._k.append(m.opening_px / m.width_px)  # k / R, while the elevation is still being fitted
         self._last = m if m.found else None
+        return m
+
+    def _follow(self, frame: np.ndarray, box: tuple[int, int, int, int]) -> SurfaceMeasurement | None:
+        """The body read off the membership map around `box`, and again with the box reaching half its width further
+        down (up to FOLLOW_DOWN times) while the liquid goes on below it (a box from the preset's colour range, which
+        loses a dark dye's lower part, had grown by a tenth a frame); None when the body is not there."""
+        x0, y0, x1, y1 = box
+        m = self._measure_body(frame, box, follow=True)
+        for down in range(1, FOLLOW_DOWN + 1):
+            if m is not None or y1 + (down - 1) * (x1 - x0) // 2 >= self.roi[1] + self.roi[3]:
+                break
+            m = self._measure_body(frame, (x0, y0, x1, y1 + down * (x1 - x0) // 2), follow=True)
         return m
 
     def settled(self) -> tuple[float | None, str]:
