@@ -300,6 +300,7 @@ class UprightPlan:
 
     @property
     def _what(self) -> str:
+        """'an upright move' or 'a tilting move within the spill margin'."""
         return "a tilting move within the spill margin" if self.tilting else "an upright move"
 
     def to_dict(self) -> dict:
