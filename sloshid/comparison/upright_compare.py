@@ -228,6 +228,17 @@ def _fastest_meeting(
     ), traj
 
 
+def check_comparable(scenario: Scenario) -> None:
+    """Refuse a move within a margin that the baselines cannot follow: they run along one straight line."""
+    if len(scenario.waypoints) > 2:
+        from sloshid.core.errors import UserError
+
+        raise UserError(
+            f"{scenario.source or 'the scenario'}: compare scores one straight move within a spill margin, and this "
+            "one has waypoints; plan it with `sloshid plan` (the upright baselines along waypoints are not there yet)."
+        )
+
+
 def _upright_of(scenario: Scenario) -> Scenario:
     """The same scenario with the tool held upright (tilt_max_deg = 0)."""
     import dataclasses
@@ -263,6 +274,7 @@ def compare_upright(
     """sloshid's upright plan (and its robust variant over `robust_samples` sampled models, default [risk].scenarios or
     50, when the uncertainty is known) against every baseline. A tilting scenario (tilt within the margin) also scores
     the same move upright and sloshid's slosh-free tilting plan, so that what the tilt buys is in the table."""
+    check_comparable(scenario)
     plan = plan_upright(scenario, liquid, params_path=params_path, risk_draws=draws)
     vessels = plan.vessels
     settings = scenario.risk

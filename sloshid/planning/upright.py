@@ -181,9 +181,10 @@ class LineLimits:
         return bang_bang_time(self.length_m, self.acc, self.vel)
 
 
-def line_limits(scenario: Scenario) -> LineLimits:
-    """Per-axis [limits] and the robot's norm limits turned into limits along the line start -> goal."""
-    start, goal = (np.asarray(p, dtype=float) for p in scenario.waypoints)
+def line_limits(scenario: Scenario, index: int = 0) -> LineLimits:
+    """Per-axis [limits] and the robot's norm limits turned into limits along the line from waypoint `index` to the
+    next (start -> goal for a move without waypoints)."""
+    start, goal = (np.asarray(p, dtype=float) for p in scenario.waypoints[index : index + 2])
     delta = goal - start
     length = float(np.linalg.norm(delta))
     e = delta / length
@@ -390,7 +391,7 @@ def _check_request(scenario: Scenario) -> None:
     what = "an upright move (tilt_max_deg = 0)" if scenario.limits.upright else "a tilting move within a spill margin"
     if scenario.path is not None:
         raise UserError(f"{src}: {what} follows a straight [move], not a [path].")
-    if len(scenario.waypoints) != 2:
+    if len(scenario.waypoints) != 2 and not scenario.limits.upright:
         raise UserError(f"{src}: {what} takes one start and goal, not waypoints.")
     if scenario.obstacles:
         raise UserError(f"{src}: {what} is a straight line and takes no [[obstacles]].")
@@ -410,9 +411,11 @@ def _bounds(
     T_bounds,
     ms: MultipleShooting,
     rot_jerk: float = 0.0,
+    liquid0: np.ndarray | None = None,
 ):
-    """(lbx, ubx): rest at the start, the line's limits on the way, each model's swing within its residual box at
-    the goal (a tilting container upright and at rest there, its angular jerk within `rot_jerk`), T within T_bounds."""
+    """(lbx, ubx): rest at the start (the liquids at `liquid0`, their angles and rates in the state's order, when
+    given), the line's limits on the way, each model's swing within its residual box at the goal (a tilting container
+    upright and at rest there, its angular jerk within `rot_jerk`), T within T_bounds."""
     n_path, na = s.n_path, len(s.angles)
     nx = s.tilt_offset + (3 * na if s.tilt else 0)
     lo, hi = np.full((3, nx), -np.inf), np.full((3, nx), np.inf)  # rows: start, path, goal
@@ -420,6 +423,8 @@ def _bounds(
     if s.jerk_limited:
         lo[:, 2], hi[:, 2] = -line.acc, line.acc
     lo[0], hi[0] = 0.0, 0.0
+    if liquid0 is not None:  # a later segment: the liquids swing on from where the last one left them
+        lo[0, n_path : s.tilt_offset] = hi[0, n_path : s.tilt_offset] = liquid0
     lo[2, :n_path], hi[2, :n_path] = 0.0, 0.0
     lo[2, 0] = hi[2, 0] = line.length_m
     for k, (m, a_res) in enumerate(zip(models, residual_angles)):
@@ -475,11 +480,14 @@ def _solve(
     wall_angles: Sequence[float],
     residual_angles: Sequence[float],
     warm: _Solved | None,
+    angles: tuple[int, ...] | None = None,
+    liquid0: np.ndarray | None = None,
 ) -> _Solved:
-    """Solve the upright problem for these liquid models and wall bounds (rad)."""
+    """Solve the upright problem of one segment for these liquid models and wall bounds (rad); `angles` the pendulum
+    angles it carries (default: those its line drives), `liquid0` their state at its start (default: at rest)."""
     sv, tilt = scenario.solver, not scenario.limits.upright
-    s = UprightStructure(sv.N, len(models), _driven_angles(line.direction), sv.jerk_limited, sv.rk4_steps, sv.max_iter,
-                         sv.tol, tilt=tilt)  # fmt: skip
+    angles = angles if angles is not None else _driven_angles(line.direction)
+    s = UprightStructure(sv.N, len(models), angles, sv.jerk_limited, sv.rk4_steps, sv.max_iter, sv.tol, tilt=tilt)
     _prob, ms, nlp = _solver(s)
     t_lb = line.t_no_liquid_s
     mesh = graded_mesh(s.N, sv.grid_grading) if sv.grid != "uniform" else np.ones(s.N)
@@ -494,7 +502,7 @@ def _solve(
         params += [math.radians(lim.tilt_max_deg) * TILT_RATE_MARGIN, tilt_rate_limit(lim, robot) * TILT_RATE_MARGIN,
                    robot.rot_acc_rad_s2 * ROBOT_MARGIN]  # fmt: skip
     rot_jerk = robot.rot_jerk_rad_s3 * ROBOT_MARGIN
-    lbx, ubx = _bounds(s, line, models, residual_angles, (t_lb, lim.t_max_s), ms, rot_jerk)
+    lbx, ubx = _bounds(s, line, models, residual_angles, (t_lb, lim.t_max_s), ms, rot_jerk, liquid0)
     lbg, ubg = constraint_bounds(ms.kinds, sv)
     x0 = warm.w if warm is not None else _guess(s, line, len(models), 1.1 * t_lb, mesh, ms)
     t0 = time.perf_counter()
@@ -507,23 +515,32 @@ def _solve(
     return _Solved(T, str(stats.get("return_status")), int(stats.get("iter_count", 0)), elapsed, X, U, mesh, w, node, s)
 
 
-def _trajectory(scenario: Scenario, line: LineLimits, sol: _Solved, liquid: SloshParams) -> Trajectory:
-    """The exact 1 kHz samples of the solution's piecewise-constant input along the line; the container upright, or
-    (tilting) at the exact polynomials of its piecewise-constant angular jerks."""
+def _trajectory(
+    scenario: Scenario, lines: Sequence[LineLimits], sols: Sequence[_Solved], liquid: SloshParams
+) -> Trajectory:
+    """The exact 1 kHz samples of the solutions' piecewise-constant inputs along their lines, segment after segment
+    (at rest at each waypoint); the container upright, or (tilting) at the exact polynomials of its piecewise-constant
+    angular jerks."""
     from sloshid.planning.path_planner import _polynomial_samples
 
-    start, goal = scenario.waypoints
-    seg = SegmentResult(
-        0, tuple(start), tuple(goal), None, scenario.solver.jerk_limited, sol.T_s, sol.status, sol.iterations,
-        sol.solve_time_s, sol.X, sol.U[:, :1] * line.direction[None, :], mesh=sol.mesh,
-    )  # fmt: skip
-    moved = sample_segments([seg], liquid, name="sloshid upright plan")
+    segs = []
+    for i, (line, sol) in enumerate(zip(lines, sols)):
+        start, goal = scenario.waypoints[i], scenario.waypoints[i + 1]
+        segs.append(SegmentResult(
+            i, tuple(start), tuple(goal), None, scenario.solver.jerk_limited, sol.T_s, sol.status, sol.iterations,
+            sol.solve_time_s, sol.X, sol.U[:, :1] * line.direction[None, :], mesh=sol.mesh,
+        ))  # fmt: skip
+    moved = sample_segments(segs, liquid, name="sloshid upright plan")
     euler, rates = np.zeros_like(moved.euler_rad), np.zeros_like(moved.euler_rad)
-    if sol.U.shape[1] > 1:  # the container's tilt: angle and rate of each driven angle
-        angles = _driven_angles(line.direction)
-        tilt = _polynomial_samples(np.zeros((3, len(angles))), sol.U[:, 1:], seg.t_nodes, moved.t_s)
-        for i, a in enumerate(angles):
-            euler[:, a], rates[:, a] = tilt[:, 0, i], tilt[:, 1, i]
+    if sols[0].structure.tilt:  # the container's tilt: angle and rate of each angle, segment after segment
+        dt, first = float(moved.t_s[1] - moved.t_s[0]), 0
+        for i, (seg, sol) in enumerate(zip(segs, sols)):
+            t = np.arange(math.ceil(seg.T_s / dt - 1e-9) + 1) * dt  # as sample_segments samples a segment
+            angles = sol.structure.angles
+            tilt = _polynomial_samples(np.zeros((3, len(angles))), sol.U[:, 1:], seg.t_nodes, t)[1 if i else 0 :]
+            for j, a in enumerate(angles):
+                euler[first : first + len(tilt), a], rates[first : first + len(tilt), a] = tilt[:, 0, j], tilt[:, 1, j]
+            first += len(tilt)
         name = "sloshid tilting plan within the spill margin"
     else:
         name = moved.name
@@ -540,22 +557,23 @@ def _checks(traj: Trajectory, vessels: Sequence[Vessel]) -> list[VesselCheck]:
     ]  # fmt: skip
 
 
-def _support(
-    sol: _Solved, models: Sequence[SloshParams], residual: Sequence[float], s: UprightStructure, first: int
-) -> int:
-    """Sampled models (from index `first`) whose wall bound or arrival box is active at the optimum."""
-    na = len(s.angles)
-    con = sol.X[:, s.tilt_offset : s.tilt_offset + na] if s.tilt else 0.0
-    count = 0
-    for k in range(first, len(models)):
-        off = s.n_path + 2 * na * k
-        ang, rate = sol.X[:, off : off + na], sol.X[-1, off + na : off + 2 * na]
-        box = residual[k] / math.sqrt(2 * na) / (1 + models[k].zeta)
-        w = models[k].omega_rad_s * math.sqrt(1 - models[k].zeta ** 2)
-        wall_use = float(np.sqrt(((ang - con) ** 2).sum(axis=1)).max()) / sol.wall_node[k]
-        end_use = max(float(np.abs(ang[-1]).max()) / box, float(np.abs(rate).max()) / (box * w))
-        count += wall_use >= ACTIVE_TOL or end_use >= ACTIVE_TOL
-    return count
+def _support(sols: Sequence[_Solved], models: Sequence[SloshParams], residual: Sequence[float], first: int) -> int:
+    """Sampled models (from index `first`) whose wall bound or arrival box is active at the optimum of some segment."""
+    active = set()
+    for sol in sols:
+        s = sol.structure
+        na = len(s.angles)
+        con = sol.X[:, s.tilt_offset : s.tilt_offset + na] if s.tilt else 0.0
+        for k in range(first, len(models)):
+            off = s.n_path + 2 * na * k
+            ang, rate = sol.X[:, off : off + na], sol.X[-1, off + na : off + 2 * na]
+            box = residual[k] / math.sqrt(2 * na) / (1 + models[k].zeta)
+            w = models[k].omega_rad_s * math.sqrt(1 - models[k].zeta ** 2)
+            wall_use = float(np.sqrt(((ang - con) ** 2).sum(axis=1)).max()) / sol.wall_node[k]
+            end_use = max(float(np.abs(ang[-1]).max()) / box, float(np.abs(rate).max()) / (box * w))
+            if wall_use >= ACTIVE_TOL or end_use >= ACTIVE_TOL:
+                active.add(k)
+    return len(active)
 
 
 def plan_upright(
@@ -572,7 +590,11 @@ def plan_upright(
     _check_request(scenario)
     check_feasible(scenario)
     vessels = vessels_of(scenario, liquid, params_path)
-    line = line_limits(scenario)
+    n_seg = len(scenario.waypoints) - 1
+    lines = [line_limits(scenario, i) for i in range(n_seg)]
+    # with waypoints every segment carries both angles: a swing left by one segment goes on in the next, whatever
+    # direction that one drives
+    angles = None if n_seg == 1 else (0, 1)
     settings = scenario.risk
     spread = spreads(vessels, settings)
     n_samples = robust_samples if robust_samples is not None else (settings.scenarios if settings else 0)
@@ -590,18 +612,24 @@ def plan_upright(
             of_vessel += list(range(len(vessels)))
     share = [1.0] * len(vessels)
     residual = [vessels[j].residual_angle_rad for j in of_vessel]
-    sol, total_time, total_iter = None, 0.0, 0
+    sols: list[_Solved] = []
+    total_time, total_iter = 0.0, 0
     for attempt in range(WALL_TRIES + 1):
         wall = [vessels[j].angle_allowed_rad * share[j] for j in of_vessel]
-        sol = _solve(scenario, line, models, wall, residual, sol)
-        total_time, total_iter = total_time + sol.solve_time_s, total_iter + sol.iterations
-        if sol.status not in OK_STATUSES:
-            raise UserError(
-                f"the {'tilting' if not scenario.limits.upright else 'upright'} move within the spill margin did not "
-                f"solve: IPOPT status {sol.status} after {sol.iterations} iterations; raise "
-                "[limits].t_max_s, lower the spill margin, or loosen [solver].tol."
-            )
-        traj = _trajectory(scenario, line, sol, vessels[0].liquid)
+        warm, sols, liquid0 = sols, [], None
+        for i, line in enumerate(lines):  # one after the other: each starts where the liquids were left
+            sol = _solve(scenario, line, models, wall, residual, warm[i] if warm else None, angles, liquid0)
+            total_time, total_iter = total_time + sol.solve_time_s, total_iter + sol.iterations
+            if sol.status not in OK_STATUSES:
+                where = f" (segment {i + 1} of {n_seg})" if n_seg > 1 else ""
+                raise UserError(
+                    f"the {'tilting' if not scenario.limits.upright else 'upright'} move within the spill margin did "
+                    f"not solve{where}: IPOPT status {sol.status} after {sol.iterations} iterations; raise "
+                    "[limits].t_max_s, lower the spill margin, or loosen [solver].tol."
+                )
+            sols.append(sol)
+            liquid0 = sol.X[-1, sol.structure.n_path : sol.structure.tilt_offset]
+        traj = _trajectory(scenario, lines, sols, vessels[0].liquid)
         checks = _checks(traj, vessels)
         passed = [c.peak_mm / c.allowed_mm for c in checks]
         if all(c.ok for c in checks) or attempt == WALL_TRIES:
@@ -609,8 +637,8 @@ def plan_upright(
         share = [sh * WALL_SAFETY / r if r > 1 else sh for sh, r in zip(share, passed)]
     usages, move = limit_usages(traj, scenario)
     guarantee = None
-    if n_samples:
-        k = _support(sol, models, residual, sol.structure, len(vessels))
+    if n_samples:  # a sample is support when its constraints are active in some segment
+        k = _support(sols, models, residual, len(vessels))
         guarantee = ScenarioGuarantee(n_samples, k, settings.beta if settings else 1e-3, seed + ROBUST_SEED_OFFSET)
     risk = None
     if spread is not None:
@@ -618,13 +646,13 @@ def plan_upright(
         risk = monte_carlo(traj, vessels, spread, draws, seed)
     return UprightPlan(
         trajectory=traj,
-        T_s=sol.T_s,
-        status=sol.status,
+        T_s=float(sum(x.T_s for x in sols)),
+        status=sols[0].status if len({x.status for x in sols}) == 1 else "; ".join(x.status for x in sols),
         solve_time_s=total_time,
         iterations=total_iter,
         vessels=vessels,
         checks=checks,
-        t_no_liquid_s=line.t_no_liquid_s,
+        t_no_liquid_s=float(sum(line.t_no_liquid_s for line in lines)),
         limits=usages,
         move_limits=move,
         scenario=scenario,
@@ -716,7 +744,7 @@ def sweep_margin(
     import dataclasses
 
     T, risk, ok = [], [], []
-    t_free = line_limits(scenario).t_no_liquid_s
+    t_free = sum(line_limits(scenario, i).t_no_liquid_s for i in range(len(scenario.waypoints) - 1))
     for m in margins_mm:
         trial = dataclasses.replace(
             scenario,

@@ -102,7 +102,11 @@ def _check_compare(opts: CompareOptions) -> None:
     """The scenario is valid and so is its [compare] table, which only the compare stage of a slosh-free move reads."""
     with _in_scenario(opts.scenario):
         scenario = load_scenario(opts.scenario)
-        if not scenario.within_margin:
+        if scenario.within_margin:
+            from sloshid.comparison.upright_compare import check_comparable
+
+            check_comparable(scenario)
+        else:
             compare_settings(scenario)
 
 
