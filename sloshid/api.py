@@ -174,7 +174,7 @@ def plan(
         )
     if isinstance(scenario, (str, Path)):
         scenario = load_scenario(scenario)
-    if getattr(getattr(scenario, "limits", None), "upright", False):
+    if getattr(scenario, "within_margin", False):  # upright, or tilting within a spill margin
         return plan_upright_scenario(scenario, params, robust)
     loaded, liquid, _ = _scenario_and_liquid(scenario, params)
     if robust:

@@ -308,11 +308,37 @@ def test_the_index_says_whether_joint_signals_agree_and_keeps_fs_digits(tmp_path
     assert f"<td>{shown_with_error(f['value'], f['stderr'])}</td>" in page
 
 
-@pytest.mark.parametrize("stage", ["plan", "compare"])
-def test_an_upright_scenario_is_refused_before_any_stage_runs(video, tmp_path, run_cli, stage):
-    # an upright plan and comparison have results of their own, which the stages, cache and index do not hold
+@pytest.mark.parametrize("name", ["upright_move", "tilt_margin_move"])
+def test_a_pipeline_plans_and_compares_a_move_within_a_spill_margin(tmp_path, run_cli, name):
+    # upright and tilting moves within a spill margin: plan, compare (ranked by risk) and the index, like a tilting one
+    text = (ROOT / "data" / "scenarios" / f"{name}.toml").read_text().replace("draws = 1000", "draws = 200")
+    _write(tmp_path / "move.toml", text)
+    pipe = _write(
+        tmp_path / "p.toml",
+        '[plan]\nscenario = "move.toml"\nuse_identified = false\n\n'
+        '[compare]\nscenario = "move.toml"\nuse_identified = false\nrobust_samples = 0\n',
+    )
+    code, out, err = run_cli("run", pipe, "--output-dir", tmp_path / "runs", "--quiet")
+    assert code == 0, err
+    index = Path(out.strip())
+    run_dir = index.parent
+    assert _statuses(run_dir) == {"plan": "ran", "compare": "ran"}
+    stages = {s["name"]: s["summary"] for s in json.loads((run_dir / "manifest.json").read_text())["stages"]}
+    plan, compare = stages["plan"], stages["compare"]
+    assert plan["kind"] == ("upright" if name == "upright_move" else "tilt_margin") and plan["verification_ok"]
+    assert plan["containers"][0]["peak_wall_mm"] <= 8.0 and plan["T_s"] < 2.11
+    assert compare["recommended"]["csv"] == "recommended.csv" and (run_dir / "compare" / "recommended.csv").exists()
+    ours = next(r for r in compare["ranked"] if r["key"] == "sloshid")
+    assert ours["meets_margin_and_residual"] and ours["risk"]["draws"] == 200
+    assert {r["key"] for r in compare["ranked"]} >= {"zv", "zvd", "zvdd", "constant_acc", "sloshid"}
+    page = index.read_text()
+    assert "Recommended: " in page and "peak wall (mm)" in page and "Overall: plan verified" in page
+    _links_exist(index)
+
+
+def test_a_bad_robust_samples_key_is_refused_before_anything_runs(tmp_path, run_cli):
     scenario = ROOT / "data" / "scenarios" / "upright_move.toml"
-    pipe = _write(tmp_path / "p.toml", f'[track]\nvideos = ["{video}"]\n\n[{stage}]\nscenario = "{scenario}"\n')
+    pipe = _write(tmp_path / "p.toml", f'[compare]\nscenario = "{scenario}"\nrobust_samples = -1\n')
     code, _, err = run_cli("run", pipe, "--output-dir", tmp_path / "runs")
-    assert code == 2 and "upright move (tilt_max_deg = 0) is planned by `sloshid plan`" in err
-    assert err.count("\n") == 1 and not (tmp_path / "runs").exists()  # one sentence; nothing tracked or written
+    assert code == 2 and "[compare].robust_samples must lie in 0..200 (0: no robust plan), got -1." in err
+    assert err.count("\n") == 1 and not (tmp_path / "runs").exists()

@@ -65,8 +65,8 @@ def _reduced_pipeline(path: Path, tmp: Path) -> Path:
     return out
 
 
-def test_the_shipped_pipelines_are_the_four_the_readme_names():
-    assert [p.stem for p in PIPELINES] == ["antisloshing", "demo", "paper_1d", "paper_3d"]
+def test_the_shipped_pipelines_are_the_five_the_guide_names():
+    assert [p.stem for p in PIPELINES] == ["antisloshing", "demo", "paper_1d", "paper_3d", "upright"]
 
 
 @pytest.mark.slow
@@ -91,6 +91,11 @@ def test_shipped_pipeline_runs(pipeline, tmp_path, run_cli, request):
         assert plan["verification"]["peak_during_deg"] < 0.1 and plan["verification"]["residual_deg"] < 0.05
     if pipeline.stem == "paper_1d":
         assert plan["T_s"] <= 2.15  # the seed's transfer time for its 1-D case
+    if pipeline.stem == "upright":  # within the 8 mm margin and 0.5 mm on arrival, ranked against the baselines
+        plan = json.loads((index.parent / "plan" / "summary.json").read_text())
+        assert plan["kind"] == "upright" and plan["verification_ok"] and plan["T_s"] <= 1.04 * 2.0785
+        assert plan["risk"]["draws"] == 1000  # the identified standard errors give the draws
+        assert (index.parent / "compare" / "recommended.csv").exists()
     if pipeline.stem == "antisloshing":
         f = json.loads((index.parent / "identify" / "params.json").read_text())["parameters"]["f_hz"]["value"]
         assert f == pytest.approx(3.047, rel=0.02)  # the cylinder's analytic first mode (data README)

@@ -257,3 +257,47 @@ def test_a_tilting_path_move_with_a_spill_margin_uses_both():
     rel = np.radians(result.verification.rel_angle_deg)
     assert 1000 * 0.04 * np.tan(rel).max() <= 2.0  # and the liquid uses the margin within it
     assert result.verification.peak_during_deg > 1.0
+
+
+WAYPOINTS = [[0.3, -0.27, 0.2], [0.3, 0.0, 0.2], [0.5, 0.0, 0.2]]
+"""An L-shaped upright move: 0.27 m along y, a stop, 0.2 m along x."""
+
+
+def _upright_waypoints(tmp_path: Path | None = None):
+    data = _raw(UPRIGHT)
+    data.pop("risk")
+    data["move"] = {"waypoints": WAYPOINTS}
+    if tmp_path is None:
+        return scenario_from_dict(data, str(UPRIGHT))
+    text = UPRIGHT.read_text().replace(
+        "start = [0.3, -0.27, 0.2]   # m\ngoal = [0.3, 0.27, 0.2]     # m", f"waypoints = {WAYPOINTS}"
+    )
+    path = tmp_path / "l_move.toml"
+    path.write_text(text)
+    return path
+
+
+def test_an_upright_move_with_waypoints_stops_calm_at_each_and_keeps_the_margin():
+    from sloshid.model.pendulum import TABLE_I
+
+    result = plan_upright(_upright_waypoints(), TABLE_I)
+    traj = result.trajectory
+    resp = simulate_liquid(traj, TABLE_I, settle_s=3.0)
+    wall = resp.wall_height_mm(0.04)
+    assert wall.max() <= 8.0 and wall[resp.t_s > resp.t_arrival_s].max() <= 0.5, wall.max()
+    k = int(np.argmin(np.linalg.norm(traj.pos_m - WAYPOINTS[1], axis=1)))
+    assert np.linalg.norm(traj.pos_m[k] - WAYPOINTS[1]) < 1e-9 and np.linalg.norm(traj.vel_m_s[k]) < 1e-9  # stops
+    assert 0.05 < wall[k] <= 0.5  # the liquid still swings there, within the residual allowed on arrival
+    assert np.abs(resp.liquid_rad[k:, 1]).max() > 0.01 and np.abs(resp.liquid_rad[k, 0]) > 0  # phi goes on, theta
+    assert traj.pos_m[-1] == pytest.approx(WAYPOINTS[2], abs=1e-9)
+    free = 2 * math.sqrt(0.27 / 0.5) + 2 * math.sqrt(0.2 / 0.5)  # the two legs with no liquid
+    assert result.t_no_liquid_s == pytest.approx(free, rel=1e-9)
+    assert free < result.T_s <= 1.04 * free, result.T_s
+    assert result.verification_ok and result.limits_ok and np.abs(traj.euler_rad).max() == 0.0
+
+
+def test_compare_refuses_an_upright_move_with_waypoints_in_one_sentence(run_cli, tmp_path):
+    scenario = _upright_waypoints(tmp_path)
+    code, _stdout, err = run_cli("compare", scenario, "-o", tmp_path / "best.csv")
+    assert code == 2 and "compare scores one straight move within a spill margin, and this one has waypoints" in err
+    assert err.count("\n") == 1 and list(tmp_path.iterdir()) == [scenario]

@@ -33,6 +33,6 @@ def test_the_docs_command_lines_parse(line):
     words = shlex.split(line)
     assert words[:3] == ["python3", "-m", "sloshid"] and words[3] in COMMANDS, line
     args = build_parser(only=words[3]).parse_args(words[3:])
-    assert (ROOT / args.scenario).is_file()
+    assert (ROOT / (args.pipeline if words[3] == "run" else args.scenario)).is_file()
     if getattr(args, "params", None):
         assert (ROOT / args.params).is_file()

@@ -63,7 +63,7 @@ def run(args: argparse.Namespace) -> int:
     if output is not None:
         outputs.file(output.with_suffix(".json"), "-o's description beside it", (".json",))
     scenario = load_scenario(args.scenario)
-    if scenario.limits.upright:
+    if scenario.within_margin:
         return _run_upright(args, scenario, inputs, output, report_dir)
     params = resolve_liquid(scenario, args.params)
     note_io_model(args.params, "TRAJ.csv")
@@ -80,7 +80,8 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _run_upright(args, scenario, inputs: list, output, report_dir) -> int:
-    """Upright scenarios (tilt_max_deg = 0): sloshid's upright plans against the upright baselines, ranked by risk;
+    """Scenarios within a spill margin (upright, or tilting on a straight [move]): sloshid's plans within the margin
+    against the upright baselines, ranked by risk;
     -o writes the first-ranked move that meets the margin."""
     from sloshid.comparison.upright_compare import compare_upright
     from sloshid.planning.scenario import resolve_liquid

@@ -70,7 +70,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--sweep-margin",
         metavar="MIN:MAX:COUNT",
         default=None,
-        help="upright moves (tilt_max_deg = 0): also plan at COUNT spill margins from MIN to MAX mm and draw transfer "
+        help="moves within a spill margin (upright, or tilting on a straight [move]): also plan at COUNT spill margins from MIN to MAX mm and draw transfer "
         "time and risk against the margin in OUTPUT_margin_sweep.png beside the trajectory CSV",
     )
     parser.add_argument(
@@ -101,14 +101,18 @@ def run(args: argparse.Namespace) -> int:
         raise UserError(
             '--joints needs a [robot] table with model = "panda" in the scenario (base_xyz_m and q_start are optional).'
         )
-    if scenario.limits.upright:
+    if scenario.within_margin:
         return _run_upright(args, scenario, outputs, output, report_dir)
     if args.sweep_margin:
-        raise UserError("--sweep-margin plans upright moves: the scenario needs [limits] tilt_max_deg = 0.")
-    if scenario.limits.spill_margin_mm is not None:
+        raise UserError(
+            "--sweep-margin plans moves within a spill margin: the scenario needs [limits] spill_margin_mm on one "
+            "straight [move] (upright with tilt_max_deg = 0, or tilting)."
+        )
+    if scenario.limits.spill_margin_mm is not None and scenario.path is None:
         print(
-            "sloshid: note: [limits].spill_margin_mm is planned for upright moves (tilt_max_deg = 0); this tilting move "
-            "keeps the liquid level with the container instead, which holds any margin the verification below holds.",
+            "sloshid: note: [limits].spill_margin_mm is planned with tilt for one straight start and goal without "
+            "obstacles; this move (waypoints or obstacles) keeps the liquid level with the container instead, which "
+            "holds any margin the verification below holds.",
             file=sys.stderr,
         )
     if args.robust:
@@ -183,14 +187,22 @@ def _sweep_margins(text: str) -> list[float]:
 
 
 def _run_upright(args, scenario, outputs, output: Path, report_dir: Path | None) -> int:
-    """An upright move within the spill margin: plan (robust with --robust), its risk, an optional margin sweep;
+    """A move within the spill margin (upright, or tilting: `Scenario.within_margin`): plan (robust with --robust), its
+    risk, an optional margin sweep;
     exit code 1 when a margin or limit is broken in the independent simulation (the files are still written where
     none is yet)."""
     from sloshid.api import plan_upright_scenario
     from sloshid.planning.upright import sweep_margin
 
     if args.joints:
-        raise UserError("--joints takes tilting moves of a [robot] arm; an upright move (tilt_max_deg = 0) has no arm.")
+        if scenario.limits.upright:
+            raise UserError(
+                "--joints takes tilting moves of a [robot] arm; an upright move (tilt_max_deg = 0) has no arm."
+            )
+        raise UserError(
+            "--joints takes slosh-free moves so far; a move within a spill margin (spill_margin_mm) is planned without "
+            "the arm: drop --joints, or drop spill_margin_mm to plan the slosh-free move for the arm."
+        )
     margins = _sweep_margins(args.sweep_margin) if args.sweep_margin else None
     figure = (
         outputs.file(output.with_name(output.stem + "_margin_sweep.png"), "--sweep-margin", (".png",))

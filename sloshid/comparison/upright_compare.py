@@ -1,4 +1,6 @@
 """Upright baselines against sloshid's upright plan, at the same limits, scored on the spill margin and ranked by risk.
+(A tilting scenario within a spill margin is scored the same way, with sloshid's tilting plan, its upright plan and
+its slosh-free tilting plan side by side.)
 
 Baselines (container upright, straight line, the scenario's limits): constant acceleration, ZV, ZVD and ZVDD (the
 robust shaper) on it, ruckig's time-optimal jerk-limited move, and TOPP-RA along the line (with and without ZVD).
@@ -135,7 +137,9 @@ class UprightComparison:
 
     def summary(self) -> str:
         """The ranked table as text."""
-        lines = [f"upright methods at the same limits (no liquid: {self.t_no_liquid_s:.3f} s), ranked by risk:"]
+        lines = [
+            f"{'methods' if self.plan.tilting else 'upright methods'} at the same limits (no liquid: {self.t_no_liquid_s:.3f} s), ranked by risk:"
+        ]
         for i, r in enumerate(self.ranked(), 1):
             if r.T_s is None:
                 lines.append(f"  {i}. {r.label}: {r.reason}")
@@ -162,11 +166,13 @@ class UprightComparison:
         best.to_csv(path, inputs)
         return Path(path)
 
-    def report_page(self):
+    def report_page(self, links: dict[str, str] | None = None):
         """The comparison's HTML report: the ranked table and the plan's wall heights, drawn but not written."""
         from sloshid.report.html import Report
 
-        rep = Report("sloshid upright comparison")
+        rep = Report(
+            "sloshid comparison within the spill margin" if self.plan.tilting else "sloshid upright comparison"
+        )
         rep.add_text(self.summary().splitlines()[0])
         rows = [
             [i, r.label, r.T_s if r.T_s is not None else r.reason, r.acc_share, r.peak_use, r.residual_mm, r.meets,
@@ -175,7 +181,8 @@ class UprightComparison:
         ]  # fmt: skip
         header = ["rank", "method", "T (s)", "acc share", "wall use", "after (mm)", "meets", "risk", "risk stderr"]
         rep.add_table(header, rows, "ranked by risk (Monte Carlo of the nonlinear model), then transfer time")
-        rep.add_figure(self.plan.plot(), "sloshid's upright plan: wall height of each container")
+        what = "tilting plan within the margin" if self.plan.tilting else "upright plan"
+        rep.add_figure(self.plan.plot(), f"sloshid's {what}: wall height of each container")
         return rep
 
     def to_dict(self) -> dict:
@@ -221,6 +228,42 @@ def _fastest_meeting(
     ), traj
 
 
+def check_comparable(scenario: Scenario) -> None:
+    """Refuse a move within a margin that the baselines cannot follow: they run along one straight line."""
+    if len(scenario.waypoints) > 2:
+        from sloshid.core.errors import UserError
+
+        raise UserError(
+            f"{scenario.source or 'the scenario'}: compare scores one straight move within a spill margin, and this "
+            "one has waypoints; plan it with `sloshid plan` (the upright baselines along waypoints are not there yet)."
+        )
+
+
+def _upright_of(scenario: Scenario) -> Scenario:
+    """The same scenario with the tool held upright (tilt_max_deg = 0)."""
+    import dataclasses
+
+    return dataclasses.replace(scenario, limits=dataclasses.replace(scenario.limits, tilt_max_deg=0.0))
+
+
+def _level_row(scenario: Scenario, vessels: list[Vessel]) -> tuple[UprightRow, Trajectory | None]:
+    """sloshid's slosh-free tilting plan (the liquid held level with the container) scored on the margin."""
+    from sloshid.core.errors import UserError
+    from sloshid.planning.planner import plan
+
+    key, label = "sloshid_level", "sloshid slosh-free tilting plan"
+    try:
+        traj = plan(scenario, vessels[0].liquid).trajectory
+    except UserError as exc:
+        return UprightRow(key, label, None, None, None, None, False, reason=f"not solved: {exc}"), None
+    use, residual = _score([traj], vessels)
+    residual_max = min(1000 * min(v.residual_max_m, v.rise_allowed_m) for v in vessels)
+    meets = bool(use[0] <= 1.0 and residual[0] <= residual_max)
+    return UprightRow(
+        key, label, traj.duration_s, None, float(use[0]), float(residual[0]), meets, trajectory=traj
+    ), traj
+
+
 def compare_upright(
     scenario: Scenario,
     liquid: SloshParams | None,
@@ -229,7 +272,9 @@ def compare_upright(
     draws: int | None = None,
 ) -> UprightComparison:
     """sloshid's upright plan (and its robust variant over `robust_samples` sampled models, default [risk].scenarios or
-    50, when the uncertainty is known) against every baseline."""
+    50, when the uncertainty is known) against every baseline. A tilting scenario (tilt within the margin) also scores
+    the same move upright and sloshid's slosh-free tilting plan, so that what the tilt buys is in the table."""
+    check_comparable(scenario)
     plan = plan_upright(scenario, liquid, params_path=params_path, risk_draws=draws)
     vessels = plan.vessels
     settings = scenario.risk
@@ -244,10 +289,18 @@ def compare_upright(
         row, traj = _fastest_meeting(key, build, vessels, residual_max)
         rows.append(row)
         moves.append(traj)
-    plans = [("sloshid", "sloshid upright plan", plan)]
+    what = "tilting plan within the margin" if plan.tilting else "upright plan"
+    plans = [("sloshid", f"sloshid {what}", plan)]
     if spread is not None and robust_samples:
         robust = plan_upright(scenario, liquid, params_path=params_path, robust_samples=robust_samples, risk_draws=n)
-        plans.append(("sloshid_robust", f"sloshid robust upright plan ({robust_samples} sampled models)", robust))
+        plans.append(("sloshid_robust", f"sloshid robust {what} ({robust_samples} sampled models)", robust))
+    if plan.tilting:  # what the tilt buys: the same move upright, and the slosh-free tilting move
+        upright = _upright_of(scenario)
+        plans.append(("sloshid_upright", "sloshid upright plan", plan_upright(upright, liquid, params_path=params_path,
+                                                                             risk_draws=n)))  # fmt: skip
+        row, traj = _level_row(scenario, vessels)
+        rows.append(row)
+        moves.append(traj)
     for key, label, p in plans:
         worst = max(p.checks, key=lambda c: c.peak_mm / c.allowed_mm)
         rows.append(

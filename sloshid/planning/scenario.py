@@ -92,8 +92,9 @@ class Limits:
     """[path] plans: largest angle between the liquid surface and the container while moving (deg); free moves keep
     the container on the liquid's surface (0 deg)."""
     spill_margin_mm: float | None = None
-    """Least distance the liquid may come to the rim, anywhere on the wall, during and after the move (mm); with
-    tilt_max_deg = 0 the planner keeps the predicted wall height within it (`planning.upright`)."""
+    """Least distance the liquid may come to the rim, anywhere on the wall, during and after the move (mm); the planner
+    keeps the predicted wall height within it (`planning.upright`): upright with tilt_max_deg = 0, else tilting too
+    (a straight [move]; along a [path] it sets rel_angle_max_deg)."""
     residual_wall_height_max_mm: float = 0.5
     """Largest wall height the liquid may keep swinging to after arrival (mm): calm enough to fill or pour."""
 
@@ -437,6 +438,20 @@ class Scenario:
         centre, from `obstacles` (default: all of the scenario's); `z_axis` None: upright."""
         obstacles = self.obstacles if obstacles is None else obstacles
         return body_clearance(obstacles, pos_m, self.container_radius_m, self.container_depth_m, z_axis)
+
+    @property
+    def within_margin(self) -> bool:
+        """Planned within the spill margin (`planning.upright`) rather than slosh-free: an upright move, or a tilting
+        straight [move] (one start and goal, no obstacles) with [limits].spill_margin_mm, which uses tilt and margin
+        both. A tilting move with waypoints or obstacles keeps the liquid level with the container instead."""
+        if self.limits.upright:
+            return True
+        return (
+            self.limits.spill_margin_mm is not None
+            and self.path is None
+            and len(self.waypoints) == 2
+            and not self.obstacles
+        )
 
     @property
     def move_jerk_max(self) -> Vec3 | None:

@@ -114,7 +114,9 @@ def vessels_of(scenario: Scenario, liquid: SloshParams | None, params_path: str 
     folder = Path(scenario.source).parent if scenario.source else Path(".")
     if not scenario.containers:
         if scenario.rim_above_surface_m is None:
-            raise UserError(f"{src}: an upright move needs [container].rim_above_surface_m (m), or [[containers]].")
+            raise UserError(
+                f"{src}: a move within a spill margin needs [container].rim_above_surface_m (m), or [[containers]]."
+            )
         if liquid is None:
             raise UserError(f"{src} has no [liquid] table; add one or give `params` (an identify JSON).")
         margin = lim.spill_margin_mm / 1000

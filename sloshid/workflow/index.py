@@ -77,8 +77,42 @@ def _identify(report: Report, run_dir: Path, s: dict[str, Any]) -> None:
     )
 
 
+def _plan_links(report: Report, run_dir: Path) -> None:
+    """The plan's trajectory CSV and report."""
+    report.add_html(
+        "<p>"
+        + _link(run_dir, "plan/trajectory.csv", "nominal plan, 1 kHz robot trajectory (CSV)")
+        + " · "
+        + _link(run_dir, "plan/report/index.html", "plan report")
+        + "</p>"
+    )
+
+
+def _margin_plan(report: Report, run_dir: Path, s: dict[str, Any]) -> None:
+    """A move within a spill margin: transfer time against the move with no liquid, each container's wall, the risk."""
+    what = "tilting move within the spill margin" if s["kind"] == "tilt_margin" else "upright move"
+    _figure(report, run_dir, "plan", s, f"Wall height of each container in the independent simulation ({what}).")
+    risk = s.get("risk")
+    told = f"{100 * risk['p_margin_broken']:.2f} % ± {100 * risk['stderr']:.2f} %" if risk else "not estimated"
+    report.add_table(
+        ["transfer time T (s)", "T / no liquid", "solver status", "max tilt (deg)", "limiting container", "margins",
+         "limits", "risk of breaking the margin"],
+        [[s["T_s"], s["time_ratio"], s["status"], s["max_tilt_deg"], s["limiting_container"],
+          "held" if s["verification_ok"] else "BROKEN", "ok" if s["limits_ok"] else "EXCEEDED", told]],
+    )  # fmt: skip
+    report.add_table(
+        ["container", "peak wall (mm)", "allowed (mm)", "after arrival (mm)", "allowed after (mm)", "ok"],
+        [[c["name"], c["peak_wall_mm"], c["allowed_wall_mm"], c["residual_wall_mm"], c["residual_max_mm"], c["ok"]]
+         for c in s["containers"]],
+    )  # fmt: skip
+    _plan_links(report, run_dir)
+
+
 def _plan(report: Report, run_dir: Path, s: dict[str, Any]) -> None:
     """Transfer time, solver, tilt, limits and the independent verification, with the files."""
+    if s.get("kind") in ("upright", "tilt_margin"):
+        _margin_plan(report, run_dir, s)
+        return
     v = s["verification"]
     _figure(report, run_dir, "plan", s, "Container speed and tilt along the planned move.")
     report.add_table(
@@ -105,19 +139,35 @@ def _plan(report: Report, run_dir: Path, s: dict[str, Any]) -> None:
             ]
         ],
     )
-    report.add_html(
-        "<p>"
-        + _link(run_dir, "plan/trajectory.csv", "nominal plan, 1 kHz robot trajectory (CSV)")
-        + " · "
-        + _link(run_dir, "plan/report/index.html", "plan report")
-        + "</p>"
-    )
+    _plan_links(report, run_dir)
+
+
+def _margin_rows(s: dict[str, Any]) -> tuple[list[str], list[list[Any]]]:
+    """The ranked methods of a comparison within a spill margin as a table."""
+    rows = []
+    for i, m in enumerate(s["ranked"], 1):
+        if m["T_s"] is None:
+            rows.append([i, m["label"], m["reason"], "", "", "", "", ""])
+            continue
+        risk = m["risk"]
+        rows.append([
+            i, m["label"], m["T_s"], m["acc_share"] if m["acc_share"] is not None else "", m["peak_wall_use"],
+            m["residual_wall_mm"], m["meets_margin_and_residual"],
+            f"{100 * risk['p_margin_broken']:.2f} ± {100 * risk['stderr']:.2f}" if risk else "n/a",
+        ])  # fmt: skip
+    header = ["rank", "method", "transfer time (s)", "acc share", "wall use", "after arrival (mm)",
+              "meets margin and residual", "risk (%)"]  # fmt: skip
+    return header, rows
 
 
 def _compare(report: Report, run_dir: Path, s: dict[str, Any]) -> None:
     """The verdict sentence (coloured by the recommendation's risk) and the score table of every method."""
     rec = s.get("recommendation") or {}
     report.add_text(s["verdict"], css_class=f"verdict-{rec.get('risk', 'uncertain')}")
+    if s.get("kind") == "margin":  # ranked by risk, then time
+        report.add_table(*_margin_rows(s))
+        _compare_links(report, run_dir, s)
+        return
     rows = []
     for m in s["methods"]:
         if not m["applicable"]:
@@ -129,6 +179,11 @@ def _compare(report: Report, run_dir: Path, s: dict[str, Any]) -> None:
         ["method", "transfer time (s)", "peak slosh during (deg)", "residual slosh (deg)", "peak tilt (deg)", "limits"],
         rows,
     )
+    _compare_links(report, run_dir, s)
+
+
+def _compare_links(report: Report, run_dir: Path, s: dict[str, Any]) -> None:
+    """The recommended move's CSV (when there is one), the comparison's report and its scores."""
     move = s.get("recommended")
     recommended = _link(run_dir, f"compare/{move['csv']}", f"recommended move: {move['label']} (CSV)") if move else ""
     report.add_html(
@@ -168,8 +223,9 @@ def overall_verdict(records: list[StageRecord]) -> tuple[str, str]:
             freq = s.get("parameters", {}).get("f_hz", {})
             level = freq.get("quality", s.get("quality", "good"))
             parts.append(f"liquid frequency {level} (overall {s.get('quality')})")
-        elif rec.name == "plan":
-            ok = s.get("limits_ok", True) and s.get("verification", {}).get("ok", True)
+        elif rec.name == "plan":  # a move within a spill margin says verification_ok
+            verified = s.get("verification_ok", s.get("verification", {}).get("ok", True))
+            ok = s.get("limits_ok", True) and verified
             level = "good" if ok else "uncertain"
             parts.append("plan verified within the robot limits" if ok else "plan NOT verified or over a limit")
         elif rec.name == "compare" and s.get("recommendation"):

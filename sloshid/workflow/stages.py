@@ -16,7 +16,7 @@ from sloshid.core.parallel import parallel_map
 from sloshid.identification.stage import identify_sources, to_signal
 from sloshid.model.pendulum import IdentifiedFrequency
 from sloshid.planning.planner import plan
-from sloshid.planning.scenario import Scenario, load_scenario, resolve_liquid
+from sloshid.planning.scenario import MAX_RISK_SCENARIOS, Scenario, load_scenario, resolve_liquid
 from sloshid.tracking.tracker import track_video
 from sloshid.workflow.options import IdentifyOptions, TrackOptions, check_tracked_columns
 from sloshid.workflow.pipeline import Stage, StageContext
@@ -93,26 +93,21 @@ def _in_scenario(path: Path) -> Iterator[None]:
 
 
 def _check_scenario(opts: PlanOptions | CompareOptions) -> None:
-    """The scenario file is a valid scenario (loading it validates every table) of a tilting move."""
+    """The scenario file is a valid scenario (loading it validates every table)."""
     with _in_scenario(opts.scenario):
-        _tilting(load_scenario(opts.scenario))
+        load_scenario(opts.scenario)
 
 
 def _check_compare(opts: CompareOptions) -> None:
-    """The scenario is valid and so is its [compare] table, which only the compare stage reads."""
+    """The scenario is valid and so is its [compare] table, which only the compare stage of a slosh-free move reads."""
     with _in_scenario(opts.scenario):
-        compare_settings(_tilting(load_scenario(opts.scenario)))
+        scenario = load_scenario(opts.scenario)
+        if scenario.within_margin:
+            from sloshid.comparison.upright_compare import check_comparable
 
-
-def _tilting(scenario: Scenario) -> Scenario:
-    """The scenario, refused when it is upright: its plan and comparison have their own results, which a pipeline's
-    stages, cache and index do not hold yet."""
-    if scenario.limits.upright:
-        raise UserError(
-            "an upright move (tilt_max_deg = 0) is planned by `sloshid plan` and compared by `sloshid compare`; "
-            "a pipeline plans tilting moves only so far."
-        )
-    return scenario
+            check_comparable(scenario)
+        else:
+            compare_settings(scenario)
 
 
 def run_identify(opts: IdentifyOptions, ctx: StageContext) -> dict[str, Any]:
@@ -167,9 +162,30 @@ def _liquid_needs(opts: Any, present: set[str]) -> list[str]:
     return ["identify"] if opts.use_identified and "identify" in present else []
 
 
+def _margin_liquid(ctx: StageContext, scenario: Scenario) -> Path | None:
+    """What a plan within a spill margin takes as `params`: the identify stage's JSON (its standard errors give the
+    risk's draws), else None for the scenario's own liquids ([liquid], or a tray's containers)."""
+    return ctx.upstream["identify"] / "params.json" if "identify" in ctx.upstream else None
+
+
+def _run_margin_plan(scenario: Scenario, ctx: StageContext) -> dict[str, Any]:
+    """A move within a spill margin (upright or tilting): its plan, trajectory, report and wall figure."""
+    from sloshid.api import plan_upright_scenario
+
+    result = plan_upright_scenario(scenario, _margin_liquid(ctx, scenario))
+    result.trajectory.to_csv(ctx.out_dir / "trajectory.csv")
+    source = "the pipeline's identify stage" if "identify" in ctx.upstream else "the scenario's liquids"
+    links = {"pipeline index": "../../index.html", "trajectory CSV": "../trajectory.csv"}
+    result.report(ctx.out_dir / "report", links, liquid_source=source)
+    figure = _save_figure(result.plot(), ctx.out_dir / "plan.png")
+    return {"trajectory": "trajectory.csv", "report": "report/index.html", "figure": figure, **result.to_dict()}
+
+
 def run_plan(opts: PlanOptions, ctx: StageContext) -> dict[str, Any]:
     """Solve the scenario, write the 1 kHz trajectory CSV, the plan (for compare to reuse) and the plan report."""
     scenario = load_scenario(opts.scenario)
+    if scenario.within_margin:
+        return _run_margin_plan(scenario, ctx)
     result = plan(scenario, _liquid(ctx, scenario), progress=True)
     result.trajectory.to_csv(ctx.out_dir / "trajectory.csv")
     with atomic_path(ctx.out_dir / PLAN_PICKLE) as tmp:
@@ -189,6 +205,16 @@ class CompareOptions:
     """Scenario TOML, relative to the pipeline; the methods and studies come from its [compare] table."""
     use_identified: bool = True
     """Compare for the liquid identified by this pipeline's [identify] stage; false uses the scenario's [liquid]."""
+    robust_samples: int | None = None
+    """A move within a spill margin: the sampled models of sloshid's robust plan in the ranking (default the
+    scenario's [risk].scenarios, else 50; 0 leaves the robust plan out, which saves most of the stage's time)."""
+
+    def __post_init__(self) -> None:
+        if self.robust_samples is not None and not 0 <= self.robust_samples <= MAX_RISK_SCENARIOS:
+            raise UserError(
+                f"[compare].robust_samples must lie in 0..{MAX_RISK_SCENARIOS} (0: no robust plan), got "
+                f"{self.robust_samples}."
+            )
 
 
 def _compare_needs(opts: CompareOptions, present: set[str]) -> list[str]:
@@ -205,9 +231,56 @@ def _upstream_plan(ctx: StageContext, scenario_path: Path, params: Any) -> Any:
     return planned["result"] if same else None
 
 
+MARGIN_RISK_GOOD = 0.01
+"""A move within a spill margin is recommended as good when its Monte-Carlo risk's 95 % upper bound is below this."""
+
+
+def _run_margin_compare(scenario: Scenario, opts: CompareOptions, ctx: StageContext) -> dict[str, Any]:
+    """A move within a spill margin: sloshid's plans against the upright baselines, ranked by risk; the first-ranked
+    move that meets margin and residual is the recommended one."""
+    from sloshid.comparison.upright_compare import compare_upright
+
+    path = _margin_liquid(ctx, scenario)
+    liquid = resolve_liquid(scenario, path) if path is not None or scenario.liquid is not None else None
+    comp = compare_upright(scenario, liquid, params_path=path, robust_samples=opts.robust_samples)
+    summary = comp.to_dict()
+    write_json(ctx.out_dir / "scores.json", summary)
+    links = {"pipeline index": "../../index.html", "scores JSON": "../scores.json"}
+    best = next((r for r in comp.ranked() if r.meets and r.trajectory is not None), None)
+    move = recommendation = None
+    if best is not None:
+        comp.write_first(ctx.out_dir / RECOMMENDED_CSV)
+        links = {"recommended move CSV": f"../{RECOMMENDED_CSV}", **links}
+        move = {"method": best.key, "label": best.label, "transfer_time_s": best.T_s, "csv": RECOMMENDED_CSV}
+        risk = best.risk
+        level = "good" if risk is not None and risk.upper95 < MARGIN_RISK_GOOD else "uncertain"
+        recommendation = {"method": best.key, "label": best.label, "risk": level}
+        told = f"{100 * risk.p:.2f} % (95 % upper bound {100 * risk.upper95:.2f} %)" if risk else "not estimated"
+        verdict = (
+            f"Recommended: {best.label}, T = {best.T_s:.3f} s, the first-ranked move that meets the spill margin and "
+            f"the residual; risk of breaking the margin {told}."
+        )
+    else:
+        recommendation = {"method": None, "label": "none", "risk": "unreliable"}
+        verdict = "No method meets the spill margin and the residual on arrival; loosen the margin or the limits."
+    comp.report_page(links).save(ctx.out_dir / "report")
+    return {
+        "kind": "margin",
+        "scores": "scores.json",
+        "report": "report/index.html",
+        "recommended": move,
+        "verdict": verdict,
+        "recommendation": recommendation,
+        "ranked": summary["ranked"],
+        "t_no_liquid_s": summary["t_no_liquid_s"],
+    }
+
+
 def run_compare(opts: CompareOptions, ctx: StageContext) -> dict[str, Any]:
     """Build and score every method (reusing the plan stage's solution), write scores.json and the report."""
     scenario = load_scenario(opts.scenario)
+    if scenario.within_margin:
+        return _run_margin_compare(scenario, opts, ctx)
     params = _liquid(ctx, scenario)
     interval = None
     if "identify" in ctx.upstream:
