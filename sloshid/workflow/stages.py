@@ -247,7 +247,8 @@ def _run_margin_compare(scenario: Scenario, opts: CompareOptions, ctx: StageCont
     write_json(ctx.out_dir / "scores.json", summary)
     links = {"pipeline index": "../../index.html", "scores JSON": "../scores.json"}
     best = next((r for r in comp.ranked() if r.meets and r.trajectory is not None), None)
-    move = recommendation = None
+    move: dict[str, object] | None = None
+    recommendation: dict[str, str | None]
     if best is not None:
         comp.write_first(ctx.out_dir / RECOMMENDED_CSV)
         links = {"recommended move CSV": f"../{RECOMMENDED_CSV}", **links}
