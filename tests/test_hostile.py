@@ -6,7 +6,11 @@ files in test_plan and test_compare_cli)."""
 
 from __future__ import annotations
 
+import contextlib
 import json
+import os
+import threading
+import time
 from pathlib import Path
 
 import numpy as np
@@ -14,6 +18,7 @@ import pytest
 
 import sloshid
 from sloshid.core.errors import UserError
+from sloshid.identification.signals import load_signal
 from sloshid.model.pendulum import TABLE_I
 from sloshid.synthetic.decays import free_decay
 
@@ -220,3 +225,58 @@ def test_a_cached_stage_replaced_by_a_link_runs_again_and_leaves_the_target(tmp_
     assert code == 0, err
     assert "is a link, not the folder it wrote; running it again" in out + err
     assert cache.is_dir() and not cache.is_symlink() and (elsewhere / "mine.txt").read_text() == "a user's file"
+
+
+needs_fifo = pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="needs named pipes")
+
+
+def _write_later(fifo: Path, data: bytes, delay_s: float) -> threading.Thread:
+    """A writer that opens `fifo` after `delay_s`, writes `data` at once and closes it."""
+
+    def run() -> None:
+        time.sleep(delay_s)
+        with contextlib.suppress(BrokenPipeError), open(fifo, "wb") as fh:
+            fh.write(data)
+
+    writer = threading.Thread(target=run, daemon=True)
+    writer.start()
+    return writer
+
+
+@needs_fifo
+def test_a_fifo_without_a_writer_says_what_it_waits_for_and_keeps_its_data(tmp_path, capsys, monkeypatch):
+    # a FIFO given as a scenario blocked in its open, without a word, until something wrote to it
+    import sloshid.core.errors as errors
+    from sloshid.core.settings import load_toml
+
+    monkeypatch.setattr(errors, "PIPE_WAIT_NOTE_S", 0.2, raising=False)  # 3 s on the command line
+    fifo = tmp_path / "scenario.toml"
+    os.mkfifo(fifo)
+    writer = _write_later(fifo, DEMO.read_bytes(), 1.0)
+    assert load_toml(fifo) == load_toml(DEMO)  # the writer wrote and closed at once: nothing is lost
+    writer.join(5)
+    assert f"waiting for data on the pipe {fifo}: nothing has written to it yet (Ctrl-C to stop)" in (
+        capsys.readouterr().err
+    )
+    os.mkfifo(sig := tmp_path / "decay.csv")  # a signal through a pipe, as `identify <(...)` reads it
+    writer = _write_later(sig, b"t_s,angle_deg\n" + b"".join(b"%g,%g\n" % (k / 60, k % 7) for k in range(600)), 0)
+    assert len(load_signal(sig).t_s) == 600
+    writer.join(5)
+
+
+@needs_fifo
+def test_a_pipe_is_read_with_a_size_bound_and_refused_as_a_pipeline_input(tmp_path, run_cli, monkeypatch):
+    # a settings file through a pipe was read whole, however long; a pipeline hashed a pipe's data for its cache and
+    # left its stage nothing to read (or waiting for a writer that had gone)
+    import sloshid.core.settings as settings
+
+    monkeypatch.setattr(settings, "SMALL_FILE_BYTES", 1000)  # a small stand-in for 64 MB
+    os.mkfifo(fifo := tmp_path / "big.toml")
+    writer = _write_later(fifo, b"# " + b"x" * 5000 + b"\n", 0)
+    code, _, err = run_cli("plan", fifo, "-o", tmp_path / "p.csv")
+    writer.join(5)
+    assert code == 2 and "gives more than" in err and not (tmp_path / "p.csv").exists()
+    os.mkfifo(sig := tmp_path / "sig.csv")
+    (pipe := tmp_path / "p.toml").write_text(f'[identify]\nsignals = ["{sig}"]\n')
+    code, _, err = run_cli("run", pipe, "--output-dir", tmp_path / "runs")
+    assert code == 2 and "is a pipe; a pipeline reads each input twice" in err and err.count("\n") == 1
