@@ -280,3 +280,16 @@ def test_a_pipe_is_read_with_a_size_bound_and_refused_as_a_pipeline_input(tmp_pa
     (pipe := tmp_path / "p.toml").write_text(f'[identify]\nsignals = ["{sig}"]\n')
     code, _, err = run_cli("run", pipe, "--output-dir", tmp_path / "runs")
     assert code == 2 and "is a pipe; a pipeline reads each input twice" in err and err.count("\n") == 1
+
+
+def test_a_parameter_file_through_a_pipe_is_read_once_by_every_step(tmp_path, run_cli):
+    # `plan --params <(cat params.json)`: the file was read by three steps, and the pipe gave its data to the first
+    # alone ("parameter file /dev/fd/63 is not valid JSON")
+    read, write = os.pipe()
+    os.write(write, (ROOT / "data" / "sample_tap_identify.json").read_bytes())
+    os.close(write)
+    try:
+        code, _, err = run_cli("plan", DEMO, "--params", f"/dev/fd/{read}", "-o", tmp_path / "t.csv")
+    finally:
+        os.close(read)
+    assert code == 0 and (tmp_path / "t.csv").stat().st_size > 0, err

@@ -2,13 +2,14 @@
 
 from __future__ import annotations
 
+import contextlib
 import os
 import re
 import select
 import stat
 import sys
 import warnings
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import BinaryIO
 
@@ -121,12 +122,33 @@ def open_input(p: Path) -> BinaryIO:
         raise
 
 
+_pipes_read: dict[str, bytes] | None = None
+"""What each pipe gave (by path) while `pipes_read_once` is active: a pipe gives its data once, and a command reads its
+parameter file in several steps. Outside it (the library in a notebook) a pipe is read afresh each time, so that a
+FIFO written again is not answered from memory."""
+
+
+@contextlib.contextmanager
+def pipes_read_once() -> Iterator[None]:
+    """Within this context (one command), `read_input` reads each pipe once and gives its bytes again when asked."""
+    global _pipes_read
+    before, _pipes_read = _pipes_read, {}
+    try:
+        yield
+    finally:
+        _pipes_read = before
+
+
 def read_input(path: str | os.PathLike, what: str, max_bytes: int) -> bytes:
     """The bytes of the input file `path` (checked as `input_file` does), at most `max_bytes`: a pipe, whose size is
     known only once read, is refused as soon as it gives more."""
     p = input_file(path, what, max_bytes)
+    if _pipes_read is not None and str(p) in _pipes_read:
+        return _pipes_read[str(p)]
     with open_input(p) as fh:
         data = fh.read(max_bytes + 1)
     if len(data) > max_bytes:
         raise UserError(f"{what} {p} gives more than {max_bytes / 2**20:.0f} MB, more than such a file can be.")
+    if _pipes_read is not None and not stat.S_ISREG(p.stat().st_mode):
+        _pipes_read[str(p)] = data
     return data

@@ -133,7 +133,7 @@ class IdentifiedFrequency:
         """Read parameters.f_hz.{ci95, quality, reasons} (the file is checked by SloshParams.from_identify_json); when
         jointly identified runs disagreed, the band is where one more run may land (fit.between_signals's prediction
         interval), which is what a move must hold over."""
-        data = json.loads(Path(path).read_text(encoding="utf-8"))
+        data = json.loads(read_input(path, "parameter file", SMALL_FILE_BYTES).decode("utf-8"))
         f = data.get("parameters", {}).get("f_hz", {})
         ci, where = f.get("ci95"), "parameters.f_hz.ci95"
         between = ((data.get("fit") or {}).get("between_signals") or {}).get("f_hz") or {}
