@@ -293,3 +293,12 @@ def test_a_parameter_file_through_a_pipe_is_read_once_by_every_step(tmp_path, ru
     finally:
         os.close(read)
     assert code == 0 and (tmp_path / "t.csv").stat().st_size > 0, err
+
+
+@needs_fifo
+def test_a_pipe_as_a_batch_video_is_named_for_what_it_is(tmp_path, run_cli):
+    # a FIFO given as a video was said "not to exist"
+    os.mkfifo(video := tmp_path / "v.mp4")
+    code, _, err = run_cli("batch", video, "--out", tmp_path / "o")
+    assert code == 2 and f"1 video(s) are not regular files (a pipe or a device): {video}." in err
+    assert not (tmp_path / "o").exists()
