@@ -302,3 +302,20 @@ def test_a_pipe_as_a_batch_video_is_named_for_what_it_is(tmp_path, run_cli):
     code, _, err = run_cli("batch", video, "--out", tmp_path / "o")
     assert code == 2 and f"1 video(s) are not regular files (a pipe or a device): {video}." in err
     assert not (tmp_path / "o").exists()
+
+
+def test_a_long_prediction_shows_its_phases_on_a_terminal(tmp_path, run_cli, stderr_as, monkeypatch):
+    # a 1,000 s log at 1 kHz: predict worked for a minute without a word (a simulation made slow stands in for it)
+    import sloshid.cli.predict_cmd as predict_cmd
+    import sloshid.validation.predict as predict
+
+    t = np.arange(0, 3, 0.001)
+    log = np.c_[t, 0.05 * np.sin(2 * np.pi * t), 0 * t, 0 * t + 0.2, 0 * t, 0 * t, 0 * t, 1 + 0 * t]
+    np.savetxt(tmp_path / "log.csv", log, delimiter=",", header="t,x,y,z,qx,qy,qz,qw", comments="")
+    forecast = predict.forecast
+    monkeypatch.setattr(predict, "forecast", lambda *a, **k: (time.sleep(1.5), forecast(*a, **k))[1])
+    monkeypatch.setattr(predict_cmd, "PHASES_DELAY_S", 0.5, raising=False)
+    err = stderr_as(terminal=True)
+    params = ROOT / "data" / "sample_tap_identify.json"
+    code, _, _ = run_cli("predict", tmp_path / "log.csv", "--params", params, "-o", tmp_path / "p.csv")
+    assert code == 0 and "predict: simulate 3,000 samples" in err.getvalue()
