@@ -106,7 +106,7 @@ def open_input(p: Path) -> BinaryIO:
         poller = select.poll()
         poller.register(fd, select.POLLIN | select.POLLHUP)
         waited, told = 0.0, False
-        while not poller.poll(100):  # a FIFO that never had a writer reports no hang-up (Linux, macOS)
+        while not poller.poll(100):  # a FIFO opened so reports no hang-up before its first writer (Linux)
             waited += 0.1
             if not told and waited >= PIPE_WAIT_NOTE_S:
                 print(
