@@ -76,3 +76,13 @@ def test_every_doubt_says_what_to_do():
     assert res.to_dict()["quality"] == "uncertain" and len(reasons) == 2
     assert "record a longer decay" in reasons[0] or "record a longer decay" in reasons[1]
     assert all("(`window_s`)" in r for r in reasons)  # and how to give the window that helps
+
+
+def test_more_lost_than_the_checked_share_is_uncertain_and_says_what_to_do():
+    # a yellow float tracked in a colour range it half left (60 fps, 3 Hz, zeta 0.05): 57 % of the frames lost, at
+    # the angles where its hue left the range; identify fitted 1.95 Hz and called it 'good' with an interval that
+    # missed 3 Hz. Beyond the 30 % the intervals were checked on, the verdict is at most uncertain, and says why
+    res = sloshid.identify(damaged(0, 0.5, "random")).to_dict()
+    assert res["parameters"]["f_hz"]["quality"] != "good" and res["parameters"]["zeta"]["quality"] != "good"
+    assert any("past the 30 % on which the intervals were checked" in r for r in res["reasons"])
+    assert any("track with another colour range" in r for r in res["reasons"])

@@ -6,7 +6,11 @@ files in test_plan and test_compare_cli)."""
 
 from __future__ import annotations
 
+import contextlib
 import json
+import os
+import threading
+import time
 from pathlib import Path
 
 import numpy as np
@@ -14,6 +18,7 @@ import pytest
 
 import sloshid
 from sloshid.core.errors import UserError
+from sloshid.identification.signals import load_signal
 from sloshid.model.pendulum import TABLE_I
 from sloshid.synthetic.decays import free_decay
 
@@ -220,3 +225,97 @@ def test_a_cached_stage_replaced_by_a_link_runs_again_and_leaves_the_target(tmp_
     assert code == 0, err
     assert "is a link, not the folder it wrote; running it again" in out + err
     assert cache.is_dir() and not cache.is_symlink() and (elsewhere / "mine.txt").read_text() == "a user's file"
+
+
+needs_fifo = pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="needs named pipes")
+
+
+def _write_later(fifo: Path, data: bytes, delay_s: float) -> threading.Thread:
+    """A writer that opens `fifo` after `delay_s`, writes `data` at once and closes it."""
+
+    def run() -> None:
+        time.sleep(delay_s)
+        with contextlib.suppress(BrokenPipeError), open(fifo, "wb") as fh:
+            fh.write(data)
+
+    writer = threading.Thread(target=run, daemon=True)
+    writer.start()
+    return writer
+
+
+@needs_fifo
+def test_a_fifo_without_a_writer_says_what_it_waits_for_and_keeps_its_data(tmp_path, capsys, monkeypatch):
+    # a FIFO given as a scenario blocked in its open, without a word, until something wrote to it
+    import sloshid.core.errors as errors
+    from sloshid.core.settings import load_toml
+
+    monkeypatch.setattr(errors, "PIPE_WAIT_NOTE_S", 0.2, raising=False)  # 3 s on the command line
+    fifo = tmp_path / "scenario.toml"
+    os.mkfifo(fifo)
+    writer = _write_later(fifo, DEMO.read_bytes(), 1.0)
+    assert load_toml(fifo) == load_toml(DEMO)  # the writer wrote and closed at once: nothing is lost
+    writer.join(5)
+    assert f"waiting for data on the pipe {fifo}: nothing has written to it yet (Ctrl-C to stop)" in (
+        capsys.readouterr().err
+    )
+    os.mkfifo(sig := tmp_path / "decay.csv")  # a signal through a pipe, as `identify <(...)` reads it
+    writer = _write_later(sig, b"t_s,angle_deg\n" + b"".join(b"%g,%g\n" % (k / 60, k % 7) for k in range(600)), 0)
+    assert len(load_signal(sig).t_s) == 600
+    writer.join(5)
+
+
+@needs_fifo
+def test_a_pipe_is_read_with_a_size_bound_and_refused_as_a_pipeline_input(tmp_path, run_cli, monkeypatch):
+    # a settings file through a pipe was read whole, however long; a pipeline hashed a pipe's data for its cache and
+    # left its stage nothing to read (or waiting for a writer that had gone)
+    import sloshid.core.settings as settings
+
+    monkeypatch.setattr(settings, "SMALL_FILE_BYTES", 1000)  # a small stand-in for 64 MB
+    os.mkfifo(fifo := tmp_path / "big.toml")
+    writer = _write_later(fifo, b"# " + b"x" * 5000 + b"\n", 0)
+    code, _, err = run_cli("plan", fifo, "-o", tmp_path / "p.csv")
+    writer.join(5)
+    assert code == 2 and "gives more than" in err and not (tmp_path / "p.csv").exists()
+    os.mkfifo(sig := tmp_path / "sig.csv")
+    (pipe := tmp_path / "p.toml").write_text(f'[identify]\nsignals = ["{sig}"]\n')
+    code, _, err = run_cli("run", pipe, "--output-dir", tmp_path / "runs")
+    assert code == 2 and "is a pipe; a pipeline reads each input twice" in err and err.count("\n") == 1
+
+
+def test_a_parameter_file_through_a_pipe_is_read_once_by_every_step(tmp_path, run_cli):
+    # `plan --params <(cat params.json)`: the file was read by three steps, and the pipe gave its data to the first
+    # alone ("parameter file /dev/fd/63 is not valid JSON")
+    read, write = os.pipe()
+    os.write(write, (ROOT / "data" / "sample_tap_identify.json").read_bytes())
+    os.close(write)
+    try:
+        code, _, err = run_cli("plan", DEMO, "--params", f"/dev/fd/{read}", "-o", tmp_path / "t.csv")
+    finally:
+        os.close(read)
+    assert code == 0 and (tmp_path / "t.csv").stat().st_size > 0, err
+
+
+@needs_fifo
+def test_a_pipe_as_a_batch_video_is_named_for_what_it_is(tmp_path, run_cli):
+    # a FIFO given as a video was said "not to exist"
+    os.mkfifo(video := tmp_path / "v.mp4")
+    code, _, err = run_cli("batch", video, "--out", tmp_path / "o")
+    assert code == 2 and f"1 video(s) are not regular files (a pipe or a device): {video}." in err
+    assert not (tmp_path / "o").exists()
+
+
+def test_a_long_prediction_shows_its_phases_on_a_terminal(tmp_path, run_cli, stderr_as, monkeypatch):
+    # a 1,000 s log at 1 kHz: predict worked for a minute without a word (a simulation made slow stands in for it)
+    import sloshid.cli.predict_cmd as predict_cmd
+    import sloshid.validation.predict as predict
+
+    t = np.arange(0, 3, 0.001)
+    log = np.c_[t, 0.05 * np.sin(2 * np.pi * t), 0 * t, 0 * t + 0.2, 0 * t, 0 * t, 0 * t, 1 + 0 * t]
+    np.savetxt(tmp_path / "log.csv", log, delimiter=",", header="t,x,y,z,qx,qy,qz,qw", comments="")
+    forecast = predict.forecast
+    monkeypatch.setattr(predict, "forecast", lambda *a, **k: (time.sleep(1.5), forecast(*a, **k))[1])
+    monkeypatch.setattr(predict_cmd, "PHASES_DELAY_S", 0.5, raising=False)
+    err = stderr_as(terminal=True)
+    params = ROOT / "data" / "sample_tap_identify.json"
+    code, _, _ = run_cli("predict", tmp_path / "log.csv", "--params", params, "-o", tmp_path / "p.csv")
+    assert code == 0 and "predict: simulate 3,000 samples" in err.getvalue()

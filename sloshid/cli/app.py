@@ -18,7 +18,7 @@ from types import ModuleType
 from typing import NoReturn
 
 from sloshid.cli.naming import as_typed, flag_for, options_of
-from sloshid.core.errors import SettingError, SloshidWarning, UserError
+from sloshid.core.errors import SettingError, SloshidWarning, UserError, pipes_read_once
 
 COMMANDS: dict[str, str] = {
     "synth": "render a synthetic float or dyed-liquid video with exact ground truth (for testing the tracker)",
@@ -168,7 +168,7 @@ def _reopen_closed_streams() -> None:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point: parse, dispatch, and turn a UserError into one line on stderr with exit code 2."""
-    with warnings.catch_warnings():
+    with warnings.catch_warnings(), pipes_read_once():  # a pipe (`--params <(...)`) is read once, by every step
         # a command prints the warnings its results collect, in its own words: Python's copy would repeat each one
         warnings.simplefilter("ignore", SloshidWarning)
         return _main(argv)

@@ -54,9 +54,12 @@ def run(args: argparse.Namespace) -> int:
     folders = [str(v) for v in args.videos if v.is_dir()]
     if folders:
         raise UserError(f"{folders[0]} is a folder, not a video; give the videos in it (e.g. {folders[0]}/*.mp4).")
-    missing = [str(v) for v in args.videos if not v.is_file()]
+    missing = [str(v) for v in args.videos if not v.exists()]
     if missing:
         raise UserError(f"{len(missing)} video(s) do not exist: {', '.join(missing[:5])}.")
+    odd = [str(v) for v in args.videos if not v.is_file()]  # a FIFO or device: batch hashes a video, then tracks it
+    if odd:
+        raise UserError(f"{len(odd)} video(s) are not regular files (a pipe or a device): {', '.join(odd[:5])}.")
     if args.out.exists() and not args.out.is_dir():
         raise UserError(f"--out {args.out} exists and is not a folder.")
     outputs = Outputs(args.videos)

@@ -265,13 +265,14 @@ def warn_doubtful_parameters(params_path: str | None, scenario) -> None:
     and what it costs (the band the recommendation must hold over; the damping the move was made for)."""
     from sloshid.comparison.compare import CompareSettings
     from sloshid.comparison.recommend import frequency_band
+    from sloshid.core.errors import SMALL_FILE_BYTES, read_input
     from sloshid.model.pendulum import IdentifiedFrequency, SloshParams
 
     if not params_path:
         return
     params = SloshParams.from_identify_json(params_path)  # checks the file first
     freq = IdentifiedFrequency.from_identify_json(params_path)
-    zeta = json.loads(Path(params_path).read_text(encoding="utf-8")).get("parameters", {}).get("zeta", {})
+    zeta = json.loads(read_input(params_path, "parameter file", SMALL_FILE_BYTES)).get("parameters", {}).get("zeta", {})
     because = lambda reasons: f" ({reasons[0].rstrip('.')})" if reasons else ""  # noqa: E731
     if freq.quality not in (None, "good"):
         margin = float(scenario.compare.get("frequency_margin", CompareSettings().frequency_margin))

@@ -11,9 +11,13 @@ from __future__ import annotations
 
 import argparse
 import sys
+import threading
 
 from sloshid.cli.settings_options import add_settings
 from sloshid.core.errors import UserError
+
+PHASES_DELAY_S = 2.0
+"""A prediction that lasts longer than this shows its phases on a bar (on a terminal)."""
 
 
 def add_geometry_arguments(parser: argparse.ArgumentParser) -> None:
@@ -51,14 +55,15 @@ def run(args: argparse.Namespace) -> int:
         )
     if not 0 <= args.settle_s <= MAX_SETTLE_S:
         raise UserError(f"--settle-s must lie between 0 and {MAX_SETTLE_S:g} s, got {args.settle_s:g}.")
-    pose = load_pose_log(args.trajectory, args.pose_columns)
-    model, note = pivot_for(pose, model, args.axis_offset_m)
-    if note:
-        print(f"sloshid: note: {note}", file=sys.stderr)
-    fc = forecast(pose, model, args.settle_s)
-    for line in fc.notes:
+    with _Phases("read the log") as phases:  # a 1,000 s log at 1 kHz takes a minute: its phases and the time on a bar
+        pose = load_pose_log(args.trajectory, args.pose_columns)
+        model, note = pivot_for(pose, model, args.axis_offset_m)
+        phases.next(f"simulate {pose.t_s.size:,} samples")
+        fc = forecast(pose, model, args.settle_s)
+        phases.next("write the CSV")
+        write_prediction(output, fc)
+    for line in ([note] if note else []) + list(fc.notes):
         print(f"sloshid: note: {line}", file=sys.stderr)
-    write_prediction(output, fc)
     resp = fc.resp
     move = resp.move_span_s
     during = (resp.t_s >= move[0]) & (resp.t_s <= move[1])
@@ -72,3 +77,40 @@ def run(args: argparse.Namespace) -> int:
     )
     print(f"wrote {output}")
     return 0
+
+
+class _Phases:
+    """A bar of predict's three phases on a terminal, shown once they last PHASES_DELAY_S, its clock ticking each
+    second (a simulation is one compiled call that reports nothing while it runs)."""
+
+    def __init__(self, first: str) -> None:
+        from tqdm import tqdm
+
+        self.bar = tqdm(
+            total=3,
+            desc=f"predict: {first}",
+            bar_format="{desc}phase {n_fmt} of {total_fmt} done [{elapsed}]",  # no ETA: the phases differ in length
+            disable=None,
+            leave=False,
+            delay=PHASES_DELAY_S,
+        )
+        self.done = threading.Event()
+        self.ticker = threading.Thread(target=self._tick, daemon=True)
+
+    def _tick(self) -> None:
+        if not self.done.wait(PHASES_DELAY_S):
+            while not self.done.wait(1.0):
+                self.bar.refresh()
+
+    def next(self, what: str) -> None:
+        self.bar.update()
+        self.bar.set_description(f"predict: {what}")
+
+    def __enter__(self) -> _Phases:
+        self.ticker.start()
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.done.set()
+        self.ticker.join()
+        self.bar.close()

@@ -2,12 +2,16 @@
 
 from __future__ import annotations
 
+import contextlib
 import os
 import re
+import select
 import stat
+import sys
 import warnings
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
+from typing import BinaryIO
 
 
 class UserError(Exception):
@@ -97,3 +101,67 @@ def input_file(path: str | os.PathLike, what: str, max_bytes: int | None = None)
             f"{what} {p} is {p.stat().st_size / 2**20:.1f} MB, more than such a file can be; is it the right file?"
         )
     return p
+
+
+PIPE_WAIT_NOTE_S = 3.0
+"""Seconds an input pipe may stay silent before a line on stderr says what is waited for."""
+
+
+def open_input(p: Path) -> BinaryIO:
+    """`p` opened for reading in binary. A pipe (a named FIFO, `<(...)`) is opened without blocking, so that a FIFO
+    with no writer cannot hang the open unseen: its first data or its writer's end is waited for with a line on stderr
+    after PIPE_WAIT_NOTE_S (Ctrl-C stops), then it is read from this one descriptor, so that nothing a quick writer
+    wrote and closed is lost (a second open of a FIFO whose writer has gone would wait for a new one)."""
+    if not stat.S_ISFIFO(p.stat().st_mode) or not hasattr(select, "poll"):
+        return open(p, "rb")
+    fd = os.open(p, os.O_RDONLY | os.O_NONBLOCK)
+    try:
+        poller = select.poll()
+        poller.register(fd, select.POLLIN | select.POLLHUP)
+        waited, told = 0.0, False
+        while not poller.poll(100):  # a FIFO opened so reports no hang-up before its first writer (Linux)
+            waited += 0.1
+            if not told and waited >= PIPE_WAIT_NOTE_S:
+                print(
+                    f"sloshid: waiting for data on the pipe {p}: nothing has written to it yet (Ctrl-C to stop).",
+                    file=sys.stderr,
+                    flush=True,
+                )
+                told = True
+        os.set_blocking(fd, True)
+        return os.fdopen(fd, "rb")
+    except BaseException:
+        os.close(fd)
+        raise
+
+
+_pipes_read: dict[str, bytes] | None = None
+"""What each pipe gave (by path) while `pipes_read_once` is active: a pipe gives its data once, and a command reads its
+parameter file in several steps. Outside it (the library in a notebook) a pipe is read afresh each time, so that a
+FIFO written again is not answered from memory."""
+
+
+@contextlib.contextmanager
+def pipes_read_once() -> Iterator[None]:
+    """Within this context (one command), `read_input` reads each pipe once and gives its bytes again when asked."""
+    global _pipes_read
+    before, _pipes_read = _pipes_read, {}
+    try:
+        yield
+    finally:
+        _pipes_read = before
+
+
+def read_input(path: str | os.PathLike, what: str, max_bytes: int) -> bytes:
+    """The bytes of the input file `path` (checked as `input_file` does), at most `max_bytes`: a pipe, whose size is
+    known only once read, is refused as soon as it gives more."""
+    p = input_file(path, what, max_bytes)
+    if _pipes_read is not None and str(p) in _pipes_read:
+        return _pipes_read[str(p)]
+    with open_input(p) as fh:
+        data = fh.read(max_bytes + 1)
+    if len(data) > max_bytes:
+        raise UserError(f"{what} {p} gives more than {max_bytes / 2**20:.0f} MB, more than such a file can be.")
+    if _pipes_read is not None and not stat.S_ISREG(p.stat().st_mode):
+        _pipes_read[str(p)] = data
+    return data

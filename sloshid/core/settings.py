@@ -17,7 +17,7 @@ import typing
 from pathlib import Path
 from typing import Any, TypeVar
 
-from sloshid.core.errors import SMALL_FILE_BYTES, SettingError, UserError, input_file
+from sloshid.core.errors import SMALL_FILE_BYTES, SettingError, UserError, read_input
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -30,7 +30,7 @@ T = TypeVar("T")
 def load_toml(path: str | Path) -> dict[str, Any]:
     """Read a TOML file, turning a missing, outsized or malformed file into a one-sentence UserError."""
     try:
-        raw = input_file(path, "TOML file", SMALL_FILE_BYTES).read_bytes()
+        raw = read_input(path, "TOML file", SMALL_FILE_BYTES)
         return tomllib.loads(raw.decode("utf-8-sig"))  # a UTF-8 byte-order mark (Windows editors) is accepted
     except (tomllib.TOMLDecodeError, UnicodeDecodeError, ValueError) as exc:  # ValueError: a 5,000-digit number
         raise UserError(f"{path} is not valid TOML ({exc}).") from None

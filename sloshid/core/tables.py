@@ -15,7 +15,7 @@ import numpy as np
 from tqdm import tqdm
 
 from sloshid.core.atomic import write_text
-from sloshid.core.errors import UserError, input_file
+from sloshid.core.errors import UserError, input_file, open_input
 
 
 def distinct_names(paths: Sequence[str | os.PathLike]) -> list[str]:
@@ -133,7 +133,7 @@ def read_table(p: Path, pick: Pick | None = None, progress: bool = False) -> Tab
         delay=PROGRESS_DELAY_S,
         disable=None if progress else True,
     )
-    with open(p, "rb") as fh, bar:
+    with open_input(p) as fh, bar:
         chunks = _decoded_chunks(p, fh, bar)
         first_line, lines = next(chunks, (1, []))
         if not any(line.strip() for line in lines):

@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 
 from sloshid.core.atomic import check_schema
-from sloshid.core.errors import SMALL_FILE_BYTES, UserError, input_file
+from sloshid.core.errors import SMALL_FILE_BYTES, UserError, read_input
 from sloshid.model.conventions import G
 
 XI_CYLINDER = 1.8412
@@ -83,7 +83,7 @@ class SloshParams:
     def from_identify_json(cls, path: str | Path) -> SloshParams:
         """Read the parameters written by `sloshid identify` (values of `parameters.{omega_rad_s,zeta,m_kg}`)."""
         try:
-            data = json.loads(input_file(path, "parameter file", SMALL_FILE_BYTES).read_text(encoding="utf-8"))
+            data = json.loads(read_input(path, "parameter file", SMALL_FILE_BYTES).decode("utf-8"))
         except (ValueError, UnicodeDecodeError) as exc:  # a JSONDecodeError, or a 5,000-digit number
             raise UserError(f"parameter file {path} is not valid JSON ({exc}).") from None
         except RecursionError:
@@ -133,7 +133,7 @@ class IdentifiedFrequency:
         """Read parameters.f_hz.{ci95, quality, reasons} (the file is checked by SloshParams.from_identify_json); when
         jointly identified runs disagreed, the band is where one more run may land (fit.between_signals's prediction
         interval), which is what a move must hold over."""
-        data = json.loads(Path(path).read_text(encoding="utf-8"))
+        data = json.loads(read_input(path, "parameter file", SMALL_FILE_BYTES).decode("utf-8"))
         f = data.get("parameters", {}).get("f_hz", {})
         ci, where = f.get("ci95"), "parameters.f_hz.ci95"
         between = ((data.get("fit") or {}).get("between_signals") or {}).get("f_hz") or {}

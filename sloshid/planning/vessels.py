@@ -13,7 +13,7 @@ import math
 from dataclasses import dataclass
 from pathlib import Path
 
-from sloshid.core.errors import SMALL_FILE_BYTES, UserError, input_file
+from sloshid.core.errors import SMALL_FILE_BYTES, UserError, read_input
 from sloshid.model.pendulum import SloshParams, cylinder_first_mode_omega
 from sloshid.planning.scenario import Scenario, TrayContainer
 
@@ -57,7 +57,7 @@ class Vessel:
 
 def identified_spread(path: str | Path) -> tuple[float | None, float | None]:
     """Standard errors of omega (rad/s) and zeta in an identify JSON (`parameters.<name>.stderr`), None if absent."""
-    data = json.loads(input_file(path, "parameter file", SMALL_FILE_BYTES).read_text(encoding="utf-8"))
+    data = json.loads(read_input(path, "parameter file", SMALL_FILE_BYTES).decode("utf-8"))
     p = data.get("parameters", {}) if isinstance(data, dict) else {}
 
     def sd(name: str) -> float | None:

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
-from sloshid.core.errors import UserError
+from sloshid.core.errors import SMALL_FILE_BYTES, UserError, read_input
 from sloshid.core.hashing import file_sha256
 from sloshid.core.settings import check_in_metres, setting_field
 from sloshid.core.tables import write_csv
@@ -178,7 +178,7 @@ def load_model(path: str | Path) -> LiquidModel:
     decay-only file), their errors, the motion range and any stored geometry; a file of another model structure is
     refused."""
     params = SloshParams.from_identify_json(path)
-    data = json.loads(Path(path).read_text(encoding="utf-8"))
+    data = json.loads(read_input(path, "parameter file", SMALL_FILE_BYTES))
     p, fit = data["parameters"], data.get("fit") if isinstance(data.get("fit"), dict) else {}
     old = [k for k in OLD_GAINS if k in p]
     structure = fit.get("structure")

@@ -137,7 +137,13 @@ def resolve_paths(settings: Any, base: Path, where: str) -> Any:
 def _existing(path: Path, where: str) -> Path:
     """The resolved path, or a UserError naming the key when it is not a readable file (videos, signals and
     scenarios are all files)."""
-    return input_file(path.resolve(), f"{where}:")
+    p = input_file(path.resolve(), f"{where}:")
+    if not p.is_file():  # hashed for the cache, then read by its stage: a pipe would give its data to the hash alone
+        raise UserError(
+            f"{where}: {p} is a pipe; a pipeline reads each input twice (for its cache, then to run the "
+            "stage), so it must be a regular file."
+        )
+    return p
 
 
 @dataclass
