@@ -23,7 +23,7 @@ from typing import overload
 import cv2
 import numpy as np
 
-from sloshid.tracking.robust import MAD_SIGMA, masked_median, robust_lines
+from sloshid.tracking.robust import MAD_SIGMA, masked_median, median, robust_lines
 from sloshid.video.frames import Picture
 
 BAND_PX = 9
@@ -148,6 +148,27 @@ def held_angles(measured: list[tuple[int, float, bool]], held: list[int], copied
     return angle[k - 1] + np.where(smooth, (frames - at[k - 1]) / np.maximum(gap, 1), 0.0) * (
         angle[after] - angle[k - 1]
     )
+
+
+STEADY_SPREAD = 1.3
+"""A container angle series (valid frames) whose robust scatter about its median is at most this many times its
+frame-to-frame noise (the differences' robust scatter over sqrt 2) shows no motion beyond that noise: white noise
+gives 1 within a tenth at 100 frames, a slosh's tilt or a robot's move many times more."""
+
+
+def steady_angle(angle: np.ndarray, valid: np.ndarray) -> float | None:
+    """The container's angle when it stood still for the whole clip while its walls were measured in every frame (a
+    noisy picture keeps them from being held): the median of the measurements, or None when they show motion (or
+    the walls were held, so that consecutive frames repeat a value), or fewer than 20 frames are valid."""
+    a = np.asarray(angle, float)[np.asarray(valid, bool)]
+    if a.size < 20:
+        return None
+    d = np.diff(a)
+    noise = MAD_SIGMA * median(np.abs(d - median(d))) / math.sqrt(2)
+    if noise <= 0:
+        return None
+    centre = median(a)
+    return float(centre) if MAD_SIGMA * median(np.abs(a - centre)) <= STEADY_SPREAD * noise else None
 
 
 @dataclass

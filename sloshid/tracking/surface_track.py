@@ -15,7 +15,14 @@ from pathlib import Path
 import numpy as np
 
 from sloshid.core.errors import NothingFound, SettingError
-from sloshid.tracking.container_ref import GUARD_ROWS, ContainerMeasurement, ContainerTracker, EdgeLine, WallsRecord
+from sloshid.tracking.container_ref import (
+    GUARD_ROWS,
+    ContainerMeasurement,
+    ContainerTracker,
+    EdgeLine,
+    WallsRecord,
+    steady_angle,
+)
 from sloshid.tracking.overlay import draw_surface_overlay
 from sloshid.tracking.repeats import REPEAT_SHARE, Copies, line_regions, repeated_share
 from sloshid.tracking.robust import MAD_SIGMA, median, percentile_span
@@ -197,6 +204,12 @@ class SurfaceStep:
         t = np.array([r.t_s for r in rows], float)
         valid = np.array([r.valid for r in rows], bool)
         slope, cang, left, right, width, opening = (np.array(c, float) for c in zip(*[r.surface for r in rows]))
+        steady = steady_angle(cang, valid) if self.walls is not None else None
+        if steady is not None:  # a container that stood still, its walls measured in every frame: their median
+            turn = np.radians(cang - steady)
+            slope = np.tan(np.arctan(slope) + turn)
+            left, right = left - 0.5 * width * np.tan(turn), right + 0.5 * width * np.tan(turn)
+            cang = np.full_like(cang, steady)
         sin_e = float(np.clip(median(opening[valid]) / median(width[valid]), 0, 0.5))
         cos_e = math.sqrt(1 - sin_e * sin_e)
         rel = np.degrees(np.arctan(slope / cos_e))
@@ -206,7 +219,10 @@ class SurfaceStep:
         container = self.settings.reference == "container"
         angle = rel if container else rel + cang
         body = [
-            r._replace(angle_deg=a, float_angle_deg=rv + c, surface=None) for r, a, rv, c in zip(rows, angle, rel, cang)
+            r._replace(angle_deg=a, float_angle_deg=rv + c, surface=None)
+            if steady is None
+            else r._replace(angle_deg=a, float_angle_deg=rv + c, container_angle_deg=c, surface=None)
+            for r, a, rv, c in zip(rows, angle, rel, cang)
         ]
         n_rest = self.settings.rest_frames
         check_rest_frames(n_rest, len(t))
