@@ -279,7 +279,9 @@ def _new_run_dir(pipeline: Pipeline, output_dir: str | Path | None) -> tuple[Pat
     return root, run_dir, run_id
 
 
-def _run_stage(stage: Stage, settings: Any, key: str, cache: Path, ctx: StageContext, log) -> StageRecord:
+def _run_stage(
+    stage: Stage, settings: Any, key: str, cache: Path, ctx: StageContext, log: Callable[[str], None]
+) -> StageRecord:
     """Run one stage into its cache folder (or reuse it) and record what happened; a failure is recorded."""
     start = time.perf_counter()
     if cache.is_symlink():  # not the folder the stage wrote: the link goes, what it points at is left alone
