@@ -11,7 +11,7 @@ import math
 from collections.abc import Callable
 from dataclasses import asdict, dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -163,11 +163,22 @@ TABLE_I = SloshParams(m_kg=0.5, l_m=0.021, d_ns_per_m=1.51)
 """The seed paper's identified liquid (Table I): f = 3.44 Hz, zeta = 0.070."""
 
 
+class PendulumParams(Protocol):
+    """What the equations of motion read of a liquid: a `SloshParams`, or CasADi symbols standing for its numbers
+    (the planners' problems)."""
+
+    @property
+    def l_m(self) -> Any: ...
+
+    @property
+    def damping_rate_1_s(self) -> Any: ...
+
+
 def angle_accel(
     angle: Any,
     rate: Any,
     u: Any,
-    params: SloshParams,
+    params: PendulumParams,
     g_eff: Any = G,
     sin: Callable = np.sin,
     cos: Callable = np.cos,
@@ -204,7 +215,9 @@ def spherical_accel(
     return phi_dd, theta_dd
 
 
-def pendulum_rhs_3d(o: Any, u: Any, params: SloshParams, sin: Callable = np.sin, cos: Callable = np.cos) -> list[Any]:
+def pendulum_rhs_3d(
+    o: Any, u: Any, params: PendulumParams, sin: Callable = np.sin, cos: Callable = np.cos
+) -> list[Any]:
     """Reconstructed seed eq. 3: o = [x,y,z,phi,theta,psi, x',y',z',phi',theta',psi'], u = [ux,uy,uz].
 
     Returns the 12 time derivatives as a list (stack with np.array or casadi.vertcat).

@@ -11,6 +11,7 @@ import math
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import Protocol
 
 import casadi as ca
 import numpy as np
@@ -187,9 +188,22 @@ class SegmentSolver:
         return str(stats.get("return_status", "unknown")), int(stats.get("iter_count", 0)), elapsed, w, warm_out
 
 
-def ipopt_options(s: Structure) -> dict:
+class SolverStructure(Protocol):
+    """What `ipopt_options` reads of a problem's structure (free segments, [path] moves and upright moves)."""
+
+    @property
+    def max_iter(self) -> int: ...
+
+    @property
+    def tol(self) -> float: ...
+
+    @property
+    def warm(self) -> bool: ...
+
+
+def ipopt_options(s: SolverStructure) -> dict[str, str | int | float | bool]:
     """IPOPT settings: monotone barrier from a cold start; warm solvers are expanded to SX and start near mu = 0."""
-    opts = {
+    opts: dict[str, str | int | float | bool] = {
         "ipopt.print_level": 0,
         "print_time": False,
         "ipopt.sb": "yes",

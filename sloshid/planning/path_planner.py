@@ -12,6 +12,7 @@ from __future__ import annotations
 import hashlib
 import math
 import time
+from typing import cast
 
 import casadi as ca
 import numpy as np
@@ -23,6 +24,7 @@ from sloshid.model.pendulum import SloshParams
 from sloshid.model.simulate import simulate_liquid
 from sloshid.model.trajectory import EXPORT_RATE_HZ, Trajectory
 from sloshid.planning.ocp import OK_STATUSES, SegmentResult, bang_bang_time, ipopt_options
+from sloshid.planning.path import PathGeometry
 from sloshid.planning.path_problem import (
     CON,
     CON_ACC,
@@ -32,6 +34,7 @@ from sloshid.planning.path_problem import (
     SD,
     SDD,
     SIG,
+    PathProblem,
     PathStructure,
     build_path_problem,
     path_box_bounds,
@@ -39,7 +42,7 @@ from sloshid.planning.path_problem import (
 )
 from sloshid.planning.problem import constraint_bounds
 from sloshid.planning.result import PlanResult, limit_usages
-from sloshid.planning.scenario import Scenario
+from sloshid.planning.scenario import Scenario, Vec3
 from sloshid.planning.transcription import MultipleShooting, graded_mesh
 
 VERIFY_AFTER_DEG = 0.05
@@ -48,10 +51,17 @@ PATH_N_PER_S = 45
 """Shooting intervals per second of the estimated move when [solver].N is smaller (the path's curvature
 changes the acceleration along it, which a coarse grid cannot follow)."""
 
-_CACHE: dict[PathStructure, tuple] = {}
+_CACHE: dict[PathStructure, tuple[ca.Function, MultipleShooting, PathProblem]] = {}
 
 
-def _solver(s: PathStructure, geo):
+def _curve(scenario: Scenario) -> PathGeometry:
+    """The planning curve of a [path] scenario (a ValueError for a scenario without one: there is no path to keep to)."""
+    if scenario.path is None:
+        raise ValueError("a [path] scenario is needed: this scenario has no path (Scenario.path is None).")
+    return scenario.path
+
+
+def _solver(s: PathStructure, geo: PathGeometry) -> tuple[ca.Function, MultipleShooting, PathProblem]:
     """(nlpsol, transcription, problem) for a structure and its curve, built once."""
     if s not in _CACHE:
         prob = build_path_problem(s, geo)
@@ -63,7 +73,7 @@ def _solver(s: PathStructure, geo):
 
 def check_path(scenario: Scenario) -> None:
     """Reject a path that leaves the z range or runs through an inflated obstacle (one sentence, UserError)."""
-    geo, lim = scenario.path, scenario.limits
+    geo, lim = _curve(scenario), scenario.limits
     sigma = np.linspace(0.0, geo.length_m, max(200, math.ceil(geo.length_m / 0.002)))
     pts = geo.evaluate(sigma)
     z = pts[:, 2]
@@ -89,14 +99,14 @@ def check_path(scenario: Scenario) -> None:
 def _structure(scenario: Scenario, T_est: float) -> PathStructure:
     sv = scenario.solver
     N = max(sv.N, math.ceil(PATH_N_PER_S * T_est))
-    geo = scenario.path
+    geo = _curve(scenario)
     key = hashlib.sha256(b"".join(np.ascontiguousarray(a).tobytes() for a in (geo.poly, geo.knots, geo.jumps)))
     return PathStructure(N, key.hexdigest()[:16], sv.rk4_steps, sv.max_iter, sv.tol)
 
 
 def _time_estimate(scenario: Scenario) -> tuple[float, float]:
     """(lower bound, initial guess) of T: bang-bang along the path's length under the norm of the box limits."""
-    lim, L = scenario.limits, scenario.path.length_m
+    lim, L = scenario.limits, _curve(scenario).length_m
     acc = min(float(np.linalg.norm(lim.acc_max)), scenario.robot.acc_m_s2)
     vel = min(float(np.linalg.norm(lim.vel_max)), scenario.robot.vel_m_s)
     lower = bang_bang_time(L, acc, vel)
@@ -109,7 +119,7 @@ def _time_estimate(scenario: Scenario) -> tuple[float, float]:
 
 def _guess(scenario: Scenario, ms: MultipleShooting, mesh: np.ndarray, T0: float) -> np.ndarray:
     """Minimum-jerk timing along the path, liquid and container at the quasi-static tilt of its acceleration."""
-    geo, N = scenario.path, ms.N
+    geo, N = _curve(scenario), ms.N
     tau = np.concatenate([[0.0], np.cumsum(mesh)]) / N
     L = geo.length_m
     sig = L * (10 * tau**3 - 15 * tau**4 + 6 * tau**5)
@@ -135,10 +145,10 @@ def _polynomial_samples(x0: np.ndarray, jerk: np.ndarray, t_nodes: np.ndarray, t
     hk = np.diff(t_nodes)
     nodes = np.zeros((n + 1, 3, x0.shape[-1]))
     nodes[0] = x0
-    for k in range(n):  # exact propagation node to node
-        p, v, a = nodes[k]
-        h, j = hk[k], jerk[k]
-        nodes[k + 1] = [p + v * h + a * h**2 / 2 + j * h**3 / 6, v + a * h + j * h**2 / 2, a + j * h]
+    for i in range(n):  # exact propagation node to node
+        p, v, a = nodes[i]
+        h, j = hk[i], jerk[i]
+        nodes[i + 1] = [p + v * h + a * h**2 / 2 + j * h**3 / 6, v + a * h + j * h**2 / 2, a + j * h]
     k = np.clip(np.searchsorted(t_nodes, t, side="right") - 1, 0, n - 1)
     tau = np.clip(t - t_nodes[k], 0.0, hk[k])[:, None]
     p, v, a = nodes[k, 0], nodes[k, 1], nodes[k, 2]
@@ -150,7 +160,7 @@ def _polynomial_samples(x0: np.ndarray, jerk: np.ndarray, t_nodes: np.ndarray, t
 
 def sample_path(scenario: Scenario, T: float, X: np.ndarray, U: np.ndarray, mesh: np.ndarray) -> Trajectory:
     """The 1 kHz trajectory of an optimum (exact polynomials of its inputs, positions on the planning curve)."""
-    geo, N = scenario.path, len(U)
+    geo, N = _curve(scenario), len(U)
     t_nodes = np.concatenate([[0.0], np.cumsum(mesh)]) * T / N
     dt = 1.0 / EXPORT_RATE_HZ
     t = np.arange(math.ceil(T / dt - 1e-9) + 1) * dt
@@ -164,28 +174,38 @@ def sample_path(scenario: Scenario, T: float, X: np.ndarray, U: np.ndarray, mesh
     return Trajectory(t, geo.evaluate(sig), p1 * sd[:, None], acc, euler, rates, name="sloshid plan (path)")
 
 
-def _as_segment(scenario: Scenario, traj: Trajectory, T, status, iters, elapsed, mesh, X, U) -> SegmentResult:
+def _as_segment(
+    scenario: Scenario,
+    traj: Trajectory,
+    T: float,
+    status: str,
+    iters: int,
+    elapsed: float,
+    mesh: np.ndarray,
+    X: np.ndarray,
+    U: np.ndarray,
+) -> SegmentResult:
     """The optimum in the free planner's node layout (position, velocity, acceleration, tilt, tilt rate)."""
     idx = np.minimum(
         np.round(np.concatenate([[0.0], np.cumsum(mesh)]) * T / len(U) * EXPORT_RATE_HZ).astype(int), len(traj.t_s) - 1
     )
     nodes = np.column_stack([traj.pos_m[idx], traj.vel_m_s[idx], traj.acc_m_s2[idx], X[:, CON], X[:, CON_RATE]])
     jerk = np.diff(traj.acc_m_s2[idx], axis=0) / np.maximum(np.diff(traj.t_s[idx])[:, None], 1e-9)
-    start, goal = (tuple(map(float, p)) for p in scenario.waypoints)
+    start, goal = (cast(Vec3, tuple(map(float, p))) for p in scenario.waypoints)
     return SegmentResult(0, start, goal, None, True, T, status, iters, elapsed, nodes, jerk, {}, mesh)
 
 
-def plan_path(scenario: Scenario, params: SloshParams, *, progress: bool = False):
+def plan_path(scenario: Scenario, params: SloshParams, *, progress: bool = False) -> PlanResult:
     """Solve the [path] scenario for liquid `params` (PlanResult); raises UserError for bad paths and failures."""
     t_wall = time.perf_counter()
     check_path(scenario)
     lower, T0 = _time_estimate(scenario)
     s = _structure(scenario, T0)
-    nlp, ms, _prob = _solver(s, scenario.path)
+    nlp, ms, _prob = _solver(s, _curve(scenario))
     sv, lim = scenario.solver, scenario.limits
     grading = min(sv.grid_grading, max(0.0, 0.9 * s.N / (params.omega_rad_s * lower) - 1.0))
     mesh = np.ones(s.N) if sv.grid == "uniform" else graded_mesh(s.N, grading)
-    lo, hi, ulim = path_box_bounds(scenario.path, lim, scenario.robot)
+    lo, hi, ulim = path_box_bounds(_curve(scenario), lim, scenario.robot)
     rows = np.r_[0, np.ones(s.N - 1, dtype=int), 2]
     lbx = ms.join(lower, lo[rows], np.tile(-ulim, (s.N, 1)))
     ubx = ms.join(lim.t_max_s, hi[rows], np.tile(ulim, (s.N, 1)))
@@ -206,7 +226,7 @@ def plan_path(scenario: Scenario, params: SloshParams, *, progress: bool = False
     traj = sample_path(scenario, T, X, U, mesh)
     usages, move = limit_usages(traj, scenario)
     verification = simulate_liquid(traj, params)
-    deviation = float(scenario.path.deviation(traj.pos_m).max())
+    deviation = float(_curve(scenario).deviation(traj.pos_m).max())
     seg = _as_segment(scenario, traj, T, status, iters, elapsed, mesh, X, U)
     clearance = _clearance(scenario, traj)
     if clearance is not None and clearance < 0:  # the path was checked upright: the planned tilt swung the body in
@@ -216,6 +236,11 @@ def plan_path(scenario: Scenario, params: SloshParams, *, progress: bool = False
             f"the container, {what}, enters an obstacle by {-clearance * 1e3:.1f} mm; sloshid keeps to the given "
             "path (within [path].path_tolerance_m), so move the path or the obstacle"
             + (", or lower [limits].tilt_max_deg." if depth else ".")
+        )
+    table = scenario.path_table
+    if table is None:
+        raise ValueError(
+            "a [path] scenario is needed: this scenario has no [path] table (Scenario.path_table is None)."
         )
     return PlanResult(
         trajectory=traj,
@@ -232,7 +257,7 @@ def plan_path(scenario: Scenario, params: SloshParams, *, progress: bool = False
         wall_time_s=time.perf_counter() - t_wall,
         verify_during_deg=lim.rel_angle_max_deg,
         max_path_deviation_m=deviation,
-        path_tolerance_m=scenario.path_table.path_tolerance_m,
+        path_tolerance_m=table.path_tolerance_m,
         scenario=scenario,
         move_limits=move,
     )

@@ -11,6 +11,7 @@ import dataclasses
 import math
 import time
 from collections.abc import Sequence
+from typing import Any, cast
 
 import numpy as np
 
@@ -39,7 +40,14 @@ from sloshid.planning.result import (  # the result lives in its own module; kep
     segment_of_samples,
 )
 from sloshid.planning.sampling import sample_segments
-from sloshid.planning.scenario import Obstacle, Scenario, body_clearance, check_robust_factors
+from sloshid.planning.scenario import (
+    Obstacle,
+    Scenario,
+    SolverSettings,
+    Vec3,
+    body_clearance,
+    check_robust_factors,
+)
 from sloshid.planning.transcription import equidistributed_mesh, graded_mesh, regrid
 
 GUESS_MARGIN_M = 0.02
@@ -53,13 +61,20 @@ NEAR_M = 0.1
 """A segment's problem includes the obstacles that come this close to its straight line (all, if the check fails)."""
 
 
-def near_obstacles(scenario: Scenario, start, goal) -> list[Obstacle]:
+def near_obstacles(scenario: Scenario, start: Sequence[float], goal: Sequence[float]) -> list[Obstacle]:
     """Obstacles within NEAR_M of the straight segment (the others cannot matter unless the path bulges far)."""
     line = np.linspace(start, goal, 64)
     return [o for o in scenario.obstacles if scenario.container_clearance(line, obstacles=[o]).min() < NEAR_M]
 
 
-def _structure(scenario: Scenario, start, goal, obstacles, n_robust: int, warm: bool) -> Structure:
+def _structure(
+    scenario: Scenario,
+    start: Sequence[float],
+    goal: Sequence[float],
+    obstacles: Sequence[Obstacle],
+    n_robust: int,
+    warm: bool,
+) -> Structure:
     """The NLP shape for one segment; norm constraints only where the per-axis bounds do not imply them."""
     lim, robot, sv = scenario.limits, scenario.robot, scenario.solver
     axis = segment_axis(start, goal, len(obstacles))
@@ -83,7 +98,14 @@ def _structure(scenario: Scenario, start, goal, obstacles, n_robust: int, warm: 
 
 
 def _guess(
-    s: Structure, scenario: Scenario, obstacles, start, goal, T0: float, inflate_m: float, mesh: np.ndarray | None
+    s: Structure,
+    scenario: Scenario,
+    obstacles: Sequence[Obstacle],
+    start: Sequence[float],
+    goal: Sequence[float],
+    T0: float,
+    inflate_m: float,
+    mesh: np.ndarray | None,
 ) -> np.ndarray:
     """Initial guess: a minimum-jerk straight line pushed out of obstacles, liquid at its quasi-static tilt."""
     N = s.N
@@ -126,7 +148,7 @@ def _guess(
     return get_solver(s).join(T0, np.column_stack(cols), mid[:, ax])
 
 
-def _grading(sv, params: SloshParams, robust: Sequence[float], t_lb: float) -> float:
+def _grading(sv: SolverSettings, params: SloshParams, robust: Sequence[float], t_lb: float) -> float:
     """[solver].grid_grading, reduced so that no interval grows beyond MAX_OMEGA_H / omega (RK4's accuracy)."""
     omega = params.omega_rad_s * max([1.0, *robust])
     return float(np.clip(MAX_OMEGA_H * sv.N / (omega * t_lb) - 1.0, 0.0, sv.grid_grading))
@@ -147,35 +169,34 @@ def solve_segment(
     start, goal = scenario.waypoints[index], scenario.waypoints[index + 1]
     obstacles = scenario.obstacles if all_obstacles else near_obstacles(scenario, start, goal)
     inflate = scenario.container_radius_m + scenario.solver.clearance_margin_m + extra_margin_m
-    use_warm = warm is not None and bool(warm.warm)
-    s = _structure(scenario, start, goal, obstacles, len(robust), use_warm)
+    prev = warm if warm is not None and warm.warm else None  # the solve warm-started from (None: cold)
+    s = _structure(scenario, start, goal, obstacles, len(robust), prev is not None)
     solver = get_solver(s)
     # a start from a problem of another shape (grid, or obstacle set: a clearance retry takes in every obstacle) is
     # no start: its variables or multipliers do not fit this one's
-    if use_warm and not solver.fits(warm.warm, scenario.solver):
-        use_warm, s = False, _structure(scenario, start, goal, obstacles, len(robust), False)
+    if prev is not None and not solver.fits(prev.warm, scenario.solver):
+        prev, s = None, _structure(scenario, start, goal, obstacles, len(robust), False)
         solver = get_solver(s)
     t_lb = time_lower_bound(start, goal, scenario.limits, scenario.solver.kappa_T)
     T_bounds = (t_lb, scenario.limits.t_max_s)
     sv = scenario.solver
-    if use_warm:
-        mesh = warm.mesh
+    if prev is not None:
+        mesh = prev.mesh
     else:
         mesh = None if sv.grid == "uniform" else graded_mesh(s.N, _grading(sv, params, robust, t_lb))
     guess = (
-        warm.warm["x"]
-        if use_warm
+        prev.warm["x"]
+        if prev is not None
         else _guess(s, scenario, obstacles, start, goal, min(1.15 * t_lb, T_bounds[1]), inflate, mesh)
     )
     fixed = (np.asarray(start), np.asarray(goal), scenario.limits, scenario.robot, sv, params, robust, obstacles)
     status, iters, elapsed, w, warm_out = solver.solve(
-        *fixed, inflate, T_bounds, guess, warm.warm if use_warm else None, mesh
+        *fixed, inflate, T_bounds, guess, prev.warm if prev is not None else None, mesh
     )
     T, X, U = solver.split(w)
-    seg = SegmentResult(
-        index, tuple(start), tuple(goal), s.axis, s.jerk_limited, T, status, iters, elapsed, X, U, warm_out, mesh
-    )
-    if sv.grid == "refined" and not use_warm and seg.success:  # once more on a grid fitted to this optimum
+    ends = (cast(Vec3, tuple(start)), cast(Vec3, tuple(goal)))
+    seg = SegmentResult(index, *ends, s.axis, s.jerk_limited, T, status, iters, elapsed, X, U, warm_out, mesh)
+    if sv.grid == "refined" and prev is None and seg.success:  # once more on a grid fitted to this optimum
         seg = _refine(seg, solver, (*fixed, inflate, T_bounds))
     return seg
 
@@ -314,7 +335,7 @@ def _tightened(scenario: Scenario, result: PlanResult) -> Scenario:
         for u in result.limits
         if not u.ok
     }
-    limits = {}
+    limits: dict[str, Any] = {}  # [limits] values of several types (per-axis tuples, numbers)
     for u in result.move_limits:
         if not u.ok:
             value, factor = getattr(scenario.limits, u.quantity), LIMIT_SAFETY * u.limit / u.peak

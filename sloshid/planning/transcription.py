@@ -12,15 +12,50 @@ Hessian block-diagonal (cheap to colour and evaluate).
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import Protocol
 
 import casadi as ca
 import numpy as np
 
 from sloshid.planning.problem import SegmentProblem
 
-if TYPE_CHECKING:
-    from sloshid.planning.path_problem import PathProblem
+
+class ShootingStructure(Protocol):
+    """What the transcription reads of a problem's structure (`problem.Structure`, `path_problem.PathStructure`,
+    `upright.UprightStructure`)."""
+
+    @property
+    def N(self) -> int: ...
+
+    @property
+    def rk4_steps(self) -> int: ...
+
+
+class ShootingProblem(Protocol):
+    """The continuous-time problem `MultipleShooting` transcribes (`problem.SegmentProblem`,
+    `path_problem.PathProblem`, `upright.UprightProblem`); only a `SegmentProblem` has a hard obstacle clearance, and
+    a problem may add constraints inside the intervals with a `between(h)` method."""
+
+    @property
+    def s(self) -> ShootingStructure: ...
+
+    @property
+    def x(self) -> ca.SX: ...
+
+    @property
+    def u(self) -> ca.SX: ...
+
+    @property
+    def p(self) -> ca.SX: ...
+
+    @property
+    def rhs(self) -> ca.Function: ...
+
+    @property
+    def running_cost(self) -> ca.SX: ...
+
+    @property
+    def path(self) -> list[tuple[ca.SX, str]]: ...
 
 
 def rk4(f: ca.Function, x, u, p, h, steps: int):
@@ -35,12 +70,14 @@ def rk4(f: ca.Function, x, u, p, h, steps: int):
     return x
 
 
-def interval_function(prob: SegmentProblem | PathProblem) -> tuple[ca.Function, list[str]]:
+def interval_function(prob: ShootingProblem) -> tuple[ca.Function, list[str]]:
     """interval(x, u, h, p) -> (state at the end, cost over the interval, clearance between the nodes), kinds."""
-    s, x, u, p = prob.s, prob.x, prob.u, prob.p
+    x, u, p = prob.x, prob.u, prob.p
     h = ca.SX.sym("h")
-    sub, kinds = [], []
-    if prob.clearance is not None:
+    sub: list[ca.SX] = []
+    kinds: list[str] = []
+    if isinstance(prob, SegmentProblem) and prob.clearance is not None:  # the others have no clearance (None)
+        s = prob.s
         for i in range(1, s.clearance_points + 1):  # exact positions between the nodes
             sub.append(prob.clearance(prob.position_at(h * i / (s.clearance_points + 1)), p))
             kinds += ["clear"] * (s.n_spheres + s.n_cylinders)
@@ -49,7 +86,7 @@ def interval_function(prob: SegmentProblem | PathProblem) -> tuple[ca.Function, 
         expr, more = between(h)
         sub.append(expr)
         kinds += more
-    x_end = rk4(prob.rhs, x, u, p, h, s.rk4_steps)
+    x_end = rk4(prob.rhs, x, u, p, h, prob.s.rk4_steps)
 
     return ca.Function("interval", [x, u, h, p], [x_end, h * prob.running_cost, ca.vertcat(*sub)]), kinds
 
@@ -57,7 +94,7 @@ def interval_function(prob: SegmentProblem | PathProblem) -> tuple[ca.Function, 
 class MultipleShooting:
     """The NLP {x: w, f: T + sum of interval costs, g: continuity and path constraints, p: [p; mesh]}."""
 
-    def __init__(self, prob: SegmentProblem | PathProblem) -> None:
+    def __init__(self, prob: ShootingProblem) -> None:
         self.nx, self.nu, self.N = prob.x.numel(), prob.u.numel(), prob.s.N
         nx, N = self.nx, self.N
         interval, sub_kinds = interval_function(prob)

@@ -28,6 +28,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import SimpleNamespace
+from typing import cast
 
 import casadi as ca
 import numpy as np
@@ -42,7 +43,7 @@ from sloshid.planning.problem import ROBOT_MARGIN, constraint_bounds, tilt_rate_
 from sloshid.planning.result import limit_usages
 from sloshid.planning.risk import RiskEstimate, ScenarioGuarantee, draw_models, monte_carlo, spreads, wall_figures
 from sloshid.planning.sampling import sample_segments
-from sloshid.planning.scenario import Scenario
+from sloshid.planning.scenario import Scenario, Vec3
 from sloshid.planning.transcription import MultipleShooting, graded_mesh
 from sloshid.planning.vessels import Vessel, vessels_of
 
@@ -525,9 +526,9 @@ def _trajectory(
 
     segs = []
     for i, (line, sol) in enumerate(zip(lines, sols)):
-        start, goal = scenario.waypoints[i], scenario.waypoints[i + 1]
+        start, goal = (cast(Vec3, tuple(p)) for p in scenario.waypoints[i : i + 2])
         segs.append(SegmentResult(
-            i, tuple(start), tuple(goal), None, scenario.solver.jerk_limited, sol.T_s, sol.status, sol.iterations,
+            i, start, goal, None, scenario.solver.jerk_limited, sol.T_s, sol.status, sol.iterations,
             sol.solve_time_s, sol.X, sol.U[:, :1] * line.direction[None, :], mesh=sol.mesh,
         ))  # fmt: skip
     moved = sample_segments(segs, liquid, name="sloshid upright plan")
@@ -606,7 +607,7 @@ def plan_upright(
     seed = settings.seed if settings else 1
     models = [v.liquid for v in vessels]
     of_vessel = list(range(len(vessels)))
-    if n_samples:
+    if n_samples and spread is not None:  # (without a spread, n_samples raised above)
         for draw in draw_models(vessels, spread, n_samples, seed + ROBUST_SEED_OFFSET):
             models += draw
             of_vessel += list(range(len(vessels)))
@@ -743,7 +744,9 @@ def sweep_margin(
     gap in the sweep, not an error."""
     import dataclasses
 
-    T, risk, ok = [], [], []
+    T: list[float | None] = []
+    risk: list[RiskEstimate | None] = []
+    ok: list[bool] = []
     t_free = sum(line_limits(scenario, i).t_no_liquid_s for i in range(len(scenario.waypoints) - 1))
     for m in margins_mm:
         trial = dataclasses.replace(

@@ -19,7 +19,7 @@ import itertools
 import math
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 from scipy.optimize import least_squares
@@ -437,13 +437,13 @@ def fit_io(
     settings = settings or IdentSettings()
     decay = Identifier(settings).fit(signals).result  # a start, and the model the result is compared with
     f_decay = decay.parameters["f_hz"].value
-    geometric = settings.container_radius_m is not None and settings.fill_height_m is not None
+    radius, fill = settings.container_radius_m, settings.fill_height_m
+    geometric = radius is not None and fill is not None
     f_prior = (
-        cylinder_first_mode_omega(settings.container_radius_m, settings.fill_height_m) / (2 * math.pi)
-        if geometric
-        else f_decay
+        cylinder_first_mode_omega(radius, fill) / (2 * math.pi) if radius is not None and fill is not None else f_decay
     )
-    priors = {"f_hz": f_prior, **{k: PRIORS[k][0] for k in FITTED[1:]}}
+    # only f's prior (None in PRIORS) comes from the data; the others are numbers
+    priors = {"f_hz": f_prior, **{k: cast(float, PRIORS[k][0]) for k in FITTED[1:]}}
     ranges = {
         k: (priors[k] * lo, priors[k] * hi) if k == "f_hz" else (lo, hi) for k, (_, _, (lo, hi)) in PRIORS.items()
     }
@@ -466,7 +466,8 @@ def fit_io(
         priors["f_hz"] = min(
             halves, key=lambda f: float(np.sum(prob.run_residuals(prob.scaled(f, priors["zeta"])) ** 2))
         )
-        ranges["f_hz"] = tuple(priors["f_hz"] * b for b in PRIORS["f_hz"][2])
+        range_lo, range_hi = PRIORS["f_hz"][2]
+        ranges["f_hz"] = (priors["f_hz"] * range_lo, priors["f_hz"] * range_hi)
     lo_f, hi_f = ranges["f_hz"]
     x0 = _best_start(prob, [priors["f_hz"], *(f for f in halves if lo_f < f < hi_f and f != priors["f_hz"])])
     periods = sum(float(d.t_meas[-1] - d.t_meas[0]) for d in prob.data) * priors["f_hz"]
@@ -549,7 +550,7 @@ def fit_io_files(
 
 
 def _estimates(
-    sol, prob: _Problem, physical: tuple[float, float, float, float], mass: float | None
+    sol, prob: _Problem, physical: tuple[float, float, float, float, float], mass: float | None
 ) -> dict[str, Estimate]:
     """Parameters (f, zeta, c, q) with Newey-West standard errors (per-run blocks; the prior rows one more block),
     mapped from the scaled vector."""

@@ -16,7 +16,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from datetime import datetime, timezone
 from pathlib import Path
-from typing import Any, Literal
+from typing import TYPE_CHECKING, Any, Literal, TypeVar
 
 from sloshid import __version__
 from sloshid.core.atomic import (
@@ -34,6 +34,11 @@ from sloshid.core.hashing import file_sha256, json_sha256
 from sloshid.core.outputs import writable_folder
 from sloshid.core.parallel import check_workers
 from sloshid.core.settings import did_you_mean, from_dict, load_toml
+
+if TYPE_CHECKING:
+    from _typeshed import DataclassInstance
+
+    SettingsT = TypeVar("SettingsT", bound=DataclassInstance)
 
 logger = logging.getLogger("sloshid.workflow")
 """Each stage's progress in a pipeline run (INFO), unless the caller passes its own `log`."""
@@ -84,7 +89,7 @@ class Stage:
     """One kind of stage: its settings type, the files and stages it reads, and the function that runs it."""
 
     name: str
-    settings_type: type
+    settings_type: type[Any]
     run: Callable[[Any, StageContext], dict[str, Any]]
     """Writes outputs into ctx.out_dir and returns a JSON-able summary for the index page."""
     input_files: Callable[[Any], list[Path]] = lambda s: []
@@ -122,9 +127,9 @@ class PipelineRun:
         return all(s.status in ("ran", "cached") for s in self.stages)
 
 
-def resolve_paths(settings: Any, base: Path, where: str) -> Any:
+def resolve_paths(settings: SettingsT, base: Path, where: str) -> SettingsT:
     """Make every Path field (or list of Paths) of a settings dataclass absolute against `base`; check existence."""
-    changes = {}
+    changes: dict[str, Path | list[Path] | tuple[Path, ...]] = {}
     for f in dataclasses.fields(settings):
         value = getattr(settings, f.name)
         if isinstance(value, Path):
@@ -132,6 +137,11 @@ def resolve_paths(settings: Any, base: Path, where: str) -> Any:
         elif isinstance(value, (list, tuple)) and value and all(isinstance(v, Path) for v in value):
             changes[f.name] = type(value)(_existing(base / v, f"{where}.{f.name}") for v in value)
     return dataclasses.replace(settings, **changes) if changes else settings
+
+
+def _in_section(path: Path, name: str) -> Callable[[str], str]:
+    """Names a setting of stage `name` as the pipeline file does: '<file>: [<stage>].<setting>'."""
+    return lambda setting: f"{path}: [{name}].{setting}"
 
 
 def _existing(path: Path, where: str) -> Path:
@@ -170,7 +180,7 @@ class Pipeline:
         report = from_dict(ReportSettings, raw.get("report", {}), "[report]")
         if not report.title:
             report.title = f"sloshid run: {run.name}"
-        stages = []
+        stages: list[tuple[Stage, Any]] = []
         for name, stage in registry.items():
             if name in raw:
                 if not isinstance(raw[name], dict):
@@ -187,9 +197,7 @@ class Pipeline:
             try:
                 stage.check_with(settings, every)
             except SettingError as exc:
-                raise UserError(
-                    str(exc.named(lambda setting, name=stage.name: f"{path}: [{name}].{setting}"))
-                ) from None
+                raise UserError(str(exc.named(_in_section(path, stage.name)))) from None
         for stage, settings in stages:
             for need in stage.needs(settings, present):
                 if need not in present:
@@ -277,7 +285,9 @@ def _new_run_dir(pipeline: Pipeline, output_dir: str | Path | None) -> tuple[Pat
     return root, run_dir, run_id
 
 
-def _run_stage(stage: Stage, settings: Any, key: str, cache: Path, ctx: StageContext, log) -> StageRecord:
+def _run_stage(
+    stage: Stage, settings: Any, key: str, cache: Path, ctx: StageContext, log: Callable[[str], None]
+) -> StageRecord:
     """Run one stage into its cache folder (or reuse it) and record what happened; a failure is recorded."""
     start = time.perf_counter()
     if cache.is_symlink():  # not the folder the stage wrote: the link goes, what it points at is left alone
@@ -287,6 +297,7 @@ def _run_stage(stage: Stage, settings: Any, key: str, cache: Path, ctx: StageCon
     if damage is not None:  # run again, not reused with a file lost or edited (a run's folder once linked into it)
         log(f"[{stage.name}] its cached outputs differ from what it wrote ({damage}), running it again")
         shutil.rmtree(cache)
+    status: Literal["ran", "cached"]
     if (cache / "summary.json").exists():
         log(f"[{stage.name}] unchanged, reusing {cache}")
         status = "cached"
