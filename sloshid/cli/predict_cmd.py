@@ -12,8 +12,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from sloshid.cli.settings_options import add_settings
-from sloshid.core.errors import UserError
+from sloshid.cli.settings_options import add_settings, settings_from
 
 
 def add_geometry_arguments(parser: argparse.ArgumentParser) -> None:
@@ -28,9 +27,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("trajectory", metavar="TRAJECTORY", help="sloshid trajectory CSV or robot pose log")
     parser.add_argument("-o", "--output", required=True, metavar="PREDICTION.csv", help="prediction CSV to write")
     parser.add_argument("--params", required=True, metavar="PARAMS.json", help="parameters from `sloshid identify`")
-    parser.add_argument(
-        "--settle-s", type=float, default=3.0, metavar="S", help="how long to continue after the log ends (s)"
-    )
+    from sloshid.validation.predict import PredictSettings
+
+    add_settings(parser, PredictSettings)
     add_geometry_arguments(parser)
 
 
@@ -38,9 +37,16 @@ def run(args: argparse.Namespace) -> int:
     """Load and check everything, predict, write the CSV atomically, print the peaks."""
     from sloshid.core.outputs import Outputs
     from sloshid.model.pose import load_pose_log
-    from sloshid.model.simulate import MAX_SETTLE_S
-    from sloshid.validation.predict import forecast, load_model, pivot_for, wall_height, write_prediction
+    from sloshid.validation.predict import (
+        PredictSettings,
+        forecast,
+        load_model,
+        pivot_for,
+        wall_height,
+        write_prediction,
+    )
 
+    settings = settings_from(args, PredictSettings)
     output = Outputs([args.trajectory, args.params]).file(args.output, "-o", (".csv",))
     model = load_model(args.params).with_geometry(args.container_radius_m, None, args.smooth_s)
     if model.radius_m is None:  # the angles need no radius: a tap test's model checks a plan without one
@@ -49,13 +55,11 @@ def run(args: argparse.Namespace) -> int:
             "written, not wall_height_mm.",
             file=sys.stderr,
         )
-    if not 0 <= args.settle_s <= MAX_SETTLE_S:
-        raise UserError(f"--settle-s must lie between 0 and {MAX_SETTLE_S:g} s, got {args.settle_s:g}.")
     pose = load_pose_log(args.trajectory, args.pose_columns)
     model, note = pivot_for(pose, model, args.axis_offset_m)
     if note:
         print(f"sloshid: note: {note}", file=sys.stderr)
-    fc = forecast(pose, model, args.settle_s)
+    fc = forecast(pose, model, settings.settle_s)
     for line in fc.notes:
         print(f"sloshid: note: {line}", file=sys.stderr)
     write_prediction(output, fc)
