@@ -127,7 +127,8 @@ def add_settings(
             title = groups[group]
             target = made.get(title) or made.setdefault(title, parser.add_argument_group(title))
         help = help_text(field, docs.get(field.name, ""), options)  # no docstring only where no source was shipped
-        target.add_argument(option, **_argument(field, hints[field.name], option, help))
+        action = target.add_argument(option, **_argument(field, hints[field.name], option, help))
+        action.setting = (cls, field.name)  # what the settings reference reads (docs/hooks/generated.py)
 
 
 def given_settings(args: argparse.Namespace, cls: type) -> dict[str, Any]:
