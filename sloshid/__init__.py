@@ -43,9 +43,13 @@ _LAZY = {
     "ArmSettings": "sloshid.planning.arm_settings",
     "CompareSettings": "sloshid.comparison.compare",
     "FeedbackSettings": "sloshid.comparison.feedback",
+    "PlanSettings": "sloshid.planning.plan_settings",
+    "PredictSettings": "sloshid.validation.predict",
+    "ClusterSettings": "sloshid.core.parallel",
 }
 __all__ = [
     "ArmSettings",
+    "ClusterSettings",
     "CompareSettings",
     "Comparison",
     "FeedbackSettings",
@@ -55,6 +59,8 @@ __all__ = [
     "IdentSettings",
     "InspectResult",
     "PlanResult",
+    "PlanSettings",
+    "PredictSettings",
     "RiskSettings",
     "Scenario",
     "SignalColumns",
@@ -77,17 +83,19 @@ if TYPE_CHECKING:
     from sloshid.comparison.compare import CompareSettings, Comparison
     from sloshid.comparison.feedback import FeedbackSettings
     from sloshid.core.errors import UserError
+    from sloshid.core.parallel import ClusterSettings
     from sloshid.identification.estimator import IdentResult, IdentSettings
     from sloshid.identification.stage import SignalColumns
     from sloshid.model.pendulum import SloshParams
     from sloshid.planning.arm_settings import ArmSettings
+    from sloshid.planning.plan_settings import PlanSettings
     from sloshid.planning.planner import PlanResult
     from sloshid.planning.scenario import RiskSettings, Scenario, SolverSettings
     from sloshid.synthetic.scene import SynthSettings
     from sloshid.tracking.inspect import InspectResult
     from sloshid.tracking.tracker import TrackResult, TrackSettings
     from sloshid.validation.iofit import IOSettings
-    from sloshid.validation.predict import GeometrySettings
+    from sloshid.validation.predict import GeometrySettings, PredictSettings
 
 
 def _installed_version() -> str:

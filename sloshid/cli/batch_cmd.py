@@ -13,6 +13,9 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from sloshid.cli.settings_options import add_settings, settings_from
+from sloshid.core.parallel import ClusterSettings
+
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of `sloshid batch`."""
@@ -26,31 +29,18 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "`sloshid track` and `sloshid identify` use by themselves",
     )
     parser.add_argument("--out", type=Path, required=True, metavar="DIR", help="output folder (created if needed)")
-    parser.add_argument(
-        "--workers",
-        type=int,
-        default=2,
-        metavar="N",
-        help="local Dask worker processes (one thread each); ignored with --scheduler",
-    )
-    parser.add_argument(
-        "--scheduler",
-        metavar="ADDRESS",
-        help="address of a running Dask scheduler, e.g. tcp://10.0.0.5:8786, instead of a local cluster",
-    )
+    add_settings(parser, ClusterSettings)
 
 
 def run(args: argparse.Namespace) -> int:
     """Validate everything first, then run the batch and print where the summary is."""
     from sloshid.core.errors import UserError
     from sloshid.core.outputs import Outputs
-    from sloshid.core.parallel import check_workers
     from sloshid.tracking.tracker import LOST_NOTE
     from sloshid.workflow.batch import run_batch
     from sloshid.workflow.options import BatchConfig, IdentifyOptions, TrackOptions
 
-    if args.scheduler is None:
-        check_workers(args.workers)
+    cluster = settings_from(args, ClusterSettings)
     folders = [str(v) for v in args.videos if v.is_dir()]
     if folders:
         raise UserError(f"{folders[0]} is a folder, not a video; give the videos in it (e.g. {folders[0]}/*.mp4).")
@@ -66,7 +56,7 @@ def run(args: argparse.Namespace) -> int:
     for name in ("summary.csv", "failures.csv", "summary.html"):
         outputs.file(args.out / name, "--out")
     config = BatchConfig.load(args.config) if args.config else BatchConfig(TrackOptions(), IdentifyOptions())
-    result = run_batch(args.videos, config, args.out, workers=args.workers, scheduler=args.scheduler)
+    result = run_batch(args.videos, config, args.out, workers=cluster.workers, scheduler=cluster.scheduler)
     done = sum(r["status"] in ("ok", "cached") for r in result.rows)
     cached = sum(r["status"] == "cached" for r in result.rows)
     print(f"{done} of {len(result.rows)} videos done ({cached} unchanged, skipped), {len(result.failures)} failed.")

@@ -14,8 +14,11 @@ import os
 import sys
 from pathlib import Path
 
+from sloshid.cli.settings_options import add_settings, settings_from
 from sloshid.core.errors import UserError
 from sloshid.core.outputs import Outputs
+from sloshid.planning.arm_settings import ArmSettings
+from sloshid.planning.plan_settings import PlanSettings
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -54,25 +57,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "against the datasheet's joint position, velocity, acceleration and jerk limits; needs a [robot] table "
         'with model = "panda"; exit code 1 when the arm cannot follow (the files are still written where none is yet)',
     )
-    parser.add_argument(
-        "--fit-joints",
-        action="store_true",
-        help="with --joints: when the arm cannot follow, re-plan with lower Cartesian limits until it can "
-        "(slower; the JSON's joints.fit lists each attempt's T in s); [robot] fit_joints = true does it by default",
-    )
-    parser.add_argument(
-        "--robust",
-        action="store_true",
-        help="plan the robust variant, the one `sloshid compare` scores as 'sloshid robust plan': the liquid at every "
-        "frequency factor of the scenario's [compare] robust_omega_factors (default 0.9, 1.0, 1.1) ends at rest",
-    )
-    parser.add_argument(
-        "--sweep-margin",
-        metavar="MIN:MAX:COUNT",
-        default=None,
-        help="moves within a spill margin (upright, or tilting on a straight [move]): also plan at COUNT spill margins from MIN to MAX mm and draw transfer "
-        "time and risk against the margin in OUTPUT_margin_sweep.png beside the trajectory CSV",
-    )
+    add_settings(parser, ArmSettings, only=("fit_joints",), title="the scenario's [robot] arm (with --joints)")
+    add_settings(parser, PlanSettings)
     parser.add_argument(
         "--json",
         action="store_true",
@@ -88,6 +74,7 @@ def run(args: argparse.Namespace) -> int:
     from sloshid.planning.planner import plan
     from sloshid.planning.scenario import load_scenario, resolve_liquid
 
+    settings = settings_from(args, PlanSettings)
     if args.fit_joints and not args.joints:
         raise UserError("--fit-joints needs --joints JOINTS.csv.")
     scenario = load_scenario(args.scenario)
@@ -102,8 +89,8 @@ def run(args: argparse.Namespace) -> int:
             '--joints needs a [robot] table with model = "panda" in the scenario (base_xyz_m and q_start are optional).'
         )
     if scenario.within_margin:
-        return _run_upright(args, scenario, outputs, output, report_dir)
-    if args.sweep_margin:
+        return _run_upright(args, settings, scenario, outputs, output, report_dir)
+    if settings.sweep_margin is not None:
         raise UserError(
             "--sweep-margin plans moves within a spill margin: the scenario needs [limits] spill_margin_mm on one "
             "straight [move] (upright with tilt_max_deg = 0, or tilting)."
@@ -115,7 +102,7 @@ def run(args: argparse.Namespace) -> int:
             "holds any margin the verification below holds.",
             file=sys.stderr,
         )
-    if args.robust:
+    if settings.robust:
         from sloshid.comparison.compare import robust_scenario
 
         scenario = robust_scenario(scenario)
@@ -172,21 +159,7 @@ def run(args: argparse.Namespace) -> int:
     return 0 if result.limits_ok and result.verification_ok and result.path_ok else 1
 
 
-def _sweep_margins(text: str) -> list[float]:
-    """MIN:MAX:COUNT (mm) as the margins to plan at."""
-    import numpy as np
-
-    try:
-        lo, hi, count = text.split(":")
-        lo_mm, hi_mm, n = float(lo), float(hi), int(count)
-    except ValueError:
-        raise UserError(f"--sweep-margin takes MIN:MAX:COUNT in mm (e.g. 4:14:6), got {text!r}.") from None
-    if not (0 <= lo_mm < hi_mm and 2 <= n <= 50):
-        raise UserError(f"--sweep-margin needs 0 <= MIN < MAX (mm) and a COUNT of 2 to 50, got {text!r}.")
-    return [float(v) for v in np.linspace(lo_mm, hi_mm, n)]
-
-
-def _run_upright(args, scenario, outputs, output: Path, report_dir: Path | None) -> int:
+def _run_upright(args, settings: PlanSettings, scenario, outputs, output: Path, report_dir: Path | None) -> int:
     """A move within the spill margin (upright, or tilting: `Scenario.within_margin`): plan (robust with --robust), its
     risk, an optional margin sweep;
     exit code 1 when a margin or limit is broken in the independent simulation (the files are still written where
@@ -203,13 +176,13 @@ def _run_upright(args, scenario, outputs, output: Path, report_dir: Path | None)
             "--joints takes slosh-free moves so far; a move within a spill margin (spill_margin_mm) is planned without "
             "the arm: drop --joints, or drop spill_margin_mm to plan the slosh-free move for the arm."
         )
-    margins = _sweep_margins(args.sweep_margin) if args.sweep_margin else None
+    margins = settings.margins_mm() or None
     figure = (
         outputs.file(output.with_name(output.stem + "_margin_sweep.png"), "--sweep-margin", (".png",))
         if margins
         else None
     )
-    result = plan_upright_scenario(scenario, args.params, args.robust)
+    result = plan_upright_scenario(scenario, args.params, settings.robust)
     liquid = result.vessels[0].liquid if not scenario.containers else None
     samples = result.guarantee.samples if result.guarantee is not None else None
     sweep = sweep_margin(scenario, liquid, margins, args.params, samples) if margins else None

@@ -13,8 +13,7 @@ import argparse
 import sys
 import threading
 
-from sloshid.cli.settings_options import add_settings
-from sloshid.core.errors import UserError
+from sloshid.cli.settings_options import add_settings, settings_from
 
 PHASES_DELAY_S = 2.0
 """A prediction that lasts longer than this shows its phases on a bar (on a terminal)."""
@@ -32,9 +31,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("trajectory", metavar="TRAJECTORY", help="sloshid trajectory CSV or robot pose log")
     parser.add_argument("-o", "--output", required=True, metavar="PREDICTION.csv", help="prediction CSV to write")
     parser.add_argument("--params", required=True, metavar="PARAMS.json", help="parameters from `sloshid identify`")
-    parser.add_argument(
-        "--settle-s", type=float, default=3.0, metavar="S", help="how long to continue after the log ends (s)"
-    )
+    from sloshid.validation.predict import PredictSettings
+
+    add_settings(parser, PredictSettings)
     add_geometry_arguments(parser)
 
 
@@ -42,9 +41,16 @@ def run(args: argparse.Namespace) -> int:
     """Load and check everything, predict, write the CSV atomically, print the peaks."""
     from sloshid.core.outputs import Outputs
     from sloshid.model.pose import load_pose_log
-    from sloshid.model.simulate import MAX_SETTLE_S
-    from sloshid.validation.predict import forecast, load_model, pivot_for, wall_height, write_prediction
+    from sloshid.validation.predict import (
+        PredictSettings,
+        forecast,
+        load_model,
+        pivot_for,
+        wall_height,
+        write_prediction,
+    )
 
+    settings = settings_from(args, PredictSettings)
     output = Outputs([args.trajectory, args.params]).file(args.output, "-o", (".csv",))
     model = load_model(args.params).with_geometry(args.container_radius_m, None, args.smooth_s)
     if model.radius_m is None:  # the angles need no radius: a tap test's model checks a plan without one
@@ -53,13 +59,11 @@ def run(args: argparse.Namespace) -> int:
             "written, not wall_height_mm.",
             file=sys.stderr,
         )
-    if not 0 <= args.settle_s <= MAX_SETTLE_S:
-        raise UserError(f"--settle-s must lie between 0 and {MAX_SETTLE_S:g} s, got {args.settle_s:g}.")
     with _Phases("read the log") as phases:  # a 1,000 s log at 1 kHz takes a minute: its phases and the time on a bar
         pose = load_pose_log(args.trajectory, args.pose_columns)
         model, note = pivot_for(pose, model, args.axis_offset_m)
         phases.next(f"simulate {pose.t_s.size:,} samples")
-        fc = forecast(pose, model, args.settle_s)
+        fc = forecast(pose, model, settings.settle_s)
         phases.next("write the CSV")
         write_prediction(output, fc)
     for line in ([note] if note else []) + list(fc.notes):

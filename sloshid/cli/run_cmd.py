@@ -14,17 +14,15 @@ import argparse
 import sys
 from pathlib import Path
 
+from sloshid.cli.settings_options import add_settings
+
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of `sloshid run`."""
     parser.add_argument("pipeline", type=Path, metavar="PIPELINE.toml", help="pipeline file (see pipelines/)")
-    parser.add_argument(
-        "--output-dir",
-        type=Path,
-        metavar="DIR",
-        help="write runs under DIR/<pipeline>/ instead of [run].output_dir (default: reports, relative to the current "
-        "folder)",
-    )
+    from sloshid.workflow.pipeline import RunSettings
+
+    add_settings(parser, RunSettings, only=("output_dir",), title="the pipeline's [run] table, overridden")
     parser.add_argument("--quiet", action="store_true", help="print only the path of index.html")
 
 

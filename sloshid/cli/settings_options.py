@@ -44,14 +44,19 @@ def _plain_type(annotation: Any) -> Any:
     return annotation
 
 
-def comma_values(text: str, kind: type, count: int, option: str, metavar: str) -> tuple:
-    """`count` comma-separated `kind`s (`0.5,30` for a pair of floats), or a UserError naming the option."""
+def comma_values(
+    text: str, kind: type | tuple[type, ...], count: int, option: str, metavar: str, separator: str = ","
+) -> tuple:
+    """`count` `kind`s separated by commas (`0.5,30` for a pair of floats; `kind` may give each value's type, and
+    `separator` another mark), or a UserError naming the option."""
+    kinds = kind if isinstance(kind, tuple) else (kind,) * count
+    parts = text.split(separator)
     try:
-        values = tuple(kind(v.strip()) for v in text.split(","))
+        values = tuple(k(v.strip()) for k, v in zip(kinds, parts)) if len(parts) == count else ()
     except ValueError:
         values = ()
     if len(values) != count:
-        what = "whole numbers" if kind is int else "numbers"
+        what = "whole numbers" if all(k is int for k in kinds) else "numbers"
         raise UserError(f"{option} must be {NUMBER_WORDS.get(count, count)} {what} {metavar}, got '{text}'.")
     return values
 
@@ -92,24 +97,38 @@ def _argument(field: dataclasses.Field, annotation: Any, option: str, help: str)
     return {**kwargs, "type": kind if kind in (int, float, Path) else str, "metavar": metavar}
 
 
-def add_settings(parser: argparse.ArgumentParser, cls: type, groups: dict[str, str] | None = None) -> None:
-    """Add one option per field of settings class `cls` to `parser`; a field whose metadata names a group goes into the
-    argument group titled `groups[group]` (made once per title)."""
+def add_settings(
+    parser: argparse.ArgumentParser,
+    cls: type,
+    groups: dict[str, str] | None = None,
+    *,
+    only: tuple[str, ...] | None = None,
+    title: str | None = None,
+) -> None:
+    """Add one option per field of settings class `cls` (or per field named in `only`) to `parser`; a field whose
+    metadata names a group goes into the argument group titled `groups[group]` (made once per title), and with a
+    `title` every option goes into the group of that title (a TOML table's settings the command line overrides)."""
     hints = typing.get_type_hints(cls)
     docs = field_docs(cls)
     options = options_of_settings(cls)
     made: dict[str, argparse._ArgumentGroup] = {}
+    unknown = set(only or ()) - {f.name for f in init_fields(cls)}
+    if unknown:
+        raise ValueError(f"{cls.__name__} has no field {', '.join(sorted(unknown))}")
+    if title is not None:
+        made[title] = parser.add_argument_group(title)
     for field in init_fields(cls):
         option = options.get(field.name)
-        if option is None:
+        if option is None or (only is not None and field.name not in only):
             continue
         group = field.metadata.get("group")
-        target: Any = parser
+        target: Any = made[title] if title is not None else parser
         if group is not None and groups is not None:
             title = groups[group]
             target = made.get(title) or made.setdefault(title, parser.add_argument_group(title))
         help = help_text(field, docs.get(field.name, ""), options)  # no docstring only where no source was shipped
-        target.add_argument(option, **_argument(field, hints[field.name], option, help))
+        action = target.add_argument(option, **_argument(field, hints[field.name], option, help))
+        action.setting = (cls, field.name)  # what the settings reference reads (docs/hooks/generated.py)
 
 
 def given_settings(args: argparse.Namespace, cls: type) -> dict[str, Any]:
@@ -122,7 +141,8 @@ def given_settings(args: argparse.Namespace, cls: type) -> dict[str, Any]:
         if isinstance(value, str) and typing.get_origin(kind) is tuple:
             items = typing.get_args(kind)
             option = option_of(field) or field.name
-            value = comma_values(value, items[0], len(items), option, field.metadata.get("metavar", ""))
+            metavar, separator = field.metadata.get("metavar", ""), field.metadata.get("separator", ",")
+            value = comma_values(value, tuple(items), len(items), option, metavar, separator)
         if value is not None:
             given[field.name] = value
     return given

@@ -27,6 +27,7 @@ from sloshid.comparison.robustness import Replay, RobustnessResult, replay_respo
 from sloshid.comparison.ruckig_moves import jerk_limited
 from sloshid.comparison.shapers import shaped_constant_acceleration
 from sloshid.core.errors import UserError
+from sloshid.core.settings import setting_field
 from sloshid.core.tables import to_pandas
 from sloshid.model.pendulum import SloshParams
 from sloshid.model.simulate import MAX_SETTLE_S, LiquidResponse, simulate_liquid, simulate_liquids
@@ -68,15 +69,15 @@ class CompareSettings:
     methods: list[str] = field(default_factory=lambda: list(FREE_METHODS))
     """Method keys to build, in table order (see sloshid.comparison.compare.METHODS); a [path] scenario's default
     is PATH_METHODS."""
-    jerk_max_m_s3: float | None = None
+    jerk_max_m_s3: float | None = setting_field(None, unit="m/s^3")
     """Jerk limit of the ruckig methods, m/s^3; default acc_max * f (the jerk ramp lasts one slosh period)."""
-    robot_bandwidth_hz: float = 20.0
+    robot_bandwidth_hz: float = setting_field(20.0, unit="Hz")
     """Bandwidth of the robot's Cartesian tracking in the closed-loop study, Hz."""
-    settle_s: float = 3.0
+    settle_s: float = setting_field(3.0, unit="s")
     """Time simulated after arrival to measure the residual slosh, s."""
-    residual_ok_deg: float = 0.5
+    residual_ok_deg: float = setting_field(0.5, unit="deg")
     """Residual relative angle at or below which a move counts as slosh-free, degrees."""
-    peak_ok_deg: float = 1.0
+    peak_ok_deg: float = setting_field(1.0, unit="deg")
     """Peak relative angle during the move at or below which it counts as slosh-free, degrees. One degree tilts the
     surface against the wall by R tan(1 deg), under 1 mm in a 40 mm container, so nothing spills at any practical
     freeboard; it still excludes moves that only postpone the slosh (unshaped and input-shaped moves tilt the surface
@@ -90,11 +91,11 @@ class CompareSettings:
     """True/identified damping-ratio ratios of the robustness sweep."""
     robust_omega_factors: list[float] = field(default_factory=lambda: [0.9, 1.0, 1.1])
     """Frequency ratios that sloshid's robust plan must all bring to rest."""
-    camera_fps_sweep: list[float] = field(default_factory=lambda: [15.0, 30.0, 60.0, 120.0])
+    camera_fps_sweep: list[float] = setting_field(default_factory=lambda: [15.0, 30.0, 60.0, 120.0], unit="frames/s")
     """Camera frame rates of the feedback study, frames per second."""
     camera_omega_factor: float = 0.9
     """True/identified frequency ratio at which the camera-rate study runs (feedback matters under model error)."""
-    linearity_acc_m_s2: list[float] = field(default_factory=lambda: [0.25, 0.5, 1.0, 2.0, 4.0])
+    linearity_acc_m_s2: list[float] = setting_field(default_factory=lambda: [0.25, 0.5, 1.0, 2.0, 4.0], unit="m/s^2")
     """Accelerations of the constant-acceleration move in the linear-vs-nonlinear study, m/s^2."""
     feedback: FeedbackSettings = field(default_factory=FeedbackSettings)
     """Camera and LQR of the feedback methods ([compare.feedback])."""

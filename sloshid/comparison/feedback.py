@@ -22,6 +22,7 @@ from filterpy.common import Q_discrete_white_noise
 
 from sloshid.comparison.robot_tracking import filter_columns, hold_after, robot_tf
 from sloshid.core.errors import UserError
+from sloshid.core.settings import setting_field
 from sloshid.model.conventions import TILT_AXES, G
 from sloshid.model.pendulum import SloshParams, linear_tf
 from sloshid.model.trajectory import Trajectory
@@ -31,25 +32,25 @@ from sloshid.model.trajectory import Trajectory
 class FeedbackSettings:
     """The camera and the LQR weights of the feedback variant (the [compare.feedback] table)."""
 
-    camera_fps: float = 30.0
+    camera_fps: float = setting_field(30.0, unit="frames/s")
     """Camera frame rate in frames per second."""
-    latency_s: float = 0.05
+    latency_s: float = setting_field(0.05, unit="s")
     """Delay from exposure to the measurement reaching the controller (image transfer and processing), s."""
-    noise_deg: float = 0.3
+    noise_deg: float = setting_field(0.3, unit="deg")
     """Standard deviation of the measured float angle, degrees."""
     seed: int = 0
     """Seed of the measurement noise (runs are reproducible)."""
-    pos_tol_m: float = 0.01
+    pos_tol_m: float = setting_field(0.01, unit="m")
     """LQR (Bryson): acceptable position deviation from the feedforward, m."""
-    vel_tol_m_s: float = 0.05
+    vel_tol_m_s: float = setting_field(0.05, unit="m/s")
     """LQR (Bryson): acceptable velocity deviation, m/s."""
-    angle_tol_deg: float = 0.5
+    angle_tol_deg: float = setting_field(0.5, unit="deg")
     """LQR (Bryson): acceptable relative liquid angle, degrees."""
-    acc_tol_m_s2: float = 0.5
+    acc_tol_m_s2: float = setting_field(0.5, unit="m/s^2")
     """LQR (Bryson): acceptable feedback acceleration; also its saturation, m/s^2."""
-    settle_s: float = 3.0
+    settle_s: float = setting_field(3.0, unit="s")
     """How long feedback may keep acting after the feedforward has arrived, s."""
-    calm_deg: float = 0.2
+    calm_deg: float = setting_field(0.2, unit="deg")
     """The move counts as arrived once the estimated slosh amplitude stays below this (and the position is back), deg."""
 
     def __post_init__(self) -> None:

@@ -13,9 +13,11 @@ import signal
 import sys
 import threading
 from collections.abc import Callable, Iterable, Iterator, Sequence
+from dataclasses import dataclass
 from typing import Any
 
 from sloshid.core.errors import SettingError, UserError
+from sloshid.core.settings import setting_field
 
 MAX_WORKERS_PER_CORE = 4
 """More local workers than this per core only queue up (and a huge number would hang starting them)."""
@@ -110,6 +112,21 @@ def check_workers(workers: int, what: str = "workers") -> int:
             f"{MAX_WORKERS_PER_CORE * cores}, or a Dask scheduler for a cluster.",
         )
     return workers
+
+
+@dataclass(frozen=True)
+class ClusterSettings:
+    """Where a batch's work runs (`sloshid batch`): local Dask worker processes, or a running Dask scheduler."""
+
+    workers: int = setting_field(2, metavar="N")
+    """Local Dask worker processes (one thread each); ignored with `scheduler`."""
+    scheduler: str | None = setting_field(None, metavar="ADDRESS")
+    """Address of a running Dask scheduler, e.g. tcp://10.0.0.5:8786, instead of a local cluster; its workers must
+    see the same file paths (a shared file system)."""
+
+    def __post_init__(self) -> None:
+        if self.scheduler is None:
+            check_workers(self.workers)
 
 
 CONNECT_WAIT_S = 10.0

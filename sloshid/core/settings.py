@@ -162,18 +162,24 @@ def check_in_metres(key: str, value: float | None, example: str = "0.05 for 50 m
 def setting_field(
     default: Any = dataclasses.MISSING,
     *,
+    default_factory: Any = dataclasses.MISSING,
     unit: str | None = None,
     option: str | None = None,
     metavar: str | None = None,
     group: str | None = None,
     cli: bool = True,
+    separator: str | None = None,
 ) -> Any:
-    """A settings dataclass field with what a front-end needs besides its type, default and attribute docstring (the
-    help text): its `unit`, its command-line `option` when not the field's name with hyphens (written without the
-    dashes: the library never spells a flag), the value's `metavar`, the help `group` and whether it is on the command
-    line at all (`cli`). The field's name is its TOML key and its Python keyword."""
-    metadata = {"unit": unit, "option": option, "metavar": metavar, "group": group, "cli": cli}
-    return dataclasses.field(default=default, metadata={k: v for k, v in metadata.items() if v is not None})
+    """A settings dataclass field with what a front-end needs besides its type, default (or `default_factory`, for a
+    list) and attribute docstring (the help text): its `unit`, its command-line `option` when not the field's name with
+    hyphens (written without the dashes: the library never spells a flag), the value's `metavar`, the help `group`,
+    whether it is on the command line at all (`cli`) and, for a tuple, the `separator` its values are typed with on
+    the command line (default a comma). The field's name is its TOML key and its Python keyword."""
+    metadata = {"unit": unit, "option": option, "metavar": metavar, "group": group, "cli": cli, "separator": separator}
+    kept = {k: v for k, v in metadata.items() if v is not None}
+    if default_factory is not dataclasses.MISSING:
+        return dataclasses.field(default_factory=default_factory, metadata=kept)
+    return dataclasses.field(default=default, metadata=kept)
 
 
 @functools.cache

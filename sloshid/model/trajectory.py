@@ -14,6 +14,7 @@ from scipy.spatial.transform import Rotation
 
 from sloshid.core.errors import UserError
 from sloshid.core.outputs import Outputs
+from sloshid.core.settings import setting_field
 from sloshid.core.tables import read_csv, write_csv
 
 EXPORT_RATE_HZ = 1000.0
@@ -159,17 +160,17 @@ def _omega_matrix(euler_rad: np.ndarray) -> np.ndarray:
 class RobotLimits:
     """Cartesian limits of the robot that executes the trajectory; defaults: Franka Emika Panda datasheet."""
 
-    vel_m_s: float = 1.7
+    vel_m_s: float = setting_field(1.7, unit="m/s")
     """Translational speed (norm)."""
-    acc_m_s2: float = 13.0
+    acc_m_s2: float = setting_field(13.0, unit="m/s^2")
     """Translational acceleration (norm)."""
-    jerk_m_s3: float = 6500.0
+    jerk_m_s3: float = setting_field(6500.0, unit="m/s^3")
     """Translational jerk (norm)."""
-    rot_vel_rad_s: float = 2.5
+    rot_vel_rad_s: float = setting_field(2.5, unit="rad/s")
     """Angular speed (norm)."""
-    rot_acc_rad_s2: float = 25.0
+    rot_acc_rad_s2: float = setting_field(25.0, unit="rad/s^2")
     """Angular acceleration (norm)."""
-    rot_jerk_rad_s3: float = 12500.0
+    rot_jerk_rad_s3: float = setting_field(12500.0, unit="rad/s^3")
     """Angular jerk (norm)."""
 
     def __post_init__(self) -> None:

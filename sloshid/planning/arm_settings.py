@@ -3,12 +3,12 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
 from sloshid.core.errors import UserError
-from sloshid.core.settings import from_dict
+from sloshid.core.settings import from_dict, setting_field
 
 MODELS = ("panda",)
 """Arms sloshid knows."""
@@ -29,17 +29,18 @@ class ArmSettings:
 
     model: str = "panda"
     """Arm model; "panda" (Franka Emika Panda, from example-robot-data's URDF)."""
-    base_xyz_m: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    base_xyz_m: tuple[float, float, float] = setting_field((0.0, 0.0, 0.0), unit="m")
     """Position of the arm's base in the scenario's world frame (m)."""
-    base_rpy_deg: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    base_rpy_deg: tuple[float, float, float] = setting_field((0.0, 0.0, 0.0), unit="deg")
     """Roll, pitch, yaw of the base in the world frame (deg, R = Rz Ry Rx)."""
-    tool_offset_m: tuple[float, float, float] = (0.0, 0.0, 0.1)
+    tool_offset_m: tuple[float, float, float] = setting_field((0.0, 0.0, 0.1), unit="m")
     """Liquid surface centre in the flange frame (m): the flange's z points down, so (0, 0, 0.1) is 0.1 m below."""
-    q_start: list[float] = field(default_factory=lambda: list(PANDA_Q_READY))
+    q_start: list[float] = setting_field(default_factory=lambda: list(PANDA_Q_READY), unit="rad")
     """Joint angles near the start (rad), one per joint: a seed, from which the configuration that holds the container
     at the move's start is solved (the nearest, by least joint change)."""
     fit_joints: bool = False
-    """True: when the arm cannot follow the fastest plan, re-plan slower until it can (as `--fit-joints`)."""
+    """When the arm cannot follow the fastest plan, re-plan it with lower Cartesian limits until it can (slower; the
+    JSON's joints.fit lists each attempt's T in s); it takes effect where the joint angles are computed."""
 
     def __post_init__(self) -> None:
         if self.model not in MODELS:

@@ -24,6 +24,7 @@ from typing import Any, Literal
 import numpy as np
 
 from sloshid.core.errors import UserError
+from sloshid.core.settings import setting_field
 from sloshid.core.tables import read_csv
 
 Vec3 = tuple[float, float, float]
@@ -46,16 +47,16 @@ the memory ran out."""
 class PathTable:
     """[path]: the container's prescribed path (m), passed without stopping, at rest at both ends."""
 
-    waypoints: list[Vec3] | None = None
+    waypoints: list[Vec3] | None = setting_field(None, unit="m")
     """Points x, y, z (m) the path passes through, at least two, none repeated."""
     points_csv: str | None = None
     """CSV with columns x_m, y_m, z_m: a dense polyline (relative paths are relative to the scenario file)."""
     spline: Literal["cubic"] = "cubic"
     """How waypoints are joined: a C2 cubic spline in chord length (the only curve with continuous acceleration
     at constant speed among the simple choices; a polyline would need a stop at every corner)."""
-    path_tolerance_m: float = 0.001
+    path_tolerance_m: float = setting_field(0.001, unit="m")
     """How far the container's reference point may leave the user's path (m)."""
-    smoothing_m: float | None = None
+    smoothing_m: float | None = setting_field(None, unit="m")
     """points_csv only: largest distance of the smoothed curve from any CSV point (m); default half the tolerance."""
 
     def __post_init__(self) -> None:

@@ -17,14 +17,14 @@ from typing import Any, Literal, cast
 import numpy as np
 
 from sloshid.core.errors import SettingError, UserError
-from sloshid.core.settings import did_you_mean, from_dict, load_toml
+from sloshid.core.settings import did_you_mean, from_dict, init_fields, load_toml, setting_field
 from sloshid.model.pendulum import SloshParams
 from sloshid.model.trajectory import RobotLimits
-from sloshid.planning.arm_settings import arm_settings
+from sloshid.planning.arm_settings import ArmSettings, arm_settings
 from sloshid.planning.path import PathGeometry, PathTable, build_geometry
 
-ARM_KEYS = ("model", "base_xyz_m", "base_rpy_deg", "tool_offset_m", "q_start", "fit_joints")
-"""[robot] keys that describe the arm (the rest are its Cartesian limits, RobotLimits)."""
+ARM_KEYS = tuple(f.name for f in init_fields(ArmSettings))
+"""[robot] keys that describe the arm, the ArmSettings fields (the rest are its Cartesian limits, RobotLimits)."""
 
 Vec3 = tuple[float, float, float]
 
@@ -38,11 +38,11 @@ ran for hours without a word."""
 class Move:
     """[move]: either `start` and `goal`, or `waypoints` (the container stops at each), positions in m."""
 
-    start: Vec3 | None = None
+    start: Vec3 | None = setting_field(None, unit="m")
     """Start position x, y, z (m)."""
-    goal: Vec3 | None = None
+    goal: Vec3 | None = setting_field(None, unit="m")
     """Goal position x, y, z (m)."""
-    waypoints: list[Vec3] | None = None
+    waypoints: list[Vec3] | None = setting_field(None, unit="m")
     """Positions start ... goal (m), at least two; the container comes to rest at each."""
 
     def __post_init__(self) -> None:
@@ -74,28 +74,28 @@ class Move:
 class Limits:
     """[limits]: the move's own limits, per axis x, y, z (seed eq. 8d-8f)."""
 
-    acc_max: Vec3 = (0.5, 0.5, 0.5)
+    acc_max: Vec3 = setting_field((0.5, 0.5, 0.5), unit="m/s^2")
     """Acceleration bound per axis (m/s^2), seed eq. 8d."""
-    vel_max: Vec3 = (1.7, 1.7, 1.7)
+    vel_max: Vec3 = setting_field((1.7, 1.7, 1.7), unit="m/s")
     """Velocity bound per axis (m/s), seed eq. 8f and 8e."""
-    jerk_max: Vec3 = (100.0, 100.0, 100.0)
+    jerk_max: Vec3 = setting_field((100.0, 100.0, 100.0), unit="m/s^3")
     """Jerk bound per axis (m/s^3), used by the jerk-limited formulation."""
-    z_range: tuple[float, float] = (0.05, 0.8)
+    z_range: tuple[float, float] = setting_field((0.05, 0.8), unit="m")
     """Allowed height of the container (m), seed eq. 8f."""
-    tilt_max_deg: float = 30.0
+    tilt_max_deg: float = setting_field(30.0, unit="deg")
     """Largest roll and pitch of the container (deg)."""
-    tilt_rate_max_deg_s: float = 120.0
+    tilt_rate_max_deg_s: float = setting_field(120.0, unit="deg/s")
     """Largest roll and pitch rate (deg/s)."""
-    t_max_s: float = 20.0
+    t_max_s: float = setting_field(20.0, unit="s")
     """Longest allowed duration of one segment (s)."""
-    rel_angle_max_deg: float = 0.5
+    rel_angle_max_deg: float = setting_field(0.5, unit="deg")
     """[path] plans: largest angle between the liquid surface and the container while moving (deg); free moves keep
     the container on the liquid's surface (0 deg)."""
-    spill_margin_mm: float | None = None
+    spill_margin_mm: float | None = setting_field(None, unit="mm")
     """Least distance the liquid may come to the rim, anywhere on the wall, during and after the move (mm); the planner
     keeps the predicted wall height within it (`planning.upright`): upright with tilt_max_deg = 0, else tilting too
     (a straight [move]; along a [path] it sets rel_angle_max_deg)."""
-    residual_wall_height_max_mm: float = 0.5
+    residual_wall_height_max_mm: float = setting_field(0.5, unit="mm")
     """Largest wall height the liquid may keep swinging to after arrival (mm): calm enough to fill or pour."""
 
     def __post_init__(self) -> None:
@@ -129,13 +129,13 @@ class Limits:
 class Obstacle:
     """[[obstacles]]: a sphere (center x, y, z) or a vertical cylinder (center x, y and z_range), radius in m."""
 
-    center: tuple[float, ...]
+    center: tuple[float, ...] = setting_field(unit="m")
     """Sphere: [x, y, z] (m); cylinder: [x, y] of its vertical axis (m)."""
-    radius: float
+    radius: float = setting_field(unit="m")
     """Radius (m), before inflation by the container radius."""
     kind: Literal["sphere", "cylinder"] = "sphere"
     """Shape."""
-    z_range: tuple[float, float] | None = None
+    z_range: tuple[float, float] | None = setting_field(None, unit="m")
     """Cylinder only: bottom and top height (m)."""
 
     def __post_init__(self) -> None:
@@ -171,12 +171,12 @@ class Obstacle:
 class Container:
     """[container]: geometry of the container that the obstacles are inflated by."""
 
-    radius_m: float = 0.04
+    radius_m: float = setting_field(0.04, unit="m")
     """Container radius (m); every obstacle grows by it."""
-    depth_m: float = 0.0
+    depth_m: float = setting_field(0.0, unit="m")
     """How far the container's body reaches below the liquid surface's centre (the point the plan moves) along its
     axis (m): it must clear the obstacles too, tilted as the plan tilts it (`body_clearance`); 0: the sphere only."""
-    rim_above_surface_m: float | None = None
+    rim_above_surface_m: float | None = setting_field(None, unit="m")
     """Height of the rim above the liquid surface at rest (m): the spill margin is measured down from it."""
 
     def __post_init__(self) -> None:
@@ -207,23 +207,25 @@ def check_rim(rim_m: float | None, where: str) -> None:
 class TrayContainer:
     """[[containers]]: one container on the tool's tray, with its own geometry and liquid."""
 
-    radius_m: float
+    radius_m: float = setting_field(unit="m")
     """Inner radius (m): the wall height is radius x tan(the surface's tilt)."""
-    rim_above_surface_m: float
+    rim_above_surface_m: float = setting_field(unit="m")
     """Height of its rim above its liquid's surface at rest (m)."""
-    position_m: tuple[float, float] = (0.0, 0.0)
+    position_m: tuple[float, float] = setting_field((0.0, 0.0), unit="m")
     """Centre on the tray (m), in the tool's x and y from the point the plan moves."""
     name: str = ""
     """Name in reports (default: container 1, 2, ...)."""
-    spill_margin_mm: float | None = None
+    spill_margin_mm: float | None = setting_field(None, unit="mm")
     """Its own spill margin (mm); default [limits].spill_margin_mm."""
-    m_kg: float | None = None
-    """Liquid as a pendulum (seed Table I units): m_kg, l_m and d_ns_per_m together."""
-    l_m: float | None = None
-    d_ns_per_m: float | None = None
+    m_kg: float | None = setting_field(None, unit="kg")
+    """Liquid as a pendulum (seed Table I units): m_kg, l_m and d_ns_per_m together; this is its mass."""
+    l_m: float | None = setting_field(None, unit="m")
+    """The pendulum's length (with m_kg and d_ns_per_m)."""
+    d_ns_per_m: float | None = setting_field(None, unit="N s/m")
+    """The pendulum's damping constant (with m_kg and l_m)."""
     params: str | None = None
     """Or an identify JSON (path relative to the scenario) for this container's liquid."""
-    fill_m: float | None = None
+    fill_m: float | None = setting_field(None, unit="m")
     """Or the fill height (m) with `zeta`: the cylinder's first mode omega^2 = (g xi / R) tanh(xi h / R)."""
     zeta: float | None = None
     """Damping ratio that goes with `fill_m`."""
@@ -242,7 +244,7 @@ class TrayContainer:
 class Tray:
     """[tray]: the tool plate the containers stand on, centred on the point the plan moves."""
 
-    size_m: tuple[float, float]
+    size_m: tuple[float, float] = setting_field(unit="m")
     """Its extent along the tool's x and y (m)."""
 
     def __post_init__(self) -> None:
@@ -336,11 +338,11 @@ class SolverSettings:
     """Shooting intervals per segment."""
     jerk_limited: bool = True
     """True: jerk is the decision variable, acceleration a state (robot-ready); False: the seed's piecewise-constant acceleration."""
-    kappa_r: float = 1e-3
+    kappa_r: float = setting_field(1e-3, unit="s^3/m^2")
     """Weight of the acceleration regulariser kappa_r/2 |u|^2 (seed eq. 8a), s^3/m^2."""
-    kappa_j: float = 1e-7
+    kappa_j: float = setting_field(1e-7, unit="s^5/m^2")
     """Weight of the jerk regulariser kappa_j/2 |j|^2 (jerk-limited formulation only), s^5/m^2."""
-    kappa_z: float = 5.0
+    kappa_z: float = setting_field(5.0, unit="s^3/m^2")
     """Extra weight on vertical acceleration kappa_z/2 uz^2 (s^3/m^2): vertical acceleration changes the effective
     gravity of the liquid, and without a price the optimiser uses it to steer the liquid (bouncing in z)."""
     kappa_T: float = 1.0
@@ -358,11 +360,11 @@ class SolverSettings:
     """Grading a of the 'graded' grid: interval length proportional to 1 - a cos(2 pi t/T), in [0, 1)."""
     clearance_points: int = 1
     """Extra points per interval at which the hard obstacle clearance is also imposed."""
-    clearance_margin_m: float = 0.002
+    clearance_margin_m: float = setting_field(0.002, unit="m")
     """Safety margin added to every inflated obstacle by the hard clearance constraint (m)."""
     robust_omega_factors: list[float] = field(default_factory=list)
     """Natural-frequency factors of extra pendulum copies that must also end at rest (robust variant), e.g. [0.9, 1.1]."""
-    robust_max_rel_deg: float = 1.0
+    robust_max_rel_deg: float = setting_field(1.0, unit="deg")
     """Largest angle between a robust copy and the container during the move (deg)."""
     max_iter: int = 1000
     """IPOPT iteration limit."""
@@ -397,9 +399,12 @@ class SolverSettings:
 class LiquidTable:
     """[liquid]: the pendulum parameters (seed Table I units); `--params` from `sloshid identify` overrides it."""
 
-    m_kg: float
-    l_m: float
-    d_ns_per_m: float
+    m_kg: float = setting_field(unit="kg")
+    """The liquid mass m of the pendulum model (seed Table I)."""
+    l_m: float = setting_field(unit="m")
+    """The pendulum's length, which sets the natural frequency (omega^2 = g / l)."""
+    d_ns_per_m: float = setting_field(unit="N s/m")
+    """The pendulum's damping constant d = 2 m omega zeta."""
 
 
 @dataclass

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
-from sloshid.core.errors import SMALL_FILE_BYTES, UserError, read_input
+from sloshid.core.errors import SMALL_FILE_BYTES, SettingError, UserError, read_input
 from sloshid.core.hashing import file_sha256
 from sloshid.core.settings import check_in_metres, setting_field
 from sloshid.core.tables import write_csv
@@ -27,6 +27,7 @@ from sloshid.model.pose import (
     pose_from_trajectory,
     respond,
 )
+from sloshid.model.simulate import MAX_SETTLE_S
 from sloshid.model.trajectory import Trajectory
 
 STRUCTURE = (
@@ -59,6 +60,20 @@ class GeometrySettings:
     smooth_s: float | None = setting_field(None, unit="s", metavar="S")
     """Savitzky-Golay window for accelerations from a pose log; not given: the stored one (0.1 s by default: gain
     0.999 at 3 Hz)."""
+
+
+@dataclass(frozen=True)
+class PredictSettings:
+    """How far a prediction runs beyond the motion it is given (`sloshid predict`)."""
+
+    settle_s: float = setting_field(3.0, unit="s", metavar="S")
+    """How long to go on after the log ends, held at its last pose: the liquid's swing after the move."""
+
+    def __post_init__(self) -> None:
+        if not 0 <= self.settle_s <= MAX_SETTLE_S:
+            raise SettingError(
+                "settle_s", f"{{name}} must lie between 0 and {MAX_SETTLE_S:g} s, got {self.settle_s:g}."
+            )
 
 
 @dataclass(frozen=True)
@@ -264,7 +279,9 @@ def pivot_for(pose: PoseLog, model: LiquidModel, axis_offset_m: float | None) ->
     return model.with_geometry(axis_offset_m=0.0), note
 
 
-def predict(pose: PoseLog, model: LiquidModel, settle_s: float = 3.0, rtol: float = 1e-9) -> PoseResponse:
+def predict(
+    pose: PoseLog, model: LiquidModel, settle_s: float = PredictSettings.settle_s, rtol: float = 1e-9
+) -> PoseResponse:
     """The liquid's response to the logged motion, held at the last pose for settle_s after the log ends; a log
     sampled too slowly for the liquid's mode (a time column in milliseconds) is refused."""
     return forecast(pose, model, settle_s, rtol, band=False).resp
@@ -333,7 +350,7 @@ def extrapolation(exc: Excitation, model: LiquidModel, source: str) -> tuple[lis
 
 
 def forecast(
-    pose: PoseLog, model: LiquidModel, settle_s: float = 3.0, rtol: float = 1e-9, band: bool = True
+    pose: PoseLog, model: LiquidModel, settle_s: float = PredictSettings.settle_s, rtol: float = 1e-9, band: bool = True
 ) -> Forecast:
     """Predict the move and, with `band`, what its band needs (one simulation more for f and for zeta when they carry
     an error; the wall's parameters need none); a log sampled too slowly for the mode is refused."""

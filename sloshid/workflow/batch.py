@@ -21,7 +21,7 @@ from sloshid.core.atomic import check_schema, remove_empty, write_json, write_te
 from sloshid.core.errors import SettingError, SloshidWarning, UserError
 from sloshid.core.hashing import file_sha256, json_sha256
 from sloshid.core.outputs import is_sloshid_page, writable_folder
-from sloshid.core.parallel import dask_client, wait_with_workers
+from sloshid.core.parallel import ClusterSettings, dask_client, wait_with_workers
 from sloshid.core.tables import distinct_names
 from sloshid.identification.estimator import Z95, shown_with_error
 from sloshid.report.html import Report
@@ -209,7 +209,7 @@ def run_batch(
     videos: list[str | Path],
     config: BatchConfig,
     out_dir: str | Path,
-    workers: int = 2,
+    workers: int = ClusterSettings.workers,
     scheduler: str | None = None,
     progress: bool = True,
 ) -> BatchResult:
