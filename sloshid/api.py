@@ -7,7 +7,7 @@ from __future__ import annotations
 import os
 from dataclasses import replace
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, TypeVar
+from typing import TYPE_CHECKING, Any, TypeVar, cast
 
 from sloshid.core.settings import from_dict
 
@@ -179,7 +179,8 @@ def plan(
     loaded, liquid, _ = _scenario_and_liquid(scenario, params)
     if robust:
         loaded = robust_scenario(loaded)
-    return solve(loaded, liquid, robust_omega_factors=robust_omega_factors, progress=progress)
+    # a scenario within a margin (the one kind solve() plans as an UprightPlan) was planned above
+    return cast("PlanResult", solve(loaded, liquid, robust_omega_factors=robust_omega_factors, progress=progress))
 
 
 def plan_upright_scenario(scenario: Scenario, params: Liquid, robust: bool = False) -> Any:

@@ -127,7 +127,7 @@ def run(args: argparse.Namespace) -> int:
     written = [] if kept else [p for p in (output, joints) if p is not None]
     if written:
         result.trajectory.to_csv(output)
-        if joints is not None:
+        if joints is not None and result.joints is not None:
             result.joints.write_csv(joints)
     if page is not None:
         page.save(report_dir)
@@ -148,7 +148,7 @@ def run(args: argparse.Namespace) -> int:
             "already there, and so writes none of its files; write them to new paths to inspect them.",
             file=sys.stderr,
         )
-    if not executable:
+    if result.joints is not None and not result.joints.executable:
         why = result.joints.reason().rstrip(".")
         print(
             f"sloshid: not executable on the Panda: {why}{'' if fit else _fit_cost(result, scenario, params)}.",

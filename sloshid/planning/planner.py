@@ -11,7 +11,7 @@ import dataclasses
 import math
 import time
 from collections.abc import Sequence
-from typing import Any, cast
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
@@ -49,6 +49,9 @@ from sloshid.planning.scenario import (
     check_robust_factors,
 )
 from sloshid.planning.transcription import equidistributed_mesh, graded_mesh, regrid
+
+if TYPE_CHECKING:  # plan() returns it for an upright scenario; imported where it is planned
+    from sloshid.planning.upright import UprightPlan
 
 GUESS_MARGIN_M = 0.02
 """Initial-guess points inside an inflated obstacle are pushed this far outside it."""
@@ -260,7 +263,7 @@ def plan(
     robust_omega_factors: Sequence[float] | None = None,
     progress: bool = False,
     warm_from: PlanResult | None = None,
-) -> PlanResult:
+) -> PlanResult | UprightPlan:
     """Solve the scenario's move for liquid `params`; raises UserError for infeasible requests and solver failures.
 
     robust_omega_factors: natural-frequency factors of extra pendulum copies (same zeta, same acceleration)
