@@ -161,16 +161,18 @@ def auto_liquid_preset(frame: np.ndarray, roi: tuple[int, int, int, int]) -> tup
     enough), and of the next one when its largest region is at least RIVAL_SHARE of that (the liquid may be it)."""
     x, y, w, h = roi
     crop = frame[y : y + h, x : x + w]
-    areas, boxes = {}, {}
+    areas: dict[str, int] = {}
+    boxes: dict[str, np.ndarray | None] = {}
     for name, p in PRESETS.items():
         n, _, stats, _ = cv2.connectedComponentsWithStats(hsv_mask(crop, p.hsv), connectivity=8)
         k = 1 + int(np.argmax(stats[1:, cv2.CC_STAT_AREA])) if n > 1 else 0
-        areas[name], boxes[name] = (stats[k, cv2.CC_STAT_AREA], stats[k, :4]) if k else (0, None)
-    best, rival = sorted(areas, key=areas.get, reverse=True)[:2]
+        areas[name], boxes[name] = (int(stats[k, cv2.CC_STAT_AREA]), stats[k, :4]) if k else (0, None)
+    best, rival = sorted(areas, key=lambda name: areas[name], reverse=True)[:2]
     if areas[best] <= MIN_LIQUID_SHARE * w * h:
         return None, None
     # a hue between two presets' ranges is one region in both: no rival
-    elsewhere = boxes[rival] is not None and _overlap(boxes[best], boxes[rival]) < 0.5
+    best_box, rival_box = boxes[best], boxes[rival]
+    elsewhere = best_box is not None and rival_box is not None and _overlap(best_box, rival_box) < 0.5
     return best, rival if elsewhere and areas[rival] >= RIVAL_SHARE * areas[best] else None
 
 
@@ -288,8 +290,8 @@ class SurfaceFinder:
         if m is None:  # lost, or the body left the box it had: search around it (or the whole ROI)
             box = self._find_body(frame)
             m = None if box is None else self._follow(frame, box)
-            if m is None:
-                m = SurfaceMeasurement(False) if box is None else self._measure_body(frame, box, follow=False)
+            if m is None:  # the box as found (a whole-body measurement returns a measurement, found or not)
+                m = (None if box is None else self._measure_body(frame, box, follow=False)) or SurfaceMeasurement(False)
         if not m.found:
             self._box = None
         self._sink = max(0.0, m.low - self._last.low) if m.found and self._last is not None else 0.0
@@ -315,11 +317,14 @@ class SurfaceFinder:
         as the frames so far give them when fewer than HOLD_ELEVATION_AFTER were measured (elevation None before
         any)."""
         if self._held is not None:
-            return self._held, self._edges
+            return self._held, self._edges or self._edge_source()
         return (median(np.array(self._k)) if self._k else None), self._edge_source()
 
     def _find_body(self, frame: np.ndarray) -> tuple[int, int, int, int] | None:
         """Box of the largest liquid-coloured region near the last one (or in the whole ROI after a loss)."""
+        if self.hsv is None:  # `measure` chooses the colour first
+            return None
+        hsv = self.hsv
         rx, ry, rw, rh = self.roi
         X0, Y0, X1, Y1 = rx, ry, rx + rw, ry + rh
         if self._box is not None:
@@ -329,7 +334,7 @@ class SurfaceFinder:
             X1, Y1 = min(X1, int(x1 + mx) + 1), min(Y1, int(y1 + my) + 1)
         # the box only bounds the search: half resolution finds it four times faster, to within 2 px
         small = cv2.resize(frame[Y0:Y1, X0:X1], None, fx=0.5, fy=0.5, interpolation=cv2.INTER_AREA)
-        mask = cv2.morphologyEx(hsv_mask(small, self.hsv), cv2.MORPH_OPEN, np.ones((3, 3), np.uint8))
+        mask = cv2.morphologyEx(hsv_mask(small, hsv), cv2.MORPH_OPEN, np.ones((3, 3), np.uint8))
         n, labels, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=8)
         if n <= 1:
             return None
@@ -380,19 +385,22 @@ class SurfaceFinder:
         walls and the bottom stayed where they were. None when that cannot be trusted: the strip changed by
         ANCHOR_PX, the liquid rose to the top of the band or its fitted front edge came within half the margin of
         the band's bottom; the whole body is measured then."""
-        key, geom, used, _ = self._axes
-        (sx0, sy0, sx1, sy1), centre, reference = self._anchor
+        axes, anchor, model, last, box = self._axes, self._anchor, self._model, self._last, self._box
+        if axes is None or anchor is None or model is None or last is None or box is None:  # `_band_ready` says not
+            return None
+        key, geom, used, may = axes
+        (sx0, sy0, sx1, sy1), centre, reference = anchor
         # the strip before the band (which stays the picture's converted box), with a row beyond it each way: mapped
         # as in the whole body's map, where its pixels' neighbours are real
-        now = _anchor_values(membership_map(frame[sy0 - 1 : sy1 + 1, sx0:sx1], self._model[0])[1:-1], centre)
+        now = _anchor_values(membership_map(frame[sy0 - 1 : sy1 + 1, sx0:sx1], model[0])[1:-1], centre)
         if now is None or np.abs(now - reference).max() > ANCHOR_PX:
             self._axes = None  # the container moved: its axes are measured again
             return None
-        x0, _y0, x1, y1 = self._box
-        X0, Y0, X1, Y1 = self._window(self._box, frame.shape)
+        x0, _y0, x1, y1 = box
+        X0, Y0, X1, Y1 = self._window(box, frame.shape)
         margin = max(BAND_BELOW, 0.05 * (x1 - x0)) + 2 * self._sink
-        crop = frame[Y0 : min(Y1, math.ceil(self._last.low + margin)), X0:X1]
-        body = membership_map(crop, self._model[0])
+        crop = frame[Y0 : min(Y1, math.ceil(last.low + margin)), X0:X1]
+        body = membership_map(crop, model[0])
         inside = _inside(body)
         top = int(_liquid_rows(inside)[1][0])  # the body's top, as `_body_box` finds it
         if top == 0:
@@ -402,11 +410,13 @@ class SurfaceFinder:
         if not m.found or m.low > Y0 + crop.shape[0] - margin / 2:
             return None
         self._box = (x0, Y0 + top, x1, y1)
-        self._axes = (key, geom, used + 1, self._axes[3])
+        self._axes = (key, geom, used + 1, may)
         m.still = True
         return m
 
-    def _measure_body(self, frame: np.ndarray, box: tuple[int, int, int, int], follow: bool) -> SurfaceMeasurement:
+    def _measure_body(
+        self, frame: np.ndarray, box: tuple[int, int, int, int], follow: bool
+    ) -> SurfaceMeasurement | None:
         """Walls, bottom and surface of the liquid body in `box`; the box it was found in is kept for the next frame.
 
         `follow`: `box` is the last frame's; the body's box is read off this frame's membership map around it
@@ -421,6 +431,8 @@ class SurfaceFinder:
             # pixel each way: thousands of body and background pixels still fix the four coefficients
             fy0 = self._window(box, frame.shape, FIT_HEADROOM)[1]
             half = frame[fy0:Y1, X0:X1][::2, ::2]
+            if self.hsv is None:  # `measure` chooses the colour first
+                return SurfaceMeasurement(False)
             greys = GREY_WEIGHT if self.hsv.low[1] > 0 else 0.0  # a range that holds greys makes them liquid
             self._model, self._since_fit = fit_colour_model(half, hsv_mask(half, self.hsv), greys), 0
             self._fit_level = _liquid_level(frame, box)
@@ -430,9 +442,10 @@ class SurfaceFinder:
         body = membership_map(crop, self._model[0])
         inside = _inside(body)
         if follow:
-            box = _column_box(inside, (X0, Y0))
-            if box is None:
+            column = _column_box(inside, (X0, Y0))
+            if column is None:
                 return None
+            box = column
             if box[0] <= rx or box[2] >= rx + rw:
                 return SurfaceMeasurement(False, liquid=True)
         self._box = box
@@ -502,7 +515,7 @@ class SurfaceFinder:
                 usable = _continuous(wv, found & (np.abs(sv) <= inner), cols)
                 usable &= _locally_consistent(wv, usable)
                 edges.append(
-                    (sv, wv, usable, dw, front, np.count_nonzero(sure & usable) / max(np.count_nonzero(usable), 1))
+                    (sv, wv, usable, dw, front, np.count_nonzero(sure & usable) / max(int(np.count_nonzero(usable)), 1))
                 )
             points[source] = tuple(edges)
         if self._edges is None:  # how much each source's first crossings scatter about a free fit of them
@@ -1094,11 +1107,11 @@ def _container_axes(
         return None
     (aL, bL), (aR, bR), (k, d) = lines
     a = 0.5 * (aL + aR)
-    n = math.hypot(1, a)
-    e_w, e_u = np.array([-a, -1.0]) / n, np.array([1.0, -a]) / n
+    norm = math.hypot(1, a)
+    e_w, e_u = np.array([-a, -1.0]) / norm, np.array([1.0, -a]) / norm
     # the bottom line y = k x + d meets the centre line between the walls
     xm_at = lambda y: 0.5 * ((aL + aR) * y + bL + bR)  # noqa: E731
-    y_b = d
+    y_b = float(d)
     for _ in range(3):
         y_b = k * xm_at(y_b) + d
     o = np.array([xm_at(y_b), y_b])
