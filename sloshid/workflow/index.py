@@ -20,6 +20,11 @@ def _link(run_dir: Path, rel: str, text: str) -> str:
     return html.escape(f"{text} (not written)")
 
 
+def _links(report: Report, run_dir: Path, *links: tuple[str, str]) -> None:
+    """One paragraph of links (file of the run, text) to the run's files, separated by dots."""
+    report.add_html("<p>" + " · ".join(_link(run_dir, rel, text) for rel, text in links) + "</p>")
+
+
 def _figure(report: Report, run_dir: Path, stage: str, s: dict[str, Any], caption: str) -> None:
     """Embed the stage's summary figure (a PNG beside its outputs) when it exists, so the page stands alone."""
     rel = f"{stage}/{s.get('figure')}"
@@ -68,23 +73,21 @@ def _identify(report: Report, run_dir: Path, s: dict[str, Any]) -> None:
         report.add_text(s["between"][0].upper() + s["between"][1:] + ".")
     if s.get("input_warnings"):
         report.add_text("Inputs: " + " ".join(s["input_warnings"]))
-    report.add_html(
-        "<p>"
-        + _link(run_dir, "identify/params.json", "parameters (JSON)")
-        + " · "
-        + _link(run_dir, "identify/report/index.html", "identification report")
-        + "</p>"
+    _links(
+        report,
+        run_dir,
+        ("identify/params.json", "parameters (JSON)"),
+        ("identify/report/index.html", "identification report"),
     )
 
 
 def _plan_links(report: Report, run_dir: Path) -> None:
     """The plan's trajectory CSV and report."""
-    report.add_html(
-        "<p>"
-        + _link(run_dir, "plan/trajectory.csv", "nominal plan, 1 kHz robot trajectory (CSV)")
-        + " · "
-        + _link(run_dir, "plan/report/index.html", "plan report")
-        + "</p>"
+    _links(
+        report,
+        run_dir,
+        ("plan/trajectory.csv", "nominal plan, 1 kHz robot trajectory (CSV)"),
+        ("plan/report/index.html", "plan report"),
     )
 
 
@@ -185,14 +188,13 @@ def _compare(report: Report, run_dir: Path, s: dict[str, Any]) -> None:
 def _compare_links(report: Report, run_dir: Path, s: dict[str, Any]) -> None:
     """The recommended move's CSV (when there is one), the comparison's report and its scores."""
     move = s.get("recommended")
-    recommended = _link(run_dir, f"compare/{move['csv']}", f"recommended move: {move['label']} (CSV)") if move else ""
-    report.add_html(
-        "<p>"
-        + (recommended + " · " if move else "")
-        + _link(run_dir, "compare/report/index.html", "comparison report")
-        + " · "
-        + _link(run_dir, "compare/scores.json", "scores (JSON)")
-        + "</p>"
+    recommended = [(f"compare/{move['csv']}", f"recommended move: {move['label']} (CSV)")] if move else []
+    _links(
+        report,
+        run_dir,
+        *recommended,
+        ("compare/report/index.html", "comparison report"),
+        ("compare/scores.json", "scores (JSON)"),
     )
 
 
@@ -203,7 +205,7 @@ def _generic(report: Report, run_dir: Path, name: str, s: dict[str, Any]) -> Non
         report.add_table(["figure", "value"], scalars)
     for key in ("report", "trajectory", "figure"):
         if isinstance(s.get(key), str):
-            report.add_html("<p>" + _link(run_dir, f"{name}/{s[key]}", f"{name} {key}") + "</p>")
+            _links(report, run_dir, (f"{name}/{s[key]}", f"{name} {key}"))
 
 
 RENDERERS = {"track": _track, "identify": _identify, "plan": _plan, "compare": _compare}
@@ -271,9 +273,7 @@ def write_index(run_dir: Path, records: list[StageRecord], title: str) -> Path:
     _next_step(report, run_dir, records)
     status = ", ".join(f"{r.name}: {r.status} ({r.seconds:.1f} s)" for r in records)
     report.add_text(f"Stages: {status}.")
-    report.add_html(
-        "<p>" + _link(run_dir, "manifest.json", "manifest (resolved settings, input hashes, package version)") + "</p>"
-    )
+    _links(report, run_dir, ("manifest.json", "manifest (resolved settings, input hashes, package version)"))
     for rec in records:
         report.add_heading(f"{rec.name} — {rec.status}")
         if rec.status in ("failed", "skipped"):
