@@ -304,7 +304,10 @@ class FloatFinder:
         refit = self._model is None or self._frames_since_fit >= REFIT_EVERY or self._last is None
         if refit or self._seek is None:
             self._seek = fit_colour_model(_crop(frame, box), blob, balanced=True)
-        blob, box = self._grown(frame, blob, box)
+        # a blob of half the float's expected area or more cannot grow to twice its size without growing beyond the
+        # float: only a smaller one (and the first) is grown (growing costs about as much as the rest of a measurement)
+        if not self._ref_area or cv2.countNonZero(blob) < self._ref_area / GROW_SHARE:
+            blob, box = self._grown(frame, blob, box)
         X0, Y0, X1, Y1 = box
         crop = frame[Y0:Y1, X0:X1]
         if refit:
