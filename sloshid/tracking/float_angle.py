@@ -27,6 +27,17 @@ REFIT_EVERY = 8
 AREA_FRAMES = 9
 """The float's expected area is the median of its last this many measured areas (a rigid body's picture keeps its
 size; a frame whose blob differs from it gets a lower quality)."""
+GROW_SHARE = 2.0
+"""A blob that the float's own colour (a balanced colour model fitted to it) extends to this many times its pixels or
+more is taken as a fragment of the float and measured as that extent: a thin float whose colour H.264's chroma
+subsampling mixes with the background's (a 4 px blue stick on a red juice reads purple, S 110 against the preset's
+140) shows the HSV range a few pixels of itself. Below it the range's blob is the float's extent: a range that holds
+most of a float is trusted (growing those moved still floats' angles by up to 0.3 deg, where a tint of the background
+beside the float also passes)."""
+GROW_ROUNDS = 4
+"""At most this many times the searched box is widened around a growing blob."""
+PAD_PX = 6
+"""Margin of the measured box around the blob."""
 
 
 @dataclass
@@ -61,13 +72,17 @@ def hsv_mask(bgr: np.ndarray, hsv: HsvRange) -> np.ndarray:
     return cv2.bitwise_or(upper, lower)
 
 
-def fit_colour_model(crop: np.ndarray, blob: np.ndarray, greys: float = 0.0) -> tuple[np.ndarray, float] | None:
+def fit_colour_model(
+    crop: np.ndarray, blob: np.ndarray, greys: float = 0.0, balanced: bool = False
+) -> tuple[np.ndarray, float] | None:
     """Least-squares linear colour model w.bgr + c ~ float membership, fitted to this crop's own pixels.
 
     `blob` (0/255) marks the float roughly: eroded blob pixels are 'float' (1), pixels beyond a dilated
     blob are 'background' (0), whatever colours they have (air above, liquid below). `greys`: neutral greys from
     black to white are background too, with this share of the background pixels' weight (for a colour whose range
-    holds no grey: a dark wall, a few pixels of the crop, is otherwise fitted as it falls). Returns
+    holds no grey: a dark wall, a few pixels of the crop, is otherwise fitted as it falls). `balanced`: the float's
+    pixels weigh as much in all as the background's (a blob of a few pixels among thousands is otherwise fitted near 0:
+    its own pixels come out below half membership; `FloatFinder` seeks the float's extent with such a model). Returns
     (`membership_map`'s transform of the model, rms fit error) or None when the crop holds no background.
     """
     core = cv2.erode(blob, _KERNEL, iterations=2)
@@ -81,7 +96,15 @@ def fit_colour_model(crop: np.ndarray, blob: np.ndarray, greys: float = 0.0) -> 
     for k, plane in enumerate(cv2.split(crop)):  # per plane: NumPy selects 3-byte pixels ten times slower
         X[:, k] = plane.reshape(-1)[used]
     target = inside[used].astype(np.float64)
-    normal, right = X.T @ X, X.T @ target
+    weight = None
+    if balanced:
+        n_in = np.count_nonzero(target)
+        if n_in == 0:
+            return None
+        weight = np.where(target > 0, (len(target) - n_in) / n_in, 1.0)
+        normal, right = (X * weight[:, None]).T @ X, (X * weight[:, None]).T @ target
+    else:
+        normal, right = X.T @ X, X.T @ target
     if greys > 0:  # target 0, so they add to the normal matrix only
         level = np.linspace(0.0, 255.0, 18)[:, None]  # black to white in steps of 15
         grey = np.hstack([level, level, level, np.ones_like(level)])
@@ -92,7 +115,9 @@ def fit_colour_model(crop: np.ndarray, blob: np.ndarray, greys: float = 0.0) -> 
         return None
     # the membership ramp (linear from 0.1 to 0.9) goes into the transform, once per fit: the blur is linear
     ramp = np.append(coef[:3], coef[3] - 0.1)[None, :] * 1.25
-    return ramp.astype(np.float32), float(np.sqrt(np.mean((X @ coef - target) ** 2)))
+    residual = (X @ coef - target) ** 2
+    rms = np.sqrt(np.mean(residual) if weight is None else np.sum(weight * residual) / np.sum(weight))
+    return ramp.astype(np.float32), float(rms)
 
 
 def membership_map(crop: np.ndarray, transform: np.ndarray) -> np.ndarray:
@@ -131,6 +156,7 @@ class FloatFinder:
         self._areas: deque[float] = deque(maxlen=AREA_FRAMES)
         self._velocity = (0.0, 0.0)  # px per frame
         self._model: tuple[np.ndarray, float] | None = None
+        self._seek: tuple[np.ndarray, float] | None = None  # the balanced model: where the float's colour extends
         self._frames_since_fit = 0
 
     def copied(self) -> None:
@@ -139,13 +165,36 @@ class FloatFinder:
         self._frames_since_fit += 1
 
     def measure(self, frame: np.ndarray) -> FloatMeasurement:
-        """Measure the float in one BGR frame (near the last position first, then the whole ROI)."""
+        """Measure the float in one BGR frame (near the last position first, by the HSV range and then by the float's
+        own colour, then the whole ROI by the range)."""
         if self._last is not None:
             for box in (self._tight_box(self._last), self._window(self._last)):
                 m = self._measure_in(frame, box, local=True)
                 if m.found:
                     return self._remember(m)
+            m = self._by_own_colour(frame, self._window(self._last))
+            if m.found:
+                return self._remember(m)
         return self._remember(self._measure_in(frame, self._roi_box(), local=False))
+
+    def _by_own_colour(self, frame: np.ndarray, box: tuple[int, int, int, int]) -> FloatMeasurement:
+        """The float near the last position by its own colour (the balanced model of the last fit, membership >= 0.5)
+        where the HSV range found none of it: the blob nearest the last position of at least half the expected area,
+        not cut by the window."""
+        if self._seek is None or self._last is None:
+            return FloatMeasurement(False)
+        x0, y0, x1, y1 = box
+        mask = (membership_map(frame[y0:y1, x0:x1], self._seek[0]) >= 0.5).astype(np.uint8)
+        n, labels, stats, cents = cv2.connectedComponentsWithStats(mask, connectivity=8)
+        if n <= 1:
+            return FloatMeasurement(False)
+        d = np.hypot(cents[1:, 0] + x0 - self._last.x_px, cents[1:, 1] + y0 - self._last.y_px)
+        d[stats[1:, cv2.CC_STAT_AREA] < max(MIN_AREA_PX, 0.5 * self._ref_area)] = np.inf
+        k = int(np.argmin(d))
+        bx, by, bw, bh = stats[k + 1, :4]
+        if not np.isfinite(d[k]) or bx == 0 or by == 0 or bx + bw == x1 - x0 or by + bh == y1 - y0:
+            return FloatMeasurement(False)
+        return self._refine(frame, labels == k + 1, (x0, y0), (bx, by, bw, bh))
 
     def _roi_box(self) -> tuple[int, int, int, int]:
         """The ROI as (x0, y0, x1, y1)."""
@@ -239,29 +288,36 @@ class FloatFinder:
     def _refine(
         self, frame: np.ndarray, blob_full: np.ndarray, origin: tuple[int, int], stat: tuple[int, int, int, int]
     ) -> FloatMeasurement:
-        """Sub-pixel centre and angle from moments of the soft membership in a padded box around the blob."""
+        """Sub-pixel centre and angle from moments of the soft membership in a padded box around the blob (grown to the
+        float's own colour's extent when the blob is a fragment of it, `GROW_SHARE`)."""
         h, w = frame.shape[:2]
         ox, oy = origin
         bx, by, bw, bh = stat
-        pad = 6
-        X0, Y0 = max(0, ox + bx - pad), max(0, oy + by - pad)
-        X1, Y1 = min(w, ox + bx + bw + pad), min(h, oy + by + bh + pad)
-        blob = np.zeros((Y1 - Y0, X1 - X0), np.uint8)
-        sy0, sx0 = Y0 - oy, X0 - ox
-        src = blob_full[max(0, sy0) : Y1 - oy, max(0, sx0) : X1 - ox]
-        blob[max(0, -sy0) : max(0, -sy0) + src.shape[0], max(0, -sx0) : max(0, -sx0) + src.shape[1]] = (
-            src.astype(np.uint8) * 255
+        box = (
+            max(0, ox + bx - PAD_PX),
+            max(0, oy + by - PAD_PX),
+            min(w, ox + bx + bw + PAD_PX),
+            min(h, oy + by + bh + PAD_PX),
         )
-        crop = frame[Y0:Y1, X0:X1]
+        blob = _pasted(blob_full.astype(np.uint8) * 255, (ox, oy), box)
         self._frames_since_fit += 1
-        if self._model is None or self._frames_since_fit >= REFIT_EVERY or self._last is None:
+        refit = self._model is None or self._frames_since_fit >= REFIT_EVERY or self._last is None
+        if refit or self._seek is None:
+            self._seek = fit_colour_model(_crop(frame, box), blob, balanced=True)
+        # a blob of half the float's expected area or more cannot grow to twice its size without growing beyond the
+        # float: only a smaller one (and the first) is grown (growing costs about as much as the rest of a measurement)
+        if not self._ref_area or cv2.countNonZero(blob) < self._ref_area / GROW_SHARE:
+            blob, box = self._grown(frame, blob, box)
+        X0, Y0, X1, Y1 = box
+        crop = frame[Y0:Y1, X0:X1]
+        if refit:
             self._model = fit_colour_model(crop, blob)
             self._frames_since_fit = 0
         if self._model is None:
             return FloatMeasurement(False)
         transform, rms = self._model
         soft = membership_map(crop, transform)
-        soft *= cv2.dilate(blob, _KERNEL, iterations=pad - 1) > 0  # only this blob, not other things
+        soft *= cv2.dilate(blob, _KERNEL, iterations=PAD_PX - 1) > 0  # only this blob, not other things
         mo = cv2.moments(soft)
         if mo["m00"] <= 1e-6:
             return FloatMeasurement(False)
@@ -274,6 +330,54 @@ class FloatFinder:
         return FloatMeasurement(
             True, X0 + cx, Y0 + cy, angle, quality, area, math.sqrt(12 * max(lam1, 0)), (X0, Y0, X1, Y1)
         )
+
+    def _grown(
+        self, frame: np.ndarray, blob: np.ndarray, box: tuple[int, int, int, int]
+    ) -> tuple[np.ndarray, tuple[int, int, int, int]]:
+        """(blob, box): the blob with the pixels of the float's own colour connected to it (the balanced model,
+        membership >= 0.5; the box widened after it, within the ROI) when that is `GROW_SHARE` times the blob or more,
+        else the blob and box as given."""
+        if self._seek is None:
+            return blob, box
+        rx0, ry0, rx1, ry1 = self._roi_box()
+        seed, seed_box = blob, box
+        for _ in range(GROW_ROUNDS):
+            soft = membership_map(_crop(frame, box), self._seek[0])
+            _, labels = cv2.connectedComponents((soft >= 0.5).astype(np.uint8), connectivity=8)
+            touched = np.unique(labels[(blob > 0) & (labels > 0)])
+            grown = (np.isin(labels, touched) | (blob > 0)).astype(np.uint8) * 255
+            gx, gy, gw, gh = cv2.boundingRect(grown)
+            wider = (
+                max(rx0, box[0] + gx - PAD_PX),
+                max(ry0, box[1] + gy - PAD_PX),
+                min(rx1, box[0] + gx + gw + PAD_PX),
+                min(ry1, box[1] + gy + gh + PAD_PX),
+            )
+            done = wider == box and cv2.countNonZero(grown) == cv2.countNonZero(blob)
+            blob, box = _pasted(grown, box[:2], wider), wider
+            if done:
+                break
+        if cv2.countNonZero(blob) < GROW_SHARE * cv2.countNonZero(seed):
+            return seed, seed_box
+        return blob, box
+
+
+def _crop(frame: np.ndarray, box: tuple[int, int, int, int]) -> np.ndarray:
+    """The frame's pixels in box (x0, y0, x1, y1)."""
+    return frame[box[1] : box[3], box[0] : box[2]]
+
+
+def _pasted(mask: np.ndarray, origin: tuple[int, int], box: tuple[int, int, int, int]) -> np.ndarray:
+    """A 0/255 mask whose top left corner is at `origin` (frame coordinates) as a mask of `box` (x0, y0, x1, y1): what
+    lies outside the box is cut off, what the mask does not cover is 0."""
+    x0, y0, x1, y1 = box
+    out = np.zeros((y1 - y0, x1 - x0), np.uint8)
+    ox, oy = origin
+    ax0, ay0 = max(ox, x0), max(oy, y0)
+    ax1, ay1 = min(ox + mask.shape[1], x1), min(oy + mask.shape[0], y1)
+    if ax1 > ax0 and ay1 > ay0:
+        out[ay0 - y0 : ay1 - y0, ax0 - x0 : ax1 - x0] = mask[ay0 - oy : ay1 - oy, ax0 - ox : ax1 - ox]
+    return out
 
 
 def _with_pieces(labels: np.ndarray, stats: np.ndarray, cents: np.ndarray, k: int) -> np.ndarray | None:
