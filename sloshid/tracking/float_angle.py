@@ -203,6 +203,8 @@ class FloatFinder:
 
     def _tight_box(self, last: FloatMeasurement) -> tuple[int, int, int, int]:
         """The last measurement box moved by the last motion plus a few pixels: the cheap first try."""
+        if last.bbox is None:  # a found measurement has its box
+            raise ValueError("the last float measurement has no box")
         vx, vy = self._velocity
         x0, y0, x1, y1 = last.bbox
         m = 3.0 + 0.05 * last.length_px
