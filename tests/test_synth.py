@@ -138,6 +138,8 @@ def test_cli_writes_video_and_truth(run_cli, tmp_path):
         # the float scene drew them: its truth had the liquid at 1217 deg and the container 2800 px outside the picture
         (["--motion", "move", "--accel", "50"], "the liquid would turn 1217 deg, above the container's rim"),
         (["--travel", "5000"], "the container would leave the 640 px wide picture"),
+        # a move's container travels by its acceleration: --travel was ignored without a word
+        (["--motion", "move", "--travel", "50"], "--travel moves a decay's container across the picture; a --motion"),
         (["--tap", "-1"], "--tap must not be negative"),
         (["--scene", "surface", "--second-mode", "-1"], "--second-mode must be 0..1"),
         (["--scene", "surface", "--container-diameter", "100"], "is it in millimetres?"),

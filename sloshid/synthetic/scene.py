@@ -154,6 +154,13 @@ class SynthSettings:
                 "{name} must be 0.05..0.3 of the frame height",
             ),
             (self.move_duration_s > 0, "move_duration_s", "{name} must be positive"),
+            (
+                # a move's container travels by its own acceleration: the crossing was ignored without a word
+                self.motion != "move" or self.travel_px == 0,
+                "travel_px",
+                "{name} moves a decay's container across the picture; a {motion} move travels by {accel_m_s2} and "
+                "{move_duration_s}",
+            ),
             (self.px_per_m > 0, "px_per_m", "{name} must be positive"),
             (self.scene in ("float", "surface"), "scene", "{name} must be 'float' or 'surface'"),
             (0 <= self.float_submerged <= 1, "float_submerged", "{name} must be 0..1"),
@@ -184,7 +191,7 @@ class SynthSettings:
         ]
         for ok, setting, message in checks:
             if not ok:
-                raise SettingError(setting, f"{message}.", *("f_hz", "zeta"))
+                raise SettingError(setting, f"{message}.", *("f_hz", "zeta", "motion", "accel_m_s2", "move_duration_s"))
         check_in_metres("container_diameter_m", self.container_diameter_m, "0.1 for 100 mm")
         # a look of the other scene would be rendered nowhere: refused, not ignored
         other = "surface" if self.scene == "float" else "float"
