@@ -157,7 +157,14 @@ def test_a_tap_after_the_videos_end_is_said(run_cli, tmp_path):
     # it rendered a liquid at rest without a word; a still clip is a use, so it is written, with a warning
     code, _, err = run_cli("synth", tmp_path / "late.mp4", "--tap", "5", "--duration", "1")
     assert code == 0 and "the tap at 5 s comes after the video's end (1 s): the liquid rests in every frame" in err
-    assert "warning" not in run_cli("synth", tmp_path / "early.mp4", "--duration", "1")[2]
+    code, out, err = run_cli("synth", tmp_path / "early.mp4", "--duration", "1")
+    assert code == 0 and "warning" not in err
+    # it ends with the line a user needs next (issue 39): the track command for the video it wrote
+    angles = tmp_path / "early_angles.csv"
+    assert (
+        out.strip().splitlines()[-1]
+        == f"next: sloshid track {tmp_path / 'early.mp4'} -o {angles} --float-color red measures it."
+    )
 
 
 def test_settings_reject_unknown_colour():

@@ -161,6 +161,8 @@ def test_predict_without_a_radius_writes_the_angles(tmp_path, run_cli):
     )
     code, out, err = run_cli("predict", tmp_path / "move.csv", "-o", tmp_path / "a.csv", "--params", params)
     assert code == 0 and "the angles are written, not wall_height_mm" in err and "wall height" not in out
+    # it ends with the line a user needs next (issue 39): validate against a measured run of the move
+    assert out.strip().splitlines()[-1].startswith(f"next: sloshid validate --trajectory {tmp_path / 'move.csv'}")
     code, _, err = run_cli(
         "predict", tmp_path / "move.csv", "-o", tmp_path / "b.csv", "--params", params, "--container-radius-m", 0.05
     )
@@ -753,6 +755,7 @@ def test_a_run_the_model_was_fitted_on_is_marked_and_left_out_of_the_medians(tmp
     assert "run fitted: the model was identified from this measurement" in err
     code, out, _ = run_cli("validate", *runs, "--params", tmp_path / "p.json")
     assert out.splitlines()[1].startswith("fitted *") and "the median leaves them out" in out
+    assert out.strip().splitlines()[-1] == "next: add --report DIR to draw each run against its band."
     # a source named from a working directory this run is not in, nor beside the JSON: it was scored as a
     # prediction (a trial). Its content's hash, which identify now records, names it wherever it is
     from sloshid.core.hashing import file_sha256

@@ -80,6 +80,10 @@ def run(args: argparse.Namespace) -> int:
         f"{wall}after it {resp.rel_angle_deg[~during & (resp.t_s > move[1])].max(initial=0):.2f} deg"
     )
     print(f"wrote {output}")
+    print(
+        f"next: sloshid validate --trajectory {args.trajectory} --measured MEASURED.csv --params {args.params} "
+        "scores this prediction against a measured run of the move."
+    )
     return 0
 
 

@@ -74,4 +74,13 @@ def run(args: argparse.Namespace) -> int:
     )
     if settings.at_rest:
         print(f"sloshid: warning: {settings.at_rest}.", file=sys.stderr)
+    print(_next_step(video, settings))
     return 0
+
+
+def _next_step(video: Path, settings: SynthSettings) -> str:
+    """The line a user needs next: track the video as its scene asks (a drawn scene: look at it with inspect)."""
+    if settings.renderer == "pbr":  # the dye and the float's colour are the scene draw's
+        return f"next: sloshid inspect {video} shows what each target finds and the track command for this scene."
+    what = "--target surface" if settings.scene == "surface" else f"--float-color {settings.float_color}"
+    return f"next: sloshid track {video} -o {video.with_name(video.stem + '_angles.csv')} {what} measures it."

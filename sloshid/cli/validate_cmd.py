@@ -55,7 +55,14 @@ def run(args: argparse.Namespace) -> int:
     result = validate(poses, [load_signal(m, *columns) for m in args.measured], model)
     for warning in result.warnings:
         print(f"sloshid: warning: {warning}", file=sys.stderr)
-    if report_dir is not None:
-        print(f"report written to {result.report(report_dir)}", file=sys.stderr)  # stdout: the table or JSON alone
+    page = result.report(report_dir) if report_dir is not None else None
+    if page is not None:
+        print(f"report written to {page}", file=sys.stderr)  # stdout: the table or JSON alone
     print(json.dumps(result.to_dict(), indent=2) if args.json else result.summary())
+    step = (
+        f"open {page} (each run against its 95 % band)"
+        if page
+        else "add --report DIR to draw each run against its band"
+    )
+    print(f"next: {step}.", file=sys.stderr if args.json else sys.stdout)
     return 0
