@@ -32,7 +32,7 @@ from sloshid.cli.naming import as_typed, options_of
 from sloshid.cli.settings_options import comma_values
 from sloshid.core.errors import UserError
 from sloshid.core.outputs import Outputs
-from sloshid.tracking.inspect import inspect_video
+from sloshid.tracking.inspect import default_picture_path, inspect_video
 
 
 def track_options() -> dict[str, str]:
@@ -78,7 +78,7 @@ def _picture_path(args: argparse.Namespace) -> Path:
     outputs = Outputs([args.video])
     if args.output is not None:
         return outputs.file(args.output, "-o", (".png",))
-    default = args.video.with_name(f"{args.video.stem}_inspect.png")
+    default = default_picture_path(args.video)
     if default.exists() or default.is_symlink():
         raise UserError(f"{default} already exists; give -o PICTURE.png to say where the picture goes.")
     return outputs.file(default, "the picture", (".png",))

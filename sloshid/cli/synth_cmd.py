@@ -19,6 +19,7 @@ import argparse
 import sys
 from pathlib import Path
 
+from sloshid.cli.inspect_cmd import track_command, track_options
 from sloshid.cli.settings_options import add_settings, settings_from
 from sloshid.core.errors import UserError
 from sloshid.synthetic.render import SynthSettings, render_video
@@ -82,5 +83,5 @@ def _next_step(video: Path, settings: SynthSettings) -> str:
     """The line a user needs next: track the video as its scene asks (a drawn scene: look at it with inspect)."""
     if settings.renderer == "pbr":  # the dye and the float's colour are the scene draw's
         return f"next: sloshid inspect {video} shows what each target finds and the track command for this scene."
-    what = "--target surface" if settings.scene == "surface" else f"--float-color {settings.float_color}"
-    return f"next: sloshid track {video} -o {video.with_name(video.stem + '_angles.csv')} {what} measures it."
+    what = {"target": "surface"} if settings.scene == "surface" else {"float_color": settings.float_color}
+    return f"next: {track_command(video, what, track_options())} measures it."

@@ -27,7 +27,7 @@ from sloshid.cli.naming import as_typed
 from sloshid.cli.settings_options import add_settings, settings_from
 from sloshid.core.errors import NothingFound, UserError
 from sloshid.core.outputs import Outputs
-from sloshid.tracking.inspect import inspect_video
+from sloshid.tracking.inspect import default_picture_path, inspect_video
 from sloshid.tracking.tracker import LOST_NOTE, TrackSettings, track_video
 from sloshid.video.colors import DEFAULT_FLOAT_COLOR, PRESETS, format_hsv
 from sloshid.video.frames import VIDEO_SUFFIXES
@@ -56,7 +56,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def _first_look(video: Path, roi: tuple[int, int, int, int] | None) -> Path | None:
     """Where nothing could be tracked: `sloshid inspect`'s picture of the first frame, written beside the video as
     VIDEO_inspect.png when no file is there (None when one is, or the picture cannot be made)."""
-    picture = video.with_name(f"{video.stem}_inspect.png")
+    picture = default_picture_path(video)
     if picture.exists() or picture.is_symlink():
         return None
     try:

@@ -510,6 +510,12 @@ def what_it_saw(frame: np.ndarray, roi: tuple[int, int, int, int]) -> tuple[str,
     )
 
 
+def default_picture_path(video: Path) -> Path:
+    """Where `inspect`'s picture of `video` goes when no path is given (and where `track` draws one when it can
+    track nothing): VIDEO_inspect.png beside the video."""
+    return video.with_name(f"{video.stem}_inspect.png")
+
+
 def inspect_video(
     path: str | Path, at: float | None = None, roi: tuple[int, int, int, int] | None = None
 ) -> InspectResult:
