@@ -451,6 +451,11 @@ def mean_line(faces: list[EdgeLine]) -> EdgeLine:
     return EdgeLine(a, x - a * ym, y0, y1, 0.0, sum(f.rows for f in faces))
 
 
+def wall_lines(found: list[list[tuple[EdgeLine, int]]]) -> list[EdgeLine]:
+    """The walls `glass_walls` found, each as the mean line of its faces."""
+    return [mean_line([f for f, _ in faces]) for faces in found]
+
+
 def _place(frame: np.ndarray | Picture, a: float, xm: float, rows: tuple[int, int], sign: int, da: float, do: float):
     """The line of one polarity near (xm, the rows' middle), within slope +-da and +-do px, along which the gradient
     sums to a peak over `rows` (the peak nearest xm: a wall's other face may be stronger), to a fraction of a pixel
@@ -651,7 +656,7 @@ class ContainerTracker:
             self._turn = 0.0
         self._found = found if len(found) == len(seeds) else []
         self._found_bottom = seeds[0].y1 if seeds else 0
-        walls = [mean_line([f for f, _ in faces]) for faces in found]
+        walls = wall_lines(found)
         if not walls and not self._surface:
             walls = glass_edges(frame, seeds, rows)
         if len(walls) < len(seeds):

@@ -26,7 +26,7 @@ from functools import partial
 import cv2
 import numpy as np
 
-from sloshid.tracking.container_ref import EdgeLine, glass_walls, mean_line
+from sloshid.tracking.container_ref import EdgeLine, glass_walls, wall_lines
 from sloshid.tracking.float_angle import fit_colour_model, hsv_mask, membership_map
 from sloshid.tracking.robust import MAD_SIGMA, median, normal_solve, robust_lines, straight_part
 from sloshid.video.colors import PRESETS, HsvRange
@@ -1032,7 +1032,7 @@ def _glass_sides(frame: np.ndarray | Picture, origin: tuple[int, int], sides: tu
     found = glass_walls(frame, seeds, (y0, y1))
     if len(found) < 2:
         return np.full((2, 2), np.nan)
-    walls = [mean_line([f for f, _ in faces]) for faces in found]
+    walls = wall_lines(found)
     return np.array([[w.a, w.b + w.a * Y0 - X0] for w in walls])
 
 
