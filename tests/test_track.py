@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import shutil
 import subprocess
 import sys
 from dataclasses import replace
@@ -418,10 +419,20 @@ def test_bad_input_is_one_sentence_and_leaves_nothing(bad_files, tmp_path, run_c
     assert list(tmp_path.iterdir()) == []  # no temporary leftovers either
 
 
-def test_never_found_names_the_range_and_suggests_overlay(bad_files, tmp_path, run_cli):
-    code, _, err = run_cli("track", bad_files / "full.mp4", "-o", tmp_path / "a.csv", "--float-color", "yellow")
+def test_never_found_names_the_range_and_writes_a_first_look(bad_files, tmp_path, run_cli):
+    # nothing found: the sentence names the range searched and the inspect picture written beside the video; a second
+    # run keeps that picture (never over a file) and suggests inspect or an overlay instead
+    video = tmp_path / "v.mp4"
+    shutil.copyfile(bad_files / "full.mp4", video)
+    picture = tmp_path / "v_inspect.png"
+    code, _, err = run_cli("track", video, "-o", tmp_path / "a.csv", "--float-color", "yellow")
     assert code == 2
-    assert "H 22..35, S 110..255, V 90..255" in err and "--overlay" in err
+    assert "H 22..35, S 110..255, V 90..255" in err and str(picture) in err
+    assert cv2.imread(str(picture)) is not None
+    before = picture.stat().st_mtime_ns
+    code, _, err = run_cli("track", video, "-o", tmp_path / "a.csv", "--float-color", "yellow")
+    assert code == 2 and "--overlay" in err and "sloshid inspect" in err
+    assert picture.stat().st_mtime_ns == before and not (tmp_path / "a.csv").exists()
 
 
 def test_never_found_still_writes_the_overlay_as_diagnosis(bad_files, tmp_path, run_cli):

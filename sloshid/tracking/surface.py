@@ -110,6 +110,10 @@ BOTTOM_ROWS = 6
 cross it above (at 640x480, two to three rows)."""
 LINE_SLOPE_OF_CUBIC = 0.6
 """Least-squares line slope of s^3 over s in [-1, 1]: the cubic's contribution to the best-fit line."""
+PLATEAU_LEVEL = 0.75
+"""Where the 0.5 crossings fit no front edge, those of this membership are tried: the surface ellipse seen from above
+can hold at about 0.5 over an opaque liquid (the sheen of the wall reflected on orange juice), so its back edge and
+the rows of it hide the front edge's 0.5 crossing; the body under the front edge is at 1."""
 FIRST_EDGE_QUALITY = 0.2
 """A fit of the first crossings at least this good is kept; below it, the crossings below them (`_front_below`) are
 taken where they fit better."""
@@ -189,9 +193,9 @@ def auto_liquid_range(frame: np.ndarray, roi: tuple[int, int, int, int]) -> HsvR
     return PRESETS[name].hsv if name else None
 
 
-def _crossings_first(m: np.ndarray, above: np.ndarray, axis: int) -> tuple[np.ndarray, np.ndarray]:
-    """Sub-pixel position of the first 0.5 crossing of m along `axis` (from index 0), and whether there is one;
-    `above` is the same view of m >= 0.5 (as `_inside` gives it)."""
+def _crossings_first(m: np.ndarray, above: np.ndarray, axis: int, level: float = 0.5) -> tuple[np.ndarray, np.ndarray]:
+    """Sub-pixel position of the first `level` crossing of m along `axis` (from index 0), and whether there is one;
+    `above` is the same view of m >= level (as `_inside` gives it for 0.5)."""
     j = np.argmax(above, axis=axis)  # 0 where there is no crossing
     other = np.arange(m.shape[1 - axis])
     jm = np.maximum(j - 1, 0)
@@ -199,7 +203,7 @@ def _crossings_first(m: np.ndarray, above: np.ndarray, axis: int) -> tuple[np.nd
         ok, a, b = (above[j, other] > 0) & (j > 0), m[jm, other], m[j, other]
     else:
         ok, a, b = (above[other, j] > 0) & (j > 0), m[other, jm], m[other, j]
-    frac = np.where(b > a, (0.5 - a) / np.where(b > a, b - a, 1), 0.5)
+    frac = np.where(b > a, (level - a) / np.where(b > a, b - a, 1), 0.5)
     return jm + frac, ok
 
 
@@ -492,32 +496,39 @@ class SurfaceFinder:
         inner = 1 - margin / half
         span = slice(cols[0], cols[-1] + 1, cols[1] - cols[0])  # views, not copies: the columns are evenly spaced
         start = max(0, first - 1)  # no row above the top one crosses; one row of it keeps a crossing there found
-        held_rows = _sustained(inside[start:, span])
-        colour, found = _crossings_first(body[start:, span], held_rows, axis=0)
         reach = 2 * half * (MAX_ELEVATION_SIN if self._held is None else self._held) + 3
-        below, gap = _front_below(body[start:, span], inside[start:, span], held_rows, colour, found, reach)
-        colour += start
-        below += start
         # the elevation and the edge source are chosen in the first frames and then held (a static camera, one dye)
         if self._held is None and len(self._k) >= HOLD_ELEVATION_AFTER:
             self._held = median(np.array(self._k))  # np.median would import numpy.ma (40 ms) in every span worker
             self._edges = self._edge_source()
         du, n = cols - ox, max(10, len(cols) // 3)
-        # per edge source: (s, w, usable columns, dw, the edge rows) of the first crossings and of those below them
-        points = {}
-        for source in ("luma", "colour") if self._edges is None else (self._edges,):
-            edges = []
-            for rows, sure in ((colour, found), (below, gap)) if gap.any() else ((colour, found),):
-                front = refine_on_luma(gray[:, span], rows, found) if source == "luma" else rows
-                dw = front - oy
-                wv = du * ewx + dw * ewy
-                sv = (du * eux + dw * euy - uc) / half
-                usable = _continuous(wv, found & (np.abs(sv) <= inner), cols)
-                usable &= _locally_consistent(wv, usable)
-                edges.append(
-                    (sv, wv, usable, dw, front, np.count_nonzero(sure & usable) / max(int(np.count_nonzero(usable)), 1))
-                )
-            points[source] = tuple(edges)
+
+        def edge_points(level: float) -> dict:
+            """Per edge source: (s, w, usable columns, dw, the edge rows, sure share) of the first crossings of
+            `level` and of those below them."""
+            crop = body[start:, span]
+            liquid = crop >= level if level != 0.5 else inside[start:, span]
+            held_rows = _sustained(liquid)
+            colour, found = _crossings_first(crop, held_rows, axis=0, level=level)
+            below, gap = _front_below(crop, liquid, held_rows, colour, found, reach, level)
+            colour += start
+            below += start
+            points = {}
+            for source in ("luma", "colour") if self._edges is None else (self._edges,):
+                edges = []
+                for rows, sure in ((colour, found), (below, gap)) if gap.any() else ((colour, found),):
+                    front = refine_on_luma(gray[:, span], rows, found) if source == "luma" else rows
+                    dw = front - oy
+                    wv = du * ewx + dw * ewy
+                    sv = (du * eux + dw * euy - uc) / half
+                    usable = _continuous(wv, found & (np.abs(sv) <= inner), cols)
+                    usable &= _locally_consistent(wv, usable)
+                    share = np.count_nonzero(sure & usable) / max(int(np.count_nonzero(usable)), 1)
+                    edges.append((sv, wv, usable, dw, front, share))
+                points[source] = tuple(edges)
+            return points
+
+        points = edge_points(0.5)
         if self._edges is None:  # how much each source's first crossings scatter about a free fit of them
             fits = [_fit_front(p[0][0][p[0][2]], p[0][1][p[0][2]], n) for p in (points["luma"], points["colour"])]
             if all(fits):
@@ -527,6 +538,10 @@ class SurfaceFinder:
         fitted = partial(_fitted, points, n, geom, (X0, Y0), (ytop, uL, uR, du))
         source = self._edges or "luma"
         m = fitted(self._held, source)
+        if not m.found:  # the surface ellipse seen from above reads as half liquid (a pale sheen over a juice)
+            points = edge_points(PLATEAU_LEVEL)
+            fitted = partial(_fitted, points, n, geom, (X0, Y0), (ytop, uL, uR, du))
+            m = fitted(self._held, source)
         if m.found:
             fronts = np.concatenate([front[ok] for _, _, ok, _, front, _ in points[source]])
             m.band, m.luma = _band(fronts, cols, (X0, Y0)), (gray, (X0, Y0))
@@ -755,7 +770,13 @@ def _column_end(centre: np.ndarray, left: np.ndarray, right: np.ndarray) -> int:
 
 
 def _front_below(
-    body: np.ndarray, inside: np.ndarray, held: np.ndarray, first: np.ndarray, found: np.ndarray, reach: float
+    body: np.ndarray,
+    inside: np.ndarray,
+    held: np.ndarray,
+    first: np.ndarray,
+    found: np.ndarray,
+    reach: float,
+    level: float = 0.5,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Each column's last crossing into sustained liquid (`held`, as `_sustained` gives it) within `reach` rows below
     its first one (`first`, sub-pixel; that one where there is none), and where there is one. The surface ellipse seen from above can read as
@@ -776,7 +797,7 @@ def _front_below(
     has = gap.any(axis=0) & found
     q = np.minimum(base + last + 2, rows - 1)
     a, b = body[q - 1, cols[0]], body[q, cols[0]]
-    frac = np.where(b > a, (0.5 - a) / np.where(b > a, b - a, 1), 0.5)
+    frac = np.where(b > a, (level - a) / np.where(b > a, b - a, 1), 0.5)
     return np.where(has, q - 1 + np.clip(frac, 0, 1), first), has
 
 
