@@ -99,12 +99,17 @@ def masked_median(values: np.ndarray, mask: np.ndarray) -> np.ndarray:
     return median
 
 
-def normal_solve(basis: np.ndarray, y: np.ndarray, rows: np.ndarray | None = None) -> np.ndarray | None:
+def normal_solve(
+    basis: np.ndarray, y: np.ndarray, rows: np.ndarray | None = None, ridge: np.ndarray | None = None
+) -> np.ndarray | None:
     """Least-squares coefficients by the normal equations (over the `rows` mask when given), or None when the basis
-    is singular. The mask weights the sums instead of copying the rows: the robust fits call this every pass."""
+    is singular. The mask weights the sums instead of copying the rows: the robust fits call this every pass.
+    `ridge` is added to the normal matrix's diagonal: a zero-mean prior on each coefficient (noise over prior
+    variance)."""
     bt = basis.T if rows is None else basis.T * rows
+    normal = bt @ basis if ridge is None else bt @ basis + np.diag(ridge)
     try:
-        return np.linalg.solve(bt @ basis, bt @ y)
+        return np.linalg.solve(normal, bt @ y)
     except np.linalg.LinAlgError:
         return None
 
