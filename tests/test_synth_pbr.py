@@ -216,3 +216,20 @@ def test_opaque_juice_seen_from_above_is_tracked(run_cli, tmp_path):
     tracked, truth = read_csv(tmp_path / "a.csv"), read_csv(tmp_path / "j_truth.csv")
     assert tracked["valid"][1:].all()
     assert np.abs(tracked["angle_deg"] - truth["surface_angle_deg"])[1:].max() < 0.4
+
+
+@pytest.mark.parametrize("seed", [1021, 1051])
+def test_a_still_surface_is_not_turned_by_a_second_mode_it_does_not_have(run_cli, tmp_path, seed):
+    # The corpus's still21 (a faint yellow dye in a square bottle, clutter, a hard light) and still51 (a red dye, a
+    # table edge behind it, the camera 12 deg above): a free cubic in the front edge's fit read the odd structure near
+    # the walls as a second mode and its share of the line turned the surface by 1.21 and 0.56 deg; with the second
+    # mode's prior the valid frames' median error is 0.05-0.06 deg (0.2 leaves room for the codec and the noise)
+    clip = tmp_path / "s.mp4"
+    still = ("--amplitude", "0", "--spp", "4", "--duration", "1.0", "--fps", "15")
+    assert run_cli("synth", clip, "--renderer", "pbr", "--scene-seed", seed, "--scene", "surface", *still)[0] == 0
+    code, _, err = run_cli("track", clip, "--target", "surface", "-o", tmp_path / "a.csv")
+    assert code == 0, err
+    tracked, truth = read_csv(tmp_path / "a.csv"), read_csv(tmp_path / "s_truth.csv")
+    ok = tracked["valid"].astype(bool)
+    assert ok.mean() > 0.9
+    assert abs(np.median((tracked["angle_deg"] - truth["surface_angle_deg"])[ok])) < 0.2
