@@ -13,7 +13,14 @@ import pytest
 
 from sloshid.core.errors import UserError
 from sloshid.identification.estimator import Identifier, IdentSettings, NotFittedError
-from sloshid.identification.pt2fit import CODEC_ZETA_SHARE, WindowData, encoder_hold, fit_pt2, zero_columns
+from sloshid.identification.pt2fit import (
+    CODEC_ZETA_SHARE,
+    FLOAT_CODEC_ZETA_SHARE,
+    WindowData,
+    encoder_hold,
+    fit_pt2,
+    zero_columns,
+)
 from sloshid.identification.signals import load_signal, make_signal
 from sloshid.model.pendulum import TABLE_I, SloshParams, linear_tf
 from sloshid.synthetic.decays import free_decay, free_decay_signal, tracker_noise
@@ -403,9 +410,9 @@ def test_tracked_signals_fit_the_encoder_hold(tmp_path):
     assert hold.width == pytest.approx(0.05, abs=0.005) and hold.width_se < 0.005
     assert f1.value == pytest.approx(2.5, rel=2e-4) and z1.value == pytest.approx(0.04, rel=0.01)
     assert f1.ci95[0] <= 2.5 <= f1.ci95[1] and z1.ci95[0] <= 0.04 <= z1.ci95[1]
-    # zeta's error holds the shift from the plain fit and 1 % of zeta for the swings a codec shrinks (plain rendered
-    # floats at CRF 16-20: the interval had covered the truth in 5 of 12)
-    assert z1.stderr**2 >= hold.shift[1] ** 2 + (CODEC_ZETA_SHARE * z1.value) ** 2
+    # zeta's error holds the shift from the plain fit and a float's 2.5 % of zeta for the swings a codec shrinks
+    # (plain rendered floats at CRF 16-20: the interval had covered the truth in 5 of 12 without any share)
+    assert z1.stderr**2 >= hold.shift[1] ** 2 + (FLOAT_CODEC_ZETA_SHARE * z1.value) ** 2
     assert surface.parameters["f_hz"].value == f1.value  # one model for both targets
     doc = fl.to_dict()["fit"]["encoder_hold"]
     assert doc["half_width"] == hold.width and doc["unit"] == "deg"
@@ -530,6 +537,24 @@ def test_the_report_plots_draw_the_resonance_peak_and_leave_gaps_empty():
     plt.close("all")
 
 
+def test_a_tracked_float_zeta_interval_allows_for_the_codec_losing_its_small_swings():
+    # what H.264 CRF 20 did to the painted float of benchmarks/track_pbr.py (30 fps, 3.44 Hz, zeta 0.07, 5 deg): the
+    # tracked swing's gain falls from 1.00 above 2.2 deg to 0.87 below 1 deg (measured 0.86-0.87; 1.00 losslessly),
+    # here on an exact decay with 0.04 deg of noise (seeded). zeta reads 6 % high (the bias stays in the value; seeds
+    # 0-5: +6 to +11 %); the interval with 1 % of zeta for the codec, which a surface keeps, ends above the truth
+    # (measured 0.0702), with a float's 2.5 % it holds it (0.0690; seeds 0-5: 5 of 6 covered, 2 of 6 at 1 %)
+    t, y = free_decay(3.44, 0.07, 30, duration_s=3.6, amplitude=5, noise_std=0.0, seed=2, lead_in_s=0.4)
+    swing = 5 * np.exp(-0.07 * 2 * math.pi * 3.44 * np.clip(t - 0.4, 0, None))
+    shrunk = (0.87 + 0.13 * np.clip((swing - 1.0) / 1.2, 0, 1)) * y + np.random.default_rng(2).normal(0, 0.04, y.size)
+    sig = make_signal(t, shrunk, "angle_deg", "deg", "codec")
+    fl, surface = (Identifier().fit(replace(sig, tracked=k)).result.parameters["zeta"] for k in ("float", "surface"))
+    assert fl.value == surface.value > 0.07 * 1.05  # the same fit; only the allowance differs
+    assert fl.ci95[0] <= 0.07 <= fl.ci95[1] and surface.ci95[0] > 0.07
+    assert fl.stderr**2 == pytest.approx(
+        surface.stderr**2 + (FLOAT_CODEC_ZETA_SHARE**2 - CODEC_ZETA_SHARE**2) * fl.value**2, rel=1e-9
+    )
+
+
 def test_a_clipped_record_is_not_given_a_good_damping():
     # a 3 Hz decay clipped at +-2 (a saturated sensor): 76 samples on the limits, zeta 31 % low with its interval
     # excluding the truth and only "the model misfits the mode" said (a trial)
@@ -556,7 +581,7 @@ def test_the_codec_share_of_zeta_does_not_hide_runs_that_disagree(tmp_path):
     assert res.between is not None and res.between.zeta.disagree
     z = res.parameters["zeta"]
     assert z.ci95[0] <= 0.030 and z.ci95[1] >= 0.0306  # both runs' damping inside the joint interval
-    assert z.stderr >= CODEC_ZETA_SHARE * z.value
+    assert z.stderr >= FLOAT_CODEC_ZETA_SHARE * z.value  # tracked floats
 
 
 def test_a_quantised_record_is_not_called_clipped_unless_it_is():

@@ -1546,6 +1546,30 @@ def test_consumer_bit_rate_float_zeta_interval_covers_the_truth(tmp_path):
     assert got["f_hz"].value == pytest.approx(want["f_hz"].value, rel=0.003)
 
 
+@pytest.mark.slow
+def test_painted_benchmark_float_zeta_interval_covers_the_truth(tmp_path):
+    # benchmarks/track_pbr.py's painted float decay (30 fps, 5 deg, zeta 0.07, H.264 CRF 20, seed 37): the decoded
+    # pictures lose the small swings (gain 1.00 above 2 deg, 0.86 below 1 deg; lossless: zeta +0.3 %), and zeta reads
+    # 11 % high. Its interval with 1 % of zeta for the codec ended 0.4 % above the truth (measured); a float's 2.5 %
+    # holds it (-0.8 .. +22.7 %, measured). f is kept (measured +0.06 %; 0.3 % is the target)
+    s = SynthSettings(
+        noise_sigma=4.0,
+        blur_px=0.8,
+        quality=20.0,
+        duration_s=4.0,
+        tap_s=0.4,
+        amplitude_deg=5.0,
+        float_rounded=True,
+        seed=37,
+    )
+    tracked, exact = _tracked_and_truth(tmp_path, s, TrackSettings(smooth=False))
+    want = exact.result.parameters
+    got = Identifier().fit(tracked).result.parameters
+    assert got["zeta"].value > want["zeta"].value * 1.05  # the codec's bias, which stays in the value
+    assert got["zeta"].ci95[0] <= want["zeta"].value <= got["zeta"].ci95[1]
+    assert got["f_hz"].value == pytest.approx(want["f_hz"].value, rel=0.003)
+
+
 def test_a_losslessly_coded_float_keeps_the_dynamics_without_any_correction(tmp_path):
     # the tracker's own share of the dynamics error: the track_accuracy benchmark's calibration clip 10 (a plain green
     # bar, noise 6; zeta +3.1 % at H.264 CRF 18, whose decoded picture shrinks the late small swings), shortened and at

@@ -37,6 +37,7 @@ from sloshid.identification.pt2fit import (
     PT2Fit,
     WindowData,
     autocorrelation,
+    codec_zeta_share,
     fit_pt2,
     fit_pt2_hold,
     fit_pt2_shrink,
@@ -654,7 +655,7 @@ class Identifier:
             fit = fit_pt2_hold(wdata, fit)
         fit, between = between_signals(wdata, fit, [2 * math.pi * sp.peak_f_hz for sp in spectra])
         if fit.hold is not None:
-            fit = with_codec_share(fit_pt2_shrink(wdata, fit))
+            fit = with_codec_share(fit_pt2_shrink(wdata, fit), codec_zeta_share([s.tracked for s in sigs]))
         self.result_ = self._assemble(
             sigs, windows, parts, spectra, [s.noise_std for s in fullspec], fit, second, prior, between
         )
@@ -784,8 +785,9 @@ class Identifier:
                 "its half-width fitted with it. A codec also takes about the same angle off every swing, so it "
                 "shrinks the smallest swings most for their size and the decay looks faster; no model of that held "
                 "on all rendered clips, so zeta's interval holds how far zeta moves in a refit with such a shrink and "
-                "with a shrink one residual rms larger. At H.264 CRF 23 (60-120 fps) rendered floats' zeta came out "
-                "up to 13 % high, inside intervals of +-7 to +-25 %; film at a high bit rate (the documentation's "
+                "with a shrink one residual rms larger, and a share of zeta (2.5 % for a float, 1 % for a surface). "
+                "At H.264 CRF 23 (60-120 fps) rendered floats' zeta came out up to 13 % high, inside intervals of +-7 "
+                "to +-25 %, and at CRF 16-23 and 30 fps 4-17 % high; film at a high bit rate (the documentation's "
                 "design note: identifying from compressed video)."
             )
         for note in (
