@@ -122,6 +122,10 @@ PLATEAU_LEVEL = 0.75
 """Where the 0.5 crossings fit no front edge, those of this membership are tried: the surface ellipse seen from above
 can hold at about 0.5 over an opaque liquid (the sheen of the wall reflected on orange juice), so its back edge and
 the rows of it hide the front edge's 0.5 crossing; the body under the front edge is at 1."""
+QUALITY_HALF_PX = 80.0
+"""The front edge's scatter about its fit counts against a frame's quality in pixels of a surface this many pixels
+half-wide, and in proportion on a wider one: a clip scaled up three times (edges three pixels wide) scattered 0.7-1.1
+px where its original did 0.36-0.49, and every frame fell under the valid quality."""
 FIRST_EDGE_QUALITY = 0.2
 """A fit of the first crossings at least this good is kept; below it, the crossings below them (`_front_below`) are
 taken where they fit better."""
@@ -581,7 +585,8 @@ def _fitted(points, min_points, geom, origin, where, held, source) -> SurfaceMea
         fit = _fit_front(s[ok], wv[ok], min_points, None if held is None else held * half)
         if fit is not None:
             # below the first crossings, a column without a gap may still show the back edge: it counts as unsure
-            score = (0.5 + 0.5 * sure) * np.count_nonzero(fit[1]) / ok.size * min(1.0, max(0.0, 1.5 - fit[2]))
+            rms = fit[2] * min(1.0, QUALITY_HALF_PX / half)  # a larger picture's edge spreads over more pixels
+            score = (0.5 + 0.5 * sure) * np.count_nonzero(fit[1]) / ok.size * min(1.0, max(0.0, 1.5 - rms))
             if best is None or (best[0] < FIRST_EDGE_QUALITY and score > best[0]):
                 best = (score, fit, ok, dw)
     if best is None:
