@@ -323,6 +323,10 @@ frame; FOLLOW_PX its sideways shift: a container swung by 20 deg at 0.3 Hz turns
 FOLLOW_PX = 4.0
 WALL_GAP = 8
 """Rows without a point that a run of a wall's edge bridges (a faint stretch of glass, a highlight)."""
+RUN_WIDTH_PX = 960.0
+"""A wall's run keeps the edge points within a pixel of its line in a picture this wide, and proportionally more in a
+wider one (the real frame at its native 1920 px: the glass's runs broke at half their length and another edge won,
+turning the container's angle by 2.5 deg at one of seven rotations)."""
 
 
 def _longest_run(rows: np.ndarray) -> tuple[int, float, float]:
@@ -409,6 +413,7 @@ def _longest_edges(frame: np.ndarray | Picture, seed: EdgeLine, ys: np.ndarray, 
     grey = frame.luma[box] if isinstance(frame, Picture) else cv2.cvtColor(frame[box], cv2.COLOR_BGR2GRAY)
     r, x, sg = _edge_points_2d(grey)
     dy, dx = (r + ys[0] - yc).astype(float), x + x0 - xc
+    tol = max(1.0, w / RUN_WIDTH_PX)  # an edge's points scatter in proportion to the picture's size
     found = []
     for sign in (1, -1):
         best = (0, 0.0, 0.0, 0, 0.0, 0.0)
@@ -418,10 +423,11 @@ def _longest_edges(frame: np.ndarray | Picture, seed: EdgeLine, ys: np.ndarray, 
         # another (or through a textured liquid) gathers points, but in pieces
         for cell in np.argsort(votes, axis=None)[::-1][:WALL_CANDIDATES]:
             k, j = np.unravel_index(cell, votes.shape)
-            near = np.abs(dx[on] - (j - reach) - slopes[k] * dy[on]) < 1.0
+            a, o = float(slopes[k]), float(j - reach)
+            near = np.abs(dx[on] - o - a * dy[on]) < tol
             run = _longest_run(np.unique(dy[on][near]))
             if run[0] > best[0]:
-                best = (run[0], float(slopes[k]), float(j - reach), sign, run[1] + yc, run[2] + yc)
+                best = (run[0], a, o, sign, run[1] + yc, run[2] + yc)
         found.append(best)
     longest = max(f[0] for f in found)
     faces = []
