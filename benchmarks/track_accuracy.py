@@ -289,7 +289,7 @@ def _identified(signal: Signal) -> dict:
     if fit.hold is not None:
         se = np.sqrt(np.clip(np.diag(fit.hold.plain_cov), 0, None))
         scale = np.array([2 * math.pi, 1.0])
-        before = (np.array([fit.omega_rad_s, fit.zeta]) - fit.hold.shift) / scale
+        before = (np.array([fit.omega_rad_s, fit.zeta]) - fit.hold.weight * fit.hold.shift) / scale
         for key, v, s_e in zip(("f_hz", "zeta"), before, se / scale):
             out[f"{key}_uncorrected"] = (float(v), (float(v - Z95 * s_e), float(v + Z95 * s_e)))
         out["hold_half_width_deg"] = (fit.hold.width, fit.hold.width_se)

@@ -319,8 +319,10 @@ class IdentResult:
                 "Jacobian; delta method for derived values; normal 95 % quantile"
                 + (
                     "; the fitted encoder hold's width is one of the parameters, and the shift from a plain fit is "
-                    "added as a systematic standard error; so are zeta's shifts in a refit with the codec's shrink of "
-                    "every swing and with that shrink one residual rms larger"
+                    "added as a systematic standard error; the values are the plain and held fits averaged by the "
+                    "hold's Akaike weight, the interval widened to hold the held fit's; zeta's shifts in a refit "
+                    "with the codec's shrink of every swing and with that shrink one residual rms larger are "
+                    "systematic errors too"
                     if self.fit.hold is not None
                     else ""
                 ),
@@ -332,6 +334,7 @@ class IdentResult:
                     "restarts_at_key_frames": self.fit.hold.restarts,
                     "unit": self.signals[0].unit,
                     "shift_from_plain_fit": dict(zip(("omega_rad_s", "zeta"), self.fit.hold.shift.tolist())),
+                    "weight": self.fit.hold.weight,
                     "shrink": self.fit.hold.shrink,
                     "zeta_shift_from_shrink": self.fit.hold.shrink_shift,
                     "zeta_hidden_shrink": self.fit.hold.shrink_hidden,
@@ -387,7 +390,7 @@ class IdentResult:
             lines.append(
                 f"  encoder hold (fitted, video-tracked): half-width {h.width:.3g} ± {h.width_se:.2g} "
                 f"{self.signals[0].unit}, restarting at {h.restarts} key frames; f {shift_f:+.3f} %, zeta "
-                f"{shift_z:+.2f} % against a plain fit"
+                f"{shift_z:+.2f} % against a plain fit, taken at weight {h.weight:.2f} by the evidence for the hold"
             )
             lines.append(
                 f"  codec shrink (refit, widens zeta's interval): {h.shrink:.3g} {self.signals[0].unit} off every "
@@ -782,7 +785,8 @@ class Identifier:
         if fit.hold is not None:
             notes.append(
                 "tracked from video: the mode was fitted as seen through the encoder's hold of slowly moving edges, "
-                "its half-width fitted with it. A codec also takes about the same angle off every swing, so it "
+                "its half-width fitted with it; tracking noise alone also fits a small hold, so the values lie "
+                "between the plain and the held fit's by the evidence for the hold. A codec also takes about the same angle off every swing, so it "
                 "shrinks the smallest swings most for their size and the decay looks faster; no model of that held "
                 "on all rendered clips, so zeta's interval holds how far zeta moves in a refit with such a shrink and "
                 "with a shrink one residual rms larger, and a share of zeta (2.5 % for a float, 1 % for a surface). "

@@ -89,6 +89,8 @@ class HoldFit:
     """(omega, zeta) of the fit with the hold minus those of the plain fit; also a systematic standard error in cov."""
     plain_cov: np.ndarray
     """2x2 covariance of (omega, zeta) of the plain fit, for comparison."""
+    weight: float = 1.0
+    """Akaike weight of the held model against the plain one (`hold_weight`): the values are plain + weight * shift."""
     restarts: int = 0
     """How many times the hold restarted at a key frame inside the windows (0: no key frames known)."""
     shrink: float = 0.0
@@ -585,20 +587,40 @@ def fit_pt2_hold(windows: list[WindowData], plain: PT2Fit, keep: int = len(HOLD_
     enters omega's and zeta's through the joint Newey-West covariance. A codec is no perfect hold, so the shift from
     the plain fit is added as a systematic standard error: the distance between the two models is what is known
     about the model's own error (on rendered clips the hold explains most, not all, of the tracking error). The
-    codec's shrinking of the swings is allowed for after (`fit_pt2_shrink`, `with_codec_share`)."""
+    values are the two fits averaged by the evidence for the hold (`hold_weight`), since tracking noise alone also
+    fits a hold and moves f up; the curve and residuals stay the held fit's. The codec's shrinking of the swings is
+    allowed for after (`fit_pt2_shrink`, `with_codec_share`)."""
     model = _HeldModel(windows, plain.drift, 2 if plain.second else 1, plain.slow_s)
     modes, lower, upper, widest = _refit_bounds(windows, plain)
     rms = float(np.sqrt(np.mean(np.concatenate(plain.residuals) ** 2)))
     starts = [(*modes, min(f * rms, widest)) for f in HOLD_STARTS]
     fit = _solve(model, starts, (*lower, 0.0), (*upper, widest), keep, plain=plain)
     hold = _hold(fit)
+    weight = hold_weight(hold.width, hold.width_se)
+    restarts = sum(int(np.sum(w.restarts)) for w in windows if w.restarts is not None)
+    cov = fit.cov + np.outer(hold.shift, hold.shift)
+    # the averaged value lies (1 - weight) |shift| from the held fit's: its interval is widened by that much on each
+    # side, so that it holds the held fit's interval (which covers the truth whether there is a hold or not)
+    sd = np.sqrt(np.diag(cov))
+    factor = 1 + (1 - weight) * np.abs(hold.shift) / np.where(sd > 0, Z95 * sd, np.inf)
     return replace(
         fit,
-        hold=replace(hold, restarts=sum(int(np.sum(w.restarts)) for w in windows if w.restarts is not None)),
-        cov=fit.cov + np.outer(hold.shift, hold.shift),
+        omega_rad_s=plain.omega_rad_s + weight * float(hold.shift[0]),
+        zeta=plain.zeta + weight * float(hold.shift[1]),
+        hold=replace(hold, restarts=restarts, weight=weight),
+        cov=cov * np.outer(factor, factor),
         # a width of zero is a signal without a hold, not a search that ran out of room
         at_bound=tuple(n for n in fit.at_bound if n != "hold" or hold.width > widest / 2),
     )
+
+
+def hold_weight(width: float, width_se: float) -> float:
+    """Akaike weight of the held model against the plain one, 1 / (1 + exp(1 - z^2 / 2)), z^2 = (width / its Newey-West
+    standard error)^2 standing for the likelihood ratio, which white-noise sums of squares overstate in correlated
+    tracking noise; tracking noise alone fits a small hold and moves f up (docs/design/zeta_from_video.md)."""
+    if width_se <= 0:
+        return 1.0 if width > 0 else 0.0
+    return 1.0 / (1.0 + math.exp(1.0 - 0.5 * (width / width_se) ** 2))
 
 
 def _hold(fit: PT2Fit) -> HoldFit:
