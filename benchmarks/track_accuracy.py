@@ -468,7 +468,8 @@ def _dynamics_markdown(rows: list[dict]) -> list[str]:
         "",
         "Seeded 5 s clips, tap at 0.5 s. Before = the plain PT2 fit with its HAC interval; after = what identify "
         "reports for a tracked video trace: the mode fitted as seen through an encoder hold whose half-width is fitted "
-        "with it (float and surface alike), the interval from the joint covariance. Each float clip is also "
+        "with it (float and surface alike), averaged with the plain fit by the hold's Akaike weight, the interval from "
+        "the joint covariance widened to hold the held fit's. Each float clip is also "
         "rendered losslessly (the same clip as H.264 CRF 0: same look, noise and frame rate) and identified after "
         "tracking alike: its errors are the tracker's own, the difference to the coded clip's is the codec's.",
     ]
