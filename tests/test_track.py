@@ -41,6 +41,7 @@ from sloshid.tracking.surface import (
     _front_below,
     _inside,
     _sustained,
+    steady_axes,
 )
 from sloshid.tracking.surface_track import SurfaceStep, _spikes
 from sloshid.tracking.tracker import TRACK_COLUMNS, TrackResult, TrackSettings, track_video
@@ -666,6 +667,70 @@ def test_surface_angle_and_wall_heights_match_truth(surface_video, reference, co
     # the dye chosen automatically is named (a trial's orange robot link was tracked as the liquid without a word)
     assert res.dye == f"{SURFACE['liquid_color']} (chosen from the first frame)" and res.to_dict()["dye"] == res.dye
     assert res.summary().endswith(f", dye {res.dye}")
+
+
+def _axes(a_left: float, a_right: float, x_left: float, x_right: float, o: tuple[float, float]) -> tuple:
+    """Container axes as `_container_axes` gives them (frame coordinates): walls of these slopes through these x at the
+    bottom centre's row o[1], and the unit vectors from their mean slope."""
+    a = 0.5 * (a_left + a_right)
+    n = math.hypot(1, a)
+    walls = ((a_left, x_left - a_left * o[1]), (a_right, x_right - a_right * o[1]))
+    return walls, np.array(o, float), np.array([1.0, -a]) / n, np.array([-a, -1.0]) / n
+
+
+def test_steady_axes_are_the_median_of_a_standing_container_and_none_for_a_moving_one():
+    # a sloshing liquid's sides turn the walls read along them by degrees from frame to frame (0.9 deg here, as on the
+    # path-traced tumbler of benchmarks/track_pbr.py's decay0); the bottom's centre stays within hundredths of a pixel
+    rng = np.random.default_rng(3)
+    n = 100  # a 3.3 s clip at 30 fps: the frame-to-frame noise is then known to a tenth (`steady_angle`)
+    jitter = rng.normal(0, [0.015, 0.015, 0.5, 0.5, 0.02, 0.02], (n, 6))
+    standing = [_axes(0.02 + j[0], -0.03 + j[1], 100 + j[2], 300 + j[3], (200 + j[4], 240 + j[5])) for j in jitter]
+    (wl, wr), centre, e_u, e_w = steady_axes(standing)
+    # the median of 100 draws of sd 0.015 is within 0.005 of the truth in 99.9 % of draws (1.25 sd / 10 x 3.3)
+    assert abs(wl[0] - 0.02) < 0.005 and abs(wr[0] + 0.03) < 0.005
+    assert abs(wl[0] * 240 + wl[1] - 100) < 0.25 and abs(wr[0] * 240 + wr[1] - 300) < 0.25
+    assert np.allclose(centre, (200, 240), atol=0.02) and np.isclose(e_u @ e_w, 0)
+    # a container slid by a robot (its bottom 0.2 px further each frame) or turned (0.05 deg a frame) moved: no median
+    k = np.arange(n)
+    slid = [
+        _axes(0.02 + j[0], -0.03 + j[1], 100 + j[2] + 0.2 * i, 300 + j[3] + 0.2 * i, (200 + 0.2 * i, 240))
+        for i, j in zip(k, jitter)
+    ]
+    turned = [
+        _axes(0.02 + j[0] + 0.0009 * i, -0.03 + j[1] + 0.0009 * i, 100 + j[2], 300 + j[3], (200, 240))
+        for i, j in zip(k, jitter)
+    ]
+    assert steady_axes(slid) is None and steady_axes(turned) is None
+    # axes held over frames count once: 100 frames holding 10 measurements are too few to tell
+    assert steady_axes([standing[i // 10] for i in k]) is None
+
+
+def test_a_surface_measured_again_in_turned_axes_keeps_its_angle_in_the_picture(surface_video):
+    # a frame's front edge refitted in other axes (what a standing container's frames get: the median of theirs) is
+    # the same picture: its own axes give the same measurement, and axes turned by 1 deg turn the container's angle by
+    # 1 deg while the surface's angle in the picture stays (the line is read off the same edge points)
+    path, _ = surface_video
+    frames = [f.to_ndarray(format="bgr24") for f in av.open(str(path)).decode(video=0)][:48]
+    finder = SurfaceFinder(None, (0, 0, frames[0].shape[1], frames[0].shape[0]))
+    for frame in frames:
+        m = finder.measure(frame)
+    assert m.found and m.in_axes is not None
+    held, source = finder.settled()
+    same = m.in_axes(m.axes, held, source)
+    assert math.isclose(same.rel_slope, m.rel_slope, abs_tol=1e-9) and math.isclose(same.left_w, m.left_w, abs_tol=1e-9)
+    # turned about the surface's row: the walls stay where the surface meets them (turned about the bottom they would
+    # move the surface ellipse's centre there, and 1.5 px of it turned the line by 0.15 deg)
+    (wl, wr), o, _, _ = m.axes
+    turn, y = math.radians(1.0), m.y_px
+    walls = [a * o[1] + b + turn * (o[1] - y) for a, b in (wl, wr)]
+    turned = m.in_axes(_axes(wl[0] + turn, wr[0] + turn, *walls, o), held, source)
+    assert turned.found and abs(turned.container_angle_deg - m.container_angle_deg - 1.0) < 0.02
+
+    def seen(x):
+        return math.degrees(math.atan(x.rel_slope)) + x.container_angle_deg
+
+    # measured: 0.007 deg (the turned axes move the columns near the walls in or out of the fit)
+    assert abs(seen(turned) - seen(m)) < 0.05
 
 
 def test_surface_csv_identifies_like_its_truth(surface_video, tmp_path, run_cli):

@@ -26,7 +26,7 @@ from functools import partial
 import cv2
 import numpy as np
 
-from sloshid.tracking.container_ref import EdgeLine, glass_walls, wall_lines
+from sloshid.tracking.container_ref import EdgeLine, glass_walls, steady_angle, wall_lines
 from sloshid.tracking.float_angle import fit_colour_model, hsv_mask, membership_map
 from sloshid.tracking.robust import MAD_SIGMA, median, normal_solve, robust_lines, straight_part
 from sloshid.video.colors import PRESETS, HsvRange
@@ -170,6 +170,11 @@ class SurfaceMeasurement:
     refit: Callable[[float, str], SurfaceMeasurement] | None = None
     """Before the camera's elevation is held: this frame's measurement again with a given elevation (k / R) and edge
     source ("luma" or "colour"), so that the first frames can be measured as the later ones once they are held."""
+    axes: tuple | None = None
+    """The container's axes it was measured in (as `_container_axes` returns them, in frame coordinates)."""
+    in_axes: Callable[[tuple, float | None, str], SurfaceMeasurement] | None = None
+    """This frame's front edge measured again in other axes (frame coordinates) with a given elevation and edge
+    source: a container that stood still is measured in the median of its frames' axes (`steady_axes`)."""
 
 
 def auto_liquid_preset(frame: np.ndarray, roi: tuple[int, int, int, int]) -> tuple[str | None, str | None]:
@@ -558,6 +563,8 @@ class SurfaceFinder:
             fronts = np.concatenate([front[ok] for _, _, ok, _, front, _ in points[source]])
             m.band, m.luma = _band(fronts, cols, (X0, Y0)), (gray, (X0, Y0))
             m.refit = fitted if self._held is None else None
+            m.axes = _shifted(geom, (X0, Y0))
+            m.in_axes = partial(_in_axes, points, n, (X0, Y0), ytop, cols)
         return m
 
     def _edge_source(self) -> str:
@@ -621,6 +628,65 @@ def _fitted(points, min_points, geom, origin, where, held, source) -> SurfaceMea
         (line_l, line_r, pl, pr),
         low=low,
     )
+
+
+def _in_axes(points, min_points, origin, ytop, cols, axes, held, source) -> SurfaceMeasurement:
+    """The front edge points (`_surface`'s, found in the crop at `origin`) fitted again in other axes (`axes`, frame
+    coordinates): the same image points, their (s, w) and the walls at the liquid's top anew."""
+    X0, Y0 = origin
+    geom = _shifted(axes, (-X0, -Y0))
+    ((aL, bL), (aR, bR)), o, e_u, e_w = geom
+    (ox, oy), (eux, euy), (ewx, ewy) = (map(float, v) for v in (o, e_u, e_w))
+    uL = (aL * ytop + bL - ox) * eux + (ytop - oy) * euy
+    uR = (aR * ytop + bR - ox) * eux + (ytop - oy) * euy
+    half, uc = 0.5 * (uR - uL), 0.5 * (uR + uL)
+    if half < 10:
+        return SurfaceMeasurement(False, liquid=True)
+    inner = 1 - max(4.0, WALL_MARGIN * 2 * half) / half
+    du = cols - ox
+    moved = {}
+    for name, edges in points.items():
+        again = []
+        for _, _, usable, _, front, share in edges:
+            dw = front - oy
+            sv = (du * eux + dw * euy - uc) / half
+            again.append((sv, du * ewx + dw * ewy, usable & (np.abs(sv) <= inner), dw, front, share))
+        moved[name] = tuple(again)
+    m = _fitted(moved, min_points, geom, origin, (ytop, uL, uR, du), held, source)
+    if m.found:
+        m.axes = axes
+    return m
+
+
+def steady_axes(axes: list[tuple]) -> tuple | None:
+    """The median of the axes of a container that stood still (frame coordinates), or None when they show a move.
+
+    A sloshing liquid's sides, from which the axes are read, turn the walls by up to degrees from frame to frame
+    (a meniscus, the light below the surface, a label cutting them), and each frame's surface was fitted in its own:
+    its line and wall heights follow the sides. A container that stands still has one pair of walls: the median of
+    its frames' (each wall's slope and its place at the bottom, the bottom's centre) when the walls' mean slope and
+    the bottom's centre scatter about their medians by no more than their frame-to-frame noise (`steady_angle`), the
+    centre also when by no more than STILL_PX. Axes held from an earlier frame count once."""
+    axes = [
+        g for n, g in enumerate(axes) if n == 0 or not np.array_equal(g[1], axes[n - 1][1]) or g[0] != axes[n - 1][0]
+    ]
+    if len(axes) < 20:
+        return None
+    aL, bL, aR, bR = (np.array([g[0][i][j] for g in axes]) for i in (0, 1) for j in (0, 1))
+    ox, oy = (np.array([g[1][i] for g in axes]) for i in (0, 1))
+    ok = np.ones(len(axes), bool)
+    angle = np.degrees(np.arctan(0.5 * (aL + aR)))
+    if steady_angle(angle, ok) is None or any(
+        steady_angle(v, ok) is None and MAD_SIGMA * median(np.abs(v - median(v))) > STILL_PX for v in (ox, oy)
+    ):
+        return None
+    yb = median(oy)
+    a_l, a_r = median(aL), median(aR)
+    x_l, x_r = median(aL * yb + bL), median(aR * yb + bR)
+    a = 0.5 * (a_l + a_r)
+    norm = math.hypot(1, a)
+    e_w, e_u = np.array([-a, -1.0]) / norm, np.array([1.0, -a]) / norm
+    return ((a_l, x_l - a_l * yb), (a_r, x_r - a_r * yb)), np.array([median(ox), yb]), e_u, e_w
 
 
 def _anchor(body: np.ndarray, geom: tuple, origin: tuple[int, int]) -> tuple | None:

@@ -27,7 +27,7 @@ from sloshid.tracking.overlay import draw_surface_overlay
 from sloshid.tracking.repeats import REPEAT_SHARE, Copies, line_regions, repeated_share
 from sloshid.tracking.robust import MAD_SIGMA, median, percentile_span
 from sloshid.tracking.rows import VALID_QUALITY, SurfaceGeometry, TrackRow, step_row
-from sloshid.tracking.surface import SurfaceFinder, SurfaceMeasurement
+from sloshid.tracking.surface import SurfaceFinder, SurfaceMeasurement, steady_axes
 from sloshid.video.colors import HsvRange
 
 CENTRE_SHARE = 0.05
@@ -56,6 +56,7 @@ class SurfaceStep:
         self.pending: list[tuple] = []  # (frame in the span, measurement again with a held elevation, walls measured)
         self.walls_record = WallsRecord()  # by frame in the span
         self.held_surfaces: dict[int, SurfaceMeasurement] = {}  # the frames whose walls were held: their surface
+        self.measured: list[tuple] = []  # (frame in the span, its axes, its refit in other axes, walls measured)
         self.copies = Copies()
         self.picture_width: int | None = None  # for the perspective correction (`perspective_deg`)
 
@@ -94,6 +95,8 @@ class SurfaceStep:
         self.previous, self.previous_luma = frame, m.luma
         if m.refit is not None:  # measured before the camera's elevation is held: again at the span's end
             self.pending.append((len(self.repeated), m.refit, cm))
+        if m.in_axes is not None:  # measured in this frame's axes: in the span's, if the container stood still
+            self.measured.append((len(self.repeated), m.axes, m.in_axes, cm))
         # held walls are interpolated at the span's end, from a copy of what `_row` reads (it changes `m`)
         if cm is not None:
             self.walls_record.add(len(self.repeated), cm)
@@ -133,7 +136,9 @@ class SurfaceStep:
         on a yellow liquid with a strong reflection a few tilted the line by a degree and moved a wall by 20 px.
         And turn the frames whose container walls were held onto the container angle interpolated between the
         measurements that began and ended the hold (the held one when the walls were lost at its end, or the span
-        ended). Overlay frames show the first measurement. Frames that repeated a measured picture take its row."""
+        ended). A container that stood still through the span is measured in the median of its frames' axes
+        (`steady_axes`). Overlay frames show the first measurement. Frames that repeated a measured picture take its
+        row."""
         walls = {}
         for i, value in self.walls_record.held_angles().items():
             walls[i] = ContainerMeasurement(True, value)
@@ -143,8 +148,13 @@ class SurfaceStep:
             m = refit(held, source)
             if m.found:
                 rows[i] = self._row(m, walls.get(i, cm))._replace(t_s=rows[i].t_s)
+        axes = steady_axes([g for _, g, _, _ in self.measured])
+        for i, _, again, cm in self.measured if axes is not None else ():
+            m = again(axes, held, source)
+            if m.found:
+                rows[i] = self._row(m, walls.get(i, cm))._replace(t_s=rows[i].t_s)
         self.copies.fill(rows)
-        self.pending, self.held_surfaces = [], {}
+        self.pending, self.held_surfaces, self.measured = [], {}, []
 
     def merge(self, later: SurfaceStep) -> None:
         """Take in what the step of a later span of the same video found (for `nothing_found`)."""
