@@ -83,3 +83,24 @@ def test_the_real_frame_at_its_own_size_keeps_the_container_angle(tmp_path):
         still_clip(image, clip, angle, frames=8, width=1920, seed=seed)
         relative[angle] = _median_angle(clip, "container")
     assert max(relative.values()) - min(relative.values()) < 0.5, relative
+
+
+def test_an_underexposed_real_frame_takes_the_dye_between_walls(tmp_path):
+    # the real frame darkened (grey levels to the power 1.3, as a picture a stop under): its shadows, the holder's
+    # dark parts and the camera body read as the `dark` preset over a larger region than the blue dye, and the dye
+    # chosen as the largest region was `dark`, with no container around it: every frame was refused. The dye is the
+    # largest region measured as a liquid between walls in the first frame (as `sloshid inspect` chooses), and the
+    # larger one is named
+    if not REAL_FRAME.is_file():
+        pytest.skip("../shared/data/real is not beside this checkout")
+    image = cv2.imread(str(REAL_FRAME))
+    clips = {}
+    for name, picture in (("level", image), ("dark", np.clip(255 * (image / 255.0) ** 1.3, 0, 255).astype(np.uint8))):
+        clips[name] = tmp_path / f"{name}.mp4"
+        still_clip(picture, clips[name], 0.0, frames=8, width=640, seed=1)
+    res = track_video(clips["dark"], TrackSettings(target="surface", smooth=False))
+    assert res.valid.all() and res.dye == "blue (chosen from the first frame)"
+    assert any("dark covers a larger region" in w for w in res.warnings), res.warnings
+    # measured: 0.12 deg apart (the darker picture's edges sit a little differently)
+    assert abs(np.median(res.angle_deg) - _median_angle(clips["level"], "image")) < 0.3
+

@@ -9,9 +9,10 @@ White on both: a suggested --roi around the container (or the float).
 
 Prints what it found for each target and the `sloshid track` command line to run next (target, colour preset,
 --roi when it helps, --reference container when the container's walls were found). Of several colours measured as a
-surface, the one between the container's walls is taken (track's automatic dye takes the largest). When no preset
-colour gives a liquid or a float, it says what it saw (how coloured the picture is, its largest coloured regions)
-and measures the largest with an HSV range of its own, which the command then gives (--liquid-hsv-low/high).
+surface, the one between the container's walls is taken (track's automatic dye takes the largest, or, when that is
+dark, a coloured one measured between walls). When no preset colour gives a liquid or a float, it says what it saw
+(how coloured the picture is, its largest coloured regions) and measures the largest with an HSV range of its own,
+which the command then gives (--liquid-hsv-low/high).
 
 Exit codes: 0 when the suggested command's target was measured in this frame, 1 when something was found that
 track would not measure there today (the text says why), 2 when nothing was found or the input is bad (a file that

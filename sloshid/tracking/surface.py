@@ -177,24 +177,31 @@ class SurfaceMeasurement:
     source: a container that stood still is measured in the median of its frames' axes (`steady_axes`)."""
 
 
+def preset_regions(frame: np.ndarray, roi: tuple[int, int, int, int]) -> list[tuple[str, int, np.ndarray]]:
+    """Every preset's largest connected region in the ROI as (name, area in pixels, box x, y, w, h), largest first
+    (presets with no pixel there left out)."""
+    x, y, w, h = roi
+    crop = frame[y : y + h, x : x + w]
+    regions = []
+    for name, p in PRESETS.items():
+        n, _, stats, _ = cv2.connectedComponentsWithStats(hsv_mask(crop, p.hsv), connectivity=8)
+        if n > 1:
+            k = 1 + int(np.argmax(stats[1:, cv2.CC_STAT_AREA]))
+            regions.append((name, int(stats[k, cv2.CC_STAT_AREA]), stats[k, :4]))
+    return sorted(regions, key=lambda r: r[1], reverse=True)
+
+
 def auto_liquid_preset(frame: np.ndarray, roi: tuple[int, int, int, int]) -> tuple[str | None, str | None]:
     """The name of the preset whose colour covers the largest connected region of the ROI (None when none covers
     enough), and of the next one when its largest region is at least RIVAL_SHARE of that (the liquid may be it)."""
-    x, y, w, h = roi
-    crop = frame[y : y + h, x : x + w]
-    areas: dict[str, int] = {}
-    boxes: dict[str, np.ndarray | None] = {}
-    for name, p in PRESETS.items():
-        n, _, stats, _ = cv2.connectedComponentsWithStats(hsv_mask(crop, p.hsv), connectivity=8)
-        k = 1 + int(np.argmax(stats[1:, cv2.CC_STAT_AREA])) if n > 1 else 0
-        areas[name], boxes[name] = (int(stats[k, cv2.CC_STAT_AREA]), stats[k, :4]) if k else (0, None)
-    best, rival = sorted(areas, key=lambda name: areas[name], reverse=True)[:2]
-    if areas[best] <= MIN_LIQUID_SHARE * w * h:
+    regions = preset_regions(frame, roi)
+    if not regions or regions[0][1] <= MIN_LIQUID_SHARE * roi[2] * roi[3]:
         return None, None
+    (best, area, best_box), rival = regions[0], regions[1] if len(regions) > 1 else None
     # a hue between two presets' ranges is one region in both: no rival
-    best_box, rival_box = boxes[best], boxes[rival]
-    elsewhere = best_box is not None and rival_box is not None and _overlap(best_box, rival_box) < 0.5
-    return best, rival if elsewhere and areas[rival] >= RIVAL_SHARE * areas[best] else None
+    if rival is None or _overlap(best_box, rival[2]) >= 0.5 or rival[1] < RIVAL_SHARE * area:
+        return best, None
+    return best, rival[0]
 
 
 def _overlap(a: np.ndarray, b: np.ndarray) -> float:

@@ -38,7 +38,7 @@ from sloshid.tracking.repeats import REPEAT_SHARE, Copies, line_regions, repeate
 from sloshid.tracking.robust import percentile_span
 from sloshid.tracking.rows import VALID_QUALITY, TrackRow, step_row
 from sloshid.tracking.smooth import smoothing_worker
-from sloshid.tracking.surface import SurfaceFinder, auto_liquid_preset
+from sloshid.tracking.surface import MIN_LIQUID_SHARE, SurfaceFinder, auto_liquid_preset, preset_regions
 from sloshid.tracking.surface_track import SurfaceStep, check_rest_frames
 from sloshid.video.colors import DEFAULT_FLOAT_COLOR, HsvRange, preset
 from sloshid.video.frames import FrameReader, Picture, VideoInfo, VideoWriter, lost_share
@@ -481,10 +481,9 @@ def track_video(
         spans = _spans(reader.info, key_times)
         log.info("tracking %s (%s target) in %d span(s)", path, settings.target, len(spans))
         reader.end_s = spans[0][1]
-        liquid, dye, rival = settings.liquid_hsv, "", None
+        liquid, dye, rival, larger = settings.liquid_hsv, "", None, False
         if settings.target == "surface" and liquid is None:  # one automatic dye colour for every span: the first's
-            x, y, w, h = roi  # the ROI's pixels only (a Picture converts just them), as auto_liquid_preset reads them
-            name, rival = auto_liquid_preset(reader.first_picture()[y : y + h, x : x + w], (0, 0, w, h))
+            name, rival, larger = _auto_dye(reader.first_picture(), roi, settings)
             liquid = preset(name).hsv if name else None
             dye = f"{name} (chosen from the first frame)" if name else ""
         elif settings.target == "surface" and liquid is not None:
@@ -539,9 +538,14 @@ def track_video(
     res.warnings.extend(notes)
     if rival is not None:
         res.warnings.append(
-            f"the dye's colour was chosen from the first frame as {dye.split()[0]}, the largest region of a preset "
-            f"colour; {rival} covers a region at least a quarter as large: if that is the liquid, give `liquid_color` "
-            f"{rival}."
+            f"the dye's colour was chosen from the first frame as {dye.split()[0]}, "
+            + (
+                f"the largest region of a preset colour measured there as a liquid between a container's walls; "
+                f"{rival} covers a larger region, which was not"
+                if larger
+                else f"the largest region of a preset colour; {rival} covers a region at least a quarter as large"
+            )
+            + f": if that is the liquid, give `liquid_color` {rival}."
         )
     res.key_frame = _at_key_frames(np.array([r.t_s for r in body], float), key_times)  # the file's own times
     for warning in res.warnings:
@@ -618,6 +622,23 @@ def _spans(info: VideoInfo, key_times: np.ndarray) -> list[tuple[float | None, f
 
 MeasureStep: TypeAlias = "_FloatStep | SurfaceStep"
 """A per-frame measurement step of the float or the surface target (`measure_frame`)."""
+
+
+def _auto_dye(first: Picture | np.ndarray, roi: tuple[int, int, int, int], settings: TrackSettings):
+    """The dye's preset from the first frame: the preset whose colour covers the largest region, unless that is
+    `dark` (shadows, black objects: an underexposed picture's outgrew a blue dye) and a coloured region is measured
+    there as a liquid between a container's walls, the largest such. Returns (name or None, a rival to name or None,
+    whether the rival's region is the larger)."""
+    x, y, w, h = roi  # the ROI's pixels only (a Picture converts just them), as auto_liquid_preset reads them
+    crop = first[y : y + h, x : x + w]
+    name, rival = auto_liquid_preset(crop, (0, 0, w, h))
+    if name != "dark":
+        return name, rival, False
+    frame = np.asarray(first)  # measured as a picture is drawn: converted whole
+    for other, area, _ in preset_regions(crop, (0, 0, w, h))[1:]:
+        if area > MIN_LIQUID_SHARE * w * h and measure_frame(frame, 0.0, settings, roi, preset(other).hsv)[0].valid:
+            return other, name, True
+    return name, rival, False
 
 
 def _step(settings: TrackSettings, roi: tuple[int, int, int, int], liquid: HsvRange | None):
