@@ -450,7 +450,9 @@ class SurfaceFinder:
         `follow`: `box` is the last frame's; the body's box is read off this frame's membership map around it
         (a tenth of the cost of a colour search), or None is returned when the body reaches the map's edge."""
         rx, _ry, rw, _rh = self.roi
-        if box[0] <= rx or box[2] >= rx + rw:  # the liquid reaches the side of the picture: no walls to measure
+        # the liquid reaches the side of the picture: no walls to measure (when following, its column's box is asked:
+        # a holder or table of the dye's colour may run out of the picture below a liquid standing inside it)
+        if not follow and (box[0] <= rx or box[2] >= rx + rw):
             return SurfaceMeasurement(False, liquid=True)
         X0, Y0, X1, Y1 = self._window(box, frame.shape)
         refit = self._model is None or self._since_fit >= REFIT_EVERY
