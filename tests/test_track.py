@@ -41,6 +41,7 @@ from sloshid.tracking.surface import (
     _front_below,
     _inside,
     _sustained,
+    dye_range,
     steady_axes,
 )
 from sloshid.tracking.surface_track import SurfaceStep, _spikes
@@ -703,6 +704,23 @@ def test_steady_axes_are_the_median_of_a_standing_container_and_none_for_a_movin
     assert steady_axes(slid) is None and steady_axes(turned) is None
     # axes held over frames count once: 100 frames holding 10 measurements are too few to tell
     assert steady_axes([standing[i // 10] for i in k]) is None
+
+
+def test_a_presets_hue_bounds_move_out_over_the_dyes_own_hues_and_stop_at_a_gap():
+    # a blue dye whose top pales to hue 96-99 (below the blue preset's 100) and a cyan object of hue 90 touching it, with
+    # no pixel of hues 91-95 between: the range takes the dye's continuing hues, not the object's across the gap
+    hsv = np.zeros((120, 160, 3), np.uint8)
+    hsv[..., 1:] = (20, 230)  # a grey wall
+    hsv[20:100, 40:120] = (110, 220, 150)  # the dye's body
+    hsv[20:40, 40:120, 0] = np.repeat(np.arange(96, 100), 5)[:, None]  # its top, hue 96-99 in bands of five rows
+    hsv[40:100, 120:140] = (90, 220, 150)  # the object beside it
+    frame = cv2.cvtColor(hsv, cv2.COLOR_HSV2BGR)
+    blue = PRESETS["blue"].hsv
+    fitted = dye_range(frame, (0, 0, 160, 120), blue)
+    assert fitted.low[0] == 96 and fitted.high == blue.high and fitted.low[1:] == blue.low[1:]
+    # a range that wraps through red, or takes every hue (dark), is left as it is
+    assert dye_range(frame, (0, 0, 160, 120), PRESETS["red"].hsv) == PRESETS["red"].hsv
+    assert dye_range(frame, (0, 0, 160, 120), PRESETS["dark"].hsv) == PRESETS["dark"].hsv
 
 
 def test_a_surface_measured_again_in_turned_axes_keeps_its_angle_in_the_picture(surface_video):

@@ -217,6 +217,40 @@ def auto_liquid_range(frame: np.ndarray, roi: tuple[int, int, int, int]) -> HsvR
     return PRESETS[name].hsv if name else None
 
 
+DYE_HUE_REACH = 10
+"""How far (OpenCV hue units, 2 deg each) a preset's hue bounds may move out to the dye's as seen (`dye_range`)."""
+DYE_HUE_SHARE = 0.25
+"""A hue just beyond a bound joins the range while the dye's region holds at least this share of the pixels per hue
+that the range's own hues hold (median): a dye's hue spreads on without a gap, another object's starts after one."""
+
+
+def dye_range(frame: np.ndarray, roi: tuple[int, int, int, int], hsv: HsvRange) -> HsvRange:
+    """A preset's range with its hue bounds moved out (by at most DYE_HUE_REACH) over the hues that continue the
+    dye's own in the region of the preset's saturation and value holding its largest region: a dye's hue shifts with
+    its depth and the light (the real frame's blue water brightened reads 97-101 at its top, below the blue preset's
+    100), and a range that cuts it leaves the liquid's top out."""
+    if hsv.wraps or (hsv.low[0] == 0 and hsv.high[0] == 179):
+        return hsv
+    x, y, w, h = roi
+    crop = frame[y : y + h, x : x + w]
+    core = hsv_mask(crop, hsv)
+    n, labels, stats, _ = cv2.connectedComponentsWithStats(core, connectivity=8)
+    if n <= 1:
+        return hsv
+    largest = labels == 1 + int(np.argmax(stats[1:, cv2.CC_STAT_AREA]))
+    im = cv2.cvtColor(crop, cv2.COLOR_BGR2HSV)
+    sv = cv2.inRange(im, (0, hsv.low[1], hsv.low[2]), (179, hsv.high[1], hsv.high[2]))
+    _, around = cv2.connectedComponents(sv, connectivity=8)
+    counts = np.bincount(im[..., 0][around == np.bincount(around[largest]).argmax()], minlength=180)
+    floor = DYE_HUE_SHARE * float(np.median(counts[hsv.low[0] : hsv.high[0] + 1]))
+    low, high = hsv.low[0], hsv.high[0]
+    while low > max(0, hsv.low[0] - DYE_HUE_REACH) and counts[low - 1] >= max(floor, 1):
+        low -= 1
+    while high < min(179, hsv.high[0] + DYE_HUE_REACH) and counts[high + 1] >= max(floor, 1):
+        high += 1
+    return HsvRange((low, *hsv.low[1:]), (high, *hsv.high[1:]))
+
+
 def _crossings_first(m: np.ndarray, above: np.ndarray, axis: int, level: float = 0.5) -> tuple[np.ndarray, np.ndarray]:
     """Sub-pixel position of the first `level` crossing of m along `axis` (from index 0), and whether there is one;
     `above` is the same view of m >= level (as `_inside` gives it for 0.5)."""

@@ -34,6 +34,10 @@ CENTRE_SHARE = 0.05
 """A frame whose surface centre (the mean of the two wall heights above rest) is further than this share of the inner
 width from its rest level is not valid: a planar slosh keeps the centre there. Rendered clips stay within 2 px (0.01
 of the width) up to 40 deg of slosh and 20 deg of camera elevation; a liquid reaching the rim read 115 px (0.5)."""
+GLASS_AGREE_DEG = 10.0
+"""The glass's walls turn a frame's measurement onto their axis only when their angle is within this of the liquid's
+sides' (the inner walls: a tapered glass, its refraction and a sloshing liquid's sides put them up to 5 deg apart
+on the path-traced tumblers); the real frame brightened had one wall on a highlight 40 deg off in half its frames."""
 TILT_NOTE_DEG = 1.0
 """With ``reference` image`, a container that turns by more than this in the picture (its walls as the liquid's sides
 give them, 1st to 99th percentile of the valid frames) draws a warning: the angle includes its tilt. A still
@@ -114,8 +118,8 @@ class SurfaceStep:
 
     def _row(self, m: SurfaceMeasurement, cm: ContainerMeasurement | None) -> TrackRow:
         """The track row's fields, then the raw surface geometry, of a measurement (turned onto the container's walls
-        `cm` when they were measured: `m` is changed)."""
-        if cm is not None and cm.found:
+        `cm` when they were measured and agree with the liquid's sides within GLASS_AGREE_DEG: `m` is changed)."""
+        if cm is not None and cm.found and abs(m.container_angle_deg - cm.angle_deg) <= GLASS_AGREE_DEG:
             tilt = math.radians(m.container_angle_deg - cm.angle_deg)  # the liquid's sides against the walls
             seen = math.atan(m.rel_slope) + tilt
             # the wall heights were read along the liquid's sides (their tilt is good to some 0.3 deg, the whole

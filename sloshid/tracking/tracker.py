@@ -38,7 +38,13 @@ from sloshid.tracking.repeats import REPEAT_SHARE, Copies, line_regions, repeate
 from sloshid.tracking.robust import percentile_span
 from sloshid.tracking.rows import VALID_QUALITY, TrackRow, step_row
 from sloshid.tracking.smooth import smoothing_worker
-from sloshid.tracking.surface import MIN_LIQUID_SHARE, SurfaceFinder, auto_liquid_preset, preset_regions
+from sloshid.tracking.surface import (
+    MIN_LIQUID_SHARE,
+    SurfaceFinder,
+    auto_liquid_preset,
+    dye_range,
+    preset_regions,
+)
 from sloshid.tracking.surface_track import SurfaceStep, check_rest_frames
 from sloshid.video.colors import DEFAULT_FLOAT_COLOR, HsvRange, preset
 from sloshid.video.frames import FrameReader, Picture, VideoInfo, VideoWriter, lost_share
@@ -484,10 +490,11 @@ def track_video(
         liquid, dye, rival, larger = settings.liquid_hsv, "", None, False
         if settings.target == "surface" and liquid is None:  # one automatic dye colour for every span: the first's
             name, rival, larger = _auto_dye(reader.first_picture(), roi, settings)
-            liquid = preset(name).hsv if name else None
+            liquid = dye_range(np.asarray(reader.first_picture()), roi, preset(name).hsv) if name else None
             dye = f"{name} (chosen from the first frame)" if name else ""
         elif settings.target == "surface" and liquid is not None:
             dye = settings.liquid_color or liquid.describe()
+            liquid = _dye_range(reader.first_picture(), roi, settings, liquid)
         parallel = multithreaded and overlay is None and len(spans) > 1 and _can_fork()
         # a run that finds nothing writes its overlay as the diagnosis, but does not replace one already there
         kept = overlay if overlay is not None and Path(overlay).exists() else None
@@ -641,6 +648,15 @@ def _auto_dye(first: Picture | np.ndarray, roi: tuple[int, int, int, int], setti
     return name, rival, False
 
 
+def _dye_range(frame: Picture | np.ndarray, roi: tuple, settings: TrackSettings, liquid: HsvRange) -> HsvRange:
+    """A named preset's range fitted to the dye in `frame` (`dye_range`); a range the user gave, as given."""
+    return (
+        dye_range(np.asarray(frame), roi, liquid)
+        if settings.liquid_hsv_low is None and settings.liquid_color
+        else liquid
+    )
+
+
 def _step(settings: TrackSettings, roi: tuple[int, int, int, int], liquid: HsvRange | None):
     """A fresh per-frame measurement step of the target."""
     return _FloatStep(settings, roi) if settings.target == "float" else SurfaceStep(settings, roi, liquid)
@@ -653,6 +669,8 @@ def measure_frame(
     step, then, for a valid frame, its finish): the table row (frame, t_s, angle_deg, ..., valid), the overlay picture,
     and the step, which holds what it found (`walls_record`, `liquid_frames`, ...). `sloshid inspect` calls it, so that
     its picture shows what track would do."""
+    if settings.target == "surface" and liquid is None and settings.liquid_hsv is not None:
+        liquid = _dye_range(frame, roi, settings, settings.liquid_hsv)
     step = _step(settings, roi, liquid)
     row, drawn = step(frame, True)
     row = row._replace(t_s=t_s)
