@@ -220,8 +220,9 @@ def auto_liquid_range(frame: np.ndarray, roi: tuple[int, int, int, int]) -> HsvR
 DYE_HUE_REACH = 10
 """How far (OpenCV hue units, 2 deg each) a preset's hue bounds may move out to the dye's as seen (`dye_range`)."""
 DYE_HUE_SHARE = 0.25
-"""A hue just beyond a bound joins the range while the dye's region holds at least this share of the pixels per hue
-that the range's own hues hold (median): a dye's hue spreads on without a gap, another object's starts after one."""
+"""A hue just beyond a bound joins the range while the dye's region holds at least this share of the median count of
+the range's own hues there (and at least one pixel): a dye's hue spreads on without a gap, another object's starts
+after one. A narrow hue (most of the range's hues empty) sets no floor beyond the one pixel."""
 
 
 def dye_range(frame: np.ndarray, roi: tuple[int, int, int, int], hsv: HsvRange) -> HsvRange:
