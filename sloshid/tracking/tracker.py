@@ -490,10 +490,11 @@ def track_video(
         liquid, dye, rival, larger = settings.liquid_hsv, "", None, False
         if settings.target == "surface" and liquid is None:  # one automatic dye colour for every span: the first's
             name, rival, larger = _auto_dye(reader.first_picture(), roi, settings)
-            liquid = dye_range(np.asarray(reader.first_picture()), roi, preset(name).hsv) if name else None
+            liquid = preset(name).hsv if name else None
             dye = f"{name} (chosen from the first frame)" if name else ""
         elif settings.target == "surface" and liquid is not None:
             dye = settings.liquid_color or liquid.describe()
+        if settings.target == "surface" and liquid is not None:
             liquid = _dye_range(reader.first_picture(), roi, settings, liquid)
         parallel = multithreaded and overlay is None and len(spans) > 1 and _can_fork()
         # a run that finds nothing writes its overlay as the diagnosis, but does not replace one already there
@@ -649,12 +650,9 @@ def _auto_dye(first: Picture | np.ndarray, roi: tuple[int, int, int, int], setti
 
 
 def _dye_range(frame: Picture | np.ndarray, roi: tuple, settings: TrackSettings, liquid: HsvRange) -> HsvRange:
-    """A named preset's range fitted to the dye in `frame` (`dye_range`); a range the user gave, as given."""
-    return (
-        dye_range(np.asarray(frame), roi, liquid)
-        if settings.liquid_hsv_low is None and settings.liquid_color
-        else liquid
-    )
+    """A preset's range (named, or chosen from the first frame) fitted to the dye in `frame` (`dye_range`); a range
+    the user gave as HSV, as given."""
+    return liquid if settings.liquid_hsv_low is not None else dye_range(np.asarray(frame), roi, liquid)
 
 
 def _step(settings: TrackSettings, roi: tuple[int, int, int, int], liquid: HsvRange | None):
