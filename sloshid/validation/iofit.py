@@ -261,7 +261,7 @@ class IOFit:
         lines = [f"sloshid identify (input-output): {len(self.runs)} run(s)"]
         for key, est in self.parameters.items():
             lines.append(
-                f"  {key:<13} = {est.shown()} ± {est.stderr:.2g}  (95 % CI {est.shown(est.ci95[0])} .. "
+                f"  {key:<15} = {est.shown()} ± {est.stderr:.2g}  (95 % CI {est.shown(est.ci95[0])} .. "
                 f"{est.shown(est.ci95[1])})"
             )
         lines.append(
