@@ -6,10 +6,12 @@ under gravity g + az; the wall reads the static surface plus the first mode's wa
 open, each parameter pulled toward its physical prior and bounded by its physical range (`PRIORS`): the frequency f
 (prior: the cylinder's first mode from the geometry), the damping ratio zeta (prior 0.01), the breaking drag (prior
 1 per rad: damping that grows with the wave's speed, which bounds parametric resonance), the wall's wave share c
-(prior 2 / (xi^2 - 1) = 0.84) and the crest coefficient q (prior 0.58, a second-order standing wave). Per run: the
-clock lag (started by cross-correlation, then fitted with the physics) and an offset of the measured zero. Bounded
-least squares (scipy) on residuals scaled so that every run weighs as its NRMSE, plus one row per prior; Newey-West
-intervals.
+(prior 2 / (xi^2 - 1) = 0.84), the crest coefficient q (prior 0.58, a second-order standing wave) and the tilt of
+the wall reading's level at rest along the container's two axes (prior 0: a container mounted off the logged axis, or
+a camera's level off; the reading's zero is its own reading at rest, as the measured zero is the quiet lead-in). Per
+run: the clock lag (started by cross-correlation, then fitted with the physics) and an offset of the measured zero.
+Bounded least squares (scipy) on residuals scaled so that every run weighs as its NRMSE, plus one row per prior;
+Newey-West intervals.
 """
 
 from __future__ import annotations
@@ -69,6 +71,8 @@ PRIORS = {
     "drag": (1.0, 1.0, (0.5, 10.0)),
     "wave_share": (2 / (XI_CYLINDER**2 - 1), 0.2, (0.3, 1.2)),
     "crest_coeff": (0.58, 0.5, (-0.5, 1.5)),
+    "rest_tilt_x_deg": (0.0, 2.0, (-6.0, 6.0)),
+    "rest_tilt_y_deg": (0.0, 2.0, (-6.0, 6.0)),
 }
 """Per fitted parameter: (prior, its standard deviation, physical range). f: the geometry's first mode (else the
 decay-only fit's), 3 % (fill height and meniscus), range +-15 % of the prior; zeta: 0.01 (the wall's boundary layer
@@ -76,7 +80,9 @@ and contact line of a small water tank), a factor of 3 (log scale); the breaking
 damping ratio 0.4 x drag x the angle: 0.1 at 15 deg), at least 0.5 (every liquid breaks: vertical pumping at twice
 the mode's frequency and 1 g turns the pendulum to 66 deg with 0.5, past 90 deg with 0.3, a flip no liquid makes); the
 wave share: linear theory's first-mode wall share, range 0.3-1.2 (the sensor's scale is in it); the crest: a Stokes
-standing wave's k a / 2 over the centre slope 1.58 a / R, k = 1.84 / R."""
+standing wave's k a / 2 over the centre slope 1.58 a / R, k = 1.84 / R; the rest tilts: 0 (an upright container
+whose reading shares the liquid's level), 2 deg (a container seated a few tenths of a millimetre off square over its
+radius, or a camera's roll), at most 6 deg (R tan 6 deg = 5 mm at the wall: more is no mounting error)."""
 
 
 def prior_weight(cost: float, periods: float) -> float:
@@ -102,8 +108,8 @@ N_PARAMS = len(FITTED)
 SIM_CACHE = 6
 """Simulated physics kept at once (a Jacobian needs the base point and one step per simulated parameter)."""
 DIFF_STEP = 1e-2
-"""Finite-difference step of the scaled vector (0.1 % of f, 1 % of zeta, 0.01 of c and q, 1 ms of a lag): well
-above the integrator's noise."""
+"""Finite-difference step of the scaled vector (0.1 % of f, 1 % of zeta, 0.01 of c and q, 0.01 deg of a rest tilt,
+1 ms of a lag): well above the integrator's noise."""
 
 
 @dataclass
@@ -235,8 +241,8 @@ class IOFit:
             "fit": {
                 "structure": STRUCTURE,
                 "model": "one spherical pendulum (world frame, pivot at the surface) under the pivot's acceleration, "
-                "gravity g + az, damped by zeta and the breaking drag; wall = R |static slope + wave_share x wave slope| (1 + crest_coeff x its wave part); "
-                "per run lag and offset",
+                "gravity g + az, damped by zeta and the breaking drag; wall = R |static slope + wave_share x wave slope + rest slope| (1 + crest_coeff x its wave part), "
+                "less its reading at rest (rest slope: tan rest_tilt_x_deg, tan rest_tilt_y_deg); per run lag and offset",
                 "priors": {
                     k: {"value": v, "sd": PRIORS[k][1], "range": list(self.ranges[k])} for k, v in self.priors.items()
                 },
@@ -255,7 +261,7 @@ class IOFit:
         lines = [f"sloshid identify (input-output): {len(self.runs)} run(s)"]
         for key, est in self.parameters.items():
             lines.append(
-                f"  {key:<13} = {est.shown()} ± {est.stderr:.2g}  (95 % CI {est.shown(est.ci95[0])} .. "
+                f"  {key:<15} = {est.shown()} ± {est.stderr:.2g}  (95 % CI {est.shown(est.ci95[0])} .. "
                 f"{est.shown(est.ci95[1])})"
             )
         lines.append(
@@ -313,9 +319,10 @@ def _prepare(pose: PoseLog, sig: Signal, start: LiquidModel) -> _RunData:
 
 
 class _Problem:
-    """Residuals of x = [10 (f/f_p - 1), log(zeta/zeta_p), b - b_p, c - c_p, q - q_p, (lag_i - lag0_i) / LAG_SCALE_S ...]
-    (p: the priors): each run's, weighing as its NRMSE, with its offset the mean residual (variable projection), then
-    one row per prior, `weight` x (distance from it) / its standard deviation (`prior_weight`)."""
+    """Residuals of x = [10 (f/f_p - 1), log(zeta/zeta_p), b - b_p, c - c_p, q - q_p, the rest tilts (deg),
+    (lag_i - lag0_i) / LAG_SCALE_S ...] (p: the priors): each run's, weighing as its NRMSE, with its offset the mean
+    residual (variable projection), then one row per prior, `weight` x (distance from it) / its standard deviation
+    (`prior_weight`)."""
 
     def __init__(self, data: list[_RunData], priors: dict[str, float], radius_m: float | None, views: float | None):
         self.data, self.priors, self.radius_m, self.views = data, priors, radius_m, views
@@ -325,15 +332,16 @@ class _Problem:
         self.n_sim = 0
         self._sims: dict[tuple[float, float, float], list[tuple[np.ndarray, np.ndarray, np.ndarray]]] = {}
 
-    def physical(self, x: np.ndarray) -> tuple[float, float, float, float, float]:
-        """(f, zeta, drag b, c, q) from the scaled vector."""
+    def physical(self, x: np.ndarray) -> dict[str, float]:
+        """Each fitted parameter's value (FITTED order) from the scaled vector."""
         p = self.priors
-        f, zeta = p["f_hz"] * (1 + x[0] / 10), p["zeta"] * math.exp(x[1])
-        return f, zeta, p["drag"] + x[2], p["wave_share"] + x[3], p["crest_coeff"] + x[4]
+        out = {"f_hz": p["f_hz"] * (1 + x[0] / 10), "zeta": p["zeta"] * math.exp(x[1])}
+        return out | {k: p[k] + v for k, v in zip(FITTED[2:], x[2:N_PARAMS])}
 
     def scaled(self, f: float, zeta: float) -> np.ndarray:
         """The scaled vector of the physics (f, zeta) with the others at their priors."""
-        return np.array([10 * (f / self.priors["f_hz"] - 1), math.log(zeta / self.priors["zeta"]), 0.0, 0.0, 0.0])
+        start = [10 * (f / self.priors["f_hz"] - 1), math.log(zeta / self.priors["zeta"])]
+        return np.array(start + [0.0] * (N_PARAMS - 2))
 
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
         """Lower and upper bounds of the scaled vector: the physical ranges and the lags' spans."""
@@ -355,8 +363,11 @@ class _Problem:
 
     def predictions(self, x: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
         """Predicted (t, series) of every run (trajectory clock); recent physics' simulations are kept, so that a
-        step of the wall's reading alone (c, q) simulates nothing."""
-        f, zeta, b, c, q = self.physical(x)
+        step of the wall's reading alone (`predict.READING`) simulates nothing."""
+        v = self.physical(x)
+        f, zeta, b = v["f_hz"], v["zeta"], v["drag"]
+        c, q = v["wave_share"], v["crest_coeff"]
+        rest = (math.tan(math.radians(v["rest_tilt_x_deg"])), math.tan(math.radians(v["rest_tilt_y_deg"])))
         if (f, zeta, b) not in self._sims:
             params = SloshParams.from_modal(2 * math.pi * f, zeta)
             self.n_sim += 1
@@ -370,7 +381,7 @@ class _Problem:
                 sims.append((resp.t_s, *wall_parts(resp)))
             self._sims[f, zeta, b] = sims
         return [
-            (t, read_out(static, wave, c, q, d.kind, self.radius_m, self.views))
+            (t, read_out(static, wave, c, q, d.kind, self.radius_m, self.views, rest))
             for d, (t, static, wave) in zip(self.data, self._sims[f, zeta, b])
         ]
 
@@ -426,9 +437,9 @@ def fit_io(
     names: list[str] | None = None,
     views_deg: float | None = None,
 ) -> IOFit:
-    """Fit f, zeta, the wall's wave share and the crest coefficient jointly over the runs (own lag and offset each),
-    each toward its physical prior and within its physical range; `views_deg`: the wall is read in two views 90 deg
-    apart (`predict.read_out`)."""
+    """Fit f, zeta, the drag, the wall's wave share, crest coefficient and rest tilts jointly over the runs (own lag and
+    offset each), each toward its physical prior and within its physical range; `views_deg`: the wall is read in two
+    views 90 deg apart (`predict.read_out`)."""
     if len(poses) != len(signals):
         raise SettingError(
             "trajectory",
@@ -478,7 +489,8 @@ def fit_io(
     sol = least_squares(
         prob.residuals, x, bounds=(lo, hi), jac=prob.jacobian, x_scale="jac", max_nfev=MAX_NFEV, **TOLERANCES
     )
-    f, zeta, b, c, q = physical = prob.physical(sol.x)
+    physical = prob.physical(sol.x)
+    f, zeta = physical["f_hz"], physical["zeta"]
     # on its range's edge: within 1 % of the range (the bounded solver approaches a bound without reaching it)
     at_bound = [nm for nm, v, a, b in zip(FITTED, sol.x, lo, hi) if min(v - a, b - v) < 0.01 * (b - a)]
     params = _estimates(sol, prob, physical, settings.mass_kg)
@@ -487,7 +499,15 @@ def fit_io(
     envelope = {k: max(motion_range(d.exc)[k] for d in prob.data) for k in MOTION_QUANTITIES}
     stderr = tuple((k, params[k].stderr) for k in FITTED_ERRORS)
     model = replace(
-        start, params=physics, drag=b, wave_share=c, crest_coeff=q, stderr=stderr, envelope=tuple(envelope.items())
+        start,
+        params=physics,
+        drag=physical["drag"],
+        wave_share=physical["wave_share"],
+        crest_coeff=physical["crest_coeff"],
+        rest_tilt_x_deg=physical["rest_tilt_x_deg"],
+        rest_tilt_y_deg=physical["rest_tilt_y_deg"],
+        stderr=stderr,
+        envelope=tuple(envelope.items()),
     )
     names = names or [s.source for s in signals]
     runs = [validate_run(p, s, model, nm) for p, s, nm in zip(poses, signals, names)]
@@ -549,18 +569,16 @@ def fit_io_files(
     return fit_io(poses, signals, radius_m, io.axis_offset_m, io.smooth_s, settings, names, io.views_deg)
 
 
-def _estimates(
-    sol, prob: _Problem, physical: tuple[float, float, float, float, float], mass: float | None
-) -> dict[str, Estimate]:
-    """Parameters (f, zeta, c, q) with Newey-West standard errors (per-run blocks; the prior rows one more block),
-    mapped from the scaled vector."""
-    f, zeta, b, c, q = physical
+def _estimates(sol, prob: _Problem, physical: dict[str, float], mass: float | None) -> dict[str, Estimate]:
+    """The fitted parameters (and omega, l, d from f and zeta) with Newey-West standard errors (per-run blocks; the
+    prior rows one more block), mapped from the scaled vector."""
+    f, zeta = physical["f_hz"], physical["zeta"]
     data = prob.data
     sizes = np.cumsum([0] + [d.y.size for d in data] + [N_PARAMS])
     blocks = [slice(a, b) for a, b in itertools.pairwise(sizes)]
     periods = [max(round(1.0 / (f * np.median(np.diff(d.t_meas)))), 1) for d in data] + [1]
     cov, _naive, _lags = hac_covariance(sol.jac, sol.fun, blocks, periods)
-    d_scaled = np.array([prob.priors["f_hz"] / 10, zeta, 1.0, 1.0, 1.0])
+    d_scaled = np.array([prob.priors["f_hz"] / 10, zeta] + [1.0] * (N_PARAMS - 2))
     se = np.sqrt(np.clip(np.diag(cov)[:N_PARAMS], 0, None)) * d_scaled
     omega, se_w = 2 * math.pi * f, 2 * math.pi * se[0]
     out = {
@@ -568,9 +586,9 @@ def _estimates(
         "omega_rad_s": estimate(omega, se_w),
         "zeta": estimate(zeta, se[1], floor=0.0),
         "l_m": estimate(G / omega**2, 2 * G / omega**3 * se_w),
-        "drag": estimate(b, se[2], floor=0.0),
-        "wave_share": estimate(c, se[3], floor=0.0),
-        "crest_coeff": estimate(q, se[4]),
+        "drag": estimate(physical["drag"], se[2], floor=0.0),
+        "wave_share": estimate(physical["wave_share"], se[3], floor=0.0),
+        **{k: estimate(physical[k], se[FITTED.index(k)]) for k in FITTED[4:]},
     }
     if mass is not None:
         out["d_ns_per_m"] = estimate(

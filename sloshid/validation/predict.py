@@ -32,13 +32,14 @@ from sloshid.model.trajectory import Trajectory
 
 STRUCTURE = (
     "spherical pendulum at the surface with breaking drag; wall = static surface + wave_share x the wave (crest_coeff)"
+    " + the level at rest (rest_tilt_x_deg, rest_tilt_y_deg), less its own reading"
 )
 """The model structure an identify --trajectory file names (`fit.structure`); a file of another is refused."""
 OLD_GAINS = ("input_gain", "output_gain", "vertical_gain")
 """Parameters of the input-output model before the physics-first structure: a file holding them is refused."""
 MODEL_ERROR_LOG_SD = 0.10
 """Model error of a predicted peak (root mean square of log(measured / predicted peak)), calibrated on the held-out
-kinds of the shared runs (benchmarks/validate_real.py, leave-one-kind-out: 0.104 over the nine runs): part of every
+kinds of the shared runs (benchmarks/validate_real.py, leave-one-kind-out: 0.097 over the nine runs): part of every
 band."""
 
 
@@ -105,7 +106,7 @@ class LiquidModel:
     views_deg: float | None = None
     """Azimuth of the first of two views 90 deg apart that read the wall (`read_out`); None: the whole wall's peak."""
     stderr: tuple[tuple[str, float], ...] = ()
-    """Standard errors of the fitted parameters (f_hz, zeta, wave_share, crest_coeff) for the band."""
+    """Standard errors of the fitted parameters (`FITTED_ERRORS`) for the band."""
     model_error: float = MODEL_ERROR_LOG_SD
     """The band's model-error term (log standard deviation of a peak), calibrated on held-out folds."""
     envelope: tuple[tuple[str, float], ...] = ()
@@ -115,6 +116,16 @@ class LiquidModel:
     run of one of them scores the fit, not a prediction."""
     fitted_sha256: tuple[str, ...] = ()
     """Their contents' hashes (identify JSON `source_sha256`): the same file wherever it is now, or a copy."""
+    rest_tilt_x_deg: float = 0.0
+    """The liquid at rest as the wall's reading sees it: tilted this far along the container's x axis (a container
+    mounted off the logged axis, or a camera's level off); its own reading at rest is the zero."""
+    rest_tilt_y_deg: float = 0.0
+    """The same along the container's y axis."""
+
+    @property
+    def rest_slope(self) -> tuple[float, float]:
+        """The surface's gradient at rest in the container frame (`rest_tilt_x_deg`, `rest_tilt_y_deg`)."""
+        return math.tan(math.radians(self.rest_tilt_x_deg)), math.tan(math.radians(self.rest_tilt_y_deg))
 
     def fitted_to(self, source: str) -> bool:
         """The measurement file `source` is one the model was identified from (by its path or its content)."""
@@ -134,6 +145,11 @@ class LiquidModel:
             raise UserError(f"the crest coefficient must be a number, got {self.crest_coeff!r}.")
         if not math.isfinite(self.axis_offset_m):
             raise UserError(f"the axis offset must be a number of m, got {self.axis_offset_m!r}.")
+        if not all(abs(a) < 45 for a in (self.rest_tilt_x_deg, self.rest_tilt_y_deg)):
+            raise UserError(
+                f"the rest tilts must be numbers of deg below 45, got {self.rest_tilt_x_deg!r} and "
+                f"{self.rest_tilt_y_deg!r}."
+            )
 
     def with_geometry(
         self, radius_m: float | None = None, axis_offset_m: float | None = None, smooth_s: float | None = None
@@ -150,7 +166,9 @@ class LiquidModel:
     def reading(self, resp: PoseResponse, kind: str) -> np.ndarray:
         """What the sensor reads from the predicted surface: the wall height (mm) for kind 'wall_height_mm', else the
         surface's angle to the container (deg)."""
-        return read_out(*wall_parts(resp), self.wave_share, self.crest_coeff, kind, self.radius_m, self.views_deg)
+        return read_out(
+            *wall_parts(resp), self.wave_share, self.crest_coeff, kind, self.radius_m, self.views_deg, self.rest_slope
+        )
 
 
 def wall_parts(resp: PoseResponse) -> tuple[np.ndarray, np.ndarray]:
@@ -168,19 +186,23 @@ def read_out(
     kind: str,
     radius_m: float | None,
     views_deg: float | None = None,
+    rest: tuple[float, float] = (0.0, 0.0),
 ) -> np.ndarray:
-    """|static + share x wave| (1 + crest x share |wave|): the slope at the wall, as a wall height R x it (mm) or an
-    angle atan(it) (deg); the higher modes follow the motion (static), the first mode adds its wave. With `views_deg`
-    the wall is seen in two planes 90 deg apart, the first at that azimuth from the container's x axis (two cameras on
-    the container, as in the shared runs): the larger of the slope's components along them."""
+    """|static + share x wave + rest| (1 + crest x share |wave|), less the same of the rest alone: the slope at the wall
+    above its reading at rest, as a wall height R x it (mm) or an angle atan(it) (deg); the higher modes follow the
+    motion (static), the first mode adds its wave, `rest` is the surface's gradient at rest in the container frame (a
+    level the reading does not share: a wave smaller than it reads signed, at the mode's own frequency). With
+    `views_deg` the wall is seen in two planes 90 deg apart, the first at that azimuth from the container's x axis (two
+    cameras on the container, as in the shared runs): the larger of the slope's components along them."""
     part = share * wave
-    total = static + part
+    total = static + part + np.asarray(rest)
     if views_deg is None:
-        size = np.linalg.norm(total, axis=1)
+        size, zero = np.linalg.norm(total, axis=1), math.hypot(*rest)
     else:
         a = math.radians(views_deg)
-        size = np.maximum(np.abs(total @ [math.cos(a), math.sin(a)]), np.abs(total @ [-math.sin(a), math.cos(a)]))
-    slope = size * (1.0 + crest * np.linalg.norm(part, axis=1))
+        axes = np.array([[math.cos(a), math.sin(a)], [-math.sin(a), math.cos(a)]]).T
+        size, zero = np.max(np.abs(total @ axes), axis=1), float(np.max(np.abs(np.asarray(rest) @ axes)))
+    slope = size * (1.0 + crest * np.linalg.norm(part, axis=1)) - zero
     if kind == "wall_height_mm":
         if radius_m is None:
             raise ValueError("a wall height needs the container's radius")
@@ -216,21 +238,40 @@ def load_model(path: str | Path) -> LiquidModel:
         offset, smooth = float(geometry.get("axis_offset_m", 0.0)), float(geometry.get("smooth_s", SMOOTH_S))
         views = geometry.get("views_deg")
         views = None if views is None else float(views)
+        tilts = [float(p.get(k, {}).get("value", 0.0)) for k in REST_TILTS]
     except (AttributeError, TypeError, ValueError):
         raise UserError(
-            f"parameter file {path}: the wave share, the crest coefficient, an error, the motion range or the geometry "
-            "is not a number."
+            f"parameter file {path}: the wave share, the crest coefficient, a rest tilt, an error, the motion range or "
+            "the geometry is not a number."
         ) from None
     sources = data.get("sources") if isinstance(data.get("sources"), list) else []
     fitted = tuple(f for src in sources if isinstance(src, str) for f in [_found(src, Path(path).parent)] if f)
     hashes = data.get("source_sha256") if isinstance(data.get("source_sha256"), list) else []
     digests = tuple(h for h in hashes if isinstance(h, str))
     return LiquidModel(
-        params, radius, offset, smooth, share, drag, crest, True, views, stderr, model_error, envelope, fitted, digests
+        params,
+        radius,
+        offset,
+        smooth,
+        share,
+        drag,
+        crest,
+        True,
+        views,
+        stderr,
+        model_error,
+        envelope,
+        fitted,
+        digests,
+        *tilts,
     )
 
 
-FITTED_ERRORS = ("f_hz", "zeta", "drag", "wave_share", "crest_coeff")
+REST_TILTS = ("rest_tilt_x_deg", "rest_tilt_y_deg")
+"""The wall reading's level at rest, per container axis (`LiquidModel.rest_tilt_x_deg`)."""
+READING = ("wave_share", "crest_coeff", *REST_TILTS)
+"""The parameters of the wall's reading alone (a step of one of them simulates nothing)."""
+FITTED_ERRORS = ("f_hz", "zeta", "drag", *READING)
 """Parameters whose standard errors widen the band."""
 
 
@@ -249,7 +290,7 @@ def planning_note(path: str | Path, trajectory: str = "TRAJ.csv", plan: Trajecto
     `plan` (when given: the planned trajectory) and how to check a plan with it (None for a plain model); a front-end
     adds its own command for that check."""
     model = load_model(path)
-    if model.wave_share == 1 and model.crest_coeff == 0:
+    if model.wave_share == 1 and model.crest_coeff == 0 and model.rest_slope == (0.0, 0.0):
         return None
     moved = "the liquid moves during a plan"
     if plan is not None:
@@ -373,7 +414,7 @@ def forecast(
         steps.append((run(p.scaled(zeta_factor=1 + se["zeta"] / p.zeta)), model))
     if se.get("drag", 0) > 0:
         steps.append((run(p, model.drag + se["drag"]), model))
-    for name in ("wave_share", "crest_coeff"):
+    for name in READING:
         if se.get(name, 0) > 0:
             steps.append((resp, replace(model, **{name: getattr(model, name) + se[name]})))
     notes, factor = extrapolation(exc, model, pose.source)
