@@ -13,12 +13,16 @@ from sloshid.core.atomic import atomic_path
 from sloshid.video.frames import VideoWriter
 
 
-def rotated(image: np.ndarray, angle_deg: float, width: int | None = None) -> np.ndarray:
+def rotated(
+    image: np.ndarray, angle_deg: float, width: int | None = None, corners: tuple[int, int, int] | None = None
+) -> np.ndarray:
     """The picture turned by `angle_deg` (counter-clockwise as seen) about its centre, its corners filled by
-    reflection, then scaled to `width` pixels across (its aspect kept; None: as it is)."""
+    reflection (or with the colour `corners`, as a photo editor turns a picture), then scaled to `width` pixels across
+    (its aspect kept; None: as it is)."""
     h, w = image.shape[:2]
     turn = cv2.getRotationMatrix2D((0.5 * (w - 1), 0.5 * (h - 1)), angle_deg, 1.0)
-    out = cv2.warpAffine(image, turn, (w, h), flags=cv2.INTER_CUBIC, borderMode=cv2.BORDER_REFLECT)
+    fill = {"borderMode": cv2.BORDER_REFLECT} if corners is None else {"borderValue": corners}
+    out = cv2.warpAffine(image, turn, (w, h), flags=cv2.INTER_CUBIC, **fill)
     if width is None or width == w:
         return out
     return cv2.resize(out, (width, round(h * width / w)), interpolation=cv2.INTER_AREA)
@@ -34,11 +38,12 @@ def still_clip(
     crf: float = 20.0,
     width: int | None = None,
     seed: int = 0,
+    corners: tuple[int, int, int] | None = None,
 ) -> None:
-    """Write an H.264 clip of `frames` frames of the picture turned by `angle_deg` (`rotated`), each with fresh
-    Gaussian sensor noise of `noise` grey levels (seeded), at constant quality `crf`."""
+    """Write an H.264 clip of `frames` frames of the picture turned by `angle_deg` (`rotated`, `corners` its fill),
+    each with fresh Gaussian sensor noise of `noise` grey levels (seeded), at constant quality `crf`."""
     rng = np.random.default_rng(seed)
-    picture = rotated(image, angle_deg, width).astype(np.float32)
+    picture = rotated(image, angle_deg, width, corners).astype(np.float32)
     h, w = picture.shape[:2]
     with atomic_path(path) as tmp, VideoWriter(tmp, w, h, fps, "h264", crf) as writer:
         for i in range(frames):
