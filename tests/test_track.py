@@ -1886,6 +1886,25 @@ def test_a_surface_whose_centre_leaves_its_rest_level_is_not_valid():
     assert any("centre left its rest level" in n and "1 frame(s), first at 1.50 s" in n for n in notes)
 
 
+def test_the_elevation_is_corrected_whichever_edge_of_the_ellipse_was_read():
+    # over an opaque liquid seen from above the tracker reads the ellipse's back edge, whose opening is negative: the
+    # elevation's sine read as zero, so slopes and wall heights went uncorrected (a path-traced cola from 5.2 deg
+    # above). Rows as the step keeps them: a 200 px inner width seen from asin(0.26) = 15 deg above, its walls
+    # sloshing +-10 px in the picture; the back edge's rows give the front edge's angles and heights, both corrected
+    cos_e = math.sqrt(1 - 0.26**2)
+    swing = 10 * np.sin(2 * np.pi * 2 * np.arange(60) / 30)
+    finished = {}
+    for sign in (1, -1):
+        raw = [SurfaceGeometry(w / 100, 0.0, 100 - w, 100 + w, 200.0, sign * 52.0) for w in swing]
+        rows = [TrackRow(k, k / 30, 0.0, 0.0, 0.0, 160, 120, 1.0, 1, g) for k, g in enumerate(raw)]
+        body, walls, _ = SurfaceStep(TrackSettings(target="surface"), (0, 0, 320, 240)).finish(rows)
+        finished[sign] = (np.array([b.angle_deg for b in body]), walls["right_wall_px"])
+    rest = np.median(100 + swing[:30])  # the first second's median: the rest level
+    for angle, right in finished.values():
+        assert angle == pytest.approx(np.degrees(np.arctan(swing / 100 / cos_e)))
+        assert right == pytest.approx((100 + swing - rest) / cos_e)
+
+
 def test_the_surface_is_measured_inside_the_roi_only(surface_video):
     # with --roi cutting the container below the sloshing surface's reach, a trial's walls read up to 17 px above the
     # ROI's top, valid: the frames where the liquid meets the ROI's top are now not measured (the float's rule). The

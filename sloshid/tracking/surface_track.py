@@ -224,7 +224,8 @@ class SurfaceStep:
             slope = np.tan(np.arctan(slope) + turn)
             left, right = left - 0.5 * width * np.tan(turn), right + 0.5 * width * np.tan(turn)
             cang = np.full_like(cang, steady)
-        sin_e = float(np.clip(median(opening[valid]) / median(width[valid]), 0, 0.5))
+        # a back edge's ellipse opens upwards (a negative opening): the camera is as far above the liquid either way
+        sin_e = float(np.clip(abs(median(opening[valid])) / median(width[valid]), 0, 0.5))
         cos_e = math.sqrt(1 - sin_e * sin_e)
         rel = np.degrees(np.arctan(slope / cos_e))
         x = np.array([r.x_px for r in rows], float)
