@@ -1,6 +1,6 @@
 """Benchmark: `sloshid track` on the physically based corpus (benchmarks/pbr_corpus.py), beside painted clips.
 
-Per set (pbr: the corpus's 60 still scenes and 10 dynamic clips; painted: a handful of `sloshid synth` default-renderer
+Per set (pbr: the corpus's 60 still scenes and 12 dynamic clips; painted: a handful of `sloshid synth` default-renderer
 clips), target (float, surface) and reference (image, container): the share of scenes tracked with no option set and
 with an ROI (the truth's container box, 15 % wider on each side), the angle error's median and 95th percentile over
 every valid frame of the tracked clips (the ROI runs), gain and lag of the tracked angle against the truth on the
@@ -245,6 +245,12 @@ def summary(rows: list[dict], target: str, reference: str) -> dict:
         "identified": len(ident),
         "f_covered": sum(x["f_covered"] for x in ident),
         "zeta_covered": sum(x["zeta_covered"] for x in ident),
+        **{
+            f"{name}_halfwidth_median_pct": float(np.median([0.5 * np.diff(x[f"{name}_ci95_pct"])[0] for x in ident]))
+            if ident
+            else None
+            for name in ("f", "zeta")
+        },
         "dynamic_tracked": len(dyn),
     }
     refusals = [x["refusal"] for x in plain if not x["tracked"] and "refusal" in x]
@@ -283,7 +289,10 @@ def main() -> None:
                         ),
                         _fmt(f["f_err_worst_pct"]),
                         _fmt(f["zeta_err_worst_pct"]),
-                        f"{f['f_covered']} / {f['zeta_covered']} of {f['identified']}" if f["identified"] else "-",
+                        f"{f['f_covered']} / {f['zeta_covered']} of {f['identified']} (+-{_fmt(f['f_halfwidth_median_pct'])} / "
+                        f"+-{_fmt(f['zeta_halfwidth_median_pct'])} %)"
+                        if f["identified"]
+                        else "-",
                     ]
                 )
     header = [
@@ -303,14 +312,15 @@ def main() -> None:
         "wall RMSE worst, px",
         "f err worst, % (<= 0.3)",
         "zeta err worst, % (<= 5)",
-        "f / zeta 95 % intervals covering the truth",
+        "f / zeta 95 % intervals covering the truth (their median half-width)",
     ]
     notes = (
         "A float's colour is named in every run (the one thing a user must tell the float tracker); nothing else is "
         "set in the 'no option' runs. Angle errors, gain, lag, wall heights and identification are from the ROI runs "
         "(every valid frame of the clips tracked there); '-' where no clip of that kind was tracked. pbr: 60 still "
-        "scenes (640x480, 4 samples per pixel, 15 frames each) and 10 dynamic clips (400x300, 3 samples per pixel, "
-        "30 fps; free decays 4 s, moves 2.5 s): tap decays, robot moves with tilt, two crossing the frame "
+        "scenes (640x480, 4 samples per pixel, 15 frames each) and 12 dynamic clips (400x300, 3 samples per pixel, "
+        "30 fps; free decays 4 s, two lightly damped ones 8 s, moves 2.5 s): tap decays, robot moves with tilt, two "
+        "crossing the frame "
         "(benchmarks/pbr_corpus.py). painted: six default-renderer clips (640x480, 4 s). 'With the lens given': the "
         "surface clips whose container moves across the picture tracked again with the camera's field of view "
         "(--fov-deg; the camera looks down on a container off the picture's centre, and the line the tracker sees "
@@ -318,7 +328,8 @@ def main() -> None:
         "cannot show), the rest as in the ROI runs. f and zeta are identified "
         "from the tracked trace as `sloshid identify` reads a track (the encoder's hold and the codec's shrink allowed "
         "for) and compared with the truth trace's; the last column counts the tracked intervals that hold the truth's "
-        "value (docs/design/zeta_from_video.md). The tracker is the one on "
+        "value, and gives their median half-width: the resolution at which these clips test the f and zeta targets "
+        "(docs/design/zeta_from_video.md). The tracker is the one on "
         f"this branch. Total time {(time.perf_counter() - t0) / 60:.1f} min."
     )
     data = {"figures": figures, "cases": {k: [_compact(r) for r in v] for k, v in sets.items()}}
