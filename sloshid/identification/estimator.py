@@ -691,6 +691,12 @@ class Identifier:
                 again = find_decay_window(sig, f_guess, near, st.drift, period_noise)
                 if _ring_down(sig, again, f_guess, near):
                     win, whole = replace(again, near_mode_noise=near), replace(whole, noise_std=near)
+            elif not _ring_down(sig, win, f_guess):
+                # slow noise alone (a thin float's tracked angle wandering by tenths of a degree over seconds) moved the
+                # period mean past the white-noise level and passed for forcing: sought again against its measured level
+                again = find_decay_window(sig, f_guess, whole.noise_std, st.drift, period_noise)
+                if _ring_down(sig, again, f_guess):
+                    win = again
         part = sig.between(win.t0_s, win.t1_s)
         whole_periods = (sig.t_s[-1] - sig.t_s[0]) * f_guess
         if whole_periods < MIN_PERIODS_ERROR:
