@@ -49,7 +49,7 @@ from sloshid.model.pose import (
     motion_range,
     respond,
 )
-from sloshid.validation.predict import FITTED_ERRORS, STRUCTURE, LiquidModel, read_out, wall_parts
+from sloshid.validation.predict import FITTED_ERRORS, STRUCTURE, LiquidModel, read_out, rest_gradient, wall_parts
 from sloshid.validation.scoring import LEAD_IN_S, align, baseline
 from sloshid.validation.validate import (
     ValidationRun,
@@ -367,7 +367,7 @@ class _Problem:
         v = self.physical(x)
         f, zeta, b = v["f_hz"], v["zeta"], v["drag"]
         c, q = v["wave_share"], v["crest_coeff"]
-        rest = (math.tan(math.radians(v["rest_tilt_x_deg"])), math.tan(math.radians(v["rest_tilt_y_deg"])))
+        rest = rest_gradient(v["rest_tilt_x_deg"], v["rest_tilt_y_deg"])
         if (f, zeta, b) not in self._sims:
             params = SloshParams.from_modal(2 * math.pi * f, zeta)
             self.n_sim += 1

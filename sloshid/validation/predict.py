@@ -125,7 +125,7 @@ class LiquidModel:
     @property
     def rest_slope(self) -> tuple[float, float]:
         """The surface's gradient at rest in the container frame (`rest_tilt_x_deg`, `rest_tilt_y_deg`)."""
-        return math.tan(math.radians(self.rest_tilt_x_deg)), math.tan(math.radians(self.rest_tilt_y_deg))
+        return rest_gradient(self.rest_tilt_x_deg, self.rest_tilt_y_deg)
 
     def fitted_to(self, source: str) -> bool:
         """The measurement file `source` is one the model was identified from (by its path or its content)."""
@@ -169,6 +169,11 @@ class LiquidModel:
         return read_out(
             *wall_parts(resp), self.wave_share, self.crest_coeff, kind, self.radius_m, self.views_deg, self.rest_slope
         )
+
+
+def rest_gradient(tilt_x_deg: float, tilt_y_deg: float) -> tuple[float, float]:
+    """The surface's gradient at rest in the container frame from its tilts along the container's x and y axes."""
+    return math.tan(math.radians(tilt_x_deg)), math.tan(math.radians(tilt_y_deg))
 
 
 def wall_parts(resp: PoseResponse) -> tuple[np.ndarray, np.ndarray]:
