@@ -10,7 +10,7 @@ import cv2
 import numpy as np
 import pytest
 
-from sloshid.tracking.container_ref import EdgeLine, glass_walls, steady_angle
+from sloshid.tracking.container_ref import EdgeLine, beside_sides, glass_walls, steady_angle
 
 SS = 8
 """Supersampling of the drawn frame (its edges are anti-aliased)."""
@@ -191,3 +191,17 @@ def test_of_two_faces_that_are_not_parallel_the_one_along_the_liquids_side_count
     assert [len(faces) for faces in walls] == [1, 1]
     mean = np.mean([f.angle_deg for faces in walls for f, _ in faces])
     assert abs(mean - axis_deg) < 0.25, (mean, axis_deg)
+
+
+def test_walls_away_from_the_liquids_sides_are_not_the_containers():
+    # a held-out path-traced beaker before clutter: Hough's nearest near-vertical line was a box's edge 76 px right of
+    # the liquid's right side, and none on the left; that one line was followed as the container (4.6 deg off). Walls
+    # are the container's only where each of the liquid's sides has an edge within 12 % of the width between them
+    sides = [EdgeLine(0.0984, 180.5, 184, 318, 0.0, 0), EdgeLine(0.1064, 410.6, 164, 320, 0.0, 0)]
+    box_edge = EdgeLine(0.0341, 503.9, 38, 394, 0.3, 227)
+    assert not beside_sides([box_edge], sides)
+    glass = [EdgeLine(0.0991, 180.3, 183, 319, 0.0, 136), EdgeLine(0.1064, 410.5, 136, 319, 0.0, 183)]
+    assert beside_sides(glass, sides)
+    assert not beside_sides(glass[:1], sides)  # one side only
+    outer = [EdgeLine(0.0991, 180.3 - 20, 183, 319, 0.0, 136), glass[1]]  # 20 px out: a glass's outer face
+    assert beside_sides(outer, sides)

@@ -578,9 +578,26 @@ def test_an_automatic_dye_names_the_other_colour_it_passed_over(tmp_path):
     assert not any("quarter as large" in w for w in alone.warnings)
 
 
-def _trial_surface_clip(path: Path, corner: tuple, end: tuple, bgr: tuple) -> dict[str, np.ndarray]:
-    """A user trial's 640x480 blue-dye tap test (3 s) with a filled rectangle drawn into every frame; its truth."""
+def test_a_cola_before_a_box_of_a_preset_colour_is_taken_as_the_liquid(tmp_path):
+    # a near-black liquid (the `dark` preset, the largest region) and a magenta box behind, left of the glass: `dark`
+    # is passed over where it is not measured as a liquid (an underexposed picture's shadows), and the box, measured as
+    # one (its sides and its level top), was taken; the cola is measured as a liquid between walls, so it is kept
+    truth = _trial_surface_clip(tmp_path / "c.mp4", (20, 60), (110, 330), (200, 40, 200), liquid_color="dark")
+    res = track_video(tmp_path / "c.mp4", TrackSettings(target="surface", smooth=False))
+    assert res.dye == "dark (chosen from the first frame)"
+    cols = res.columns()
+    assert 195 < np.median(cols["x_px"]) < 445  # the glass's, not the box's (20-110)
+    ok = res.valid.astype(bool)
+    assert ok.mean() > 0.9 and _rmse((cols["angle_deg"] - truth["surface_angle_deg"])[ok]) < 0.2
+
+
+def _trial_surface_clip(
+    path: Path, corner: tuple, end: tuple, bgr: tuple, liquid_color: str = "blue"
+) -> dict[str, np.ndarray]:
+    """A user trial's 640x480 tap test (3 s, blue dye unless `liquid_color`) with a filled rectangle drawn into every
+    frame; its truth."""
     s = SynthSettings(scene="surface", f_hz=2.0, zeta=0.04, amplitude_deg=6.0, tap_s=1.0, duration_s=3.0, seed=1)
+    s = replace(s, liquid_color=liquid_color)
     rows = []
     with VideoWriter(path, s.width, s.height, s.fps) as w:
         for row, frame in render_frames(s):

@@ -583,6 +583,14 @@ def _vertex(left: float, mid: float, right: float) -> float:
     return float(np.clip(0.5 * (left - right) / curve, -0.5, 0.5)) if curve < 0 else 0.0
 
 
+def beside_sides(edges: Sequence[EdgeLine], sides: list[EdgeLine]) -> bool:
+    """Every one of the liquid's sides has an edge within WALL_NEAR of the width between them (at least BAND_PX) at
+    its middle row: walls found elsewhere (a box's edge behind the glass, one side only) are not the container's."""
+    mids = [0.5 * (side.y0 + side.y1) for side in sides]
+    reach = max(BAND_PX, WALL_NEAR * abs(sides[-1].x_at(mids[-1]) - sides[0].x_at(mids[0])))
+    return all(any(abs(e.x_at(y) - side.x_at(y)) <= reach for e in edges) for side, y in zip(sides, mids))
+
+
 def _weighted_angle(edges: list[EdgeLine]) -> float:
     """Mean angle of a wall's edges, weighted by slope precision (~ rows * span^2 / rms^2)."""
     wts = np.array([e.rows * (e.y1 - e.y0) ** 2 / max(e.rms_px, 0.05) ** 2 for e in edges])
@@ -641,6 +649,8 @@ class ContainerTracker:
             self._on_glass = m.found or glass is not None  # a float's walls lost: Hough anew
         if not self._on_glass:
             m, anew = self._measure(frame, float_x, float_y, float_len, frames)
+            if m.found and glass is not None and not beside_sides(m.edges, glass[0]):
+                m, self._walls = ContainerMeasurement(False), []  # another thing's edges: the glass's, about the sides
             if not m.found and (glass is not None or self._hough):
                 # no wall edge found row by row (faint glass, a noisy picture): the glass's line sums from now on
                 self._on_glass = True
