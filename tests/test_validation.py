@@ -3,6 +3,7 @@ parameters, physical limits (steady acceleration, pure yaw), the real shared run
 
 from __future__ import annotations
 
+import itertools
 import json
 import math
 from dataclasses import replace
@@ -12,13 +13,14 @@ import pytest
 import scipy.io
 from scipy.spatial.transform import Rotation
 
+from sloshid.core.errors import UserError
 from sloshid.core.tables import read_csv
 from sloshid.identification.estimator import IdentSettings
 from sloshid.identification.signals import load_signal
 from sloshid.model.pendulum import G, SloshParams
 from sloshid.model.pose import PoseLog, excitation, load_pose_log, respond, savgol_acceleration_response
 from sloshid.validation.iofit import IOFit, fit_io
-from sloshid.validation.predict import MODEL_ERROR_LOG_SD, LiquidModel, load_model, read_out, wall_parts
+from sloshid.validation.predict import MODEL_ERROR_LOG_SD, LiquidModel, load_model, read_out, view_size, wall_parts
 
 TRUTH = SloshParams.from_modal(2 * math.pi * 3.2, 0.03)
 RADIUS, OFFSET, LAG = 0.05, 0.05, 3.3
@@ -278,6 +280,35 @@ def test_a_rest_tilt_reads_zero_at_rest_and_a_small_wave_signed_at_its_own_frequ
     loaded = load_model(tilted)
     assert (loaded.rest_tilt_x_deg, loaded.rest_tilt_y_deg) == (0.0, -2.5)
     assert dict(loaded.stderr)["rest_tilt_y_deg"] == 0.3
+
+
+def test_a_views_arc_reads_between_the_edge_on_points_and_the_whole_wall(tmp_path):
+    # gradients in every direction (seeded): arc 0 reads the larger component along the two views (the reading before
+    # the arc), 45 deg and more the whole wall's |slope|, and in between no less than the first and no more than the
+    # second, growing with the arc (exact geometry: 1e-12); a gradient 30 deg off a view reads |s| cos(30 - arc)
+    rng = np.random.default_rng(7)
+    slope = rng.normal(scale=0.3, size=(500, 2))
+    views = 20.0
+    a = math.radians(views)
+    axes = np.array([[math.cos(a), math.sin(a)], [-math.sin(a), math.cos(a)]]).T
+    assert np.allclose(view_size(slope, views, 0.0), np.max(np.abs(slope @ axes), axis=1), atol=1e-12)
+    whole = np.linalg.norm(slope, axis=1)
+    assert np.allclose(view_size(slope, views, 45.0), whole, atol=1e-12)
+    assert np.allclose(view_size(slope, views, 60.0), whole, atol=1e-12)
+    sizes = [view_size(slope, views, arc) for arc in (0.0, 10.0, 20.0, 30.0, 45.0)]
+    assert all(np.all(b >= a - 1e-12) for a, b in itertools.pairwise(sizes))
+    off = np.array([[math.cos(math.radians(views + 30)), math.sin(math.radians(views + 30))]])
+    assert view_size(off, views, 10.0)[0] == pytest.approx(math.cos(math.radians(20)), abs=1e-12)
+    # the model reads with its arc; a parameter file without one reads 0, one with it reads it; a negative arc is refused
+    base = {"omega_rad_s": {"value": TRUTH.omega_rad_s}, "zeta": {"value": 0.03}}
+    plain, arced = tmp_path / "plain.json", tmp_path / "arced.json"
+    plain.write_text(json.dumps({"parameters": base}))
+    arced.write_text(json.dumps({"parameters": {**base, "view_arc_deg": {"value": 12.5, "stderr": 4.0}}}))
+    assert load_model(plain).view_arc_deg == 0.0
+    loaded = load_model(arced)
+    assert loaded.view_arc_deg == 12.5 and dict(loaded.stderr)["view_arc_deg"] == 4.0
+    with pytest.raises(UserError, match="view's arc"):
+        LiquidModel(TRUTH, RADIUS, view_arc_deg=-1.0)
 
 
 def test_io_parameter_verdicts_follow_the_parameters_they_derive_from():

@@ -8,8 +8,10 @@ open, each parameter pulled toward its physical prior and bounded by its physica
 1 per rad: damping that grows with the wave's speed, which bounds parametric resonance), the wall's wave share c
 (prior 2 / (xi^2 - 1) = 0.84), the crest coefficient q (prior 0.58, a second-order standing wave) and the tilt of
 the wall reading's level at rest along the container's two axes (prior 0: a container mounted off the logged axis, or
-a camera's level off; the reading's zero is its own reading at rest, as the measured zero is the quiet lead-in). Per
-run: the clock lag (started by cross-correlation, then fitted with the physics) and an offset of the measured zero.
+a camera's level off; the reading's zero is its own reading at rest, as the measured zero is the quiet lead-in) and
+the half-width of the arc of wall each camera's edge-on points stand for (prior 22.5 deg, between the four points
+alone and the whole wall). Per run: the clock lag (started by cross-correlation, then fitted with the physics) and an
+offset of the measured zero.
 Bounded least squares (scipy) on residuals scaled so that every run weighs as its NRMSE, plus one row per prior;
 Newey-West intervals.
 """
@@ -73,6 +75,7 @@ PRIORS = {
     "crest_coeff": (0.58, 0.5, (-0.5, 1.5)),
     "rest_tilt_x_deg": (0.0, 2.0, (-6.0, 6.0)),
     "rest_tilt_y_deg": (0.0, 2.0, (-6.0, 6.0)),
+    "view_arc_deg": (22.5, 15.0, (0.0, 45.0)),
 }
 """Per fitted parameter: (prior, its standard deviation, physical range). f: the geometry's first mode (else the
 decay-only fit's), 3 % (fill height and meniscus), range +-15 % of the prior; zeta: 0.01 (the wall's boundary layer
@@ -82,7 +85,9 @@ the mode's frequency and 1 g turns the pendulum to 66 deg with 0.5, past 90 deg 
 wave share: linear theory's first-mode wall share, range 0.3-1.2 (the sensor's scale is in it); the crest: a Stokes
 standing wave's k a / 2 over the centre slope 1.58 a / R, k = 1.84 / R; the rest tilts: 0 (an upright container
 whose reading shares the liquid's level), 2 deg (a container seated a few tenths of a millimetre off square over its
-radius, or a camera's roll), at most 6 deg (R tan 6 deg = 5 mm at the wall: more is no mounting error)."""
+radius, or a camera's roll), at most 6 deg (R tan 6 deg = 5 mm at the wall: more is no mounting error); the view's
+arc: a level camera's highest outline point is the whole wall's (45 deg), one looking along the surface from a little
+above or below sees the wall edge-on only near its silhouette (0), so 22.5 deg, sd 15, within 0-45."""
 
 
 def prior_weight(cost: float, periods: float) -> float:
@@ -109,7 +114,7 @@ SIM_CACHE = 6
 """Simulated physics kept at once (a Jacobian needs the base point and one step per simulated parameter)."""
 DIFF_STEP = 1e-2
 """Finite-difference step of the scaled vector (0.1 % of f, 1 % of zeta, 0.01 of c and q, 0.01 deg of a rest tilt,
-1 ms of a lag): well above the integrator's noise."""
+0.01 deg of the view's arc, 1 ms of a lag): well above the integrator's noise."""
 
 
 @dataclass
@@ -242,7 +247,8 @@ class IOFit:
                 "structure": STRUCTURE,
                 "model": "one spherical pendulum (world frame, pivot at the surface) under the pivot's acceleration, "
                 "gravity g + az, damped by zeta and the breaking drag; wall = R |static slope + wave_share x wave slope + rest slope| (1 + crest_coeff x its wave part), "
-                "less its reading at rest (rest slope: tan rest_tilt_x_deg, tan rest_tilt_y_deg); per run lag and offset",
+                "less its reading at rest (rest slope: tan rest_tilt_x_deg, tan rest_tilt_y_deg), read on the wall within "
+                "view_arc_deg of the views' edge-on points; per run lag and offset",
                 "priors": {
                     k: {"value": v, "sd": PRIORS[k][1], "range": list(self.ranges[k])} for k, v in self.priors.items()
                 },
@@ -319,10 +325,10 @@ def _prepare(pose: PoseLog, sig: Signal, start: LiquidModel) -> _RunData:
 
 
 class _Problem:
-    """Residuals of x = [10 (f/f_p - 1), log(zeta/zeta_p), b - b_p, c - c_p, q - q_p, the rest tilts (deg),
-    (lag_i - lag0_i) / LAG_SCALE_S ...] (p: the priors): each run's, weighing as its NRMSE, with its offset the mean
-    residual (variable projection), then one row per prior, `weight` x (distance from it) / its standard deviation
-    (`prior_weight`)."""
+    """Residuals of x = [10 (f/f_p - 1), log(zeta/zeta_p), b - b_p, c - c_p, q - q_p, the rest tilts and the
+    view's arc (deg), (lag_i - lag0_i) / LAG_SCALE_S ...] (p: the priors): each run's, weighing as its NRMSE, with its
+    offset the mean residual (variable projection), then one row per prior, `weight` x (distance from it) / its
+    standard deviation (`prior_weight`)."""
 
     def __init__(self, data: list[_RunData], priors: dict[str, float], radius_m: float | None, views: float | None):
         self.data, self.priors, self.radius_m, self.views = data, priors, radius_m, views
@@ -381,7 +387,7 @@ class _Problem:
                 sims.append((resp.t_s, *wall_parts(resp)))
             self._sims[f, zeta, b] = sims
         return [
-            (t, read_out(static, wave, c, q, d.kind, self.radius_m, self.views, rest))
+            (t, read_out(static, wave, c, q, d.kind, self.radius_m, self.views, rest, v["view_arc_deg"]))
             for d, (t, static, wave) in zip(self.data, self._sims[f, zeta, b])
         ]
 
@@ -506,6 +512,7 @@ def fit_io(
         crest_coeff=physical["crest_coeff"],
         rest_tilt_x_deg=physical["rest_tilt_x_deg"],
         rest_tilt_y_deg=physical["rest_tilt_y_deg"],
+        view_arc_deg=physical["view_arc_deg"],
         stderr=stderr,
         envelope=tuple(envelope.items()),
     )

@@ -32,14 +32,15 @@ from sloshid.model.trajectory import Trajectory
 
 STRUCTURE = (
     "spherical pendulum at the surface with breaking drag; wall = static surface + wave_share x the wave (crest_coeff)"
-    " + the level at rest (rest_tilt_x_deg, rest_tilt_y_deg), less its own reading"
+    " + the level at rest (rest_tilt_x_deg, rest_tilt_y_deg), less its own reading; each view's arc of the wall"
+    " (view_arc_deg)"
 )
 """The model structure an identify --trajectory file names (`fit.structure`); a file of another is refused."""
 OLD_GAINS = ("input_gain", "output_gain", "vertical_gain")
 """Parameters of the input-output model before the physics-first structure: a file holding them is refused."""
-MODEL_ERROR_LOG_SD = 0.10
+MODEL_ERROR_LOG_SD = 0.09
 """Model error of a predicted peak (root mean square of log(measured / predicted peak)), calibrated on the held-out
-kinds of the shared runs (benchmarks/validate_real.py, leave-one-kind-out: 0.097 over the nine runs): part of every
+kinds of the shared runs (benchmarks/validate_real.py, leave-one-kind-out: 0.087 over the nine runs): part of every
 band."""
 
 
@@ -121,6 +122,9 @@ class LiquidModel:
     mounted off the logged axis, or a camera's level off); its own reading at rest is the zero."""
     rest_tilt_y_deg: float = 0.0
     """The same along the container's y axis."""
+    view_arc_deg: float = 0.0
+    """With `views_deg`: the half-width of the arc of wall each view's edge-on points stand for (`read_out`): 0 reads the
+    four points alone, 45 or more the whole wall."""
 
     @property
     def rest_slope(self) -> tuple[float, float]:
@@ -150,6 +154,8 @@ class LiquidModel:
                 f"the rest tilts must be numbers of deg below 45, got {self.rest_tilt_x_deg!r} and "
                 f"{self.rest_tilt_y_deg!r}."
             )
+        if not (math.isfinite(self.view_arc_deg) and self.view_arc_deg >= 0):
+            raise UserError(f"the view's arc must be a number of deg, 0 or more, got {self.view_arc_deg!r}.")
 
     def with_geometry(
         self, radius_m: float | None = None, axis_offset_m: float | None = None, smooth_s: float | None = None
@@ -167,7 +173,14 @@ class LiquidModel:
         """What the sensor reads from the predicted surface: the wall height (mm) for kind 'wall_height_mm', else the
         surface's angle to the container (deg)."""
         return read_out(
-            *wall_parts(resp), self.wave_share, self.crest_coeff, kind, self.radius_m, self.views_deg, self.rest_slope
+            *wall_parts(resp),
+            self.wave_share,
+            self.crest_coeff,
+            kind,
+            self.radius_m,
+            self.views_deg,
+            self.rest_slope,
+            self.view_arc_deg,
         )
 
 
@@ -192,27 +205,37 @@ def read_out(
     radius_m: float | None,
     views_deg: float | None = None,
     rest: tuple[float, float] = (0.0, 0.0),
+    arc_deg: float = 0.0,
 ) -> np.ndarray:
     """|static + share x wave + rest| (1 + crest x share |wave|), less the same of the rest alone: the slope at the wall
     above its reading at rest, as a wall height R x it (mm) or an angle atan(it) (deg); the higher modes follow the
     motion (static), the first mode adds its wave, `rest` is the surface's gradient at rest in the container frame (a
     level the reading does not share: a wave smaller than it reads signed, at the mode's own frequency). With
     `views_deg` the wall is seen in two planes 90 deg apart, the first at that azimuth from the container's x axis (two
-    cameras on the container, as in the shared runs): the larger of the slope's components along them."""
+    cameras on the container, as in the shared runs): the highest point of the wall within `arc_deg` of the four
+    points where the views see it edge-on (`view_size`; 0: the larger of the slope's components along them)."""
     part = share * wave
     total = static + part + np.asarray(rest)
     if views_deg is None:
         size, zero = np.linalg.norm(total, axis=1), math.hypot(*rest)
     else:
-        a = math.radians(views_deg)
-        axes = np.array([[math.cos(a), math.sin(a)], [-math.sin(a), math.cos(a)]]).T
-        size, zero = np.max(np.abs(total @ axes), axis=1), float(np.max(np.abs(np.asarray(rest) @ axes)))
+        size = view_size(total, views_deg, arc_deg)
+        zero = float(view_size(np.atleast_2d(np.asarray(rest, float)), views_deg, arc_deg)[0])
     slope = size * (1.0 + crest * np.linalg.norm(part, axis=1)) - zero
     if kind == "wall_height_mm":
         if radius_m is None:
             raise ValueError("a wall height needs the container's radius")
         return 1000.0 * radius_m * slope
     return np.degrees(np.arctan(slope))
+
+
+def view_size(slope: np.ndarray, views_deg: float, arc_deg: float) -> np.ndarray:
+    """The highest point, per unit radius, of the plane of gradient `slope` (N, 2) on the arcs of the wall within
+    `arc_deg` of the azimuths views_deg + k 90 deg: |slope| cos(the gradient's distance to the nearest arc), which for
+    `arc_deg` 0 is the larger of its components along the two views and from 45 deg on is |slope|."""
+    direction = np.arctan2(slope[:, 1], slope[:, 0]) - math.radians(views_deg)
+    apart = np.abs(np.mod(direction + math.pi / 4, math.pi / 2) - math.pi / 4)  # to the nearest edge-on azimuth
+    return np.linalg.norm(slope, axis=1) * np.cos(np.maximum(apart - math.radians(arc_deg), 0.0))
 
 
 def load_model(path: str | Path) -> LiquidModel:
@@ -244,10 +267,11 @@ def load_model(path: str | Path) -> LiquidModel:
         views = geometry.get("views_deg")
         views = None if views is None else float(views)
         tilts = [float(p.get(k, {}).get("value", 0.0)) for k in REST_TILTS]
+        arc = float(p.get("view_arc_deg", {}).get("value", 0.0))
     except (AttributeError, TypeError, ValueError):
         raise UserError(
-            f"parameter file {path}: the wave share, the crest coefficient, a rest tilt, an error, the motion range or "
-            "the geometry is not a number."
+            f"parameter file {path}: the wave share, the crest coefficient, a rest tilt, the view's arc, an error, the "
+            "motion range or the geometry is not a number."
         ) from None
     sources = data.get("sources") if isinstance(data.get("sources"), list) else []
     fitted = tuple(f for src in sources if isinstance(src, str) for f in [_found(src, Path(path).parent)] if f)
@@ -268,13 +292,15 @@ def load_model(path: str | Path) -> LiquidModel:
         envelope,
         fitted,
         digests,
-        *tilts,
+        rest_tilt_x_deg=tilts[0],
+        rest_tilt_y_deg=tilts[1],
+        view_arc_deg=arc,
     )
 
 
 REST_TILTS = ("rest_tilt_x_deg", "rest_tilt_y_deg")
 """The wall reading's level at rest, per container axis (`LiquidModel.rest_tilt_x_deg`)."""
-READING = ("wave_share", "crest_coeff", *REST_TILTS)
+READING = ("wave_share", "crest_coeff", *REST_TILTS, "view_arc_deg")
 """The parameters of the wall's reading alone (a step of one of them simulates nothing)."""
 FITTED_ERRORS = ("f_hz", "zeta", "drag", *READING)
 """Parameters whose standard errors widen the band."""

@@ -235,7 +235,13 @@ def build_report(runs: list[ValidationRun], model: LiquidModel, title: str = "sl
     rep.add_text(
         f"Model: a spherical pendulum at the surface, f = {p.f_hz:.4g} Hz, zeta = {p.zeta:.3g}; the wall reads the "
         f"static surface plus {model.wave_share:.3g} of the wave, crest coefficient {model.crest_coeff:.3g}, against a "
-        f"level tilted {model.rest_tilt_x_deg:.2g} deg along x and {model.rest_tilt_y_deg:.2g} along y at rest; radius "
+        f"level tilted {model.rest_tilt_x_deg:.2g} deg along x and {model.rest_tilt_y_deg:.2g} along y at rest"
+        + (
+            ""
+            if model.views_deg is None
+            else f", on the wall within {model.view_arc_deg:.2g} deg of the views' edge-on points"
+        )
+        + "; radius "
         f"{'-' if model.radius_m is None else f'{1000 * model.radius_m:.1f} mm'}, axis offset "
         f"{1000 * model.axis_offset_m:.0f} mm, acceleration smoothing {1000 * model.smooth_s:.0f} ms (Savitzky-Golay)."
     )
