@@ -6,6 +6,8 @@ damped, robot moves with tilt, two clips crossing the frame), each a video with 
 A case whose draw cannot show its motion (the liquid over the rim, the container out of the picture) takes the next
 seed. Files present from an earlier run are kept (delete the folder to render again); the folder is git-ignored.
 Writes data/pbr_corpus/. Run from the repository root: python3 benchmarks/pbr_corpus.py (--quick: 6 stills, 2 clips).
+With --holdout: the held-out set (24 stills and 2 surface clips from seeds the corpus does not use) into
+data/pbr_holdout/, which track_pbr reports beside the corpus and nobody tunes on.
 """
 
 from __future__ import annotations
@@ -57,18 +59,7 @@ def dynamic_cases() -> list[tuple[str, SynthSettings]]:
         s = replace(CLIP, scene=scene, f_hz=f, zeta=zeta, amplitude_deg=5.0, duration_s=DECAY_S, scene_seed=2000 + i)
         out.append((f"decay{i}", s))
     for i, (accel, dur, tilt) in enumerate([(0.6, 0.6, 3.0), (0.8, 0.5, 2.0), (0.5, 0.7, 3.0), (0.7, 0.6, 2.5)]):
-        scene = "surface" if i % 2 == 0 else "float"
-        s = replace(
-            CLIP,
-            scene=scene,
-            motion="move",
-            accel_m_s2=accel,
-            move_start_s=0.4,
-            move_duration_s=dur,
-            container_tilt_deg=tilt,
-            scene_seed=3000 + i,
-        )
-        out.append((f"move{i}", s))
+        out.append((f"move{i}", _move("surface" if i % 2 == 0 else "float", accel, dur, tilt, 3000 + i)))
     for i, scene in enumerate(("surface", "float")):
         s = replace(CLIP, scene=scene, amplitude_deg=5.0, travel_px=110.0, f_hz=3.2, zeta=0.06, scene_seed=4000 + i)
         s = replace(s, duration_s=DECAY_S)
@@ -79,6 +70,32 @@ def dynamic_cases() -> list[tuple[str, SynthSettings]]:
         )
         out.append((f"decay{4 + i}", s))
     return out
+
+
+HOLDOUT = ROOT / "data" / "pbr_holdout"
+"""The held-out set: scenes of the same draw from seeds the corpus does not use, never looked at while tuning."""
+
+
+def holdout_cases() -> list[tuple[str, SynthSettings]]:
+    """24 still scenes (two of three surfaces) and two surface clips (a tap decay, a move with tilt), seeds 8000-9001:
+    the tracker is tuned on the corpus and reported on these as well."""
+    stills = [(f"still{800 + i}", replace(s, scene_seed=8000 + i)) for i, (_, s) in enumerate(still_cases(24))]
+    decay = replace(CLIP, scene="surface", f_hz=3.0, zeta=0.05, amplitude_deg=5.0, duration_s=DECAY_S, scene_seed=9000)
+    return [*stills, ("decay80", decay), ("move80", _move("surface", 0.6, 0.6, 2.5, 9001))]
+
+
+def _move(scene: str, accel: float, duration: float, tilt: float, seed: int) -> SynthSettings:
+    """A robot move with tilt (starting at 0.4 s) of the dynamic clips' look."""
+    return replace(
+        CLIP,
+        scene=scene,
+        motion="move",
+        accel_m_s2=accel,
+        move_start_s=0.4,
+        move_duration_s=duration,
+        container_tilt_deg=tilt,
+        scene_seed=seed,
+    )
 
 
 def render_case(name: str, s: SynthSettings, folder: Path) -> dict:
@@ -117,12 +134,16 @@ def _diff(s: SynthSettings) -> dict:
     return {k: v for k, v in asdict(s).items() if v != getattr(SynthSettings, k)}
 
 
-def build(folder: Path = CORPUS, quick: bool = False) -> list[dict]:
-    """Render whatever is missing and return the index (also written to folder/index.json)."""
+def build(folder: Path = CORPUS, quick: bool = False, holdout: bool = False) -> list[dict]:
+    """Render whatever is missing and return the index (also written to folder/index.json); `holdout`: the held-out
+    set's cases."""
     folder.mkdir(parents=True, exist_ok=True)
     index_path = folder / "index.json"
     old = {c["name"]: c for c in json.loads(index_path.read_text())} if index_path.exists() else {}
-    cases = still_cases(6 if quick else 60) + dynamic_cases()[: 2 if quick else 12]
+    if holdout:
+        cases = holdout_cases()[: 3 if quick else None]
+    else:
+        cases = still_cases(6 if quick else 60) + dynamic_cases()[: 2 if quick else 12]
     index, t_start = [], time.perf_counter()
     for k, (name, s) in enumerate(cases):
         kept = old.get(name)
@@ -144,12 +165,14 @@ def build(folder: Path = CORPUS, quick: bool = False) -> list[dict]:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--out", type=Path, default=CORPUS, help="corpus folder")
+    ap.add_argument("--out", type=Path, help="corpus folder (default data/pbr_corpus, or data/pbr_holdout)")
     ap.add_argument("--quick", action="store_true", help="6 stills and 2 clips (a smoke test of the script)")
+    ap.add_argument("--holdout", action="store_true", help="the held-out set (24 stills, 2 clips, other seeds)")
     args = ap.parse_args()
-    index = build(args.out, args.quick)
+    folder = args.out or (HOLDOUT if args.holdout else CORPUS)
+    index = build(folder, args.quick, args.holdout)
     total = sum(c["render_s"] for c in index)
-    print(f"{len(index)} cases in {args.out} ({total / 60:.1f} min of rendering)")
+    print(f"{len(index)} cases in {folder} ({total / 60:.1f} min of rendering)")
 
 
 if __name__ == "__main__":
