@@ -22,6 +22,7 @@ import numpy as np
 from bench_output import ROOT, write_results
 
 from sloshid.identification.estimator import IdentSettings
+from sloshid.identification.pt2fit import nrmse_fit_percent
 from sloshid.identification.signals import load_signal
 from sloshid.model.pendulum import SloshParams, cylinder_first_mode_omega
 from sloshid.model.pose import load_pose_log
@@ -45,6 +46,9 @@ KINDS = {
 APART = "Tilt_TRD_2D_0.3m_3s_30deg"
 ALL = tuple(n for runs in KINDS.values() for n in runs)
 PROCESSES = 2
+ISSUE_AFTER_S = 5.0
+"""Issue 38 scored its unseen runs over the move and this long after it; the report gives that fit beside the
+record's."""
 FIXED = LiquidModel(
     SloshParams.from_modal(cylinder_first_mode_omega(R, H), 0.01), R, D, spherical=False, model_error=MODEL_ERROR_LOG_SD
 )
@@ -75,8 +79,10 @@ def row(name: str, kind: str, models: dict[str, LiquidModel]) -> dict:
     for label, model in models.items():
         v = validate_run(pose, sig, model, name)
         s = v.scores
+        window = (v.t_s >= v.move_s[0]) & (v.t_s <= v.move_s[1] + ISSUE_AFTER_S)
         out[label] = {
             "fit_percent": s["all"].fit_percent,
+            "fit_move_percent": nrmse_fit_percent(v.measured[window], v.predicted[window]),
             "peak_error_percent": s["during"].peak_error_percent,
             "log_peak_error": math.log(s["during"].peak_measured / s["during"].peak_predicted),
             "band_peak": list(v.band_peak),
@@ -92,6 +98,7 @@ def summarise(rows: list[dict], label: str) -> dict:
     return {
         "median_abs_peak_error_percent": float(np.median(peaks)),
         "median_fit_percent": float(np.median([r[label]["fit_percent"] for r in rows])),
+        "median_fit_move_percent": float(np.median([r[label]["fit_move_percent"] for r in rows])),
         "share_within_20_percent": float(np.mean([p <= 20 for p in peaks])),
         "band_coverage": float(np.mean([r[label]["peak_in_band"] for r in rows])),
         "n_runs": len(rows),
@@ -165,7 +172,9 @@ def main() -> None:
         "Cells: fit % over the record / peak error % during the move / the 95 % band of the peak (! measured outside). "
         f"Physics-first, leave-one-kind-out: median |peak error| {s['median_abs_peak_error_percent']:.1f} % (target "
         f"<= 6; fixed physics {f['median_abs_peak_error_percent']:.1f}), median fit {s['median_fit_percent']:.1f} % "
-        f"(target >= 68; fixed {f['median_fit_percent']:.1f}), within 20 %: "
+        f"(target >= 68; fixed {f['median_fit_percent']:.1f}); over the move and {ISSUE_AFTER_S:g} s after it, as the "
+        f"issue scored its unseen runs, {s['median_fit_move_percent']:.1f} % (fixed {f['median_fit_move_percent']:.1f}); "
+        "within 20 %: "
         f"{100 * s['share_within_20_percent']:.0f} % of runs (target >= 90; fixed "
         f"{100 * f['share_within_20_percent']:.0f}), worst kind against fixed physics {worst:+.1f} points of peak error "
         f"(target <= +5), band coverage {100 * s['band_coverage']:.0f} % (target >= 85; fixed physics with its own "
