@@ -17,6 +17,7 @@ import math
 import numpy as np
 from bench_output import ROOT, write_results
 from scipy.signal import butter, hilbert, sosfiltfilt
+from scipy.stats import spearmanr
 from validate_real import ALL, KINDS, D, R, load
 
 from sloshid.model.conventions import G
@@ -112,12 +113,6 @@ def run_row(name: str, kind: str, model: LiquidModel) -> dict:
     }
 
 
-def rank_correlation(a: list[float], b: list[float]) -> float:
-    """Spearman's rank correlation (no ties in these measurements)."""
-    ra, rb = np.argsort(np.argsort(a)), np.argsort(np.argsort(b))
-    return float(np.corrcoef(ra, rb)[0, 1])
-
-
 def main() -> None:
     """Measure every run, the servo's gains and the rank correlations; write the report."""
     models = fold_models()
@@ -126,7 +121,7 @@ def main() -> None:
     gains = {f"{fn:g} Hz, zeta {z:g}": servo_gain(3.0, fn, z) for fn in SERVO_HZ for z in SERVO_ZETA}
     wave = [r["measured_after_2s_mm"] for r in rows]
     corr = {
-        key: rank_correlation(wave, [r[key] for r in rows])
+        key: float(spearmanr(wave, [r[key] for r in rows]).statistic)
         for key in ("peak_accel_g", "last_second_accel_g", "last_second_jerk_m_s3", "duration_s", "spin_deg")
     }
     table = [
