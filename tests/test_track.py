@@ -36,6 +36,7 @@ from sloshid.tracking.smooth import smooth_angle
 from sloshid.tracking.surface import (
     SurfaceFinder,
     SurfaceMeasurement,
+    _column_box,
     _container_axes,
     _crossings_first,
     _front_below,
@@ -1957,3 +1958,15 @@ def test_a_shallow_fill_in_an_upright_container_keeps_its_walls(tmp_path, monkey
     res = track_video(tmp_path / "shallow.mp4", TrackSettings(target="surface", smooth=False), multithreaded=False)
     ok = res.valid.astype(bool)
     assert ok.mean() > 0.9 and _rmse((res.angle_deg - truth["surface_angle_deg"])[ok]) < 0.1  # measured 0.010 deg
+
+
+def test_a_thing_of_the_dyes_colour_at_the_maps_side_leaves_the_liquids_column_walled():
+    # a dark liquid 200 px wide in a map whose left edge holds another dark thing in the same rows (a camera body
+    # beside a cola): the column through the liquid's centre stops short of both sides, so it is the liquid's box.
+    # Reading "walled" off the map's edge columns refused it (None), and no frame of such a clip was measured
+    inside = np.zeros((240, 400), bool)
+    inside[60:200, 150:350] = True  # the liquid
+    inside[40:180, 0:40] = True  # the other thing, touching the map's left side
+    assert _column_box(inside, (10, 20)) == (160, 80, 360, 220)
+    inside[60:200, 40:150] = True  # the liquid itself reaches the side: no walls there
+    assert _column_box(inside, (10, 20)) is None

@@ -26,7 +26,7 @@ from sloshid.core.errors import UserError
 from sloshid.core.outputs import Outputs
 from sloshid.tracking.float_angle import MIN_AREA_PX, hsv_mask, principal_axis
 from sloshid.tracking.rows import TrackRow
-from sloshid.tracking.surface import MIN_LIQUID_SHARE
+from sloshid.tracking.surface import MIN_LIQUID_SHARE, dye_range
 from sloshid.tracking.surface_track import SurfaceStep
 from sloshid.tracking.tracker import MeasureStep, TrackSettings, measure_frame, roi_box
 from sloshid.video.colors import PRESETS, HsvRange, format_hsv
@@ -542,7 +542,9 @@ def inspect_video(
     )
     labels: Labels = {}
     drawn: Drawn = {}
-    _look_at_colours(res, frame, {name: p.hsv for name, p in PRESETS.items()}, labels, drawn)
+    # each preset's hues fitted to the dye as track fits them (`dye_range`): a dye between two presets' hues is
+    # otherwise seen only where its edges reach one of them
+    _look_at_colours(res, frame, {name: dye_range(frame, box, p.hsv) for name, p in PRESETS.items()}, labels, drawn)
     if not any(s.liquid for s in res.surfaces) and not any(f.found for f in res.floats):
         # a colour no preset takes (or too little of one): the largest coloured region's own range is looked at
         res.seen, res.saw, largest = what_it_saw(frame, box)

@@ -841,7 +841,9 @@ def _column_box(
     c = (int(filled[0]) + int(filled[-1])) // 2
     # per row, the run of liquid through the centre: its first and its last-plus-one column
     dl, dr = np.argmax(~seg[:, c::-1], axis=1), np.argmax(~seg[:, c:], axis=1)
-    walled = seg[:, c] & ~inside[top:, 0] & ~inside[top:, -1]
+    # the run through the centre stops short of both of the map's sides (another thing of the dye's colour may touch
+    # a side in the same rows: a dark camera body beside a cola)
+    walled = seg[:, c] & (~seg[:, :c]).any(axis=1) & (~seg[:, c + 1 :]).any(axis=1)
     left, right = (c + 1 - dl).astype(float), (c + dr).astype(float)
     start, stop = _centre_run(seg[:, c])
     n = start + _column_end(seg[start:stop, c], left[start:stop], right[start:stop])
@@ -852,7 +854,9 @@ def _column_box(
     X0, Y0 = origin
     rows = seg[start:n, c]
     x0, x1 = int(left[start:n][rows].min()), int(right[start:n][rows].max())
-    return X0 + x0, Y0 + top, X0 + x1, Y0 + top + n  # from the liquid's top: a pale surface band seen from above too
+    # from the liquid's top in its own columns (a pale surface band seen from above too; not another thing's top)
+    first = int(np.argmax(inside[top : top + n, x0:x1].any(axis=1)))
+    return X0 + x0, Y0 + top + first, X0 + x1, Y0 + top + n
 
 
 def _centre_run(centre: np.ndarray) -> tuple[int, int]:

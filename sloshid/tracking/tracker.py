@@ -39,7 +39,6 @@ from sloshid.tracking.robust import percentile_span
 from sloshid.tracking.rows import VALID_QUALITY, TrackRow, step_row
 from sloshid.tracking.smooth import smoothing_worker
 from sloshid.tracking.surface import (
-    MIN_LIQUID_SHARE,
     SurfaceFinder,
     auto_liquid_preset,
     dye_range,
@@ -634,20 +633,24 @@ MeasureStep: TypeAlias = "_FloatStep | SurfaceStep"
 
 def _auto_dye(first: Picture | np.ndarray, roi: tuple[int, int, int, int], settings: TrackSettings):
     """The dye's preset from the first frame: the preset whose colour covers the largest region, unless that is
-    `dark` (shadows, black objects: an underexposed picture's outgrew a blue dye), which is not measured there as a
-    liquid between a container's walls, while a coloured region is: the largest such. Returns (name or None, a rival
-    to name or None, whether the rival's region is the larger)."""
+    `dark` (shadows, black objects: an underexposed picture's outgrew a blue dye) or none covers enough, and it is not
+    measured there as a liquid between a container's walls, while another preset is, with its hues fitted to the dye
+    as track then fits them (`dye_range`: a dye between two presets' hues lies in neither): the one with the largest
+    region. Returns (name or None, a rival to name or None, whether the rival's region is the larger)."""
     x, y, w, h = roi  # the ROI's pixels only (a Picture converts just them), as auto_liquid_preset reads them
     crop = first[y : y + h, x : x + w]
     name, rival = auto_liquid_preset(crop, (0, 0, w, h))
-    if name != "dark":
+    if name not in ("dark", None):
         return name, rival, False
     frame = np.asarray(first)  # measured as a picture is drawn: converted whole
-    if measure_frame(frame, 0.0, settings, roi, preset(name).hsv)[0].valid:
+    if name == "dark" and measure_frame(frame, 0.0, settings, roi, preset(name).hsv)[0].valid:
         return name, rival, False  # a cola in its glass; a coloured box behind it may measure as one too
-    for other, area, _ in preset_regions(crop, (0, 0, w, h))[1:]:
-        if area > MIN_LIQUID_SHARE * w * h and measure_frame(frame, 0.0, settings, roi, preset(other).hsv)[0].valid:
-            return other, name, True
+    for other, _, _ in preset_regions(crop, (0, 0, w, h)):
+        if (
+            other != "dark"
+            and measure_frame(frame, 0.0, settings, roi, dye_range(frame, roi, preset(other).hsv))[0].valid
+        ):
+            return other, name, name is not None
     return name, rival, False
 
 
