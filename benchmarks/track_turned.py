@@ -33,7 +33,7 @@ SPREAD_DEG = 0.5
 """The real frame's target: the angle relative to the container constant within this across turns."""
 
 
-def _median_angle(clip: Path, reference: str) -> float | None:
+def median_angle(clip: Path, reference: str) -> float | None:
     """The clip's median angle over its valid frames, or None when it is not tracked."""
     try:
         res = track_video(clip, TrackSettings(target="surface", reference=reference, smooth=False))
@@ -58,10 +58,15 @@ def turned_rows(folder: Path, holdout: bool) -> list[dict]:
             for turn in TURNS_DEG:
                 clip = Path(tmp) / f"{c['name']}_{turn:+.0f}.mp4"
                 still_clip(picture, clip, turn, frames=8, seed=1)
-                row[f"{turn:+.0f}"] = {ref: _median_angle(clip, ref) for ref in ("image", "container")}
+                row[f"{turn:+.0f}"] = {ref: median_angle(clip, ref) for ref in ("image", "container")}
             rows.append(row)
             print(f"[{folder.name}] {row['case']}: {[row[f'{t:+.0f}'] for t in TURNS_DEG]}")
     return rows
+
+
+def fmt(v: float | None, pct: bool = False) -> str:
+    """A table cell: '-' for None, a share as a percentage, else three significant digits."""
+    return "-" if v is None else (f"{100 * v:.0f} %" if pct else f"{v:.3g}")
 
 
 def summary(rows: list[dict]) -> dict:
@@ -95,9 +100,6 @@ def main() -> None:
     t0 = time.perf_counter()
     sets = {"pbr": turned_rows(CORPUS, False), "pbr held-out": turned_rows(HOLDOUT, True)}
     figures = {name: summary(rows) for name, rows in sets.items()}
-
-    def fmt(v, pct=False):
-        return "-" if v is None else (f"{100 * v:.0f} %" if pct else f"{v:.3g}")
 
     table = [
         [

@@ -49,3 +49,19 @@ def still_clip(
         for i in range(frames):
             grain = rng.normal(0.0, noise, picture.shape).astype(np.float32)
             writer.write(np.clip(picture + grain, 0, 255).astype(np.uint8), i / fps)
+
+
+def recoloured(
+    image: np.ndarray, turn_hue: int = 0, value: float = 1.0, region: tuple[int, int, int, int] | None = None
+) -> np.ndarray:
+    """The picture with every hue turned by `turn_hue` (OpenCV units, 2 deg each) and the coloured pixels (saturation
+    above 80 of 255) of `region` (x0, y0, x1, y1; None: none) darkened to `value` of their brightness: a real photo's
+    dye made another colour, for the dyes no photo at hand shows."""
+    hsv = cv2.cvtColor(image, cv2.COLOR_BGR2HSV)
+    hsv[..., 0] = (hsv[..., 0].astype(int) + turn_hue) % 180
+    if region is not None:
+        x0, y0, x1, y1 = region
+        box = hsv[y0:y1, x0:x1]
+        coloured = box[..., 1] > 80
+        box[..., 2][coloured] = (box[..., 2][coloured] * value).astype(np.uint8)
+    return cv2.cvtColor(hsv, cv2.COLOR_HSV2BGR)
