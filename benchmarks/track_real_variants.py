@@ -3,8 +3,8 @@
 The outside check of issue 37 tracked real photos of an orange, a near-black, a red and a blue liquid, turned by 0, +5
 and -7 deg, with no option. One real photo is at hand (../shared/data/real: blue water in a blue holder); this makes
 its dye every other hue (`recoloured`: the whole picture's hues turned in steps of 10 OpenCV units, 20 deg) and
-darkens its liquid toward black (the holder kept blue), so that the real glass's optics meet the dyes the presets
-do not all cover. Each variant is turned (`still_clip`, 960 px, 8 frames, H.264 CRF 20) and tracked with
+darkens its liquid toward black (the holder kept blue), and gives the picture a faint dye, a colour cast, an
+overexposure or a lower contrast, so that the real glass's optics meet the dyes and looks the presets do not all cover. Each variant is turned (`still_clip`, 960 px, 8 frames, H.264 CRF 20) and tracked with
 `--target surface` and no other option, against the image and the container. Reports per set the share of clips
 tracked (80 % of frames valid), how far the image angle misses the turn (against the unturned clip's), and the
 spread of the angle relative to the container across the turns (the real frame's targets: 0.3 and 0.5 deg).
@@ -16,6 +16,8 @@ from __future__ import annotations
 
 import tempfile
 import time
+from collections.abc import Callable
+from functools import partial
 from pathlib import Path
 
 import cv2
@@ -28,18 +30,37 @@ from sloshid.synthetic.stills import recoloured, still_clip
 REAL_FRAME = ROOT.parent / "shared" / "data" / "real" / "blue_cylinder_at_rest.png"
 LIQUID_BOX = (625, 0, 1345, 870)
 """The real frame's liquid above its holder (x0, y0, x1, y1 at 1920 x 1080), where the dark variants darken it."""
+
+
+def _scaled(image: np.ndarray, gain: tuple[float, float, float], about: float = 0.0) -> np.ndarray:
+    """The picture's blue, green and red scaled by `gain` about the grey level `about` (a colour cast, an exposure,
+    a contrast), clipped to 0-255."""
+    return np.clip(about + (image.astype(np.float32) - about) * np.float32(gain), 0, 255).astype(np.uint8)
+
+
 FOLLOW_DEG = 0.3
 """The real frame's target: the image angle follows a turn within this."""
 SETS = {
-    "hue turned": [(f"hue +{h}", h, 1.0) for h in range(0, 180, 10)],
-    "liquid darkened": [(f"value x{v:g}", 0, v) for v in (0.5, 0.3, 0.15)],
+    "hue turned": [(f"hue +{h}", partial(recoloured, turn_hue=h)) for h in range(0, 180, 10)],
+    "liquid darkened": [(f"value x{v:g}", partial(recoloured, value=v, region=LIQUID_BOX)) for v in (0.5, 0.3, 0.15)],
+    "photo look": [
+        ("faint dye, saturation x0.5", partial(recoloured, saturation=0.5)),
+        ("faint dye, saturation x0.35", partial(recoloured, saturation=0.35)),
+        ("faint orange (hue +100, saturation x0.5)", partial(recoloured, turn_hue=100, saturation=0.5)),
+        ("faint red (hue +70, saturation x0.5)", partial(recoloured, turn_hue=70, saturation=0.5)),
+        ("warm cast (blue x0.8, red x1.2)", partial(_scaled, gain=(0.8, 1.0, 1.2))),
+        ("cool cast (blue x1.2, red x0.85)", partial(_scaled, gain=(1.2, 1.0, 0.85))),
+        ("overexposed x1.4", partial(_scaled, gain=(1.4, 1.4, 1.4))),
+        ("low contrast x0.6 about mid-grey", partial(_scaled, gain=(0.6, 0.6, 0.6), about=128.0)),
+    ],
 }
-"""Per set, its variants: (name, hue turn in OpenCV units, the liquid's brightness factor)."""
+"""Per set, its variants: (name, the picture made from the real frame)."""
 
 
-def variant_row(image: np.ndarray, name: str, hue: int, value: float, folder: Path) -> dict:
-    """One variant turned by each of TURNS_DEG and tracked against the image and the container."""
-    picture = recoloured(image, hue, value, LIQUID_BOX)
+def variant_row(image: np.ndarray, name: str, make: Callable[[np.ndarray], np.ndarray], folder: Path) -> dict:
+    """One variant (`make` of the real frame) turned by each of TURNS_DEG and tracked against the image and the
+    container."""
+    picture = make(image)
     row: dict = {"variant": name}
     for k, turn in enumerate(TURNS_DEG):
         clip = folder / f"turn_{k}.mp4"
@@ -101,7 +122,8 @@ def main() -> None:
         "turned by 0-170 OpenCV units in steps of 10 (the blue dye through violet, magenta, red, orange, yellow, "
         "green and teal; the holder and the wall's tint turn with it); 'liquid darkened', the liquid's coloured pixels "
         "above the holder darkened to 0.5, 0.3 and 0.15 of their brightness (a dark dye; the holder stays blue, and "
-        "the camera body at the picture's left is dark too). Each turned by 0, +5 and -7 deg (`still_clip`, 960 px, "
+        "the camera body at the picture's left is dark too); 'photo look', the picture's saturation scaled (a faint dye, "
+        "also turned to an orange and a red), a colour cast, an overexposure and a lower contrast. Each turned by 0, +5 and -7 deg (`still_clip`, 960 px, "
         "noise 3, H.264 CRF 20, 8 frames) and tracked with `--target surface` and no other option. Miss: the image "
         "angle's change from the unturned clip less the turn. Spread: the largest difference of the angle relative "
         "to the container between the turns, for the variants tracked at all three. The development frame's "

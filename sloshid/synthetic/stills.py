@@ -52,13 +52,19 @@ def still_clip(
 
 
 def recoloured(
-    image: np.ndarray, turn_hue: int = 0, value: float = 1.0, region: tuple[int, int, int, int] | None = None
+    image: np.ndarray,
+    turn_hue: int = 0,
+    value: float = 1.0,
+    region: tuple[int, int, int, int] | None = None,
+    saturation: float = 1.0,
 ) -> np.ndarray:
-    """The picture with every hue turned by `turn_hue` (OpenCV units, 2 deg each) and the coloured pixels (saturation
-    above 80 of 255) of `region` (x0, y0, x1, y1; None: none) darkened to `value` of their brightness: a real photo's
-    dye made another colour, for the dyes no photo at hand shows."""
+    """The picture with every hue turned by `turn_hue` (OpenCV units, 2 deg each) and every saturation scaled by
+    `saturation`, and the coloured pixels (saturation above 80 of 255) of `region` (x0, y0, x1, y1; None: none)
+    darkened to `value` of their brightness: a real photo's dye made another colour, fainter or darker, for the dyes
+    no photo at hand shows."""
     hsv = cv2.cvtColor(image, cv2.COLOR_BGR2HSV)
     hsv[..., 0] = (hsv[..., 0].astype(int) + turn_hue) % 180
+    hsv[..., 1] = np.clip(hsv[..., 1] * saturation, 0, 255).astype(np.uint8)
     if region is not None:
         x0, y0, x1, y1 = region
         box = hsv[y0:y1, x0:x1]

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, TypeAlias, cast
 
@@ -26,7 +26,7 @@ from sloshid.core.errors import UserError
 from sloshid.core.outputs import Outputs
 from sloshid.tracking.float_angle import MIN_AREA_PX, hsv_mask, principal_axis
 from sloshid.tracking.rows import TrackRow
-from sloshid.tracking.surface import MIN_LIQUID_SHARE, dye_range
+from sloshid.tracking.surface import MIN_LIQUID_SHARE, SATURATED, coloured_regions, dye_range, own_range
 from sloshid.tracking.surface_track import SurfaceStep
 from sloshid.tracking.tracker import MeasureStep, TrackSettings, measure_frame, roi_box
 from sloshid.video.colors import PRESETS, HsvRange, format_hsv
@@ -40,16 +40,11 @@ MAX_CANDIDATES = 5
 WIDER = 0.05
 """The liquid region is taken to meet something of its own colour (a holder, a table) from the first of three rows, below
 its first full row, that reach beyond a side of the liquid by more than this share of its width (plus 3 px)."""
-SATURATED = (60, 40)
-"""Least saturation and value (OpenCV HSV) of a pixel called coloured when nothing of a preset colour was found."""
 AT_BEFORE_S = 1.0
 """--at: decoding starts at the key frame before this many seconds ahead of the time asked for, so that the frame on
 screen then (the last one not after it) is among those read."""
 AT_TOLERANCE_S = 5e-4
 """--at: a frame this close after the time asked for is the one meant (a time typed to the millisecond)."""
-HUE_REACH = 8
-"""The HSV range made for a colour no preset takes reaches this far (OpenCV hue, 0..179) either side of its median
-hue: the presets' ranges are 14-35 wide."""
 _HUES = ((8, "red"), (22, "orange"), (35, "yellow"), (85, "green"), (100, "cyan"), (125, "blue"), (170, "magenta"))
 """Upper hue bounds (OpenCV, 0..179) of the colour names used to say what was seen; above the last: red again."""
 
@@ -470,12 +465,9 @@ def what_it_saw(frame: np.ndarray, roi: tuple[int, int, int, int]) -> tuple[str,
     words, the same in a clause, and an HSV range (by its name) that takes the largest in, to measure it with (none in
     a grey picture)."""
     x, y, w, h = roi
-    hsv = cv2.cvtColor(frame[y : y + h, x : x + w], cv2.COLOR_BGR2HSV)
-    coloured = ((hsv[..., 1] >= SATURATED[0]) & (hsv[..., 2] >= SATURATED[1])).astype(np.uint8)
+    hsv, lab, stats, order = coloured_regions(frame, roi)
     s_med, v_med = int(np.median(hsv[..., 1])), int(np.median(hsv[..., 2]))
     greys = f"median saturation {s_med} and brightness {v_med} of 255"
-    n, lab, stats, _ = cv2.connectedComponentsWithStats(coloured, connectivity=8)
-    order = sorted(range(1, n), key=lambda k: -stats[k, cv2.CC_STAT_AREA])
     big = [k for k in order if stats[k, cv2.CC_STAT_AREA] >= max(MIN_AREA_PX, LISTED_SHARE * w * h)][:3]
     if not big:
         return (
@@ -497,8 +489,7 @@ def what_it_saw(frame: np.ndarray, roi: tuple[int, int, int, int]) -> tuple[str,
         )
     px = hsv[lab == big[0]]
     hue = float(np.median(px[:, 0]))
-    s_floor, v_floor = (max(20, int(np.percentile(px[:, c], 5)) - 10) for c in (1, 2))  # paler and darker pixels too
-    r = HsvRange((int(hue - HUE_REACH) % 180, s_floor, v_floor), (int(hue + HUE_REACH) % 180, 255, 255))
+    r = own_range(px)
     return (
         (
             f"no preset colour measured here ({greys}); the largest coloured regions: {'; '.join(parts)}; the "
@@ -549,6 +540,18 @@ def inspect_video(
         # a colour no preset takes (or too little of one): the largest coloured region's own range is looked at
         res.seen, res.saw, largest = what_it_saw(frame, box)
         _look_at_colours(res, frame, largest, labels, drawn)
+    elif not any(s.measured for s in res.surfaces):
+        # no preset measured as the liquid (a faint dye below every preset's saturation): its own range, as track
+        # takes it then, when that is measured
+        seen, saw, largest = what_it_saw(frame, box)
+        if largest:
+            own, more = replace(res, colours=[], surfaces=[], floats=[], candidates=[]), {}
+            _look_at_colours(own, frame, largest, more, drawn)
+            if any(s.measured for s in own.surfaces):
+                res.seen, res.saw = seen, saw
+                labels.update(more)
+                for name in ("colours", "surfaces", "floats", "candidates"):
+                    getattr(res, name).extend(getattr(own, name))
     _decide(res, frame, labels, drawn)
     res.picture = _picture(res, frame, labels, drawn)
     return res

@@ -252,6 +252,34 @@ def dye_range(frame: np.ndarray, roi: tuple[int, int, int, int], hsv: HsvRange) 
     return HsvRange((low, *hsv.low[1:]), (high, *hsv.high[1:]))
 
 
+SATURATED = (60, 40)
+"""Least saturation and value (OpenCV HSV) of a pixel called coloured where no preset's range takes the dye."""
+OWN_HUE_REACH = 8
+"""The HSV range made for a colour no preset takes reaches this far (OpenCV hue, 0..179) either side of its median
+hue: the presets' ranges are 14-35 wide."""
+
+
+def coloured_regions(frame: np.ndarray, roi: tuple[int, int, int, int]):
+    """The ROI's coloured pixels (SATURATED) as connected regions: the crop in HSV, the region labels, their stats
+    (OpenCV's x, y, w, h, area rows) and their labels largest first."""
+    x, y, w, h = roi
+    hsv = cv2.cvtColor(frame[y : y + h, x : x + w], cv2.COLOR_BGR2HSV)
+    coloured = ((hsv[..., 1] >= SATURATED[0]) & (hsv[..., 2] >= SATURATED[1])).astype(np.uint8)
+    n, labels, stats, _ = cv2.connectedComponentsWithStats(coloured, connectivity=8)
+    return hsv, labels, stats, sorted(range(1, n), key=lambda k: -stats[k, cv2.CC_STAT_AREA])
+
+
+def own_range(pixels: np.ndarray) -> HsvRange:
+    """The HSV box of one region's pixels (n x 3, OpenCV HSV): its median hue +- OWN_HUE_REACH, and from 10 below its
+    5th-percentile saturation and value (paler and darker pixels of the dye too), for a dye no preset's range takes (a
+    faint dye below every preset's saturation). Its value starts above the `dark` preset's (shadows of the dye's hue,
+    a holder's dark parts, are dark: they had joined a faint blue liquid to its holder and the picture's side)."""
+    hue = float(np.median(pixels[:, 0]))
+    s_floor, v_floor = (int(np.percentile(pixels[:, c], 5)) - 10 for c in (1, 2))
+    low = (int(hue - OWN_HUE_REACH) % 180, max(20, s_floor), max(PRESETS["dark"].hsv.high[2] + 1, v_floor))
+    return HsvRange(low, (int(hue + OWN_HUE_REACH) % 180, 255, 255))
+
+
 def _crossings_first(m: np.ndarray, above: np.ndarray, axis: int, level: float = 0.5) -> tuple[np.ndarray, np.ndarray]:
     """Sub-pixel position of the first `level` crossing of m along `axis` (from index 0), and whether there is one;
     `above` is the same view of m >= level (as `_inside` gives it for 0.5)."""
@@ -821,9 +849,9 @@ def _column_box(
 ) -> tuple[int, int, int, int] | None:
     """Frame box (x0, y0, x1, y1) of the liquid column in a membership map (`inside`, as `_inside` gives it): the
     longest stretch of liquid through its centre (`_centre_run`), down to where the liquid ends, or to where something of its colour wider than the
-    container begins (a holder, a table, a thick glass bottom: `_column_end`). None when there is no body, when the
-    column touches the map's sides above its end, or (unless `bottom_open`) reaches the map's bottom: the body left
-    the map."""
+    container begins (a holder, a table, a thick glass bottom: `_column_end`; with `bottom_open`, also where it runs
+    out to the map's side below the walls' rows). None when there is no body, when the column touches the map's sides
+    above its end, or (unless `bottom_open`) reaches the map's bottom: the body left the map."""
     per_row, r = _liquid_rows(inside)
     if per_row.max() < 10:
         return None
@@ -847,6 +875,13 @@ def _column_box(
     left, right = (c + 1 - dl).astype(float), (c + dr).astype(float)
     start, stop = _centre_run(seg[:, c])
     n = start + _column_end(seg[start:stop, c], left[start:stop], right[start:stop])
+    if bottom_open:
+        # below the rows the walls are fitted on, a run that reaches the map's side is what the container stands in (a
+        # holder's base running out of the picture on one side only, which `_column_end` does not see): the column
+        # ends there. (A followed body's map is a window about its last box, whose sides it may touch: found anew.)
+        lower = start + int(0.6 * (stop - start))
+        beyond = np.flatnonzero(seg[lower:n, c] & ~walled[lower:n])
+        n = lower + int(beyond[0]) if beyond.size else n
     if n - start < 12 or np.any(seg[start:n, c] & ~walled[start:n]):  # the column reaches the map's side
         return None
     if n == seg.shape[0] and not bottom_open:

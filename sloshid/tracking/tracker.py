@@ -22,6 +22,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Literal, Protocol, TypeAlias, cast
 
+import cv2
 import numpy as np
 from tqdm import tqdm
 
@@ -39,9 +40,12 @@ from sloshid.tracking.robust import percentile_span
 from sloshid.tracking.rows import VALID_QUALITY, TrackRow, step_row
 from sloshid.tracking.smooth import smoothing_worker
 from sloshid.tracking.surface import (
+    MIN_LIQUID_SHARE,
     SurfaceFinder,
     auto_liquid_preset,
+    coloured_regions,
     dye_range,
+    own_range,
     preset_regions,
 )
 from sloshid.tracking.surface_track import SurfaceStep, check_rest_frames
@@ -488,8 +492,7 @@ def track_video(
         reader.end_s = spans[0][1]
         liquid, dye, rival, larger = settings.liquid_hsv, "", None, False
         if settings.target == "surface" and liquid is None:  # one automatic dye colour for every span: the first's
-            name, rival, larger = _auto_dye(reader.first_picture(), roi, settings)
-            liquid = preset(name).hsv if name else None
+            name, liquid, rival, larger = _auto_dye(reader.first_picture(), roi, settings)
             dye = f"{name} (chosen from the first frame)" if name else ""
         elif settings.target == "surface" and liquid is not None:
             dye = settings.liquid_color or liquid.describe()
@@ -545,9 +548,9 @@ def track_video(
     res.warnings.extend(notes)
     if rival is not None:
         res.warnings.append(
-            f"the dye's colour was chosen from the first frame as {dye.split()[0]}, "
+            f"the dye's colour was chosen from the first frame as {dye.removesuffix(' (chosen from the first frame)')}, "
             + (
-                f"the largest region of a preset colour measured there as a liquid between a container's walls; "
+                f"the largest region of its colour measured there as a liquid between a container's walls; "
                 f"{rival} covers a larger region, which was not"
                 if larger
                 else f"the largest region of a preset colour; {rival} covers a region at least a quarter as large"
@@ -632,26 +635,33 @@ MeasureStep: TypeAlias = "_FloatStep | SurfaceStep"
 
 
 def _auto_dye(first: Picture | np.ndarray, roi: tuple[int, int, int, int], settings: TrackSettings):
-    """The dye's preset from the first frame: the preset whose colour covers the largest region, unless that is
+    """The dye's colour from the first frame: the preset whose colour covers the largest region, unless that is
     `dark` (shadows, black objects: an underexposed picture's outgrew a blue dye) or none covers enough, and it is not
     measured there as a liquid between a container's walls, while another preset is, with its hues fitted to the dye
     as track then fits them (`dye_range`: a dye between two presets' hues lies in neither): the one with the largest
-    region. Returns (name or None, a rival to name or None, whether the rival's region is the larger)."""
+    region; else the largest coloured region's own range (`own_range`: a faint dye below every preset's saturation)
+    when it is measured so. Returns (its name or None, its HSV range or None, a rival to name or None, whether the
+    rival's region is the larger)."""
     x, y, w, h = roi  # the ROI's pixels only (a Picture converts just them), as auto_liquid_preset reads them
     crop = first[y : y + h, x : x + w]
     name, rival = auto_liquid_preset(crop, (0, 0, w, h))
     if name not in ("dark", None):
-        return name, rival, False
+        return name, preset(name).hsv, rival, False
     frame = np.asarray(first)  # measured as a picture is drawn: converted whole
     if name == "dark" and measure_frame(frame, 0.0, settings, roi, preset(name).hsv)[0].valid:
-        return name, rival, False  # a cola in its glass; a coloured box behind it may measure as one too
+        return name, preset(name).hsv, rival, False  # a cola in its glass; a coloured box behind it may measure too
     for other, _, _ in preset_regions(crop, (0, 0, w, h)):
         if (
             other != "dark"
             and measure_frame(frame, 0.0, settings, roi, dye_range(frame, roi, preset(other).hsv))[0].valid
         ):
-            return other, name, name is not None
-    return name, rival, False
+            return other, preset(other).hsv, name, name is not None
+    hsv, labels, stats, order = coloured_regions(frame, roi)
+    if order and stats[order[0], cv2.CC_STAT_AREA] > MIN_LIQUID_SHARE * w * h:
+        own = own_range(hsv[labels == order[0]])
+        if measure_frame(frame, 0.0, settings, roi, own)[0].valid:
+            return f"{own.describe()}, no preset's", own, name, name is not None
+    return name, preset(name).hsv if name else None, rival, False
 
 
 def _dye_range(frame: Picture | np.ndarray, roi: tuple, settings: TrackSettings, liquid: HsvRange) -> HsvRange:
