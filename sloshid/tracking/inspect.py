@@ -545,7 +545,8 @@ def inspect_video(
         # takes it then, when that is measured
         seen, saw, largest = what_it_saw(frame, box)
         if largest:
-            own, more = replace(res, colours=[], surfaces=[], floats=[], candidates=[]), {}
+            own = replace(res, colours=[], surfaces=[], floats=[], candidates=[])
+            more: Labels = {}
             _look_at_colours(own, frame, largest, more, drawn)
             if any(s.measured for s in own.surfaces):
                 res.seen, res.saw = seen, saw
