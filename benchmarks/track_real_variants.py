@@ -1,15 +1,17 @@
 """Benchmark: the real frame's dye made every other colour, turned as the outside check turned its photos.
 
 The outside check of issue 37 tracked real photos of an orange, a near-black, a red and a blue liquid, turned by 0, +5
-and -7 deg, with no option. One real photo is at hand (../shared/data/real: blue water in a blue holder); this makes
-its dye every other hue (`recoloured`: the whole picture's hues turned in steps of 10 OpenCV units, 20 deg) and
-darkens its liquid toward black (the holder kept blue), and gives the picture a faint dye, a colour cast, an
-overexposure or a lower contrast, so that the real glass's optics meet the dyes and looks the presets do not all cover. Each variant is turned (`still_clip`, 960 px, 8 frames, H.264 CRF 20) and tracked with
-`--target surface` and no other option, against the image and the container. Reports per set the share of clips
-tracked (80 % of frames valid), how far the image angle misses the turn (against the unturned clip's), and the
-spread of the angle relative to the container across the turns (the real frame's targets: 0.3 and 0.5 deg).
-These variants are the development frame's: they are tuned on, not held out. Writes
-reports/benchmarks/track_real_variants.{json,md}. Run from the repository root: python3 benchmarks/track_real_variants.py
+and -7 deg, with no option. One real photo is at hand (../shared/data/real: blue water in a blue holder). This makes
+its dye every other hue (`recoloured`: the whole picture's hues turned in steps of 10 OpenCV units, 20 deg), darkens
+its liquid toward black (the holder kept blue), gives the picture a faint dye, a colour cast, an overexposure or a
+lower contrast, and frames it otherwise (mirrored, cropped), so that the real glass's optics meet the dyes, looks and
+framings the presets and the tracker's geometry do not all cover. Each variant is turned (`still_clip`: 960 px or half
+its width, 8 frames, H.264 CRF 20) and tracked with `--target surface` and no other option, against the image and the
+container. Reports per set the share of clips tracked (80 % of frames valid), how far the image angle misses the turn
+(against the unturned clip's), and the spread of the angle relative to the container across the turns (the real
+frame's targets: 0.3 and 0.5 deg). These variants are the development frame's: they are tuned on, not held out.
+Writes reports/benchmarks/track_real_variants.{json,md}. Run from the repository root:
+python3 benchmarks/track_real_variants.py
 """
 
 from __future__ import annotations
@@ -57,6 +59,14 @@ SETS = {
         ("overexposed x1.4", partial(_scaled, gain=(1.4, 1.4, 1.4))),
         ("low contrast x0.6 about mid-grey", partial(_scaled, gain=(0.6, 0.6, 0.6), about=128.0)),
     ],
+    "framing": [
+        ("mirrored", lambda im: im[:, ::-1].copy()),
+        ("the container near the right edge", lambda im: im[:, :1450].copy()),
+        ("the container near the left edge", lambda im: im[:, 560:].copy()),
+        ("closer (1000 x 560 about the container)", lambda im: im[250:810, 480:1480].copy()),
+        ("portrait, the container filling the width (800 x 1080)", lambda im: im[:, 585:1385].copy()),
+        ("the top 900 rows (the holder's base cut)", lambda im: im[:900].copy()),
+    ],
 }
 """Per set, its variants: (name, the picture made from the real frame)."""
 
@@ -68,7 +78,7 @@ def variant_row(image: np.ndarray, name: str, make: Callable[[np.ndarray], np.nd
     row: dict = {"variant": name}
     for k, turn in enumerate(TURNS_DEG):
         clip = folder / f"turn_{k}.mp4"
-        still_clip(picture, clip, turn, frames=8, width=960, seed=k)
+        still_clip(picture, clip, turn, frames=8, width=min(960, picture.shape[1] // 2), seed=k)
         row[f"{turn:+.0f}"] = {ref: median_angle(clip, ref) for ref in ("image", "container")}
         if turn == 0.0:
             row["inspect_tracks"] = _inspect_tracks(clip)
@@ -142,8 +152,10 @@ def main() -> None:
         "turned by 0-170 OpenCV units in steps of 10 (the blue dye through violet, magenta, red, orange, yellow, "
         "green and teal; the holder and the wall's tint turn with it); 'liquid darkened', the liquid's coloured pixels "
         "above the holder darkened to 0.5, 0.3 and 0.15 of their brightness (a dark dye; the holder stays blue, and "
-        "the camera body at the picture's left is dark too); 'photo look', the picture's saturation scaled (a faint dye, "
-        "also turned to an orange and a red), a colour cast, an overexposure and a lower contrast. Each turned by 0, +5 and -7 deg (`still_clip`, 960 px, "
+        "the camera body at the picture's left is dark too); 'photo look', the picture's saturation scaled (a faint "
+        "dye, also turned to an orange and a red), a colour cast, an overexposure and a lower contrast; 'framing', the "
+        "picture mirrored and cropped (the container near an edge, closer, filling a portrait picture's width). "
+        "Each turned by 0, +5 and -7 deg (`still_clip`, 960 px or half the variant's width, "
         "noise 3, H.264 CRF 20, 8 frames) and tracked with `--target surface` and no other option; the unturned clip "
         "is also given to `sloshid inspect`, and the command it suggests is run. Miss: the image "
         "angle's change from the unturned clip less the turn. Spread: the largest difference of the angle relative "

@@ -380,12 +380,13 @@ def glass_walls(
     picks between a wall's two faces that are not parallel."""
     h = frame.shape[0]
     ys = np.arange(max(0, rows[0]), min(h, rows[1]))
-    if ys.size < 20 or len(seeds) < 2:
+    if len(seeds) < 2:
         return []
-    for seed in seeds:  # a wall whose band (as `glass_edges` reads it) leaves the picture is not measured
-        xs = seed.x_at(ys)
-        if xs.min() - BAND_PX - 6 < 0 or xs.max() + BAND_PX + 7 > frame.shape[1]:
-            return []
+    for seed in seeds:  # the rows where every wall's band (as `glass_edges` reads it) lies in the picture: a seed
+        xs = seed.x_at(ys)  # carried up above the liquid leaves a picture its container fills at one end only
+        ys = ys[(xs - BAND_PX - 6 >= 0) & (xs + BAND_PX + 7 <= frame.shape[1])]
+    if ys.size < 20:
+        return []
     mid = [s.x_at(0.5 * (s.y0 + s.y1)) for s in seeds]
     reach = max(BAND_PX, WALL_NEAR * abs(mid[-1] - mid[0]))
     out = []
