@@ -71,7 +71,7 @@ PRIORS = {
     "f_hz": (None, 0.03, (0.85, 1.15)),
     "zeta": (0.01, math.log(3.0), (0.002, 0.15)),
     "drag": (1.0, 1.0, (0.5, 10.0)),
-    "wave_share": (2 / (XI_CYLINDER**2 - 1), 0.2, (0.3, 1.2)),
+    "wave_share": (2 / (XI_CYLINDER**2 - 1), 0.05, (0.3, 1.2)),
     "crest_coeff": (0.58, 0.5, (-0.5, 1.5)),
     "rest_tilt_x_deg": (0.0, 2.0, (-6.0, 6.0)),
     "rest_tilt_y_deg": (0.0, 2.0, (-6.0, 6.0)),
@@ -81,13 +81,15 @@ PRIORS = {
 decay-only fit's), 3 % (fill height and meniscus), range +-15 % of the prior; zeta: 0.01 (the wall's boundary layer
 and contact line of a small water tank), a factor of 3 (log scale); the breaking drag: 1 per rad (an equivalent
 damping ratio 0.4 x drag x the angle: 0.1 at 15 deg), at least 0.5 (every liquid breaks: vertical pumping at twice
-the mode's frequency and 1 g turns the pendulum to 66 deg with 0.5, past 90 deg with 0.3, a flip no liquid makes); the
-wave share: linear theory's first-mode wall share, range 0.3-1.2 (the sensor's scale is in it); the crest: a Stokes
-standing wave's k a / 2 over the centre slope 1.58 a / R, k = 1.84 / R; the rest tilts: 0 (an upright container
-whose reading shares the liquid's level), 2 deg (a container seated a few tenths of a millimetre off square over its
-radius, or a camera's roll), at most 6 deg (R tan 6 deg = 5 mm at the wall: more is no mounting error); the view's
-arc: a level camera's highest outline point is the whole wall's (45 deg), one looking along the surface from a little
-above or below sees the wall edge-on only near its silhouette (0), so 22.5 deg, sd 15, within 0-45."""
+the mode's frequency and 1 g turns the pendulum to 66 deg with 0.5, past 90 deg with 0.3, a flip no liquid makes);
+the wave share: linear theory's first-mode wall share, exact for an upright cylinder at any depth, sd 0.05 (the
+meniscus and second-order terms; a sensor's scale would scale the static surface as much and is no part of it), range
+0.3-1.2; the crest: a Stokes standing wave's k a / 2 over the centre slope 1.58 a / R, k = 1.84 / R; the rest tilts:
+0 (an upright container whose reading shares the liquid's level), 2 deg (a container seated a few tenths of a
+millimetre off square over its radius, or a camera's roll), at most 6 deg (R tan 6 deg = 5 mm at the wall: more is no
+mounting error); the view's arc: a level camera's highest outline point is the whole wall's (45 deg), one looking
+along the surface from a little above or below sees the wall edge-on only near its silhouette (0), so 22.5 deg, sd
+15, within 0-45."""
 
 
 def prior_weight(cost: float, periods: float) -> float:

@@ -40,7 +40,7 @@ OLD_GAINS = ("input_gain", "output_gain", "vertical_gain")
 """Parameters of the input-output model before the physics-first structure: a file holding them is refused."""
 MODEL_ERROR_LOG_SD = 0.09
 """Model error of a predicted peak (root mean square of log(measured / predicted peak)), calibrated on the held-out
-kinds of the shared runs (benchmarks/validate_real.py, leave-one-kind-out: 0.087 over the nine runs): part of every
+kinds of the shared runs (benchmarks/validate_real.py, leave-one-kind-out: 0.086 over the nine runs): part of every
 band."""
 
 
@@ -96,7 +96,7 @@ class LiquidModel:
     """Savitzky-Golay window for the pose log's accelerations."""
     wave_share: float = 1.0
     """The wall's share of the first mode's wave, beyond the static surface: 2 / (xi^2 - 1) = 0.84 in linear theory for
-    a cylinder (the sensor's own scale too); 1 reads the pendulum's plane."""
+    a cylinder; 1 reads the pendulum's plane."""
     drag: float = 0.0
     """Breaking drag (per rad, `pendulum.spherical_accel`): damping that grows with the wave's speed."""
     crest_coeff: float = 0.0
