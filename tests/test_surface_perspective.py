@@ -49,7 +49,7 @@ def tracked(theta, px):
     front = (theta > theta[left]) & (theta < theta[right])  # from one grazing point to the other through the front
     s = (px[front, 0] - uc) / half
     keep = np.abs(s) <= 0.88  # the tracker leaves out the columns next to the walls
-    (_, c1, c3, k), _, rms = _fit_front(s[keep], -px[front, 1][keep], 10)
+    (_, c1, c3, k, _), _, rms = _fit_front(s[keep], -px[front, 1][keep], 10)
     assert rms < 0.05
     return math.degrees(math.atan((c1 + 0.6 * c3) / half)), k / half, uc
 

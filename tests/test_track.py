@@ -34,13 +34,16 @@ from sloshid.tracking.repeats import REPEAT_SHARE, Copies, line_regions, repeate
 from sloshid.tracking.rows import SurfaceGeometry, TrackRow
 from sloshid.tracking.smooth import smooth_angle
 from sloshid.tracking.surface import (
+    LINE_SLOPE_OF_CUBIC,
     SurfaceFinder,
     SurfaceMeasurement,
     _column_box,
     _container_axes,
     _crossings_first,
+    _fit_front,
     _front_below,
     _inside,
+    _on_wall,
     _sustained,
     dye_range,
     steady_axes,
@@ -1115,20 +1118,21 @@ def test_band_frames_measure_a_still_container_like_whole_body_frames(still_surf
 
 
 def test_first_frames_are_measured_again_with_the_held_elevation(surface_video, monkeypatch):
-    # the camera's elevation (and the front edge's source) are chosen in each span's first 15 frames and then held;
-    # those first frames are measured again with them at the span's end, as if they had been held from the start
+    # the camera's elevation with the surface ellipse's centre (and the front edge's source) are chosen in each span's
+    # first 15 frames and then held; those first frames are measured again with them at the span's end, as if they had
+    # been held from the start
     path, _ = surface_video
     settings = TrackSettings(target="surface", reference="container", smooth=False)
     settled, held = SurfaceFinder.settled, []
     monkeypatch.setattr(SurfaceFinder, "settled", lambda self: held.append(settled(self)) or held[-1])
     revised = track_video(path, settings, multithreaded=False)
-    assert len(held) == 1 and 0.05 < held[0][0] < 0.09  # sin(4 deg) = 0.070; measured 0.076
+    assert len(held) == 1 and 0.05 < held[0][0][0] < 0.09  # sin(4 deg) = 0.070; measured 0.076
     assert held[0][1] == "luma"  # a green dye: the luma edge scatters less than the colour one
     init = SurfaceFinder.__init__
 
     def held_from_the_start(self, *args):
         init(self, *args)
-        self._held, self._edges = held[0]
+        (self._held, self._held_e), self._edges = held[0]
 
     monkeypatch.setattr(SurfaceFinder, "__init__", held_from_the_start)
     ahead = track_video(path, settings, multithreaded=False)
@@ -1970,3 +1974,37 @@ def test_a_thing_of_the_dyes_colour_at_the_maps_side_leaves_the_liquids_column_w
     assert _column_box(inside, (10, 20)) == (160, 80, 360, 220)
     inside[60:200, 40:150] = True  # the liquid itself reaches the side: no walls there
     assert _column_box(inside, (10, 20)) is None
+
+
+def test_a_reflection_in_the_walls_lowest_rows_leaves_its_upper_rows_on_the_wall():
+    # a left wall leaning 0.04 px per row (a camera looking down: vertical edges converge), whose lowest 30 of 130 rows
+    # curve 0.8 px per row inward (a reflection or the bottom's corner seen through the glass, as in a render of a
+    # glass on a table seen from 18 deg above). A least-squares line through the lower half leaned with them and put
+    # the upper 82 rows more than 3 px "inside" the wall: the wall was then read off the curve, tilted by degrees
+    rows = np.arange(130.0)
+    x = 12 + 0.04 * rows
+    x[100:] += 0.8 * (rows[100:] - 100)
+    on = _on_wall(x, np.ones(130, bool), 1.0)
+    assert on[:100].all() and not on[105:].any()
+    # a steep slosh's surface run down the upper 50 rows still leaves them out (what `_on_wall` is for)
+    x = np.full(130, 12.0)
+    x[:50] += 1.5 * (50 - rows[:50])
+    assert np.array_equal(_on_wall(x, np.ones(130, bool), 1.0), rows >= 49)
+
+
+def test_a_front_edge_seen_from_above_gives_the_ellipses_centre_and_a_level_line_when_the_walls_are_read_off_it():
+    # a level surface seen from above (its front edge 30 px below the mid-line at the centre, 120 px half width,
+    # 0.3 px edge noise), the walls' midpoint read 3 px off the container's axis (a wall on a reflection, as in a
+    # render of a glass on a table seen from 18 deg above): the fit without the centre turns the line by 0.6 deg,
+    # the fit with it finds the offset (within 0.5 px) and the line level within 0.05 deg (measured: 0.006)
+    half, k, shift = 120.0, 30.0, 3.0 / 120.0
+    s = np.linspace(-0.94, 0.94, 120)
+    w = -k * np.sqrt(1 - (s - shift) ** 2) + np.random.default_rng(7).normal(0.0, 0.3, s.size)
+
+    def line_deg(fit):
+        (_, c1, c3, _, _), _, _ = fit
+        return math.degrees(math.atan((c1 + LINE_SLOPE_OF_CUBIC * c3) / half))
+
+    assert abs(line_deg(_fit_front(s, w, 10))) > 0.5
+    with_centre = _fit_front(s, w, 10, half)
+    assert abs(line_deg(with_centre)) < 0.05 and abs(with_centre[0][4] * half - 3.0) < 0.5

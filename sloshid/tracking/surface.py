@@ -118,6 +118,12 @@ stills: median error 0.23 -> 0.17 deg with the prior; without any cubic 0.14, bu
 heights then lost 0.16 px); a second mode the edge shows along its whole width still outweighs it."""
 EDGE_SIGMA_PX = 0.3
 """Floor of the front edge's scatter (px) in the cubic's prior: a sub-pixel edge on a clean picture."""
+CENTRE_PRIOR_PX = 2.0
+"""The walls' midpoint lies within about this of the container's axis (a wall read on a reflection or a refracted edge
+a few pixels off): the prior of the surface ellipse's fitted centre."""
+CENTRE_MIN_K_PX = 2.0
+"""The ellipse's centre is fitted only when its front edge sags at least this far below the mid-line: flatter, it
+tells nothing about the centre."""
 PLATEAU_LEVEL = 0.75
 """Where the 0.5 crossings fit no front edge, those of this membership are tried: the surface ellipse seen from above
 can hold at about 0.5 over an opaque liquid (the sheen of the wall reflected on orange juice), so its back edge and
@@ -167,14 +173,16 @@ class SurfaceMeasurement:
     ANCHOR_PX), so the container did not move, but for a tilt of a few tenths of a degree."""
     luma: tuple | None = None
     """(8-bit luma of the measured crop, frame (x, y) of its corner): the repeated-picture check reads it."""
-    refit: Callable[[float, str], SurfaceMeasurement] | None = None
-    """Before the camera's elevation is held: this frame's measurement again with a given elevation (k / R) and edge
-    source ("luma" or "colour"), so that the first frames can be measured as the later ones once they are held."""
+    refit: Callable[[tuple[float, float], str], SurfaceMeasurement] | None = None
+    """Before the camera's elevation is held: this frame's measurement again with a given elevation (k / R) and
+    ellipse centre (`centre_shift`), and edge source ("luma" or "colour"), so that the first frames can be measured as the later ones once they are held."""
     axes: tuple | None = None
     """The container's axes it was measured in (as `_container_axes` returns them, in frame coordinates)."""
-    in_axes: Callable[[tuple, float | None, str], SurfaceMeasurement] | None = None
+    in_axes: Callable[[tuple, tuple[float, float] | None, str], SurfaceMeasurement] | None = None
     """This frame's front edge measured again in other axes (frame coordinates) with a given elevation and edge
     source: a container that stood still is measured in the median of its frames' axes (`steady_axes`)."""
+    centre_shift: float = 0.0
+    """The surface ellipse's centre from the walls' midpoint, in half widths (fitted when it is seen from above)."""
 
 
 def preset_regions(frame: np.ndarray, roi: tuple[int, int, int, int]) -> list[tuple[str, int, np.ndarray]]:
@@ -348,6 +356,8 @@ class SurfaceFinder:
         self._since_fit = 0
         self._k: list[float] = []  # k / R = sin(elevation) from the first frames
         self._held: float | None = None  # their median, once there are enough
+        self._e: list[float] = []  # the ellipse's centre from the walls' midpoint (half widths) from the first frames
+        self._held_e = 0.0  # their median, held with the elevation
         self._scatter: list[tuple[float, float]] = []  # the first frames' edge scatter (rms px): on luma, on colour
         self._edges: str | None = None  # the front edge's source, "luma" or "colour", held with the elevation
         # (body sides and bottom, axes in frame coordinates, frames they were used in, frames they may be used in)
@@ -388,6 +398,7 @@ class SurfaceFinder:
         self._sink = max(0.0, m.low - self._last.low) if m.found and self._last is not None else 0.0
         if m.found and self._held is None:
             self._k.append(m.opening_px / m.width_px)  # k / R, while the elevation is still being fitted
+            self._e.append(m.centre_shift)
         self._last = m if m.found else None
         return m
 
@@ -403,13 +414,15 @@ class SurfaceFinder:
             m = self._measure_body(frame, (x0, y0, x1, y1 + down * (x1 - x0) // 2), follow=True)
         return m
 
-    def settled(self) -> tuple[float | None, str]:
-        """The camera's elevation (k / R = its sine) and the front edge's source as held after the first frames, or
-        as the frames so far give them when fewer than HOLD_ELEVATION_AFTER were measured (elevation None before
-        any)."""
+    def settled(self) -> tuple[tuple[float, float] | None, str]:
+        """The camera's elevation (k / R = its sine) with the surface ellipse's centre (`centre_shift`), and the front
+        edge's source, as held after the first frames, or as the frames so far give them when fewer than
+        HOLD_ELEVATION_AFTER were measured (None before any)."""
         if self._held is not None:
-            return self._held, self._edges or self._edge_source()
-        return (median(np.array(self._k)) if self._k else None), self._edge_source()
+            return (self._held, self._held_e), self._edges or self._edge_source()
+        if not self._k:
+            return None, self._edge_source()
+        return (median(np.array(self._k)), median(np.array(self._e))), self._edge_source()
 
     def _find_body(self, frame: np.ndarray) -> tuple[int, int, int, int] | None:
         """Box of the largest liquid-coloured region near the last one (or in the whole ROI after a loss)."""
@@ -589,6 +602,7 @@ class SurfaceFinder:
         # the elevation and the edge source are chosen in the first frames and then held (a static camera, one dye)
         if self._held is None and len(self._k) >= HOLD_ELEVATION_AFTER:
             self._held = median(np.array(self._k))  # np.median would import numpy.ma (40 ms) in every span worker
+            self._held_e = median(np.array(self._e))
             self._edges = self._edge_source()
         du, n = cols - ox, max(10, len(cols) // 3)
 
@@ -622,15 +636,16 @@ class SurfaceFinder:
             fits = [_fit_front(p[0][0][p[0][2]], p[0][1][p[0][2]], n) for p in (points["luma"], points["colour"])]
             if all(fits):
                 self._scatter.append((fits[0][2], fits[1][2]))
-        # the measurement from these edge points with a given elevation (k / R; None: fitted with them) and edge
+        # the measurement from these edge points with a given elevation and centre (None: fitted with them) and edge
         # source; a partial of a plain function, not a closure, so a span worker's step can be sent to the parent
         fitted = partial(_fitted, points, n, geom, (X0, Y0), (ytop, uL, uR, du))
         source = self._edges or "luma"
-        m = fitted(self._held, source)
+        held = None if self._held is None else (self._held, self._held_e)
+        m = fitted(held, source)
         if not m.found:  # the surface ellipse seen from above reads as half liquid (a pale sheen over a juice)
             points = edge_points(PLATEAU_LEVEL)
             fitted = partial(_fitted, points, n, geom, (X0, Y0), (ytop, uL, uR, du))
-            m = fitted(self._held, source)
+            m = fitted(held, source)
         if m.found:
             fronts = np.concatenate([front[ok] for _, _, ok, _, front, _ in points[source]])
             m.band, m.luma = _band(fronts, cols, (X0, Y0)), (gray, (X0, Y0))
@@ -649,8 +664,8 @@ class SurfaceFinder:
 
 
 def _fitted(points, min_points, geom, origin, where, held, source) -> SurfaceMeasurement:
-    """Robust fit of the front edge points (`_surface`'s, from `source`) with the elevation `held` (k / R; None:
-    fitted with them), and the line, wall heights and overlay points from it."""
+    """Robust fit of the front edge points (`_surface`'s, from `source`) with the elevation and the ellipse's centre
+    `held` ((k / R, centre_shift); None: fitted with them), and the line, wall heights and overlay points from it."""
     X0, Y0 = origin
     walls, o, e_u, e_w = geom
     (aL, _), (aR, _) = walls
@@ -661,7 +676,7 @@ def _fitted(points, min_points, geom, origin, where, held, source) -> SurfaceMea
     # straight top below a faint dye's surface fits well too)
     best = None
     for s, wv, ok, dw, _, sure in points[source]:
-        fit = _fit_front(s[ok], wv[ok], min_points, None if held is None else held * half)
+        fit = _fit_front(s[ok], wv[ok], min_points, half, None if held is None else (held[0] * half, held[1]))
         if fit is not None:
             # below the first crossings, a column without a gap may still show the back edge: it counts as unsure
             rms = fit[2] * min(1.0, QUALITY_HALF_PX / half)  # a larger picture's edge spreads over more pixels
@@ -670,7 +685,7 @@ def _fitted(points, min_points, geom, origin, where, held, source) -> SurfaceMea
                 best = (score, fit, ok, dw)
     if best is None:
         return SurfaceMeasurement(False, liquid=True)
-    quality, ((c0, c1, c3, k), _, _), ok, dw = best
+    quality, ((c0, c1, c3, k, e), _, _), ok, dw = best
     left, right = c0 - c1 - c3, c0 + c1 + c3
     to_img = lambda uu, ww: (X0 + ox + uu * eux + ww * ewx, Y0 + oy + uu * euy + ww * ewy)  # noqa: E731
     line = c1 + LINE_SLOPE_OF_CUBIC * c3
@@ -699,6 +714,7 @@ def _fitted(points, min_points, geom, origin, where, held, source) -> SurfaceMea
         wall_lines,
         (line_l, line_r, pl, pr),
         low=low,
+        centre_shift=float(e),
     )
 
 
@@ -1036,26 +1052,43 @@ def _locally_consistent(w: np.ndarray, ok: np.ndarray) -> np.ndarray:
     return keep
 
 
-def _fit_front(s: np.ndarray, w: np.ndarray, min_points: int, k: float | None = None):
-    """Robust least squares of the front edge: w = c0 + c1 s + c3 s^3 - k sqrt(1 - s^2).
+def _fit_front(
+    s: np.ndarray, w: np.ndarray, min_points: int, half: float | None = None, held: tuple[float, float] | None = None
+):
+    """Robust least squares of the front edge: w = c0 + c1 s + c3 s^3 - k sqrt(1 - (s - e)^2).
 
     The mid-line of the surface ellipse is the antisymmetric cubic (first and second mode); its front edge lies
-    k = R sin(elevation) below it at the centre and meets it at the walls. k is fitted when not given.
-    Returns ((c0, c1, c3, k), inliers, rms) or None. Each pass drops points more than 3 MAD (at least 0.5 px) off.
+    k = R sin(elevation) below it at the centre and meets it at the walls. The ellipse is centred on the container's
+    axis whatever the surface's tilt: its offset e from the walls' midpoint (half widths) is fitted when the half
+    width `half` (px) is given and the edge sags by CENTRE_MIN_K_PX, held toward 0 by CENTRE_PRIOR_PX (seen from
+    above, an edge curved by k had turned the line by about k e / half when the walls were read e off). `held`: k (px)
+    and e given, not fitted. Returns ((c0, c1, c3, k, e), inliers, rms) or None. Each pass drops points more than
+    3 MAD (at least 0.5 px) off.
     """
     chord = np.sqrt(np.maximum(1 - s * s, 0))
-    basis = np.empty((s.size, 3 if k is not None else 4))
+    basis = np.empty((s.size, 4))
     basis[:, 0], basis[:, 1], basis[:, 2] = 1.0, s, s**3
-    if k is not None:
-        fit = _fit_front_basis(basis, w + k * chord, min_points)
-        return None if fit is None else ((*fit[0], k), *fit[1:])
+    # the centre's offset, linearised about the walls' midpoint (d/de of -k sqrt(1 - (s - e)^2) at e = 0)
+    lean = -s / np.maximum(chord, 0.2)
+    if held is not None:
+        k, e = held
+        fit = _fit_front_basis(basis[:, :3], w + k * chord - k * e * lean, min_points)
+        return None if fit is None else ((*fit[0], k, e), *fit[1:])
     basis[:, 3] = -chord
-    return _fit_front_basis(basis, w, min_points)
+    fit = _fit_front_basis(basis, w, min_points)
+    if fit is None or half is None or fit[0][3] < CENTRE_MIN_K_PX:
+        return None if fit is None else ((*fit[0], 0.0), *fit[1:])
+    k = float(fit[0][3])
+    basis[:, 3] = k * lean
+    again = _fit_front_basis(basis, w + k * chord, min_points, (half / CENTRE_PRIOR_PX) ** 2)
+    return ((*fit[0], 0.0), *fit[1:]) if again is None else ((*again[0][:3], k, again[0][3]), *again[1:])
 
 
-def _fit_front_basis(basis: np.ndarray, w: np.ndarray, min_points: int):
+def _fit_front_basis(basis: np.ndarray, w: np.ndarray, min_points: int, centre_ridge: float = 0.0):
     """Iteratively trimmed linear least squares of w on the basis columns, the cubic's (third) coefficient held
-    toward zero by its prior (SECOND_MODE_PRIOR_PX, against the edge's scatter): (coefficients, inliers, rms) or None."""
+    toward zero by its prior (SECOND_MODE_PRIOR_PX, against the edge's scatter) and a fourth column's, when
+    `centre_ridge` is given, by that (its prior's inverse variance per unit edge variance): (coefficients, inliers,
+    rms) or None."""
     keep = np.ones(len(w), bool)
     ridge, sigma = np.zeros(basis.shape[1]), EDGE_SIGMA_PX
     for passes in range(5):
@@ -1063,6 +1096,8 @@ def _fit_front_basis(basis: np.ndarray, w: np.ndarray, min_points: int):
             return None
         # normal equations: at most four well-separated columns on [-1, 1], hundreds of rows
         ridge[2] = (sigma / SECOND_MODE_PRIOR_PX) ** 2
+        if centre_ridge:
+            ridge[3] = sigma**2 * centre_ridge
         coef = normal_solve(basis, w, keep, ridge)
         if coef is None:
             return None
@@ -1098,23 +1133,33 @@ WALL_STEP_PX = 3.0
 slosh in H.264 at 120 fps); a sloped surface in the wall's rows moves away by more than a pixel per row."""
 
 
+def _line_through(rows: np.ndarray, x: np.ndarray, size: int) -> np.ndarray:
+    """The least-squares line through the crossings `x` at `rows`, at every row up to `size` (np.polyfit, written out,
+    costs four times as much per frame)."""
+    dr, dx = rows - rows.mean(), x - x.mean()
+    return x.mean() + (dr @ dx) / (dr @ dr) * (np.arange(size) - rows.mean())
+
+
 def _on_wall(x: np.ndarray, ok: np.ndarray, inward: float) -> np.ndarray:
     """The rows whose side crossing `x` lies on the wall, not on the surface: a steep slosh brings the surface down a
     wall into the upper rows read for it (29 deg at a 640x480 container: 50 of a wall's 110 rows), where the first
     liquid pixel is on the sloped surface, inside the wall (`inward`: +1 for the left wall, -1 for the right), and a
     fit through them turned the wall by tens of degrees. The wall's line is fitted on the lower half of the rows
     (below the surface's reach; the lower half of the usable rows, which a tilted container's bottom corner may end
-    early); rows more than WALL_STEP_PX inside it are dropped when they are a tenth of the rows
-    or more (the surface's run); a few such rows are left to the robust fit, as before."""
+    early), or on the usable rows' straight part when a tenth of those lie WALL_STEP_PX off it; rows more than
+    WALL_STEP_PX inside the line are dropped when they are a tenth of the rows or more (the surface's run); a few such
+    rows are left to the robust fit, as before."""
     usable = np.flatnonzero(ok)
     if usable.size < 10:
         return ok
     rows = usable[usable.size // 2 :]
-    lower = np.zeros_like(ok)
-    lower[rows] = True
-    dr, dx = rows - rows.mean(), x[lower] - x[lower].mean()
-    slope = (dr @ dx) / (dr @ dr)  # least squares, written out: np.polyfit costs four times as much per frame
-    line = x[lower].mean() + slope * (np.arange(x.size) - rows.mean())
+    line = _line_through(rows, x[rows], x.size)
+    if np.count_nonzero(np.abs(x[rows] - line[rows]) >= WALL_STEP_PX) > 0.1 * rows.size:
+        # the lower rows are not on one line: a reflection or the bottom's corner seen through the glass moves the
+        # lowest rows' crossings inward, which had turned the line by degrees and dropped the wall's upper rows
+        straight = np.flatnonzero(straight_part(np.arange(x.size), x[None], ok[None], WALL_TOL_PX, WALL_MAX_SLOPE)[0])
+        if straight.size >= 10:
+            line = _line_through(straight, x[straight], x.size)
     on = inward * (x - line) < WALL_STEP_PX
     return on if np.count_nonzero(ok & ~on) >= 0.1 * x.size else ok
 
