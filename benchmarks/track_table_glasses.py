@@ -1,0 +1,161 @@
+"""Benchmark: glasses on a table, drawn like issue 37's unseen real photos, turned and tracked with no option.
+
+Issue 37's outside check photographed glass tumblers (straight and tapered, thick bottoms) of an orange, a near-black
+and a red liquid in front of a white wall on a beige table, and tracked each photo turned by 0, +5 and -7 deg. The
+corpus draws such scenes rarely: its camera looks down at most 15 deg, and a glass of cola on a table seen from
+18 deg above is a usual photo. This draws 30 scenes of that kind from the physically based renderer (a straight
+cylinder or a tapered tumbler, juice, cola or a strong dye of orange or red, a white wall, a beige table, the camera
+2-20 deg above the surface, no roll, no lean; 960x720 at 24 samples per pixel, rendered once into
+data/table_glasses/, kept), turns each picture as the outside check did (`still_clip`: sensor noise, H.264 CRF 20,
+8 frames) and tracks it with `--target surface` and no other option, against the image and the container.
+Error: the tracked angle against the scene's truth (plus the turn, against the image). Writes
+reports/benchmarks/track_table_glasses.{json,md}. Run from the repository root:
+python3 benchmarks/track_table_glasses.py (rendering takes 10-25 min the first time).
+"""
+
+from __future__ import annotations
+
+import json
+import tempfile
+import time
+from dataclasses import replace
+from pathlib import Path
+
+import cv2
+import numpy as np
+from bench_output import ROOT, write_results
+from track_turned import TURNS_DEG, fmt, median_angle
+
+from sloshid.core.atomic import write_json
+from sloshid.synthetic.pbr import pbr_frames
+from sloshid.synthetic.pbr_scene import PbrScene, draw_scene
+from sloshid.synthetic.render import SynthSettings
+from sloshid.synthetic.stills import still_clip
+
+FOLDER = ROOT / "data" / "table_glasses"
+SCENES = 30
+LIQUIDS = (("juice", "orange"), ("cola", "none"), ("juice", "red"), ("strong_dye", "red"), ("strong_dye", "orange"))
+"""The outside check's liquids: an orange, a near-black and a red one (juices, cola, strong dyes)."""
+PICTURE = SynthSettings(
+    width=960, height=720, fps=15, duration_s=0.2, amplitude_deg=0.0, renderer="pbr", spp=24, scene="surface"
+)
+"""One 960x720 render at 24 samples per pixel (4 spp leaves a path-traced speckle no photo has)."""
+HIGH_DEG = 10.0
+"""The table splits the scenes at this camera elevation."""
+KEYS = ("tracked_share", "err_median_deg", "err_p95_deg", "within_0.5_share")
+LABELS = ("tracked", "err median, deg", "err p95, deg", "within 0.5 deg")
+"""The table's figures per reference, and their column labels."""
+
+
+def glass_on_table(i: int) -> PbrScene:
+    """Scene i: the corpus's draw of seed 700 + i, made a glass of one of LIQUIDS on a beige table by a white wall."""
+    rng = np.random.default_rng([i, 51])
+    u = rng.uniform
+    liquid, colour = LIQUIDS[i % len(LIQUIDS)]
+    container = ("cylinder", "tumbler", "tumbler")[i % 3]
+    white = u(0.85, 0.97)
+    beige = u(0.6, 0.8) * np.array([1.0, 0.87, 0.68])
+    return replace(
+        draw_scene(700 + i, "surface"),
+        container=container,
+        taper=float(u(0.08, 0.2)) if container == "tumbler" else 0.0,
+        liquid=liquid,
+        liquid_color=colour,
+        background="plain",
+        clutter=(),
+        wall_rgb=(white, white, 0.98 * white),
+        table_rgb=(float(beige[0]), float(beige[1]), float(beige[2])),
+        bottom_m=float(u(0.008, 0.018)),
+        glass_m=float(u(0.002, 0.005)),
+        elevation_deg=float(u(2.0, 20.0)),
+        roll_deg=0.0,
+        lean_deg=0.0,
+        frame_fill=float(u(0.4, 0.65)),
+        noise_sigma=0.0,
+    )
+
+
+def picture(i: int) -> tuple[np.ndarray, dict]:
+    """Scene i's picture and its truth (rendered once, then read from FOLDER)."""
+    png, truth_json = FOLDER / f"glass{i:02d}.png", FOLDER / f"glass{i:02d}.json"
+    if not (png.is_file() and truth_json.is_file()):
+        sc = glass_on_table(i)
+        truth, frame = next(pbr_frames(replace(PICTURE, scene_seed=700 + i), sc))
+        FOLDER.mkdir(parents=True, exist_ok=True)
+        cv2.imwrite(str(png), frame)
+        write_json(truth_json, {"truth": {k: float(v) for k, v in truth.items()}, "scene": sc.to_dict()})
+    record = json.loads(truth_json.read_text())
+    return cv2.imread(str(png)), record
+
+
+def case_row(i: int, folder: Path) -> dict:
+    """Scene i turned by each of TURNS_DEG and tracked against the image and the container: the errors (None: not
+    tracked)."""
+    image, record = picture(i)
+    truth, sc = record["truth"], record["scene"]
+    row: dict = {
+        "case": f"glass{i:02d}",
+        "scene": f"{sc['container']}, {sc['liquid'].replace('_', ' ')} {sc['liquid_color']}".replace(" none", ""),
+        "elevation_deg": sc["elevation_deg"],
+    }
+    for turn in TURNS_DEG:
+        clip = folder / f"turn{turn:+.0f}.mp4"
+        still_clip(image, clip, turn, frames=8, seed=1)
+        got = {ref: median_angle(clip, ref) for ref in ("image", "container")}
+        want = {"image": truth["surface_angle_deg"] + turn, "container": truth["rel_angle_deg"]}
+        row[f"{turn:+.0f}"] = {ref: None if got[ref] is None else got[ref] - want[ref] for ref in got}
+    print(f"{row['case']} ({row['scene']}, {row['elevation_deg']:.1f} deg): {[row[f'{t:+.0f}'] for t in TURNS_DEG]}")
+    return row
+
+
+def summary(rows: list[dict], reference: str) -> dict:
+    """Tracked share and the error's median and 95th percentile of one reference over rows."""
+    errs = [r[f"{t:+.0f}"][reference] for r in rows for t in TURNS_DEG]
+    got = np.abs([e for e in errs if e is not None])
+    return {
+        "clips": len(errs),
+        "tracked_share": len(got) / max(len(errs), 1),
+        "err_median_deg": float(np.median(got)) if got.size else None,
+        "err_p95_deg": float(np.percentile(got, 95)) if got.size else None,
+        "within_0.5_share": float(np.mean(got <= 0.5)) if got.size else None,
+    }
+
+
+def main() -> None:
+    t0 = time.perf_counter()
+    with tempfile.TemporaryDirectory() as tmp:
+        rows = [case_row(i, Path(tmp)) for i in range(SCENES)]
+    groups = {
+        "all": rows,
+        f"camera below {HIGH_DEG:g} deg": [r for r in rows if r["elevation_deg"] < HIGH_DEG],
+        f"camera {HIGH_DEG:g}-20 deg above": [r for r in rows if r["elevation_deg"] >= HIGH_DEG],
+        "cola": [r for r in rows if "cola" in r["scene"]],
+        "orange": [r for r in rows if "orange" in r["scene"]],
+        "red": [r for r in rows if "red" in r["scene"]],
+    }
+    figures = {g: {ref: summary(rs, ref) for ref in ("image", "container")} for g, rs in groups.items()}
+    table = [
+        [g, len(groups[g]), *(fmt(f[ref][k], k.endswith("share")) for ref in ("image", "container") for k in KEYS)]
+        for g, f in figures.items()
+    ]
+    header = ["scenes", "glasses"] + [f"{ref}: {label}" for ref in ("image", "container") for label in LABELS]
+    notes = (
+        f"{SCENES} glasses on a table drawn like issue 37's unseen real photos (see the script's docstring), each "
+        "turned by 0, +5 and -7 deg and tracked with no option; a refusal or fewer than 80 % of frames valid is not "
+        "tracked. Error: the median tracked angle less the scene's truth (plus the turn, against the image); "
+        "'container': the angle relative to the container. Made after the tracker's changes of 2026-12-05 (the "
+        f"surface ellipse's centre, the walls' lowest rows) were found on these scenes: tuned on. Total time "
+        f"{(time.perf_counter() - t0) / 60:.1f} min."
+    )
+    write_results(
+        "track_table_glasses",
+        {"figures": figures, "cases": rows},
+        "Glasses on a table (like the outside check's photos), turned, tracked with no option",
+        header,
+        table,
+        notes,
+    )
+
+
+if __name__ == "__main__":
+    main()
