@@ -1132,7 +1132,7 @@ def test_first_frames_are_measured_again_with_the_held_elevation(surface_video, 
 
     def held_from_the_start(self, *args):
         init(self, *args)
-        (self._held, self._held_e), self._edges = held[0]
+        self._held, self._edges = held[0]
 
     monkeypatch.setattr(SurfaceFinder, "__init__", held_from_the_start)
     ahead = track_video(path, settings, multithreaded=False)

@@ -175,12 +175,13 @@ class SurfaceMeasurement:
     """(8-bit luma of the measured crop, frame (x, y) of its corner): the repeated-picture check reads it."""
     refit: Callable[[tuple[float, float], str], SurfaceMeasurement] | None = None
     """Before the camera's elevation is held: this frame's measurement again with a given elevation (k / R) and
-    ellipse centre (`centre_shift`), and edge source ("luma" or "colour"), so that the first frames can be measured as the later ones once they are held."""
+    ellipse centre (`centre_shift`), and edge source ("luma" or "colour"), so that the first frames can be measured
+    as the later ones once they are held."""
     axes: tuple | None = None
     """The container's axes it was measured in (as `_container_axes` returns them, in frame coordinates)."""
     in_axes: Callable[[tuple, tuple[float, float] | None, str], SurfaceMeasurement] | None = None
-    """This frame's front edge measured again in other axes (frame coordinates) with a given elevation and edge
-    source: a container that stood still is measured in the median of its frames' axes (`steady_axes`)."""
+    """This frame's front edge measured again in other axes (frame coordinates) with a given elevation and ellipse
+    centre, and edge source: a container that stood still is measured in the median of its frames' axes (`steady_axes`)."""
     centre_shift: float = 0.0
     """The surface ellipse's centre from the walls' midpoint, in half widths (fitted when it is seen from above)."""
 
@@ -355,9 +356,8 @@ class SurfaceFinder:
         self._model: tuple[np.ndarray, float] | None = None
         self._since_fit = 0
         self._k: list[float] = []  # k / R = sin(elevation) from the first frames
-        self._held: float | None = None  # their median, once there are enough
         self._e: list[float] = []  # the ellipse's centre from the walls' midpoint (half widths) from the first frames
-        self._held_e = 0.0  # their median, held with the elevation
+        self._held: tuple[float, float] | None = None  # the medians of both, once there are enough
         self._scatter: list[tuple[float, float]] = []  # the first frames' edge scatter (rms px): on luma, on colour
         self._edges: str | None = None  # the front edge's source, "luma" or "colour", held with the elevation
         # (body sides and bottom, axes in frame coordinates, frames they were used in, frames they may be used in)
@@ -419,7 +419,7 @@ class SurfaceFinder:
         edge's source, as held after the first frames, or as the frames so far give them when fewer than
         HOLD_ELEVATION_AFTER were measured (None before any)."""
         if self._held is not None:
-            return (self._held, self._held_e), self._edges or self._edge_source()
+            return self._held, self._edges or self._edge_source()
         if not self._k:
             return None, self._edge_source()
         return (median(np.array(self._k)), median(np.array(self._e))), self._edge_source()
@@ -598,11 +598,11 @@ class SurfaceFinder:
         inner = 1 - margin / half
         span = slice(cols[0], cols[-1] + 1, cols[1] - cols[0])  # views, not copies: the columns are evenly spaced
         start = max(0, first - 1)  # no row above the top one crosses; one row of it keeps a crossing there found
-        reach = 2 * half * (MAX_ELEVATION_SIN if self._held is None else self._held) + 3
+        reach = 2 * half * (MAX_ELEVATION_SIN if self._held is None else self._held[0]) + 3
         # the elevation and the edge source are chosen in the first frames and then held (a static camera, one dye)
         if self._held is None and len(self._k) >= HOLD_ELEVATION_AFTER:
-            self._held = median(np.array(self._k))  # np.median would import numpy.ma (40 ms) in every span worker
-            self._held_e = median(np.array(self._e))
+            # np.median would import numpy.ma (40 ms) in every span worker
+            self._held = median(np.array(self._k)), median(np.array(self._e))
             self._edges = self._edge_source()
         du, n = cols - ox, max(10, len(cols) // 3)
 
@@ -640,12 +640,11 @@ class SurfaceFinder:
         # source; a partial of a plain function, not a closure, so a span worker's step can be sent to the parent
         fitted = partial(_fitted, points, n, geom, (X0, Y0), (ytop, uL, uR, du))
         source = self._edges or "luma"
-        held = None if self._held is None else (self._held, self._held_e)
-        m = fitted(held, source)
+        m = fitted(self._held, source)
         if not m.found:  # the surface ellipse seen from above reads as half liquid (a pale sheen over a juice)
             points = edge_points(PLATEAU_LEVEL)
             fitted = partial(_fitted, points, n, geom, (X0, Y0), (ytop, uL, uR, du))
-            m = fitted(held, source)
+            m = fitted(self._held, source)
         if m.found:
             fronts = np.concatenate([front[ok] for _, _, ok, _, front, _ in points[source]])
             m.band, m.luma = _band(fronts, cols, (X0, Y0)), (gray, (X0, Y0))
