@@ -671,19 +671,17 @@ def _fitted(points, min_points, geom, origin, where, held, source) -> SurfaceMea
     (ox, oy), (eux, euy), (ewx, ewy) = (map(float, v) for v in (o, e_u, e_w))
     ytop, uL, uR, du = where
     half, uc = 0.5 * (uR - uL), 0.5 * (uR + uL)
-    # the first crossings, or those below them where those fit better and the first ones fit badly (a label's
-    # straight top below a faint dye's surface fits well too)
-    best = None
-    for s, wv, ok, dw, _, sure in points[source]:
-        fit = _fit_front(s[ok], wv[ok], min_points, half, None if held is None else (held[0] * half, held[1]))
-        if fit is not None:
-            # below the first crossings, a column without a gap may still show the back edge: it counts as unsure
-            rms = fit[2] * min(1.0, QUALITY_HALF_PX / half)  # a larger picture's edge spreads over more pixels
-            score = (0.5 + 0.5 * sure) * np.count_nonzero(fit[1]) / ok.size * min(1.0, max(0.0, 1.5 - rms))
-            if best is None or (best[0] < FIRST_EDGE_QUALITY and score > best[0]):
-                best = (score, fit, ok, dw)
+    best = _best_front(points[source], min_points, half, held)
     if best is None:
         return SurfaceMeasurement(False, liquid=True)
+    # the ellipse ends where the surface's line meets the walls: a tapered glass turned in the picture, or a surface
+    # tilted against a tapered glass's axis, has its walls nearer the axis at one end than the row `ytop` reads
+    ends = _walls_on_line(geom, uc, best[1][0][0], (best[1][0][1] + LINE_SLOPE_OF_CUBIC * best[1][0][2]) / half)
+    if ends is not None and max(abs(ends[0] - uL), abs(ends[1] - uR)) > WALL_END_PX:
+        (uL, uR), old = ends, (half, uc)
+        half, uc = 0.5 * (uR - uL), 0.5 * (uR + uL)
+        moved = [((s * old[0] + old[1] - uc) / half, *rest) for s, *rest in points[source]]
+        best = _best_front(moved, min_points, half, held) or best
     quality, ((c0, c1, c3, k, e), _, _), ok, dw = best
     left, right = c0 - c1 - c3, c0 + c1 + c3
     to_img = lambda uu, ww: (X0 + ox + uu * eux + ww * ewx, Y0 + oy + uu * euy + ww * ewy)  # noqa: E731
@@ -702,7 +700,7 @@ def _fitted(points, min_points, geom, origin, where, held, source) -> SurfaceMea
         True,
         True,
         (c1 + LINE_SLOPE_OF_CUBIC * c3) / half,
-        math.degrees(math.atan(0.5 * (aL + aR))),
+        math.degrees(float(_axis_angle(aL, aR))),
         float(left),
         float(right),
         float(2 * half),
@@ -715,6 +713,42 @@ def _fitted(points, min_points, geom, origin, where, held, source) -> SurfaceMea
         low=low,
         centre_shift=float(e),
     )
+
+
+def _best_front(edges, min_points: int, half: float, held):
+    """(quality, fit, usable, dw) of the best of `edges` (the first crossings, or those below them where those fit
+    better and the first ones fit badly: a label's straight top below a faint dye's surface fits well too), or None."""
+    best = None
+    for s, wv, ok, dw, _, sure in edges:
+        fit = _fit_front(s[ok], wv[ok], min_points, half, None if held is None else (held[0] * half, held[1]))
+        if fit is not None:
+            # below the first crossings, a column without a gap may still show the back edge: it counts as unsure
+            rms = fit[2] * min(1.0, QUALITY_HALF_PX / half)  # a larger picture's edge spreads over more pixels
+            score = (0.5 + 0.5 * sure) * np.count_nonzero(fit[1]) / ok.size * min(1.0, max(0.0, 1.5 - rms))
+            if best is None or (best[0] < FIRST_EDGE_QUALITY and score > best[0]):
+                best = (score, fit, ok, dw)
+    return best
+
+
+def _axis_angle(aL, aR):
+    """The container's axis (rad, CCW as seen from the image vertical) from its walls' slopes x = a y + b: their angles'
+    mean. Their slopes' mean turns a tapered glass's axis toward its more leaning wall (0.07 deg at a 7 deg turn)."""
+    return 0.5 * (np.arctan(aL) + np.arctan(aR))
+
+
+def _walls_on_line(geom: tuple, uc: float, wc: float, slope: float) -> tuple[float, float] | None:
+    """Where the line w = wc + slope (u - uc) (container axes) meets each wall: (uL, uR) along e_u, or None."""
+    walls, o, e_u, e_w = geom
+    (ox, oy), (eux, euy), (ewx, ewy) = (map(float, v) for v in (o, e_u, e_w))
+    ends = []
+    for a, b in walls:  # the wall's point in row y: u = au y + bu, w = aw y + bw
+        au, bu = a * eux + euy, (b - ox) * eux - oy * euy
+        aw, bw = a * ewx + ewy, (b - ox) * ewx - oy * ewy
+        if abs(aw - slope * au) < 1e-9:
+            return None
+        y = (wc + slope * (bu - uc) - bw) / (aw - slope * au)
+        ends.append(au * y + bu)
+    return ends[0], ends[1]
 
 
 def _in_axes(points, min_points, origin, ytop, cols, axes, held, source) -> SurfaceMeasurement:
@@ -762,7 +796,7 @@ def steady_axes(axes: list[tuple]) -> tuple | None:
     aL, bL, aR, bR = (np.array([g[0][i][j] for g in axes]) for i in (0, 1) for j in (0, 1))
     ox, oy = (np.array([g[1][i] for g in axes]) for i in (0, 1))
     ok = np.ones(len(axes), bool)
-    angle = np.degrees(np.arctan(0.5 * (aL + aR)))
+    angle = np.degrees(_axis_angle(aL, aR))
     if steady_angle(angle, ok) is None or any(
         steady_angle(v, ok) is None and MAD_SIGMA * median(np.abs(v - median(v))) > STILL_PX for v in (ox, oy)
     ):
@@ -1127,6 +1161,10 @@ def _moved_px(a: tuple, b: tuple) -> float:
     return max(float(np.hypot(*(oa - ob))), *walls)
 
 
+WALL_END_PX = 0.2
+"""The ellipse's ends are refitted when the walls where its line meets them lie this far from those in its top row:
+a tenth of a pixel at the ends moves a 0.2 deg line by a thousandth of a degree."""
+
 WALL_STEP_PX = 3.0
 """A wall's colour crossings wander by up to 1.3 px from the line through its lower half (compression blocks: a 6 deg
 slosh in H.264 at 120 fps); a sloped surface in the wall's rows moves away by more than a pixel per row."""
@@ -1337,7 +1375,7 @@ def _container_axes(
     if np.isnan(lines).any():
         return None
     (aL, bL), (aR, bR), (k, d) = lines
-    a = 0.5 * (aL + aR)
+    a = math.tan(float(_axis_angle(aL, aR)))
     norm = math.hypot(1, a)
     e_w, e_u = np.array([-a, -1.0]) / norm, np.array([1.0, -a]) / norm
     # the bottom line y = k x + d meets the centre line between the walls
