@@ -17,6 +17,8 @@ from sloshid.core.tables import read_csv
 from sloshid.synthetic.pbr import PbrRenderer, pbr_frames
 from sloshid.synthetic.pbr_scene import draw_scene
 from sloshid.synthetic.render import SynthSettings
+from sloshid.synthetic.stills import still_clip
+from sloshid.tracking.tracker import TrackSettings, track_video
 
 TINY = ("--width", "160", "--height", "120", "--spp", "2", "--duration", "0.3", "--fps", "10")
 
@@ -41,23 +43,27 @@ def test_same_seed_same_bytes_other_seed_other_scene(run_cli, tmp_path):
     assert {"surface_angle_deg", "left_wall_px", "right_wall_px", "container_angle_deg", "box_x0_px"} <= set(truth)
 
 
+def _plain_glass(seed: int, liquid: str, colour: str, **fields):
+    """Scene `seed`'s draw made a glass of `liquid` (`colour`) before a plain wall, nothing else in the picture, no
+    sensor noise; `fields` set the rest."""
+    plain = {"background": "plain", "clutter": (), "noise_sigma": 0.0, "roll_deg": 0.0, "lean_deg": 0.0}
+    return replace(draw_scene(seed, "surface"), liquid=liquid, liquid_color=colour, **(plain | fields))
+
+
 def _blue_glass(roll_deg: float, lean_deg: float = 0.0):
     """A straight cylinder of strong blue dye in soft light before a plain wall, seen level (no lens distortion)."""
-    return replace(
-        draw_scene(0, "surface"),
+    return _plain_glass(
+        0,
+        "strong_dye",
+        "blue",
         container="cylinder",
         taper=0.0,
-        liquid="strong_dye",
-        liquid_color="blue",
-        background="plain",
-        clutter=(),
         elevation_deg=0.0,
         roll_deg=roll_deg,
         lean_deg=lean_deg,
         k1=0.0,
         k2=0.0,
         light="soft",
-        noise_sigma=0.0,
         frame_fill=0.6,
         second_mode=0.0,
     )
@@ -233,3 +239,35 @@ def test_a_still_surface_is_not_turned_by_a_second_mode_it_does_not_have(run_cli
     ok = tracked["valid"].astype(bool)
     assert ok.mean() > 0.9
     assert abs(np.median((tracked["angle_deg"] - truth["surface_angle_deg"])[ok])) < 0.2
+
+
+def test_a_cola_whose_preset_holds_only_its_core_is_read_to_its_own_walls(tmp_path):
+    # A tapered glass of cola on a table seen 13 deg from above, as a phone held over it sees it (960x720, 24 samples
+    # per pixel: fewer leave a speckle no photo has). The render's cola reads V 50-70, about the `dark` preset's V <= 60:
+    # its range holds the liquid's darker core, and the box drawn around that cut the liquid's sides: no walls were
+    # found (in the benchmark's 24-spp picture of this scene, glass16, they were read off the glass beyond them, 1 deg
+    # off). Reached out on both sides, the liquid's own walls give the surface within 0.3 deg (measured 0.005; the
+    # codec and the noise move it by a tenth).
+    scene = _plain_glass(
+        716,
+        "cola",
+        "none",
+        container="tumbler",
+        taper=0.15,
+        wall_rgb=(0.92, 0.92, 0.9),
+        table_rgb=(0.8, 0.69, 0.54),
+        bottom_m=0.0115,
+        glass_m=0.003,
+        elevation_deg=13.4,
+        frame_fill=0.5,
+    )
+    settings = SynthSettings(
+        width=960, height=720, fps=15, duration_s=0.1, amplitude_deg=0.0, renderer="pbr", spp=24, scene="surface"
+    )
+    truth, img = next(pbr_frames(replace(settings, scene_seed=716), scene))
+    clip = tmp_path / "cola.mp4"
+    still_clip(img, clip, 0.0, frames=8, seed=1)
+    res = track_video(clip, TrackSettings(target="surface", reference="container", smooth=False))
+    ok = res.valid.astype(bool)
+    assert ok.all()
+    assert abs(np.median(res.angle_deg[ok]) - truth["rel_angle_deg"]) < 0.3

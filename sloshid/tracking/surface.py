@@ -85,6 +85,9 @@ PIECE_GAP = 0.1
 stripes are a few pixels wide."""
 FOLLOW_DOWN = 3
 """How many times a body box is reached further down, by half its width each, when the liquid goes on below it."""
+FOLLOW_SIDE = 0.25
+"""Share of its width a body box whose liquid gave no surface is reached further out on each side, once: a dark
+preset's range holds a rendered cola's darker core only (its sides up to a tenth of its width beyond that box)."""
 OUTWARD_PX = 3.0
 """Both sides of the liquid's run stepping outward from the walls' lines by more than this (or OUTWARD_SHARE of the
 inner width) in three successive rows end the container's column: a holder or table of the dye's colour below it."""
@@ -393,6 +396,8 @@ class SurfaceFinder:
             m = None if box is None else self._follow(frame, box)
             if m is None:  # the box as found (a whole-body measurement returns a measurement, found or not)
                 m = (None if box is None else self._measure_body(frame, box, follow=False)) or SurfaceMeasurement(False)
+                if box is not None and (not m.found or _walls_beyond(m, self._window(box, frame.shape))):
+                    m = self._wider(frame, box) or m
         if not m.found:
             self._box = None
         self._sink = max(0.0, m.low - self._last.low) if m.found and self._last is not None else 0.0
@@ -413,6 +418,14 @@ class SurfaceFinder:
                 break
             m = self._measure_body(frame, (x0, y0, x1, y1 + down * (x1 - x0) // 2), follow=True)
         return m
+
+    def _wider(self, frame: np.ndarray, box: tuple[int, int, int, int]) -> SurfaceMeasurement | None:
+        """The body read off the membership map around `box` reached FOLLOW_SIDE of its width further out on each side,
+        or None: a dark preset's range holds a rendered cola's darker core only, and its box cut the liquid's sides."""
+        x0, y0, x1, y1 = box
+        rx, rw, pad = self.roi[0], self.roi[2], int(FOLLOW_SIDE * (x1 - x0))
+        wide = (max(rx, x0 - pad), y0, min(rx + rw, x1 + pad), y1)
+        return self._measure_body(frame, wide, follow=True) if wide != box else None
 
     def settled(self) -> tuple[tuple[float, float] | None, str]:
         """The camera's elevation (k / R = its sine) with the surface ellipse's centre (`centre_shift`), and the front
@@ -728,6 +741,15 @@ def _best_front(edges, min_points: int, half: float, held):
             if best is None or (best[0] < FIRST_EDGE_QUALITY and score > best[0]):
                 best = (score, fit, ok, dw)
     return best
+
+
+def _walls_beyond(m: SurfaceMeasurement, window: tuple[int, int, int, int]) -> bool:
+    """Whether a wall `m` measured lies outside the window its liquid was mapped in (at the window's middle row): the
+    liquid's sides were not in it, and the walls came from the glass beyond them (`_glass_sides`)."""
+    X0, Y0, X1, Y1 = window
+    y = 0.5 * (Y0 + Y1)
+    (aL, bL, *_), (aR, bR, *_) = m.walls
+    return aL * y + bL < X0 or aR * y + bR > X1
 
 
 def _axis_angle(aL, aR):
