@@ -18,7 +18,7 @@ import numpy as np
 from bench_output import ROOT, write_results
 from scipy.signal import butter, hilbert, sosfiltfilt
 from scipy.stats import spearmanr
-from validate_real import ALL, KINDS, D, R, load
+from validate_real import ALL, KINDS, D, H, R, load
 
 from sloshid.model.conventions import G
 from sloshid.model.pendulum import SloshParams
@@ -37,7 +37,12 @@ def fold_models() -> dict[str, LiquidModel]:
     keys = ("wave_share", "drag", "crest_coeff", "rest_tilt_x_deg", "rest_tilt_y_deg", "view_arc_deg")
     return {
         kind: LiquidModel(
-            SloshParams.from_modal(2 * math.pi * v["f_hz"], v["zeta"]), R, D, views_deg=0.0, **{k: v[k] for k in keys}
+            SloshParams.from_modal(2 * math.pi * v["f_hz"], v["zeta"]),
+            R,
+            D,
+            views_deg=0.0,
+            fill_height_m=H,
+            **{k: v[k] for k in keys},
         )
         for kind, v in fits.items()
     }

@@ -17,10 +17,18 @@ from sloshid.core.errors import UserError
 from sloshid.core.tables import read_csv
 from sloshid.identification.estimator import IdentSettings
 from sloshid.identification.signals import load_signal
-from sloshid.model.pendulum import XI_CYLINDER, G, SloshParams
+from sloshid.model.pendulum import XI_CYLINDER, G, SloshParams, cylinder_first_mode_omega, rotation_depths
 from sloshid.model.pose import PoseLog, excitation, load_pose_log, respond, savgol_acceleration_response
 from sloshid.validation.iofit import IOFit, fit_io
-from sloshid.validation.predict import MODEL_ERROR_LOG_SD, LiquidModel, load_model, read_out, view_size, wall_parts
+from sloshid.validation.predict import (
+    MODEL_ERROR_LOG_SD,
+    LiquidModel,
+    forecast,
+    load_model,
+    read_out,
+    view_size,
+    wall_parts,
+)
 
 TRUTH = SloshParams.from_modal(2 * math.pi * 3.2, 0.03)
 RADIUS, OFFSET, LAG = 0.05, 0.05, 3.3
@@ -126,6 +134,42 @@ def test_pure_rotation_about_the_vertical_axis_makes_no_slosh():
     pose = PoseLog(t, np.zeros((t.size, 3)), Rotation.from_euler("z", yaw[:, None]), "yaw")
     resp = respond(excitation(pose, 0.078), TRUTH, settle_s=1.0)
     assert np.max(resp.rel_angle_deg) < 1e-6
+
+
+def test_a_tilt_about_the_first_modes_pivot_leaves_the_liquid_level_in_the_world(tmp_path):
+    # linear potential theory (the cylinder's Stokes-Joukowski potential): mode n feels a turn about a horizontal axis
+    # as the acceleration of the point (2 R / xi_n) tanh(xi_n h / 2 R) below the surface, so the first mode is a
+    # world-frame pendulum pivoted l_1 above its point: 21.07 mm below the surface for R 49 mm, h 78 mm, R / xi_1 deep
+    r, h = 0.049, 0.078
+    pivot, static = rotation_depths(r, h)
+    assert pivot == pytest.approx(
+        2 * r / XI_CYLINDER * math.tanh(XI_CYLINDER * h / (2 * r)) - G / (cylinder_first_mode_omega(r, h) ** 2),
+        abs=1e-6,
+    )
+    assert pivot == pytest.approx(0.02107, abs=1e-5) and 0 < static < pivot
+    assert rotation_depths(r, 10.0)[0] == pytest.approx(r / XI_CYLINDER, rel=1e-4)
+    # a 30 deg tilt in 1 s about that point, logged at the container's bottom (the pivot 78 mm up): nothing moves the
+    # first mode's pivot, so the liquid stays level in the world (1e-9 rad is round-off), while the model without the
+    # fill height, pivoted at the surface, swings
+    t = np.arange(0, 3.0, 0.002)
+    rot = Rotation.from_euler("y", np.radians(30) * smooth_step(t, 0.5, 1.0)[:, None])
+    point = np.array([0.0, 0.0, h - pivot])
+    pose = PoseLog(t, point - rot.apply(point), rot, "tilt")
+    model = LiquidModel(TRUTH, r, h, fill_height_m=h)
+    assert model.depths_m == rotation_depths(r, h)
+    level = forecast(pose, model, 1.0, band=False).resp
+    assert np.max(np.abs(level.liquid_rad)) < 1e-9
+    assert np.max(level.rel_angle_deg) == pytest.approx(30.0, abs=0.01)
+    swung = forecast(pose, replace(model, fill_height_m=None), 1.0, band=False).resp
+    assert np.max(np.abs(swung.liquid_rad)) > 0.01
+    # the parameter file stores it with the geometry; a fill height that is no positive length is refused
+    path = tmp_path / "p.json"
+    geometry = {"container_radius_m": r, "fill_height_m": h}
+    params = {"omega_rad_s": {"value": 19.0}, "zeta": {"value": 0.01}}
+    path.write_text(json.dumps({"parameters": params, "geometry": geometry}))
+    assert load_model(path).fill_height_m == h
+    with pytest.raises(UserError, match="fill height"):
+        LiquidModel(TRUTH, r, fill_height_m=-h)
 
 
 def test_savgol_response_at_3_hz_is_flat_and_zero_phase():
@@ -905,7 +949,7 @@ def test_moves_of_kinds_the_runs_lack_stay_physical_and_widen_their_bands(antisl
     model = LiquidModel(
         SloshParams.from_modal(2 * math.pi * 3.0, 0.0023), 0.049, 0.078, 0.1, 0.85, 0.5, -0.5, stderr=errors
     )
-    model = replace(model, envelope=envelope)
+    model = replace(model, envelope=envelope, fill_height_m=0.078)  # a turn felt where potential theory puts it
     expected = {
         "lemniscate 0.5 g": "vertical acceleration",
         "lemniscate 1.0 g": "vertical acceleration",

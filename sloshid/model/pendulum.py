@@ -242,6 +242,23 @@ def linear_tf(params: SloshParams):
     return control.tf(num, den)
 
 
+def rotation_depths(radius_m: float, fill_height_m: float, modes: int = 200) -> tuple[float, float]:
+    """How far below the surface's centre an upright cylinder's liquid feels a turn of the container, in linear potential
+    theory: (the first mode's pendulum pivot, the point whose acceleration the faster modes follow). Mode n answers to
+    the acceleration of the point (2 R / xi_n) tanh(xi_n h / 2 R) below the surface (its Stokes-Joukowski potential),
+    so the first mode is a world-frame pendulum of length l_1 pivoted l_1 higher; the others, quasi-static, to their
+    points weighted by their wall shares 2 / (xi_n^2 - 1). A translation feels the same at every height."""
+    from scipy.special import jnp_zeros
+
+    if radius_m <= 0 or fill_height_m <= 0:
+        raise UserError("container radius and fill height must both be positive.")
+    xi = jnp_zeros(1, modes)
+    depth = 2 * radius_m / xi * np.tanh(xi * fill_height_m / (2 * radius_m))
+    share = 2 / (xi**2 - 1)
+    length = radius_m / (xi[0] * math.tanh(xi[0] * fill_height_m / radius_m))
+    return float(depth[0] - length), float(np.sum(share[1:] * depth[1:]) / np.sum(share[1:]))
+
+
 def cylinder_first_mode_omega(radius_m: float, fill_height_m: float, xi: float = XI_CYLINDER) -> float:
     """Analytic sloshing mode of an upright cylinder: omega^2 = (g xi / R) tanh(xi h / R); the first mode by default,
     another with its Bessel root xi (XI_CYLINDER_SECOND: the second azimuthal mode)."""

@@ -5,7 +5,8 @@ container's frame.
 Frames: the pendulums live in the world frame (z up, gravity -z), which does not turn with the container; a rotation
 about the vertical axis through the pivot therefore accelerates nothing and makes no slosh, and vertical acceleration
 changes the effective gravity to g + az (`simulate_liquid`). The pivot sits `axis_offset_m` up the container axis
-from the logged point (about the liquid surface at rest), so a tilt about the logged point moves the pivot.
+from the logged point (about the liquid surface at rest), so a tilt about the logged point moves the pivot; a turn
+about a horizontal axis is felt where linear potential theory puts it, below the pivot (`respond`'s `depths_m`).
 Accelerations come from a Savitzky-Golay filter (polynomial order 5, window `smooth_s`), never from raw double
 differences: zero phase, and with the default 0.1 s window the gain at 3 Hz is 0.999 (`savgol_acceleration_response`).
 """
@@ -113,6 +114,15 @@ class Excitation:
     move_span_s: tuple[float, float]
     smooth_s: float
     axis_offset_m: float
+    axis_acc_m_s2: np.ndarray | None = None
+    """Second derivative of the container's unit axis (N, 3): a point d further up the axis accelerates at
+    acc_m_s2 + d x it (None: taken as zero)."""
+
+    def acc_at(self, depth_m: float) -> np.ndarray:
+        """The world acceleration of the point depth_m below the pivot on the container's axis (N, 3)."""
+        if depth_m == 0 or self.axis_acc_m_s2 is None:
+            return self.acc_m_s2
+        return self.acc_m_s2 - depth_m * self.axis_acc_m_s2
 
 
 def savgol_acceleration_response(f_hz: float, rate_hz: float, smooth_s: float = SMOOTH_S) -> complex:
@@ -166,8 +176,9 @@ def excitation(pose: PoseLog, axis_offset_m: float = 0.0, smooth_s: float = SMOO
         """SG acceleration of `x` continued at rest; the window's polynomial extrapolated at the ends."""
         return savgol_filter(rest(x), n, SG_ORDER, deriv=2, delta=dt, axis=0, mode="interp")
 
+    axis_acc = second_derivative(axis)
     if pose.acc_m_s2 is not None:  # exact point acceleration from the file; only the offset's part is smoothed
-        acc = second_derivative(axis_offset_m * axis)
+        acc = axis_offset_m * axis_acc
         acc[before : before + pose.t_s.size] += pose.acc_m_s2
     else:
         acc = second_derivative(point)
@@ -176,7 +187,7 @@ def excitation(pose: PoseLog, axis_offset_m: float = 0.0, smooth_s: float = SMOO
         [pose.t_s[0] - dt * np.arange(before, 0, -1), pose.t_s, pose.t_s[-1] + dt * np.arange(1, after + 1)]
     )
     rot = Rotation.from_quat(rest(pose.rot.as_quat()))
-    return Excitation(t, acc, rot, pose.move_span_s, smooth_s, axis_offset_m)
+    return Excitation(t, acc, rot, pose.move_span_s, smooth_s, axis_offset_m, axis_acc)
 
 
 MOTION_QUANTITIES = {
@@ -246,8 +257,9 @@ class PoseResponse:
     slope: np.ndarray | None = None
     """The pendulum surface's gradient in the container frame (N, 2): its magnitude is tan(relative angle)."""
     static_slope: np.ndarray | None = None
-    """The gradient of the surface at rest under the pivot's acceleration, normal along (ax, ay, g + az), in the
-    container frame (N, 2): where the liquid's faster modes, which follow the motion, lift it."""
+    """The gradient of the surface at rest under the acceleration (ax, ay, g + az) of the pivot (or, with `respond`'s
+    `depths_m`, of the point below it where the faster modes feel a turn), in the container frame (N, 2): where the
+    liquid's faster modes, which follow the motion, lift it."""
 
     @property
     def rel_angle_deg(self) -> np.ndarray:
@@ -269,15 +281,21 @@ def respond(
     vertical_gain: float = 1.0,
     spherical: bool = False,
     drag: float = 0.0,
+    depths_m: tuple[float, float] = (0.0, 0.0),
 ) -> PoseResponse:
     """Integrate the pendulums (simulate_liquid; `spherical`: one spherical pendulum with its `drag`) under the pivot acceleration;
-    horizontal input scaled by input_gain, vertical by vertical_gain (gravity becomes g + vertical_gain az)."""
-    acc = exc.acc_m_s2 * np.array([input_gain, input_gain, vertical_gain])
+    horizontal input scaled by input_gain, vertical by vertical_gain (gravity becomes g + vertical_gain az).
+    `depths_m`: how far below the pivot the pendulum hangs and the static surface's acceleration is taken
+    (`pendulum.rotation_depths`; they differ only while the container turns about a horizontal axis)."""
+    gains = np.array([input_gain, input_gain, vertical_gain])
+    acc, hung = exc.acc_m_s2 * gains, exc.acc_at(depths_m[0]) * gains
     zero = np.zeros_like(acc)
     # integrated from the log's start: at a logger's Unix time (1.7e9 s) a tenth of a microsecond is the spacing of
     # the numbers, finer than the solver's steps, and the solver gave up
     t0 = float(exc.t_s[0])
-    traj = Trajectory(exc.t_s - t0, zero, zero, acc, zero, zero, name="pivot")  # only t_s and acc_m_s2 drive the liquid
+    traj = Trajectory(
+        exc.t_s - t0, zero, zero, hung, zero, zero, name="pivot"
+    )  # only t_s and acc_m_s2 drive the liquid
     res = simulate_liquid(traj, params, settle_s, rtol, atol, spherical, drag)
     n_after = res.t_s.size - exc.t_s.size
     quat = exc.rot.as_quat()
@@ -288,7 +306,8 @@ def respond(
     rel = np.column_stack([np.arctan2(-local[:, 1], local[:, 2]), np.arctan2(local[:, 0], local[:, 2])])
     magnitude = np.arccos(np.clip(local[:, 2], -1.0, 1.0))
     acc_all = np.vstack([acc, np.zeros((n_after, 3))])
-    rest = rot.inv().apply(acc_all + np.array([0.0, 0.0, G]))
+    static = np.vstack([exc.acc_at(depths_m[1]) * gains, np.zeros((n_after, 3))])
+    rest = rot.inv().apply(static + np.array([0.0, 0.0, G]))
     return PoseResponse(
         res.t_s + t0, acc_all, res.liquid_rad, rel, magnitude, exc.move_span_s, _gradient(local), _gradient(rest)
     )

@@ -2,7 +2,8 @@
 measured record (forced response and free decay) of one or several runs at once.
 
 Physics fixes the structure (`predict.LiquidModel`: one spherical pendulum in the world frame, pivoted at the surface,
-under gravity g + az; the wall reads the static surface plus the first mode's wave). The fit sets what physics leaves
+under gravity g + az, a turn about a horizontal axis felt where linear potential theory puts it when the fill height is
+known; the wall reads the static surface plus the first mode's wave). The fit sets what physics leaves
 open, each parameter pulled toward its physical prior and bounded by its physical range (`PRIORS`): the frequency f
 (prior: the cylinder's first mode from the geometry), the damping ratio zeta (prior 0.01), the breaking drag (prior
 1 per rad: damping that grows with the wave's speed, which bounds parametric resonance), the wall's wave share c
@@ -244,10 +245,12 @@ class IOFit:
                 "axis_offset_m": self.model.axis_offset_m,
                 "smooth_s": self.model.smooth_s,
                 "views_deg": self.model.views_deg,
+                "fill_height_m": self.model.fill_height_m,
             },
             "fit": {
                 "structure": STRUCTURE,
-                "model": "one spherical pendulum (world frame, pivot at the surface) under the pivot's acceleration, "
+                "model": "one spherical pendulum (world frame, pivot at the surface; with the fill height a turn about a "
+                "horizontal axis is felt where linear potential theory puts it) under the pivot's acceleration, "
                 "gravity g + az, damped by zeta and the breaking drag; wall = R |static slope + wave_share x wave slope + rest slope| (1 + crest_coeff x its wave part), "
                 "less its reading at rest (rest slope: tan rest_tilt_x_deg, tan rest_tilt_y_deg), read on the wall within "
                 "view_arc_deg of the views' edge-on points; per run lag and offset",
@@ -301,7 +304,8 @@ class IOFit:
 def _thin(exc: Excitation, rate_hz: float) -> Excitation:
     """Every k-th sample of an already smoothed excitation (k so that the rate stays at or above rate_hz)."""
     step = max(1, math.floor((1.0 / (exc.t_s[1] - exc.t_s[0])) / rate_hz))
-    return replace(exc, t_s=exc.t_s[::step], acc_m_s2=exc.acc_m_s2[::step], rot=exc.rot[::step])
+    axis_acc = None if exc.axis_acc_m_s2 is None else exc.axis_acc_m_s2[::step]
+    return replace(exc, t_s=exc.t_s[::step], acc_m_s2=exc.acc_m_s2[::step], rot=exc.rot[::step], axis_acc_m_s2=axis_acc)
 
 
 def _prepare(pose: PoseLog, sig: Signal, start: LiquidModel) -> _RunData:
@@ -317,6 +321,7 @@ def _prepare(pose: PoseLog, sig: Signal, start: LiquidModel) -> _RunData:
         rtol=FIT_RTOL,
         atol=FIT_RTOL * 1e-3,
         spherical=True,
+        depths_m=start.depths_m,
     )
     al = align(sig.t_s, y_all, resp.t_s, start.reading(resp, kind), exc.move_span_s)
     keep = sig.t_s - al.lag_s >= exc.move_span_s[0] - LEAD_IN_S
@@ -332,8 +337,15 @@ class _Problem:
     offset the mean residual (variable projection), then one row per prior, `weight` x (distance from it) / its
     standard deviation (`prior_weight`)."""
 
-    def __init__(self, data: list[_RunData], priors: dict[str, float], radius_m: float | None, views: float | None):
-        self.data, self.priors, self.radius_m, self.views = data, priors, radius_m, views
+    def __init__(
+        self,
+        data: list[_RunData],
+        priors: dict[str, float],
+        radius_m: float | None,
+        views: float | None,
+        depths_m: tuple[float, float] = (0.0, 0.0),
+    ):
+        self.data, self.priors, self.radius_m, self.views, self.depths_m = data, priors, radius_m, views, depths_m
         self.lags = [d.lag0 for d in data]
         self.weight = 1.0
         """Weight of the prior rows (`prior_weight`), set once at the start so that the cost stays one function."""
@@ -384,7 +396,14 @@ class _Problem:
             sims = []
             for d in self.data:
                 resp = respond(
-                    d.exc, params, settle_s=d.settle_s, rtol=FIT_RTOL, atol=FIT_RTOL * 1e-3, spherical=True, drag=b
+                    d.exc,
+                    params,
+                    settle_s=d.settle_s,
+                    rtol=FIT_RTOL,
+                    atol=FIT_RTOL * 1e-3,
+                    spherical=True,
+                    drag=b,
+                    depths_m=self.depths_m,
                 )
                 sims.append((resp.t_s, *wall_parts(resp)))
             self._sims[f, zeta, b] = sims
@@ -475,8 +494,11 @@ def fit_io(
         drag=priors["drag"],
         crest_coeff=priors["crest_coeff"],
         views_deg=views_deg,
+        fill_height_m=fill if radius_m is not None else None,
     )
-    prob = _Problem([_prepare(p, s, start) for p, s in zip(poses, signals)], priors, radius_m, views_deg)
+    prob = _Problem(
+        [_prepare(p, s, start) for p, s in zip(poses, signals)], priors, radius_m, views_deg, start.depths_m
+    )
     # a magnitude's decay rings at twice the mode's frequency: the free-decay fit's half is a candidate too, and
     # without the geometry the better of the two is the prior
     halves = [f_decay, f_decay / 2]

@@ -15,7 +15,7 @@ from sloshid.core.hashing import file_sha256
 from sloshid.core.settings import check_in_metres, setting_field
 from sloshid.core.tables import write_csv
 from sloshid.identification.stage import check_sampling
-from sloshid.model.pendulum import SloshParams
+from sloshid.model.pendulum import SloshParams, rotation_depths
 from sloshid.model.pose import (
     MOTION_QUANTITIES,
     SMOOTH_S,
@@ -83,7 +83,8 @@ class LiquidModel:
     """Everything a prediction needs besides the motion: the mode, the wall's reading of it and the geometry.
 
     Physics fixes the structure: one spherical pendulum in the world frame (both horizontal directions coupled, gravity
-    g + az, so vertical motion pumps it), pivoted at the liquid surface; the wall height is that of the surface at rest
+    g + az, so vertical motion pumps it), pivoted at the liquid surface (with the fill height: where a turn about a
+    horizontal axis reaches the first mode, `depths_m`); the wall height is that of the surface at rest
     under the current acceleration (the faster modes follow the motion) plus `wave_share` times the first mode's
     excess over it, with a second-order crest."""
 
@@ -125,6 +126,17 @@ class LiquidModel:
     view_arc_deg: float = 0.0
     """With `views_deg`: the half-width of the arc of wall each view's edge-on points stand for (`read_out`): 0 reads the
     four points alone, 45 or more the whole wall."""
+    fill_height_m: float | None = None
+    """The liquid's depth at rest: with the radius it sets where below the surface a turning container's liquid feels
+    the turn (`depths_m`); None: at the pivot itself."""
+
+    @property
+    def depths_m(self) -> tuple[float, float]:
+        """How far below the pivot the first mode's pendulum hangs and the faster modes' static surface takes its
+        acceleration (`pendulum.rotation_depths`), (0, 0) without the radius and fill height."""
+        if self.radius_m is None or self.fill_height_m is None:
+            return (0.0, 0.0)
+        return rotation_depths(self.radius_m, self.fill_height_m)
 
     @property
     def rest_slope(self) -> tuple[float, float]:
@@ -154,6 +166,8 @@ class LiquidModel:
                 f"the rest tilts must be numbers of deg below 45, got {self.rest_tilt_x_deg!r} and "
                 f"{self.rest_tilt_y_deg!r}."
             )
+        if self.fill_height_m is not None and not (math.isfinite(self.fill_height_m) and self.fill_height_m > 0):
+            raise UserError(f"the fill height must be a positive number of m, got {self.fill_height_m!r}.")
         if not (math.isfinite(self.view_arc_deg) and self.view_arc_deg >= 0):
             raise UserError(f"the view's arc must be a number of deg, 0 or more, got {self.view_arc_deg!r}.")
 
@@ -266,6 +280,8 @@ def load_model(path: str | Path) -> LiquidModel:
         offset, smooth = float(geometry.get("axis_offset_m", 0.0)), float(geometry.get("smooth_s", SMOOTH_S))
         views = geometry.get("views_deg")
         views = None if views is None else float(views)
+        fill = geometry.get("fill_height_m")
+        fill = None if fill is None else float(fill)
         tilts = [float(p.get(k, {}).get("value", 0.0)) for k in REST_TILTS]
         arc = float(p.get("view_arc_deg", {}).get("value", 0.0))
     except (AttributeError, TypeError, ValueError):
@@ -295,6 +311,7 @@ def load_model(path: str | Path) -> LiquidModel:
         rest_tilt_x_deg=tilts[0],
         rest_tilt_y_deg=tilts[1],
         view_arc_deg=arc,
+        fill_height_m=fill,
     )
 
 
@@ -432,7 +449,14 @@ def forecast(
 
     def run(params: SloshParams, drag: float = model.drag) -> PoseResponse:
         return respond(
-            exc, params, settle_s=settle_s, rtol=rtol, atol=rtol * 1e-3, spherical=model.spherical, drag=drag
+            exc,
+            params,
+            settle_s=settle_s,
+            rtol=rtol,
+            atol=rtol * 1e-3,
+            spherical=model.spherical,
+            drag=drag,
+            depths_m=model.depths_m,
         )
 
     resp = run(model.params)
