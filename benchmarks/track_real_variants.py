@@ -81,12 +81,12 @@ def variant_row(image: np.ndarray, name: str, make: Callable[[np.ndarray], np.nd
         still_clip(picture, clip, turn, frames=8, width=min(960, picture.shape[1] // 2), seed=k)
         row[f"{turn:+.0f}"] = {ref: median_angle(clip, ref) for ref in ("image", "container")}
         if turn == 0.0:
-            row["inspect_tracks"] = _inspect_tracks(clip)
+            row["inspect_tracks"] = inspect_tracks(clip)
     print(f"{name}: {[row[f'{t:+.0f}'] for t in TURNS_DEG]}")
     return row
 
 
-def _inspect_tracks(clip: Path) -> bool:
+def inspect_tracks(clip: Path) -> bool:
     """`sloshid inspect` suggests a command for the clip, and that command tracks it (80 % of frames valid)."""
     look = inspect_video(clip)
     if not look.track_settings:
