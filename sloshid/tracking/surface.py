@@ -86,8 +86,9 @@ stripes are a few pixels wide."""
 FOLLOW_DOWN = 3
 """How many times a body box is reached further down, by half its width each, when the liquid goes on below it."""
 FOLLOW_SIDE = 0.25
-"""Share of its width a body box whose liquid gave no surface is reached further out on each side, once: a dark
-preset's range holds a rendered cola's darker core only (its sides up to a tenth of its width beyond that box)."""
+"""Share of its width a body box is reached further out on each side, once, when its liquid gave no surface or walls
+outside its window: a dark preset's range holds a rendered cola's darker core only (its sides up to a tenth of its
+width beyond that box)."""
 OUTWARD_PX = 3.0
 """Both sides of the liquid's run stepping outward from the walls' lines by more than this (or OUTWARD_SHARE of the
 inner width) in three successive rows end the container's column: a holder or table of the dye's colour below it."""
