@@ -421,12 +421,12 @@ class SurfaceFinder:
         return m
 
     def _wider(self, frame: np.ndarray, box: tuple[int, int, int, int]) -> SurfaceMeasurement | None:
-        """The body read off the membership map around `box` reached FOLLOW_SIDE of its width further out on each side,
-        or None: a dark preset's range holds a rendered cola's darker core only, and its box cut the liquid's sides."""
+        """`_follow` with `box` reached FOLLOW_SIDE of its width further out on each side, or None: a dark preset's
+        range holds a rendered cola's darker core only, and its box cut the liquid's sides (and bottom)."""
         x0, y0, x1, y1 = box
         rx, rw, pad = self.roi[0], self.roi[2], int(FOLLOW_SIDE * (x1 - x0))
         wide = (max(rx, x0 - pad), y0, min(rx + rw, x1 + pad), y1)
-        return self._measure_body(frame, wide, follow=True) if wide != box else None
+        return self._follow(frame, wide) if wide != box else None
 
     def settled(self) -> tuple[tuple[float, float] | None, str]:
         """The camera's elevation (k / R = its sine) with the surface ellipse's centre (`centre_shift`), and the front
