@@ -293,9 +293,8 @@ def respond(
     # integrated from the log's start: at a logger's Unix time (1.7e9 s) a tenth of a microsecond is the spacing of
     # the numbers, finer than the solver's steps, and the solver gave up
     t0 = float(exc.t_s[0])
-    traj = Trajectory(
-        exc.t_s - t0, zero, zero, hung, zero, zero, name="pivot"
-    )  # only t_s and acc_m_s2 drive the liquid
+    # only t_s and acc_m_s2 drive the liquid
+    traj = Trajectory(exc.t_s - t0, zero, zero, hung, zero, zero, name="pivot")
     res = simulate_liquid(traj, params, settle_s, rtol, atol, spherical, drag)
     n_after = res.t_s.size - exc.t_s.size
     quat = exc.rot.as_quat()
