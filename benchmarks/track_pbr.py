@@ -23,6 +23,7 @@ import json
 import math
 import tempfile
 import time
+from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
 
@@ -91,13 +92,13 @@ def truth_angle(truth: dict, target: str, reference: str) -> np.ndarray:
     return truth["surface_angle_deg" if target == "surface" else "float_angle_deg"]
 
 
-def _identified(sig: Signal) -> dict | None:
-    """f and zeta (values and 95 % intervals) identified from a signal with the default settings, None when
-    identification refuses it. A tracked signal goes in as `signal_from_track` gives it (what `sloshid identify` reads
-    from the track): marked as tracked, with its key frames, so that the encoder's hold and the codec's shrink are
-    allowed for as they are for a user."""
+def _identified(signal: Callable[[], Signal]) -> dict | None:
+    """f and zeta (values and 95 % intervals) identified with the default settings from the signal `signal` makes,
+    None when making or identifying it is refused (too few valid samples). A tracked signal goes in as
+    `signal_from_track` gives it (what `sloshid identify` reads from the track): marked as tracked, with its key
+    frames, so that the encoder's hold and the codec's shrink are allowed for as they are for a user."""
     try:
-        p = Identifier().fit(sig).result.parameters
+        p = Identifier().fit(signal()).result.parameters
     except (UserError, ValueError, RuntimeError):
         return None
     return {k: (p[k].value, *p[k].ci95) for k in ("f_hz", "zeta")}
@@ -142,8 +143,8 @@ def score_run(
     if kind != "still" and ok.sum() > 10:
         out["gain"], out["lag_s"] = gain_lag(res.t_s[:n][ok], res.angle_deg[:n][ok], want[:n][ok])
     if kind in FREE_DECAYS and ok.sum() > 10:
-        tracked = _identified(signal_from_track(res))
-        exact = _identified(Signal(truth["t_s"], want, "angle", "deg", "truth"))
+        tracked = _identified(lambda: signal_from_track(res))
+        exact = _identified(lambda: Signal(truth["t_s"], want, "angle", "deg", "truth"))
         if tracked and exact:
             for k, name in (("f_hz", "f"), ("zeta", "zeta")):
                 (v, lo, hi), truth_value = tracked[k], exact[k][0]
