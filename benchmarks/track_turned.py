@@ -33,10 +33,11 @@ SPREAD_DEG = 0.5
 """The real frame's target: the angle relative to the container constant within this across turns."""
 
 
-def median_angle(clip: Path, reference: str) -> float | None:
-    """The clip's median angle over its valid frames, or None when it is not tracked."""
+def median_angle(clip: Path, reference: str, roi: tuple[int, int, int, int] | None = None) -> float | None:
+    """The clip's median angle over its valid frames (in `roi`, or the whole picture), or None when it is not
+    tracked."""
     try:
-        res = track_video(clip, TrackSettings(target="surface", reference=reference, smooth=False))
+        res = track_video(clip, TrackSettings(target="surface", reference=reference, roi=roi, smooth=False))
     except UserError:
         return None
     ok = res.valid.astype(bool)

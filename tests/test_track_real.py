@@ -122,6 +122,20 @@ def test_an_underexposed_real_frame_takes_the_dye_between_walls(tmp_path):
     assert abs(np.median(res.angle_deg) - _median_angle(clips["level"], "image")) < 0.3
 
 
+def test_an_roi_drawn_on_the_real_glass_outline_is_widened_to_its_walls(real_clips):
+    # an ROI drawn along the glass's outer edges (960x540, the unturned clip; `sloshid inspect` suggests 286,116,414,346
+    # around it): the liquid's box touched the ROI's sides and every frame was refused. The first frame measures no
+    # surface in it and one in the ROI a tenth wider on each side, which is tracked, with a warning that names it;
+    # the angle is the suggested ROI's within 0.1 deg (measured 0.04: the walls are read at the same edges)
+    tight = (326, 116, 334, 346)
+    res = track_video(real_clips[0.0], TrackSettings(target="surface", roi=tight, smooth=False))
+    assert res.valid.all()
+    assert any("roi` 326,116,334,346 widened to 293,81,400,416" in w for w in res.warnings), res.warnings
+    wide = track_video(real_clips[0.0], TrackSettings(target="surface", roi=(286, 116, 414, 346), smooth=False))
+    assert not any("widened" in w for w in wide.warnings)  # an ROI that holds the walls is kept as drawn
+    assert abs(np.median(res.angle_deg) - np.median(wide.angle_deg)) < 0.1
+
+
 def test_a_holder_running_out_of_the_picture_does_not_hide_the_liquid(tmp_path):
     # the frame's right three quarters (the blue holder under the glass runs out at the picture's left edge): the body
     # of the dye's colour touched the picture's side, which was taken for a liquid cut off there, and every frame was
