@@ -3,7 +3,8 @@
 Green line: the float's measured long axis through its measured centre, or the liquid surface's best-fit line
 across the inner width (red when the frame is not valid). Yellow circles: the surface height at each inner
 wall. Blue lines: the reference (the image horizontal, or the fitted container walls). Yellow box: the
-region of interest. Text: angle and quality.
+region of interest. Text: the angle, with what it is against (the image or the walls, as the CSV's angle_deg),
+and quality.
 """
 
 from __future__ import annotations
@@ -50,7 +51,7 @@ def draw_overlay(
     for e in cm.edges:
         cv2.line(out, _pt(e.x_at(e.y0), e.y0), _pt(e.x_at(e.y1), e.y1), _BLUE, 1, cv2.LINE_AA, _SHIFT)
     text = (
-        f"angle {angle_deg:+.2f} deg  q {fm.quality:.2f}"
+        f"angle {angle_deg:+.2f} deg {'to the walls' if cm.edges else 'to the image'}  q {fm.quality:.2f}"
         if valid
         else ("float not valid" if fm.found else "float not found")
     )
@@ -74,7 +75,8 @@ def draw_surface_overlay(
         for p in (wall_l, wall_r):
             cv2.circle(out, _pt(*p), 4 << _SHIFT, _YELLOW, thick, cv2.LINE_AA, _SHIFT)
     if valid:
-        text = f"angle {angle_deg:+.2f} deg  q {m.quality:.2f}"
+        to = "to the walls" if reference == "container" else "to the image"  # as the CSV's angle_deg
+        text = f"angle {angle_deg:+.2f} deg {to}  q {m.quality:.2f}"
     else:
         text = (
             f"surface not valid  q {m.quality:.2f}"
