@@ -224,6 +224,27 @@ def test_opaque_juice_seen_from_above_is_tracked(run_cli, tmp_path):
     assert np.abs(tracked["angle_deg"] - truth["surface_angle_deg"])[1:].max() < 0.4
 
 
+def test_a_moving_juice_whose_luma_edge_fails_is_read_on_its_colour(run_cli, tmp_path):
+    # Scene 9001 (the held-out move80's: a yellow juice in a beaker by a table's edge, the camera 9 deg above it),
+    # tilted and moved, 400x300 at 2 samples per pixel, 1.2 s: its first frames keep the luma edge (it scatters little
+    # more than the colour edge at rest), which in the moving frames fits at quality 0.3-0.5 where the colour edge
+    # fits at 0.9-1: 58 % of the frames were valid. Read on the other source where the held one is not valid, 86 %
+    # are (the first 15, measured before the source is held, as before), and the valid frames' median error is 0.41
+    # deg (0.61 with fewer of them: the frames gained are no worse than the rest; the container stands 60 px off the
+    # picture's centre, whose perspective no option corrects here)
+    clip = tmp_path / "m.mp4"
+    move = ("--motion", "move", "--tap", "0.4", "--accel", "0.6", "--move-start", "0.4", "--move-duration", "0.6")
+    scene = ("--renderer", "pbr", "--scene-seed", 9001, "--scene", "surface", "--spp", "2", "--tilt", "2.5")
+    size = ("--width", "400", "--height", "300", "--duration", "1.2")
+    assert run_cli("synth", clip, *scene, *move, *size)[0] == 0
+    code, _, err = run_cli("track", clip, "--target", "surface", "-o", tmp_path / "a.csv")
+    assert code == 0, err
+    tracked, truth = read_csv(tmp_path / "a.csv"), read_csv(tmp_path / "m_truth.csv")
+    ok = tracked["valid"].astype(bool)
+    assert ok.mean() >= 0.8, ok.mean()
+    assert np.median(np.abs(tracked["angle_deg"] - truth["surface_angle_deg"])[ok]) < 0.5
+
+
 @pytest.mark.parametrize("seed", [1021, 1051])
 def test_a_still_surface_is_not_turned_by_a_second_mode_it_does_not_have(run_cli, tmp_path, seed):
     # The corpus's still21 (a faint yellow dye in a square bottle, clutter, a hard light) and still51 (a red dye, a

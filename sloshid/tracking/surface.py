@@ -29,6 +29,7 @@ import numpy as np
 from sloshid.tracking.container_ref import EdgeLine, glass_walls, steady_angle, wall_lines
 from sloshid.tracking.float_angle import fit_colour_model, hsv_mask, membership_map
 from sloshid.tracking.robust import MAD_SIGMA, median, normal_solve, robust_lines, straight_part
+from sloshid.tracking.rows import VALID_QUALITY
 from sloshid.video.colors import PRESETS, HsvRange
 from sloshid.video.frames import Picture
 
@@ -70,6 +71,8 @@ BAND_BELOW = 12
 """While the container stands still, the liquid is mapped only down to this many pixels (or a twentieth of its width)
 plus twice the last frame's sinking below the last frame's lowest front-edge point, and in the ANCHOR_PX strip:
 the rest of the body is not read then."""
+OTHER_SOURCE = {"luma": "colour", "colour": "luma"}
+"""The front edge's other source, which a frame the held one does not measure validly is read on."""
 LUMA_EDGE_SCATTER = 0.3
 """The front edge stays on the colour, not refined on the luma, when in a span's first frames the luma edge scatters
 about its fit by more than this (px, median rms) and the colour edge by less (a dye whose luma is close to the background's)."""
@@ -620,9 +623,9 @@ class SurfaceFinder:
             self._edges = self._edge_source()
         du, n = cols - ox, max(10, len(cols) // 3)
 
-        def edge_points(level: float) -> dict:
-            """Per edge source: (s, w, usable columns, dw, the edge rows, sure share) of the first crossings of
-            `level` and of those below them."""
+        def edge_points(level: float, sources: tuple[str, ...]) -> dict:
+            """Per edge source in `sources`: (s, w, usable columns, dw, the edge rows, sure share) of the first
+            crossings of `level` and of those below them."""
             crop = body[start:, span]
             liquid = crop >= level if level != 0.5 else inside[start:, span]
             held_rows = _sustained(liquid)
@@ -631,7 +634,7 @@ class SurfaceFinder:
             colour += start
             below += start
             points = {}
-            for source in ("luma", "colour") if self._edges is None else (self._edges,):
+            for source in sources:
                 edges = []
                 for rows, sure in ((colour, found), (below, gap)) if gap.any() else ((colour, found),):
                     front = refine_on_luma(gray[:, span], rows, found) if source == "luma" else rows
@@ -645,7 +648,8 @@ class SurfaceFinder:
                 points[source] = tuple(edges)
             return points
 
-        points = edge_points(0.5)
+        held_sources = ("luma", "colour") if self._edges is None else (self._edges,)
+        points = edge_points(0.5, held_sources)
         if self._edges is None:  # how much each source's first crossings scatter about a free fit of them
             fits = [_fit_front(p[0][0][p[0][2]], p[0][1][p[0][2]], n) for p in (points["luma"], points["colour"])]
             if all(fits):
@@ -656,9 +660,17 @@ class SurfaceFinder:
         source = self._edges or "luma"
         m = fitted(self._held, source)
         if not m.found:  # the surface ellipse seen from above reads as half liquid (a pale sheen over a juice)
-            points = edge_points(PLATEAU_LEVEL)
+            points = edge_points(PLATEAU_LEVEL, held_sources)
             fitted = partial(_fitted, points, n, geom, (X0, Y0), (ytop, uL, uR, du))
             m = fitted(self._held, source)
+        if self._edges is not None and m.quality < VALID_QUALITY:
+            # a frame the held source misses is read on the other (a moving juice's luma edge blurred), its points
+            # under the held source's name: the span's later refits in other axes ask for that one
+            other = {source: edge_points(0.5, (OTHER_SOURCE[source],))[OTHER_SOURCE[source]]}
+            again = partial(_fitted, other, n, geom, (X0, Y0), (ytop, uL, uR, du))
+            m_other = again(self._held, source)
+            if m_other.quality > m.quality:
+                points, fitted, m = other, again, m_other
         if m.found:
             fronts = np.concatenate([front[ok] for _, _, ok, _, front, _ in points[source]])
             m.band, m.luma = _band(fronts, cols, (X0, Y0)), (gray, (X0, Y0))
