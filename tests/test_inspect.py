@@ -91,6 +91,23 @@ def test_the_real_frame_shows_blue_liquid_and_a_surface_command_with_an_roi(tmp_
     assert (tmp_path / "real.png").exists()
 
 
+def test_an_roi_on_the_real_glass_outline_is_inspected_as_track_widens_it(tmp_path, run_cli):
+    # an ROI drawn along the glass's outer edges (960x540): inspect found no walls in it and suggested tracking the
+    # holder's shadow as a dark float. It now looks where track looks (the ROI a tenth wider on each side), says so,
+    # and suggests the surface in that ROI, which tracks
+    if not REAL_FRAME.exists():
+        pytest.skip("../shared/data/real is not beside this checkout")
+    frame = cv2.resize(cv2.imread(str(REAL_FRAME)), (960, 540), interpolation=cv2.INTER_AREA)
+    clip = _write(tmp_path / "real.mp4", [frame] * 3)
+    code, out, err = run_cli("inspect", clip, "--roi", "326,116,334,346", "-o", tmp_path / "real.png")
+    assert code == 0, err
+    assert "the ROI 326,116,334,346 cuts the container's walls" in out and "looked at 293,81,400,416" in out
+    command = _next_command(out)
+    assert command[5:9] == ["--target", "surface", "--liquid-color", "blue"]
+    assert command[command.index("--roi") + 1] == "293,81,400,416"
+    assert run_cli(*command[1:])[0] == 0
+
+
 def test_a_video_with_nothing_coloured_says_what_it_saw(grey_video, tmp_path, run_cli):
     code, out, err = run_cli("inspect", grey_video, "-o", tmp_path / "g.png")
     assert code == 2

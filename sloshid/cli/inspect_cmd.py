@@ -70,7 +70,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--roi",
         metavar="X,Y,W,H",
-        help="look only inside this region: left x, top y, width, height in pixels (default: whole frame)",
+        help="look only inside this region: left x, top y, width, height in pixels (default: whole frame); one that "
+        "cuts the container's walls is widened a tenth on each side, as track widens it",
     )
 
 

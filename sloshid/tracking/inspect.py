@@ -28,7 +28,7 @@ from sloshid.tracking.float_angle import MIN_AREA_PX, hsv_mask, principal_axis
 from sloshid.tracking.rows import TrackRow
 from sloshid.tracking.surface import MIN_LIQUID_SHARE, SATURATED, coloured_regions, dye_range, own_range
 from sloshid.tracking.surface_track import SurfaceStep
-from sloshid.tracking.tracker import MeasureStep, TrackSettings, measure_frame, roi_box
+from sloshid.tracking.tracker import MeasureStep, TrackSettings, measure_frame, roi_box, surface_roi
 from sloshid.video.colors import PRESETS, HsvRange, format_hsv
 from sloshid.video.frames import FrameReader
 
@@ -519,6 +519,10 @@ def inspect_video(
     size = (frame.shape[1], frame.shape[0])
     # tuple() keeps the ROI's four numbers four (and makes a list a tuple); mypy only knows tuple[int, ...]
     box = roi_box(TrackSettings(roi=None if roi is None else cast("tuple[int, int, int, int]", tuple(roi))), *size)
+    widened = None
+    if roi is not None:  # an ROI drawn so tightly that it cuts the walls: looked at as track widens it
+        wide, widened = surface_roi(frame, box, TrackSettings(target="surface", roi=box))
+        drawn_roi, box = box, wide
     res = InspectResult(
         video=video,
         t_s=t_s,
@@ -531,6 +535,11 @@ def inspect_video(
         suggested_roi=None,
         target=None,
     )
+    if widened is not None:
+        res.notes.append(
+            f"the ROI {','.join(map(str, drawn_roi))} cuts the container's walls (the surface is measured only with it "
+            f"wider): looked at {widened}, as track widens it"
+        )
     labels: Labels = {}
     drawn: Drawn = {}
     # each preset's hues fitted to the dye as track fits them (`dye_range`): a dye between two presets' hues is

@@ -494,7 +494,7 @@ def track_video(
         liquid, dye, rival, larger = settings.liquid_hsv, "", None, False
         widened = None
         if settings.target == "surface" and settings.roi is not None:
-            roi, widened = _surface_roi(reader.first_picture(), roi, settings)
+            roi, widened = surface_roi(reader.first_picture(), roi, settings)
         if settings.target == "surface" and liquid is None:  # one automatic dye colour for every span: the first's
             name, liquid, rival, larger = _auto_dye(reader.first_picture(), roi, settings)
             dye = f"{name} (chosen from the first frame)" if name else ""
@@ -683,11 +683,11 @@ of their width inside it: 22 before, 27 after; 28 track with no ROI)."""
 ROI_REACH_PX = 8
 
 
-def _surface_roi(
+def surface_roi(
     first: Picture | np.ndarray, roi: tuple[int, int, int, int], settings: TrackSettings
 ) -> tuple[tuple[int, int, int, int], str | None]:
     """The user's ROI, or it widened by ROI_REACH when the first frame's surface is measured better in the wider one
-    (`_first_level`), with the widened ROI as text for the warning (else None)."""
+    (`_first_level`), with the widened ROI as text for the warning (else None); `sloshid inspect` widens it as well."""
     height, width = first.shape[:2]
     x, y, w, h = roi
     dx, dy = max(ROI_REACH_PX, round(ROI_REACH * w)), max(ROI_REACH_PX, round(ROI_REACH * h))
