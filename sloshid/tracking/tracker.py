@@ -645,24 +645,28 @@ MeasureStep: TypeAlias = "_FloatStep | SurfaceStep"
 
 
 def _auto_dye(first: Picture | np.ndarray, roi: tuple[int, int, int, int], settings: TrackSettings):
-    """The dye's colour from the first frame: the preset whose colour covers the largest region, unless that is
-    `dark` (shadows, black objects: an underexposed picture's outgrew a blue dye) or none covers enough, and it is not
-    measured there as a liquid between a container's walls, while another preset is, with its hues fitted to the dye
-    as track then fits them (`dye_range`: a dye between two presets' hues lies in neither): the one with the largest
-    region; else the largest coloured region's own range (`own_range`: a faint dye below every preset's saturation)
-    when it is measured so. Returns (its name or None, its HSV range or None, a rival to name or None, whether the
-    rival's region is the larger)."""
+    """The dye's colour from the first frame: the preset whose colour covers the largest region when a surface is
+    measured in it there (of any quality; `dark` only validly: shadows and black objects, an underexposed picture's,
+    outgrew a blue dye); else another preset measured validly as the liquid between a container's walls, with its hues
+    fitted to the dye as track then fits them (`dye_range`: a dye between two presets' hues lies in neither), the one
+    with the largest region; else the largest coloured region's own range (`own_range`: a faint dye below every
+    preset's saturation, a dusky red juice whose liquid the red preset holds in patches) when it is measured so; else
+    the largest preset. Returns (its name or None, its HSV range or None, a rival to name or None, whether the rival's
+    region is the larger)."""
     x, y, w, h = roi  # the ROI's pixels only (a Picture converts just them), as auto_liquid_preset reads them
     crop = first[y : y + h, x : x + w]
     name, rival = auto_liquid_preset(crop, (0, 0, w, h))
-    if name not in ("dark", None):
-        return name, preset(name).hsv, rival, False
     frame = np.asarray(first)  # measured as a picture is drawn: converted whole
+    if (
+        name not in ("dark", None)
+        and measure_frame(frame, 0.0, settings, roi, dye_range(frame, roi, preset(name).hsv))[0].quality > 0
+    ):
+        return name, preset(name).hsv, rival, False
     if name == "dark" and measure_frame(frame, 0.0, settings, roi, preset(name).hsv)[0].valid:
         return name, preset(name).hsv, rival, False  # a cola in its glass; a coloured box behind it may measure too
     for other, _, _ in preset_regions(crop, (0, 0, w, h)):
         if (
-            other != "dark"
+            other not in ("dark", name)
             and measure_frame(frame, 0.0, settings, roi, dye_range(frame, roi, preset(other).hsv))[0].valid
         ):
             return other, preset(other).hsv, name, name is not None
