@@ -640,10 +640,13 @@ def test_a_steep_slosh_does_not_turn_the_walls(tmp_path):
     assert np.abs(truth["rel_angle_deg"]).max() > 25
     res = track_video(tmp_path / "steep.mp4", TrackSettings(target="surface", reference="container"))
     ok, cols = res.valid.astype(bool), res.columns()
-    assert _rmse((res.angle_deg - truth["rel_angle_deg"])[ok]) < 0.1  # measured 0.03
-    for side in ("left", "right"):  # measured 0.3 px RMSE, 0.8-1.2 px at most
+    assert _rmse((res.angle_deg - truth["rel_angle_deg"])[ok]) < 0.1  # measured 0.056
+    # measured 0.35-0.44 px RMSE, 2.3-2.6 px at most: in the three frames at the slosh's steepest, which the luma edge
+    # measures under the valid quality and the colour edge at 0.59 (they were not valid before that fallback: 0.15-0.19
+    # px, 0.3-0.4 at most in the others); the bug this guards against was 50 px
+    for side in ("left", "right"):
         err = (cols[f"{side}_wall_px"] - truth[f"{side}_wall_px"])[ok]
-        assert _rmse(err) < 0.6 and np.abs(err).max() < 2.5
+        assert _rmse(err) < 0.6 and np.abs(err).max() < 3.0
 
 
 def test_a_tracked_tables_column_is_chosen_as_in_its_csv(surface_video, tmp_path):
@@ -998,13 +1001,28 @@ def test_a_surface_found_but_never_clear_is_refused_for_that_not_for_the_walls(t
     assert "not the container's inner walls" in str(step.nothing_found(15, tmp_path / "clip.mp4", "see x.mp4"))
 
 
-def test_surface_target_on_a_float_video_is_a_user_error(tmp_path, run_cli):
-    # a float video has no dyed liquid: the pale water (the dye the automatic choice finds) has no straight inner
-    # walls inside the picture, and walls fitted to its ragged sides once left the mapped box (a crash)
+def test_surface_target_on_a_float_video_measures_the_water_it_floats_on(tmp_path):
+    # a float video's pale blue water between the container's walls: with no colour given the red float covers the
+    # largest region of a preset's colour but has no walls, so the water's own range is taken (it was refused) and its
+    # surface follows the float's truth (it floats on it) within 0.2 deg RMS (measured 0.065 over an 8 deg decay)
+    path = tmp_path / "float.mp4"
+    render_video(path, SynthSettings(**{**SMALL, "width": 640, "height": 480}), tmp_path / "truth.csv")
+    truth = read_csv(tmp_path / "truth.csv")
+    res = track_video(path, TrackSettings(target="surface", smooth=False))
+    ok = res.valid.astype(bool)
+    assert ok.mean() > 0.9 and res.dye.endswith("no preset's (chosen from the first frame)")
+    assert np.sqrt(np.mean((res.angle_deg - truth["float_angle_deg"])[ok] ** 2)) < 0.2
+    assert any("red covers a larger region, which was not" in w for w in res.warnings), res.warnings
+
+
+def test_surface_target_on_a_float_named_as_the_dye_is_a_user_error(tmp_path, run_cli):
+    # the float's colour given as the dye's: the float has no straight inner walls beside it, and walls fitted to its
+    # ragged sides once left the mapped box (a crash)
     path = tmp_path / "float.mp4"
     render_video(path, SynthSettings(**{**SMALL, "width": 640, "height": 480}))
     out = tmp_path / "a.csv"
-    code, _, err = run_cli("track", path, "-o", out, "--target", "surface")
+    red = ("--target", "surface", "--liquid-color", "red")
+    code, _, err = run_cli("track", path, "-o", out, *red)
     assert code == 2 and "not the container's inner walls" in err and "Traceback" not in err
     assert not out.exists()
     # what was found is drawn (inspect's picture of the first frame, beside the video) and the sentence points to it
@@ -1013,7 +1031,7 @@ def test_surface_target_on_a_float_video_is_a_user_error(tmp_path, run_cli):
     assert cv2.imread(str(picture)).shape[0] > 0
     # a file already there is kept, and the sentence points to inspect instead
     picture.write_bytes(b"mine")
-    code, _, err = run_cli("track", path, "-o", out, "--target", "surface")
+    code, _, err = run_cli("track", path, "-o", out, *red)
     assert code == 2 and picture.read_bytes() == b"mine" and "look at a frame with `sloshid inspect`" in err
 
 
@@ -1305,7 +1323,8 @@ def test_held_walls_are_interpolated_between_their_measurements(still_surface_vi
     # a still container's band frames hold its walls (measured in every HOLD_FRAMES-th): those frames get the container
     # angle interpolated between the measurements around them, and track as if every frame had been measured
     path, truth = still_surface_video
-    settings = TrackSettings(target="surface", reference="container", smooth=False)
+    # the dye named: with none, choosing it measures the first frame once more, which `_held_and_every` would count
+    settings = TrackSettings(target="surface", reference="container", liquid_color="green", smooth=False)
     _, held, most, err = _held_and_every(path, settings, truth["surface_angle_deg"], monkeypatch)
     assert 0.5 < held <= (HOLD_FRAMES - 1) / HOLD_FRAMES  # measured 0.81
     assert most < STEADY_DEG  # measured 0.018 (0.009 holding 3 frames of 4)

@@ -18,7 +18,7 @@ import os
 import signal
 import sys
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Literal, Protocol, TypeAlias, cast
 
@@ -492,7 +492,7 @@ def track_video(
         log.info("tracking %s (%s target) in %d span(s)", path, settings.target, len(spans))
         reader.end_s = spans[0][1]
         liquid, dye, rival, larger = settings.liquid_hsv, "", None, False
-        widened = None
+        drawn_roi, widened = roi, None
         if settings.target == "surface" and settings.roi is not None:
             roi, widened = surface_roi(reader.first_picture(), roi, settings)
         if settings.target == "surface" and liquid is None:  # one automatic dye colour for every span: the first's
@@ -551,9 +551,8 @@ def track_video(
     res.target, res.walls, res.repeated, res.dye = settings.target, walls, repeated, dye
     res.warnings.extend(notes)
     if widened is not None:
-        x, y, w, h = settings.roi
         res.warnings.append(
-            f"the first frame's surface was measured better with `roi` {x},{y},{w},{h} widened to {widened}, which was "
+            f"the first frame's surface was measured better with `roi` {','.join(map(str, drawn_roi))} widened to {widened}, which was "
             "tracked: the container's walls lie at its edge; draw it a little wider."
         )
     if rival is not None:
@@ -736,6 +735,7 @@ def measure_frame(
     its picture shows what track would do."""
     if settings.target == "surface" and liquid is None and settings.liquid_hsv is not None:
         liquid = _dye_range(frame, roi, settings, settings.liquid_hsv)
+    settings = replace(settings, rest_frames=None)  # one frame has no rest window to check
     step = _step(settings, roi, liquid)
     row, drawn = step(frame, True)
     row = row._replace(t_s=t_s)
