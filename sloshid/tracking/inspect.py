@@ -521,7 +521,7 @@ def inspect_video(
     box = roi_box(TrackSettings(roi=None if roi is None else cast("tuple[int, int, int, int]", tuple(roi))), *size)
     widened = None
     if roi is not None:  # an ROI drawn so tightly that it cuts the walls: looked at as track widens it
-        wide, widened = surface_roi(frame, box, TrackSettings(target="surface", roi=box))
+        wide, widened, _ = surface_roi(frame, box, TrackSettings(target="surface", roi=box))
         drawn_roi, box = box, wide
     res = InspectResult(
         video=video,

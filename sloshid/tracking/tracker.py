@@ -491,17 +491,10 @@ def track_video(
         spans = _spans(reader.info, key_times)
         log.info("tracking %s (%s target) in %d span(s)", path, settings.target, len(spans))
         reader.end_s = spans[0][1]
-        liquid, dye, rival, larger = settings.liquid_hsv, "", None, False
+        dye, liquid, rival, larger = "", settings.liquid_hsv, None, False
         drawn_roi, widened = roi, None
-        if settings.target == "surface" and settings.roi is not None:
-            roi, widened = surface_roi(reader.first_picture(), roi, settings)
-        if settings.target == "surface" and liquid is None:  # one automatic dye colour for every span: the first's
-            name, liquid, rival, larger = _auto_dye(reader.first_picture(), roi, settings)
-            dye = f"{name} (chosen from the first frame)" if name else ""
-        elif settings.target == "surface" and liquid is not None:
-            dye = settings.liquid_color or liquid.describe()
-        if settings.target == "surface" and liquid is not None:
-            liquid = _dye_range(reader.first_picture(), roi, settings, liquid)
+        if settings.target == "surface":  # one dye colour for every span: the first frame's
+            roi, widened, (dye, liquid, rival, larger) = surface_roi(reader.first_picture(), roi, settings)
         parallel = multithreaded and overlay is None and len(spans) > 1 and _can_fork()
         # a run that finds nothing writes its overlay as the diagnosis, but does not replace one already there
         kept = overlay if overlay is not None and Path(overlay).exists() else None
@@ -681,36 +674,56 @@ ROI_REACH = 0.1
 """A surface ROI in whose first frame the surface is not measured, or not validly, is tried again this share of its
 width (and of its height) wider on each side (at least ROI_REACH_PX), and the wider one is kept when it measures the
 surface there, or validly: drawn tightly around a container, an ROI cuts the glass's walls or the edges beside them,
-which the tracker reads (30 glasses on a table with the ROI on their outline: 27 tracked before, 28 after; with it 3 %
-of their width inside it: 22 before, 27 after; 28 track with no ROI)."""
+which the tracker reads (30 glasses on a table with the ROI on their outline: 27 tracked before, 29 now; with it 3 %
+of their width inside it: 22 before, 29 now, as many as with no ROI)."""
 ROI_REACH_PX = 8
 
 
 def surface_roi(
     first: Picture | np.ndarray, roi: tuple[int, int, int, int], settings: TrackSettings
-) -> tuple[tuple[int, int, int, int], str | None]:
-    """The user's ROI, or it widened by ROI_REACH when the first frame's surface is measured better in the wider one
-    (`_first_level`), with the widened ROI as text for the warning (else None); `sloshid inspect` widens it as well."""
+) -> tuple[tuple[int, int, int, int], str | None, tuple]:
+    """The ROI the surface is tracked in: the user's (`settings.roi`), or it widened by ROI_REACH when the first frame's
+    surface is measured better in the wider one (`_first_level`); the widened ROI as text for the warning (else None);
+    and the dye chosen in the ROI kept (`_surface_dye`). `sloshid inspect` widens an ROI as well."""
+    drawn = _surface_dye(first, roi, settings)
+    if settings.roi is None:
+        return roi, None, drawn
     height, width = first.shape[:2]
     x, y, w, h = roi
     dx, dy = max(ROI_REACH_PX, round(ROI_REACH * w)), max(ROI_REACH_PX, round(ROI_REACH * h))
     x0, y0 = max(0, x - dx), max(0, y - dy)
     wide = (x0, y0, min(width, x + w + dx) - x0, min(height, y + h + dy) - y0)
     if wide == roi:
-        return roi, None
-    drawn = _first_level(first, roi, settings)
-    if drawn == 2 or _first_level(first, wide, settings) <= drawn:
-        return roi, None
-    return wide, ",".join(map(str, wide))
+        return roi, None, drawn
+    level = _first_level(first, roi, settings, drawn[1])
+    if level == 2:
+        return roi, None, drawn
+    wider = _surface_dye(first, wide, settings)
+    if _first_level(first, wide, settings, wider[1]) <= level:
+        return roi, None, drawn
+    return wide, ",".join(map(str, wide)), wider
 
 
-def _first_level(first: Picture | np.ndarray, roi: tuple[int, int, int, int], settings: TrackSettings) -> int:
-    """How well the first frame's surface is measured inside `roi`, the dye chosen there as `track_video` chooses it:
-    0 not at all, 1 under the valid quality (as a first frame may be until the camera's elevation is held), 2 validly."""
-    liquid = settings.liquid_hsv if settings.liquid_hsv is not None else _auto_dye(first, roi, settings)[1]
+def _surface_dye(first: Picture | np.ndarray, roi: tuple[int, int, int, int], settings: TrackSettings) -> tuple:
+    """The dye the surface is tracked by in `roi`: (its description for the summary, its HSV range fitted to the first
+    frame or None, a rival colour to name or None, whether the rival's region is the larger), chosen in the first frame
+    (`_auto_dye`) unless one is given."""
+    if settings.liquid_hsv is None:
+        name, liquid, rival, larger = _auto_dye(first, roi, settings)
+        dye = f"{name} (chosen from the first frame)" if name else ""
+    else:
+        liquid, rival, larger = settings.liquid_hsv, None, False
+        dye = settings.liquid_color or liquid.describe()
+    return dye, None if liquid is None else _dye_range(first, roi, settings, liquid), rival, larger
+
+
+def _first_level(
+    first: Picture | np.ndarray, roi: tuple[int, int, int, int], settings: TrackSettings, liquid: HsvRange | None
+) -> int:
+    """How well the first frame's surface is measured inside `roi` by the dye `liquid` (`_surface_dye`'s): 0 not at
+    all, 1 under the valid quality (as a first frame may be until the camera's elevation is held), 2 validly."""
     if liquid is None:
         return 0
-    liquid = _dye_range(first, roi, settings, liquid)
     row = measure_frame(np.asarray(first), 0.0, settings, roi, liquid)[0]
     return 2 if row.valid else int(row.quality > 0)
 
