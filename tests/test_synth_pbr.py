@@ -50,6 +50,14 @@ def _plain_glass(seed: int, liquid: str, colour: str, **fields):
     return replace(draw_scene(seed, "surface"), liquid=liquid, liquid_color=colour, **(plain | fields))
 
 
+def _rendered_glass(seed: int, liquid: str, colour: str, size: tuple[int, int], **fields):
+    """The truth row and one picture (`size`: width, height; 8 samples per pixel) of `_plain_glass`'s scene."""
+    settings = SynthSettings(
+        width=size[0], height=size[1], fps=15, duration_s=0.1, amplitude_deg=0.0, renderer="pbr", spp=8, scene="surface"
+    )
+    return next(pbr_frames(replace(settings, scene_seed=seed), _plain_glass(seed, liquid, colour, **fields)))
+
+
 def _blue_glass(roll_deg: float, lean_deg: float = 0.0):
     """A straight cylinder of strong blue dye in soft light before a plain wall, seen level (no lens distortion)."""
     return _plain_glass(
@@ -268,11 +276,7 @@ def test_a_dusky_red_juice_that_the_red_preset_holds_in_patches_is_tracked_with_
         meniscus_m=0.002355267345500281,
         second_mode=0.13553127832851594,
     )
-    scene = _plain_glass(727, "juice", "red", taper=0.0, **glass)
-    settings = SynthSettings(
-        width=640, height=480, fps=15, duration_s=0.1, amplitude_deg=0.0, renderer="pbr", spp=8, scene="surface"
-    )
-    truth, img = next(pbr_frames(replace(settings, scene_seed=727), scene))
+    truth, img = _rendered_glass(727, "juice", "red", (640, 480), taper=0.0, **glass)
     clip = tmp_path / "red.mp4"
     still_clip(img, clip, 0.0, frames=8, seed=1)
     res = track_video(clip, TrackSettings(target="surface", smooth=False))
@@ -280,6 +284,42 @@ def test_a_dusky_red_juice_that_the_red_preset_holds_in_patches_is_tracked_with_
     assert abs(np.median(res.angle_deg) - truth["surface_angle_deg"]) < 0.3
     assert res.dye.endswith("no preset's (chosen from the first frame)")
     assert any("red covers a larger region, which was not" in w for w in res.warnings), res.warnings
+
+
+def test_a_juice_whose_first_crossings_fit_poorly_is_read_on_the_edge_below_them(tmp_path):
+    # A red juice in a tapered tumbler on a table, seen 14.7 deg from above (the glasses-on-a-table benchmark's glass22,
+    # 960x720 at 8 samples per pixel), turned by -7 deg: the first crossings of some frames fit at quality 0.3-0.5, under
+    # the valid 0.5, and were kept while the crossings below them fitted better (only a fit under 0.2 gave way): 7 of 8
+    # frames valid, the median 0.2 deg off. The better of the two is kept in any frame the first ones do not measure
+    # validly: every frame valid, within 0.15 deg of the truth plus the turn (measured 0.07). In clips of 45 frames, as
+    # the outside check made, the elevation held after the first 15 is the back edge's (negative), which turned the
+    # search below the first crossings off: from then on 78-87 % of the frames were valid; every one is now, within 0.3
+    # deg (measured 0.05 and 0.20)
+    glass = dict(
+        container="tumbler",
+        inner_radius_m=0.03961483003067201,
+        taper=0.1672488469776902,
+        glass_m=0.004969921223706252,
+        bottom_m=0.012149322145210209,
+        height_m=0.11683922745429974,
+        fill=0.7308840765221152,
+        wall_rgb=(0.8745775563459893, 0.8745775563459893, 0.8570860052190695),
+        table_rgb=(0.7857511401617981, 0.6836034919407644, 0.5343107753100228),
+        elevation_deg=14.731786498533003,
+        distance_m=0.31936750440137374,
+        frame_fill=0.6124685316914258,
+        light="soft",
+        light_azimuth_deg=-52.787008652175636,
+        meniscus_m=0.001997755538694946,
+        second_mode=0.08682004792952094,
+    )
+    truth, img = _rendered_glass(722, "juice", "red", (960, 720), **glass)
+    for turn, frames, within in ((-7.0, 8, 0.15), (5.0, 45, 0.3), (-7.0, 45, 0.3)):
+        clip = tmp_path / f"juice{turn:+.0f}_{frames}.mp4"
+        still_clip(img, clip, turn, frames=frames, seed=1)
+        res = track_video(clip, TrackSettings(target="surface", smooth=False))
+        assert res.valid.all(), (turn, frames, res.quality)
+        assert abs(np.median(res.angle_deg) - truth["surface_angle_deg"] - turn) < within, (turn, frames)
 
 
 @pytest.mark.parametrize("seed", [1021, 1051])

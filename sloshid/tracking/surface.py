@@ -139,9 +139,6 @@ QUALITY_HALF_PX = 80.0
 """The front edge's scatter about its fit counts against a frame's quality in pixels of a surface this many pixels
 half-wide, and in proportion on a wider one: a clip scaled up three times (edges three pixels wide) scattered 0.7-1.1
 px where its original did 0.36-0.49, and every frame fell under the valid quality."""
-FIRST_EDGE_QUALITY = 0.2
-"""A fit of the first crossings at least this good is kept; below it, the crossings below them (`_front_below`) are
-taken where they fit better."""
 MAX_ELEVATION_SIN = 0.3
 """Largest camera elevation's sine looked for (17 deg): the surface ellipse seen from above is at most this share of
 the inner width tall, so a column's front edge is searched that far below its first crossing (`_front_below`)."""
@@ -615,7 +612,9 @@ class SurfaceFinder:
         inner = 1 - margin / half
         span = slice(cols[0], cols[-1] + 1, cols[1] - cols[0])  # views, not copies: the columns are evenly spaced
         start = max(0, first - 1)  # no row above the top one crosses; one row of it keeps a crossing there found
-        reach = 2 * half * (MAX_ELEVATION_SIN if self._held is None else self._held[0]) + 3
+        # how far below its first crossing a column's front edge is looked for: the held ellipse's height (its size:
+        # read on the back edge, k is negative), or the largest looked for before it is held
+        reach = 2 * half * (MAX_ELEVATION_SIN if self._held is None else abs(self._held[0])) + 3
         # the elevation and the edge source are chosen in the first frames and then held (a static camera, one dye)
         if self._held is None and len(self._k) >= HOLD_ELEVATION_AFTER:
             # np.median would import numpy.ma (40 ms) in every span worker
@@ -742,8 +741,10 @@ def _fitted(points, min_points, geom, origin, where, held, source) -> SurfaceMea
 
 
 def _best_front(edges, min_points: int, half: float, held):
-    """(quality, fit, usable, dw) of the best of `edges` (the first crossings, or those below them where those fit
-    better and the first ones fit badly: a label's straight top below a faint dye's surface fits well too), or None."""
+    """(quality, fit, usable, dw) of the best of `edges`: the first crossings, or those below them where the first ones
+    fit under the valid quality and those better (a thin rim of the dye along the surface ellipse's back edge holds
+    the first crossings of a low camera's picture; a label's straight top below a faint dye's surface fits well too, so
+    a valid fit of the first crossings is kept), or None."""
     best = None
     for s, wv, ok, dw, _, sure in edges:
         fit = _fit_front(s[ok], wv[ok], min_points, half, None if held is None else (held[0] * half, held[1]))
@@ -751,7 +752,7 @@ def _best_front(edges, min_points: int, half: float, held):
             # below the first crossings, a column without a gap may still show the back edge: it counts as unsure
             rms = fit[2] * min(1.0, QUALITY_HALF_PX / half)  # a larger picture's edge spreads over more pixels
             score = (0.5 + 0.5 * sure) * np.count_nonzero(fit[1]) / ok.size * min(1.0, max(0.0, 1.5 - rms))
-            if best is None or (best[0] < FIRST_EDGE_QUALITY and score > best[0]):
+            if best is None or (best[0] < VALID_QUALITY and score > best[0]):
                 best = (score, fit, ok, dw)
     return best
 
