@@ -26,6 +26,7 @@ import tempfile
 import time
 from dataclasses import replace
 from pathlib import Path
+from typing import NamedTuple
 
 import cv2
 import numpy as np
@@ -39,11 +40,21 @@ from sloshid.synthetic.pbr_scene import PbrScene, draw_scene
 from sloshid.synthetic.render import SynthSettings
 from sloshid.synthetic.stills import still_clip
 
+
+class Draw(NamedTuple):
+    """One set of glasses: where its renders are kept, how many, the first scene seed, the random stream's salt."""
+
+    folder: Path
+    scenes: int
+    first_seed: int
+    salt: int
+
+
 DRAWS = {
-    False: (ROOT / "data" / "table_glasses", 30, 700, 51),
-    True: (ROOT / "data" / "table_glasses_holdout", 20, 900, 53),
+    False: Draw(ROOT / "data" / "table_glasses", 30, 700, 51),
+    True: Draw(ROOT / "data" / "table_glasses_holdout", 20, 900, 53),
 }
-"""The tuned set and the held-out one: folder, scenes, first seed, the random stream's salt."""
+"""The tuned set (False) and the held-out one (True)."""
 LIQUIDS = (("juice", "orange"), ("cola", "none"), ("juice", "red"), ("strong_dye", "red"), ("strong_dye", "orange"))
 """The outside check's liquids: an orange, a near-black and a red one (juices, cola, strong dyes)."""
 PICTURE = SynthSettings(
@@ -67,15 +78,15 @@ LABELS = ("tracked", "err median, deg", "err p95, deg", "within 0.5 deg")
 def glass_on_table(i: int, holdout: bool = False) -> PbrScene:
     """Scene i: the corpus's draw of seed 700 + i (held out: 900 + i), made a glass of one of LIQUIDS on a beige table
     by a white wall."""
-    _, _, first, salt = DRAWS[holdout]
-    rng = np.random.default_rng([i, salt])
+    draw = DRAWS[holdout]
+    rng = np.random.default_rng([i, draw.salt])
     u = rng.uniform
     liquid, colour = LIQUIDS[i % len(LIQUIDS)]
     container = ("cylinder", "tumbler", "tumbler")[i % 3]
     white = u(0.85, 0.97)
     beige = u(0.6, 0.8) * np.array([1.0, 0.87, 0.68])
     return replace(
-        draw_scene(first + i, "surface"),
+        draw_scene(draw.first_seed + i, "surface"),
         container=container,
         taper=float(u(0.08, 0.2)) if container == "tumbler" else 0.0,
         liquid=liquid,
@@ -105,12 +116,12 @@ def outline_roi(truth: dict, share: float, shape: tuple) -> tuple[int, int, int,
 
 def picture(i: int, holdout: bool = False) -> tuple[np.ndarray, dict]:
     """Scene i's picture and its truth (rendered once, then read from the set's folder)."""
-    folder, _, first, _ = DRAWS[holdout]
-    png, truth_json = folder / f"glass{i:02d}.png", folder / f"glass{i:02d}.json"
+    draw = DRAWS[holdout]
+    png, truth_json = draw.folder / f"glass{i:02d}.png", draw.folder / f"glass{i:02d}.json"
     if not (png.is_file() and truth_json.is_file()):
         sc = glass_on_table(i, holdout)
-        truth, frame = next(pbr_frames(replace(PICTURE, scene_seed=first + i), sc))
-        folder.mkdir(parents=True, exist_ok=True)
+        truth, frame = next(pbr_frames(replace(PICTURE, scene_seed=draw.first_seed + i), sc))
+        draw.folder.mkdir(parents=True, exist_ok=True)
         cv2.imwrite(str(png), frame)
         write_json(truth_json, {"truth": {k: float(v) for k, v in truth.items()}, "scene": sc.to_dict()})
     record = json.loads(truth_json.read_text())
@@ -163,7 +174,7 @@ def main() -> None:
         help="the 20 held-out scenes (other seeds; tracked once before anything was tuned on them)",
     )
     holdout = ap.parse_args().holdout
-    scenes = DRAWS[holdout][1]
+    scenes = DRAWS[holdout].scenes
     t0 = time.perf_counter()
     with tempfile.TemporaryDirectory() as tmp:
         rows = [case_row(i, Path(tmp), holdout) for i in range(scenes)]
@@ -199,19 +210,19 @@ def main() -> None:
     ] + [f"{ref}: {label}" for ref in ("image", "container") for label in LABELS]
     notes = (
         f"{scenes} glasses on a table drawn like issue 37's unseen real photos (see the script's docstring), each "
-        f"turned by 0, +5 and -7 deg ({FRAMES} frames each) and tracked with no option; a refusal or fewer than 80 % of frames valid is not "
-        "tracked. Error: the median tracked angle less the scene's truth (plus the turn, against the image); "
-        "'container': the angle relative to the container. Each unturned clip is also given to `sloshid inspect`, "
+        f"turned by 0, +5 and -7 deg ({FRAMES} frames each) and tracked with no option; a refusal or fewer than 80 % "
+        "of frames valid is not tracked. Error: the median tracked angle less the scene's truth (plus the turn, "
+        "against the image); 'container': the angle relative to the container. Each unturned clip is also given to `sloshid inspect`, "
         "and the command it suggests is run (tracked: 80 % of frames valid), and is tracked against the image with an "
         "ROI drawn on the glass's outline (the scene's box) and with one 3 % of its width inside it. "
         + (
-            "Held out: seeds 900 on, drawn and rendered after the tracker's changes of 2026-12-05; its first run (8-frame "
-            "clips, 90 % tracked) was made before anything was tuned on it, and its refusals led to the next fixes (the "
-            "edge below a back rim, the search below a back edge), so it is seen now. "
+            "Held out: seeds 900 on, drawn and rendered after the tracker's changes of 2026-12-05; its first run "
+            "(8-frame clips, 90 % tracked) was made before anything was tuned on it, and its refusals led to the next "
+            "fixes (the edge below a back rim, the search below a back edge), so it is seen now. "
             if holdout
-            else "Made after the tracker's changes of 2026-12-05 (the surface ellipse's centre, the walls' lowest rows, "
-            "the ellipse's ends on the walls, a dark liquid read further out, an ROI that cuts the walls widened) were "
-            "found on these scenes: tuned on. "
+            else "Made after the tracker's changes of 2026-12-05 (the surface ellipse's centre, the walls' lowest "
+            "rows, the ellipse's ends on the walls, a dark liquid read further out, an ROI that cuts the walls "
+            "widened) were found on these scenes: tuned on. "
         )
         + f"Total time {(time.perf_counter() - t0) / 60:.1f} min."
     )

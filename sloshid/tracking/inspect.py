@@ -537,7 +537,7 @@ def inspect_video(
     )
     if widened is not None:
         res.notes.append(
-            f"the ROI {','.join(map(str, drawn_roi))} cuts the container's walls (the surface is measured only with it "
+            f"the ROI {_fmt_roi(drawn_roi)} cuts the container's walls (the surface is measured only with it "
             f"wider): looked at {widened}, as track widens it"
         )
     labels: Labels = {}

@@ -545,7 +545,8 @@ def track_video(
     res.warnings.extend(notes)
     if widened is not None:
         res.warnings.append(
-            f"the first frame's surface was measured better with `roi` {','.join(map(str, drawn_roi))} widened to {widened}, which was "
+            f"the first frame's surface was measured better with `roi` {','.join(map(str, drawn_roi))} widened to "
+            f"{widened}, which was "
             "tracked: the container's walls lie at its edge; draw it a little wider."
         )
     if rival is not None:
