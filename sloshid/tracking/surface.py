@@ -18,6 +18,7 @@ mid-line's best-fit line across the whole inner width is the angle; its values a
 
 from __future__ import annotations
 
+import copy
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -88,6 +89,8 @@ PIECE_GAP = 0.1
 stripes are a few pixels wide."""
 FOLLOW_DOWN = 3
 """How many times a body box is reached further down, by half its width each, when the liquid goes on below it."""
+WIDER_REACH = 3
+"""How many times FOLLOW_SIDE a body box is reached out at most, with the colour model fitted again there (`_wider`)."""
 FOLLOW_SIDE = 0.25
 """Share of its width a body box is reached further out on each side, once, when its liquid gave no surface or walls
 outside its window: a dark preset's range holds a rendered cola's darker core only (its sides up to a tenth of its
@@ -422,11 +425,28 @@ class SurfaceFinder:
 
     def _wider(self, frame: np.ndarray, box: tuple[int, int, int, int]) -> SurfaceMeasurement | None:
         """`_follow` with `box` reached FOLLOW_SIDE of its width further out on each side, or None: a dark preset's
-        range holds a rendered cola's darker core only, and its box cut the liquid's sides (and bottom)."""
+        range holds a rendered cola's darker core only, and its box cut the liquid's sides (and bottom). When that
+        finds no surface, the box is reached further (up to WIDER_REACH times as far) with the colour model fitted
+        again there, on a copy adopted only when it finds one: a model fitted in a box that cut the sides leaves
+        them out too (a cola's core at twice the resolution)."""
         x0, y0, x1, y1 = box
-        rx, rw, pad = self.roi[0], self.roi[2], int(FOLLOW_SIDE * (x1 - x0))
-        wide = (max(rx, x0 - pad), y0, min(rx + rw, x1 + pad), y1)
-        return self._follow(frame, wide) if wide != box else None
+        rx, rw = self.roi[0], self.roi[2]
+        m = None
+        for reach in range(WIDER_REACH + 1):
+            pad = int(max(reach, 1) * FOLLOW_SIDE * (x1 - x0))
+            wide = (max(rx, x0 - pad), y0, min(rx + rw, x1 + pad), y1)
+            if wide == box:
+                return m
+            trial = self if reach == 0 else copy.deepcopy(self)
+            if reach:
+                trial._since_fit = REFIT_EVERY
+            got = trial._follow(frame, wide)
+            if got is not None and got.found:
+                self.__dict__.update(trial.__dict__)
+                return got
+            if reach == 0:
+                m = got
+        return m
 
     def settled(self) -> tuple[tuple[float, float] | None, str]:
         """The camera's elevation (k / R = its sine) with the surface ellipse's centre (`centre_shift`), and the front
