@@ -12,7 +12,7 @@ import pytest
 
 from sloshid.synthetic.render import SynthSettings, render_video
 from sloshid.tracking.robust import masked_median, median, robust_lines
-from sloshid.video.frames import FrameReader, Picture
+from sloshid.video.frames import FrameReader, Picture, shrunk
 from sloshid.video.keyframes import key_frame_times
 
 
@@ -53,6 +53,24 @@ def test_reader_pictures_and_arrays_agree(tmp_path):
         assert i == j and t == u
         np.testing.assert_array_equal(np.asarray(p), a)
         np.testing.assert_array_equal(p[31:77, 9:100], a[31:77, 9:100])
+
+
+def test_a_shrunk_picture_averages_blocks_of_pixels_as_its_array_does(tmp_path):
+    # a picture of gradients (about a grey level per pixel) of odd size reduced three times: the Picture's planes
+    # averaged before conversion give the BGR array averaged after it within 4 grey levels (the result's chroma is
+    # shared by 2x2 of its pixels, 6x6 of the picture's: up to 3 levels of the gradient, plus rounding); the result
+    # is even-sized, its pixel x the average of the picture's 3x .. 3x + 2
+    yy, xx = np.mgrid[0:100, 0:146]
+    bgr = np.dstack([40 + xx, 60 + yy, 200 - (xx + yy) // 3]).astype(np.uint8)
+    picture = Picture(*_planes(bgr))
+    small = np.asarray(shrunk(picture, 3))
+    assert small.shape == shrunk(bgr, 3).shape == (32, 48, 3)
+    assert np.abs(small.astype(int) - shrunk(np.asarray(picture), 3).astype(int)).max() <= 4
+    assert abs(int(shrunk(bgr, 3)[5, 7, 0]) - int(bgr[15:18, 21:24, 0].mean().round())) <= 1
+    render_video(tmp_path / "v.mp4", SynthSettings(width=160, height=120, fps=30, duration_s=0.2, seed=2))
+    for (_, _, a), (_, _, p) in zip(FrameReader(tmp_path / "v.mp4", False), FrameReader(tmp_path / "v.mp4", shrink=2)):
+        assert p.shape == (60, 80, 3)
+        np.testing.assert_array_equal(p, shrunk(a, 2))
 
 
 _INTERRUPTED_START = """

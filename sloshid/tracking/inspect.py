@@ -28,9 +28,17 @@ from sloshid.tracking.float_angle import MIN_AREA_PX, hsv_mask, principal_axis
 from sloshid.tracking.rows import TrackRow
 from sloshid.tracking.surface import MIN_LIQUID_SHARE, SATURATED, coloured_regions, dye_range, own_range
 from sloshid.tracking.surface_track import SurfaceStep
-from sloshid.tracking.tracker import MeasureStep, TrackSettings, measure_frame, roi_box, surface_roi
+from sloshid.tracking.tracker import (
+    MeasureStep,
+    TrackSettings,
+    measure_frame,
+    reduction,
+    roi_box,
+    shrunk_roi,
+    surface_roi,
+)
 from sloshid.video.colors import PRESETS, HsvRange, format_hsv
-from sloshid.video.frames import FrameReader
+from sloshid.video.frames import FrameReader, shrunk
 
 LISTED_SHARE = 1e-4
 """A preset colour is listed as found when its largest region covers at least this share of the searched area (and
@@ -361,9 +369,20 @@ def _measure(
 
 
 def _look_at_surface(frame, t_s, colour: ColourMatch, roi: tuple) -> tuple[SurfaceLook, np.ndarray]:
-    """Measure `colour` as the dyed liquid (against the container's walls, to learn whether they are found)."""
+    """Measure `colour` as the dyed liquid (against the container's walls, to learn whether they are found); a large
+    picture whose surface is not measured validly, reduced as track reduces it (`surface_size`) when that is."""
     settings = TrackSettings(target="surface", reference="container", roi=roi, **colour.settings("liquid"))
     row, drawn, step = _measure(frame, t_s, settings, roi)
+    shrink = reduction(roi)
+    if not row.valid and shrink > 1:
+        small = shrunk_roi(roi, shrink, (frame.shape[1], frame.shape[0]))
+        small_frame = cast(np.ndarray, shrunk(frame, shrink))  # an array stays one
+        reduced = _measure(small_frame, t_s, replace(settings, roi=small), small)
+        if reduced[0].valid:
+            row, small_drawn, step = reduced
+            h, w = (shrink * n for n in small_drawn.shape[:2])
+            drawn = frame.copy()  # drawn on the whole picture again
+            drawn[:h, :w] = cv2.resize(small_drawn, (w, h), interpolation=cv2.INTER_LINEAR)
     if not isinstance(step, SurfaceStep):
         raise TypeError(f"the surface target was measured by a {type(step).__name__}")
     walls = bool(step.walls_record.measured)

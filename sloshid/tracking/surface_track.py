@@ -63,6 +63,7 @@ class SurfaceStep:
         self.measured: list[tuple] = []  # (frame in the span, its axes, its refit in other axes, walls measured)
         self.copies = Copies()
         self.picture_width: int | None = None  # for the perspective correction (`perspective_deg`)
+        self.scale = 1  # the video's pixels per measured one (a large picture is measured reduced): for the outputs
 
     def __call__(self, frame: np.ndarray, draw: bool) -> tuple[tuple, np.ndarray | None]:
         """(row, overlay frame or None): the track row's fields, then the raw surface geometry.
@@ -244,9 +245,9 @@ class SurfaceStep:
         rest = valid & (np.arange(len(t)) < n_rest if n_rest else t < t[0] + 1.0)
         notes = [] if container else _tilt_notes(cang[valid])
         if self.settings.fov_deg is None and self.picture_width:
-            notes += perspective_notes(x[valid], self.picture_width, sin_e)
+            notes += perspective_notes(self.scale * x[valid], self.scale * self.picture_width, sin_e)
         if self.finder.elsewhere is not None:
-            x, y, w, h = self.finder.elsewhere[1]
+            x, y, w, h = (self.scale * v for v in self.finder.elsewhere[1])
             notes.append(
                 f"another region of the dye's colour ({w}x{h} px at x {x}-{x + w}, y {y}-{y + h}) was left out: it is "
                 "not beside the largest one, which was measured as the liquid; if the liquid is elsewhere, or the "
@@ -268,10 +269,10 @@ class SurfaceStep:
             )
         walls = {}
         for name, w in (("left_wall", left), ("right_wall", right)):
-            walls[f"{name}_px"] = np.where(valid, (w - median(w[rest])) / cos_e, np.nan)
+            walls[f"{name}_px"] = np.where(valid, self.scale * (w - median(w[rest])) / cos_e, np.nan)
         # the mid-line's centre (the mean of the wall heights) stays at rest for a planar slosh: the liquid's volume
         centre = 0.5 * (walls["left_wall_px"] + walls["right_wall_px"])
-        off = valid & (np.abs(centre) > CENTRE_SHARE * median(width[valid]))
+        off = valid & (np.abs(centre) > CENTRE_SHARE * self.scale * median(width[valid]))
         if off.any():
             valid &= ~off
             body = [b._replace(valid=0) if o else b for b, o in zip(body, off)]
@@ -294,7 +295,7 @@ class SurfaceStep:
                 "strayed, e.g. to the ellipse's back edge): those rows have valid = 0."
             )
         mm_per_px = (
-            1000 * self.settings.container_diameter_m / median(width[valid])
+            1000 * self.settings.container_diameter_m / (self.scale * median(width[valid]))
             if self.settings.container_diameter_m
             else math.nan
         )

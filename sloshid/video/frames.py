@@ -115,6 +115,35 @@ class Picture:
         """The whole picture as a new, writable BGR array."""
         return np.array(self[:, :], dtype=dtype)
 
+    def shrunk(self, factor: int) -> Picture:
+        """The picture reduced `factor` times each way (`shrunk`), its planes averaged before any conversion."""
+        h, w = shrunk_size(self._y.shape, factor)
+        return Picture(
+            _area(self._y, h, w, factor), _area(self._u, h // 2, w // 2, factor), _area(self._v, h // 2, w // 2, factor)
+        )
+
+
+def shrunk_size(shape: tuple[int, ...], factor: int) -> tuple[int, int]:
+    """(height, width) of a picture of `shape` reduced `factor` times each way: even, for the half-size chroma."""
+    return shape[0] // factor & ~1, shape[1] // factor & ~1
+
+
+def _area(plane: np.ndarray, h: int, w: int, factor: int) -> np.ndarray:
+    """`plane`'s top-left h x w blocks of factor x factor pixels, each averaged into one."""
+    return cv2.resize(plane[: h * factor, : w * factor], (w, h), interpolation=cv2.INTER_AREA)
+
+
+def shrunk(picture: np.ndarray | Picture, factor: int) -> np.ndarray | Picture:
+    """The picture reduced `factor` (a whole number) times each way by averaging blocks of factor x factor pixels (the
+    rows and columns beyond the last whole block of an even-sized result left out): a pixel (x, y) of the result
+    covers x * factor .. x * factor + factor - 1 of the picture's. A Picture stays one."""
+    if factor == 1:
+        return picture
+    if isinstance(picture, Picture):
+        return picture.shrunk(factor)
+    h, w = shrunk_size(picture.shape, factor)
+    return _area(picture, h, w, factor)
+
 
 _ROTATIONS = {90: cv2.ROTATE_90_COUNTERCLOCKWISE, 180: cv2.ROTATE_180, 270: cv2.ROTATE_90_CLOCKWISE}
 """Display-matrix rotations (counter-clockwise degrees, as FFmpeg reports them) and the turn that shows the picture."""
@@ -179,6 +208,8 @@ class FrameReader:
     starts at the key frame at or before it, found by seeking."""
     end_s: float | None = None
     """Yield only the frames before this presentation time."""
+    shrink: int = 1
+    """Yield the pictures reduced this many times each way (`shrunk`); `info` keeps the video's own size."""
     info: VideoInfo = field(init=False)
     decoded: int = field(init=False, default=0)
 
@@ -243,7 +274,7 @@ class FrameReader:
             raise UserError(f"{self.path}: frame {self.decoded} has a timestamp but no time base.")
         else:
             t_s = float((frame.pts - self._start) * frame.time_base)
-        return t_s, _as_shown(frame, self.pictures)
+        return t_s, shrunk(_as_shown(frame, self.pictures), self.shrink)
 
     def _produce(self) -> Generator[tuple[float, np.ndarray | Picture], None, None]:
         """(t_s, picture) of every frame of the span, the one decoded at opening first."""
@@ -314,7 +345,7 @@ class FrameReader:
         """The first frame decoded at opening, as iterating would give it (without taking it from the iteration)."""
         if self._first is None:
             raise ValueError("the reader's first picture was already taken by iterating it (or it was closed)")
-        return _as_shown(self._first, self.pictures)
+        return shrunk(_as_shown(self._first, self.pictures), self.shrink)
 
     @property
     def frame_size(self) -> tuple[int, int]:
