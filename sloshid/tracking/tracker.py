@@ -518,8 +518,9 @@ def track_video(
         shrink = 1
         if settings.target == "surface":  # one dye colour and one size for every span: the first frame's
             shrink, roi, widened, (dye, liquid, rival, larger) = surface_size(reader.first_picture(), roi, settings)
-            reader.shrink = shrink
-            height, width = shrunk_size((height, width), shrink)  # a picture measured reduced: its pixels reported
+            if shrink > 1:  # measured (and the overlay drawn) reduced; its pixels are reported in the video's
+                reader.shrink = shrink
+                height, width = shrunk_size((height, width), shrink)
         parallel = multithreaded and overlay is None and len(spans) > 1 and _can_fork()
         # a run that finds nothing writes its overlay as the diagnosis, but does not replace one already there
         kept = overlay if overlay is not None and Path(overlay).exists() else None
