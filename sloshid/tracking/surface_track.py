@@ -234,11 +234,15 @@ class SurfaceStep:
             rel += np.nan_to_num(perspective_deg(x, self.picture_width, sin_e, self.settings.fov_deg))
         container = self.settings.reference == "container"
         angle = rel if container else rel + cang
+        # the surface's centre in the video's pixels: a measured pixel x covers its x * scale .. x * scale + scale - 1
+        seen = [
+            (self.scale * r.x_px + 0.5 * (self.scale - 1), self.scale * r.y_px + 0.5 * (self.scale - 1)) for r in rows
+        ]
         body = [
-            r._replace(angle_deg=a, float_angle_deg=rv + c, surface=None)
+            r._replace(angle_deg=a, float_angle_deg=rv + c, x_px=sx, y_px=sy, surface=None)
             if steady is None
-            else r._replace(angle_deg=a, float_angle_deg=rv + c, container_angle_deg=c, surface=None)
-            for r, a, rv, c in zip(rows, angle, rel, cang)
+            else r._replace(angle_deg=a, float_angle_deg=rv + c, container_angle_deg=c, x_px=sx, y_px=sy, surface=None)
+            for r, a, rv, c, (sx, sy) in zip(rows, angle, rel, cang, seen)
         ]
         n_rest = self.settings.rest_frames
         check_rest_frames(n_rest, len(t))

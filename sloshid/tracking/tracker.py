@@ -571,13 +571,10 @@ def track_video(
         lost = lost_share(reader.info.frame_count, len(rows))
         res = _result(Path(path), body, lost, reader.info, smooth, repeated, settings.target)
     res.target, res.walls, res.repeated, res.dye = settings.target, walls, repeated, dye
-    # a reduced pixel x covers the video's x * shrink .. x * shrink + shrink - 1
-    res.x_px, res.y_px = (shrink * v + 0.5 * (shrink - 1) for v in (res.x_px, res.y_px))
     res.warnings.extend(notes)
-    if widened is not None:
-        if shrink > 1:  # the widened ROI in the video's pixels
-            x, y, w, h = (shrink * v for v in roi)
-            widened = f"{x},{y},{min(w, reader.info.width - x)},{min(h, reader.info.height - y)}"
+    if widened is not None:  # the widened ROI in the video's pixels (a reduced picture's times its reduction)
+        x, y, w, h = (shrink * v for v in roi)
+        widened = f"{x},{y},{min(w, reader.info.width - x)},{min(h, reader.info.height - y)}"
         res.warnings.append(
             f"the first frame's surface was measured better with `roi` {','.join(map(str, drawn_roi))} widened to "
             f"{widened}, which was "
