@@ -26,6 +26,7 @@ import json
 import math
 import tempfile
 import time
+from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
 from typing import NamedTuple
@@ -134,19 +135,31 @@ def picture(i: int, name: str = "tuned") -> tuple[np.ndarray, dict]:
     return cv2.imread(str(png)), record
 
 
-def case_row(i: int, folder: Path, name: str = "tuned") -> dict:
-    """Scene i turned by each of TURNS_DEG and tracked against the image and the container: the errors (None: not
-    tracked)."""
+def case_row(
+    i: int,
+    folder: Path,
+    name: str = "tuned",
+    look: Callable[[np.ndarray], np.ndarray] | None = None,
+    frames: int = FRAMES,
+) -> dict:
+    """Scene i (seen through `look`: a camera's processing) turned and tracked (`turned_row`)."""
     image, record = picture(i, name)
-    truth, sc = record["truth"], record["scene"]
-    row: dict = {
+    sc = record["scene"]
+    head = {
         "case": f"glass{i:02d}",
         "scene": f"{sc['container']}, {sc['liquid'].replace('_', ' ')} {sc['liquid_color']}".replace(" none", ""),
         "elevation_deg": sc["elevation_deg"],
     }
+    return turned_row(image if look is None else look(image), record["truth"], head, folder, frames)
+
+
+def turned_row(image: np.ndarray, truth: dict, head: dict, folder: Path, frames: int = FRAMES) -> dict:
+    """A picture turned by each of TURNS_DEG in clips of `frames` frames and tracked against the image and the
+    container: the errors (None: not tracked); the unturned clip also through inspect and with the outline's ROIs."""
+    row = dict(head)
     for turn in TURNS_DEG:
         clip = folder / f"turn{turn:+.0f}.mp4"
-        still_clip(image, clip, turn, frames=FRAMES, seed=1)
+        still_clip(image, clip, turn, frames=frames, seed=1)
         got = {ref: median_angle(clip, ref) for ref in ("image", "container")}
         want = {"image": truth["surface_angle_deg"] + turn, "container": truth["rel_angle_deg"]}
         row[f"{turn:+.0f}"] = {ref: None if got[ref] is None else got[ref] - want[ref] for ref in got}

@@ -71,3 +71,39 @@ def recoloured(
         coloured = box[..., 1] > 80
         box[..., 2][coloured] = (box[..., 2][coloured] * value).astype(np.uint8)
     return cv2.cvtColor(hsv, cv2.COLOR_HSV2BGR)
+
+
+def camera_look(
+    image: np.ndarray,
+    defocus_px: float = 0.0,
+    chromatic: float = 0.0,
+    vignette: float = 0.0,
+    sharpen: float = 0.0,
+    jpeg_quality: int | None = None,
+) -> np.ndarray:
+    """The picture as a phone's camera would have processed it: a Gaussian defocus of `defocus_px`, lateral chromatic
+    aberration (red magnified by 1 + `chromatic` about the centre, blue by 1 - `chromatic`: colour fringes at edges
+    away from it), a vignette darkening the corners by `vignette`, an unsharp mask of strength `sharpen` (the halos
+    beside every edge) and JPEG at `jpeg_quality` (None: none), in that order, as the light meets them."""
+    out = image.astype(np.float32)
+    if defocus_px > 0:
+        out = cv2.GaussianBlur(out, (0, 0), defocus_px)
+    h, w = out.shape[:2]
+    if chromatic:
+        centre = (0.5 * (w - 1), 0.5 * (h - 1))
+        for channel, scale in ((2, 1.0 + chromatic), (0, 1.0 - chromatic)):
+            grow = cv2.getRotationMatrix2D(centre, 0.0, scale)
+            out[..., channel] = cv2.warpAffine(
+                out[..., channel], grow, (w, h), flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_REFLECT
+            )
+    if vignette:
+        y, x = np.mgrid[0:h, 0:w].astype(np.float32)
+        r2 = ((x - 0.5 * (w - 1)) ** 2 + (y - 0.5 * (h - 1)) ** 2) / (0.25 * (w * w + h * h))
+        out *= (1.0 - vignette * r2)[..., None]
+    if sharpen:
+        out = out + sharpen * (out - cv2.GaussianBlur(out, (0, 0), 1.5))
+    out = np.clip(out, 0, 255).astype(np.uint8)
+    if jpeg_quality is not None:
+        _, data = cv2.imencode(".jpg", out, [cv2.IMWRITE_JPEG_QUALITY, int(jpeg_quality)])
+        out = cv2.imdecode(data, cv2.IMREAD_COLOR)
+    return out
