@@ -87,7 +87,7 @@ def camera_look(
     beside every edge) and JPEG at `jpeg_quality` (None: none), in that order, as the light meets them."""
     out = image.astype(np.float32)
     if defocus_px > 0:
-        out = cv2.GaussianBlur(out, (0, 0), defocus_px)
+        out = np.asarray(cv2.GaussianBlur(out, (0, 0), defocus_px), np.float32)
     h, w = out.shape[:2]
     if chromatic:
         centre = (0.5 * (w - 1), 0.5 * (h - 1))
@@ -102,8 +102,8 @@ def camera_look(
         out *= (1.0 - vignette * r2)[..., None]
     if sharpen:
         out = out + sharpen * (out - cv2.GaussianBlur(out, (0, 0), 1.5))
-    out = np.clip(out, 0, 255).astype(np.uint8)
-    if jpeg_quality is not None:
-        _, data = cv2.imencode(".jpg", out, [cv2.IMWRITE_JPEG_QUALITY, int(jpeg_quality)])
-        out = cv2.imdecode(data, cv2.IMREAD_COLOR)
-    return out
+    picture = np.clip(out, 0, 255).astype(np.uint8)
+    if jpeg_quality is None:
+        return picture
+    _, data = cv2.imencode(".jpg", picture, [cv2.IMWRITE_JPEG_QUALITY, int(jpeg_quality)])
+    return np.asarray(cv2.imdecode(data, cv2.IMREAD_COLOR), np.uint8)
