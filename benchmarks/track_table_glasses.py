@@ -185,6 +185,34 @@ def summary(rows: list[dict], reference: str) -> dict:
     }
 
 
+def group_table(groups: dict[str, list[dict]]) -> tuple[dict, list[str], list[list]]:
+    """The figures of each group of rows (`summary` per reference, inspect's and the outline ROIs' shares), and the
+    report's header and table."""
+    figures = {g: {ref: summary(rs, ref) for ref in ("image", "container")} for g, rs in groups.items()}
+    for g, rs in groups.items():
+        figures[g]["inspect_share"] = float(np.mean([r["inspect_tracks"] for r in rs]))
+        for name in OUTLINE_ROIS:
+            figures[g][f"{name}_share"] = float(np.mean([r[name] is not None for r in rs]))
+    table = [
+        [
+            g,
+            len(groups[g]),
+            fmt(f["inspect_share"], True),
+            *(fmt(f[f"{name}_share"], True) for name in OUTLINE_ROIS),
+            *(fmt(f[ref][k], k.endswith("share")) for ref in ("image", "container") for k in KEYS),
+        ]
+        for g, f in figures.items()
+    ]
+    header = [
+        "scenes",
+        "glasses",
+        "unturned glasses that inspect's suggested command tracks",
+        "unturned, tracked with an ROI on the glass's outline",
+        "... with one 3 % inside it",
+    ] + [f"{ref}: {label}" for ref in ("image", "container") for label in LABELS]
+    return figures, header, table
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument(
@@ -214,28 +242,7 @@ def main() -> None:
         "orange": [r for r in rows if "orange" in r["scene"]],
         "red": [r for r in rows if "red" in r["scene"]],
     }
-    figures = {g: {ref: summary(rs, ref) for ref in ("image", "container")} for g, rs in groups.items()}
-    for g, rs in groups.items():
-        figures[g]["inspect_share"] = float(np.mean([r["inspect_tracks"] for r in rs]))
-        for name in OUTLINE_ROIS:
-            figures[g][f"{name}_share"] = float(np.mean([r[name] is not None for r in rs]))
-    table = [
-        [
-            g,
-            len(groups[g]),
-            fmt(f["inspect_share"], True),
-            *(fmt(f[f"{name}_share"], True) for name in OUTLINE_ROIS),
-            *(fmt(f[ref][k], k.endswith("share")) for ref in ("image", "container") for k in KEYS),
-        ]
-        for g, f in figures.items()
-    ]
-    header = [
-        "scenes",
-        "glasses",
-        "unturned glasses that inspect's suggested command tracks",
-        "unturned, tracked with an ROI on the glass's outline",
-        "... with one 3 % inside it",
-    ] + [f"{ref}: {label}" for ref in ("image", "container") for label in LABELS]
+    figures, header, table = group_table(groups)
     notes = (
         f"{scenes} glasses on a table drawn like issue 37's unseen real photos (see the script's docstring), each "
         f"turned by 0, +5 and -7 deg ({FRAMES} frames each) and tracked with no option; a refusal or fewer than 80 % "
