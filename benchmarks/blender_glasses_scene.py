@@ -1,8 +1,9 @@
-"""Render glasses of liquid at rest with Blender's Cycles (bpy): an independent renderer for the tracker's held-out data.
+"""Render glasses of liquid with Blender's Cycles (bpy): an independent renderer for the tracker's held-out data.
 
 Run by `track_blender_glasses.py` with a Python that has `bpy` (`pip install bpy` in a venv of its own: it pins its own
 NumPy): python benchmarks/blender_glasses_scene.py OUT_FOLDER N [FIRST_SEED]. Writes OUT_FOLDER/glassNN.png and
-glassNN.json (the scene drawn and its truth). Nothing here comes from sloshid's own renderers: the glass is a Blender
+glassNN.json (the scene drawn and its truth). A free decay: --clip OUT_FOLDER SEED FRAMES FPS AMPLITUDE_DEG F_HZ
+ZETA (frame_NNNN.png and truth.json). Nothing here comes from sloshid's own renderers: the glass is a Blender
 mesh (a straight or tapered tube with a thick bottom, a boolean difference), the liquid a mesh cut level by a boolean
 (so a leaning glass holds a level surface), its look Cycles' glass, absorption and principled shaders, lit by an area
 light and the world, on a table in front of a wall. Truth: the level surface's line across the glass and the glass's
@@ -133,8 +134,10 @@ def boolean(target: bpy.types.Object, tool: bpy.types.Object, operation: str) ->
     bpy.data.objects.remove(tool, do_unlink=True)
 
 
-def build(sc: dict) -> dict:
-    """Build the scene in Blender; the truth's geometry (the surface's height and the axis's two points)."""
+def build(sc: dict, tilt_deg: float = 0.0) -> dict:
+    """Build the scene in Blender, the liquid's surface tilted by `tilt_deg` about the line of sight through its centre
+    (a slosh's first mode as the plane it is to first order); the truth's geometry (the surface's centre, the axis's
+    base, the glass's outline)."""
     bpy.ops.wm.read_factory_settings(use_empty=True)
     r, t, h, b = sc["inner_radius_m"], sc["glass_m"], sc["height_m"], sc["bottom_m"]
     top = r * (1 + sc["taper"]) if sc["shape"] == "tumbler" else r  # a tumbler widens upwards
@@ -160,7 +163,9 @@ def build(sc: dict) -> dict:
     # the rest level: a level plane through the axis at the upright fill's height keeps a cylinder's volume
     axis = Vector((math.sin(lean), 0.0, math.cos(lean)))
     centre = Vector((0.0, 0.0, lift)) + fill_h * axis
-    bpy.ops.mesh.primitive_cube_add(size=1.0, location=(0, 0, centre.z - 0.5))
+    tilt = math.radians(tilt_deg)  # counter-clockwise as the camera sees it: the right side rises
+    below = centre + 0.5 * Vector((math.sin(tilt), 0.0, -math.cos(tilt)))
+    bpy.ops.mesh.primitive_cube_add(size=1.0, location=tuple(below), rotation=(0.0, -tilt, 0.0))
     boolean(liquid, bpy.context.object, "INTERSECT")
     if len(liquid.data.vertices) < 100:
         raise RuntimeError(f"scene {sc['seed']}: cutting the liquid level left {len(liquid.data.vertices)} vertices")
@@ -214,6 +219,7 @@ def build(sc: dict) -> dict:
 
     outline = [placed(s * (r + t), 0.0) for s in (-1, 1)] + [placed(s * (top + t), h) for s in (-1, 1)]
     return {
+        "surface_dir": (math.cos(tilt), 0.0, math.sin(tilt)),
         "base": tuple(Vector((0.0, 0.0, lift))),
         "centre": tuple(centre),
         "outline": [tuple(p) for p in outline],
@@ -234,7 +240,9 @@ def truth(sc: dict, geometry: dict) -> dict:
     """The level surface's line and the glass's axis (base to the surface's centre) as seen, counter-clockwise, and the
     glass's box in the picture."""
     r, (cx, cy, cz) = sc["inner_radius_m"], geometry["centre"]
-    px = seen([(cx - r, cy, cz), (cx + r, cy, cz), geometry["base"], geometry["centre"]])
+    ux, uy, uz = geometry.get("surface_dir", (1.0, 0.0, 0.0))
+    ends = [(cx - r * ux, cy - r * uy, cz - r * uz), (cx + r * ux, cy + r * uy, cz + r * uz)]
+    px = seen([*ends, geometry["base"], geometry["centre"]])
 
     def angle(p, q) -> float:
         return math.degrees(math.atan2(-(q[1] - p[1]), q[0] - p[0]))
@@ -252,7 +260,34 @@ def truth(sc: dict, geometry: dict) -> dict:
     }
 
 
+def clip(out: Path, seed: int, frames: int, fps: float, amplitude_deg: float, f_hz: float, zeta: float) -> None:
+    """A free decay: the surface released at `amplitude_deg` and ringing at `f_hz` with damping `zeta`, rendered frame
+    by frame into out/frame_NNNN.png, the truth of each frame in out/truth.json."""
+    global WIDTH, HEIGHT, SAMPLES
+    WIDTH, HEIGHT, SAMPLES = 400, 300, 16  # a clip's dozens of renders at a still's cost each would take hours
+    out.mkdir(parents=True, exist_ok=True)
+    sc = draw(seed)
+    omega = 2 * math.pi * f_hz
+    damped = omega * math.sqrt(1 - zeta * zeta)
+    rows = []
+    for k in range(frames):
+        t = k / fps
+        tilt = amplitude_deg * math.exp(-zeta * omega * t) * math.cos(damped * t)
+        png = out / f"frame_{k:04d}.png"
+        geometry = build(sc, tilt)
+        if not png.is_file():
+            bpy.context.scene.render.filepath = str(png)
+            bpy.ops.render.render(write_still=True)
+        rows.append({"t_s": t, "tilt_deg": tilt, **truth(sc, geometry)})
+        print(f"frame {k}: tilt {tilt:+.2f} deg", flush=True)
+    (out / "truth.json").write_text(json.dumps({"scene": sc, "f_hz": f_hz, "zeta": zeta, "rows": rows}, indent=1))
+
+
 def main() -> None:
+    if sys.argv[1] == "--clip":
+        folder, seed, frames, fps, amplitude, f_hz, zeta = sys.argv[2:9]
+        clip(Path(folder), int(seed), int(frames), float(fps), float(amplitude), float(f_hz), float(zeta))
+        return
     out, n = Path(sys.argv[1]), int(sys.argv[2])
     first = int(sys.argv[3]) if len(sys.argv) > 3 else 1200
     out.mkdir(parents=True, exist_ok=True)
