@@ -240,7 +240,7 @@ def truth(sc: dict, geometry: dict) -> dict:
     """The level surface's line and the glass's axis (base to the surface's centre) as seen, counter-clockwise, and the
     glass's box in the picture."""
     r, (cx, cy, cz) = sc["inner_radius_m"], geometry["centre"]
-    ux, uy, uz = geometry.get("surface_dir", (1.0, 0.0, 0.0))
+    ux, uy, uz = geometry["surface_dir"]
     ends = [(cx - r * ux, cy - r * uy, cz - r * uz), (cx + r * ux, cy + r * uy, cz + r * uz)]
     px = seen([*ends, geometry["base"], geometry["centre"]])
 

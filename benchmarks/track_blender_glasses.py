@@ -52,18 +52,26 @@ CLIP_CASES = {"decay_a": (1206, 3.0, 0.05), "decay_b": (1207, 3.4, 0.07)}
 """Free decays (scene seed, f, zeta) of two development glasses: 48 frames at 30 fps, released at 5 deg."""
 
 
+def need_bpy(blender_python: str, what: str) -> None:
+    """Stop with one sentence when `blender_python` cannot import bpy, which renders `what`."""
+    try:
+        missing = subprocess.run([blender_python, "-c", "import bpy"], capture_output=True).returncode != 0
+    except OSError:  # no such interpreter
+        missing = True
+    if missing:
+        sys.exit(
+            f"{blender_python} cannot import bpy, which renders {what}: install it in a venv of its own "
+            "(python3 -m venv .venv-blender && .venv-blender/bin/pip install bpy) and give "
+            "--blender-python .venv-blender/bin/python."
+        )
+
+
 def render(blender_python: str, folder: Path, first_seed: int) -> None:
     """Render the scenes missing from `folder` (seeds from `first_seed`) with `blender_python` (a Python with bpy)."""
     missing = [i for i in range(SCENES) if not (folder / f"glass{i:02d}.json").is_file()]
     if not missing:
         return
-    probe = subprocess.run([blender_python, "-c", "import bpy"], capture_output=True)
-    if probe.returncode:
-        sys.exit(
-            f"{blender_python} cannot import bpy, which renders the {len(missing)} missing scenes: install it in a "
-            "venv of its own (python3 -m venv .venv-blender && .venv-blender/bin/pip install bpy) and give "
-            "--blender-python .venv-blender/bin/python."
-        )
+    need_bpy(blender_python, f"the {len(missing)} missing scenes")
     print(f"rendering {len(missing)} scenes with Cycles into {folder} (about a minute each)")
     subprocess.run([blender_python, str(SCENE_SCRIPT), str(folder), str(SCENES), str(first_seed)], check=True)
 
@@ -76,9 +84,7 @@ def clip_rows(blender_python: str) -> list[dict]:
     for name, (seed, f_hz, zeta) in CLIP_CASES.items():
         folder = CLIPS / name
         if not (folder / "truth.json").is_file():
-            probe = subprocess.run([blender_python, "-c", "import bpy"], capture_output=True)
-            if probe.returncode:
-                sys.exit(f"{blender_python} cannot import bpy: give --blender-python (see the script's docstring).")
+            need_bpy(blender_python, f"the decay {name}")
             cmd = [blender_python, str(SCENE_SCRIPT), "--clip", str(folder), str(seed), "48", "30", "5", str(f_hz)]
             subprocess.run([*cmd, str(zeta)], check=True)
         record = json.loads((folder / "truth.json").read_text())
