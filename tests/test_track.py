@@ -748,6 +748,32 @@ def test_a_presets_hue_bounds_move_out_over_the_dyes_own_hues_and_stop_at_a_gap(
     assert dye_range(frame, (0, 0, 160, 120), PRESETS["dark"].hsv) == PRESETS["dark"].hsv
 
 
+def test_a_presets_saturation_floor_moves_down_over_the_dyes_paler_part_and_stops_before_a_table_of_its_hue():
+    # a blue dye paling from saturation 160 to 90 towards a highlight (the blue preset starts at 140, and holds a third
+    # of it), also on a blue-grey table of saturation 82 that runs out of the picture: the floor takes the dye's
+    # palest pixels, not the table's
+    hsv = np.zeros((120, 160, 3), np.uint8)
+    hsv[..., 1:] = (20, 230)  # a grey wall
+    hsv[20:100, 40:120] = (115, 160, 180)  # the dye's body
+    hsv[20:100, 50:120, 1] = np.linspace(160, 90, 70).astype(np.uint8)  # most of it pales to the right
+    frame = cv2.cvtColor(hsv, cv2.COLOR_HSV2BGR)
+    blue = PRESETS["blue"].hsv
+    roi = (0, 0, 160, 120)
+    assert 85 <= dye_range(frame, roi, blue).low[1] <= 92  # the palest column's 90 (less the conversion's rounding)
+    table = hsv.copy()
+    table[100:, :] = (112, 82, 160)  # the table, touching the dye's bottom
+    floor = dye_range(cv2.cvtColor(table, cv2.COLOR_HSV2BGR), roi, blue).low[1]
+    assert 85 <= floor <= 92, floor  # above the table's 82
+    # the dye's pale colour also away from it (a patch on the wall): the preset's floor stays
+    hsv[5:15, 140:150] = (115, 100, 180)
+    assert dye_range(cv2.cvtColor(hsv, cv2.COLOR_HSV2BGR), roi, blue).low[1] == blue.low[1]
+    # a dye the preset holds mostly (its pale part a fringe) keeps the preset's floor
+    hsv[5:15, 140:150] = (0, 20, 230)
+    hsv[20:100, 50:120, 1] = 160
+    hsv[20:100, 110:120, 1] = 100
+    assert dye_range(cv2.cvtColor(hsv, cv2.COLOR_HSV2BGR), roi, blue).low[1] == blue.low[1]
+
+
 def test_a_surface_measured_again_in_turned_axes_keeps_its_angle_in_the_picture(surface_video):
     # a frame's front edge refitted in other axes (what a standing container's frames get: the median of theirs) is
     # the same picture: its own axes give the same measurement, and axes turned by 1 deg turn the container's angle by

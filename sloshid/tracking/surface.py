@@ -265,7 +265,54 @@ def dye_range(frame: np.ndarray, roi: tuple[int, int, int, int], hsv: HsvRange) 
         low -= 1
     while high < min(179, hsv.high[0] + DYE_HUE_REACH) and counts[high + 1] >= max(floor, 1):
         high += 1
-    return HsvRange((low, *hsv.low[1:]), (high, *hsv.high[1:]))
+    # over the preset's own hues: widened, they reach a neighbouring colour's liquid (a red juice for orange)
+    pale = _saturation_floor(im, largest, (hsv.low[0], hsv.high[0]), hsv)
+    return HsvRange((low, pale, hsv.low[2]), (high, *hsv.high[1:]))
+
+
+DYE_SAT_REACH = 60
+"""How far (OpenCV saturation) a preset's saturation floor may move down to the dye's paler part (`dye_range`): a
+light dye lit from one side pales towards the highlight (a Cycles-rendered blue dye reads saturation 90-160 across its
+glass, the blue preset starts at 140), and a range that cuts it takes a chord of the surface for its line."""
+DYE_SAT_STEP = 10
+DYE_SAT_SHARE = 2.0
+"""The floor moves only when the dye's region at the lowest floor is at least this many times the preset's: a preset
+that holds most of the dye leaves out its fringes and the surface's pale reflection seen from above, which are not the
+liquid's body."""
+DYE_SAT_APART = 0.01
+"""... and only when the pixels of the lowered range more than 15 px away from the liquid number less than this share
+of the pale pixels it adds to the liquid: Cycles' blue dyes on a white wall and a beige table had 0-0.004, orange and
+yellow dyes on a noisy beige table 0.04-2."""
+
+
+def _saturation_floor(im: np.ndarray, core: np.ndarray, hues: tuple[int, int], hsv: HsvRange) -> int:
+    """A saturation floor for the dye: the palest pixels (2nd percentile) of the region of its hues and value joined to
+    its core (`core`, the crop's largest region in the preset's range) at the lowest floor, down by DYE_SAT_REACH
+    (never below SATURATED's) in steps of DYE_SAT_STEP, whose region reaches no side of the crop the core does not (a
+    table or wall of the dye's hue runs out of the picture); the preset's floor when that region is under DYE_SAT_SHARE
+    of the core or the pale colour is found away from it too (DYE_SAT_APART)."""
+    sat = im[..., 1]
+    hue = cv2.inRange(im, (hues[0], 0, hsv.low[2]), (hues[1], 255, hsv.high[2])) > 0
+
+    def sides(region: np.ndarray) -> np.ndarray:
+        return np.array([region[0].any(), region[-1].any(), region[:, 0].any(), region[:, -1].any()])
+
+    reached, joined = sides(core), core
+    for level in range(hsv.low[1] - DYE_SAT_STEP, max(SATURATED[0], hsv.low[1] - DYE_SAT_REACH) - 1, -DYE_SAT_STEP):
+        _, labels = cv2.connectedComponents((hue & (sat >= level)).astype(np.uint8), connectivity=8)
+        region = labels == np.bincount(labels[core]).argmax()
+        if (sides(region) & ~reached).any():
+            break
+        joined = region
+    if np.count_nonzero(joined) < DYE_SAT_SHARE * np.count_nonzero(core):  # the preset holds most of the dye
+        return hsv.low[1]
+    floor = min(hsv.low[1], int(np.percentile(sat[joined], 2)))  # the joined region's own palest pixels
+    # pixels of that pale colour away from the liquid (a beige table's, of an orange dye's hue): its pale part cannot be
+    # told from the background's
+    apart = hue & (sat >= floor) & (cv2.dilate(joined.astype(np.uint8), np.ones((31, 31), np.uint8)) == 0)
+    if np.count_nonzero(apart) > DYE_SAT_APART * np.count_nonzero(joined & (sat < hsv.low[1])):
+        return hsv.low[1]
+    return floor
 
 
 SATURATED = (60, 40)
