@@ -772,6 +772,13 @@ def test_a_presets_saturation_floor_moves_down_over_the_dyes_paler_part_and_stop
     hsv[20:100, 50:120, 1] = 160
     hsv[20:100, 110:120, 1] = 100
     assert dye_range(cv2.cvtColor(hsv, cv2.COLOR_HSV2BGR), roi, blue).low[1] == blue.low[1]
+    # ... also when highlight stripes cut it into pieces, none of them half of it, that the lower floor joins (a painted
+    # glass): the preset holds most of the dye in all its pieces together
+    hsv[20:100, 110:120, 1] = 160
+    hsv[20:100, 64:68, 1] = 90
+    hsv[20:100, 92:96, 1] = 90
+    hsv[20:24, 40:120, 1] = 90  # the surface's pale reflection along the top
+    assert dye_range(cv2.cvtColor(hsv, cv2.COLOR_HSV2BGR), roi, blue).low[1] == blue.low[1]
 
 
 def test_a_surface_measured_again_in_turned_axes_keeps_its_angle_in_the_picture(surface_video):

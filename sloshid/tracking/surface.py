@@ -276,9 +276,10 @@ light dye lit from one side pales towards the highlight (a Cycles-rendered blue 
 glass, the blue preset starts at 140), and a range that cuts it takes a chord of the surface for its line."""
 DYE_SAT_STEP = 10
 DYE_SAT_SHARE = 2.0
-"""The floor moves only when the dye's region at the lowest floor is at least this many times the preset's: a preset
-that holds most of the dye leaves out its fringes and the surface's pale reflection seen from above, which are not the
-liquid's body."""
+"""The floor moves only when the dye's region at the lowest floor is at least this many times the preset's pixels in
+it (all of them: highlight stripes cut a painted liquid into pieces that the lower floor joins): a preset that holds
+most of the dye leaves out its fringes, its highlights and the surface's pale reflection seen from above, which are
+not the liquid's body."""
 DYE_SAT_APART = 0.01
 """... and only when the pixels of the lowered range more than 15 px away from the liquid number less than this share
 of the pale pixels it adds to the liquid: Cycles' blue dyes on a white wall and a beige table had 0-0.004, orange and
@@ -290,7 +291,7 @@ def _saturation_floor(im: np.ndarray, core: np.ndarray, hues: tuple[int, int], h
     its core (`core`, the crop's largest region in the preset's range) at the lowest floor, down by DYE_SAT_REACH
     (never below SATURATED's) in steps of DYE_SAT_STEP, whose region reaches no side of the crop the core does not (a
     table or wall of the dye's hue runs out of the picture); the preset's floor when that region is under DYE_SAT_SHARE
-    of the core or the pale colour is found away from it too (DYE_SAT_APART)."""
+    times the preset's pixels in it or the pale colour is found away from it too (DYE_SAT_APART)."""
     sat = im[..., 1]
     hue = cv2.inRange(im, (hues[0], 0, hsv.low[2]), (hues[1], 255, hsv.high[2])) > 0
 
@@ -304,7 +305,8 @@ def _saturation_floor(im: np.ndarray, core: np.ndarray, hues: tuple[int, int], h
         if (sides(region) & ~reached).any():
             break
         joined = region
-    if np.count_nonzero(joined) < DYE_SAT_SHARE * np.count_nonzero(core):  # the preset holds most of the dye
+    held = np.count_nonzero(joined & hue & (sat >= hsv.low[1]))  # the preset's pixels in it, its every piece
+    if np.count_nonzero(joined) < DYE_SAT_SHARE * held:  # the preset holds most of the dye
         return hsv.low[1]
     floor = min(hsv.low[1], int(np.percentile(sat[joined], 2)))  # the joined region's own palest pixels
     # pixels of that pale colour away from the liquid (a beige table's, of an orange dye's hue): its pale part cannot be
