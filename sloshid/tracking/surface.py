@@ -275,6 +275,7 @@ DYE_SAT_REACH = 60
 light dye lit from one side pales towards the highlight (a Cycles-rendered blue dye reads saturation 90-160 across its
 glass, the blue preset starts at 140), and a range that cuts it takes a chord of the surface for its line."""
 DYE_SAT_STEP = 10
+"""The floor is lowered in steps of this (OpenCV saturation): a dye's region is searched at most six times."""
 DYE_SAT_SHARE = 2.0
 """The floor moves only when the dye's region at the lowest floor is at least this many times the preset's pixels in
 it (all of them: highlight stripes cut a painted liquid into pieces that the lower floor joins): a preset that holds
