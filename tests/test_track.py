@@ -781,6 +781,35 @@ def test_a_presets_saturation_floor_moves_down_over_the_dyes_paler_part_and_stop
     assert dye_range(cv2.cvtColor(hsv, cv2.COLOR_HSV2BGR), roi, blue).low[1] == blue.low[1]
 
 
+def test_the_dark_presets_value_ceiling_moves_up_over_a_greyed_near_black_liquid_and_stops_before_a_dark_table():
+    # a near-black liquid greying from value 50 to 100 towards a bright glass's side (the dark preset ends at 60 and
+    # holds a third of it), on a white wall: the ceiling takes the liquid's brightest pixels; a grey table of value 110
+    # touching it and running out of the picture is left out, and a grey patch of the liquid's value away from it
+    # keeps the preset's ceiling (a shadow or a dark object: the liquid's grey part cannot be told from it)
+    hsv = np.zeros((120, 160, 3), np.uint8)
+    hsv[..., 1:] = (10, 235)  # a white wall
+    hsv[20:100, 40:120] = (18, 40, 40)  # the liquid's body
+    hsv[20:100, 55:120, 2] = np.linspace(50, 100, 65).astype(np.uint8)  # most of it greys to the right
+    dark = PRESETS["dark"].hsv
+    roi = (0, 0, 160, 120)
+
+    def ceiling(picture: np.ndarray) -> int:
+        got = dye_range(cv2.cvtColor(picture, cv2.COLOR_HSV2BGR), roi, dark)
+        assert got.low == dark.low and got.high[:2] == dark.high[:2]
+        return got.high[2]
+
+    assert 98 <= ceiling(hsv) <= 102  # the brightest column's 100 (less the conversion's rounding)
+    table = hsv.copy()
+    table[100:, :] = (18, 20, 110)
+    assert 98 <= ceiling(table) <= 102  # below the table's 110
+    hsv[5:15, 140:150] = (18, 20, 90)
+    assert ceiling(hsv) == dark.high[2]
+    # a liquid the preset holds mostly keeps the preset's ceiling
+    hsv[5:15, 140:150] = (0, 10, 235)
+    hsv[20:100, 55:110, 2] = 40
+    assert ceiling(hsv) == dark.high[2]
+
+
 def test_a_surface_measured_again_in_turned_axes_keeps_its_angle_in_the_picture(surface_video):
     # a frame's front edge refitted in other axes (what a standing container's frames get: the median of theirs) is
     # the same picture: its own axes give the same measurement, and axes turned by 1 deg turn the container's angle by

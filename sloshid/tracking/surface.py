@@ -245,8 +245,8 @@ def dye_range(frame: np.ndarray, roi: tuple[int, int, int, int], hsv: HsvRange) 
     """A preset's range with its hue bounds moved out (by at most DYE_HUE_REACH) over the hues that continue the
     dye's own in the region of the preset's saturation and value holding its largest region: a dye's hue shifts with
     its depth and the light (the real frame's blue water brightened reads 97-101 at its top, below the blue preset's
-    100), and a range that cuts it leaves the liquid's top out."""
-    if hsv.wraps or (hsv.low[0] == 0 and hsv.high[0] == 179):
+    100), and a range that cuts it leaves the liquid's top out. The `dark` preset's value ceiling moves up instead."""
+    if hsv.wraps:
         return hsv
     x, y, w, h = roi
     crop = frame[y : y + h, x : x + w]
@@ -256,6 +256,10 @@ def dye_range(frame: np.ndarray, roi: tuple[int, int, int, int], hsv: HsvRange) 
         return hsv
     largest = labels == 1 + int(np.argmax(stats[1:, cv2.CC_STAT_AREA]))
     im = cv2.cvtColor(crop, cv2.COLOR_BGR2HSV)
+    if hsv.low[0] == 0 and hsv.high[0] == 179:  # no hue: a near-black liquid lit or seen through bright glass greys
+        flipped = 255 - hsv.high[2]  # its value's ceiling as a floor of 255 - value
+        ceiling = 255 - _paler_bound(255 - im[..., 2], largest, np.ones(largest.shape, bool), flipped, 0)
+        return HsvRange(hsv.low, (*hsv.high[:2], ceiling))
     sv = cv2.inRange(im, (0, hsv.low[1], hsv.low[2]), (179, hsv.high[1], hsv.high[2]))
     _, around = cv2.connectedComponents(sv, connectivity=8)
     counts = np.bincount(im[..., 0][around == np.bincount(around[largest]).argmax()], minlength=180)
@@ -266,55 +270,57 @@ def dye_range(frame: np.ndarray, roi: tuple[int, int, int, int], hsv: HsvRange) 
     while high < min(179, hsv.high[0] + DYE_HUE_REACH) and counts[high + 1] >= max(floor, 1):
         high += 1
     # over the preset's own hues: widened, they reach a neighbouring colour's liquid (a red juice for orange)
-    pale = _saturation_floor(im, largest, (hsv.low[0], hsv.high[0]), hsv)
+    hue = cv2.inRange(im, (hsv.low[0], 0, hsv.low[2]), (hsv.high[0], 255, hsv.high[2])) > 0
+    pale = _paler_bound(im[..., 1], largest, hue, hsv.low[1], SATURATED[0])
     return HsvRange((low, pale, hsv.low[2]), (high, *hsv.high[1:]))
 
 
 DYE_SAT_REACH = 60
-"""How far (OpenCV saturation) a preset's saturation floor may move down to the dye's paler part (`dye_range`): a
-light dye lit from one side pales towards the highlight (a Cycles-rendered blue dye reads saturation 90-160 across its
-glass, the blue preset starts at 140), and a range that cuts it takes a chord of the surface for its line."""
+"""How far (OpenCV saturation or value) a preset's saturation floor may move down to the dye's paler part, or the
+`dark` preset's value ceiling up (`dye_range`): a light dye lit from one side pales towards the highlight (a
+Cycles-rendered blue dye reads saturation 90-160 across its glass, the blue preset starts at 140), a near-black one
+greys behind a bright glass (a Cycles cola reads value 40-100, the dark preset ends at 60), and a range that cuts it
+takes a chord of the surface for its line."""
 DYE_SAT_STEP = 10
-"""The floor is lowered in steps of this (OpenCV saturation): a dye's region is searched at most six times."""
+"""The bound is moved in steps of this (OpenCV saturation or value): a dye's region is searched at most six times."""
 DYE_SAT_SHARE = 2.0
-"""The floor moves only when the dye's region at the lowest floor is at least this many times the preset's pixels in
-it (all of them: highlight stripes cut a painted liquid into pieces that the lower floor joins): a preset that holds
-most of the dye leaves out its fringes, its highlights and the surface's pale reflection seen from above, which are
-not the liquid's body."""
+"""The bound moves only when the dye's region at the farthest bound is at least this many times the preset's pixels
+in it (all of them: highlight stripes cut a painted liquid into pieces that the moved bound joins): a preset that
+holds most of the dye leaves out its fringes, its highlights and the surface's pale reflection seen from above, which
+are not the liquid's body."""
 DYE_SAT_APART = 0.01
-"""... and only when the pixels of the lowered range more than 15 px away from the liquid number less than this share
+"""... and only when the pixels of the moved range more than 15 px away from the liquid number less than this share
 of the pale pixels it adds to the liquid: Cycles' blue dyes on a white wall and a beige table had 0-0.004, orange and
 yellow dyes on a noisy beige table 0.04-2."""
 
 
-def _saturation_floor(im: np.ndarray, core: np.ndarray, hues: tuple[int, int], hsv: HsvRange) -> int:
-    """A saturation floor for the dye: the palest pixels (2nd percentile) of the region of its hues and value joined to
-    its core (`core`, the crop's largest region in the preset's range) at the lowest floor, down by DYE_SAT_REACH
-    (never below SATURATED's) in steps of DYE_SAT_STEP, whose region reaches no side of the crop the core does not (a
-    table or wall of the dye's hue runs out of the picture); the preset's floor when that region is under DYE_SAT_SHARE
-    times the preset's pixels in it or the pale colour is found away from it too (DYE_SAT_APART)."""
-    sat = im[..., 1]
-    hue = cv2.inRange(im, (hues[0], 0, hsv.low[2]), (hues[1], 255, hsv.high[2])) > 0
+def _paler_bound(q: np.ndarray, core: np.ndarray, within: np.ndarray, bound: int, lowest: int) -> int:
+    """A lower bound on `q` (a crop's saturation, or 255 - value) for the dye: the palest pixels (2nd percentile) of
+    the region of `within` (the preset's other bounds) joined to its core (`core`, the crop's largest region in the
+    preset's range) at the lowest floor, down from `bound` by DYE_SAT_REACH (never below `lowest`) in steps of
+    DYE_SAT_STEP, whose region reaches no side of the crop the core does not (a table or wall of the dye's hue runs out
+    of the picture); `bound` when that region is under DYE_SAT_SHARE times the preset's pixels in it or the pale colour
+    is found away from it too (DYE_SAT_APART)."""
 
     def sides(region: np.ndarray) -> np.ndarray:
         return np.array([region[0].any(), region[-1].any(), region[:, 0].any(), region[:, -1].any()])
 
     reached, joined = sides(core), core
-    for level in range(hsv.low[1] - DYE_SAT_STEP, max(SATURATED[0], hsv.low[1] - DYE_SAT_REACH) - 1, -DYE_SAT_STEP):
-        _, labels = cv2.connectedComponents((hue & (sat >= level)).astype(np.uint8), connectivity=8)
+    for level in range(bound - DYE_SAT_STEP, max(lowest, bound - DYE_SAT_REACH) - 1, -DYE_SAT_STEP):
+        _, labels = cv2.connectedComponents((within & (q >= level)).astype(np.uint8), connectivity=8)
         region = labels == np.bincount(labels[core]).argmax()
         if (sides(region) & ~reached).any():
             break
         joined = region
-    held = np.count_nonzero(joined & hue & (sat >= hsv.low[1]))  # the preset's pixels in it, its every piece
+    held = np.count_nonzero(joined & within & (q >= bound))  # the preset's pixels in it, its every piece
     if np.count_nonzero(joined) < DYE_SAT_SHARE * held:  # the preset holds most of the dye
-        return hsv.low[1]
-    floor = min(hsv.low[1], int(np.percentile(sat[joined], 2)))  # the joined region's own palest pixels
+        return bound
+    floor = min(bound, int(np.percentile(q[joined], 2)))  # the joined region's own palest pixels
     # pixels of that pale colour away from the liquid (a beige table's, of an orange dye's hue): its pale part cannot be
     # told from the background's
-    apart = hue & (sat >= floor) & (cv2.dilate(joined.astype(np.uint8), np.ones((31, 31), np.uint8)) == 0)
-    if np.count_nonzero(apart) > DYE_SAT_APART * np.count_nonzero(joined & (sat < hsv.low[1])):
-        return hsv.low[1]
+    apart = within & (q >= floor) & (cv2.dilate(joined.astype(np.uint8), np.ones((31, 31), np.uint8)) == 0)
+    if np.count_nonzero(apart) > DYE_SAT_APART * np.count_nonzero(joined & (q < bound)):
+        return bound
     return floor
 
 
