@@ -1613,6 +1613,37 @@ def test_walls_are_the_glass_edges_where_the_liquids_sides_are_not_straight():
     assert abs(b_left - 16.5) < 0.5 and abs(b_right - 85.5) < 0.5
 
 
+def _liquid_in_glass(liquid: list, walls: list) -> tuple:
+    """`_container_axes` of a red liquid (polygon `liquid`) in a glass drawn as two grey lines (x at rows 100 and 404
+    each) on a pale picture: the walls' slopes."""
+    picture = np.full((480, 640, 3), 228, np.uint8)
+    for x0, x1 in walls:
+        for y in range(100, 405):
+            x = round(x0 + (x1 - x0) * (y - 100) / 304)
+            picture[y, x - 2 : x + 3] = 150
+    cv2.fillPoly(picture, [np.array(liquid, np.int32)], (40, 40, 200))
+    body = (cv2.inRange(picture, (30, 30, 190), (50, 50, 210)) > 0).astype(np.float32)
+    ys, xs = np.nonzero(body)
+    box = (int(xs.min()), int(ys.min()), int(xs.max()) + 1, int(ys.max()) + 1)
+    geom = _container_axes(body, body >= 0.5, cv2.cvtColor(picture, cv2.COLOR_BGR2GRAY), picture, (0, 0), box)
+    assert geom is not None
+    return geom[0][0][0], geom[0][1][0]
+
+
+def test_a_liquid_side_that_leans_away_from_the_other_is_not_a_wall_where_the_glass_says_so():
+    # a liquid whose right side runs along a shading edge across it (34 deg from its upright left side: a Blender-
+    # rendered juice's, which turned the container by 14 deg), in a glass tapered by 1.5 deg a side (slopes +-0.026):
+    # two walls leaning apart by more than WALL_SPREAD_DEG are checked against the glass's edges, which spread by far
+    # less, so the walls are the glass's (the sides' own slopes had been taken: 0.011 and -0.771)
+    left, right = _liquid_in_glass([[205, 220], [435, 220], [300, 395], [208, 395]], [(200, 208), (440, 432)])
+    # placed by line sums on a slope grid of 0.005 (measured 0.030 and -0.025)
+    assert left == pytest.approx(0.026, abs=0.006) and right == pytest.approx(-0.026, abs=0.006)
+    # a vessel tapered by 16 deg a side (spread 32) keeps its liquid's sides (slopes +-0.29): the glass's edges about
+    # them (slopes +-0.33, its outer faces') spread by as much
+    left, right = _liquid_in_glass([[150, 220], [490, 220], [439, 395], [201, 395]], [(100, 200), (540, 440)])
+    assert left == pytest.approx(0.29, abs=0.015) and right == pytest.approx(-0.29, abs=0.015)
+
+
 def test_surface_overlay_draws_the_line_and_wall_points(surface_video, tmp_path):
     path, truth = surface_video
     track_video(path, TrackSettings(target="surface"), overlay=tmp_path / "o.mp4")

@@ -842,6 +842,11 @@ def _walls_beyond(m: SurfaceMeasurement, window: tuple[int, int, int, int]) -> b
     return aL * y + bL < X0 or aR * y + bR > X1
 
 
+def _spread_deg(lines: np.ndarray) -> float:
+    """How far apart two walls x = a y + b (the rows of `lines`) lean, degrees (NaN walls: 0)."""
+    return float(np.nan_to_num(abs(np.degrees(np.arctan(lines[0, 0]) - np.arctan(lines[1, 0])))))
+
+
 def _axis_angle(aL, aR):
     """The container's axis (rad, CCW as seen from the image vertical) from its walls' slopes x = a y + b: their angles'
     mean. Their slopes' mean turns a tapered glass's axis toward its more leaning wall (0.07 deg at a 7 deg turn)."""
@@ -1384,6 +1389,12 @@ WALL_TOL_PX = 1.5
 """A wall's colour crossings lie within this of its line (compression blocks move them by up to 1.3 px)."""
 WALL_MAX_SLOPE = 0.84
 """Walls lean by at most 40 deg in the picture (x per row): a sloped surface's run along a wall is flatter."""
+WALL_SPREAD_DEG = 30.0
+"""Two walls of a container lean apart by less than this in the picture: a tumbler's taper (the pbr corpus's strongest,
+0.19 of radius per height, 11 deg a side) and a camera's convergence looking down at it spread them by 21-27 as
+tracked. Beyond it the glass's own edges are looked for, and when they lean apart by at least a third of it less, the
+walls are theirs (a Blender-rendered juice's right side ran along a shading edge across the liquid, 33 deg from its
+left side where the glass's edges spread by 10, and turned the container by 14 deg)."""
 CORNER_SHARE = 0.05
 """Rows closer than this share of the liquid's width to the bottom (at a side's crossing; at most the tenth of the
 height that an upright container's rows end above it) are not read for that wall: a container tilted in the picture
@@ -1484,6 +1495,10 @@ def _container_axes(
     lines, _ = robust_lines(t, v, ok, 0.3, min_points=np.array([max(10, k // WALL_SHARE) for k in (*wall_rows, m)]))
     if np.isnan(lines[:2]).any():  # the liquid's sides are not straight (a label, a holder, clutter of its colour)
         lines[:2] = _glass_sides(frame, origin, (x0 - X0, x1 - X0), (r0, r1))
+    elif _spread_deg(lines) > WALL_SPREAD_DEG:  # a strong taper, or a side that is not a wall: the glass tells
+        glass = _glass_sides(frame, origin, (x0 - X0, x1 - X0), (r0, r1))
+        if not np.isnan(glass).any() and _spread_deg(glass) < _spread_deg(lines) - WALL_SPREAD_DEG / 3:
+            lines[:2] = glass
     if np.isnan(lines).any():
         return None
     (aL, bL), (aR, bR), (k, d) = lines
