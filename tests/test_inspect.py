@@ -310,3 +310,28 @@ def test_a_path_traced_render_gets_a_surface_command_that_tracks(tmp_path, run_c
     truth = read_csv(tmp_path / "pbr_truth.csv")
     assert tracked["valid"].all()
     assert np.abs(tracked["angle_deg"] - truth["surface_angle_deg"]).max() < 1.0
+
+
+def test_a_grey_liquid_darker_than_the_rest_gets_a_range_of_its_own(tmp_path, run_cli):
+    # a liquid with no hue, darker than a pale wall (a cola greyed by a bright glass, as Blender renders it: value
+    # 140-200 where the dark preset ends at 60), in a glass drawn as two grey lines, its surface turned by
+    # atan(6 / 100) = 3.43 deg, beige specks on the wall: no preset and no coloured region is the liquid, so inspect
+    # looks at the darker region and its command tracks the surface
+    rng = np.random.default_rng(11)
+    frames = []
+    for _ in range(8):
+        frame = np.full((240, 320, 3), 230, np.float64)
+        frame[60:215, 104:107] = frame[60:215, 213:216] = 150  # the glass's walls
+        cv2.fillPoly(frame, [np.array([[107, 123], [213, 117], [213, 205], [107, 205]], np.int32)], (120, 122, 128))
+        frame[30:32, 40:42] = (150, 190, 215)  # beige specks
+        frames.append(np.clip(frame + rng.normal(0, 3, frame.shape), 0, 255).astype(np.uint8))
+    clip = _write(tmp_path / "grey_liquid.mp4", frames)
+    code, out, err = run_cli("inspect", clip, "-o", tmp_path / "g.png")
+    assert code == 0, err
+    assert "a region darker than the rest" in out
+    command = _next_command(out)
+    assert command[5:9] == ["--target", "surface", "--liquid-hsv-low", "0,0,0"]
+    assert 128 < int(command[10].split(",")[2]) < 190  # above the liquid's value, below the wall's
+    assert run_cli(*command[1:])[0] == 0
+    angles = read_csv(Path(command[command.index("-o") + 1]))
+    assert float(np.median(angles["angle_deg"][angles["valid"] == 1])) == pytest.approx(3.43, abs=0.3)
