@@ -502,18 +502,13 @@ def what_it_saw(frame: np.ndarray, roi: tuple[int, int, int, int]) -> tuple[str,
             f"looked at with `liquid_hsv_low` {format_hsv(r.low)} `liquid_hsv_high` {format_hsv(r.high)}"
         )
     if not big:
+        none = f"no preset colour here, and no coloured region (saturation {SATURATED[0]} or more) of {MIN_AREA_PX} px"
         if dark is not None:
-            return (
-                f"no preset colour here, and no coloured region (saturation {SATURATED[0]} or more) of {MIN_AREA_PX} "
-                f"px or more, {greys}{also}.",
-                f"a grey picture, with a darker region {where}",
-                darker,
-            )
+            return f"{none} or more, {greys}{also}.", f"a grey picture, with a darker region {where}", darker
         return (
             (
-                f"no preset colour here, and no coloured region (saturation {SATURATED[0]} or more) of {MIN_AREA_PX} px or more, "
-                f"{greys}: a grey picture. Track needs a float or a dye of a clear colour (red, orange, yellow, green, "
-                "blue, magenta); check the file, the lighting, or the time given (`at`)."
+                f"{none} or more, {greys}: a grey picture. Track needs a float or a dye of a clear colour (red, orange, "
+                "yellow, green, blue, magenta); check the file, the lighting, or the time given (`at`)."
             ),
             f"a grey picture (no coloured region, median saturation {s_med} of 255)",
             {},

@@ -843,8 +843,8 @@ def _walls_beyond(m: SurfaceMeasurement, window: tuple[int, int, int, int]) -> b
 
 
 def _spread_deg(lines: np.ndarray) -> float:
-    """How far apart two walls x = a y + b (the rows of `lines`) lean, degrees (NaN walls: 0)."""
-    return float(np.nan_to_num(abs(np.degrees(np.arctan(lines[0, 0]) - np.arctan(lines[1, 0])))))
+    """How far apart two walls x = a y + b (the rows of `lines`) lean, degrees."""
+    return float(abs(np.degrees(np.arctan(lines[0, 0]) - np.arctan(lines[1, 0]))))
 
 
 def _axis_angle(aL, aR):
@@ -1495,9 +1495,9 @@ def _container_axes(
     lines, _ = robust_lines(t, v, ok, 0.3, min_points=np.array([max(10, k // WALL_SHARE) for k in (*wall_rows, m)]))
     if np.isnan(lines[:2]).any():  # the liquid's sides are not straight (a label, a holder, clutter of its colour)
         lines[:2] = _glass_sides(frame, origin, (x0 - X0, x1 - X0), (r0, r1))
-    elif _spread_deg(lines) > WALL_SPREAD_DEG:  # a strong taper, or a side that is not a wall: the glass tells
+    elif (spread := _spread_deg(lines)) > WALL_SPREAD_DEG:  # a strong taper, or a side that is no wall: ask the glass
         glass = _glass_sides(frame, origin, (x0 - X0, x1 - X0), (r0, r1))
-        if not np.isnan(glass).any() and _spread_deg(glass) < _spread_deg(lines) - WALL_SPREAD_DEG / 3:
+        if not np.isnan(glass).any() and _spread_deg(glass) < spread - WALL_SPREAD_DEG / 3:
             lines[:2] = glass
     if np.isnan(lines).any():
         return None
