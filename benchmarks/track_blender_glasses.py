@@ -222,8 +222,8 @@ def main() -> None:
         + "Cola is not a fair test here: its body renders grey (V 80-140 of 255, where a photo's is 20-60; 63 with "
         "the glass left out, so the glass adds it, more than its surfaces' reflections of the room explain); the dark "
         "preset's ceiling follows a cola up to 120 where it holds a patch of it (development glass02, V 40-100), and "
-        "the greyer ones stay out of reach of track with no option (`inspect` gives their range of greys); the row "
-        "'all but cola' leaves it out. "
+        "track takes the greyer ones as the region darker than the rest (as `inspect` gives their range of greys); "
+        "the row 'all but cola' leaves it out. "
         f"Tracking took {(time.perf_counter() - t0) / 60:.1f} min."
     )
     write_results(

@@ -11,7 +11,7 @@ import pytest
 from conftest import ROOT
 
 from sloshid.synthetic.stills import still_clip
-from sloshid.tracking.surface import SurfaceFinder, dye_range
+from sloshid.tracking.surface import SurfaceFinder, auto_liquid_preset, coloured_regions, darker_liquid, dye_range
 from sloshid.tracking.tracker import TrackSettings, track_video
 from sloshid.video.colors import PRESETS
 
@@ -75,3 +75,23 @@ def test_a_near_black_liquid_that_greys_behind_its_glass_is_tracked_with_no_opti
     ceiling = dye_range(image, (0, 0, image.shape[1], image.shape[0]), PRESETS["dark"].hsv).high[2]
     assert 90 <= ceiling <= 120, ceiling  # between the body's 100 and the preset's reach (60 + 60)
     _read_at_every_turn(tmp_path, image, truth)
+
+
+def test_a_cola_greyed_past_every_preset_is_tracked_as_the_region_darker_than_the_rest(tmp_path):
+    # glass20: a tumbler of cola seen 1.6 deg from above, its body value 74-108 with no hue behind the bright glass
+    # (the wall reads 230-250): no preset's region is large enough, nor any coloured one (the table's beige is too
+    # pale), and track refused with "no dyed liquid of any preset colour". It now takes the largest region darker than
+    # the rest that reaches neither side nor the top of the picture (`darker_liquid`, as inspect suggests it), and reads
+    # the surface within 0.3 deg against the image at every turn.
+    truth = json.loads((BLENDER / "glass20.json").read_text())["truth"]
+    image = cv2.imread(str(BLENDER / "glass20.jpg"))
+    roi = (0, 0, image.shape[1], image.shape[0])
+    assert auto_liquid_preset(image, roi)[0] is None
+    hsv, _, stats, order = coloured_regions(image, roi)
+    (x, y, w, _), dark = darker_liquid(hsv, stats, order)
+    # the region lies inside the glass's outline, below its rim; its range ends between the body's and the wall's value
+    assert truth["box_x0_px"] - 2 <= x and x + w <= truth["box_x1_px"] + 2 and truth["box_y0_px"] <= y, (x, y, w)
+    assert 108 <= dark.high[2] < 230, dark
+    _read_at_every_turn(tmp_path, image, truth)
+    clip = tmp_path / "turned+0.mp4"
+    assert "darker than the rest" in track_video(clip, TrackSettings(target="surface", smooth=False)).dye

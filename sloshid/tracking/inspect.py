@@ -26,7 +26,14 @@ from sloshid.core.errors import UserError
 from sloshid.core.outputs import Outputs
 from sloshid.tracking.float_angle import MIN_AREA_PX, hsv_mask, principal_axis
 from sloshid.tracking.rows import TrackRow
-from sloshid.tracking.surface import MIN_LIQUID_SHARE, SATURATED, coloured_regions, dye_range, own_range
+from sloshid.tracking.surface import (
+    MIN_LIQUID_SHARE,
+    SATURATED,
+    coloured_regions,
+    darker_liquid,
+    dye_range,
+    own_range,
+)
 from sloshid.tracking.surface_track import SurfaceStep
 from sloshid.tracking.tracker import (
     MeasureStep,
@@ -482,16 +489,14 @@ def _hue_name(h: float) -> str:
 def what_it_saw(frame: np.ndarray, roi: tuple[int, int, int, int]) -> tuple[str, str, dict[str, HsvRange]]:
     """What the frame shows when no preset colour was found: how coloured it is and its largest coloured regions, in
     words, the same in a clause, and HSV ranges (by name) to measure with: one that takes the largest in, and one for a
-    region darker than the rest where no coloured region is large enough for a liquid (`_darker_region`); none in a
+    region darker than the rest where no coloured region is large enough for a liquid (`darker_liquid`); none in a
     grey picture without one."""
     x, y, w, h = roi
     hsv, lab, stats, order = coloured_regions(frame, roi)
     s_med, v_med = int(np.median(hsv[..., 1])), int(np.median(hsv[..., 2]))
     greys = f"median saturation {s_med} and brightness {v_med} of 255"
     big = [k for k in order if stats[k, cv2.CC_STAT_AREA] >= max(MIN_AREA_PX, LISTED_SHARE * w * h)][:3]
-    # coloured regions too small for a liquid (a beige table's glints): a grey liquid darker than the rest is looked
-    # for too
-    dark = _darker_region(hsv) if not big or stats[big[0], cv2.CC_STAT_AREA] < MIN_LIQUID_SHARE * w * h else None
+    dark = darker_liquid(hsv, stats, order)
     darker, also = {}, ""
     if dark is not None:
         (bx, by, bw, bh), r = dark
@@ -533,31 +538,6 @@ def what_it_saw(frame: np.ndarray, roi: tuple[int, int, int, int]) -> tuple[str,
         f"its largest coloured region, {parts[0]}, in no preset's range",
         {f"{_hue_name(hue)} ({r.describe()})": r, **darker},
     )
-
-
-def _darker_region(hsv: np.ndarray) -> tuple[tuple[int, int, int, int], HsvRange] | None:
-    """In a grey crop (HSV), the largest region darker than the rest (Otsu's split of the value) that reaches neither
-    side nor the top (a liquid stands in its container; a dark table or wall runs out of the picture), of at least
-    MIN_LIQUID_SHARE of the crop: its box (x, y, w, h) and a range up to its brightest pixels (98th percentile). None
-    when there is none."""
-    value = np.ascontiguousarray(hsv[..., 2])
-    split, dark = cv2.threshold(value, 0, 255, cv2.THRESH_BINARY_INV + cv2.THRESH_OTSU)
-    n, labels, stats, _ = cv2.connectedComponentsWithStats(dark, connectivity=8)
-    h, w = value.shape
-    inside = [
-        k
-        for k in range(1, n)
-        if stats[k, cv2.CC_STAT_LEFT] > 0
-        and stats[k, cv2.CC_STAT_TOP] > 0
-        and stats[k, cv2.CC_STAT_LEFT] + stats[k, cv2.CC_STAT_WIDTH] < w
-        and stats[k, cv2.CC_STAT_AREA] >= MIN_LIQUID_SHARE * w * h
-    ]
-    if not inside:
-        return None
-    k = max(inside, key=lambda j: stats[j, cv2.CC_STAT_AREA])
-    ceiling = min(int(split), int(np.percentile(value[labels == k], 98)))
-    box = cast("tuple[int, int, int, int]", tuple(int(v) for v in stats[k, :4]))
-    return box, HsvRange((0, 0, 0), (179, 255, ceiling))
 
 
 def default_picture_path(video: Path) -> Path:

@@ -23,6 +23,7 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass
 from functools import partial
+from typing import cast
 
 import cv2
 import numpy as np
@@ -339,6 +340,36 @@ def coloured_regions(frame: np.ndarray, roi: tuple[int, int, int, int]):
     coloured = ((hsv[..., 1] >= SATURATED[0]) & (hsv[..., 2] >= SATURATED[1])).astype(np.uint8)
     n, labels, stats, _ = cv2.connectedComponentsWithStats(coloured, connectivity=8)
     return hsv, labels, stats, sorted(range(1, n), key=lambda k: -stats[k, cv2.CC_STAT_AREA])
+
+
+def darker_liquid(
+    hsv: np.ndarray, stats: np.ndarray, order: list[int]
+) -> tuple[tuple[int, int, int, int], HsvRange] | None:
+    """Where no coloured region of a crop (`coloured_regions`: its HSV, region stats, order) covers MIN_LIQUID_SHARE of
+    it, the largest region darker than the rest (Otsu's split of the value: a near-black liquid greyed by the light, or
+    a grey one) that reaches neither side nor the top (a liquid stands in its container; a dark table or wall runs out
+    of the picture), of at least that share: its box (x, y, w, h) and a range up to its brightest pixels (98th
+    percentile). None when there is none, or a coloured region is large enough to be the liquid."""
+    value = np.ascontiguousarray(hsv[..., 2])
+    h, w = value.shape
+    if order and stats[order[0], cv2.CC_STAT_AREA] >= MIN_LIQUID_SHARE * w * h:
+        return None
+    split, dark = cv2.threshold(value, 0, 255, cv2.THRESH_BINARY_INV + cv2.THRESH_OTSU)
+    n, labels, regions, _ = cv2.connectedComponentsWithStats(dark, connectivity=8)
+    inside = [
+        k
+        for k in range(1, n)
+        if regions[k, cv2.CC_STAT_LEFT] > 0
+        and regions[k, cv2.CC_STAT_TOP] > 0
+        and regions[k, cv2.CC_STAT_LEFT] + regions[k, cv2.CC_STAT_WIDTH] < w
+        and regions[k, cv2.CC_STAT_AREA] >= MIN_LIQUID_SHARE * w * h
+    ]
+    if not inside:
+        return None
+    k = max(inside, key=lambda j: regions[j, cv2.CC_STAT_AREA])
+    ceiling = min(int(split), int(np.percentile(value[labels == k], 98)))
+    box = cast("tuple[int, int, int, int]", tuple(int(v) for v in regions[k, :4]))
+    return box, HsvRange((0, 0, 0), (179, 255, ceiling))
 
 
 def own_range(pixels: np.ndarray) -> HsvRange:

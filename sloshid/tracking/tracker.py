@@ -44,6 +44,7 @@ from sloshid.tracking.surface import (
     SurfaceFinder,
     auto_liquid_preset,
     coloured_regions,
+    darker_liquid,
     dye_range,
     own_range,
     preset_regions,
@@ -675,7 +676,8 @@ def _auto_dye(first: Picture | np.ndarray, roi: tuple[int, int, int, int], setti
     fitted to the dye as track then fits them (`dye_range`: a dye between two presets' hues lies in neither), the one
     with the largest region; else the largest coloured region's own range (`own_range`: a faint dye below every
     preset's saturation, a dusky red juice whose liquid the red preset holds in patches) when it is measured so; else
-    the largest preset. Returns (its name or None, its HSV range or None, a rival to name or None, whether the rival's
+    a region darker than the rest in a picture with no coloured one large enough (`darker_liquid`: a near-black liquid
+    greyed by the light) when it is measured so; else the largest preset. Returns (its name or None, its HSV range or None, a rival to name or None, whether the rival's
     region is the larger)."""
     x, y, w, h = roi  # the ROI's pixels only (a Picture converts just them), as auto_liquid_preset reads them
     crop = first[y : y + h, x : x + w]
@@ -699,6 +701,9 @@ def _auto_dye(first: Picture | np.ndarray, roi: tuple[int, int, int, int], setti
         own = own_range(hsv[labels == order[0]])
         if measure_frame(frame, 0.0, settings, roi, own)[0].valid:
             return f"{own.describe()}, no preset's", own, name, name is not None
+    darker = darker_liquid(hsv, stats, order)
+    if darker is not None and measure_frame(frame, 0.0, settings, roi, darker[1])[0].valid:
+        return f"{darker[1].describe()}, darker than the rest", darker[1], name, name is not None
     return name, preset(name).hsv if name else None, rival, False
 
 
