@@ -7,6 +7,7 @@ import os
 import signal
 import subprocess
 import sys
+import threading
 import time
 
 import pytest
@@ -160,6 +161,15 @@ def test_a_silent_port_and_a_scheduler_without_workers_are_one_sentence(videos, 
     assert not (tmp_path / "o").exists()
 
 
+_RELEASE = threading.Event()
+"""Lets `_held`'s job go: its thread outlives its worker in an in-process cluster, and the cluster's exit waits for it."""
+
+
+def _held() -> None:
+    """A job that runs until `_RELEASE` (at most 30 s)."""
+    _RELEASE.wait(30)
+
+
 def test_a_cluster_that_loses_its_last_worker_stops_the_wait(monkeypatch):
     # the batch waited for ever when the only worker died; now it stops with what to do
     from dask.distributed import Client, LocalCluster
@@ -169,13 +179,15 @@ def test_a_cluster_that_loses_its_last_worker_stops_the_wait(monkeypatch):
 
     monkeypatch.setattr(parallel, "WORKER_WAIT_S", 1.0)
     with LocalCluster(n_workers=1, processes=False, dashboard_address=None) as cluster, Client(cluster) as client:
-        job = client.submit(time.sleep, 30, pure=False)
-        threading_timer = __import__("threading").Timer(0.5, cluster.scale, args=(0,))
-        threading_timer.start()
+        job = client.submit(_held, pure=False)
+        threading.Timer(0.5, cluster.scale, args=(0,)).start()
         start = time.monotonic()
-        with pytest.raises(UserError, match=r"no worker for 1 s .* with 1 job"):
-            list(parallel.wait_with_workers(client, [job], poll_s=0.2))
-        assert time.monotonic() - start < 15
+        try:
+            with pytest.raises(UserError, match=r"no worker for 1 s .* with 1 job"):
+                list(parallel.wait_with_workers(client, [job], poll_s=0.2))
+            assert time.monotonic() - start < 15
+        finally:
+            _RELEASE.set()
 
 
 @pytest.mark.slow

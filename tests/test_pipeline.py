@@ -312,7 +312,9 @@ def test_the_index_says_whether_joint_signals_agree_and_keeps_fs_digits(tmp_path
 def test_a_pipeline_plans_and_compares_a_move_within_a_spill_margin(tmp_path, run_cli, name):
     # upright and tilting moves within a spill margin: plan, compare (ranked by risk) and the index, like a tilting one
     text = (ROOT / "data" / "scenarios" / f"{name}.toml").read_text().replace("draws = 1000", "draws = 200")
-    _write(tmp_path / "move.toml", text)
+    # one point of each sensitivity study (the full sweeps are the comparison's minutes): every path still runs
+    studies = "omega_factors = [1.0]\nzeta_factors = [1.0]\ncamera_fps_sweep = [30.0]\nlinearity_acc_m_s2 = [0.5]\n"
+    _write(tmp_path / "move.toml", f"{text}\n[compare]\n{studies}")
     pipe = _write(
         tmp_path / "p.toml",
         '[plan]\nscenario = "move.toml"\nuse_identified = false\n\n'
