@@ -121,7 +121,8 @@ class TrackSettings:
     """'float': a coloured float's angle; 'surface': the dyed liquid's surface angle and its height at each wall."""
     liquid_color: str | None = setting_field(None, metavar="NAME", group="surface")
     """Surface target: named dye colour preset; with neither it nor `liquid_hsv_low`/`liquid_hsv_high`, the preset
-    covering most of the first frame is taken."""
+    covering most of the first frame is taken, or, where none measures as a liquid between walls there, the largest
+    coloured region's own range or a region darker than the rest (the summary names the choice)."""
     liquid_hsv_low: tuple[int, int, int] | None = setting_field(None, metavar="H,S,V", group="surface")
     """Surface target: lower OpenCV HSV corner of the dyed liquid; overrides `liquid_color`, needs
     `liquid_hsv_high`."""
