@@ -678,8 +678,8 @@ def _auto_dye(first: Picture | np.ndarray, roi: tuple[int, int, int, int], setti
     with the largest region; else the largest coloured region's own range (`own_range`: a faint dye below every
     preset's saturation, a dusky red juice whose liquid the red preset holds in patches) when it is measured so; else
     a region darker than the rest in a picture with no coloured one large enough (`darker_liquid`: a near-black liquid
-    greyed by the light) when it is measured so; else the largest preset. Returns (its name or None, its HSV range or None, a rival to name or None, whether the rival's
-    region is the larger)."""
+    greyed by the light) when it is measured so; else the largest preset. Returns (its name or None, its HSV range or
+    None, a rival to name or None, whether the rival's region is the larger)."""
     x, y, w, h = roi  # the ROI's pixels only (a Picture converts just them), as auto_liquid_preset reads them
     crop = first[y : y + h, x : x + w]
     name, rival = auto_liquid_preset(crop, (0, 0, w, h))
