@@ -43,6 +43,7 @@ from sloshid.tracking.surface import (
     _fit_front,
     _fitted,
     _front_below,
+    _in_front,
     _inside,
     _on_wall,
     _sustained,
@@ -1591,6 +1592,21 @@ def test_a_label_of_the_liquids_colour_on_the_glass_is_not_a_wall():
     # the sides' scatter of 0.6 px over about 60 rows moves a fitted wall by about 0.1 px and 0.005 in slope
     assert abs(a_left) < 0.02 and abs(a_right) < 0.02
     assert abs(b_left - 20.4) < 0.5 and abs(b_right - 80.4) < 0.5
+
+
+@pytest.mark.parametrize(("first", "label"), [(20, False), (50, True)])
+def test_a_band_at_the_liquids_top_is_its_own_not_a_label(first, label):
+    # a liquid 200 px wide (half width 100) whose top is row 0, its sides read from row 10, with a band 6 px outside
+    # them in 30 rows from `first`: a band that begins within the surface ellipse's reach below the top (a camera at
+    # most MAX_ELEVATION_SIN = 0.3 above it: 30 rows) has the ellipse's back above it, not the liquid's side, and is
+    # the liquid's own top band (a juice seen wider through a thick glass near its surface); one that begins deeper,
+    # with the liquid's side above it, is a label in front of it
+    rows = np.arange(10, 110, dtype=float)
+    x = np.vstack([np.full(rows.size, 20.0), np.full(rows.size, 220.0)])
+    band = (rows >= first) & (rows < first + 30)
+    x[0, band], x[1, band] = 14.0, 226.0
+    front = _in_front(rows, x, np.ones_like(x, bool), 0)
+    assert front[:, band].all() == label and not front[:, ~band].any()
 
 
 def test_walls_are_the_glass_edges_where_the_liquids_sides_are_not_straight():

@@ -1360,13 +1360,14 @@ LABEL_LIFT_PX = 4.5
 lens's barrel distortion bows a wall's middle rows out by up to 3.5 px (640x480, k1 = 0.05)."""
 
 
-def _in_front(rows: np.ndarray, x: np.ndarray, ok: np.ndarray) -> np.ndarray:
+def _in_front(rows: np.ndarray, x: np.ndarray, ok: np.ndarray, top: int) -> np.ndarray:
     """Per side (row 0 left, 1 right), the rows of a band of the liquid's colour round the glass: a label or print,
     outside the liquid's sides on both, at the same rows, with the liquid inside it above and below on one line (a
     liquid is never outside its container, and a surface running down a wall lies above it only; one wall bowed out
     by the glass is one side). Its edge, straighter than the liquid's seen through the glass, had been taken for the
-    wall, or a line between the two."""
+    wall, or a line between the two. `top`: the liquid's top row, as `rows` count."""
     front, spans = np.zeros_like(ok), []
+    half = 0.5 * (median(x[1, ok[1]]) - median(x[0, ok[0]])) if ok.any(axis=1).all() else 0.0
     for side, inward in enumerate((1.0, -1.0)):
         at = np.flatnonzero(ok[side])
         least = max(5, int(LABEL_SHARE * rows.size))
@@ -1396,6 +1397,11 @@ def _in_front(rows: np.ndarray, x: np.ndarray, ok: np.ndarray) -> np.ndarray:
         res = out - slope[best] * r - icpt[best]
         rest = np.r_[0 : i[best], j[best] : at.size]
         if MAD_SIGMA * median(np.abs(res[rest])) > WALL_STEP_PX:  # the rows above and below are not on one line
+            continue
+        # a band that begins within the surface ellipse's reach below the liquid's top (the camera at most
+        # MAX_ELEVATION_SIN above it) has the ellipse's back above it, not the liquid's side: it is the liquid's own top
+        # band, seen wider than its body through a thick glass, not a label in front of it
+        if r[i[best]] - top <= MAX_ELEVATION_SIN * half:
             continue
         mid = np.arange(i[best], j[best])
         front[side, at[mid[res[mid] >= WALL_STEP_PX]]] = True
@@ -1502,7 +1508,7 @@ def _container_axes(
         wall_rows = [int(np.count_nonzero(a)) for a in above]
     # a label of the liquid's colour on the glass: its rows are not the wall's (they still count among those that may
     # be: what is left of a wall beside a label must be a quarter of its rows, or the label's curved end made one)
-    front = _in_front(rows, np.vstack([left, right]), np.vstack([okl, okr]))
+    front = _in_front(rows, np.vstack([left, right]), np.vstack([okl, okr]), y0 - Y0)
     okl, okr = okl & ~front[0], okr & ~front[1]
     okl, okr = okl & _on_wall(left, okl, 1.0), okr & _on_wall(right, okr, -1.0)
     okl, okr = straight_part(rows, np.vstack([left, right]), np.vstack([okl, okr]), WALL_TOL_PX, WALL_MAX_SLOPE)
