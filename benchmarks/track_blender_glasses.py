@@ -176,7 +176,7 @@ def main() -> None:
         default=str(ROOT / ".venv-blender" / "bin" / "python"),
         help="a Python with bpy, for the scenes not yet rendered (default .venv-blender/bin/python)",
     )
-    ap.add_argument("--holdout", action="store_true", help="the held-out set (seeds 1300 on), never changed for")
+    ap.add_argument("--holdout", action="store_true", help="the held-out set (seeds 1300 on), never tuned on")
     ap.add_argument("--clips", action="store_true", help="the two free decays instead of the stills")
     args = ap.parse_args()
     if args.clips:
@@ -215,7 +215,8 @@ def main() -> None:
         "suggests is run, and is tracked against the image with an ROI drawn on the glass's outline and with one 3 % "
         "of its width inside it. "
         + (
-            "Held out: seeds 1300 on, never changed for. "
+            "Held out: seeds 1300 on, never tuned on; its failing cases were read once, to find the top band taken "
+            "for a label (design notes, 2026-12-06). "
             if args.holdout
             else "Development set: seeds 1200 on; its first run was recorded before anything was changed for it. "
         )
