@@ -597,6 +597,18 @@ def test_a_cola_before_a_box_of_a_preset_colour_is_taken_as_the_liquid(tmp_path)
     assert ok.mean() > 0.9 and _rmse((cols["angle_deg"] - truth["surface_angle_deg"])[ok]) < 0.2
 
 
+def test_a_liquid_standing_in_a_dark_holder_is_taken_over_the_holder(tmp_path):
+    # a magenta liquid whose lower part stands in a black holder larger than it (the real frame's blue cylinder turned
+    # magenta: its holder's shadows): `dark`, the largest region, measured validly at the holder's top and was taken,
+    # and the holder tracked; a surface has air above it, so the holder's top under the liquid's body is no surface
+    truth = _trial_surface_clip(tmp_path / "h.mp4", (120, 360), (520, 475), (15, 15, 15), liquid_color="magenta")
+    res = track_video(tmp_path / "h.mp4", TrackSettings(target="surface", smooth=False))
+    assert res.dye == "magenta (chosen from the first frame)"
+    assert any("dark covers a larger region" in w and "what this one stands on" in w for w in res.warnings)
+    ok = res.valid.astype(bool)
+    assert ok.mean() > 0.9 and _rmse((res.columns()["angle_deg"] - truth["surface_angle_deg"])[ok]) < 0.2
+
+
 def _trial_surface_clip(
     path: Path, corner: tuple, end: tuple, bgr: tuple, liquid_color: str = "blue"
 ) -> dict[str, np.ndarray]:
@@ -1075,7 +1087,10 @@ def test_surface_target_on_a_float_video_measures_the_water_it_floats_on(tmp_pat
     ok = res.valid.astype(bool)
     assert ok.mean() > 0.9 and res.dye.endswith("no preset's (chosen from the first frame)")
     assert np.sqrt(np.mean((res.angle_deg - truth["float_angle_deg"])[ok] ** 2)) < 0.2
-    assert any("red covers a larger region, which was not" in w for w in res.warnings), res.warnings
+    assert any(
+        "red covers a larger region, which was not measured as a liquid, or only as what this one stands on" in w
+        for w in res.warnings
+    ), res.warnings
 
 
 def test_surface_target_on_a_float_named_as_the_dye_is_a_user_error(tmp_path, run_cli):

@@ -462,6 +462,11 @@ class SurfaceFinder:
         self.elsewhere: tuple | None = None  # (area, (x, y, w, h)) of the largest region of the dye's colour left out
         self._fit_level: float | None = None  # the liquid's mean grey level when the colour model was fitted
 
+    @property
+    def box(self) -> tuple[int, int, int, int] | None:
+        """The liquid body's box (x0, y0, x1, y1) in the last frame measured, None when it was not found."""
+        return self._box
+
     def copied(self) -> None:
         """A frame that copied the last measured picture (`Copies`) was not measured: it counts toward the colour
         model's refit as one that was (REFIT_EVERY frames of video, whatever the encoder repeated)."""

@@ -587,7 +587,7 @@ def track_video(
             f"the dye's colour was chosen from the first frame as {dye.removesuffix(' (chosen from the first frame)')}, "
             + (
                 f"the largest region of its colour measured there as a liquid between a container's walls; "
-                f"{rival} covers a larger region, which was not"
+                f"{rival} covers a larger region, which was not measured as a liquid, or only as what this one stands on"
                 if larger
                 else f"the largest region of a preset colour; {rival} covers a region at least a quarter as large"
             )
@@ -689,14 +689,16 @@ def _auto_dye(first: Picture | np.ndarray, roi: tuple[int, int, int, int], setti
         and measure_frame(frame, 0.0, settings, roi, dye_range(frame, roi, preset(name).hsv))[0].quality > 0
     ):
         return name, preset(name).hsv, rival, False
-    if name == "dark" and measure_frame(frame, 0.0, settings, roi, preset(name).hsv)[0].valid:
-        return name, preset(name).hsv, rival, False  # a cola in its glass; a coloured box behind it may measure too
+    # a cola in its glass measures validly as `dark`, and a coloured box behind it may measure too: dark is kept
+    # unless the coloured liquid stands on its surface (a holder and the shadows under the liquid measured as one)
+    dark = measure_frame(frame, 0.0, settings, roi, preset(name).hsv)[0] if name == "dark" else None
     for other, _, _ in preset_regions(crop, (0, 0, w, h)):
-        if (
-            other not in ("dark", name)
-            and measure_frame(frame, 0.0, settings, roi, dye_range(frame, roi, preset(other).hsv))[0].valid
-        ):
-            return other, preset(other).hsv, name, name is not None
+        if other not in ("dark", name):
+            row, _, step = measure_frame(frame, 0.0, settings, roi, dye_range(frame, roi, preset(other).hsv))
+            if row.valid and (dark is None or not dark.valid or _stands_on(step.finder.box, dark)):
+                return other, preset(other).hsv, name, name is not None
+    if dark is not None and dark.valid:
+        return name, preset(name).hsv, rival, False
     hsv, labels, stats, order = coloured_regions(frame, roi)
     if order and stats[order[0], cv2.CC_STAT_AREA] > MIN_LIQUID_SHARE * w * h:
         own = own_range(hsv[labels == order[0]])
@@ -706,6 +708,17 @@ def _auto_dye(first: Picture | np.ndarray, roi: tuple[int, int, int, int], setti
     if darker is not None and measure_frame(frame, 0.0, settings, roi, darker[1])[0].valid:
         return f"{darker[1].describe()}, darker than the rest", darker[1], name, name is not None
     return name, preset(name).hsv if name else None, rival, False
+
+
+def _stands_on(body: tuple[int, int, int, int] | None, surface: TrackRow) -> bool:
+    """A liquid's body (x0, y0, x1, y1) stands on the surface measured at `surface`'s centre: the centre lies within
+    its columns, below its top and at most a tenth of its width below its bottom. A surface has air above it, so that
+    surface is what holds the liquid (a holder, the shadows under it: the real frame's turned magenta measured as
+    `dark` at its holder's top, under the liquid's body)."""
+    if body is None:
+        return False
+    x0, y0, x1, y1 = body
+    return x0 <= surface.x_px <= x1 and y0 < surface.y_px <= y1 + 0.1 * (x1 - x0)
 
 
 ROI_REACH = 0.1
