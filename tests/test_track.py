@@ -1214,6 +1214,18 @@ def test_band_frames_measure_a_still_container_like_whole_body_frames(still_surf
     assert not any("container turned by" in w for w in band.warnings + whole.warnings)
 
 
+def test_the_elevation_is_held_from_the_frames_measured_validly():
+    # a faint yellow dye in a cylinder seen 9.2 deg from above (pbr scene 7007): the three whole-body frames read the
+    # ellipse's opening at 0.16 of the width (sin 9.2 deg = 0.160) at quality 0.58, the twelve band frames of the still
+    # container after them at 0.068 and quality 0.26; their median was held and the surface read 1.8 deg off (0.5 now)
+    finder = SurfaceFinder(PRESETS["yellow"].hsv, (0, 0, 640, 480))
+    finder._k, finder._e, finder._q = [0.160] * 3 + [0.068] * 12, [0.0] * 15, [0.58] * 3 + [0.26] * 12
+    assert finder.settled()[0] == (0.160, 0.0)
+    # before any frame is valid (as a first frame may be until the elevation is held) every frame counts
+    finder._q = [0.3] * 3 + [0.26] * 12
+    assert finder.settled()[0] == (0.068, 0.0)
+
+
 def test_first_frames_are_measured_again_with_the_held_elevation(surface_video, monkeypatch):
     # the camera's elevation with the surface ellipse's centre (and the front edge's source) are chosen in each span's
     # first 15 frames and then held; those first frames are measured again with them at the span's end, as if they had

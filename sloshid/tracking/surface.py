@@ -451,6 +451,7 @@ class SurfaceFinder:
         self._since_fit = 0
         self._k: list[float] = []  # k / R = sin(elevation) from the first frames
         self._e: list[float] = []  # the ellipse's centre from the walls' midpoint (half widths) from the first frames
+        self._q: list[float] = []  # those frames' qualities
         self._held: tuple[float, float] | None = None  # the medians of both, once there are enough
         self._scatter: list[tuple[float, float]] = []  # the first frames' edge scatter (rms px): on luma, on colour
         self._edges: str | None = None  # the front edge's source, "luma" or "colour", held with the elevation
@@ -500,6 +501,7 @@ class SurfaceFinder:
         if m.found and self._held is None:
             self._k.append(m.opening_px / m.width_px)  # k / R, while the elevation is still being fitted
             self._e.append(m.centre_shift)
+            self._q.append(m.quality)
         self._last = m if m.found else None
         return m
 
@@ -548,7 +550,16 @@ class SurfaceFinder:
             return self._held, self._edges or self._edge_source()
         if not self._k:
             return None, self._edge_source()
-        return (median(np.array(self._k)), median(np.array(self._e))), self._edge_source()
+        return self._elevation(), self._edge_source()
+
+    def _elevation(self) -> tuple[float, float]:
+        """The medians of the first frames' elevation (k / R) and ellipse centre, over those measured validly when
+        any was: on a faint dye the band frames of a still container read the ellipse at less than half its opening
+        and under the valid quality (0.26 against 0.58), and outnumbered the whole-body frames that read it right."""
+        q = np.array(self._q)
+        sure = q >= VALID_QUALITY if (q >= VALID_QUALITY).any() else np.ones(q.size, bool)
+        # np.median would import numpy.ma (40 ms) in every span worker
+        return median(np.array(self._k)[sure]), median(np.array(self._e)[sure])
 
     def _find_body(self, frame: np.ndarray) -> tuple[int, int, int, int] | None:
         """Box of the largest liquid-coloured region near the last one (or in the whole ROI after a loss)."""
@@ -729,8 +740,7 @@ class SurfaceFinder:
         reach = 2 * half * (MAX_ELEVATION_SIN if self._held is None else abs(self._held[0])) + 3
         # the elevation and the edge source are chosen in the first frames and then held (a static camera, one dye)
         if self._held is None and len(self._k) >= HOLD_ELEVATION_AFTER:
-            # np.median would import numpy.ma (40 ms) in every span worker
-            self._held = median(np.array(self._k)), median(np.array(self._e))
+            self._held = self._elevation()
             self._edges = self._edge_source()
         du, n = cols - ox, max(10, len(cols) // 3)
 
