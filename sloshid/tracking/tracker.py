@@ -672,14 +672,15 @@ MeasureStep: TypeAlias = "_FloatStep | SurfaceStep"
 
 def _auto_dye(first: Picture | np.ndarray, roi: tuple[int, int, int, int], settings: TrackSettings):
     """The dye's colour from the first frame: the preset whose colour covers the largest region when a surface is
-    measured in it there (of any quality; `dark` only validly: shadows and black objects, an underexposed picture's,
-    outgrew a blue dye); else another preset measured validly as the liquid between a container's walls, with its hues
-    fitted to the dye as track then fits them (`dye_range`: a dye between two presets' hues lies in neither), the one
-    with the largest region; else the largest coloured region's own range (`own_range`: a faint dye below every
-    preset's saturation, a dusky red juice whose liquid the red preset holds in patches) when it is measured so; else
-    a region darker than the rest in a picture with no coloured one large enough (`darker_liquid`: a near-black liquid
-    greyed by the light) when it is measured so; else the largest preset. Returns (its name or None, its HSV range or
-    None, a rival to name or None, whether the rival's region is the larger)."""
+    measured in it there (of any quality; `dark` only validly, and not under a coloured liquid measured validly that
+    stands on it: shadows and black objects, an underexposed picture's, a holder's, outgrew a blue dye); else another
+    preset measured validly as the liquid between a container's walls, with its hues fitted to the dye as track then
+    fits them (`dye_range`: a dye between two presets' hues lies in neither), the one with the largest region; else the
+    largest coloured region's own range (`own_range`: a faint dye below every preset's saturation, a dusky red juice
+    whose liquid the red preset holds in patches) when it is measured so; else a region darker than the rest in a
+    picture with no coloured one large enough (`darker_liquid`: a near-black liquid greyed by the light) when it is
+    measured so; else the largest preset. Returns (its name or None, its HSV range or None, a rival to name or None,
+    whether the rival's region is the larger)."""
     x, y, w, h = roi  # the ROI's pixels only (a Picture converts just them), as auto_liquid_preset reads them
     crop = first[y : y + h, x : x + w]
     name, rival = auto_liquid_preset(crop, (0, 0, w, h))
