@@ -6,8 +6,8 @@ its dye every other hue (`recoloured`: the whole picture's hues turned in steps 
 its liquid toward black (the holder kept blue), gives the picture a faint dye, a colour cast, an overexposure or a
 lower contrast, and frames it otherwise (mirrored, cropped), so that the real glass's optics meet the dyes, looks and
 framings the presets and the tracker's geometry do not all cover. Each variant is turned (`still_clip`: 960 px or half
-its width, 8 frames, H.264 CRF 20) and tracked with `--target surface` and no other option, against the image and the
-container. Reports per set the share of clips tracked (80 % of frames valid), how far the image angle misses the turn
+its width, 45 frames as the outside check's clips, H.264 CRF 20) and tracked with `--target surface` and no other
+option, against the image and the container. Reports per set the share of clips tracked (80 % of frames valid), how far the image angle misses the turn
 (against the unturned clip's), and the spread of the angle relative to the container across the turns (the real
 frame's targets: 0.3 and 0.5 deg). These variants are the development frame's: they are tuned on, not held out.
 Writes reports/benchmarks/track_real_variants.{json,md}. Run from the repository root:
@@ -78,7 +78,7 @@ def variant_row(image: np.ndarray, name: str, make: Callable[[np.ndarray], np.nd
     row: dict = {"variant": name}
     for k, turn in enumerate(TURNS_DEG):
         clip = folder / f"turn_{k}.mp4"
-        still_clip(picture, clip, turn, frames=8, width=min(960, picture.shape[1] // 2), seed=k)
+        still_clip(picture, clip, turn, frames=45, width=min(960, picture.shape[1] // 2), seed=k)
         row[f"{turn:+.0f}"] = {ref: median_angle(clip, ref) for ref in ("image", "container")}
         if turn == 0.0:
             row["inspect_tracks"] = inspect_tracks(clip)
@@ -156,7 +156,8 @@ def main() -> None:
         "dye, also turned to an orange and a red), a colour cast, an overexposure and a lower contrast; 'framing', the "
         "picture mirrored and cropped (the container near an edge, closer, filling a portrait picture's width). "
         "Each turned by 0, +5 and -7 deg (`still_clip`, 960 px or half the variant's width, "
-        "noise 3, H.264 CRF 20, 8 frames) and tracked with `--target surface` and no other option; the unturned clip "
+        "noise 3, H.264 CRF 20, 45 frames as the outside check's clips; 8 before 2026-12-06, which chose the dye "
+        "right on clips where 45 did not) and tracked with `--target surface` and no other option; the unturned clip "
         "is also given to `sloshid inspect`, and the command it suggests is run. Miss: the image "
         "angle's change from the unturned clip less the turn. Spread: the largest difference of the angle relative "
         "to the container between the turns, for the variants tracked at all three. The development frame's "
