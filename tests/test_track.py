@@ -1215,9 +1215,9 @@ def test_band_frames_measure_a_still_container_like_whole_body_frames(still_surf
 
 
 def test_the_elevation_is_held_from_the_frames_measured_validly():
-    # a faint yellow dye in a cylinder seen 9.2 deg from above (pbr scene 7007): the three whole-body frames read the
-    # ellipse's opening at 0.16 of the width (sin 9.2 deg = 0.160) at quality 0.58, the twelve band frames of the still
-    # container after them at 0.068 and quality 0.26; their median was held and the surface read 1.8 deg off (0.5 now)
+    # a faint yellow dye in a cylinder seen 9.2 deg from above (pbr scene 7007): three frames read the ellipse's
+    # opening at 0.16 of the width (sin 9.2 deg = 0.160) at quality 0.58, twelve (by their noise: each frame alone reads
+    # so) at 0.068 and quality 0.26; their median was held and the surface read 1.8 deg off (0.5 now)
     finder = SurfaceFinder(PRESETS["yellow"].hsv, (0, 0, 640, 480))
     finder._k, finder._e, finder._q = [0.160] * 3 + [0.068] * 12, [0.0] * 15, [0.58] * 3 + [0.26] * 12
     assert finder.settled()[0] == (0.160, 0.0)

@@ -554,8 +554,8 @@ class SurfaceFinder:
 
     def _elevation(self) -> tuple[float, float]:
         """The medians of the first frames' elevation (k / R) and ellipse centre, over those measured validly when
-        any was: on a faint dye the band frames of a still container read the ellipse at less than half its opening
-        and under the valid quality (0.26 against 0.58), and outnumbered the whole-body frames that read it right."""
+        any was: on a faint dye most frames' own fits, by their noise alone, read the ellipse less than half as open
+        and under the valid quality (0.26 against 0.58), and outnumbered the frames that read it right."""
         q = np.array(self._q)
         sure = q >= VALID_QUALITY if (q >= VALID_QUALITY).any() else np.ones(q.size, bool)
         # np.median would import numpy.ma (40 ms) in every span worker
