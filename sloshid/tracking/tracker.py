@@ -692,14 +692,15 @@ def _auto_dye(first: Picture | np.ndarray, roi: tuple[int, int, int, int], setti
         return name, preset(name).hsv, rival, False
     # a cola in its glass measures validly as `dark`, and a coloured box behind it may measure too: dark is kept
     # unless the coloured liquid stands on its surface (a holder and the shadows under the liquid measured as one)
-    dark = measure_frame(frame, 0.0, settings, roi, preset(name).hsv)[0] if name == "dark" else None
+    dark = measure_frame(frame, 0.0, settings, roi, preset("dark").hsv)[0] if name == "dark" else None
     for other, _, _ in preset_regions(crop, (0, 0, w, h)):
         if other not in ("dark", name):
             row, _, step = measure_frame(frame, 0.0, settings, roi, dye_range(frame, roi, preset(other).hsv))
-            if row.valid and (dark is None or not dark.valid or _stands_on(step.finder.box, dark)):
+            body = step.finder.box if isinstance(step, SurfaceStep) else None
+            if row.valid and (dark is None or not dark.valid or _stands_on(body, dark)):
                 return other, preset(other).hsv, name, name is not None
     if dark is not None and dark.valid:
-        return name, preset(name).hsv, rival, False
+        return "dark", preset("dark").hsv, rival, False
     hsv, labels, stats, order = coloured_regions(frame, roi)
     if order and stats[order[0], cv2.CC_STAT_AREA] > MIN_LIQUID_SHARE * w * h:
         own = own_range(hsv[labels == order[0]])
