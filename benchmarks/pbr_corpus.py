@@ -7,7 +7,8 @@ A case whose draw cannot show its motion (the liquid over the rim, the container
 seed. Files present from an earlier run are kept (delete the folder to render again); the folder is git-ignored.
 Writes data/pbr_corpus/. Run from the repository root: python3 benchmarks/pbr_corpus.py (--quick: 6 stills, 2 clips).
 With --holdout: the held-out set (24 stills and 2 surface clips from seeds the corpus does not use) into
-data/pbr_holdout/, which track_pbr reports beside the corpus and nobody tunes on.
+data/pbr_holdout/, which track_pbr reports beside the corpus and nobody tunes on. With --earlier: the first held-out
+draw (24 stills, seeds 7000-7023), which the tracker was tuned on once it had been read, into data/pbr_earlier/.
 """
 
 from __future__ import annotations
@@ -76,6 +77,15 @@ HOLDOUT = ROOT / "data" / "pbr_holdout"
 """The held-out set: scenes of the same draw from seeds the corpus does not use, never looked at while tuning."""
 
 
+EARLIER = ROOT / "data" / "pbr_earlier"
+"""The first held-out draw (seeds 7000-7023): read on 2026-12-05 and 2026-12-06, so a development set now."""
+
+
+def earlier_cases() -> list[tuple[str, SynthSettings]]:
+    """24 still scenes of the corpus's draw, seeds 7000-7023 (the first held-out set, replaced by seeds 8000 on)."""
+    return [(f"still{700 + i}", replace(s, scene_seed=7000 + i)) for i, (_, s) in enumerate(still_cases(24))]
+
+
 def holdout_cases() -> list[tuple[str, SynthSettings]]:
     """24 still scenes (two of three surfaces) and two surface clips (a tap decay, a move with tilt), seeds 8000-9001:
     the tracker is tuned on the corpus and reported on these as well."""
@@ -134,14 +144,16 @@ def _diff(s: SynthSettings) -> dict:
     return {k: v for k, v in asdict(s).items() if v != getattr(SynthSettings, k)}
 
 
-def build(folder: Path = CORPUS, quick: bool = False, holdout: bool = False) -> list[dict]:
-    """Render whatever is missing and return the index (also written to folder/index.json); `holdout`: the held-out
-    set's cases."""
+def build(folder: Path = CORPUS, quick: bool = False, which: str = "corpus") -> list[dict]:
+    """Render whatever is missing and return the index (also written to folder/index.json); `which`: the corpus's
+    cases, the held-out set's ("holdout") or the earlier draw's ("earlier")."""
     folder.mkdir(parents=True, exist_ok=True)
     index_path = folder / "index.json"
     old = {c["name"]: c for c in json.loads(index_path.read_text())} if index_path.exists() else {}
-    if holdout:
+    if which == "holdout":
         cases = holdout_cases()[: 3 if quick else None]
+    elif which == "earlier":
+        cases = earlier_cases()[: 3 if quick else None]
     else:
         cases = still_cases(6 if quick else 60) + dynamic_cases()[: 2 if quick else 12]
     index, t_start = [], time.perf_counter()
@@ -165,12 +177,15 @@ def build(folder: Path = CORPUS, quick: bool = False, holdout: bool = False) -> 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--out", type=Path, help="corpus folder (default data/pbr_corpus, or data/pbr_holdout)")
+    ap.add_argument("--out", type=Path, help="corpus folder (default data/pbr_corpus, data/pbr_holdout or pbr_earlier)")
     ap.add_argument("--quick", action="store_true", help="6 stills and 2 clips (a smoke test of the script)")
-    ap.add_argument("--holdout", action="store_true", help="the held-out set (24 stills, 2 clips, other seeds)")
+    which = ap.add_mutually_exclusive_group()
+    which.add_argument("--holdout", action="store_true", help="the held-out set (24 stills, 2 clips, other seeds)")
+    which.add_argument("--earlier", action="store_true", help="the first held-out draw (24 stills, seeds 7000-7023)")
     args = ap.parse_args()
-    folder = args.out or (HOLDOUT if args.holdout else CORPUS)
-    index = build(folder, args.quick, args.holdout)
+    kind = "holdout" if args.holdout else "earlier" if args.earlier else "corpus"
+    folder = args.out or {"holdout": HOLDOUT, "earlier": EARLIER, "corpus": CORPUS}[kind]
+    index = build(folder, args.quick, kind)
     total = sum(c["render_s"] for c in index)
     print(f"{len(index)} cases in {folder} ({total / 60:.1f} min of rendering)")
 
