@@ -709,11 +709,16 @@ def _around_liquid(
         if retry.measured:
             surface = res.liquid = retry
         return surface, f"the liquid was not measured in the {'ROI given' if given else 'whole picture'}"
-    if meets and not given:
+    if given or not (meets or others):
+        return surface, ""
+    # measured in the whole picture: the ROI is suggested only where it keeps the surface measured (a dye's region
+    # in patches, with its holder, had put the ROI inside the liquid's sides)
+    if surface.measured and not _look_at_surface(frame, res.t_s, p, res.suggested_roi)[0].measured:
+        res.notes.append(f"  with `roi` {_fmt_roi(res.suggested_roi)} the surface is not measured: not used below")
+        return surface, ""
+    if meets:
         return surface, f"the {surface.dye} region runs on into something of its own colour below the liquid"
-    if others and not given:
-        return surface, f"{len(others)} other {surface.dye} region(s) lie outside it"
-    return surface, ""
+    return surface, f"{len(others)} other {surface.dye} region(s) lie outside it"
 
 
 def _track_settings(colour: dict[str, Any], roi: tuple | None, walls: bool) -> dict[str, Any]:
