@@ -81,6 +81,10 @@ EARLIER = ROOT / "data" / "pbr_earlier"
 """The first held-out draw (seeds 7000-7023): read on 2026-12-05 and 2026-12-06, so a development set now."""
 
 
+FOLDERS = {"corpus": CORPUS, "holdout": HOLDOUT, "earlier": EARLIER}
+"""Each set's folder, by the name `build` takes."""
+
+
 def earlier_cases() -> list[tuple[str, SynthSettings]]:
     """24 still scenes of the corpus's draw, seeds 7000-7023 (the first held-out set, replaced by seeds 8000 on)."""
     return [(f"still{700 + i}", replace(s, scene_seed=7000 + i)) for i, (_, s) in enumerate(still_cases(24))]
@@ -184,7 +188,7 @@ def main() -> None:
     which.add_argument("--earlier", action="store_true", help="the first held-out draw (24 stills, seeds 7000-7023)")
     args = ap.parse_args()
     kind = "holdout" if args.holdout else "earlier" if args.earlier else "corpus"
-    folder = args.out or {"holdout": HOLDOUT, "earlier": EARLIER, "corpus": CORPUS}[kind]
+    folder = args.out or FOLDERS[kind]
     index = build(folder, args.quick, kind)
     total = sum(c["render_s"] for c in index)
     print(f"{len(index)} cases in {folder} ({total / 60:.1f} min of rendering)")

@@ -29,7 +29,7 @@ from pathlib import Path
 
 import numpy as np
 from bench_output import write_results
-from pbr_corpus import CORPUS, EARLIER, HOLDOUT, build
+from pbr_corpus import FOLDERS, build
 
 from sloshid.core.errors import UserError
 from sloshid.core.tables import read_csv
@@ -178,7 +178,7 @@ def lens_fov_deg(settings: dict) -> float:
 
 def pbr_rows(quick: bool, which: str = "corpus") -> list[dict]:
     """Score every clip of the corpus, the held-out set or the earlier draw (`which`; rendering what is missing)."""
-    folder = {"holdout": HOLDOUT, "earlier": EARLIER, "corpus": CORPUS}[which]
+    folder = FOLDERS[which]
     index = build(folder, quick, which)
     rows = []
     for k, c in enumerate(index):
