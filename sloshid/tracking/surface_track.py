@@ -248,6 +248,13 @@ class SurfaceStep:
         check_rest_frames(n_rest, len(t))
         rest = valid & (np.arange(len(t)) < n_rest if n_rest else t < t[0] + 1.0)
         notes = [] if container else _tilt_notes(cang[valid])
+        moved = None if n_rest else _moved_at(valid, x, np.array([r.y_px for r in rows], float), cang, width)
+        if moved is not None and rest[moved:].any() and np.count_nonzero(rest[:moved]) >= MIN_REST_FRAMES:
+            rest[moved:] = False
+            notes.append(
+                f"the container moved at {t[moved]:.2f} s, within the first second, so the wall heights are above the "
+                "surface's level in the frames before it; give `rest_frames` for other frames at rest."
+            )
         if self.settings.fov_deg is None and self.picture_width:
             notes += perspective_notes(self.scale * x[valid], self.scale * self.picture_width, sin_e)
         if self.finder.elsewhere is not None:
@@ -306,6 +313,27 @@ class SurfaceStep:
         for name in ("left_wall", "right_wall"):
             walls[f"{name}_mm"] = walls[f"{name}_px"] * mm_per_px
         return body, walls, notes
+
+
+MOVE_SHARE, MOVE_DEG = 0.03, 0.5
+"""The container moved where its surface's centre left its place in the first valid frames by more than this share
+of the inner width, or its walls turned by more than this (deg), in two valid frames in a row: a slosh keeps the
+centre (as CENTRE_SHARE) and the walls. A robot's move that starts within the first second ends the rest window."""
+MIN_REST_FRAMES = 3
+"""A rest window cut short by the container's move keeps at least this many valid frames; fewer: not cut."""
+
+
+def _moved_at(valid: np.ndarray, x: np.ndarray, y: np.ndarray, cang: np.ndarray, width: np.ndarray) -> int | None:
+    """The first frame of the container's move (MOVE_SHARE, MOVE_DEG), None when it stayed where it stood."""
+    first = np.flatnonzero(valid)[:MIN_REST_FRAMES]
+    if len(first) < MIN_REST_FRAMES:
+        return None
+    place = [median(v[first]) for v in (x, y, cang)]
+    away = np.hypot(x - place[0], y - place[1]) > MOVE_SHARE * median(width[first])
+    away |= np.abs(cang - place[2]) > MOVE_DEG
+    frames = np.flatnonzero(valid)
+    pairs = away[frames[:-1]] & away[frames[1:]]
+    return int(frames[np.argmax(pairs)]) if pairs.any() else None
 
 
 GLASS_ABOVE = 1.2

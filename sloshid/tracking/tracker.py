@@ -130,7 +130,7 @@ class TrackSettings:
     """Surface target: upper OpenCV HSV corner of the dyed liquid."""
     rest_frames: int | None = setting_field(None, unit="frames", metavar="N", group="surface")
     """Surface target: the first this many frames define the rest level of the wall heights; not given: the first
-    second."""
+    second, or the frames before the container moves within it."""
     container_diameter_m: float | None = setting_field(None, unit="m", metavar="D", group="surface")
     """Surface target: the container's inner diameter, for the wall heights in millimetres (the walls give px/m)."""
     fov_deg: float | None = setting_field(None, unit="deg", metavar="DEG", group="surface")
