@@ -3,7 +3,7 @@
 Run by `track_blender_glasses.py` with a Python that has `bpy` (`pip install bpy` in a venv of its own: it pins its own
 NumPy): python benchmarks/blender_glasses_scene.py OUT_FOLDER N [FIRST_SEED]. Writes OUT_FOLDER/glassNN.png and
 glassNN.json (the scene drawn and its truth). A free decay: --clip OUT_FOLDER SEED FRAMES FPS AMPLITUDE_DEG F_HZ
-ZETA (frame_NNNN.png and truth.json). Nothing here comes from sloshid's own renderers: the glass is a Blender
+ZETA (frame_NNNN.png and truth.json); a robot's move: --move OUT_FOLDER SEED FRAMES FPS TRAVEL_M TILT_DEG ZETA. Nothing here comes from sloshid's own renderers: the glass is a Blender
 mesh (a straight or tapered tube with a thick bottom, a boolean difference), the liquid a mesh cut level by a boolean
 (so a leaning glass holds a level surface), its look Cycles' glass, absorption and principled shaders, lit by an area
 light and the world, on a table in front of a wall. Truth: the level surface's line across the glass and the glass's
@@ -134,10 +134,11 @@ def boolean(target: bpy.types.Object, tool: bpy.types.Object, operation: str) ->
     bpy.data.objects.remove(tool, do_unlink=True)
 
 
-def build(sc: dict, tilt_deg: float = 0.0) -> dict:
+def build(sc: dict, tilt_deg: float = 0.0, shift_m: float = 0.0, look_at: Vector | None = None) -> dict:
     """Build the scene in Blender, the liquid's surface tilted by `tilt_deg` about the line of sight through its centre
-    (a slosh's first mode as the plane it is to first order); the truth's geometry (the surface's centre, the axis's
-    base, the glass's outline)."""
+    (a slosh's first mode as the plane it is to first order), the glass moved `shift_m` to the right and the camera
+    aimed at `look_at` (the surface's centre when None); the truth's geometry (the surface's centre, the axis's base,
+    the glass's outline, the wall points)."""
     bpy.ops.wm.read_factory_settings(use_empty=True)
     r, t, h, b = sc["inner_radius_m"], sc["glass_m"], sc["height_m"], sc["bottom_m"]
     top = r * (1 + sc["taper"]) if sc["shape"] == "tumbler" else r  # a tumbler widens upwards
@@ -157,12 +158,12 @@ def build(sc: dict, tilt_deg: float = 0.0) -> dict:
         obj.select_set(True)
         bpy.ops.object.origin_set(type="ORIGIN_CURSOR")
         obj.rotation_euler = (0.0, lean, 0.0)  # about y: the glass leans left or right as seen
-        obj.location = (0.0, 0.0, lift)
+        obj.location = (shift_m, 0.0, lift)
         bpy.ops.object.transform_apply(location=True, rotation=True, scale=False)
         obj.select_set(False)
     # the rest level: a level plane through the axis at the upright fill's height keeps a cylinder's volume
     axis = Vector((math.sin(lean), 0.0, math.cos(lean)))
-    centre = Vector((0.0, 0.0, lift)) + fill_h * axis
+    centre = Vector((shift_m, 0.0, lift)) + fill_h * axis
     tilt = math.radians(tilt_deg)  # counter-clockwise as the camera sees it: the right side rises
     below = centre + 0.5 * Vector((math.sin(tilt), 0.0, -math.cos(tilt)))
     bpy.ops.mesh.primitive_cube_add(size=1.0, location=tuple(below), rotation=(0.0, -tilt, 0.0))
@@ -176,7 +177,8 @@ def build(sc: dict, tilt_deg: float = 0.0) -> dict:
     bpy.context.object.data.materials.append(diffuse("wall", (sc["wall_grey"],) * 3))
     # camera: looking at the surface's centre from elevation e, rolled about its optical axis
     e, d = math.radians(sc["elevation_deg"]), sc["distance_m"]
-    bpy.ops.object.camera_add(location=(centre.x, centre.y - d * math.cos(e), centre.z + d * math.sin(e)))
+    aim = centre if look_at is None else look_at
+    bpy.ops.object.camera_add(location=(aim.x, aim.y - d * math.cos(e), aim.z + d * math.sin(e)))
     cam = bpy.context.object
     cam.rotation_mode = "ZXY"  # the roll about the camera's own axis first, then the tilt down
     cam.rotation_euler = (math.pi / 2 - e, 0.0, math.radians(sc["roll_deg"]))
@@ -214,15 +216,30 @@ def build(sc: dict, tilt_deg: float = 0.0) -> dict:
     scene.render.image_settings.file_format = "PNG"
     scene.view_settings.view_transform = "Standard"  # sRGB as a camera writes it (AgX's default grades colours down)
 
-    def placed(x: float, z: float) -> Vector:  # a point of the upright glass's x-z plane, leaned and lifted
-        return Vector((x * math.cos(lean) + z * math.sin(lean), 0.0, lift - x * math.sin(lean) + z * math.cos(lean)))
+    def placed(x: float, z: float) -> Vector:  # a point of the upright glass's x-z plane, leaned, lifted and moved
+        return Vector(
+            (shift_m + x * math.cos(lean) + z * math.sin(lean), 0.0, lift - x * math.sin(lean) + z * math.cos(lean))
+        )
 
     outline = [placed(s * (r + t), 0.0) for s in (-1, 1)] + [placed(s * (top + t), h) for s in (-1, 1)]
+    # the walls: in the glass's frame the surface is z = fill_h + x tan(tilt + lean), its rest (level at the scene's
+    # own lean) z = fill_h + x tan(rest lean); at each inner wall, the rest point and the surface point
+    rest = math.radians(sc.get("rest_lean_deg", sc["lean_deg"]))
+    wall_r = r + (top - r) * (fill_h - b) / (h + 0.01 - b)
+    walls = [
+        (
+            placed(x, fill_h + x * math.tan(rest)),
+            placed(x, fill_h + x * math.tan(tilt + lean)),
+            x * (math.tan(tilt + lean) - math.tan(rest)),
+        )
+        for x in (-wall_r, wall_r)
+    ]
     return {
         "surface_dir": (math.cos(tilt), 0.0, math.sin(tilt)),
-        "base": tuple(Vector((0.0, 0.0, lift))),
+        "base": tuple(Vector((shift_m, 0.0, lift))),
         "centre": tuple(centre),
         "outline": [tuple(p) for p in outline],
+        "walls": [(tuple(a), tuple(c), w) for a, c, w in walls],
     }
 
 
@@ -249,10 +266,17 @@ def truth(sc: dict, geometry: dict) -> dict:
 
     surface, container = angle(px[0], px[1]), angle(px[2], px[3]) - 90.0
     box = seen(geometry["outline"])
+    wall_px = [math.copysign(float(np.hypot(*np.diff(seen([a, c]), axis=0)[0])), w) for a, c, w in geometry["walls"]]
     return {
         "surface_angle_deg": surface,
         "container_angle_deg": container,
         "rel_angle_deg": surface - container,
+        "surface_ends_px": px[:2].round(2).tolist(),
+        "axis_px": px[2:].round(2).tolist(),
+        "left_wall_px": wall_px[0],
+        "right_wall_px": wall_px[1],
+        "left_wall_mm": 1000 * geometry["walls"][0][2],
+        "right_wall_mm": 1000 * geometry["walls"][1][2],
         "box_x0_px": float(box[:, 0].min()),
         "box_y0_px": float(box[:, 1].min()),
         "box_x1_px": float(box[:, 0].max()),
@@ -283,7 +307,73 @@ def clip(out: Path, seed: int, frames: int, fps: float, amplitude_deg: float, f_
     (out / "truth.json").write_text(json.dumps({"scene": sc, "f_hz": f_hz, "zeta": zeta, "rows": rows}, indent=1))
 
 
+def first_mode(sc: dict) -> float:
+    """The first sloshing mode (Hz) of an upright cylinder of the glass's inner radius at the surface and the fill's
+    depth: omega^2 = g k tanh(k depth), k = 1.8412 / R."""
+    r, h, b = sc["inner_radius_m"], sc["height_m"], sc["bottom_m"]
+    top = r * (1 + sc["taper"]) if sc["shape"] == "tumbler" else r
+    depth = sc["fill"] * (h - b)
+    k = 1.8412 / (r + (top - r) * depth / (h + 0.01 - b))
+    return math.sqrt(9.81 * k * math.tanh(k * depth)) / (2 * math.pi)
+
+
+def move(out: Path, seed: int, frames: int, fps: float, travel_m: float, tilt_deg: float, zeta: float) -> None:
+    """A robot's move: the glass, upright at rest, carried `travel_m` to the right (a minimum-jerk profile from 0.2 to
+    1.2 s) while tilted by up to `tilt_deg` about the line of sight and back (sin^2 of the same phase, about its
+    base), the camera still; the surface a linear pendulum at the first mode with damping `zeta`, pivoting at its
+    centre, driven by the centre's horizontal acceleration (steady: tan angle = -a/g). Frames and truth as `clip`."""
+    global WIDTH, HEIGHT, SAMPLES
+    WIDTH, HEIGHT, SAMPLES = 400, 300, 16
+    out.mkdir(parents=True, exist_ok=True)
+    sc = draw(seed) | {"lean_deg": 0.0, "rest_lean_deg": 0.0}
+    f_hz = first_mode(sc)
+    fill_h = sc["bottom_m"] + sc["fill"] * (sc["height_m"] - sc["bottom_m"])
+    dt = 1e-4
+    t = np.arange(0.0, frames / fps + dt, dt)
+    s = np.clip((t - 0.2) / 1.0, 0.0, 1.0)
+    shift = travel_m * (10 * s**3 - 15 * s**4 + 6 * s**5 - 0.5)
+    lean = np.radians(tilt_deg) * np.sin(np.pi * s) ** 2
+    x_centre = shift + fill_h * np.sin(lean)  # the surface's centre, leaned about the base
+    accel = np.gradient(np.gradient(x_centre, dt), dt)
+    omega = 2 * math.pi * f_hz
+    phi, rate, angle = 0.0, 0.0, np.empty_like(t)
+    for i, a in enumerate(accel):  # semi-implicit Euler at 0.1 ms: a stable, 30-fold finer step than the mode needs
+        angle[i] = phi
+        rate += dt * (-2 * zeta * omega * rate - omega**2 * (phi + math.atan(a / 9.81)))
+        phi += dt * rate
+    look = build(sc, 0.0)["centre"]  # the camera aims where the glass stands at the middle of its travel
+    rows = []
+    for k in range(frames):
+        i = round(k / fps / dt)
+        sck = sc | {"lean_deg": math.degrees(lean[i])}
+        tilt = math.degrees(angle[i])
+        png = out / f"frame_{k:04d}.png"
+        geometry = build(sck, tilt, float(shift[i]), Vector(look))
+        if not png.is_file():
+            bpy.context.scene.render.filepath = str(png)
+            bpy.ops.render.render(write_still=True)
+        rows.append(
+            {
+                "t_s": k / fps,
+                "tilt_deg": tilt,
+                "lean_deg": sck["lean_deg"],
+                "shift_m": float(shift[i]),
+                **truth(sc, geometry),
+            }
+        )
+        print(
+            f"frame {k}: shift {1000 * shift[i]:+.0f} mm, lean {sck['lean_deg']:+.1f}, surface {tilt:+.2f} deg",
+            flush=True,
+        )
+    record = {"scene": sc, "f_hz": f_hz, "zeta": zeta, "travel_m": travel_m, "tilt_deg": tilt_deg, "rows": rows}
+    (out / "truth.json").write_text(json.dumps(record, indent=1))
+
+
 def main() -> None:
+    if sys.argv[1] == "--move":
+        folder, seed, frames, fps, travel, tilt, zeta = sys.argv[2:9]
+        move(Path(folder), int(seed), int(frames), float(fps), float(travel), float(tilt), float(zeta))
+        return
     if sys.argv[1] == "--clip":
         folder, seed, frames, fps, amplitude, f_hz, zeta = sys.argv[2:9]
         clip(Path(folder), int(seed), int(frames), float(fps), float(amplitude), float(f_hz), float(zeta))
