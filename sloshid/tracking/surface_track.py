@@ -248,7 +248,7 @@ class SurfaceStep:
         check_rest_frames(n_rest, len(t))
         rest = valid & (np.arange(len(t)) < n_rest if n_rest else t < t[0] + 1.0)
         notes = [] if container else _tilt_notes(cang[valid])
-        moved = None if n_rest else _moved_at(valid, x, np.array([r.y_px for r in rows], float), cang, width)
+        moved = None if n_rest else _moved_at(valid, x, np.array([r.y_px for r in rows], float), width)
         if moved is not None and rest[moved:].any() and np.count_nonzero(rest[:moved]) >= MIN_REST_FRAMES:
             rest[moved:] = False
             notes.append(
@@ -315,22 +315,21 @@ class SurfaceStep:
         return body, walls, notes
 
 
-MOVE_SHARE, MOVE_DEG = 0.03, 0.5
-"""The container moved where its surface's centre left its place in the first valid frames by more than this share
-of the inner width, or its walls turned by more than this (deg), in two valid frames in a row: a slosh keeps the
-centre (as CENTRE_SHARE) and the walls. A robot's move that starts within the first second ends the rest window."""
+MOVE_SHARE = 0.03
+"""The container moved where its surface's centre left its place in the first valid frames by more than this share of
+the inner width, in two valid frames in a row: a slosh keeps the centre there (as CENTRE_SHARE). A robot's move that
+starts within the first second ends the rest window. A turn alone does not: a container rocked by a degree or two
+(the painted tap tests) keeps its liquid at rest, and the frames cut off would only make the rest level noisier."""
 MIN_REST_FRAMES = 3
 """A rest window cut short by the container's move keeps at least this many valid frames; fewer: not cut."""
 
 
-def _moved_at(valid: np.ndarray, x: np.ndarray, y: np.ndarray, cang: np.ndarray, width: np.ndarray) -> int | None:
-    """The first frame of the container's move (MOVE_SHARE, MOVE_DEG), None when it stayed where it stood."""
+def _moved_at(valid: np.ndarray, x: np.ndarray, y: np.ndarray, width: np.ndarray) -> int | None:
+    """The first frame of the container's move (MOVE_SHARE), None when it stayed where it stood."""
     first = np.flatnonzero(valid)[:MIN_REST_FRAMES]
     if len(first) < MIN_REST_FRAMES:
         return None
-    place = [median(v[first]) for v in (x, y, cang)]
-    away = np.hypot(x - place[0], y - place[1]) > MOVE_SHARE * median(width[first])
-    away |= np.abs(cang - place[2]) > MOVE_DEG
+    away = np.hypot(x - median(x[first]), y - median(y[first])) > MOVE_SHARE * median(width[first])
     frames = np.flatnonzero(valid)
     pairs = away[frames[:-1]] & away[frames[1:]]
     return int(frames[np.argmax(pairs)]) if pairs.any() else None
