@@ -678,6 +678,22 @@ def test_a_move_within_the_first_second_ends_the_rest_window(tmp_path):
         assert any("the container moved at" in w and "`rest_frames`" in w for w in res.warnings)
 
 
+def test_a_rest_window_is_cut_at_the_move_only_where_its_frames_agree_on_the_surfaces_centre():
+    # a Blender tumbler carried from 0.43 s read its bottom at two depths in turn while at rest (wall heights 71 and
+    # 41-49 px from it): the median of the 13 frames before the move fell between, and the centre check then refused
+    # all 60 frames (43 valid with the first second). Such a window is not cut; one whose frames agree is
+    from sloshid.tracking.surface_track import _rest_before
+
+    rest, width = np.arange(40) < 30, np.full(40, 131.0)
+    steady = np.full(40, 70.0) + np.random.default_rng(3).normal(0.0, 0.5, 40)
+    assert _rest_before(rest, 13, steady, width)
+    flipping = steady.copy()
+    flipping[1:13:3] -= 24.0
+    assert not _rest_before(rest, 13, flipping, width)
+    assert not _rest_before(rest, 2, steady, width)  # fewer than three frames before the move
+    assert not _rest_before(rest, 35, steady, width)  # the move after the window: nothing to cut
+
+
 def test_a_tracked_tables_column_is_chosen_as_in_its_csv(surface_video, tmp_path):
     # value_col was ignored for a TrackResult (API, pipelines, batch): the angle was fitted, and a misspelt column
     # passed silently. The chosen column now comes from the table, on the same rows as from the written CSV

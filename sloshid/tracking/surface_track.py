@@ -249,7 +249,7 @@ class SurfaceStep:
         rest = valid & (np.arange(len(t)) < n_rest if n_rest else t < t[0] + 1.0)
         notes = [] if container else _tilt_notes(cang[valid])
         moved = None if n_rest else _moved_at(valid, x, np.array([r.y_px for r in rows], float), width)
-        if moved is not None and rest[moved:].any() and np.count_nonzero(rest[:moved]) >= MIN_REST_FRAMES:
+        if moved is not None and _rest_before(rest, moved, 0.5 * (left + right), width):
             rest[moved:] = False
             notes.append(
                 f"the container moved at {t[moved]:.2f} s, within the first second, so the wall heights are above the "
@@ -322,6 +322,17 @@ starts within the first second ends the rest window. A turn alone does not: a co
 (the painted tap tests) keeps its liquid at rest, and the frames cut off would only make the rest level noisier."""
 MIN_REST_FRAMES = 3
 """A rest window cut short by the container's move keeps at least this many valid frames; fewer: not cut."""
+
+
+def _rest_before(rest: np.ndarray, moved: int, centre: np.ndarray, width: np.ndarray) -> bool:
+    """The rest window may end at the container's move (frame `moved`): it goes on past it, at least MIN_REST_FRAMES
+    of its frames come before it, and those agree on the surface's centre (the mean wall height) within the centre
+    check's CENTRE_SHARE of the inner width. Frames that do not (a bottom read at two depths in turn: 30 px apart in
+    a Blender tumbler) would set the median of a short window; the whole window dilutes them."""
+    before = np.flatnonzero(rest[:moved])
+    if not rest[moved:].any() or len(before) < MIN_REST_FRAMES:
+        return False
+    return bool(np.ptp(centre[before]) <= CENTRE_SHARE * median(width[before]))
 
 
 def _moved_at(valid: np.ndarray, x: np.ndarray, y: np.ndarray, width: np.ndarray) -> int | None:
