@@ -36,7 +36,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 from bench_output import ROOT, write_results
-from track_pbr import _identified, gain_lag
+from track_pbr import _identified, gain_lag, wall_rmse_px
 from track_table_glasses import group_table, turned_row
 
 from sloshid.core.errors import UserError
@@ -134,12 +134,7 @@ def clip_rows(blender_python: str) -> list[dict]:
                 out = {"tracked": bool(ok.mean() >= 0.8), "valid_share": float(ok.mean()), "gain": gain, "lag_s": lag}
                 out["rmse_deg"] = float(np.sqrt(np.mean(err**2)))
                 if "left_wall_px" in truth:
-                    cols = res.columns()
-                    walls = [
-                        cols[f"{s}_wall_px"][: len(ok)][ok] - truth[f"{s}_wall_px"][: len(ok)][ok]
-                        for s in ("left", "right")
-                    ]
-                    out["wall_rmse_px"] = float(np.sqrt(np.mean(np.concatenate(walls) ** 2)))
+                    out["wall_rmse_px"] = wall_rmse_px(res.columns(), truth, ok)
                 if name in CLIP_CASES:
                     tracked = _identified(lambda res=res: signal_from_track(res))
                     signal = Signal(truth["t_s"], truth[key], "angle", "deg", "truth")

@@ -118,6 +118,14 @@ def gain_lag(t: np.ndarray, tracked: np.ndarray, truth: np.ndarray) -> tuple[flo
     return best[1], best[2]
 
 
+def wall_rmse_px(cols: dict, truth: dict, ok: np.ndarray) -> float:
+    """RMSE (px) of both walls' tracked heights against the truth's over the frames `ok` marks (its length: the
+    frames compared)."""
+    n = len(ok)
+    errs = [(cols[f"{s}_wall_px"][:n] - truth[f"{s}_wall_px"][:n])[ok] for s in ("left", "right")]
+    return float(np.sqrt(np.mean(np.concatenate(errs) ** 2)))
+
+
 def score_run(
     path: Path, truth: dict, target: str, reference: str, kind: str, roi, float_color, fov_deg: float | None = None
 ) -> dict:
@@ -137,9 +145,7 @@ def score_run(
     ok, err = ok[:n], (res.angle_deg[:n] - want[:n])
     out["abs_err_deg"] = np.abs(err[ok]).tolist()
     if target == "surface" and ok.any():
-        cols = res.columns()
-        walls = [cols[f"{s}_wall_px"][:n] - truth[f"{s}_wall_px"][:n] for s in ("left", "right")]
-        out["wall_rmse_px"] = float(np.sqrt(np.mean(np.concatenate([w[ok] for w in walls]) ** 2)))
+        out["wall_rmse_px"] = wall_rmse_px(res.columns(), truth, ok)
     if kind != "still" and ok.sum() > 10:
         out["gain"], out["lag_s"] = gain_lag(res.t_s[:n][ok], res.angle_deg[:n][ok], want[:n][ok])
     if kind in FREE_DECAYS and ok.sum() > 10:

@@ -337,11 +337,11 @@ def _rest_before(rest: np.ndarray, moved: int, centre: np.ndarray, width: np.nda
 
 def _moved_at(valid: np.ndarray, x: np.ndarray, y: np.ndarray, width: np.ndarray) -> int | None:
     """The first frame of the container's move (MOVE_SHARE), None when it stayed where it stood."""
-    first = np.flatnonzero(valid)[:MIN_REST_FRAMES]
+    frames = np.flatnonzero(valid)
+    first = frames[:MIN_REST_FRAMES]
     if len(first) < MIN_REST_FRAMES:
         return None
     away = np.hypot(x - median(x[first]), y - median(y[first])) > MOVE_SHARE * median(width[first])
-    frames = np.flatnonzero(valid)
     pairs = away[frames[:-1]] & away[frames[1:]]
     return int(frames[np.argmax(pairs)]) if pairs.any() else None
 
