@@ -20,6 +20,7 @@ from sloshid.core.tables import read_csv
 from sloshid.identification.estimator import Identifier
 from sloshid.identification.signals import load_signal, make_signal, signal_from_track
 from sloshid.synthetic.render import SynthSettings, frame_times, relative_angle_rad, render_frames, render_video
+from sloshid.synthetic.stills import still_clip
 from sloshid.tracking import container_ref, repeats, tracker
 from sloshid.tracking.container_ref import (
     HOLD_FRAMES,
@@ -2243,3 +2244,48 @@ def test_a_tapered_glass_turned_in_the_picture_keeps_its_surfaces_angle(turn_deg
     m = _fitted(points, 10, geom, (0, 0), where, None, "luma")
     assert m.found
     assert math.degrees(math.atan(m.rel_slope)) == pytest.approx(rel_deg, abs=0.1)
+
+
+def _lit_juice(fade: float) -> np.ndarray:
+    """An opaque orange juice in a straight glass seen from above, level: its top face (an ellipse 120 x 20 px) lit
+    evenly on the left and paling toward its back edge on the right (mixed with white by 0.1 + `fade` at the back
+    edge's right end), as a juice's top face is under a light at its left."""
+    img = np.full((300, 400, 3), 185, np.uint8)
+    orange = np.array((20, 110, 230), float)
+    cx, half, ys, k = 199.5, 60.0, 120, 10.0
+    img[ys:250, 140:260] = orange.astype(np.uint8)
+    yy, xx = np.mgrid[0:300, 0:400].astype(float)
+    s = np.clip((xx - cx) / half, -1, 1)
+    chord = np.sqrt(1 - s * s)
+    depth = np.clip((yy - ys + k * chord) / (2 * k * chord + 1e-9), 0, 1)  # 0 at the back edge, 1 at the front
+    face = s * s + ((yy - ys) / k) ** 2 <= 1
+    pale = 0.1 + fade * (s + 1) / 2 * (1 - depth)
+    img[face] = ((1 - pale[face])[:, None] * orange + pale[face][:, None] * 255.0).astype(np.uint8)
+    img[80:262, 136:138] = img[80:262, 262:264] = 160  # the glass's walls
+    img[250:262, 136:264] = 225  # its thick bottom
+    return img
+
+
+def test_a_juices_top_face_pale_toward_its_back_is_read_on_its_back_edge(tmp_path, monkeypatch):
+    # Blender's robot move of an orange juice (move_b) read 4.6 deg RMSE off: the juice's lit top face held at 0.4-0.9
+    # of the dye, dimmer on the side away from the light, so that the 0.5 crossings ran along the back edge on one side
+    # and across the face on the other. The low sources cross LOW_LEVEL there. On this level surface, the 0.5 crossings
+    # read 1.0-2.4 deg off (six noise seeds, faded 0.55-0.65); a low source is held in 15 of the 18 and reads 0.4-0.9
+    # (the face's right end pales under LOW_LEVEL too, so its crossing sits a little below the back edge there): held
+    # to 1.0. Sensor noise of 4 grey levels, so that the encoder does not copy the frames and the choice has them all
+    clip = tmp_path / "juice.mp4"
+    still_clip(_lit_juice(0.6), clip, 0.0, frames=15, seed=3, noise=4.0)
+    held = []
+    chosen = SurfaceFinder._edge_source
+
+    def watched(finder):
+        held.append(chosen(finder))
+        return held[-1]
+
+    monkeypatch.setattr(SurfaceFinder, "_edge_source", watched)
+    res = track_video(clip, TrackSettings(target="surface", smooth=False), multithreaded=False)
+    assert held[-1].endswith(" low") and res.valid.mean() == 1.0
+    assert abs(float(np.median(res.angle_deg))) < 1.0
+    monkeypatch.setattr("sloshid.tracking.surface.LOW_SCATTER_SHARE", 0.0)  # the 0.5 crossings only, as before
+    res = track_video(clip, TrackSettings(target="surface", smooth=False), multithreaded=False)
+    assert not held[-1].endswith(" low") and abs(float(np.median(res.angle_deg))) > 1.0

@@ -73,8 +73,27 @@ BAND_BELOW = 12
 """While the container stands still, the liquid is mapped only down to this many pixels (or a twentieth of its width)
 plus twice the last frame's sinking below the last frame's lowest front-edge point, and in the ANCHOR_PX strip:
 the rest of the body is not read then."""
-OTHER_SOURCE = {"luma": "colour", "colour": "luma"}
+EDGE_SOURCES = ("luma", "colour", "luma low", "colour low")
+"""Where the front edge is read: the liquid's membership crossing 0.5 refined on the luma, or on the colour alone, and
+the same crossing LOW_LEVEL (the low sources)."""
+OTHER_SOURCE = {"luma": "colour", "colour": "luma", "luma low": "colour low", "colour low": "luma low"}
 """The front edge's other source, which a frame the held one does not measure validly is read on."""
+LOW_LEVEL = 0.3
+"""The 'low' sources cross the liquid's membership at this level instead of 0.5: the lit top face of an opaque juice
+seen from above holds at 0.4-0.9, dimmer on the side away from the light, so that 0.5 crosses its back edge on one
+side and the middle of the face on the other, while this crosses the back edge all along it."""
+LOW_SCATTER_SHARE = 0.8
+"""The low sources are held when in a span's first frames their edge scatters about its fit by less than this share
+of the 0.5 crossings' (median rms, the same source): one clean ellipse edge where 0.5 mixes two."""
+LOW_BASE_SCATTER_PX = 1.0
+"""... and the 0.5 crossings' own scatter is at most this (px): an edge mixed with another, not the speckle of a noisy
+picture, in which the low level finds the speckle too."""
+LOW_MIN_FRAMES = 5
+"""... chosen on the medians of at least this many first frames: on two, a juice's low crossing scattered less by chance
+(a pbr juice seen 14 deg from above: 0.48 deg off, where the 0.5 crossings read 0.18)."""
+LOW_QUALITY_MARGIN = 0.25
+"""... and the low source's fits are valid and at most this much below the 0.5 crossings' in quality (medians): a low
+crossing that leaves columns out reads a part of the edge (a pbr still's, 0.50 against 0.76, read 0.1 deg worse)."""
 LUMA_EDGE_SCATTER = 0.3
 """The front edge stays on the colour, not refined on the luma, when in a span's first frames the luma edge scatters
 about its fit by more than this (px, median rms) and the colour edge by less (a dye whose luma is close to the background's)."""
@@ -183,7 +202,7 @@ class SurfaceMeasurement:
     """(8-bit luma of the measured crop, frame (x, y) of its corner): the repeated-picture check reads it."""
     refit: Callable[[tuple[float, float], str], SurfaceMeasurement] | None = None
     """Before the camera's elevation is held: this frame's measurement again with a given elevation (k / R) and
-    ellipse centre (`centre_shift`), and edge source ("luma" or "colour"), so that the first frames can be measured
+    ellipse centre (`centre_shift`), and edge source (one of EDGE_SOURCES), so that the first frames can be measured
     as the later ones once they are held."""
     axes: tuple | None = None
     """The container's axes it was measured in (as `_container_axes` returns them, in frame coordinates)."""
@@ -453,8 +472,9 @@ class SurfaceFinder:
         self._e: list[float] = []  # the ellipse's centre from the walls' midpoint (half widths) from the first frames
         self._q: list[float] = []  # those frames' qualities
         self._held: tuple[float, float] | None = None  # the medians of both, once there are enough
-        self._scatter: list[tuple[float, float]] = []  # the first frames' edge scatter (rms px): on luma, on colour
-        self._edges: str | None = None  # the front edge's source, "luma" or "colour", held with the elevation
+        self._scatter: list[tuple] = []  # the first frames' edge scatter (rms px), then fit quality, per EDGE_SOURCES
+        self._low: list[tuple] = []  # the first frames' (k / R, centre) on the low sources
+        self._edges: str | None = None  # the front edge's source (one of EDGE_SOURCES), held with the elevation
         # (body sides and bottom, axes in frame coordinates, frames they were used in, frames they may be used in)
         self._axes: tuple | None = None
         self._last: SurfaceMeasurement | None = None  # the last frame's, when found
@@ -550,12 +570,19 @@ class SurfaceFinder:
             return self._held, self._edges or self._edge_source()
         if not self._k:
             return None, self._edge_source()
-        return self._elevation(), self._edge_source()
+        source = self._edge_source()
+        return self._elevation(source), source
 
-    def _elevation(self) -> tuple[float, float]:
+    def _elevation(self, source: str) -> tuple[float, float]:
         """The medians of the first frames' elevation (k / R) and ellipse centre, over those measured validly when
         any was: on a faint dye most frames' own fits, by their noise alone, read the ellipse less than half as open
-        and under the valid quality (0.26 against 0.58), and outnumbered the frames that read it right."""
+        and under the valid quality (0.26 against 0.58), and outnumbered the frames that read it right. A low
+        source (`source`) has them from its own fits."""
+        if source.endswith(" low"):
+            i = EDGE_SOURCES.index(source) - 2
+            q, (k, e) = np.array([v[6 + i] for v in self._scatter]), np.array([v[i] for v in self._low]).T
+            sure = q >= VALID_QUALITY
+            return median(k[sure]), median(e[sure])
         q = np.array(self._q)
         sure = q >= VALID_QUALITY if (q >= VALID_QUALITY).any() else np.ones(q.size, bool)
         # np.median would import numpy.ma (40 ms) in every span worker
@@ -740,25 +767,27 @@ class SurfaceFinder:
         reach = 2 * half * (MAX_ELEVATION_SIN if self._held is None else abs(self._held[0])) + 3
         # the elevation and the edge source are chosen in the first frames and then held (a static camera, one dye)
         if self._held is None and len(self._k) >= HOLD_ELEVATION_AFTER:
-            self._held = self._elevation()
             self._edges = self._edge_source()
+            self._held = self._elevation(self._edges)
         du, n = cols - ox, max(10, len(cols) // 3)
 
         def edge_points(level: float, sources: tuple[str, ...]) -> dict:
             """Per edge source in `sources`: (s, w, usable columns, dw, the edge rows, sure share) of the first
             crossings of `level` and of those below them."""
-            crop = body[start:, span]
-            liquid = crop >= level if level != 0.5 else inside[start:, span]
+            # a level under 0.5 crosses above the liquid's top row: its own top row then
+            top = start if level >= 0.5 else max(0, int(np.argmax((body[:, span] >= level).any(axis=1))) - 1)
+            crop = body[top:, span]
+            liquid = crop >= level if level != 0.5 else inside[top:, span]
             held_rows = _sustained(liquid)
             colour, found = _crossings_first(crop, held_rows, axis=0, level=level)
             below, gap = _front_below(crop, liquid, held_rows, colour, found, reach, level)
-            colour += start
-            below += start
+            colour += top
+            below += top
             points = {}
             for source in sources:
                 edges = []
                 for rows, sure in ((colour, found), (below, gap)) if gap.any() else ((colour, found),):
-                    front = refine_on_luma(gray[:, span], rows, found) if source == "luma" else rows
+                    front = refine_on_luma(gray[:, span], rows, found) if source.startswith("luma") else rows
                     dw = front - oy
                     wv = du * ewx + dw * ewy
                     sv = (du * eux + dw * euy - uc) / half
@@ -769,12 +798,26 @@ class SurfaceFinder:
                 points[source] = tuple(edges)
             return points
 
-        held_sources = ("luma", "colour") if self._edges is None else (self._edges,)
-        points = edge_points(0.5, held_sources)
+        def sourced_points(sources: tuple[str, ...]) -> dict:
+            """`edge_points` of each source at its own level: LOW_LEVEL for the low sources, 0.5 for the others."""
+            low = tuple(x for x in sources if x.endswith(" low"))
+            plain = tuple(x for x in sources if x not in low)
+            return {**(edge_points(0.5, plain) if plain else {}), **(edge_points(LOW_LEVEL, low) if low else {})}
+
+        held_sources = EDGE_SOURCES if self._edges is None else (self._edges,)
+        points = sourced_points(held_sources)
         if self._edges is None:  # how much each source's first crossings scatter about a free fit of them
-            fits = [_fit_front(p[0][0][p[0][2]], p[0][1][p[0][2]], n) for p in (points["luma"], points["colour"])]
-            if all(fits):
-                self._scatter.append((fits[0][2], fits[1][2]))
+            fits = [_fit_front(p[0][0][p[0][2]], p[0][1][p[0][2]], n) for p in (points[x] for x in EDGE_SOURCES)]
+            if fits[0] and fits[1]:
+                best = [_best_front(points[x], n, half, None) for x in EDGE_SOURCES]
+                self._scatter.append(
+                    tuple(math.inf if f is None else f[2] for f in fits)
+                    + tuple(0.0 if b is None else b[0] for b in best)
+                )
+                # the low sources' own elevation and centre, held with them when they are chosen
+                self._low.append(
+                    tuple((math.nan, 0.0) if b is None else (b[1][0][3] / half, b[1][0][4]) for b in best[2:])
+                )
         # the measurement from these edge points with a given elevation and centre (None: fitted with them) and edge
         # source; a partial of a plain function, not a closure, so a span worker's step can be sent to the parent
         fitted = partial(_fitted, points, n, geom, (X0, Y0), (ytop, uL, uR, du))
@@ -787,7 +830,7 @@ class SurfaceFinder:
         if self._edges is not None and m.quality < VALID_QUALITY:
             # a frame the held source misses is read on the other (a moving juice's luma edge blurred), its points
             # under the held source's name: the span's later refits in other axes ask for that one
-            other = {source: edge_points(0.5, (OTHER_SOURCE[source],))[OTHER_SOURCE[source]]}
+            other = {source: sourced_points((OTHER_SOURCE[source],))[OTHER_SOURCE[source]]}
             again = partial(_fitted, other, n, geom, (X0, Y0), (ytop, uL, uR, du))
             m_other = again(self._held, source)
             if m_other.quality > m.quality:
@@ -802,11 +845,15 @@ class SurfaceFinder:
 
     def _edge_source(self) -> str:
         """'colour' when the first frames' luma-refined front edges scattered about their fits by more than
-        LUMA_EDGE_SCATTER and more than those on the colour alone (median rms), else 'luma'."""
+        LUMA_EDGE_SCATTER and more than those on the colour alone (median rms), else 'luma'; its low source instead
+        when that scattered less (LOW_SCATTER_SHARE, LOW_BASE_SCATTER_PX) and fitted validly (median quality)."""
         if not self._scatter:
             return "luma"
-        luma, colour = (median(np.array(v)) for v in zip(*self._scatter))
-        return "colour" if luma > max(LUMA_EDGE_SCATTER, colour) else "luma"
+        rms, quality = np.split(np.array([median(np.array(v)) for v in zip(*self._scatter)]), 2)
+        i = 1 if rms[0] > max(LUMA_EDGE_SCATTER, rms[1]) else 0  # the colour, or the luma
+        mixed = rms[i] <= LOW_BASE_SCATTER_PX and rms[i + 2] < LOW_SCATTER_SHARE * rms[i]
+        kept = quality[i + 2] >= max(VALID_QUALITY, quality[i] - LOW_QUALITY_MARGIN)
+        return EDGE_SOURCES[i + 2] if mixed and kept and len(self._scatter) >= LOW_MIN_FRAMES else EDGE_SOURCES[i]
 
 
 def _fitted(points, min_points, geom, origin, where, held, source) -> SurfaceMeasurement:
