@@ -579,8 +579,9 @@ class SurfaceFinder:
         and under the valid quality (0.26 against 0.58), and outnumbered the frames that read it right. A low
         source (`source`) has them from its own fits."""
         if source.endswith(" low"):
-            i = EDGE_SOURCES.index(source) - 2
-            q, (k, e) = np.array([v[6 + i] for v in self._scatter]), np.array([v[i] for v in self._low]).T
+            i = EDGE_SOURCES.index(source)  # its quality follows the sources' scatters; its fits, the low ones' only
+            q = np.array([v[len(EDGE_SOURCES) + i] for v in self._scatter])
+            k, e = np.array([v[i - 2] for v in self._low]).T
             sure = q >= VALID_QUALITY
             return median(k[sure]), median(e[sure])
         q = np.array(self._q)
@@ -846,7 +847,8 @@ class SurfaceFinder:
     def _edge_source(self) -> str:
         """'colour' when the first frames' luma-refined front edges scattered about their fits by more than
         LUMA_EDGE_SCATTER and more than those on the colour alone (median rms), else 'luma'; its low source instead
-        when that scattered less (LOW_SCATTER_SHARE, LOW_BASE_SCATTER_PX) and fitted validly (median quality)."""
+        when, over at least LOW_MIN_FRAMES first frames, that scattered less (LOW_SCATTER_SHARE, LOW_BASE_SCATTER_PX)
+        and fitted validly and nearly as well (LOW_QUALITY_MARGIN; median quality)."""
         if not self._scatter:
             return "luma"
         rms, quality = np.split(np.array([median(np.array(v)) for v in zip(*self._scatter)]), 2)
