@@ -2,8 +2,8 @@
 
 Per frame it keeps what the picture shows; after the last frame it corrects for a camera above the liquid
 (the surface ellipse's opening over the inner width is the sine of the elevation, which shortens heights and
-flattens slopes by its cosine), subtracts the rest level of each wall (median of the rest frames) and scales
-the wall heights to millimetres when the container's inner diameter is given (the measured walls give px/m).
+flattens slopes by its cosine), takes each wall's height as the surface's rise there about its centre, above that
+rise's median over the rest frames, and scales the wall heights to millimetres when the container's inner diameter is given (the measured walls give px/m).
 """
 
 from __future__ import annotations
@@ -31,9 +31,10 @@ from sloshid.tracking.surface import SurfaceFinder, SurfaceMeasurement, steady_a
 from sloshid.video.colors import HsvRange
 
 CENTRE_SHARE = 0.05
-"""A frame whose surface centre (the mean of the two wall heights above rest) is further than this share of the inner
-width from its rest level is not valid: a planar slosh keeps the centre there. Rendered clips stay within 2 px (0.01
-of the width) up to 40 deg of slosh and 20 deg of camera elevation; a liquid reaching the rim read 115 px (0.5)."""
+"""A frame whose surface centre (the mid-line's height at the container's axis, above the liquid's bottom) is further
+than this share of the inner width from its median over the valid frames is not valid: a planar slosh keeps the centre
+there. Rendered clips stay within 2 px (0.01 of the width) up to 40 deg of slosh and 20 deg of camera elevation; a
+liquid reaching the rim read 115 px (0.5)."""
 GLASS_AGREE_DEG = 10.0
 """The glass's walls turn a frame's measurement onto their axis only when their angle is within this of the liquid's
 sides' (the inner walls: a tapered glass, its refraction and a sloshing liquid's sides put them up to 5 deg apart
@@ -249,7 +250,7 @@ class SurfaceStep:
         rest = valid & (np.arange(len(t)) < n_rest if n_rest else t < t[0] + 1.0)
         notes = [] if container else _tilt_notes(cang[valid])
         moved = None if n_rest else _moved_at(valid, x, np.array([r.y_px for r in rows], float), width)
-        if moved is not None and _rest_before(rest, moved, 0.5 * (left + right), width):
+        if moved is not None and _rest_before(rest, moved):
             rest[moved:] = False
             notes.append(
                 f"the container moved at {t[moved]:.2f} s, within the first second, so the wall heights are above the "
@@ -278,11 +279,13 @@ class SurfaceStep:
                 "left/right_wall_px and _mm are heights above the median of all valid frames, not above rest; give "
                 "`rest_frames` for frames where the surface was at rest."
             )
-        walls = {}
-        for name, w in (("left_wall", left), ("right_wall", right)):
-            walls[f"{name}_px"] = np.where(valid, self.scale * (w - median(w[rest])) / cos_e, np.nan)
-        # the mid-line's centre (the mean of the wall heights) stays at rest for a planar slosh: the liquid's volume
-        centre = 0.5 * (walls["left_wall_px"] + walls["right_wall_px"])
+        # each wall's height is the surface's rise there about the mid-line's centre, which a planar slosh keeps where
+        # it was (the liquid's volume): read against the liquid's bottom, the centre would add that bottom's misreads
+        rise = 0.5 * (right - left)
+        rise = np.where(valid, self.scale * (rise - median(rise[rest])) / cos_e, np.nan)
+        walls = {"left_wall_px": -rise, "right_wall_px": rise}
+        level = 0.5 * (left + right)
+        centre = np.where(valid, self.scale * (level - median(level[valid])) / cos_e, np.nan)
         off = valid & (np.abs(centre) > CENTRE_SHARE * self.scale * median(width[valid]))
         if off.any():
             valid &= ~off
@@ -290,7 +293,7 @@ class SurfaceStep:
             walls = {name: np.where(valid, w, np.nan) for name, w in walls.items()}
             first = int(np.argmax(off))
             notes.append(
-                f"the surface's centre left its rest level by more than {100 * CENTRE_SHARE:.0f} % of the inner width "
+                f"the surface's centre left its level by more than {100 * CENTRE_SHARE:.0f} % of the inner width "
                 f"in {int(off.sum())} frame(s), first at {t[first]:.2f} s (up to {np.nanmax(np.abs(centre[off])):.0f} "
                 "px), where a slosh keeps it (the liquid's volume): what was measured there is not the surface (the "
                 "liquid at the rim or spilling, or another object); those rows have valid = 0."
@@ -324,15 +327,10 @@ MIN_REST_FRAMES = 3
 """A rest window cut short by the container's move keeps at least this many valid frames; fewer: not cut."""
 
 
-def _rest_before(rest: np.ndarray, moved: int, centre: np.ndarray, width: np.ndarray) -> bool:
-    """The rest window may end at the container's move (frame `moved`): it goes on past it, at least MIN_REST_FRAMES
-    of its frames come before it, and those agree on the surface's centre (the mean wall height) within the centre
-    check's CENTRE_SHARE of the inner width. Frames that do not (a bottom read at two depths in turn: 30 px apart in
-    a Blender tumbler) would set the median of a short window; the whole window dilutes them."""
-    before = np.flatnonzero(rest[:moved])
-    if not rest[moved:].any() or len(before) < MIN_REST_FRAMES:
-        return False
-    return bool(np.ptp(centre[before]) <= CENTRE_SHARE * median(width[before]))
+def _rest_before(rest: np.ndarray, moved: int) -> bool:
+    """The rest window may end at the container's move (frame `moved`): it goes on past it, and at least
+    MIN_REST_FRAMES of its frames come before it."""
+    return bool(rest[moved:].any() and np.count_nonzero(rest[:moved]) >= MIN_REST_FRAMES)
 
 
 def _moved_at(valid: np.ndarray, x: np.ndarray, y: np.ndarray, width: np.ndarray) -> int | None:
