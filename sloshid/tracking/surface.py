@@ -73,10 +73,17 @@ BAND_BELOW = 12
 """While the container stands still, the liquid is mapped only down to this many pixels (or a twentieth of its width)
 plus twice the last frame's sinking below the last frame's lowest front-edge point, and in the ANCHOR_PX strip:
 the rest of the body is not read then."""
-EDGE_SOURCES = ("luma", "colour", "luma low", "colour low")
+EDGE_SOURCES = ("luma", "colour", "luma low", "colour low", "luma high", "colour high")
 """Where the front edge is read: the liquid's membership crossing 0.5 refined on the luma, or on the colour alone, and
-the same crossing LOW_LEVEL (the low sources)."""
-OTHER_SOURCE = {"luma": "colour", "colour": "luma", "luma low": "colour low", "colour low": "luma low"}
+the same crossing LOW_LEVEL (the low sources) or PLATEAU_LEVEL (the high ones)."""
+OTHER_SOURCE = {
+    "luma": "colour",
+    "colour": "luma",
+    "luma low": "colour low",
+    "colour low": "luma low",
+    "luma high": "colour high",
+    "colour high": "luma high",
+}
 """The front edge's other source, which a frame the held one does not measure validly is read on."""
 LOW_LEVEL = 0.3
 """The 'low' sources cross the liquid's membership at this level instead of 0.5: the lit top face of an opaque juice
@@ -94,6 +101,15 @@ LOW_MIN_FRAMES = 5
 LOW_QUALITY_MARGIN = 0.25
 """... and the low source's fits are valid and at most this much below the 0.5 crossings' in quality (medians): a low
 crossing that leaves columns out reads a part of the edge (a pbr still's, 0.50 against 0.76, read 0.1 deg worse)."""
+HIGH_BASE_QUALITY = 0.6
+"""The 'high' sources cross the membership at PLATEAU_LEVEL. They are held when the 0.5 crossings fit poorly in a span's
+first frames (median quality under this; scatter at most LOW_BASE_SCATTER_PX): an opaque juice's lit top face that
+holds at 0.5-0.8 of the dye, under a paler highlight at its back, puts the 0.5 crossings at the highlight's edge in some
+columns and at the face's front in others, while the face's front edge is a clean step to the body's 1 (a Blender
+glass of orange juice leaning 4.3 deg seen 12 deg from above: 4.2 deg off, refused)."""
+HIGH_QUALITY_GAIN = 0.2
+"""... and the high source's fits are valid, better than the 0.5 crossings' by at least this much in quality, and its
+edge scatters less (medians over at least LOW_MIN_FRAMES first frames)."""
 LUMA_EDGE_SCATTER = 0.3
 """The front edge stays on the colour, not refined on the luma, when in a span's first frames the luma edge scatters
 about its fit by more than this (px, median rms) and the colour edge by less (a dye whose luma is close to the background's)."""
@@ -155,7 +171,8 @@ CENTRE_MIN_K_PX = 2.0
 """The ellipse's centre is fitted only when its front edge sags at least this far below the mid-line: flatter, it
 tells nothing about the centre."""
 PLATEAU_LEVEL = 0.75
-"""Where the 0.5 crossings fit no front edge, those of this membership are tried: the surface ellipse seen from above
+"""Where the 0.5 crossings fit no front edge, those of this membership are tried (the high edge sources cross it too):
+the surface ellipse seen from above
 can hold at about 0.5 over an opaque liquid (the sheen of the wall reflected on orange juice), so its back edge and
 the rows of it hide the front edge's 0.5 crossing; the body under the front edge is at 1."""
 QUALITY_HALF_PX = 80.0
@@ -473,7 +490,7 @@ class SurfaceFinder:
         self._q: list[float] = []  # those frames' qualities
         self._held: tuple[float, float] | None = None  # the medians of both, once there are enough
         self._scatter: list[tuple] = []  # the first frames' edge scatter (rms px), then fit quality, per EDGE_SOURCES
-        self._low: list[tuple] = []  # the first frames' (k / R, centre) on the low sources
+        self._low: list[tuple] = []  # the first frames' (k / R, centre) on the low and high sources
         self._edges: str | None = None  # the front edge's source (one of EDGE_SOURCES), held with the elevation
         # (body sides and bottom, axes in frame coordinates, frames they were used in, frames they may be used in)
         self._axes: tuple | None = None
@@ -576,10 +593,10 @@ class SurfaceFinder:
     def _elevation(self, source: str) -> tuple[float, float]:
         """The medians of the first frames' elevation (k / R) and ellipse centre, over those measured validly when
         any was: on a faint dye most frames' own fits, by their noise alone, read the ellipse less than half as open
-        and under the valid quality (0.26 against 0.58), and outnumbered the frames that read it right. A low
+        and under the valid quality (0.26 against 0.58), and outnumbered the frames that read it right. A low or high
         source (`source`) has them from its own fits."""
-        if source.endswith(" low"):
-            i = EDGE_SOURCES.index(source)  # its quality follows the sources' scatters; its fits, the low ones' only
+        if source.endswith((" low", " high")):
+            i = EDGE_SOURCES.index(source)  # its quality follows the sources' scatters; its fits, the low and high ones
             q = np.array([v[len(EDGE_SOURCES) + i] for v in self._scatter])
             k, e = np.array([v[i - 2] for v in self._low]).T
             sure = q >= VALID_QUALITY
@@ -800,10 +817,16 @@ class SurfaceFinder:
             return points
 
         def sourced_points(sources: tuple[str, ...]) -> dict:
-            """`edge_points` of each source at its own level: LOW_LEVEL for the low sources, 0.5 for the others."""
+            """`edge_points` of each source at its own level: LOW_LEVEL for the low sources, PLATEAU_LEVEL for the high
+            ones, 0.5 for the others."""
             low = tuple(x for x in sources if x.endswith(" low"))
-            plain = tuple(x for x in sources if x not in low)
-            return {**(edge_points(0.5, plain) if plain else {}), **(edge_points(LOW_LEVEL, low) if low else {})}
+            high = tuple(x for x in sources if x.endswith(" high"))
+            plain = tuple(x for x in sources if x not in low + high)
+            return {
+                **(edge_points(0.5, plain) if plain else {}),
+                **(edge_points(LOW_LEVEL, low) if low else {}),
+                **(edge_points(PLATEAU_LEVEL, high) if high else {}),
+            }
 
         held_sources = EDGE_SOURCES if self._edges is None else (self._edges,)
         points = sourced_points(held_sources)
@@ -815,7 +838,7 @@ class SurfaceFinder:
                     tuple(math.inf if f is None else f[2] for f in fits)
                     + tuple(0.0 if b is None else b[0] for b in best)
                 )
-                # the low sources' own elevation and centre, held with them when they are chosen
+                # the low and high sources' own elevation and centre, held with them when they are chosen
                 self._low.append(
                     tuple((math.nan, 0.0) if b is None else (b[1][0][3] / half, b[1][0][4]) for b in best[2:])
                 )
@@ -846,16 +869,23 @@ class SurfaceFinder:
 
     def _edge_source(self) -> str:
         """'colour' when the first frames' luma-refined front edges scattered about their fits by more than
-        LUMA_EDGE_SCATTER and more than those on the colour alone (median rms), else 'luma'; its low source instead
-        when, over at least LOW_MIN_FRAMES first frames, that scattered less (LOW_SCATTER_SHARE, LOW_BASE_SCATTER_PX)
-        and fitted validly and nearly as well (LOW_QUALITY_MARGIN; median quality)."""
+        LUMA_EDGE_SCATTER and more than those on the colour alone (median rms), else 'luma'. Over at least
+        LOW_MIN_FRAMES first frames: its high source instead where that fitted validly and clearly better than a poor
+        fit of the 0.5 crossings, and scattered less (HIGH_BASE_QUALITY, HIGH_QUALITY_GAIN); else its low source where
+        that scattered less (LOW_SCATTER_SHARE, LOW_BASE_SCATTER_PX) and fitted validly and nearly as well
+        (LOW_QUALITY_MARGIN; median quality)."""
         if not self._scatter:
             return "luma"
         rms, quality = np.split(np.array([median(np.array(v)) for v in zip(*self._scatter)]), 2)
         i = 1 if rms[0] > max(LUMA_EDGE_SCATTER, rms[1]) else 0  # the colour, or the luma
+        if len(self._scatter) < LOW_MIN_FRAMES:
+            return EDGE_SOURCES[i]
+        poor = rms[i] <= LOW_BASE_SCATTER_PX and quality[i] < HIGH_BASE_QUALITY
+        if poor and quality[i + 4] >= max(VALID_QUALITY, quality[i] + HIGH_QUALITY_GAIN) and rms[i + 4] < rms[i]:
+            return EDGE_SOURCES[i + 4]
         mixed = rms[i] <= LOW_BASE_SCATTER_PX and rms[i + 2] < LOW_SCATTER_SHARE * rms[i]
         kept = quality[i + 2] >= max(VALID_QUALITY, quality[i] - LOW_QUALITY_MARGIN)
-        return EDGE_SOURCES[i + 2] if mixed and kept and len(self._scatter) >= LOW_MIN_FRAMES else EDGE_SOURCES[i]
+        return EDGE_SOURCES[i + 2] if mixed and kept else EDGE_SOURCES[i]
 
 
 def _fitted(points, min_points, geom, origin, where, held, source) -> SurfaceMeasurement:
