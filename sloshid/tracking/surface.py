@@ -77,14 +77,9 @@ EDGE_SOURCES = ("luma", "colour", "luma low", "colour low", "luma high", "colour
 """Where the front edge is read: the liquid's membership crossing 0.5 refined on the luma, or on the colour alone, and
 the same crossing LOW_LEVEL (the low sources) or PLATEAU_LEVEL (the high ones)."""
 OTHER_SOURCE = {
-    "luma": "colour",
-    "colour": "luma",
-    "luma low": "colour low",
-    "colour low": "luma low",
-    "luma high": "colour high",
-    "colour high": "luma high",
+    s: s.replace("luma", "colour") if s.startswith("luma") else s.replace("colour", "luma") for s in EDGE_SOURCES
 }
-"""The front edge's other source, which a frame the held one does not measure validly is read on."""
+"""The front edge's other source at the same level, which a frame the held one does not measure validly is read on."""
 LOW_LEVEL = 0.3
 """The 'low' sources cross the liquid's membership at this level instead of 0.5: the lit top face of an opaque juice
 seen from above holds at 0.4-0.9, dimmer on the side away from the light, so that 0.5 crosses its back edge on one
@@ -172,9 +167,9 @@ CENTRE_MIN_K_PX = 2.0
 tells nothing about the centre."""
 PLATEAU_LEVEL = 0.75
 """Where the 0.5 crossings fit no front edge, those of this membership are tried (the high edge sources cross it too):
-the surface ellipse seen from above
-can hold at about 0.5 over an opaque liquid (the sheen of the wall reflected on orange juice), so its back edge and
-the rows of it hide the front edge's 0.5 crossing; the body under the front edge is at 1."""
+the surface ellipse seen from above can hold at about 0.5 over an opaque liquid (the sheen of the wall reflected on
+orange juice), so its back edge and the rows of it hide the front edge's 0.5 crossing; the body under the front edge
+is at 1."""
 QUALITY_HALF_PX = 80.0
 """The front edge's scatter about its fit counts against a frame's quality in pixels of a surface this many pixels
 half-wide, and in proportion on a wider one: a clip scaled up three times (edges three pixels wide) scattered 0.7-1.1
@@ -490,7 +485,7 @@ class SurfaceFinder:
         self._q: list[float] = []  # those frames' qualities
         self._held: tuple[float, float] | None = None  # the medians of both, once there are enough
         self._scatter: list[tuple] = []  # the first frames' edge scatter (rms px), then fit quality, per EDGE_SOURCES
-        self._low: list[tuple] = []  # the first frames' (k / R, centre) on the low and high sources
+        self._levelled: list[tuple] = []  # the first frames' (k / R, centre) on the low and high sources
         self._edges: str | None = None  # the front edge's source (one of EDGE_SOURCES), held with the elevation
         # (body sides and bottom, axes in frame coordinates, frames they were used in, frames they may be used in)
         self._axes: tuple | None = None
@@ -598,7 +593,7 @@ class SurfaceFinder:
         if source.endswith((" low", " high")):
             i = EDGE_SOURCES.index(source)  # its quality follows the sources' scatters; its fits, the low and high ones
             q = np.array([v[len(EDGE_SOURCES) + i] for v in self._scatter])
-            k, e = np.array([v[i - 2] for v in self._low]).T
+            k, e = np.array([v[i - 2] for v in self._levelled]).T
             sure = q >= VALID_QUALITY
             return median(k[sure]), median(e[sure])
         q = np.array(self._q)
@@ -817,16 +812,11 @@ class SurfaceFinder:
             return points
 
         def sourced_points(sources: tuple[str, ...]) -> dict:
-            """`edge_points` of each source at its own level: LOW_LEVEL for the low sources, PLATEAU_LEVEL for the high
-            ones, 0.5 for the others."""
-            low = tuple(x for x in sources if x.endswith(" low"))
-            high = tuple(x for x in sources if x.endswith(" high"))
-            plain = tuple(x for x in sources if x not in low + high)
-            return {
-                **(edge_points(0.5, plain) if plain else {}),
-                **(edge_points(LOW_LEVEL, low) if low else {}),
-                **(edge_points(PLATEAU_LEVEL, high) if high else {}),
-            }
+            """`edge_points` of each source at its own level (`_source_level`), each level's crossings found once."""
+            points: dict = {}
+            for level in dict.fromkeys(_source_level(x) for x in sources):
+                points |= edge_points(level, tuple(x for x in sources if _source_level(x) == level))
+            return points
 
         held_sources = EDGE_SOURCES if self._edges is None else (self._edges,)
         points = sourced_points(held_sources)
@@ -839,7 +829,7 @@ class SurfaceFinder:
                     + tuple(0.0 if b is None else b[0] for b in best)
                 )
                 # the low and high sources' own elevation and centre, held with them when they are chosen
-                self._low.append(
+                self._levelled.append(
                     tuple((math.nan, 0.0) if b is None else (b[1][0][3] / half, b[1][0][4]) for b in best[2:])
                 )
         # the measurement from these edge points with a given elevation and centre (None: fitted with them) and edge
@@ -886,6 +876,11 @@ class SurfaceFinder:
         mixed = rms[i] <= LOW_BASE_SCATTER_PX and rms[i + 2] < LOW_SCATTER_SHARE * rms[i]
         kept = quality[i + 2] >= max(VALID_QUALITY, quality[i] - LOW_QUALITY_MARGIN)
         return EDGE_SOURCES[i + 2] if mixed and kept else EDGE_SOURCES[i]
+
+
+def _source_level(source: str) -> float:
+    """The membership level an edge source (one of EDGE_SOURCES) crosses: LOW_LEVEL, PLATEAU_LEVEL or 0.5."""
+    return LOW_LEVEL if source.endswith(" low") else PLATEAU_LEVEL if source.endswith(" high") else 0.5
 
 
 def _fitted(points, min_points, geom, origin, where, held, source) -> SurfaceMeasurement:

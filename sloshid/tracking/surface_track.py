@@ -3,7 +3,8 @@
 Per frame it keeps what the picture shows; after the last frame it corrects for a camera above the liquid
 (the surface ellipse's opening over the inner width is the sine of the elevation, which shortens heights and
 flattens slopes by its cosine), takes each wall's height as the surface's rise there about its centre, above that
-rise's median over the rest frames, and scales the wall heights to millimetres when the container's inner diameter is given (the measured walls give px/m).
+rise's median over the rest frames, and scales the wall heights to millimetres when the container's inner diameter
+is given (the measured walls give px/m).
 """
 
 from __future__ import annotations
