@@ -231,9 +231,12 @@ class SurfaceStep:
         sin_e = float(np.clip(abs(median(opening[valid])) / median(width[valid]), 0, 0.5))
         cos_e = math.sqrt(1 - sin_e * sin_e)
         rel = np.degrees(np.arctan(slope / cos_e))
-        x = np.array([r.x_px for r in rows], float)
-        if self.settings.fov_deg is not None and self.picture_width:
-            rel += np.nan_to_num(perspective_deg(x, self.picture_width, sin_e, self.settings.fov_deg))
+        x, y = (np.array(c, float) for c in zip(*[(r.x_px, r.y_px) for r in rows]))
+        fov, found_fov = self.settings.fov_deg, None
+        if fov is None and self.picture_width:
+            fov = found_fov = lens_from_rest(x, y, rel + cang, cang, valid, width, self.picture_width, sin_e)
+        if fov is not None and self.picture_width:
+            rel += np.nan_to_num(perspective_deg(x, self.picture_width, sin_e, fov))
         container = self.settings.reference == "container"
         angle = rel if container else rel + cang
         # the surface's centre in the video's pixels: a measured pixel x covers its x * scale .. x * scale + scale - 1
@@ -250,14 +253,23 @@ class SurfaceStep:
         check_rest_frames(n_rest, len(t))
         rest = valid & (np.arange(len(t)) < n_rest if n_rest else t < t[0] + 1.0)
         notes = [] if container else _tilt_notes(cang[valid])
-        moved = None if n_rest else _moved_at(valid, x, np.array([r.y_px for r in rows], float), width)
+        moved = None if n_rest else _moved_at(valid, x, y, width)
         if moved is not None and _rest_before(rest, moved):
             rest[moved:] = False
             notes.append(
                 f"the container moved at {t[moved]:.2f} s, within the first second, so the wall heights are above the "
                 "surface's level in the frames before it; give `rest_frames` for other frames at rest."
             )
-        if self.settings.fov_deg is None and self.picture_width:
+        if found_fov is not None and self.picture_width:
+            turn = perspective_deg(x[valid], self.picture_width, sin_e, found_fov)
+            notes.append(
+                "the container stood at rest before its move and after it, where its liquid, level both times, read "
+                "angles that differ as the perspective of a camera looking down on it (about "
+                f"{math.degrees(math.asin(sin_e)):.0f} deg) through a lens about {found_fov:.0f} deg wide turns them: "
+                f"the angles are corrected for it ({np.min(turn):+.2f} to {np.max(turn):+.2f} deg); give `fov_deg` "
+                "(the camera's horizontal field of view) to set the lens instead."
+            )
+        elif self.settings.fov_deg is None and self.picture_width:
             notes += perspective_notes(self.scale * x[valid], self.scale * self.picture_width, sin_e)
         if self.finder.elsewhere is not None:
             x, y, w, h = (self.scale * v for v in self.finder.elsewhere[1])
@@ -343,6 +355,48 @@ def _moved_at(valid: np.ndarray, x: np.ndarray, y: np.ndarray, width: np.ndarray
     away = np.hypot(x - median(x[first]), y - median(y[first])) > MOVE_SHARE * median(width[first])
     pairs = away[frames[:-1]] & away[frames[1:]]
     return int(frames[np.argmax(pairs)]) if pairs.any() else None
+
+
+END_REST_FRAMES = 8
+"""The container's rest after its move is used for the lens (`lens_from_rest`) over at least this many valid frames: the
+liquid rings there, and its median level needs a period or so of them."""
+LENS_TURN_DEG = 0.5
+"""... and only where the container's walls turned by less than this at either rest place (the medians of its first
+and second halves): a container still tilting holds its liquid off level."""
+LENS_TRAVEL_SHARE = 0.15
+"""... and only when it moved at least this share of the picture's width between them."""
+LENS_FOV_DEG = (10.0, 120.0)
+"""The fields of view a lens found so may have; outside, the two rest places differ by more than perspective (the
+liquid not yet at rest, a misread edge) or by too little to tell, and nothing is corrected."""
+
+
+def lens_from_rest(x, y, image_deg, cang, valid, width, picture_width: int, sin_e: float) -> float | None:
+    """The horizontal field of view (deg) for which `perspective_deg` reads the liquid level where the container stood
+    before its move and where it stood after it, or None where the clip does not show two such rest places: the liquid
+    at rest is level wherever it stands, so what its line differs by between them is the camera's (a lens's distortion
+    along the row adds its share, and is taken out with it). `image_deg`: the line's angle in the picture per frame,
+    `cang`: the walls'."""
+    moved = _moved_at(valid, x, y, width)
+    frames = np.flatnonzero(valid)
+    if moved is None or sin_e <= 0:
+        return None
+    last = frames[-MIN_REST_FRAMES:]
+    away = frames[np.hypot(x - median(x[last]), y - median(y[last]))[frames] > MOVE_SHARE * median(width[last])]
+    if away.size == 0:
+        return None
+    before, after = frames[frames < moved], frames[frames > away[-1]]
+    if before.size < MIN_REST_FRAMES or after.size < END_REST_FRAMES:
+        return None
+    if any(
+        abs(median(cang[w[: w.size // 2]]) - median(cang[w[w.size // 2 :]])) > LENS_TURN_DEG for w in (before, after)
+    ):
+        return None
+    dx = median(x[after]) - median(x[before])
+    if abs(dx) < LENS_TRAVEL_SHARE * picture_width:
+        return None
+    inv_focal = -math.radians(median(image_deg[after]) - median(image_deg[before])) / (sin_e * dx)
+    fov = 2 * math.degrees(math.atan(0.5 * picture_width * inv_focal)) if inv_focal > 0 else 0.0
+    return fov if LENS_FOV_DEG[0] <= fov <= LENS_FOV_DEG[1] else None
 
 
 GLASS_ABOVE = 1.2
