@@ -141,9 +141,10 @@ def test_no_lens_without_two_rest_places():
     # still tilting after the move (the walls turned by a degree): its liquid is not level there
     args = moved_between([(-0.06, 0.0), (0.06, 0.0)], (10, 15, 12), turning_deg=2.0)
     assert lens_from_rest(*args[:-1], WIDTH, args[-1]) is None
-    # too short a rest after the move (a period of its ringing not seen)
-    args = moved_between([(-0.06, 0.0), (0.06, 0.0)], (10, 15, 5))
-    assert lens_from_rest(*args[:-1], WIDTH, args[-1]) is None
+    # too short a rest before or after the move (a period of a ringing not seen)
+    for frames in ((10, 15, 5), (5, 15, 12)):
+        args = moved_between([(-0.06, 0.0), (0.06, 0.0)], frames)
+        assert lens_from_rest(*args[:-1], WIDTH, args[-1]) is None
     # the liquid reads the same angle at both places (no perspective: a camera level with it, or a painted clip)
     x, y, line, cang, valid, width, sin_e = moved_between([(-0.06, 0.0), (0.06, 0.0)], (10, 15, 12))
     assert lens_from_rest(x, y, np.zeros_like(line), cang, valid, width, WIDTH, sin_e) is None

@@ -357,9 +357,9 @@ def _moved_at(valid: np.ndarray, x: np.ndarray, y: np.ndarray, width: np.ndarray
     return int(frames[np.argmax(pairs)]) if pairs.any() else None
 
 
-END_REST_FRAMES = 8
-"""The container's rest after its move is used for the lens (`lens_from_rest`) over at least this many valid frames: the
-liquid rings there, and its median level needs a period or so of them."""
+LENS_REST_FRAMES = 8
+"""The container's rests before and after its move are used for the lens (`lens_from_rest`) over at least this many
+valid frames each: the liquid may ring there, and its median level needs a period or so of them."""
 LENS_TURN_DEG = 0.5
 """... and only where the container's walls turned by less than this at either rest place (the medians of its first
 and second halves): a container still tilting holds its liquid off level."""
@@ -385,7 +385,7 @@ def lens_from_rest(x, y, image_deg, cang, valid, width, picture_width: int, sin_
     if away.size == 0:
         return None
     before, after = frames[frames < moved], frames[frames > away[-1]]
-    if before.size < MIN_REST_FRAMES or after.size < END_REST_FRAMES:
+    if min(before.size, after.size) < LENS_REST_FRAMES:
         return None
     if any(
         abs(median(cang[w[: w.size // 2]]) - median(cang[w[w.size // 2 :]])) > LENS_TURN_DEG for w in (before, after)
