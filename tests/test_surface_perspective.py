@@ -10,7 +10,7 @@ import pytest
 
 from sloshid.core.errors import UserError
 from sloshid.tracking.surface import _fit_front
-from sloshid.tracking.surface_track import USUAL_FOV_DEG, lens_from_rest, perspective_deg, perspective_notes
+from sloshid.tracking.surface_track import USUAL_FOV_DEG, _moved_at, lens_from_rest, perspective_deg, perspective_notes
 from sloshid.tracking.tracker import TrackSettings
 
 WIDTH, HEIGHT, FOCAL = 640, 480, 400.0
@@ -120,15 +120,16 @@ def moved_between(places: list[tuple[float, float]], frames: tuple[int, ...], tu
     xs[n_a : n_a + n_move] = np.linspace(x[0], x[1], n_move)  # carried across the picture
     valid = np.ones(n, bool)
     cang = np.r_[np.zeros(n_a + n_move), np.linspace(0.0, turning_deg, n_b)]
-    return xs, np.full(n, 240.0), lines, cang, valid, widths, float(np.mean(sin_e))
+    ys = np.full(n, 240.0)
+    return xs, ys, lines, cang, valid, widths, _moved_at(valid, xs, ys, widths), float(np.mean(sin_e))
 
 
 def test_the_lens_is_found_where_the_liquid_rests_before_and_after_a_move():
     # the liquid at rest is level at both places, so the line's difference there is the camera's: the field of view
     # found is the picture's (77.3 deg), to the first-order perspective_deg's few per cent, and it corrects a tilted
     # surface elsewhere in the picture as the true one does (within 5 % of the effect, as above)
-    x, y, line, cang, valid, width, sin_e = moved_between([(-0.06, 0.0), (0.06, 0.0)], (10, 15, 12))
-    fov = lens_from_rest(x, y, line, cang, valid, width, WIDTH, sin_e)
+    x, y, line, cang, valid, width, moved, sin_e = moved_between([(-0.06, 0.0), (0.06, 0.0)], (10, 15, 12))
+    fov = lens_from_rest(x, y, line, cang, valid, width, moved, WIDTH, sin_e)
     true_fov = math.degrees(2 * math.atan(WIDTH / 2 / FOCAL))
     assert fov == pytest.approx(true_fov, rel=0.05)
     theta, px, ends = picture(0.03, 12.0, 4.0)
@@ -146,8 +147,8 @@ def test_no_lens_without_two_rest_places():
         args = moved_between([(-0.06, 0.0), (0.06, 0.0)], frames)
         assert lens_from_rest(*args[:-1], WIDTH, args[-1]) is None
     # the liquid reads the same angle at both places (no perspective: a camera level with it, or a painted clip)
-    x, y, line, cang, valid, width, sin_e = moved_between([(-0.06, 0.0), (0.06, 0.0)], (10, 15, 12))
-    assert lens_from_rest(x, y, np.zeros_like(line), cang, valid, width, WIDTH, sin_e) is None
+    x, y, line, cang, valid, width, moved, sin_e = moved_between([(-0.06, 0.0), (0.06, 0.0)], (10, 15, 12))
+    assert lens_from_rest(x, y, np.zeros_like(line), cang, valid, width, moved, WIDTH, sin_e) is None
     # the container moved too little across the picture for the difference to tell the lens
     args = moved_between([(-0.01, 0.0), (0.01, 0.0)], (10, 15, 12))
     assert lens_from_rest(*args[:-1], WIDTH, args[-1]) is None

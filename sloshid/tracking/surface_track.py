@@ -232,9 +232,10 @@ class SurfaceStep:
         cos_e = math.sqrt(1 - sin_e * sin_e)
         rel = np.degrees(np.arctan(slope / cos_e))
         x, y = (np.array(c, float) for c in zip(*[(r.x_px, r.y_px) for r in rows]))
+        moved_at = _moved_at(valid, x, y, width)
         fov, found_fov = self.settings.fov_deg, None
         if fov is None and self.picture_width:
-            fov = found_fov = lens_from_rest(x, y, rel + cang, cang, valid, width, self.picture_width, sin_e)
+            fov = found_fov = lens_from_rest(x, y, rel + cang, cang, valid, width, moved_at, self.picture_width, sin_e)
         if fov is not None and self.picture_width:
             rel += np.nan_to_num(perspective_deg(x, self.picture_width, sin_e, fov))
         container = self.settings.reference == "container"
@@ -253,7 +254,7 @@ class SurfaceStep:
         check_rest_frames(n_rest, len(t))
         rest = valid & (np.arange(len(t)) < n_rest if n_rest else t < t[0] + 1.0)
         notes = [] if container else _tilt_notes(cang[valid])
-        moved = None if n_rest else _moved_at(valid, x, y, width)
+        moved = None if n_rest else moved_at
         if moved is not None and _rest_before(rest, moved):
             rest[moved:] = False
             notes.append(
@@ -346,13 +347,19 @@ def _rest_before(rest: np.ndarray, moved: int) -> bool:
     return bool(rest[moved:].any() and np.count_nonzero(rest[:moved]) >= MIN_REST_FRAMES)
 
 
+def _away(x: np.ndarray, y: np.ndarray, width: np.ndarray, at: np.ndarray) -> np.ndarray:
+    """Per frame, whether the surface's centre lies further than MOVE_SHARE of the inner width from where it stood in
+    the frames `at` (their medians)."""
+    return np.hypot(x - median(x[at]), y - median(y[at])) > MOVE_SHARE * median(width[at])
+
+
 def _moved_at(valid: np.ndarray, x: np.ndarray, y: np.ndarray, width: np.ndarray) -> int | None:
     """The first frame of the container's move (MOVE_SHARE), None when it stayed where it stood."""
     frames = np.flatnonzero(valid)
     first = frames[:MIN_REST_FRAMES]
     if len(first) < MIN_REST_FRAMES:
         return None
-    away = np.hypot(x - median(x[first]), y - median(y[first])) > MOVE_SHARE * median(width[first])
+    away = _away(x, y, width, first)
     pairs = away[frames[:-1]] & away[frames[1:]]
     return int(frames[np.argmax(pairs)]) if pairs.any() else None
 
@@ -370,18 +377,16 @@ LENS_FOV_DEG = (10.0, 120.0)
 liquid not yet at rest, a misread edge) or by too little to tell, and nothing is corrected."""
 
 
-def lens_from_rest(x, y, image_deg, cang, valid, width, picture_width: int, sin_e: float) -> float | None:
+def lens_from_rest(x, y, image_deg, cang, valid, width, moved, picture_width: int, sin_e: float) -> float | None:
     """The horizontal field of view (deg) for which `perspective_deg` reads the liquid level where the container stood
-    before its move and where it stood after it, or None where the clip does not show two such rest places: the liquid
-    at rest is level wherever it stands, so what its line differs by between them is the camera's (a lens's distortion
-    along the row adds its share, and is taken out with it). `image_deg`: the line's angle in the picture per frame,
-    `cang`: the walls'."""
-    moved = _moved_at(valid, x, y, width)
+    before its move (from frame `moved`, `_moved_at`'s) and where it stood after it, or None where the clip does not
+    show two such rest places: the liquid at rest is level wherever it stands, so what its line differs by between them
+    is the camera's (a lens's distortion along the row adds its share, and is taken out with it). `image_deg`: the
+    line's angle in the picture per frame, `cang`: the walls'."""
     frames = np.flatnonzero(valid)
     if moved is None or sin_e <= 0:
         return None
-    last = frames[-MIN_REST_FRAMES:]
-    away = frames[np.hypot(x - median(x[last]), y - median(y[last]))[frames] > MOVE_SHARE * median(width[last])]
+    away = frames[_away(x, y, width, frames[-MIN_REST_FRAMES:])[frames]]
     if away.size == 0:
         return None
     before, after = frames[frames < moved], frames[frames > away[-1]]
