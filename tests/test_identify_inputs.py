@@ -148,6 +148,15 @@ def _bad_cases(tmp_path, decay):
             "give --window (start and end, s)",
         )
     )
+    # thresholds out of their range were taken with exit 0 (the help says fewer than 3 periods is an error)
+    for value in ("-2", "nan", "1e9"):
+        message = "--min-periods must be between 3 and 1000 periods (a window of fewer than 3 is an error in any case)"
+        cases.append((f"min periods {value}", [ok, "--min-periods", value], message))
+    for value in ("-1", "nan", "2"):
+        message = "--second-mode-ratio is a fraction of the dominant PSD peak, above 0 and at most 1"
+        cases.append((f"second mode ratio {value}", [ok, "--second-mode-ratio", value], message))
+    cases.append(("band to infinity", [ok, "--f-range", "0.5,inf"], "--f-range must be two increasing finite"))
+    cases.append(("infinite radius", [ok, *("--container-radius-m", "inf", "--fill-height-m", "0.08")], "finite"))
     cases.append(("half prior", [ok, "--container-radius-m", "0.05"], "needs both"))
     # millimetres typed as metres: the error was that the default band misses a 0.08-0.11 Hz "first mode"
     mm = [ok, "--container-radius-m", "50", "--fill-height-m", "80"]

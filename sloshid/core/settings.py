@@ -148,6 +148,8 @@ def check_in_metres(key: str, value: float | None, example: str = "0.05 for 50 m
     thousandfold too high. None is not given."""
     if value is None:
         return
+    if math.isnan(value) or value == math.inf:
+        raise SettingError(key, f"{{name}} must be a finite number of metres ({example}), got {value:g}.")
     if not value > 0:
         raise SettingError(key, f"{{name}} must be positive (m), got {value:g}.")
     if value > MAX_GEOMETRY_M:

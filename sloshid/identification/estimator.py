@@ -76,6 +76,9 @@ class NotFittedError(RuntimeError):
 
 MAX_MASS_KG = 1e4
 """Largest liquid mass taken: ten tonnes, a road tanker's compartment; 1e308 kg made the damping constant infinite."""
+MAX_MIN_PERIODS = 1000.0
+"""Largest `min_periods` taken: a 3 Hz liquid ringing for five minutes; more than any free decay holds, so that every
+verdict would be uncertain (1e9 was taken without a word)."""
 
 
 @dataclass(frozen=True)
@@ -94,10 +97,11 @@ class IdentSettings:
     """Below this NRMSE fit % the mode does not dominate the window and the verdict is uncertain. Fit % scores
     the whole waveform: clean tracker angles reach 80-99 %, wall-height sensors with nonlinear crests 35-65 %."""
     min_periods: float = setting_field(4.0, unit="periods", metavar="N")
-    """Fewer decay periods than this in a window make the verdict uncertain (fewer than 3 is an error)."""
+    """Fewer decay periods than this in a window make the verdict uncertain (fewer than 3 is an error): 3 to 1000."""
     second_mode_ratio: float = setting_field(0.25, metavar="RATIO")
-    """A non-harmonic PSD peak above this fraction of the dominant one counts as a strong second mode (-6 dB): it is
-    fitted as a second damped mode, and only when the data cannot separate the two is the verdict uncertain."""
+    """A non-harmonic PSD peak above this fraction (above 0, at most 1) of the dominant one counts as a strong second
+    mode (-6 dB): it is fitted as a second damped mode, and only when the data cannot separate the two is the verdict
+    uncertain."""
     container_radius_m: float | None = setting_field(None, unit="m", metavar="M")
     """Cylinder radius R for the analytic first-mode prior (needs `fill_height_m`)."""
     fill_height_m: float | None = setting_field(None, unit="m", metavar="M")
@@ -114,12 +118,23 @@ class IdentSettings:
             w0, w1 = self.window_s
             raise SettingError("window_s", f"{{name}} start {w0:g} s must be before its end {w1:g} s.")
         lo, hi = self.f_range_hz
-        if not 0 < lo < hi:
+        if not (0 < lo < hi and math.isfinite(hi)):
             raise SettingError(
-                "f_range_hz", f"{{name}} must be two increasing positive frequencies in Hz, got {lo:g},{hi:g}."
+                "f_range_hz", f"{{name}} must be two increasing finite positive frequencies in Hz, got {lo:g},{hi:g}."
             )
         if not 0 <= self.min_fit_percent < 100:
             raise SettingError("min_fit_percent", f"{{name}} must be in [0, 100), got {self.min_fit_percent:g}.")
+        if not MIN_PERIODS_ERROR <= self.min_periods <= MAX_MIN_PERIODS:  # a NaN fails it too
+            raise SettingError(
+                "min_periods",
+                f"{{name}} must be between {MIN_PERIODS_ERROR:g} and {MAX_MIN_PERIODS:g} periods (a window of fewer than "
+                f"{MIN_PERIODS_ERROR:g} is an error in any case), got {self.min_periods:g}.",
+            )
+        if not 0 < self.second_mode_ratio <= 1:
+            raise SettingError(
+                "second_mode_ratio",
+                f"{{name}} is a fraction of the dominant PSD peak, above 0 and at most 1, got {self.second_mode_ratio:g}.",
+            )
         if (self.container_radius_m is None) != (self.fill_height_m is None):
             missing = "fill_height_m" if self.fill_height_m is None else "container_radius_m"
             raise SettingError(
