@@ -569,6 +569,7 @@ def test_bad_input_is_one_sentence_and_exit_2_with_nothing_written(tmp_path, run
     out = tmp_path / "out.csv"
     params_out = tmp_path / "out.json"  # identify writes a parameter JSON
     radius, mm_radius = ("--container-radius-m", 0.05), ("--container-radius-m", 49)
+    offset, offset_1e9 = "--axis-offset-m must be a distance in metres from -3 to 3", ("--axis-offset-m", "1e9")
     twice = ("--trajectory", good, "--measured", tmp_path / "meas.csv")
     cases = [
         # the same pair twice was scored twice and counted twice in the medians
@@ -642,6 +643,22 @@ def test_bad_input_is_one_sentence_and_exit_2_with_nothing_written(tmp_path, run
             ("identify", tmp_path / "meas.csv", "-o", params_out, "--axis-offset-m", 0.05),
             "applies only with --trajectory",
         ),
+        # an axis offset of 1e9 m blamed the pose log ("accelerates at up to 5.8e9 m/s2 ... in millimetres?"); -5 m
+        # and nan were taken without a word
+        *(
+            (("predict", good, "-o", out, "--params", params, *radius, "--axis-offset-m", value), offset)
+            for value in ("1e9", "-5", "nan")
+        ),
+        (
+            ("validate", "--trajectory", good, "--measured", tmp_path / "meas.csv", "--params", params, *offset_1e9),
+            offset,
+        ),
+        (("identify", tmp_path / "meas.csv", "-o", params_out, "--trajectory", good, *radius, *offset_1e9), offset),
+        (
+            ("identify", tmp_path / "meas.csv", "-o", params_out, "--trajectory", good, *radius, "--views-deg", "nan"),
+            "--views-deg must be a finite angle",
+        ),
+        (("predict", good, "-o", out, "--params", params, *radius, "--smooth-s", "inf"), "must be a positive number"),
     ]
     for args, phrase in cases:
         code, _, err = run_cli(*args)

@@ -65,6 +65,7 @@ def run(args: argparse.Namespace) -> int:
     # the input-output fit needs the radius alone (for wall heights); the prior needs it with the fill height
     prior_radius = args.container_radius_m if args.trajectory is None or args.fill_height_m else None
     settings = settings_from(args, IdentSettings, container_radius_m=prior_radius)
+    io_settings = settings_from(args, IOSettings)  # range-checked before any file is read
     io_options = options_of_settings(IOSettings)
     given = [io_options[name] for name in given_settings(args, IOSettings)]
     if args.trajectory is None and given:
@@ -91,7 +92,7 @@ def run(args: argparse.Namespace) -> int:
             signals,
             settings,
             args.container_radius_m,
-            settings_from(args, IOSettings),
+            io_settings,
         )
     else:
         result = identify_sources(args.signals, settings, columns, warn=warn, progress=True)

@@ -42,6 +42,7 @@ def run(args: argparse.Namespace) -> int:
     from sloshid.core.outputs import Outputs
     from sloshid.model.pose import load_pose_log
     from sloshid.validation.predict import (
+        GeometrySettings,
         PredictSettings,
         forecast,
         load_model,
@@ -51,8 +52,9 @@ def run(args: argparse.Namespace) -> int:
     )
 
     settings = settings_from(args, PredictSettings)
+    geometry = settings_from(args, GeometrySettings)  # range-checked before any file is read
     output = Outputs([args.trajectory, args.params]).file(args.output, "-o", (".csv",))
-    model = load_model(args.params).with_geometry(args.container_radius_m, None, args.smooth_s)
+    model = load_model(args.params).with_geometry(geometry.container_radius_m, None, geometry.smooth_s)
     if model.radius_m is None:  # the angles need no radius: a tap test's model checks a plan without one
         print(
             "sloshid: note: no container radius (--container-radius-m, or one stored by identify): the angles are "
@@ -60,8 +62,8 @@ def run(args: argparse.Namespace) -> int:
             file=sys.stderr,
         )
     with _Phases("read the log") as phases:  # a 1,000 s log at 1 kHz takes a minute: its phases and the time on a bar
-        pose = load_pose_log(args.trajectory, args.pose_columns)
-        model, note = pivot_for(pose, model, args.axis_offset_m)
+        pose = load_pose_log(args.trajectory, geometry.pose_columns)
+        model, note = pivot_for(pose, model, geometry.axis_offset_m)
         phases.next(f"simulate {pose.t_s.size:,} samples")
         fc = forecast(pose, model, settings.settle_s)
         phases.next("write the CSV")

@@ -35,21 +35,25 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Load and check all inputs first (nothing is written on bad input), validate each run, print, report."""
+    from sloshid.cli.settings_options import settings_from
     from sloshid.core.outputs import Outputs
     from sloshid.identification.signals import check_csv_options, load_signal
     from sloshid.model.pose import load_pose_log
-    from sloshid.validation.predict import load_model
+    from sloshid.validation.predict import GeometrySettings, load_model
     from sloshid.validation.validate import validate
 
+    geometry = settings_from(args, GeometrySettings)  # range-checked before any file is read
     outputs = Outputs([*args.trajectory, *args.measured, args.params])
     report_dir = outputs.report_dir(args.report, "--report") if args.report is not None else None
-    model = load_model(args.params).with_geometry(args.container_radius_m, args.axis_offset_m, args.smooth_s)
+    model = load_model(args.params).with_geometry(
+        geometry.container_radius_m, geometry.axis_offset_m, geometry.smooth_s
+    )
     if len(args.trajectory) != len(args.measured):
         raise UserError(
             f"give one --trajectory per --measured, in the same order: {len(args.trajectory)} trajectories, "
             f"{len(args.measured)} measurements."
         )
-    poses = [load_pose_log(t, args.pose_columns) for t in args.trajectory]
+    poses = [load_pose_log(t, geometry.pose_columns) for t in args.trajectory]
     check_csv_options(args.measured, args.time_col, args.value_col, args.time_var, args.value_var)
     columns = (args.time_col, args.value_col, args.time_var, args.value_var)
     result = validate(poses, [load_signal(m, *columns) for m in args.measured], model)

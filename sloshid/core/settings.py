@@ -161,6 +161,23 @@ def check_in_metres(key: str, value: float | None, example: str = "0.05 for 50 m
         raise SettingError(key, f"{{name}} must be in metres, at least {MIN_GEOMETRY_M:g} ({example}), got {value:g}.")
 
 
+MAX_AXIS_OFFSET_M = 3.0
+"""Largest distance (either way, m) taken from a pose log's point up the container axis to the liquid's surface: the
+point is the arm's flange or tool centre, and no tool and container a robot carries reach 3 m; 1e9 (or millimetres,
+78 for 78 mm) made accelerations of billions of m/s2 that were blamed on the pose log."""
+
+
+def check_axis_offset(key: str, value: float | None) -> None:
+    """Refuse an axis offset (`key`) that is not a number of metres within MAX_AXIS_OFFSET_M of the logged point (a
+    negative one puts the surface below it). None is not given."""
+    if value is not None and not abs(value) <= MAX_AXIS_OFFSET_M:  # a NaN fails it too
+        raise SettingError(
+            key,
+            f"{{name}} must be a distance in metres from -{MAX_AXIS_OFFSET_M:g} to {MAX_AXIS_OFFSET_M:g} (the logged "
+            f"point to the liquid's surface along the container's axis, e.g. 0.078 for 78 mm), got {value:g}.",
+        )
+
+
 def setting_field(
     default: Any = dataclasses.MISSING,
     *,

@@ -138,8 +138,8 @@ def _window_samples(smooth_s: float, rate_hz: float) -> int:
     """Odd window length in samples for a window of smooth_s seconds, lengthened to the fit's order + 2 samples when
     shorter (the default 0.1 s on a 30 Hz log, or 0.2 s: 7 samples); one of fewer than two samples is no smoothing
     window at all and is refused (--smooth-s 0.001 ran as 0.014 s on a 500 Hz log without a word)."""
-    if not smooth_s > 0:
-        raise SettingError("smooth_s", f"the smoothing window {{name}} must be positive, got {smooth_s!r} s.")
+    if not (smooth_s > 0 and math.isfinite(smooth_s)):
+        raise SettingError("smooth_s", f"the smoothing window {{name}} must be a positive number, got {smooth_s!r} s.")
     least = SG_ORDER + 2 | 1
     if smooth_s * rate_hz < 2:
         raise SettingError(

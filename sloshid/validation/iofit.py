@@ -30,7 +30,7 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from sloshid.core.errors import SettingError
-from sloshid.core.settings import check_in_metres, setting_field
+from sloshid.core.settings import check_axis_offset, check_in_metres, setting_field
 from sloshid.identification.estimator import (
     Estimate,
     Identifier,
@@ -567,7 +567,7 @@ class IOSettings:
 
     axis_offset_m: float = setting_field(0.0, unit="m", metavar="M", group="io")
     """Distance along the container axis from the logged point up to the pendulum pivot (about the liquid surface at
-    rest)."""
+    rest; -3 to 3 m)."""
     pose_columns: str | None = setting_field(None, metavar="NAMES", group="io")
     """A headerless pose log's column names in order, e.g. t,x,y,z,qx,qy,qz,qw (as `sloshid predict` reads them)."""
     smooth_s: float = setting_field(SMOOTH_S, unit="s", metavar="S", group="io")
@@ -575,6 +575,11 @@ class IOSettings:
     views_deg: float | None = setting_field(None, unit="deg", metavar="DEG", group="io")
     """The wall height is seen in two planes 90 deg apart fixed to the container, the first at this azimuth from its x
     axis (two cameras on the end-effector, as in the shared antisloshing runs: 0); not given: the whole wall's peak."""
+
+    def __post_init__(self) -> None:
+        check_axis_offset("axis_offset_m", self.axis_offset_m)
+        if self.views_deg is not None and not math.isfinite(self.views_deg):
+            raise SettingError("views_deg", f"{{name}} must be a finite angle in degrees, got {self.views_deg:g}.")
 
 
 def fit_io_files(

@@ -12,7 +12,7 @@ import numpy as np
 
 from sloshid.core.errors import SMALL_FILE_BYTES, SettingError, UserError, read_input
 from sloshid.core.hashing import file_sha256
-from sloshid.core.settings import check_in_metres, setting_field
+from sloshid.core.settings import check_axis_offset, check_in_metres, setting_field
 from sloshid.core.tables import write_csv
 from sloshid.identification.stage import check_sampling
 from sloshid.model.pendulum import SloshParams, rotation_depths
@@ -51,8 +51,8 @@ class GeometrySettings:
 
     axis_offset_m: float | None = setting_field(None, unit="m", metavar="M")
     """Distance along the container axis from the logged point up to the pendulum pivot (about the liquid surface at
-    rest); not given: the value stored in the parameters, else 0 (predict: 0 for a sloshid trajectory, whose point is
-    the pivot)."""
+    rest; -3 to 3 m); not given: the value stored in the parameters, else 0 (predict: 0 for a sloshid trajectory,
+    whose point is the pivot)."""
     container_radius_m: float | None = setting_field(None, unit="m", metavar="M")
     """Container radius R, for the wall height; not given: the radius the parameters were identified with (when
     identify had `container_radius_m`); without one only the angles are written."""
@@ -62,6 +62,10 @@ class GeometrySettings:
     smooth_s: float | None = setting_field(None, unit="s", metavar="S")
     """Savitzky-Golay window for accelerations from a pose log; not given: the stored one (0.1 s by default: gain
     0.999 at 3 Hz)."""
+
+    def __post_init__(self) -> None:
+        check_in_metres("container_radius_m", self.container_radius_m)
+        check_axis_offset("axis_offset_m", self.axis_offset_m)
 
 
 @dataclass(frozen=True)
@@ -176,6 +180,7 @@ class LiquidModel:
     ) -> LiquidModel:
         """The same model with the given geometry values replacing the stored ones (None keeps them)."""
         check_in_metres("container_radius_m", radius_m)
+        check_axis_offset("axis_offset_m", axis_offset_m)
         return replace(
             self,
             radius_m=self.radius_m if radius_m is None else radius_m,
