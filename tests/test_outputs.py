@@ -318,7 +318,8 @@ def test_a_search_band_past_nyquist_is_said(tmp_path, run_cli):
     "content, message",
     [
         (b"t_s,angle_deg\n0,1\n0.1,\xe9\n", "not UTF-8 text (byte 0xE9"),
-        (b"angle_deg\n1\n2\n3\n", "only one column; identify needs a time column"),
+        # named identify under validate --measured too: the file is named, not a command
+        (b"angle_deg\n1\n2\n3\n", "bad.csv has only one column; a signal file needs a time column in seconds"),
     ],
 )
 def test_files_that_are_not_what_identify_reads(tmp_path, run_cli, content, message):
@@ -361,6 +362,28 @@ def test_a_video_given_to_identify_points_to_track(tmp_path, run_cli, decay_csv)
     )
     _one_sentence(code, err)
     assert "is a video, not a table" in err and not (tmp_path / "x.csv").exists()
+
+
+def test_a_text_file_named_as_a_video_is_not_called_a_video(tmp_path, run_cli, decay_csv):
+    # identify and validate --measured said "is a video; run `sloshid track` on it first" of a text file named .mp4
+    text, empty = tmp_path / "notvideo.mp4", tmp_path / "empty.mov"
+    text.write_text("hello, this is text\nnot a video\n")
+    empty.write_bytes(b"")
+    params, pose = tmp_path / "p.json", tmp_path / "pose.csv"
+    assert run_cli("identify", decay_csv, "-o", params)[0] == 0
+    t = np.arange(0, 3, 0.01)
+    np.savetxt(pose, np.c_[t, 0.1 * t, 0 * t, 0 * t, 0 * t, 0 * t, 0 * t, 1 + 0 * t], delimiter=",")  # t x y z quat
+    neither = "nor a signal file sloshid reads (a `sloshid track` CSV, a CSV with a time column or a .mat file)."
+    for path, held in ((text, "it holds text"), (empty, "it is empty")):
+        code, _, err = run_cli("identify", path, "-o", tmp_path / "q.json")
+        _one_sentence(code, err)
+        assert f"{path} is neither a video ({held}) {neither}" in err and not (tmp_path / "q.json").exists()
+        code, _, err = run_cli("validate", "--trajectory", pose, "--measured", path, "--params", params)
+        _one_sentence(code, err)
+        assert f"{path} is neither a video ({held}) {neither}" in err
+    code, _, err = run_cli("predict", text, "-o", tmp_path / "x.csv", "--params", params, "--container-radius-m", 0.05)
+    _one_sentence(code, err)
+    assert f"{text} is neither a video (it holds text) nor a CSV table." in err and not (tmp_path / "x.csv").exists()
 
 
 def test_a_matlab_73_file_says_hdf5_and_how_to_resave(tmp_path, run_cli):

@@ -115,6 +115,20 @@ VIDEO_LIKE = (".mp4", ".mov", ".m4v", ".avi", ".mkv", ".webm")
 """Suffixes that mark a video given where a table (a signal, a pose log) was expected."""
 
 
+def refuse_video(p: Path, video_message: str, wanted: str) -> None:
+    """Refuse a file named as a video where a table was expected: a video with `video_message`; a file that only bears
+    a video's name, being text or empty, as neither a video nor `wanted` (what was expected: "a table ..."). Every video
+    container's first bytes hold a zero byte (its sizes), text none: a text file named .mp4 was called a video."""
+    if p.suffix.lower() not in VIDEO_LIKE:
+        return
+    if p.is_file():  # a pipe is not read here: its bytes are the reader's
+        with open(p, "rb") as fh:
+            head = fh.read(4096)
+        if b"\0" not in head:
+            raise UserError(f"{p} is neither a video ({'it holds text' if head else 'it is empty'}) nor {wanted}.")
+    raise UserError(video_message)
+
+
 def read_table(p: Path, pick: Pick | None = None, progress: bool = False) -> Table:
     """Numeric columns of a CSV (`,` `;` tab or whitespace, sniffed; header optional) read in chunks by NumPy's C
     parser, so that a million rows take seconds and little memory; `pick` keeps only the columns it names.
@@ -122,8 +136,7 @@ def read_table(p: Path, pick: Pick | None = None, progress: bool = False) -> Tab
     A cell that is not a number, or a row with another number of cells, is refused with its line number. Lines that
     start with `#` are comments (a logger's notes); the last one before headerless data is its header when it names
     as many columns (NumPy's savetxt writes the header so)."""
-    if p.suffix.lower() in VIDEO_LIKE:
-        raise UserError(f"{p} is a video, not a table; `sloshid track` measures a video into a CSV.")
+    refuse_video(p, f"{p} is a video, not a table; `sloshid track` measures a video into a CSV.", "a CSV table")
     bar = tqdm(
         total=p.stat().st_size,
         unit="B",

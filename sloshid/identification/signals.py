@@ -9,7 +9,7 @@ from typing import Protocol
 import numpy as np
 
 from sloshid.core.errors import SettingError, UserError, input_file
-from sloshid.core.tables import GAP_STEP_FACTOR, VIDEO_LIKE, read_table
+from sloshid.core.tables import GAP_STEP_FACTOR, read_table, refuse_video
 
 TRACKER_COLUMNS = ("t_s", "angle_deg", "valid")
 """Columns that mark a `sloshid track` CSV; its value is `angle_deg` on rows with valid == 1."""
@@ -212,8 +212,11 @@ def load_signal(
     p = input_file(path, "signal file")
     if p.suffix.lower() == ".mat":
         return _load_mat(p, time_var, value_var)
-    if p.suffix.lower() in VIDEO_LIKE:
-        raise UserError(f"{p} is a video; run `sloshid track` on it first and use the CSV it writes.")
+    refuse_video(
+        p,
+        f"{p} is a video; run `sloshid track` on it first and use the CSV it writes.",
+        "a signal file sloshid reads (a `sloshid track` CSV, a CSV with a time column or a .mat file)",
+    )
     return _load_csv(p, time_col, value_col, progress)
 
 
@@ -316,7 +319,7 @@ def _load_csv(p: Path, time_col: str | None, value_col: str | None, progress: bo
                 vcol = str(1 - _column_index(tcol, header, ncols, p, "time"))
             elif ncols == 1:
                 raise UserError(
-                    f"{p} has only one column; identify needs a time column in seconds and a signal column."
+                    f"{p} has only one column; a signal file needs a time column in seconds beside the signal."
                 )
             else:
                 available = ", ".join(header) if header else f"indices 0..{ncols - 1}"
