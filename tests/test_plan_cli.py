@@ -95,7 +95,7 @@ def test_a_plan_for_an_input_output_model_says_how_far_that_model_moves_the_liqu
     doc = {"parameters": {"omega_rad_s": {"value": 21.6}, "zeta": {"value": 0.07}}}
     doc["parameters"].update(wave_share={"value": 0.72}, crest_coeff={"value": 0.3})
     (tmp_path / "io.json").write_text(json.dumps(doc))
-    code, _, stderr = run_cli("plan", PAPER_1D, "--params", tmp_path / "io.json", "-o", tmp_path / "t.csv")
+    code, plan_out, stderr = run_cli("plan", PAPER_1D, "--params", tmp_path / "io.json", "-o", tmp_path / "t.csv")
     assert code == 0, stderr
     quoted = re.search(r"this plan moves the liquid by up to ([0-9.e-]+) deg against the container", stderr)
     code, _, err = run_cli(
@@ -113,6 +113,24 @@ def test_a_plan_for_an_input_output_model_says_how_far_that_model_moves_the_liqu
     # the note gives two digits; the physics-first model drives its pendulum with gains of 1, as the planner does, so a
     # plan slosh-free for the pair stays within 0.1 deg for the spherical pendulum (measured: 0.005 deg)
     assert peak < 0.1 and float(quoted.group(1)) == pytest.approx(peak, abs=0.006)
+    assert f"next: send {tmp_path / 't.csv'} to the robot." in plan_out  # slosh-free by the whole model too
+
+
+def test_a_plan_the_whole_input_output_model_calls_sloshing_is_not_sent(run_cli, tmp_path):
+    # with the container's depth the whole model moved the liquid by 16 deg in the plan (its own note said so, predict
+    # agreed), yet the next line said to send the plan to the robot
+    doc = {"parameters": {"omega_rad_s": {"value": 19.04}, "zeta": {"value": 0.0032}}}
+    doc["parameters"].update(wave_share={"value": 0.84}, crest_coeff={"value": -0.16})
+    doc["geometry"] = {"container_radius_m": 0.049, "fill_height_m": 0.078}
+    params, move = tmp_path / "io.json", tmp_path / "move.csv"
+    params.write_text(json.dumps(doc))
+    code, out, err = run_cli("plan", PAPER_1D, "--params", params, "-o", move)
+    assert code == 0, err
+    peak = float(re.search(r"this plan moves the liquid by up to ([0-9.e-]+) deg", err).group(1))
+    step = out.strip().splitlines()[-1]
+    assert peak > 1 and "to the robot" not in step
+    assert step.startswith(f"next: do not send {move}: by the whole model of {params} it moves the liquid by up to ")
+    assert f"check a move with `sloshid predict {move} --params {params}`" in step
 
 
 BAD = [

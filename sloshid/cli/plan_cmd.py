@@ -112,7 +112,7 @@ def run(args: argparse.Namespace) -> int:
     fit = []
     if joints is not None:
         result, fit = _check_joints(result, scenario, params, args.fit_joints or scenario.arm.fit_joints)
-    note_io_model(args.params, str(output), result.trajectory)  # of the plan written (re-planned for the joints)
+    peak = note_io_model(args.params, str(output), result.trajectory)  # of the plan written (re-planned for joints)
     executable = result.joints is None or result.joints.executable
     passed = executable and result.limits_ok and result.verification_ok and result.path_ok
     # a plan that fails its checks is written for inspection, but never over a file already there (a good plan): then
@@ -140,8 +140,8 @@ def run(args: argparse.Namespace) -> int:
     else:
         print(result.summary() + (f"; wrote {' and '.join(map(str, written))}" if written else ""))
     if written and passed:  # the one line a user needs next (on stderr under --json, which stays JSON)
-        also = f" (or the joints, {joints})" if joints is not None else ""
-        print(f"next: send {output}{also} to the robot.", file=sys.stderr if args.json else sys.stdout)
+        step = next_step(output, joints, args.params, peak, result.verify_during_deg)
+        print(step, file=sys.stderr if args.json else sys.stdout)
     if kept:
         print(
             f"sloshid: kept {' and '.join(map(str, kept))}: a plan that fails its checks does not replace a file "
@@ -221,16 +221,32 @@ def _run_upright(args, settings: PlanSettings, scenario, outputs, output: Path, 
     return 0 if passed else 1
 
 
-def note_io_model(params_path: str | None, trajectory: str, planned=None) -> None:
+def note_io_model(params_path: str | None, trajectory: str, planned=None) -> float | None:
     """One stderr note when the parameters are an input-output model, whose gains plan and compare do not use (with
-    how far it moves the liquid in the `planned` trajectory, when given)."""
-    if params_path:
-        from sloshid.validation.predict import planning_note
+    how far it moves the liquid in the `planned` trajectory, when given); that peak (deg), or None."""
+    if not params_path:
+        return None
+    from sloshid.validation.predict import planning_note, whole_model_peak_deg
 
-        note = planning_note(params_path, trajectory, planned)
-        if note:
-            check = f"`sloshid predict {trajectory} --params {params_path}`"
-            print(f"sloshid: note: {note.removesuffix('.')} ({check}).", file=sys.stderr)
+    peak = whole_model_peak_deg(params_path, planned, trajectory) if planned is not None else None
+    note = planning_note(params_path, trajectory, peak)
+    if note:
+        check = f"`sloshid predict {trajectory} --params {params_path}`"
+        print(f"sloshid: note: {note.removesuffix('.')} ({check}).", file=sys.stderr)
+    return peak
+
+
+def next_step(output: Path, joints: Path | None, params_path: str | None, peak_deg: float | None, limit: float) -> str:
+    """The line a user needs after a plan that passed its checks: send it; but not when the whole input-output model
+    moves the liquid in it by more than the plan is verified to (`peak_deg` against `limit`, deg): then check first."""
+    if peak_deg is not None and peak_deg > limit:
+        return (
+            f"next: do not send {output}: by the whole model of {params_path} it moves the liquid by up to "
+            f"{peak_deg:.2g} deg (the plan holds its pendulum pair within {limit:g} deg); check a move with `sloshid "
+            f"predict {output} --params {params_path}` and send one it keeps slosh-free."
+        )
+    also = f" (or the joints, {joints})" if joints is not None else ""
+    return f"next: send {output}{also} to the robot."
 
 
 def warn_doubtful_parameters(params_path: str | None, scenario) -> None:

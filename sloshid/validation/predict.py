@@ -337,19 +337,33 @@ def _found(source: str, beside: Path) -> Path | None:
     return None
 
 
-def planning_note(path: str | Path, trajectory: str = "TRAJ.csv", plan: Trajectory | None = None) -> str | None:
-    """For `plan` and `compare` with a model from `identify --trajectory` (a wave share other than 1): they plan and
-    score with its f and zeta alone, as a pendulum; the sentence says so, how far the whole model moves the liquid in
-    `plan` (when given: the planned trajectory) and how to check a plan with it (None for a plain model); a front-end
-    adds its own command for that check."""
+def is_input_output(model: LiquidModel) -> bool:
+    """A model from `identify --trajectory` (a wall reading besides the pendulum), which plan and compare use only in
+    part."""
+    return not (model.wave_share == 1 and model.crest_coeff == 0 and model.rest_slope == (0.0, 0.0))
+
+
+def whole_model_peak_deg(path: str | Path, plan: Trajectory, trajectory: str = "TRAJ.csv") -> float | None:
+    """How far (deg, against the container) the whole input-output model at `path` moves the liquid in the planned
+    trajectory `plan` (written as `trajectory`); None for a plain model, whose plan the planner's check covers."""
     model = load_model(path)
-    if model.wave_share == 1 and model.crest_coeff == 0 and model.rest_slope == (0.0, 0.0):
+    if not is_input_output(model):
+        return None
+    pose = pose_from_trajectory(plan, trajectory)
+    return float(predict(pose, pivot_for(pose, model, None)[0]).rel_angle_deg.max())
+
+
+def planning_note(path: str | Path, trajectory: str = "TRAJ.csv", peak_deg: float | None = None) -> str | None:
+    """For `plan` and `compare` with a model from `identify --trajectory`: they plan and score with its f and zeta
+    alone, as a pendulum; the sentence says so, how far the whole model moves the liquid in the plan (`peak_deg`, from
+    `whole_model_peak_deg`, when given) and how to check a plan with it (None for a plain model); a front-end adds its
+    own command for that check."""
+    model = load_model(path)
+    if not is_input_output(model):
         return None
     moved = "the liquid moves during a plan"
-    if plan is not None:
-        pose = pose_from_trajectory(plan, trajectory)
-        peak = float(predict(pose, pivot_for(pose, model, None)[0]).rel_angle_deg.max())
-        moved = f"this plan moves the liquid by up to {peak:.2g} deg against the container"
+    if peak_deg is not None:
+        moved = f"this plan moves the liquid by up to {peak_deg:.2g} deg against the container"
     return (
         f"{path} is an input-output model (wave share {model.wave_share:.3g}, crest coefficient "
         f"{model.crest_coeff:.3g}); plans and scores use its f and zeta alone, as a pendulum pair, so by the whole "
