@@ -132,6 +132,20 @@ def test_when_no_method_applies_the_recommendation_says_so(tmp_path, run_cli):
     assert "No method of [compare].methods applies to this scenario" in out and "): ." not in out
 
 
+def test_writing_the_recommended_move_when_none_is_recommended_says_why(tmp_path, run_cli):
+    # write_recommended returned None and wrote nothing without a word: the README's chain went on with no move
+    import sloshid
+
+    path = write_scenario(tmp_path, methods='["toppra"]')
+    move = tmp_path / "move.csv"
+    with pytest.raises(UserError, match=r"move\.csv was not written, as no method is recommended: no method of") as e:
+        sloshid.compare(path).write_recommended(move)
+    assert "\n" not in str(e.value) and not move.exists() and not move.with_suffix(".json").exists()
+    # compare -o says so in its next line, as before
+    code, out, err = run_cli("compare", path, "-o", move)
+    assert code == 0 and "next: no method is recommended" in out and not move.exists(), err
+
+
 @pytest.mark.parametrize(
     "edit, message",
     [

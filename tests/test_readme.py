@@ -57,6 +57,9 @@ def test_python_blocks_run_in_order(tmp_path, monkeypatch):
     # the chain's outputs are the real thing: the sample's liquid (Table I, f = 3.44 Hz) and a verified plan
     assert namespace["ident"].parameters["f_hz"].value == pytest.approx(3.44, rel=0.01)
     assert namespace["plan"].verification_ok
+    # the comparison recommends a move and write_recommended writes it (it returned None when none was recommended)
+    assert namespace["comparison"].recommended.key == "sloshid_robust"
+    assert (tmp_path / "out" / "move.csv").stat().st_size > 0 and (tmp_path / "out" / "move.json").exists()
     # compare reused the plan instead of solving it again: the same solve time, the same move to one 1 kHz sample
     reused = namespace["comparison"].result("sloshid")
     assert reused.build_time_s == namespace["plan"].solve_time_s

@@ -73,7 +73,8 @@ def run(args: argparse.Namespace) -> int:
     if report_dir is not None:
         print(f"report written to {comp.report(report_dir, progress=sys.stderr.isatty())}", file=sys.stderr)
     print(json.dumps(comp.to_dict(), indent=2) if args.json else comp.summary())
-    written = comp.write_recommended(output, tuple(inputs)) if output is not None else None
+    # with none recommended, the next line says why nothing was written (the library would refuse it)
+    written = comp.write_recommended(output, tuple(inputs)) if output is not None and comp.recommended else None
     given = args.scenario + (f" --params {args.params}" if args.params else "")
     print(next_line(comp, given, written), file=sys.stderr if args.json else sys.stdout)  # JSON stays JSON
     return 0

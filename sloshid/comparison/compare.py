@@ -554,15 +554,17 @@ class Comparison:
             "csv_holds": "the feedforward; the camera feedback corrects it on the robot" if closed else "the move",
         }
 
-    def write_recommended(self, path: str | Path, inputs: tuple[str | Path, ...] = ()) -> Path | None:
+    def write_recommended(self, path: str | Path, inputs: tuple[str | Path, ...] = ()) -> Path:
         """Write the recommended move as a 1 kHz trajectory CSV at `path` and what it is as JSON beside it
-        (`path` with .json); None (nothing written) when no method is recommended."""
+        (`path` with .json). With no method recommended a UserError says why, and nothing is written: a silent None
+        left a script believing it had a move to send."""
         from sloshid.core.atomic import write_json
         from sloshid.core.outputs import Outputs
 
         move, r = self.recommended_move(), self.recommended
         if move is None or r is None:  # the move is described when a method is recommended
-            return None
+            why = self.recommendation.reason if self.recommendation is not None else "nothing was scored."
+            raise UserError(f"{path} was not written, as no method is recommended: {why[:1].lower()}{why[1:]}")
         outputs = Outputs(inputs)
         csv = outputs.file(path, "the recommended move", (".csv",))
         sidecar = outputs.file(csv.with_suffix(".json"), "the recommended move's description", (".json",))
