@@ -44,6 +44,15 @@ def test_the_command_line_prints_each_warning_once_with_its_options(still_clip, 
     assert "check with --overlay, or narrow --roi" in lines[0] and "`" not in lines[0]  # the options typed there
 
 
+def test_track_does_not_send_a_trace_where_nothing_moved_on_to_identify(still_clip, tmp_path, run_cli):
+    # it warned "nothing moved it", then printed `next: sloshid identify ...`, which found no oscillatory mode
+    code, out, _ = run_cli("track", still_clip, "-o", tmp_path / "a.csv", "--no-smooth")
+    step = out.strip().splitlines()[-1]
+    assert code == 0 and "sloshid identify" not in step
+    assert step.startswith("next: nothing moved the float, so identify would find no mode: record a tap")
+    assert "check what was tracked with --overlay OUT.mp4, then track again." in step
+
+
 def test_a_setting_in_backticks_is_renamed_and_an_unknown_one_kept():
     rename = {"window_s": "--window"}.get
     text = "give a longer window (`window_s`), or check `sloshid track` and `other_setting`"
