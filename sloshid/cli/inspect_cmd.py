@@ -2,12 +2,12 @@
 
 Reads one frame (the first, or the one shown at --at SECONDS) and writes a picture of it in two panels. VIDEO may
 also be a still picture (a PNG or JPEG frame of it): then --at is left out, and the command printed names VIDEO for
-the video the picture is a frame of, as track measures a video. Left, the
-surface target (a dyed liquid): the region of every colour preset found, with its share of the picture, and what
-track measures there: the liquid's sides (the container's inner walls, blue), the surface line (green when measured,
-red when not) and its height at each wall (yellow). Right, the float target: every region of a preset colour as a
-float candidate (its elongation and angle; track wants a bar, elongation 0.5 or more) and the one track would take.
-White on both: a suggested --roi around the container (or the float).
+the video the picture is a frame of, as track measures a video. Left, the surface target (a dyed liquid): the region
+of every colour preset found, with its share of the picture, and what track measures there: the liquid's sides (the
+container's inner walls, blue), the surface line (green when measured, red when not) and its height at each wall
+(yellow). Right, the float target: every region of a preset colour as a float candidate (its elongation and angle;
+track wants a bar, elongation 0.5 or more) and the one track would take. White on both: a suggested --roi around the
+container (or the float).
 
 Prints what it found for each target and the `sloshid track` command line to run next (target, colour preset,
 --roi when it helps, --reference container when the container's walls were found). Of several colours measured as a
@@ -16,10 +16,10 @@ dark, a coloured one measured between walls). When no preset colour gives a liqu
 (how coloured the picture is, its largest coloured regions) and measures the largest with an HSV range of its own,
 which the command then gives (--liquid-hsv-low/high).
 
-Exit codes: 0 when the suggested command's target was measured in this frame, 1 when something was found that
-track would not measure there today (the text says why), 2 when nothing was found or the input is bad (a file that
-is neither a video nor a picture, --at outside the video or with a picture, an output over the input): one sentence on stderr; no picture is written
-for bad input.
+Exit codes: 0 when the suggested command's target was measured in this frame, 1 when something was found that track
+would not measure there today (the text says why), 2 when nothing was found or the input is bad (a file that is
+neither a video nor a picture, --at outside the video or with a picture, an output over the input): one sentence on
+stderr; no picture is written for bad input.
 """
 
 from __future__ import annotations
