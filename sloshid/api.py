@@ -59,7 +59,8 @@ def inspect(
     roi: tuple[int, int, int, int] | None = None,
     picture: str | Path | None = None,
 ) -> InspectResult:
-    """Look at one frame of `video` (the first, or the one shown at `at` seconds) as each target would track it:
+    """Look at one frame of `video` (the first, or the one shown at `at` seconds; or a still picture, `.still`, whose
+    settings are for the video it is a frame of) as each target would track it:
     the colour presets found, the liquid's surface and walls, the float candidates, a suggested ROI and the
     settings to track it with (`.track_settings`: `sloshid.track(video, **result.track_settings)`; `.summary()`);
     `picture` also writes the annotated frame (PNG)."""

@@ -203,15 +203,18 @@ def test_bad_input_is_one_sentence_and_writes_nothing(grey_video, tmp_path, run_
     assert list(tmp_path.iterdir()) == []  # no picture, no temporary leftovers
 
 
-def test_not_a_video_a_still_picture_and_an_output_over_the_input_are_refused(grey_video, tmp_path, run_cli):
+def test_not_a_video_a_one_frame_video_and_an_output_over_the_input_are_refused(grey_video, tmp_path, run_cli):
     (tmp_path / "notes.mp4").write_text("not a video\n")
-    cv2.imwrite(str(tmp_path / "still.png"), _grey_frames(np.random.default_rng(6), 1)[0])
+    _write(tmp_path / "one.mp4", _grey_frames(np.random.default_rng(6), 1))
     disguised = tmp_path / "clip.png"  # a video named like a picture: -o the same path would replace it
     disguised.write_bytes(grey_video.read_bytes())
+    still = tmp_path / "still.png"
+    cv2.imwrite(str(still), _grey_frames(np.random.default_rng(6), 1)[0])
     cases = [
         (tmp_path / "notes.mp4", ["-o", tmp_path / "n.png"], "is not a video FFmpeg can decode"),
-        (tmp_path / "still.png", ["-o", tmp_path / "s.png"], "holds a single picture, not a video"),
+        (tmp_path / "one.mp4", ["-o", tmp_path / "o.png"], "holds a single frame: inspect looks at a picture"),
         (disguised, ["-o", disguised], "is also an input of this run"),
+        (still, ["-o", tmp_path / "s.png", "--at", "0.5"], "is a still picture, its one frame at 0 s: leave out --at"),
     ]
     before = sorted(tmp_path.iterdir())
     for video, args, message in cases:
@@ -219,6 +222,46 @@ def test_not_a_video_a_still_picture_and_an_output_over_the_input_are_refused(gr
         assert code == 2 and message in err and err.count("\n") == 1, err
     assert sorted(tmp_path.iterdir()) == before
     assert disguised.read_bytes() == grey_video.read_bytes()
+
+
+@pytest.fixture(scope="module")
+def float_frames():
+    """sloshid synth's red float scene (320x240, 0.5 s): its frames."""
+    s = SynthSettings(width=320, height=240, duration_s=0.5, noise_sigma=3.0, seed=5)
+    return [frame for _, frame in render_frames(s)]
+
+
+@pytest.mark.parametrize("suffix", [".png", ".jpg"])
+def test_a_still_picture_is_inspected_and_its_command_is_for_the_video(float_frames, tmp_path, run_cli, suffix):
+    # a frame saved as a picture is inspected, and the command it prints names VIDEO (track measures a video), which
+    # with the video put in tracks it
+    picture = tmp_path / f"frame{suffix}"
+    cv2.imwrite(str(picture), float_frames[0])
+    clip = _write(tmp_path / "clip.mp4", float_frames)
+    code, out, err = run_cli("inspect", picture, "-o", tmp_path / "look.png")
+    assert code == 0, err
+    assert out.startswith(f"{picture}: a still picture, 320x240 px\n") and "frame at" not in out
+    assert "run the command below on the video this picture is a frame of (VIDEO;" in out
+    command = _next_command(out)
+    assert command[:5] == ["sloshid", "track", "VIDEO", "-o", "VIDEO_angles.csv"]
+    assert cv2.imread(str(tmp_path / "look.png")).shape[1] == 2 * 320 + 8
+    assert command[5:] == ["--float-color", "red", "--reference", "container"]
+    assert run_cli("inspect", picture, "-o", tmp_path / "at0.png", "--at", "0")[0] == 0
+    angles = tmp_path / "angles.csv"
+    code, _, err = run_cli("track", clip, "-o", angles, *command[5:])
+    assert code == 0, err
+    assert read_csv(angles)["valid"].mean() > 0.9
+
+
+def test_the_api_inspects_a_still_picture(float_frames, tmp_path):
+    picture = tmp_path / "frame.png"
+    cv2.imwrite(str(picture), float_frames[0])
+    res = sloshid.inspect(picture)
+    assert res.still and res.t_s == 0.0 and res.target == "float" and res.measured
+    assert "sloshid.track(VIDEO, float_color='red'" in res.summary()
+    assert json.loads(json.dumps(res.to_dict(), allow_nan=False))["still"] is True
+    with pytest.raises(sloshid.UserError, match="is a still picture, its one frame at 0 s"):
+        sloshid.inspect(picture, at=0.1)
 
 
 def test_the_default_picture_goes_beside_the_video_but_never_over_a_file(tmp_path, run_cli):

@@ -1,11 +1,13 @@
 """A first look at your own video: what each target would track in one frame, and the `sloshid track` command to run.
 
-Reads one frame (the first, or the one shown at --at SECONDS) and writes a picture of it in two panels. Left, the
-surface target (a dyed liquid): the region of every colour preset found, with its share of the picture, and what
-track measures there: the liquid's sides (the container's inner walls, blue), the surface line (green when measured,
-red when not) and its height at each wall (yellow). Right, the float target: every region of a preset colour as a
-float candidate (its elongation and angle; track wants a bar, elongation 0.5 or more) and the one track would take.
-White on both: a suggested --roi around the container (or the float).
+Reads one frame (the first, or the one shown at --at SECONDS) and writes a picture of it in two panels. VIDEO may
+also be a still picture (a PNG or JPEG frame of it): then --at is left out, and the command printed names VIDEO for
+the video the picture is a frame of, as track measures a video. Left, the surface target (a dyed liquid): the region
+of every colour preset found, with its share of the picture, and what track measures there: the liquid's sides (the
+container's inner walls, blue), the surface line (green when measured, red when not) and its height at each wall
+(yellow). Right, the float target: every region of a preset colour as a float candidate (its elongation and angle;
+track wants a bar, elongation 0.5 or more) and the one track would take. White on both: a suggested --roi around the
+container (or the float).
 
 Prints what it found for each target and the `sloshid track` command line to run next (target, colour preset,
 --roi when it helps, --reference container when the container's walls were found). Of several colours measured as a
@@ -14,10 +16,10 @@ dark, a coloured one measured between walls). When no preset colour gives a liqu
 (how coloured the picture is, its largest coloured regions) and measures the largest with an HSV range of its own,
 which the command then gives (--liquid-hsv-low/high).
 
-Exit codes: 0 when the suggested command's target was measured in this frame, 1 when something was found that
-track would not measure there today (the text says why), 2 when nothing was found or the input is bad (a file that
-is not a video, --at outside the video, an output over the input): one sentence on stderr; no picture is written
-for bad input.
+Exit codes: 0 when the suggested command's target was measured in this frame, 1 when something was found that track
+would not measure there today (the text says why), 2 when nothing was found or the input is bad (a file that is
+neither a video nor a picture, --at outside the video or with a picture, an output over the input): one sentence on
+stderr; no picture is written for bad input.
 """
 
 from __future__ import annotations
@@ -53,7 +55,12 @@ def track_command(video: Path, settings: dict[str, Any], options: dict[str, str]
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of `sloshid inspect`, each with its unit."""
-    parser.add_argument("video", type=Path, metavar="VIDEO", help="video file FFmpeg can decode")
+    parser.add_argument(
+        "video",
+        type=Path,
+        metavar="VIDEO",
+        help="video file FFmpeg can decode, or a still picture of one of its frames (PNG, JPEG)",
+    )
     parser.add_argument(
         "-o",
         "--output",
@@ -65,7 +72,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--at",
         type=float,
         metavar="SECONDS",
-        help="look at the frame shown at this presentation time, s from the video's start (default: the first)",
+        help="look at the frame shown at this presentation time, s from the video's start (default: the first; "
+        "not with a still picture)",
     )
     parser.add_argument(
         "--roi",
@@ -93,12 +101,13 @@ def run(args: argparse.Namespace) -> int:
     result = inspect_video(args.video, args.at, roi)
     result.save_picture(picture)
     options = track_options()
-    print(as_typed(result.summary(lambda settings: track_command(args.video, settings, options)), args, options))
+    video = Path("VIDEO") if result.still else args.video  # track takes the video a picture is a frame of
+    print(as_typed(result.summary(lambda settings: track_command(video, settings, options)), args, options))
     print(f"wrote {picture}")
     if result.target is None:
+        where = f"the picture {args.video}" if result.still else f"the frame at {result.t_s:.2f} s of {args.video}"
         print(
-            f"sloshid: error: nothing track could follow was found in the frame at {result.t_s:.2f} s of "
-            f"{args.video}: {result.saw}; see {picture}.",
+            f"sloshid: error: nothing track could follow was found in {where}: {result.saw}; see {picture}.",
             file=sys.stderr,
         )
         return 2

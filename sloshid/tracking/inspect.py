@@ -1,5 +1,5 @@
-"""A first look at a user's own video (`sloshid inspect`): one frame, what each target would track there, a suggested
-region of interest and the `sloshid track` command to run next.
+"""A first look at a user's own video (`sloshid inspect`): one frame (or a still picture), what each target would track
+there, a suggested region of interest and the `sloshid track` command to run next.
 
 Every preset colour is looked for in the frame. Each one found is measured by the tracker's own per-frame step
 (`tracker.measure_frame`, the code `track` runs on every frame), as the dyed liquid's surface and as a float, so that
@@ -165,6 +165,8 @@ class InspectResult:
     t_s: float
     size: tuple[int, int]
     """(width, height) of the frame, px."""
+    still: bool = False
+    """`video` is a still picture (PNG, JPEG): the commands are for the video it is a frame of (VIDEO)."""
     roi: tuple[int, int, int, int]
     """The area searched (x, y, width, height): the given ROI or the whole picture."""
     colours: list[ColourMatch]
@@ -204,7 +206,7 @@ class InspectResult:
     def suggestion(self, settings: dict[str, Any]) -> str:
         """Tracking settings as the Python call that uses them (the default way `summary` shows them)."""
         keywords = "".join(f", {k}={v!r}" for k, v in settings.items())
-        return f"sloshid.track({str(self.video)!r}{keywords})"
+        return f"sloshid.track({'VIDEO' if self.still else repr(str(self.video))}{keywords})"
 
     def summary(self, suggest: Callable[[dict[str, Any]], str] | None = None) -> str:
         """What was found per target and what to run next; `suggest` shows a settings dict as its front-end does (the
@@ -212,7 +214,7 @@ class InspectResult:
         suggest = suggest or self.suggestion
         w, h = self.size
         lines = [
-            f"{self.video}: frame at {self.t_s:.3f} s, {w}x{h} px",
+            f"{self.video}: {'a still picture' if self.still else f'frame at {self.t_s:.3f} s'}, {w}x{h} px",
             *([self.seen] if self.seen else []),
             *self.notes,
         ]
@@ -231,6 +233,7 @@ class InspectResult:
 
         return {
             "video": str(self.video),
+            "still": self.still,
             "t_s": self.t_s,
             "size_px": list(self.size),
             "roi": list(self.roi),
@@ -293,20 +296,27 @@ class InspectResult:
         return page.save(directory)
 
 
-def read_frame(path: str | Path, at: float | None) -> tuple[np.ndarray, float]:
-    """The BGR frame on screen at `at` seconds (the last whose presentation time is not after it; None: the first)
-    and its time; a single picture, a negative time or one after the last frame's time on screen is refused."""
+def read_frame(path: str | Path, at: float | None) -> tuple[np.ndarray, float, bool]:
+    """The BGR frame on screen at `at` seconds (the last whose presentation time is not after it; None: the first),
+    its time and whether `path` is a still picture (PNG, JPEG: read by OpenCV, at 0 s); a negative time, one after
+    the last frame's time on screen and a video of one frame are refused."""
     if at is not None and not (math.isfinite(at) and at >= 0):
         raise UserError(f"`at` must be a time of 0 s or more into the video, got {at:g}.")
-    frames = iter(FrameReader(Path(path), False))
+    path = Path(path)
+    frames = iter(FrameReader(path, False))
     try:
         first, second = next(frames), next(frames, None)
     finally:
         frames.close()
-    if second is None:  # an image (PNG, JPEG) opens as a video of one frame
-        raise UserError(f"{path} holds a single picture, not a video: inspect looks at a frame of the video to track.")
+    if second is None:  # a picture opens as a video of one frame: OpenCV reads it as a viewer shows it (EXIF turn)
+        picture = cv2.imread(str(path), cv2.IMREAD_COLOR)
+        if picture is None:
+            raise UserError(f"{path} holds a single frame: inspect looks at a picture (PNG, JPEG) or a video.")
+        if at:
+            raise UserError(f"{path} is a still picture, its one frame at 0 s: leave out `at` (got {at:g} s).")
+        return picture, 0.0, True
     if not at:
-        return cast(np.ndarray, first[2]), float(first[1])  # a BGR array: the reader makes no `Picture`s
+        return cast(np.ndarray, first[2]), float(first[1]), False  # a BGR array: the reader makes no `Picture`s
     reader = FrameReader(Path(path), False, start_s=max(0.0, at - AT_BEFORE_S))
     frames, shown, after = iter(reader), None, False
     try:
@@ -326,7 +336,7 @@ def read_frame(path: str | Path, at: float | None) -> tuple[np.ndarray, float]:
             f"`at` {at:g} s is beyond the end of {path}, whose last frame is shown from {shown[1]:.3f} s to "
             f"{end:.3f} s; give a time within the video."
         )
-    return shown
+    return *shown, False
 
 
 def _colour_matches(
@@ -549,12 +559,13 @@ def default_picture_path(video: Path) -> Path:
 def inspect_video(
     path: str | Path, at: float | None = None, roi: tuple[int, int, int, int] | None = None
 ) -> InspectResult:
-    """Look at one frame of `path` (the first, or the one at `at` seconds) as each target would track it.
+    """Look at one frame of `path` (the first, or the one at `at` seconds; or a still picture) as each target would
+    track it.
 
-    Raises UserError for a file that is not a video, a single picture, a time outside the video and a ROI outside the
+    Raises UserError for a file that is neither a video nor a picture, a time outside the video and a ROI outside the
     frame. Finding nothing is not an error here: the result says what was seen (`seen`) and has no `target`."""
     video = Path(path)
-    frame, t_s = read_frame(video, at)
+    frame, t_s, still = read_frame(video, at)
     size = (frame.shape[1], frame.shape[0])
     # tuple() keeps the ROI's four numbers four (and makes a list a tuple); mypy only knows tuple[int, ...]
     box = roi_box(TrackSettings(roi=None if roi is None else cast("tuple[int, int, int, int]", tuple(roi))), *size)
@@ -566,6 +577,7 @@ def inspect_video(
         video=video,
         t_s=t_s,
         size=size,
+        still=still,
         roi=box,
         colours=[],
         surfaces=[],
@@ -602,6 +614,11 @@ def inspect_video(
                 for name in ("colours", "surfaces", "floats", "candidates"):
                     getattr(res, name).extend(getattr(own, name))
     _decide(res, frame, labels, drawn)
+    if still and res.track_settings:
+        res.notes.append(
+            "track measures a video, not a still: run the command below on the video this picture is a frame of "
+            "(VIDEO; the ROI is in this picture's pixels)"
+        )
     res.picture = _picture(res, frame, labels, drawn)
     return res
 
