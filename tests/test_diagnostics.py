@@ -27,6 +27,7 @@ def test_a_doubt_is_a_sloshid_warning_and_stays_on_the_result(still_clip, caplog
     with pytest.warns(SloshidWarning, match="nothing moved it") as caught, caplog.at_level(logging.INFO, "sloshid"):
         res = track_video(still_clip, TrackSettings(smooth=False), multithreaded=False)
     assert [str(w.message) for w in caught if w.category is SloshidWarning] == res.warnings
+    assert res.still  # what the command line's next step reads
     assert issubclass(SloshidWarning, UserWarning)
     # a notebook can silence them by category, and read the progress from the package's logger
     with warnings.catch_warnings():

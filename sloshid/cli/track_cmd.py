@@ -28,8 +28,7 @@ from sloshid.cli.settings_options import add_settings, settings_from
 from sloshid.core.errors import NothingFound, UserError
 from sloshid.core.outputs import Outputs
 from sloshid.tracking.inspect import default_picture_path, inspect_video
-from sloshid.tracking.robust import percentile_span
-from sloshid.tracking.tracker import LOST_NOTE, STILL_SPAN_DEG, TrackSettings, track_video
+from sloshid.tracking.tracker import LOST_NOTE, TrackSettings, track_video
 from sloshid.video.colors import DEFAULT_FLOAT_COLOR, PRESETS, format_hsv
 from sloshid.video.frames import VIDEO_SUFFIXES
 
@@ -90,10 +89,9 @@ def run(args: argparse.Namespace) -> int:
 
 
 def next_step(result, output: Path, overlay: Path | None) -> str:
-    """The line a user needs next: identify the liquid from the trace, unless nothing moved the angle (the tracker's
-    own test, which warned: STILL_SPAN_DEG over ten valid frames or more), where identify finds no mode."""
-    valid = result.valid.astype(bool)
-    if valid.sum() < 10 or percentile_span(result.angle_deg[valid]) >= STILL_SPAN_DEG:
+    """The line a user needs next: identify the liquid from the trace, unless nothing moved the angle (`still`, which
+    the tracker warned of), where identify finds no mode."""
+    if not result.still:
         return f"next: sloshid identify {output} -o params.json identifies the liquid from this angle trace."
     look = f"look at {overlay}" if overlay else "check what was tracked with --overlay OUT.mp4"
     return (

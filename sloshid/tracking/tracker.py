@@ -229,6 +229,9 @@ class TrackResult:
     angle_smoothed_deg: np.ndarray
     lost_share: float = 0.0
     """Share of the frames the container declares that did not decode (truncated file)."""
+    still: bool = False
+    """Nothing moved the angle: over ten valid frames or more it spans less than STILL_SPAN_DEG (a warning says so),
+    so `identify` finds no mode in it."""
     warnings: list[str] = field(default_factory=list)
     target: str = "float"
     """What was measured; with 'surface', float_angle_deg holds the surface's angle against the image."""
@@ -973,7 +976,8 @@ def _result(
         )
     if valid.sum() >= 10:
         span = percentile_span(angle[valid.astype(bool)].astype(float))
-        if span < STILL_SPAN_DEG:
+        res.still = span < STILL_SPAN_DEG
+        if res.still:
             other = "something of the float's colour that is not the float" if target == "float" else "not its surface"
             res.warnings.append(
                 f"the {target}'s angle spans only {span:.3f} deg over the valid frames (1st to 99th percentile): "
