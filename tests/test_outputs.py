@@ -107,6 +107,48 @@ def test_plan_checks_every_output_before_writing_any(tmp_path, run_cli):
     assert not (tmp_path / "traj.csv").exists() and existing.read_text() == "keep me"
 
 
+UPRIGHT = ROOT / "data" / "scenarios" / "upright_move.toml"
+
+
+@pytest.mark.parametrize(
+    "args, victim",
+    [
+        (["compare", DEMO, "-o", "{out}/notes.csv"], "notes.json"),  # TRAJ.json beside it
+        (["plan", UPRIGHT, "-o", "{out}/up.csv", "--sweep-margin", "10:12:2"], "up_margin_sweep.png"),
+        (["synth", "{out}/lab.mp4", "--duration", "1"], "lab_truth.csv"),
+        (["synth", "{out}/lab.mp4", "--duration", "1", "--renderer", "pbr"], "lab_scene.json"),
+    ],
+)
+def test_a_file_sloshid_did_not_write_beside_an_output_is_refused(tmp_path, run_cli, args, victim):
+    # the files a command names after its output were replaced without a word: a user's notes.json, a picture, a CSV
+    mine = tmp_path / victim
+    mine.write_text("my notes\n")
+    code, _, err = run_cli(*[str(a).format(out=tmp_path) for a in args])
+    _one_sentence(code, err)
+    assert f"{mine} is already there and sloshid did not write it; choose another" in err
+    assert mine.read_text() == "my notes\n" and sorted(p.name for p in tmp_path.iterdir()) == [victim]
+
+
+def test_the_files_sloshid_names_after_an_output_are_replaced_when_it_wrote_them(tmp_path, run_cli):
+    # the mark each holds is what tells them from a user's: a second run replaces the first one's
+    from sloshid.cli.synth_cmd import TRUTH_MARK
+    from sloshid.comparison.recommend import MOVE_JSON_MARK
+    from sloshid.core.outputs import FIGURE_MARK, FIGURE_METADATA, holds_mark
+
+    for _ in range(2):
+        code, _, err = run_cli("synth", tmp_path / "lab.mp4", "--duration", "0.5", "--width", "160", "--height", "120")
+        assert code == 0, err
+    assert holds_mark(tmp_path / "lab_truth.csv", TRUTH_MARK)
+    import matplotlib.pyplot as plt
+
+    fig = plt.figure()
+    fig.savefig(tmp_path / "f.png", metadata=FIGURE_METADATA)
+    plt.close(fig)
+    assert holds_mark(tmp_path / "f.png", FIGURE_MARK)
+    (tmp_path / "m.json").write_text('{\n  "method": "zvd",\n  "trajectory_csv": "m.csv"\n}\n')
+    assert holds_mark(tmp_path / "m.json", MOVE_JSON_MARK) and not holds_mark(tmp_path / "f.png", MOVE_JSON_MARK)
+
+
 @pytest.mark.parametrize("case", ["folder", "parent_is_file"])
 def test_unwritable_outputs_fail_before_the_work(tmp_path, run_cli, decay_csv, case):
     if case == "folder":

@@ -15,6 +15,7 @@ import json
 import sys
 
 from sloshid.cli.plan_cmd import note_io_model, warn_doubtful_parameters
+from sloshid.comparison.recommend import declare_move
 from sloshid.core.outputs import Outputs
 
 
@@ -59,9 +60,11 @@ def run(args: argparse.Namespace) -> int:
     inputs = [p for p in (args.scenario, args.params) if p]
     outputs = Outputs(inputs)
     report_dir = outputs.report_dir(args.report, "--report") if args.report is not None else None
-    output = outputs.file(args.output, "-o", (".csv",)) if args.output else None
-    if output is not None:
-        outputs.file(output.with_suffix(".json"), "-o's description beside it", (".json",))
+    output = (
+        declare_move(outputs, args.output, "-o", "choose another -o, or move that file away")[0]
+        if args.output
+        else None
+    )
     scenario = load_scenario(args.scenario)
     if scenario.within_margin:
         return _run_upright(args, scenario, inputs, output, report_dir)

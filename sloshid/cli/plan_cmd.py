@@ -16,7 +16,7 @@ from pathlib import Path
 
 from sloshid.cli.settings_options import add_settings, settings_from
 from sloshid.core.errors import UserError
-from sloshid.core.outputs import Outputs
+from sloshid.core.outputs import FIGURE_MARK, Outputs
 from sloshid.planning.arm_settings import ArmSettings
 from sloshid.planning.plan_settings import PlanSettings
 
@@ -178,7 +178,12 @@ def _run_upright(args, settings: PlanSettings, scenario, outputs, output: Path, 
         )
     margins = settings.margins_mm() or None
     figure = (
-        outputs.file(output.with_name(output.stem + "_margin_sweep.png"), "--sweep-margin", (".png",))
+        outputs.file(
+            output.with_name(output.stem + "_margin_sweep.png"),
+            "--sweep-margin's picture",
+            (".png",),
+            (FIGURE_MARK, "choose another -o, or move that file away"),
+        )
         if margins
         else None
     )

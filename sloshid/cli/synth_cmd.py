@@ -4,7 +4,7 @@ The float's angle relative to the container follows a known pendulum trace: a ta
 (--motion decay, liquid from --f-hz/--zeta or --l-m/--d-ns-per-m/--m-kg, seed Table I by default) or
 the response to a constant-acceleration move (--motion move). Camera effects (noise, blur, flicker,
 compression, roll, VFR timing) and a container travelling and tilting in the picture make it realistic.
-The truth CSV (default: OUT with suffix _truth.csv) has t_s, rel_angle_deg, container_angle_deg,
+The truth CSV (default: OUT with suffix _truth.csv) has frame, t_s, rel_angle_deg, container_angle_deg,
 float_angle_deg, float_x_px, float_y_px, container_x_px, container_y_px, accel_m_s2. With --scene surface the
 liquid is dyed and has no float; the truth then has surface_angle_deg instead of float_angle_deg, and
 left_wall_px, right_wall_px, left_wall_mm, right_wall_mm (surface height at each inner wall above rest).
@@ -34,6 +34,11 @@ GROUPS = {
 }
 """Titles of the help's groups of SynthSettings fields."""
 
+TRUTH_MARK = "frame,t_s,rel_angle_deg,"
+"""How every truth CSV's header starts: a file at OUT_truth.csv without it is a user's, and synth refuses it."""
+SCENE_MARK = '"renderer": "pbr"'
+"""What every OUT_scene.json holds: a file there without it is a user's, and synth refuses it."""
+
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of `sloshid synth`: the outputs, then one per SynthSettings field (settings_options)."""
@@ -62,10 +67,18 @@ def run(args: argparse.Namespace) -> int:
     settings = settings_from_args(args)
     outputs = Outputs()
     video = outputs.file(args.output, "the video", VIDEO_SUFFIXES)
-    truth_path = outputs.file(args.truth or video.with_name(video.stem + "_truth.csv"), "--truth", (".csv",))
+    how = "choose another OUT (or --truth), or move that file away"  # for the names synth chooses, not the user
+    if args.truth:
+        truth_path = outputs.file(args.truth, "--truth", (".csv",))
+    else:
+        truth_path = outputs.file(
+            video.with_name(video.stem + "_truth.csv"), "the truth CSV", (".csv",), (TRUTH_MARK, how)
+        )
     scene_json = None
     if settings.renderer == "pbr":
-        scene_json = outputs.file(video.with_name(video.stem + "_scene.json"), "the scene's draw", (".json",))
+        scene_json = outputs.file(
+            video.with_name(video.stem + "_scene.json"), "the scene's draw", (".json",), (SCENE_MARK, how)
+        )
     truth = render_video(video, settings, truth_path, progress=True, scene_json=scene_json)
     p = settings.params
     print(

@@ -21,7 +21,7 @@ from tqdm import tqdm
 
 from sloshid.comparison.feedback import FeedbackSettings
 from sloshid.comparison.profiles import MoveTask, NotApplicable, constant_acceleration
-from sloshid.comparison.recommend import Recommendation, recommend
+from sloshid.comparison.recommend import Recommendation, recommend, write_move
 from sloshid.comparison.robot_tracking import ClosedLoopResponse, closed_loop_responses
 from sloshid.comparison.robustness import Replay, RobustnessResult, replay_responses, sweep
 from sloshid.comparison.ruckig_moves import jerk_limited
@@ -558,19 +558,11 @@ class Comparison:
         """Write the recommended move as a 1 kHz trajectory CSV at `path` and what it is as JSON beside it
         (`path` with .json). With no method recommended a UserError says why, and nothing is written: a silent None
         left a script believing it had a move to send."""
-        from sloshid.core.atomic import write_json
-        from sloshid.core.outputs import Outputs
-
         move, r = self.recommended_move(), self.recommended
         if move is None or r is None:  # the move is described when a method is recommended
             why = self.recommendation.reason if self.recommendation is not None else "nothing was scored."
             raise UserError(f"{path} was not written, as no method is recommended: {why[:1].lower()}{why[1:]}")
-        outputs = Outputs(inputs)
-        csv = outputs.file(path, "the recommended move", (".csv",))
-        sidecar = outputs.file(csv.with_suffix(".json"), "the recommended move's description", (".json",))
-        r.require_replay().trajectory.to_csv(csv, inputs)
-        write_json(sidecar, {**move, "trajectory_csv": csv.name})
-        return csv
+        return write_move(r.require_replay().trajectory, move, path, inputs)
 
     def summary(self) -> str:
         """The score table as aligned plain text, then the verdict (what `sloshid compare` prints)."""

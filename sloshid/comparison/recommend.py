@@ -5,15 +5,18 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from sloshid.comparison.robustness import band_responses
+from sloshid.core.outputs import Outputs
 from sloshid.model.pendulum import SloshParams
 
 if TYPE_CHECKING:
     from sloshid.comparison.compare import CompareSettings, MethodResult
+    from sloshid.model.trajectory import Trajectory
 
 LOW_RISK_SHARE = 0.5
 """A recommendation whose worst residual and peak over the band stay below this share of their thresholds is low
@@ -155,3 +158,31 @@ def _chosen(r, check, band, source, losers, checks, settings) -> Recommendation:
         reason += " Faster ones lose: " + "; ".join(losers) + "."
     risk = "good" if share <= LOW_RISK_SHARE else "uncertain"
     return Recommendation(r.key, r.label, band, source, reason, risk, checks)
+
+
+MOVE_JSON_MARK = '"trajectory_csv": '
+"""What every recommended move's JSON holds (the name of its CSV): a JSON beside TRAJ.csv without it is a user's file,
+and sloshid never replaces it."""
+
+
+def declare_move(outputs: Outputs, path: str | Path, role: str, how: str) -> tuple[Path, Path]:
+    """Declare a recommended move's CSV (`role`) and its JSON beside it in `outputs`; a JSON there that sloshid did not
+    write is refused, the sentence ending in `how` to proceed."""
+    csv = outputs.file(path, role, (".csv",))
+    sidecar = outputs.file(
+        csv.with_suffix(".json"), f"{role}'s description beside it", (".json",), (MOVE_JSON_MARK, how)
+    )
+    return csv, sidecar
+
+
+def write_move(trajectory: Trajectory, move: dict[str, Any], path: str | Path, inputs: tuple = ()) -> Path:
+    """Write a recommended move as a 1 kHz trajectory CSV at `path` and `move` (which method, why) as JSON beside it;
+    both are checked before either is written."""
+    from sloshid.core.atomic import write_json
+
+    csv, sidecar = declare_move(
+        Outputs(inputs), path, "the recommended move", "write the move to another path, or move that file away"
+    )
+    trajectory.to_csv(csv, inputs)
+    write_json(sidecar, {**move, "trajectory_csv": csv.name})
+    return csv

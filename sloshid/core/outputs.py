@@ -14,6 +14,11 @@ from sloshid.core.errors import UserError
 REPORT_MARK = "<meta name='generator' content='sloshid'>"
 """Written into every sloshid HTML page: an index.html without it is a user's file and is never replaced."""
 
+FIGURE_METADATA = {"Software": "sloshid"}
+"""The PNG text chunk of a figure sloshid writes as a file (matplotlib's `savefig(metadata=...)`)."""
+FIGURE_MARK = "Software\x00sloshid"
+"""FIGURE_METADATA as it stands in the PNG: a figure without it is a user's file and is never replaced."""
+
 
 def writable_folder(folder: Path, role: str, path: Path) -> None:
     """The folder exists and is writable, or can be created under a writable existing ancestor."""
@@ -43,14 +48,19 @@ def _resolved(path: Path) -> Path:
         raise UserError(f"{path}: its symbolic links go round in a loop.") from None
 
 
-def is_sloshid_page(path: Path) -> bool:
-    """Whether an existing HTML file was written by sloshid (its generator mark is in the first kilobytes)."""
+def holds_mark(path: Path, *marks: str) -> bool:
+    """Whether an existing file holds one of `marks` in its first 64 KiB (read as bytes: a PNG's text chunk counts)."""
     try:
-        with open(path, encoding="utf-8", errors="replace") as fh:
-            head = fh.read(4096)
+        with open(path, "rb") as fh:
+            head = fh.read(65536).decode("latin-1")
     except OSError:
         return False
-    return REPORT_MARK in head or "<p class='meta'>sloshid " in head  # the mark, or a page of sloshid 0.1
+    return any(mark in head for mark in marks)
+
+
+def is_sloshid_page(path: Path) -> bool:
+    """Whether an existing HTML file was written by sloshid (its generator mark is in the first kilobytes)."""
+    return holds_mark(path, REPORT_MARK, "<p class='meta'>sloshid ")  # the mark, or a page of sloshid 0.1
 
 
 class Outputs:
@@ -70,13 +80,19 @@ class Outputs:
         self.claimed[real] = role
         return path
 
-    def file(self, path: str | os.PathLike, role: str, suffixes: tuple[str, ...] = ()) -> Path:
-        """A file output: right suffix, not a folder, not an input or another output, in a writable folder."""
+    def file(
+        self, path: str | os.PathLike, role: str, suffixes: tuple[str, ...] = (), mark: tuple[str, str] | None = None
+    ) -> Path:
+        """A file output: right suffix, not a folder, not an input or another output, in a writable folder.
+        `mark` = (what sloshid's own file holds, how to proceed) for a file whose name sloshid chose (TRAJ.json beside
+        TRAJ.csv): one already there is replaced only when it holds the mark; a user's file is refused."""
         p = Path(path)
         if suffixes and p.suffix.lower() not in suffixes:
             raise UserError(f"{role} {p} must end in {' or '.join(suffixes)}.")
         if p.is_dir():
             raise UserError(f"{role} {p} is a folder; give a file name.")
+        if mark is not None and p.is_file() and not holds_mark(p, mark[0]):
+            raise UserError(f"{role} {p} is already there and sloshid did not write it; {mark[1]}.")
         if p.exists() and not os.access(p, os.W_OK):
             raise UserError(f"cannot write {role} {p}: the file is read-only.")
         writable_folder(p.parent, role, p)

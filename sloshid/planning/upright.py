@@ -726,10 +726,11 @@ class MarginSweep:
         import matplotlib.pyplot as plt
 
         from sloshid.core.atomic import atomic_path
+        from sloshid.core.outputs import FIGURE_METADATA
 
         fig = self.plot()
         with atomic_path(path) as tmp:
-            fig.savefig(tmp, dpi=150, format="png")
+            fig.savefig(tmp, dpi=150, format="png", metadata=FIGURE_METADATA)  # marked: sloshid replaces only its own
         plt.close(fig)
 
 
