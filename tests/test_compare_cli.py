@@ -141,9 +141,32 @@ def test_writing_the_recommended_move_when_none_is_recommended_says_why(tmp_path
     with pytest.raises(UserError, match=r"move\.csv was not written, as no method is recommended: no method of") as e:
         sloshid.compare(path).write_recommended(move)
     assert "\n" not in str(e.value) and not move.exists() and not move.with_suffix(".json").exists()
-    # compare -o says so in its next line, as before
+    # compare -o says so in its next line, and exits 1: `compare -o move.csv && send move.csv` must stop
     code, out, err = run_cli("compare", path, "-o", move)
-    assert code == 0 and "next: no method is recommended" in out and not move.exists(), err
+    assert code == 1 and "next: no method is recommended" in out and not move.exists(), err
+    assert err.endswith("sloshid: no method is recommended, so nothing was written.\n")
+    # a move already there (an older comparison's) is left as it was, and said to be no move of this one
+    move.write_text("old\n")
+    code, out, err = run_cli("compare", path, "-o", move)
+    assert code == 1 and move.read_text() == "old\n" and not move.with_suffix(".json").exists()
+    assert f"nothing was written; {move} was left as it was, not this comparison's move." in err
+
+
+def test_writing_the_recommended_move_never_replaces_a_json_sloshid_did_not_write(tmp_path):
+    # write_recommended("rec.csv") replaced the user's rec.json with the move's description
+    import sloshid
+
+    comparison = sloshid.compare(write_scenario(tmp_path, methods='["constant_acc", "sloshid_robust"]'))
+    assert comparison.recommended is not None
+    mine = tmp_path / "rec.json"
+    mine.write_text('{"mine": 1}')
+    with pytest.raises(UserError, match=r"rec\.json is already there and sloshid did not write it; write the move"):
+        comparison.write_recommended(tmp_path / "rec.csv")
+    assert mine.read_text() == '{"mine": 1}' and not (tmp_path / "rec.csv").exists()
+    mine.unlink()
+    comparison.write_recommended(tmp_path / "rec.csv")
+    comparison.write_recommended(tmp_path / "rec.csv")  # its own description is replaced
+    assert json.loads(mine.read_text())["trajectory_csv"] == "rec.csv"
 
 
 @pytest.mark.parametrize(

@@ -330,6 +330,8 @@ def test_a_pipeline_plans_and_compares_a_move_within_a_spill_margin(tmp_path, ru
     assert plan["kind"] == ("upright" if name == "upright_move" else "tilt_margin") and plan["verification_ok"]
     assert plan["containers"][0]["peak_wall_mm"] <= 8.0 and plan["T_s"] < 2.11
     assert compare["recommended"]["csv"] == "recommended.csv" and (run_dir / "compare" / "recommended.csv").exists()
+    described = json.loads((run_dir / "compare" / "recommended.json").read_text())  # as for a slosh-free move
+    assert described["method"] == compare["recommended"]["method"] and described["reason"] == compare["verdict"]
     ours = next(r for r in compare["ranked"] if r["key"] == "sloshid")
     assert ours["meets_margin_and_residual"] and ours["risk"]["draws"] == 200
     assert {r["key"] for r in compare["ranked"]} >= {"zv", "zvd", "zvdd", "constant_acc", "sloshid"}

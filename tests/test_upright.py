@@ -186,6 +186,26 @@ def test_plan_cli_prints_risk_and_draws_the_margin_sweep(run_cli, tmp_path):
     figure = tmp_path / "up_margin_sweep.png"
     assert out.exists() and figure.stat().st_size > 10_000
     assert figure.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    from sloshid.core.outputs import FIGURE_MARK, holds_mark
+
+    assert holds_mark(figure, FIGURE_MARK)  # sloshid's own picture, which the next run replaces
+
+
+@pytest.mark.slow
+def test_compare_cli_writes_the_move_and_its_json_and_ends_with_the_next_step(run_cli, tmp_path):
+    # within a spill margin compare wrote best.csv alone, though its help promises best.json, and ended without `next:`
+    text = UPRIGHT.read_text().replace("draws = 1000", "draws = 100\nscenarios = 4").replace("N = 100", "N = 50")
+    scenario = tmp_path / "up.toml"
+    scenario.write_text(text)
+    best = tmp_path / "cmp" / "best.csv"
+    code, out, err = run_cli("compare", scenario, "-o", best)
+    assert code == 0, err
+    move = json.loads(best.with_suffix(".json").read_text())
+    assert move["trajectory_csv"] == "best.csv" and move["reason"].startswith(f"Recommended: {move['label']}, T = ")
+    assert move["margin_risk"]["draws"] == 100 and move["risk"] in ("good", "uncertain")
+    lines = out.strip().splitlines()
+    assert lines[-2] == move["reason"]
+    assert lines[-1] == f"next: send {best} to the robot ({move['label']}; {best.with_suffix('.json')} says why)."
 
 
 def test_zvdd_shaper_cancels_the_mode_and_flattens_the_notch():

@@ -5,7 +5,9 @@ tilt-compensated), sloshid's plan and its robust variant, and camera feedback on
 plan; scores each by the nonlinear liquid's angle relative to the container (transfer time s, peak during
 the move deg, residual after arrival deg, tilt deg and deg/s, robot and move limits), runs the closed-loop,
 robustness (frequency +-20 %, damping x0.5..x2) and camera-rate studies, and prints a verdict. Tune it in
-the scenario's [compare] table (keys: docs/guides/compare.md).
+the scenario's [compare] table (keys: docs/guides/compare.md). A move within a spill margin is scored on the margin
+instead, ranked by its risk of breaking it. Exit code 1 when -o is given but no method is recommended: nothing is
+written (a file already at TRAJ.csv is left as it was), and a script that sends the move should stop there.
 """
 
 from __future__ import annotations
@@ -41,8 +43,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="TRAJ.csv",
         default=None,
         help="write the recommended move as a 1 kHz robot trajectory CSV (the columns of `sloshid plan -o`) and "
-        "TRAJ.json beside it (which method, why, the frequency band in Hz it holds over); nothing when none is "
-        "recommended",
+        "TRAJ.json beside it (which method, why, and the frequency band in Hz it holds over, or within a spill margin "
+        "its risk of breaking it); nothing, and exit code 1, when none is recommended",
     )
     parser.add_argument(
         "--json",
@@ -78,9 +80,7 @@ def run(args: argparse.Namespace) -> int:
     print(json.dumps(comp.to_dict(), indent=2) if args.json else comp.summary())
     # with none recommended, the next line says why nothing was written (the library would refuse it)
     written = comp.write_recommended(output, tuple(inputs)) if output is not None and comp.recommended else None
-    given = args.scenario + (f" --params {args.params}" if args.params else "")
-    print(next_line(comp, given, written), file=sys.stderr if args.json else sys.stdout)  # JSON stays JSON
-    return 0
+    return _end(args, comp, output, written)
 
 
 def _run_upright(args, scenario, inputs: list, output, report_dir) -> int:
@@ -96,13 +96,20 @@ def _run_upright(args, scenario, inputs: list, output, report_dir) -> int:
     written = comp.write_first(output, tuple(inputs)) if output is not None else None
     if page is not None:
         print(f"report written to {page.save(report_dir)}", file=sys.stderr)
-    print(json.dumps(comp.to_dict(), indent=2) if args.json else comp.summary())
-    if written is not None:
-        print(
-            f"wrote {written}: the first-ranked move that meets the margin.",
-            file=sys.stderr if args.json else sys.stdout,
-        )
-    return 0
+    print(json.dumps(comp.to_dict(), indent=2) if args.json else f"{comp.summary()}\n\n{comp.verdict}")
+    return _end(args, comp, output, written)
+
+
+def _end(args, comp, output, written) -> int:
+    """The next line (on stderr under --json, which stays JSON); exit code 1, and a line saying nothing was written,
+    when -o was asked for but no method is recommended."""
+    given = args.scenario + (f" --params {args.params}" if args.params else "")
+    print(next_line(comp, given, written), file=sys.stderr if args.json else sys.stdout)
+    if output is None or written is not None:
+        return 0
+    kept = f"; {output} was left as it was, not this comparison's move" if output.exists() else ""
+    print(f"sloshid: no method is recommended, so nothing was written{kept}.", file=sys.stderr)
+    return 1
 
 
 def next_line(comp, scenario: str, written) -> str:

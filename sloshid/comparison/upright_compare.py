@@ -22,6 +22,7 @@ from typing import cast
 import numpy as np
 
 from sloshid.comparison.profiles import MoveTask, NotApplicable, constant_acceleration, sample_move
+from sloshid.comparison.recommend import write_move
 from sloshid.comparison.ruckig_moves import jerk_limited
 from sloshid.comparison.shapers import design_shaper, shape, shaped_constant_acceleration
 from sloshid.comparison.toppra_moves import toppra_profile
@@ -34,6 +35,9 @@ from sloshid.planning.vessels import Vessel
 
 ACC_SCALES = tuple(np.round(np.arange(1.0, 0.195, -0.025), 3))
 """Shares of the acceleration limit a baseline is tried at, fastest first, until it meets the margin and residual."""
+
+MARGIN_RISK_GOOD = 0.01
+"""A move within a spill margin is recommended as good when its Monte-Carlo risk's 95 % upper bound is below this."""
 
 UPRIGHT_BASELINES = {
     "constant_acc": "constant acceleration",
@@ -158,13 +162,55 @@ class UprightComparison:
             )
         return "\n".join(lines)
 
-    def write_first(self, path: str | Path, inputs: tuple[str | Path, ...] = ()) -> Path | None:
-        """Write the first-ranked move that meets margin and residual as a 1 kHz trajectory CSV (None: none does)."""
-        best = next((r.trajectory for r in self.ranked() if r.meets and r.trajectory is not None), None)
+    @property
+    def recommended(self) -> UprightRow | None:
+        """The first-ranked row whose move meets margin and residual: the recommended one (None: none does)."""
+        return next((r for r in self.ranked() if r.meets and r.trajectory is not None), None)
+
+    @property
+    def risk_level(self) -> str:
+        """The recommendation's colour: good (the risk's 95 % upper bound below MARGIN_RISK_GOOD), uncertain, or
+        unreliable (none recommended)."""
+        best = self.recommended
+        if best is None:
+            return "unreliable"
+        return "good" if best.risk is not None and best.risk.upper95 < MARGIN_RISK_GOOD else "uncertain"
+
+    @property
+    def verdict(self) -> str:
+        """One sentence: the recommended move and its risk, or that none meets the margin."""
+        best = self.recommended
+        if best is None or best.T_s is None:
+            return "No method meets the spill margin and the residual on arrival; loosen the margin or the limits."
+        risk = best.risk
+        told = f"{100 * risk.p:.2f} % (95 % upper bound {100 * risk.upper95:.2f} %)" if risk else "not estimated"
+        return (
+            f"Recommended: {best.label}, T = {best.T_s:.3f} s, the first-ranked move that meets the spill margin and "
+            f"the residual; risk of breaking the margin {told}."
+        )
+
+    def recommended_move(self) -> dict | None:
+        """What the JSON beside the recommended move says: the method, why, and its risk of breaking the margin."""
+        best = self.recommended
         if best is None:
             return None
-        best.to_csv(path, inputs)
-        return Path(path)
+        return {
+            "method": best.key,
+            "label": best.label,
+            "transfer_time_s": best.T_s,
+            "risk": self.risk_level,
+            "reason": self.verdict,
+            "margin_risk": best.risk.to_dict() if best.risk is not None else None,
+            "csv_holds": "the move",
+        }
+
+    def write_first(self, path: str | Path, inputs: tuple[str | Path, ...] = ()) -> Path | None:
+        """Write the recommended move (the first-ranked that meets margin and residual) as a 1 kHz trajectory CSV and
+        what it is as JSON beside it (`path` with .json), as `Comparison.write_recommended` does (None: none meets)."""
+        best, move = self.recommended, self.recommended_move()
+        if best is None or best.trajectory is None or move is None:
+            return None
+        return write_move(best.trajectory, move, path, inputs)
 
     def report_page(self, links: dict[str, str] | None = None):
         """The comparison's HTML report: the ranked table and the plan's wall heights, drawn but not written."""

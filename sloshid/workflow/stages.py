@@ -231,13 +231,9 @@ def _upstream_plan(ctx: StageContext, scenario_path: Path, params: Any) -> Any:
     return planned["result"] if same else None
 
 
-MARGIN_RISK_GOOD = 0.01
-"""A move within a spill margin is recommended as good when its Monte-Carlo risk's 95 % upper bound is below this."""
-
-
 def _run_margin_compare(scenario: Scenario, opts: CompareOptions, ctx: StageContext) -> dict[str, Any]:
     """A move within a spill margin: sloshid's plans against the upright baselines, ranked by risk; the first-ranked
-    move that meets margin and residual is the recommended one."""
+    move that meets margin and residual is the recommended one (recommended.csv, and recommended.json beside it)."""
     from sloshid.comparison.upright_compare import compare_upright
 
     path = _margin_liquid(ctx, scenario)
@@ -246,31 +242,20 @@ def _run_margin_compare(scenario: Scenario, opts: CompareOptions, ctx: StageCont
     summary = comp.to_dict()
     write_json(ctx.out_dir / "scores.json", summary)
     links = {"pipeline index": "../../index.html", "scores JSON": "../scores.json"}
-    best = next((r for r in comp.ranked() if r.meets and r.trajectory is not None), None)
-    move: dict[str, object] | None = None
-    recommendation: dict[str, str | None]
+    best, move = comp.recommended, None
+    recommendation: dict[str, str | None] = {"method": None, "label": "none", "risk": comp.risk_level}
     if best is not None:
         comp.write_first(ctx.out_dir / RECOMMENDED_CSV)
         links = {"recommended move CSV": f"../{RECOMMENDED_CSV}", **links}
         move = {"method": best.key, "label": best.label, "transfer_time_s": best.T_s, "csv": RECOMMENDED_CSV}
-        risk = best.risk
-        level = "good" if risk is not None and risk.upper95 < MARGIN_RISK_GOOD else "uncertain"
-        recommendation = {"method": best.key, "label": best.label, "risk": level}
-        told = f"{100 * risk.p:.2f} % (95 % upper bound {100 * risk.upper95:.2f} %)" if risk else "not estimated"
-        verdict = (
-            f"Recommended: {best.label}, T = {best.T_s:.3f} s, the first-ranked move that meets the spill margin and "
-            f"the residual; risk of breaking the margin {told}."
-        )
-    else:
-        recommendation = {"method": None, "label": "none", "risk": "unreliable"}
-        verdict = "No method meets the spill margin and the residual on arrival; loosen the margin or the limits."
+        recommendation = {"method": best.key, "label": best.label, "risk": comp.risk_level}
     comp.report_page(links).save(ctx.out_dir / "report")
     return {
         "kind": "margin",
         "scores": "scores.json",
         "report": "report/index.html",
         "recommended": move,
-        "verdict": verdict,
+        "verdict": comp.verdict,
         "recommendation": recommendation,
         "ranked": summary["ranked"],
         "t_no_liquid_s": summary["t_no_liquid_s"],
