@@ -106,6 +106,9 @@ def test_cli_writes_video_and_truth(run_cli, tmp_path):
     truth = read_csv(tmp_path / "v_truth.csv")
     assert set(truth) >= {"t_s", "rel_angle_deg", "container_angle_deg", "float_angle_deg", "float_x_px", "float_y_px"}
     assert len(truth["t_s"]) == 15
+    from sloshid.cli import synth_cmd  # the help names the columns in the CSV's order (it said t_s first, not frame)
+
+    assert f"has {', '.join(list(truth)[:4])}," in " ".join((synth_cmd.__doc__ or "").split())
 
 
 @pytest.mark.parametrize(
@@ -216,3 +219,31 @@ def test_float_looks_keep_the_truth_and_change_the_picture():
     # only on the float and, blurred by the motion, along the liquid surface: within the container's inner
     # half-width (60 px) of the float centre, nowhere else
     assert np.hypot(xs - row_a["float_x_px"], ys - row_a["float_y_px"]).max() < 62
+
+
+@pytest.mark.slow
+def test_the_bundled_sample_is_what_the_data_readmes_command_writes(run_cli, tmp_path):
+    # data/README.md says the sample is regenerated bit-for-bit; its truth CSV was not (0.0333333333, now 0.0333...33)
+    import re
+    import shlex
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    command = re.search(r"```bash\n(.*?)```", (root / "data" / "README.md").read_text(), re.S).group(1)
+    words = shlex.split(command.replace("\\\n", " "))[3:]  # after `python3 -m sloshid`
+    names = {"data/sample_tap.mp4": tmp_path / "s.mp4", "data/sample_tap_truth.csv": tmp_path / "s.csv"}
+    code, _, err = run_cli(*[names.get(w, w) for w in words])
+    assert code == 0, err
+    for bundled, fresh in names.items():
+        assert (root / bundled).read_bytes() == fresh.read_bytes(), bundled
+
+
+def test_the_bundled_identify_json_names_the_files_its_documented_commands_write():
+    # its sources said /tmp/w42/tap.csv, a temporary file no reader can follow
+    import json
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    doc = json.loads((root / "data" / "sample_tap_identify.json").read_text())
+    assert doc["sources"] == ["angles.csv"]
+    assert "identify angles.csv --mass 0.5 -o ident.json" in (root / "docs" / "upright_and_trays.md").read_text()
