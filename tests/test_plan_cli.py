@@ -179,6 +179,12 @@ BAD = [
         r"unknown table '\[limts\]' \(did you mean 'limits'\?\)",
     ),
     ("wrong type", BASE.replace("radius_m = 0.03", "radius_m = 'big'"), r"\[container\].radius_m must be a number"),
+    (
+        "radius in millimetres",
+        BASE.replace("radius_m = 0.03", "radius_m = 30"),
+        r"\[container\].radius_m must lie in \[0, 1\] m \(metres, not millimetres\), got 30",
+    ),
+    ("pendulum of no length", BASE.replace("l_m = ", "l_m = 0 #"), r"\[liquid\].l_m must be positive, got 0"),
     ("malformed toml", "[move\nstart = 1", r"is not valid TOML"),
     (
         "start and waypoints",

@@ -133,6 +133,10 @@ BAD = [
         r"^\[\[containers\]\] #3 \(full cup\) at \(0\.14, 0\) m with radius 0\.03 m reaches outside the tool's tray",
     ),
     ("unknown liquid", "tray_unknown", r"^\[\[containers\]\] #2 \(middle cup\) has no known liquid"),
+    ("container of no radius", "radius_0", r"^\[container\]\.radius_m must lie in \(0, 1\] m for a move within a"),
+    ("tilting container of no radius", "tilt_radius_0", r"^\[container\]\.radius_m must lie in \(0, 1\] m"),
+    ("cup with a negative margin", "tray_margin", r"^\[\[containers\]\] #1\.spill_margin_mm must be zero or"),
+    ("cup of no pendulum length", "tray_l_0", r"^\[\[containers\]\] #2\.l_m must be positive, got 0"),
 ]
 
 
@@ -142,6 +146,13 @@ def _bad_scenario(kind, tmp_path: Path) -> Path:
         text = UPRIGHT.read_text().replace("spill_margin_mm = 12", "spill_margin_mm = 25")
     elif kind == "tray_outside":
         text = TRAY.read_text().replace("position_m = [0.09, 0.0]", "position_m = [0.14, 0.0]")
+    elif kind in ("radius_0", "tilt_radius_0"):
+        source = UPRIGHT if kind == "radius_0" else UPRIGHT.with_name("tilt_margin_move.toml")
+        text = source.read_text().replace("radius_m = 0.04 ", "radius_m = 0 ")
+    elif kind == "tray_margin":
+        text = TRAY.read_text().replace('name = "shallow cup"', 'name = "shallow cup"\nspill_margin_mm = -3')
+    elif kind == "tray_l_0":
+        text = TRAY.read_text().replace("fill_m = 0.014590\nzeta = 0.05", "m_kg = 0.5\nl_m = 0\nd_ns_per_m = 1")
     else:
         text = TRAY.read_text().replace("fill_m = 0.014590\n", "")
     path = tmp_path / "bad.toml"
