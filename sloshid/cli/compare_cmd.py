@@ -14,7 +14,7 @@ import argparse
 import json
 import sys
 
-from sloshid.cli.plan_cmd import note_io_model, warn_doubtful_parameters
+from sloshid.cli.plan_cmd import arm_clause, fit_command, note_io_model, warn_doubtful_parameters
 from sloshid.core.outputs import Outputs
 
 
@@ -76,7 +76,14 @@ def run(args: argparse.Namespace) -> int:
     # with none recommended, the next line says why nothing was written (the library would refuse it)
     written = comp.write_recommended(output, tuple(inputs)) if output is not None and comp.recommended else None
     given = args.scenario + (f" --params {args.params}" if args.params else "")
-    print(next_line(comp, given, written), file=sys.stderr if args.json else sys.stdout)  # JSON stays JSON
+    arm = None
+    if written is not None and scenario.arm is not None:  # the scenario's arm, checked on the move to send
+        from sloshid.planning.arm import arm_objection
+
+        found = arm_objection(comp.recommended.require_replay().trajectory, scenario.arm)
+        command = fit_command(args.scenario, args.params, comp.recommended.key == "sloshid_robust", "TRAJ.csv")
+        arm = arm_clause(found.reason, found.refit, command) if found is not None else None
+    print(next_line(comp, given, written, arm), file=sys.stderr if args.json else sys.stdout)  # JSON stays JSON
     return 0
 
 
@@ -102,12 +109,14 @@ def _run_upright(args, scenario, inputs: list, output, report_dir) -> int:
     return 0
 
 
-def next_line(comp, scenario: str, written) -> str:
-    """What to do with the result: send the written move, or the command that writes it (`scenario`: the scenario
-    and --params as given)."""
+def next_line(comp, scenario: str, written, arm: str | None = None) -> str:
+    """What to do with the result: send the written move (not when the scenario's arm cannot follow it: `arm`, why
+    and what to do), or the command that writes it (`scenario`: the scenario and --params as given)."""
     rec = comp.recommended
     if rec is None:
         return "next: no method is recommended (see why above); change the move, its limits or [compare] and compare again."
+    if written is not None and arm is not None:
+        return f"next: do not send {written} ({rec.label}): {arm}."
     if written is not None:
         return f"next: send {written} to the robot ({rec.label}; {written.with_suffix('.json')} says why)."
     if rec.key == "sloshid_robust":
