@@ -312,3 +312,22 @@ def test_compare_refuses_an_upright_move_with_waypoints_in_one_sentence(run_cli,
     code, _stdout, err = run_cli("compare", scenario, "-o", tmp_path / "best.csv")
     assert code == 2 and "compare scores one straight move within a spill margin, and this one has waypoints" in err
     assert err.count("\n") == 1 and list(tmp_path.iterdir()) == [scenario]
+
+
+def test_plan_json_of_a_margin_plan_holds_what_the_help_says(run_cli, tmp_path):
+    # the help promised verification, max_tilt_rate_deg_s and per-segment figures, which a margin plan's JSON lacks
+    import argparse
+    import re
+
+    from sloshid.cli.app import build_parser
+
+    parser = build_parser("plan")
+    sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction)).choices["plan"]
+    text = next(a.help for a in sub._actions if "--json" in a.option_strings)
+    margin = text.split("a plan within a spill margin's ")[1]
+    named = {k for k in re.findall(r"[A-Za-z_]+", margin) if "_" in k or k in ("kind", "status", "containers", "risk")}
+    code, out, err = run_cli("plan", UPRIGHT, "-o", tmp_path / "u.csv", "--json")
+    assert code == 0, err
+    keys = set(json.loads(out))
+    assert named <= keys and {"kind", "verification_ok", "containers", "margin_sweep"} <= named
+    assert "verification" not in keys and "segments" not in keys

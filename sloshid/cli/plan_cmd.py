@@ -63,8 +63,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--json",
         action="store_true",
-        help="print a JSON summary (T_s in s, solve_time_s in s, iterations, status, max_tilt_deg, "
-        "max_tilt_rate_deg_s, limits_ok, verification, per-segment figures) on stdout",
+        help="print a JSON summary on stdout: a slosh-free plan's T_s in s, solve_time_s in s, iterations, status, "
+        "max_tilt_deg, max_tilt_rate_deg_s, limits_ok, verification, per-segment figures; a plan within a spill "
+        "margin's kind, T_s, max_tilt_deg, status, containers (peak and residual wall heights in mm against their "
+        "allowances), limiting_container, verification_ok, limits_ok, risk, robust and margin_sweep",
     )
 
 
