@@ -257,3 +257,17 @@ def test_compare_shows_its_progress_on_a_terminal_and_ends_with_the_next_step(tm
     last = out.strip().splitlines()[-1]
     recommended = json.loads((tmp_path / "move.json").read_text())
     assert last.startswith(f"next: send {tmp_path / 'move.csv'} to the robot") and recommended["label"] in last
+
+
+def test_compare_checks_the_move_it_sends_on_the_scenarios_arm(tmp_path, run_cli):
+    # the scenario's Panda was ignored: compare said "next: send move.csv to the robot" for a move whose joint
+    # accelerations the arm cannot follow (`plan --joints` refused it, exit 1)
+    arm = '[robot]\nmodel = "panda"\ntool_offset_m = [0.0, 0.0, 0.1]\n'
+    arm += "q_start = [-0.2601, -0.2369, -0.4947, -2.6876, -0.1801, 2.4704, 0.184]\n"
+    path = write_scenario(tmp_path, methods='["constant_acc", "sloshid_robust"]', extra=arm)
+    code, out, err = run_cli("compare", path, "-o", tmp_path / "move.csv")
+    assert code == 0, err
+    last = out.strip().splitlines()[-1]
+    fit = f"sloshid plan {path} --robust -o TRAJ.csv --joints TRAJ_joints.csv --fit-joints"
+    assert last.startswith(f"next: do not send {tmp_path / 'move.csv'} (sloshid robust plan): the Panda of [robot]")
+    assert f"`{fit}` plans sloshid's move slower" in last and "to the robot" not in last

@@ -346,3 +346,29 @@ def test_a_bad_robust_samples_key_is_refused_before_anything_runs(tmp_path, run_
     code, _, err = run_cli("run", pipe, "--output-dir", tmp_path / "runs")
     assert code == 2 and "[compare].robust_samples must lie in 0..200 (0: no robust plan), got -1." in err
     assert err.count("\n") == 1 and not (tmp_path / "runs").exists()
+
+
+def test_run_does_not_say_send_a_plan_the_scenarios_arm_cannot_follow(tmp_path, run_cli):
+    # paper_1d names a Panda, whose joint 5 cannot follow the fastest plan (`plan --joints` exits 1), yet run said
+    # "send to the robot: .../plan/trajectory.csv"; the line and the index now say why not and what fits one
+    scenario = ROOT / "data" / "scenarios" / "paper_1d.toml"
+    pipe = _write(tmp_path / "p.toml", f'[plan]\nscenario = "{scenario.as_posix()}"\nuse_identified = false\n')
+    code, out, err = run_cli("run", pipe, "--output-dir", tmp_path / "runs")
+    assert code == 0, err
+    run_dir = Path(out.strip()).parent
+    fit = f"`sloshid plan {scenario} -o TRAJ.csv --joints TRAJ_joints.csv --fit-joints`"
+    line = err.strip().splitlines()[-1]
+    assert line.startswith(f"do not send {run_dir / 'plan' / 'trajectory.csv'} to the robot (the nominal plan")
+    assert "the Panda of [robot] cannot follow it (joint 5 exceeds its acceleration limit" in line and fit in line
+    page = (run_dir / "index.html").read_text()
+    assert "Send to the robot" not in page and "to the robot: the Panda of [robot] cannot follow it" in page
+
+
+def test_run_refuses_a_container_of_no_radius_before_its_first_stage(tmp_path, run_cli):
+    # "stage [plan] failed: unexpected error: ZeroDivisionError" after the stages before it had run
+    text = (ROOT / "data" / "scenarios" / "upright_move.toml").read_text()
+    _write(tmp_path / "move.toml", text.replace("radius_m = 0.04 ", "radius_m = 0 "))
+    pipe = _write(tmp_path / "p.toml", '[plan]\nscenario = "move.toml"\nuse_identified = false\n')
+    code, _, err = run_cli("run", pipe, "--output-dir", tmp_path / "runs")
+    assert code == 2 and "[container].radius_m must lie in (0, 1] m for a move within a spill margin" in err
+    assert err.count("\n") == 1 and not (tmp_path / "runs").exists()

@@ -225,3 +225,27 @@ def test_q_start_is_a_seed_and_joint_space_takes_one_run(run_cli, tmp_path):
     assert joints["start_offset_m"] < 1e-4 and joints["start_jump_rad"] < 1e-3
     position = next(u for u in joints["limits"] if u["quantity"] == "position_rad")
     assert 0 < position["usage"] < 1  # |angle| over |nearer bound|: read -0.977 against a negative bound
+
+
+def test_without_joints_the_next_line_checks_the_scenarios_arm(run_cli, tmp_path):
+    # the scenario's Panda was ignored without --joints, yet plan said "next: send far.csv to the robot." for a goal
+    # 1.5 m away, and for paper_1d's plan whose joint 5 the arm cannot accelerate as fast
+    far = tmp_path / "far.toml"
+    far.write_text(PAPER_1D.read_text().replace("goal = [0.3, 0.27, 0.2]", "goal = [1.5, 0.27, 0.2]"))
+    code, out, err = run_cli("plan", far, "-o", tmp_path / "far.csv")
+    assert code == 0, err  # the plan passed its own checks; the arm's verdict is the next line's
+    last = out.strip().splitlines()[-1]
+    assert re.match(
+        rf"next: do not send {re.escape(str(tmp_path / 'far.csv'))}: the pose at .* out of the Panda's", last
+    )
+    move = tmp_path / "t.csv"
+    code, out, err = run_cli("plan", PAPER_1D, "-o", move, "--json")
+    assert code == 0 and json.loads(out)["joints"] is None  # stdout stays the JSON, the line goes to stderr
+    command = f"sloshid plan {PAPER_1D} -o {move} --joints {tmp_path / 't_joints.csv'} --fit-joints"
+    assert err.strip().splitlines()[-1] == (
+        f"next: do not send {move}: the Panda of [robot] cannot follow it (joint 5 exceeds its acceleration limit at "
+        f"t = 0.008 s: -32.7 against 15 rad/s2); `{command}` plans sloshid's move slower until the arm can follow it, "
+        "and writes its joints."
+    )
+    code, out, err = run_cli(*command.split()[1:])  # the command it gives does what it says
+    assert code == 0 and out.strip().splitlines()[-1].startswith(f"next: send {move} (or the joints, ")

@@ -87,4 +87,7 @@ def test_each_command_of_the_chain_ends_with_the_next_step(run_cli, tmp_path):
     assert code == 0 and out.strip().splitlines()[-1].startswith(f"next: sloshid plan SCENARIO.toml --params {params}")
     code, out, err = run_cli("plan", SCENARIO, "--params", params, "--robust", "-o", move)
     assert code == 0, err
-    assert out.strip().splitlines()[-1] == f"next: send {move} to the robot."
+    # the scenario's Panda cannot follow the robust plan: the line gives the command that fits it to the arm
+    fit = f"sloshid plan {SCENARIO} --params {params} --robust -o {move} --joints {tmp_path / 'move_joints.csv'}"
+    assert out.strip().splitlines()[-1].startswith(f"next: do not send {move}: the Panda of [robot] cannot follow it")
+    assert f"`{fit} --fit-joints` plans sloshid's move slower" in out

@@ -170,6 +170,15 @@ def test_a_tap_after_the_videos_end_is_said(run_cli, tmp_path):
     )
 
 
+def test_an_odd_size_is_reported_as_the_size_written(run_cli, tmp_path):
+    # it said "641x481" of a video that decodes as 640x480: the writer keeps even sizes (half-size chroma)
+    video = tmp_path / "odd.mp4"
+    code, out, err = run_cli("synth", video, "--width", "161", "--height", "121", "--duration", "0.5")
+    assert code == 0, err
+    assert FrameReader(video).frame_size == (160, 120)
+    assert "(15 frames, 160x120, h264; 161x121 less its odd last column or row: the codec takes even sizes)" in out
+
+
 def test_settings_reject_unknown_colour():
     with pytest.raises(UserError, match="did you mean 'green'"):
         SynthSettings(float_color="gren")

@@ -133,6 +133,10 @@ BAD = [
         r"^\[\[containers\]\] #3 \(full cup\) at \(0\.14, 0\) m with radius 0\.03 m reaches outside the tool's tray",
     ),
     ("unknown liquid", "tray_unknown", r"^\[\[containers\]\] #2 \(middle cup\) has no known liquid"),
+    ("container of no radius", "radius_0", r"^\[container\]\.radius_m must lie in \(0, 1\] m for a move within a"),
+    ("tilting container of no radius", "tilt_radius_0", r"^\[container\]\.radius_m must lie in \(0, 1\] m"),
+    ("cup with a negative margin", "tray_margin", r"^\[\[containers\]\] #1\.spill_margin_mm must be zero or"),
+    ("cup of no pendulum length", "tray_l_0", r"^\[\[containers\]\] #2\.l_m must be positive, got 0"),
 ]
 
 
@@ -142,6 +146,13 @@ def _bad_scenario(kind, tmp_path: Path) -> Path:
         text = UPRIGHT.read_text().replace("spill_margin_mm = 12", "spill_margin_mm = 25")
     elif kind == "tray_outside":
         text = TRAY.read_text().replace("position_m = [0.09, 0.0]", "position_m = [0.14, 0.0]")
+    elif kind in ("radius_0", "tilt_radius_0"):
+        source = UPRIGHT if kind == "radius_0" else UPRIGHT.with_name("tilt_margin_move.toml")
+        text = source.read_text().replace("radius_m = 0.04 ", "radius_m = 0 ")
+    elif kind == "tray_margin":
+        text = TRAY.read_text().replace('name = "shallow cup"', 'name = "shallow cup"\nspill_margin_mm = -3')
+    elif kind == "tray_l_0":
+        text = TRAY.read_text().replace("fill_m = 0.014590\nzeta = 0.05", "m_kg = 0.5\nl_m = 0\nd_ns_per_m = 1")
     else:
         text = TRAY.read_text().replace("fill_m = 0.014590\n", "")
     path = tmp_path / "bad.toml"
@@ -321,3 +332,22 @@ def test_compare_refuses_an_upright_move_with_waypoints_in_one_sentence(run_cli,
     code, _stdout, err = run_cli("compare", scenario, "-o", tmp_path / "best.csv")
     assert code == 2 and "compare scores one straight move within a spill margin, and this one has waypoints" in err
     assert err.count("\n") == 1 and list(tmp_path.iterdir()) == [scenario]
+
+
+def test_plan_json_of_a_margin_plan_holds_what_the_help_says(run_cli, tmp_path):
+    # the help promised verification, max_tilt_rate_deg_s and per-segment figures, which a margin plan's JSON lacks
+    import argparse
+    import re
+
+    from sloshid.cli.app import build_parser
+
+    parser = build_parser("plan")
+    sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction)).choices["plan"]
+    text = next(a.help for a in sub._actions if "--json" in a.option_strings)
+    margin = text.split("a plan within a spill margin's ")[1]
+    named = {k for k in re.findall(r"[A-Za-z_]+", margin) if "_" in k or k in ("kind", "status", "containers", "risk")}
+    code, out, err = run_cli("plan", UPRIGHT, "-o", tmp_path / "u.csv", "--json")
+    assert code == 0, err
+    keys = set(json.loads(out))
+    assert named <= keys and {"kind", "verification_ok", "containers", "margin_sweep"} <= named
+    assert "verification" not in keys and "segments" not in keys

@@ -16,7 +16,7 @@ import argparse
 import json
 import sys
 
-from sloshid.cli.plan_cmd import note_io_model, warn_doubtful_parameters
+from sloshid.cli.plan_cmd import arm_clause, fit_command, note_io_model, warn_doubtful_parameters
 from sloshid.comparison.recommend import declare_move
 from sloshid.core.outputs import Outputs
 
@@ -80,7 +80,14 @@ def run(args: argparse.Namespace) -> int:
     print(json.dumps(comp.to_dict(), indent=2) if args.json else comp.summary())
     # with none recommended, the next line says why nothing was written (the library would refuse it)
     written = comp.write_recommended(output, tuple(inputs)) if output is not None and comp.recommended else None
-    return _end(args, comp, output, written)
+    arm, rec = None, comp.recommended
+    if written is not None and rec is not None and scenario.arm is not None:  # the arm, checked on the move to send
+        from sloshid.planning.arm import arm_objection
+
+        found = arm_objection(rec.require_replay().trajectory, scenario.arm)
+        command = fit_command(args.scenario, args.params, rec.key == "sloshid_robust", "TRAJ.csv")
+        arm = arm_clause(found.reason, found.refit, command) if found is not None else None
+    return _end(args, comp, output, written, arm)
 
 
 def _run_upright(args, scenario, inputs: list, output, report_dir) -> int:
@@ -100,11 +107,12 @@ def _run_upright(args, scenario, inputs: list, output, report_dir) -> int:
     return _end(args, comp, output, written)
 
 
-def _end(args, comp, output, written) -> int:
-    """The next line (on stderr under --json, which stays JSON); exit code 1, and a line saying nothing was written,
-    when -o was asked for but no method is recommended."""
+def _end(args, comp, output, written, arm: str | None = None) -> int:
+    """The next line (on stderr under --json, which stays JSON; `arm`: why the scenario's arm cannot follow the move
+    written, as `next_line` takes it); exit code 1, and a line saying nothing was written, when -o was asked for but no
+    method is recommended."""
     given = args.scenario + (f" --params {args.params}" if args.params else "")
-    print(next_line(comp, given, written), file=sys.stderr if args.json else sys.stdout)
+    print(next_line(comp, given, written, arm), file=sys.stderr if args.json else sys.stdout)
     if output is None or written is not None:
         return 0
     kept = f"; {output} was left as it was, not this comparison's move" if output.exists() else ""
@@ -112,12 +120,14 @@ def _end(args, comp, output, written) -> int:
     return 1
 
 
-def next_line(comp, scenario: str, written) -> str:
-    """What to do with the result: send the written move, or the command that writes it (`scenario`: the scenario
-    and --params as given)."""
+def next_line(comp, scenario: str, written, arm: str | None = None) -> str:
+    """What to do with the result: send the written move (not when the scenario's arm cannot follow it: `arm`, why
+    and what to do), or the command that writes it (`scenario`: the scenario and --params as given)."""
     rec = comp.recommended
     if rec is None:
         return "next: no method is recommended (see why above); change the move, its limits or [compare] and compare again."
+    if written is not None and arm is not None:
+        return f"next: do not send {written} ({rec.label}): {arm}."
     if written is not None:
         return f"next: send {written} to the robot ({rec.label}; {written.with_suffix('.json')} says why)."
     if rec.key == "sloshid_robust":

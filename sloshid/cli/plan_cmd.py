@@ -55,15 +55,18 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default=None,
         help="also write the arm's joint angles at 1 kHz (t_s, q1..q7 in rad) by inverse kinematics, checked "
         "against the datasheet's joint position, velocity, acceleration and jerk limits; needs a [robot] table "
-        'with model = "panda"; exit code 1 when the arm cannot follow (the files are still written where none is yet)',
+        'with model = "panda"; exit code 1 when the arm cannot follow (the files are still written where none is yet); '
+        "without it a [robot] arm is checked all the same, for the last line only (send the plan, or why not)",
     )
     add_settings(parser, ArmSettings, only=("fit_joints",), title="the scenario's [robot] arm (with --joints)")
     add_settings(parser, PlanSettings)
     parser.add_argument(
         "--json",
         action="store_true",
-        help="print a JSON summary (T_s in s, solve_time_s in s, iterations, status, max_tilt_deg, "
-        "max_tilt_rate_deg_s, limits_ok, verification, per-segment figures) on stdout",
+        help="print a JSON summary on stdout: a slosh-free plan's T_s in s, solve_time_s in s, iterations, status, "
+        "max_tilt_deg, max_tilt_rate_deg_s, limits_ok, verification, per-segment figures; a plan within a spill "
+        "margin's kind, T_s, max_tilt_deg, status, containers (peak and residual wall heights in mm against their "
+        "allowances), limiting_container, verification_ok, limits_ok, risk, robust and margin_sweep",
     )
 
 
@@ -72,6 +75,7 @@ def run(args: argparse.Namespace) -> int:
     exit code 1 when the arm cannot follow, a limit is exceeded, the verification fails or the path is left (the
     files are still written, for inspection, when none of them is there yet)."""
     from sloshid.planning.planner import plan
+    from sloshid.planning.result import PlanResult
     from sloshid.planning.scenario import load_scenario, resolve_liquid
 
     settings = settings_from(args, PlanSettings)
@@ -109,6 +113,7 @@ def run(args: argparse.Namespace) -> int:
     params = resolve_liquid(scenario, args.params)
     warn_doubtful_parameters(args.params, scenario)
     result = plan(scenario, params, progress=sys.stderr.isatty())
+    assert isinstance(result, PlanResult)  # a move within a spill margin went to _run_upright above
     fit = []
     if joints is not None:
         result, fit = _check_joints(result, scenario, params, args.fit_joints or scenario.arm.fit_joints)
@@ -140,7 +145,14 @@ def run(args: argparse.Namespace) -> int:
     else:
         print(result.summary() + (f"; wrote {' and '.join(map(str, written))}" if written else ""))
     if written and passed:  # the one line a user needs next (on stderr under --json, which stays JSON)
-        step = next_step(output, joints, args.params, peak, result.verify_during_deg)
+        objection = None
+        if joints is None and scenario.arm is not None:  # the arm the scenario names, checked all the same
+            from sloshid.planning.arm import arm_objection
+
+            found = arm_objection(result.trajectory, scenario.arm)
+            command = fit_command(args.scenario, args.params, settings.robust, output)
+            objection = arm_clause(found.reason, found.refit, command) if found is not None else None
+        step = next_step(output, joints, args.params, peak, result.verify_during_deg, objection)
         print(step, file=sys.stderr if args.json else sys.stdout)
     if kept:
         print(
@@ -241,17 +253,42 @@ def note_io_model(params_path: str | None, trajectory: str, planned=None) -> flo
     return peak
 
 
-def next_step(output: Path, joints: Path | None, params_path: str | None, peak_deg: float | None, limit: float) -> str:
+def next_step(
+    output: Path,
+    joints: Path | None,
+    params_path: str | None,
+    peak_deg: float | None,
+    limit: float,
+    arm: str | None = None,
+) -> str:
     """The line a user needs after a plan that passed its checks: send it; but not when the whole input-output model
-    moves the liquid in it by more than the plan is verified to (`peak_deg` against `limit`, deg): then check first."""
+    moves the liquid in it by more than the plan is verified to (`peak_deg` against `limit`, deg): then check first;
+    nor when the scenario's arm cannot follow it (`arm`: `arm_objection`'s clause)."""
     if peak_deg is not None and peak_deg > limit:
         return (
             f"next: do not send {output}: by the whole model of {params_path} it moves the liquid by up to "
             f"{peak_deg:.2g} deg (the plan holds its pendulum pair within {limit:g} deg); check a move with `sloshid "
             f"predict {output} --params {params_path}` and send one it keeps slosh-free."
         )
+    if arm is not None:
+        return f"next: do not send {output}: {arm}."
     also = f" (or the joints, {joints})" if joints is not None else ""
     return f"next: send {output}{also} to the robot."
+
+
+def fit_command(scenario: str | Path, params_path: str | Path | None, robust: bool, output: str | Path) -> str:
+    """The `sloshid plan` command that plans the move for the scenario's arm: --joints beside `output`, --fit-joints."""
+    out = Path(output)
+    given = f"{scenario}" + (f" --params {params_path}" if params_path else "") + (" --robust" if robust else "")
+    return f"sloshid plan {given} -o {out} --joints {out.with_name(out.stem + '_joints.csv')} --fit-joints"
+
+
+def arm_clause(reason: str, refit: bool, command: str) -> str:
+    """Why the scenario's arm cannot follow a move (`planning.arm.ArmObjection`) and, when a slower plan can fix it
+    (`refit`), the `command` that plans one: the clause after "do not send TRAJ.csv"."""
+    if not refit:
+        return reason
+    return f"{reason}; `{command}` plans sloshid's move slower until the arm can follow it, and writes its joints"
 
 
 def warn_doubtful_parameters(params_path: str | None, scenario) -> None:

@@ -51,6 +51,14 @@ def run(args: argparse.Namespace) -> int:
             truncated |= video.get("lost_share", 0.0) > LOST_NOTE
     step = next_step(result.run_dir, result.stages)
     if step is not None and not args.quiet:  # stdout stays the index's path alone
-        print(f"send to the robot: {result.run_dir / step[0]} ({step[1]}); open:", file=sys.stderr)
+        move, what, arm = result.run_dir / step[0], step[1], step[2]
+        if arm is not None:  # the scenario's arm cannot follow it
+            from sloshid.cli.plan_cmd import arm_clause, fit_command
+
+            command = fit_command(arm["scenario"], arm["params"], arm["robust"], "TRAJ.csv")
+            why = arm_clause(arm["reason"], arm["refit"], command)
+            print(f"do not send {move} to the robot ({what}): {why}; open:", file=sys.stderr)
+        else:
+            print(f"send to the robot: {move} ({what}); open:", file=sys.stderr)
     print(result.index_html)
     return 0 if result.ok and not truncated else 1

@@ -62,7 +62,7 @@ def settings_from_args(args: argparse.Namespace) -> SynthSettings:
 def run(args: argparse.Namespace) -> int:
     """Render the video and its truth CSV; print where they went and the liquid's modal values."""
     from sloshid.core.outputs import Outputs
-    from sloshid.video.frames import VIDEO_SUFFIXES
+    from sloshid.video.frames import VIDEO_SUFFIXES, encoded_size
 
     settings = settings_from_args(args)
     outputs = Outputs()
@@ -81,8 +81,12 @@ def run(args: argparse.Namespace) -> int:
         )
     truth = render_video(video, settings, truth_path, progress=True, scene_json=scene_json)
     p = settings.params
+    width, height = encoded_size(settings.width, settings.height)
+    size = f"{width}x{height}, {settings.codec}"
+    if (width, height) != (settings.width, settings.height):  # the codecs' half-size chroma takes even sizes
+        size += f"; {settings.width}x{settings.height} less its odd last column or row: the codec takes even sizes"
     print(
-        f"wrote {args.output} ({len(truth)} frames, {settings.width}x{settings.height}, {settings.codec}) "
+        f"wrote {args.output} ({len(truth)} frames, {size}) "
         f"and {truth_path}{f' and {scene_json}' if scene_json else ''}; liquid f = {p.f_hz:.3f} Hz, "
         f"zeta = {p.zeta:.4f}"
     )

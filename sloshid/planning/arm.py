@@ -320,7 +320,40 @@ def check_joints(traj: Trajectory, settings: ArmSettings, arm: Arm | None = None
     )
 
 
-__all__ = ["Arm", "ArmSettings", "JointCheck", "arm_settings", "check_joints", "joint_usages"]
+@dataclass(frozen=True)
+class ArmObjection:
+    """Why the [robot] arm cannot follow a move: `reason`, one clause (a pose out of reach, or the joint limit it
+    breaks); `refit`: a plan made slower for the arm can fix it (fit_joints), which a reach or position limit cannot."""
+
+    reason: str
+    refit: bool
+
+
+def arm_objection(traj: Trajectory, settings: ArmSettings) -> ArmObjection | None:
+    """Why the [robot] arm cannot follow `traj` (None when it can): inverse kinematics and the joint limits, as
+    `check_joints`, about a second."""
+    try:
+        check = check_joints(traj, settings)
+    except UserError as exc:  # a pose out of reach, which says to move the path or the base
+        return ArmObjection(str(exc).rstrip("."), refit=False)
+    if check.executable:
+        return None
+    why = f"the Panda of [robot] cannot follow it ({check.reason().rstrip('.')})"
+    if any(u.quantity == "position_rad" and not u.ok for u in check.usages):
+        return ArmObjection(f"{why}; no timing fixes a joint position limit: move the path, the base or q_start", False)
+    return ArmObjection(why, refit=True)
+
+
+__all__ = [
+    "Arm",
+    "ArmObjection",
+    "ArmSettings",
+    "JointCheck",
+    "arm_objection",
+    "arm_settings",
+    "check_joints",
+    "joint_usages",
+]
 
 
 START_JUMP_RAD = 1e-3

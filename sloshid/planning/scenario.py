@@ -180,8 +180,10 @@ class Container:
     """Height of the rim above the liquid surface at rest (m): the spill margin is measured down from it."""
 
     def __post_init__(self) -> None:
-        if not self.radius_m >= 0:
-            raise UserError(f"[container].radius_m must be zero or positive, got {self.radius_m}.")
+        if not (math.isfinite(self.radius_m) and 0 <= self.radius_m <= MAX_RIM_M):
+            raise UserError(
+                f"[container].radius_m must lie in [0, {MAX_RIM_M:g}] m (metres, not millimetres), got {self.radius_m}."
+            )
         if self.rim_above_surface_m is not None:
             try:
                 check_rim(self.rim_above_surface_m, "rim_above_surface_m")
@@ -238,6 +240,20 @@ class TrayContainer:
             raise SettingError("fill_m", f"{{name}} must be a positive height (m), got {self.fill_m}.")
         if self.zeta is not None and not 0 <= self.zeta < 1:
             raise SettingError("zeta", f"{{name}} must lie in [0, 1), got {self.zeta}.")
+        if self.spill_margin_mm is not None and not (math.isfinite(self.spill_margin_mm) and self.spill_margin_mm >= 0):
+            raise SettingError(
+                "spill_margin_mm", f"{{name}} must be zero or positive (mm), got {self.spill_margin_mm}."
+            )
+        check_pendulum(self.m_kg, self.l_m, self.d_ns_per_m)
+
+
+def check_pendulum(m_kg: float | None, l_m: float | None, d_ns_per_m: float | None) -> None:
+    """Refuse pendulum keys (None: not given) that are not positive (d_ns_per_m: zero or positive) finite numbers."""
+    for name, value in (("m_kg", m_kg), ("l_m", l_m)):
+        if value is not None and not (math.isfinite(value) and value > 0):
+            raise SettingError(name, f"{{name}} must be positive, got {value}.")
+    if d_ns_per_m is not None and not (math.isfinite(d_ns_per_m) and d_ns_per_m >= 0):
+        raise SettingError("d_ns_per_m", f"{{name}} must be zero or positive, got {d_ns_per_m}.")
 
 
 @dataclass(frozen=True)
@@ -406,6 +422,9 @@ class LiquidTable:
     d_ns_per_m: float = setting_field(unit="N s/m")
     """The pendulum's damping constant d = 2 m omega zeta."""
 
+    def __post_init__(self) -> None:
+        check_pendulum(self.m_kg, self.l_m, self.d_ns_per_m)
+
 
 @dataclass
 class Scenario:
@@ -532,7 +551,7 @@ def scenario_from_dict(data: dict[str, Any], source: str = "") -> Scenario:
         )
     tray = from_dict(Tray, data["tray"], "[tray]") if "tray" in data else None
     risk = from_dict(RiskSettings, data["risk"], "[risk]") if "risk" in data else None
-    return Scenario(
+    scenario = Scenario(
         waypoints=points,
         limits=limits,
         obstacles=obstacles,
@@ -551,6 +570,22 @@ def scenario_from_dict(data: dict[str, Any], source: str = "") -> Scenario:
         tray=tray,
         risk=risk,
     )
+    _check_margin_radius(scenario)
+    return scenario
+
+
+def _check_margin_radius(scenario: Scenario) -> None:
+    """Refuse a [container] of no radius whose spill margin is planned for: its wall height is radius x tan(tilt)."""
+    measured = scenario.within_margin or (
+        scenario.path is not None
+        and scenario.limits.spill_margin_mm is not None
+        and scenario.rim_above_surface_m is not None
+    )
+    if measured and not scenario.containers and scenario.container_radius_m <= 0:
+        raise UserError(
+            f"[container].radius_m must lie in (0, {MAX_RIM_M:g}] m for a move within a spill margin (the liquid "
+            f"rises radius x tan(tilt) at the wall), got {scenario.container_radius_m:g}."
+        )
 
 
 def _path_margin(limits: Limits, container: Container, rel_given: bool) -> Limits:

@@ -35,9 +35,9 @@ class SynthSettings:
     """Everything `sloshid synth` can vary; the defaults give a clean 640x480 30 fps tap test of Table I."""
 
     width: int = setting_field(640, unit="px", group="timing")
-    """Frame width in pixels."""
+    """Frame width in pixels (the video takes an even one: an odd width loses its last column, the truth stays)."""
     height: int = setting_field(480, unit="px", group="timing")
-    """Frame height in pixels."""
+    """Frame height in pixels (an odd height loses its last row, as an odd width its last column)."""
     fps: float = setting_field(30.0, unit="frames/s", group="timing")
     """Nominal frame rate in frames per second."""
     duration_s: float = setting_field(4.0, unit="s", option="duration", group="timing")

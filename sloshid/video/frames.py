@@ -358,6 +358,12 @@ def lost_share(declared: int, decoded: int) -> float:
     return max(0.0, (declared - decoded) / declared) if declared else 0.0
 
 
+def encoded_size(width: int, height: int) -> tuple[int, int]:
+    """(width, height) a VideoWriter writes frames of this size at: even, for yuv420p's half-size chroma (an odd size
+    loses its last column or row)."""
+    return width - width % 2, height - height % 2
+
+
 class VideoWriter:
     """Write BGR frames with explicit presentation times (seconds) through PyAV: H.264 (libx264) or MPEG-4 Part 2.
 
@@ -383,7 +389,7 @@ class VideoWriter:
         self._av = av
         self._out = av.open(str(path), "w", format="mp4", options={"movflags": "faststart"})
         stream = self._out.add_stream(_ENCODERS[codec], rate=Fraction(fps).limit_denominator(1001))
-        stream.width, stream.height, stream.pix_fmt = width - width % 2, height - height % 2, "yuv420p"
+        (stream.width, stream.height), stream.pix_fmt = encoded_size(width, height), "yuv420p"
         if codec == "h264":
             crf = 23 if quality is None else quality
             stream.options = {"crf": f"{crf:g}", "preset": "veryfast", **_x264_determinism()}

@@ -240,16 +240,18 @@ def overall_verdict(records: list[StageRecord]) -> tuple[str, str]:
     return "Overall: " + ("; ".join(parts) or "no stage ran") + ".", worst
 
 
-def next_step(run_dir: Path, records: list[StageRecord]) -> tuple[str, str] | None:
-    """(file relative to the run, what it is) that a user sends to the robot: the recommended move when compare
-    recommended one, else the plan (said to be unchecked or not recommended); None when neither was written."""
+def next_step(run_dir: Path, records: list[StageRecord]) -> tuple[str, str, dict | None] | None:
+    """(file relative to the run, what it is, why the scenario's arm cannot follow it: the stage's "arm", or None)
+    that a user sends to the robot: the recommended move when compare recommended one, else the plan (said to be
+    unchecked or not recommended); None when neither was written."""
     summaries = {r.name: r.summary or {} for r in records if r.status in ("ran", "cached")}
     move = summaries.get("compare", {}).get("recommended")
     if move and (run_dir / "compare" / move["csv"]).exists():
-        return f"compare/{move['csv']}", f"the recommended move: {move['label']} ({move['transfer_time_s']:.3f} s)"
+        what = f"the recommended move: {move['label']} ({move['transfer_time_s']:.3f} s)"
+        return f"compare/{move['csv']}", what, move.get("arm")
     if (run_dir / "plan" / "trajectory.csv").exists():
         why = "compare recommended no method" if "compare" in summaries else "not compared with the alternatives"
-        return "plan/trajectory.csv", f"the nominal plan ({why})"
+        return "plan/trajectory.csv", f"the nominal plan ({why})", summaries.get("plan", {}).get("arm")
     return None
 
 
@@ -258,8 +260,12 @@ def _next_step(report: Report, run_dir: Path, records: list[StageRecord]) -> Non
     step = next_step(run_dir, records)
     if step is None:
         return
-    rel, what = step
+    rel, what, arm = step
     text = f"Send to the robot: {_link(run_dir, rel, rel)}, {html.escape(what)}."
+    if arm is not None:
+        refit = "; a plan fitted to the arm (sloshid plan's joint check, fit_joints) is slower but can" * arm["refit"]
+        why = html.escape(arm["reason"] + refit)
+        text = f"Do not send {_link(run_dir, rel, rel)} ({html.escape(what)}) to the robot: {why}."
     if rel != "plan/trajectory.csv" and (run_dir / "plan" / "trajectory.csv").exists():
         text += " The nominal plan is beside it: " + _link(run_dir, "plan/trajectory.csv", "plan/trajectory.csv") + "."
     report.add_html(f"<p><strong>{text}</strong></p>")

@@ -178,7 +178,31 @@ def _run_margin_plan(scenario: Scenario, ctx: StageContext) -> dict[str, Any]:
     links = {"pipeline index": "../../index.html", "trajectory CSV": "../trajectory.csv"}
     result.report(ctx.out_dir / "report", links, liquid_source=source)
     figure = _save_figure(result.plot(), ctx.out_dir / "plan.png")
-    return {"trajectory": "trajectory.csv", "report": "report/index.html", "figure": figure, **result.to_dict()}
+    arm = _arm(scenario, result.trajectory, ctx, robust=False)
+    return {"trajectory": "trajectory.csv", "report": "report/index.html", "figure": figure, **result.to_dict(), **arm}
+
+
+def _arm(scenario: Scenario, traj: Any, ctx: StageContext, robust: bool) -> dict[str, Any]:
+    """`{"arm": ...}`: why the scenario's [robot] arm cannot follow the move the run would send
+    (`planning.arm.arm_objection`), with what plans one it can (the scenario, the liquid's JSON, robust); None when
+    it can or the scenario names none. A move within a spill margin is not fitted to the arm (refit false)."""
+    if scenario.arm is None:
+        return {"arm": None}
+    from sloshid.planning.arm import arm_objection
+
+    found = arm_objection(traj, scenario.arm)
+    if found is None:
+        return {"arm": None}
+    params = ctx.upstream["identify"] / "params.json" if "identify" in ctx.upstream else None
+    return {
+        "arm": {
+            "reason": found.reason,
+            "refit": found.refit and not scenario.within_margin,
+            "scenario": scenario.source,
+            "params": str(params) if params is not None else None,
+            "robust": robust,
+        }
+    }
 
 
 def run_plan(opts: PlanOptions, ctx: StageContext) -> dict[str, Any]:
@@ -194,7 +218,8 @@ def run_plan(opts: PlanOptions, ctx: StageContext) -> dict[str, Any]:
     links = {"pipeline index": "../../index.html", "trajectory CSV": "../trajectory.csv"}
     result.report(ctx.out_dir / "report", links, liquid_source=source)
     figure = _save_figure(result.plot(), ctx.out_dir / "plan.png")
-    return {"trajectory": "trajectory.csv", "report": "report/index.html", "figure": figure, **result.to_dict()}
+    arm = _arm(scenario, result.trajectory, ctx, robust=False)
+    return {"trajectory": "trajectory.csv", "report": "report/index.html", "figure": figure, **result.to_dict(), **arm}
 
 
 @dataclass(frozen=True)
@@ -248,6 +273,7 @@ def _run_margin_compare(scenario: Scenario, opts: CompareOptions, ctx: StageCont
         comp.write_first(ctx.out_dir / RECOMMENDED_CSV)
         links = {"recommended move CSV": f"../{RECOMMENDED_CSV}", **links}
         move = {"method": best.key, "label": best.label, "transfer_time_s": best.T_s, "csv": RECOMMENDED_CSV}
+        move.update(_arm(scenario, best.trajectory, ctx, robust=False))
         recommendation = {"method": best.key, "label": best.label, "risk": comp.risk_level}
     comp.report_page(links).save(ctx.out_dir / "report")
     return {
@@ -277,8 +303,10 @@ def run_compare(opts: CompareOptions, ctx: StageContext) -> dict[str, Any]:
     write_json(ctx.out_dir / "scores.json", summary)
     move = comp.recommended_move()
     links = {"pipeline index": "../../index.html", "scores JSON": "../scores.json"}
-    if move is not None:
+    if move is not None and comp.recommended is not None:
         comp.write_recommended(ctx.out_dir / RECOMMENDED_CSV)
+        sent = comp.recommended.require_replay().trajectory
+        move = {**move, **_arm(scenario, sent, ctx, robust=move["method"] == "sloshid_robust")}
         links = {"recommended move CSV": f"../{RECOMMENDED_CSV}", **links}
     comp.report(ctx.out_dir / "report", links, progress=True)
     return {
