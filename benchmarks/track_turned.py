@@ -19,7 +19,7 @@ from pathlib import Path
 import av
 import numpy as np
 from bench_output import write_results
-from pbr_corpus import CORPUS, HOLDOUT, build
+from pbr_corpus import FOLDERS, build
 from track_pbr import TRACKED_VALID_SHARE
 
 from sloshid.core.errors import UserError
@@ -44,11 +44,12 @@ def median_angle(clip: Path, reference: str, roi: tuple[int, int, int, int] | No
     return float(np.median(res.angle_deg[ok])) if ok.mean() >= TRACKED_VALID_SHARE else None
 
 
-def turned_rows(folder: Path, holdout: bool) -> list[dict]:
-    """Every dyed-surface still of a set turned and tracked: its angles per turn and reference."""
-    rows = []
+def turned_rows(which: str) -> list[dict]:
+    """Every dyed-surface still of a set (`pbr_corpus.FOLDERS`' name) turned and tracked: its angles per turn and
+    reference."""
+    rows, folder = [], FOLDERS[which]
     with tempfile.TemporaryDirectory() as tmp:
-        for c in build(folder, holdout=holdout):
+        for c in build(folder, which=which):
             if c["kind"] != "still" or c["scene"] != "surface":
                 continue
             truth = read_csv(folder / c["truth"])
@@ -99,7 +100,7 @@ def summary(rows: list[dict]) -> dict:
 
 def main() -> None:
     t0 = time.perf_counter()
-    sets = {"pbr": turned_rows(CORPUS, False), "pbr held-out": turned_rows(HOLDOUT, True)}
+    sets = {"pbr": turned_rows("corpus"), "pbr held-out": turned_rows("holdout")}
     figures = {name: summary(rows) for name, rows in sets.items()}
 
     table = [
