@@ -9,6 +9,7 @@ from html import escape as html_escape
 import pytest
 
 from sloshid.core.errors import UserError
+from sloshid.core.tables import read_csv
 
 SCENARIO = """
 [move]
@@ -271,3 +272,36 @@ def test_compare_checks_the_move_it_sends_on_the_scenarios_arm(tmp_path, run_cli
     fit = f"sloshid plan {path} --robust -o TRAJ.csv --joints TRAJ_joints.csv --fit-joints"
     assert last.startswith(f"next: do not send {tmp_path / 'move.csv'} (sloshid robust plan): the Panda of [robot]")
     assert f"`{fit}` plans sloshid's move slower" in last and "to the robot" not in last
+
+
+@pytest.mark.parametrize(
+    ("parameters", "sent"),
+    [
+        ({"omega_rad_s": 19.04, "zeta": 0.05, "wave_share": 0.84, "crest_coeff": -0.16}, False),
+        ({"omega_rad_s": 21.6, "zeta": 0.07, "wave_share": 0.72, "crest_coeff": 0.3}, True),
+    ],
+    ids=["deep", "shallow"],
+)
+def test_compare_does_not_send_a_move_the_whole_input_output_model_calls_sloshing(tmp_path, run_cli, parameters, sent):
+    # compare scores with an input-output model's f and zeta alone; with the container's depth that model's whole
+    # response moved the liquid by 2.3 deg in the recommended move (`predict` agrees), and compare said to send it.
+    # Past the comparison's own slosh-free peak (1 deg) it now says not to; a model whose whole response stays within
+    # it (0.002 deg here) is sent as before
+    doc = {"parameters": {k: {"value": v} for k, v in parameters.items()}}
+    if not sent:
+        doc["geometry"] = {"container_radius_m": 0.049, "fill_height_m": 0.078}
+    params, move = tmp_path / "io.json", tmp_path / "move.csv"
+    params.write_text(json.dumps(doc))
+    path = write_scenario(tmp_path, methods='["constant_acc", "sloshid", "sloshid_robust"]')
+    code, out, err = run_cli("compare", path, "--params", params, "-o", move)
+    assert code == 0, err
+    last = out.strip().splitlines()[-1]
+    code, _, err = run_cli("predict", move, "--params", params, "-o", tmp_path / "p.csv", "--container-radius-m", 0.05)
+    assert code == 0, err
+    peak = max(read_csv(tmp_path / "p.csv")["rel_angle_deg"])
+    assert (peak <= 1.0) == sent, peak
+    if sent:
+        assert last.startswith(f"next: send {move} to the robot"), last
+    else:
+        assert last.startswith(f"next: do not send {move} (sloshid robust plan): by the whole model of {params}"), last
+        assert f"up to {peak:.2g} deg" in last and f"`sloshid predict {move} --params {params}`" in last

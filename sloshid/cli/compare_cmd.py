@@ -87,7 +87,12 @@ def run(args: argparse.Namespace) -> int:
         found = arm_objection(rec.require_replay().trajectory, scenario.arm)
         command = fit_command(args.scenario, args.params, rec.key == "sloshid_robust", "TRAJ.csv")
         arm = arm_clause(found.reason, found.refit, command) if found is not None else None
-    return _end(args, comp, output, written, arm)
+    peak = None
+    if written is not None and rec is not None and args.params:  # an input-output model: its whole model's say
+        from sloshid.validation.predict import whole_model_peak_deg
+
+        peak = whole_model_peak_deg(args.params, rec.require_trajectory(), str(written))
+    return _end(args, comp, output, written, arm, peak)
 
 
 def _run_upright(args, scenario, inputs: list, output, report_dir) -> int:
@@ -107,12 +112,11 @@ def _run_upright(args, scenario, inputs: list, output, report_dir) -> int:
     return _end(args, comp, output, written)
 
 
-def _end(args, comp, output, written, arm: str | None = None) -> int:
-    """The next line (on stderr under --json, which stays JSON; `arm`: why the scenario's arm cannot follow the move
-    written, as `next_line` takes it); exit code 1, and a line saying nothing was written, when -o was asked for but no
-    method is recommended."""
+def _end(args, comp, output, written, arm: str | None = None, peak: float | None = None) -> int:
+    """The next line (on stderr under --json, which stays JSON; `arm` and `peak` as `next_line` takes them); exit code
+    1, and a line saying nothing was written, when -o was asked for but no method is recommended."""
     given = args.scenario + (f" --params {args.params}" if args.params else "")
-    print(next_line(comp, given, written, arm), file=sys.stderr if args.json else sys.stdout)
+    print(next_line(comp, given, written, arm, args.params, peak), file=sys.stderr if args.json else sys.stdout)
     if output is None or written is not None:
         return 0
     kept = f"; {output} was left as it was, not this comparison's move" if output.exists() else ""
@@ -120,12 +124,22 @@ def _end(args, comp, output, written, arm: str | None = None) -> int:
     return 1
 
 
-def next_line(comp, scenario: str, written, arm: str | None = None) -> str:
-    """What to do with the result: send the written move (not when the scenario's arm cannot follow it: `arm`, why
-    and what to do), or the command that writes it (`scenario`: the scenario and --params as given)."""
+def next_line(
+    comp, scenario: str, written, arm: str | None = None, params: str | None = None, peak: float | None = None
+) -> str:
+    """What to do with the result: send the written move (not when the whole input-output model `params` moves the
+    liquid in it by `peak` deg, past what the comparison calls slosh-free, nor when the scenario's arm cannot follow
+    it: `arm`, why and what to do), or the command that writes it (`scenario`: the scenario and --params as given)."""
     rec = comp.recommended
     if rec is None:
         return "next: no method is recommended (see why above); change the move, its limits or [compare] and compare again."
+    if written is not None and peak is not None and peak > comp.settings.peak_ok_deg:
+        return (
+            f"next: do not send {written} ({rec.label}): by the whole model of {params} it moves the liquid by up to "
+            f"{peak:.2g} deg (the comparison, with its f and zeta alone, calls a move slosh-free within "
+            f"{comp.settings.peak_ok_deg:g} deg); check a move with `sloshid predict {written} --params {params}` and "
+            "send one it keeps slosh-free."
+        )
     if written is not None and arm is not None:
         return f"next: do not send {written} ({rec.label}): {arm}."
     if written is not None:
