@@ -16,7 +16,7 @@ import argparse
 import json
 import sys
 
-from sloshid.cli.plan_cmd import arm_clause, fit_command, note_io_model, warn_doubtful_parameters
+from sloshid.cli.plan_cmd import arm_says, note_io_model, warn_doubtful_parameters
 from sloshid.comparison.recommend import declare_move
 from sloshid.core.outputs import Outputs
 
@@ -80,18 +80,15 @@ def run(args: argparse.Namespace) -> int:
     print(json.dumps(comp.to_dict(), indent=2) if args.json else comp.summary())
     # with none recommended, the next line says why nothing was written (the library would refuse it)
     written = comp.write_recommended(output, tuple(inputs)) if output is not None and comp.recommended else None
-    arm, rec = None, comp.recommended
-    if written is not None and rec is not None and scenario.arm is not None:  # the arm, checked on the move to send
-        from sloshid.planning.arm import arm_objection
+    arm, peak, rec = None, None, comp.recommended
+    if written is not None and rec is not None:  # the move sent, checked on the scenario's arm and the whole model
+        sent = rec.require_replay().trajectory
+        if scenario.arm is not None:
+            arm = arm_says(scenario.arm, sent, args.scenario, args.params, rec.key == "sloshid_robust", "TRAJ.csv")
+        if args.params:  # an input-output model: what its whole model says (None for a plain one)
+            from sloshid.validation.predict import whole_model_peak_deg
 
-        found = arm_objection(rec.require_replay().trajectory, scenario.arm)
-        command = fit_command(args.scenario, args.params, rec.key == "sloshid_robust", "TRAJ.csv")
-        arm = arm_clause(found.reason, found.refit, command) if found is not None else None
-    peak = None
-    if written is not None and rec is not None and args.params:  # an input-output model: its whole model's say
-        from sloshid.validation.predict import whole_model_peak_deg
-
-        peak = whole_model_peak_deg(args.params, rec.require_trajectory(), str(written))
+            peak = whole_model_peak_deg(args.params, sent, str(written))
     return _end(args, comp, output, written, arm, peak)
 
 

@@ -147,11 +147,7 @@ def run(args: argparse.Namespace) -> int:
     if written and passed:  # the one line a user needs next (on stderr under --json, which stays JSON)
         objection = None
         if joints is None and scenario.arm is not None:  # the arm the scenario names, checked all the same
-            from sloshid.planning.arm import arm_objection
-
-            found = arm_objection(result.trajectory, scenario.arm)
-            command = fit_command(args.scenario, args.params, settings.robust, output)
-            objection = arm_clause(found.reason, found.refit, command) if found is not None else None
+            objection = arm_says(scenario.arm, result.trajectory, args.scenario, args.params, settings.robust, output)
         step = next_step(output, joints, args.params, peak, result.verify_during_deg, objection)
         print(step, file=sys.stderr if args.json else sys.stdout)
     if kept:
@@ -281,6 +277,17 @@ def fit_command(scenario: str | Path, params_path: str | Path | None, robust: bo
     out = Path(output)
     given = f"{scenario}" + (f" --params {params_path}" if params_path else "") + (" --robust" if robust else "")
     return f"sloshid plan {given} -o {out} --joints {out.with_name(out.stem + '_joints.csv')} --fit-joints"
+
+
+def arm_says(arm, traj, scenario: str | Path, params_path: str | Path | None, robust: bool, output) -> str | None:
+    """Why the scenario's `arm` (its ArmSettings) cannot follow the move `traj` written to `output`, with the command
+    that plans one it can (`arm_clause`); None when it can follow it."""
+    from sloshid.planning.arm import arm_objection
+
+    found = arm_objection(traj, arm)
+    if found is None:
+        return None
+    return arm_clause(found.reason, found.refit, fit_command(scenario, params_path, robust, output))
 
 
 def arm_clause(reason: str, refit: bool, command: str) -> str:
