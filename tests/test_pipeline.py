@@ -54,6 +54,7 @@ def test_cache_skips_unchanged_and_reruns_changed_stage_downstream_only(video, t
     _links_exist(first / "index.html")
     manifest = json.loads((first / "manifest.json").read_text())
     assert str(video) in manifest["input_sha256"] and manifest["settings"]["identify"]["mass_kg"] == 0.5
+    assert manifest["settings"]["run"]["output_dir"] == str(tmp_path / "runs")  # --output-dir, not the default
 
     code, out, _ = run_cli("run", pipe, "--output-dir", tmp_path / "runs", "--quiet")
     second = Path(out.strip()).parent
