@@ -496,6 +496,17 @@ def test_validate_scores_the_truth_model_near_perfect(tmp_path, run_cli):
         "validate", "--trajectory", tmp_path / "log.csv", "--measured", tmp_path / "noise.csv", "--params", params
     )
     assert code == 0 and "correlates weakly with the measurement" in err
+    # NaN samples of the measurement were dropped without a word (identify warns of them)
+    gappy = meas.copy()
+    gappy[100:110, 1] = np.nan
+    np.savetxt(tmp_path / "nan.csv", gappy, delimiter=",", header="t_s,height_mm", comments="")
+    log = tmp_path / "log.csv"
+    code, out, err = run_cli(
+        "validate", "--trajectory", log, "--measured", tmp_path / "nan.csv", "--params", params, "--json"
+    )
+    dropped = f"nan.csv: dropped 10 NaN/inf samples of {meas.shape[0]}."
+    assert code == 0 and f"sloshid: warning: {tmp_path / dropped}" in err
+    assert json.loads(out)["runs"][0]["notes"] == [str(tmp_path / dropped)]
     base = ("validate", "--trajectory", tmp_path / "log.csv", "--measured", tmp_path / "three.csv", "--params", params)
     # the table shows the peak error after the move too (only --json had it): the truth model's is small
     code, out, err = run_cli(*base[:4], tmp_path / "meas.csv", "--params", params)
