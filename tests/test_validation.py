@@ -617,9 +617,21 @@ def test_bad_input_is_one_sentence_and_exit_2_with_nothing_written(tmp_path, run
         (("predict", good, "-o", out, "--params", fast, *radius), "1e+06 rad/s (1.592e+05 Hz) is no sloshing mode"),
         # 1e9 s of settling asked for terabytes (a traceback)
         (("predict", good, "-o", out, "--params", params, *radius, "--settle-s", "1e9"), "between 0 and 600"),
+        # the second of two runs too short: it named no file, and gave the template's 3.68 s as the 1.18 s move's length
         (
-            ("validate", "--trajectory", good, "--measured", tmp_path / "short.csv", "--params", params, *radius),
-            "too short",
+            (
+                "validate",
+                *twice,
+                "--trajectory",
+                good,
+                "--measured",
+                tmp_path / "short.csv",
+                "--params",
+                params,
+                *radius,
+            ),
+            f"{tmp_path / 'short.csv'}: the measured record (2.48 s) is too short to align with the 1.18 s move: it must "
+            "be longer than the move with 0.5 s before and 2 s after it (3.68 s).",
         ),
         (
             (

@@ -323,7 +323,7 @@ def _prepare(pose: PoseLog, sig: Signal, start: LiquidModel) -> _RunData:
         spherical=True,
         depths_m=start.depths_m,
     )
-    al = align(sig.t_s, y_all, resp.t_s, start.reading(resp, kind), exc.move_span_s)
+    al = align(sig.t_s, y_all, resp.t_s, start.reading(resp, kind), exc.move_span_s, sig.source)
     keep = sig.t_s - al.lag_s >= exc.move_span_s[0] - LEAD_IN_S
     y = y_all[keep] - baseline(sig.t_s, y_all, exc.move_span_s[0] + al.lag_s)
     settle = max(float(sig.t_s[-1] - al.lag_s - exc.t_s[-1]) + LAG_SPAN_S, 0.1)

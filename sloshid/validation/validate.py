@@ -158,7 +158,7 @@ def validate_run(pose: PoseLog, sig: Signal, model: LiquidModel, name: str = "")
     pred = model.reading(resp, kind)
     band = fc.band(lambda r, m: m.reading(r, kind))
     move = resp.move_span_s
-    al = align(sig.t_s, y_all, resp.t_s, pred, move)
+    al = align(sig.t_s, y_all, resp.t_s, pred, move, sig.source)
     base = baseline(sig.t_s, y_all, move[0] + al.lag_s)
     tm = sig.t_s - al.lag_s
     keep = (tm >= move[0] - LEAD_IN_S) & (tm <= resp.t_s[-1])
