@@ -438,13 +438,14 @@ class IdentResult:
     # ---- plots (each takes ax=None and returns the axes it drew on) ----
 
     def plot_signal(self, i: int = 0, ax=None):
-        """The whole recording with the fit window shaded and the end of the excitation marked."""
+        """The whole recording with the fit window shaded and the estimated end of the excitation marked (from the
+        signal alone: `find_decay_window`)."""
         ax = _axes(ax)
         sig, w = self.signals[i], self.windows[i]
         ax.plot(*min_max_envelope(sig.t_s, sig.value), lw=0.7, color="0.2", label=sig.label)
         ax.axvspan(w.t0_s, w.t1_s, color="tab:green", alpha=0.15, label=f"fit window ({w.chosen_by})")
         if w.excitation_end_s is not None:
-            ax.axvline(w.excitation_end_s, color="tab:red", ls="--", lw=1, label="end of forced motion")
+            ax.axvline(w.excitation_end_s, color="tab:red", ls="--", lw=1, label="estimated end of forcing")
         ax.set_xlabel("t (s)")
         ax.set_ylabel(_ylabel(sig))
         ax.legend(loc="upper right", fontsize=8)
