@@ -15,11 +15,11 @@ from scipy.spatial.transform import Rotation
 
 from sloshid.core.errors import UserError
 from sloshid.core.tables import read_csv
-from sloshid.identification.estimator import IdentSettings
+from sloshid.identification.estimator import Z95, IdentSettings, estimate
 from sloshid.identification.signals import load_signal
 from sloshid.model.pendulum import XI_CYLINDER, G, SloshParams, cylinder_first_mode_omega, rotation_depths
 from sloshid.model.pose import PoseLog, excitation, load_pose_log, respond, savgol_acceleration_response
-from sloshid.validation.iofit import IOFit, fit_io
+from sloshid.validation.iofit import PRIORS, IOFit, fit_io
 from sloshid.validation.predict import (
     MODEL_ERROR_LOG_SD,
     LiquidModel,
@@ -301,6 +301,10 @@ def test_io_fit_recovers_known_parameters_from_a_noisy_500_hz_pose_log(tmp_path,
     assert data["geometry"]["axis_offset_m"] == OFFSET
     assert "decay-only" in stdout
     assert "wave_share" in (tmp_path / "rep" / "index.html").read_text()
+    # every fitted parameter has its physical range, and its interval lies within it
+    for key in ("f_hz", "zeta", "drag", "wave_share", "crest_coeff", "rest_tilt_x_deg", "rest_tilt_y_deg"):
+        lo, hi = p[key]["bounds"]
+        assert lo <= p[key]["ci95"][0] <= p[key]["ci95"][1] <= hi, key
 
 
 def test_a_rest_tilt_reads_zero_at_rest_and_a_small_wave_signed_at_its_own_frequency(tmp_path):
@@ -430,6 +434,15 @@ def test_a_fit_at_the_edge_of_a_physical_range_names_the_parameter():
     assert any(
         r.startswith("f_hz ended at the edge of its physical range 0.85-1.15 (times the prior)") for r in reasons
     )
+
+
+def test_an_interval_ends_at_its_parameters_bound_and_says_so():
+    # the docs' drag, 0.50465 ± 0.3 within its range 0.5-10, read "95 % CI 0 .. 1.0936": values the fit cannot reach
+    drag = estimate(0.50465, 0.3, PRIORS["drag"][2])
+    assert drag.ci95 == pytest.approx((0.5, 0.50465 + Z95 * 0.3), abs=1e-12)
+    assert drag.interval() == "0.5 (its bound) .. 1.0926" and drag.to_dict()["bounds"] == [0.5, 10.0]
+    free = estimate(3.0, 0.01)  # no bound: the normal interval, and no bounds in the JSON
+    assert free.interval() == "2.9804 .. 3.0196" and "bounds" not in free.to_dict()
 
 
 def _io_fit_of(tmp_path, pose: PoseLog, **measured) -> IOFit:

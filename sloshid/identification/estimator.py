@@ -34,6 +34,7 @@ from sloshid.identification.decay_window import (
 )
 from sloshid.identification.pt2fit import (
     Z95,
+    ZETA_BOUNDS,
     PT2Fit,
     WindowData,
     autocorrelation,
@@ -155,14 +156,37 @@ class Estimate:
     value: float
     stderr: float
     ci95: tuple[float, float]
+    bounds: tuple[float, float] = (-math.inf, math.inf)
+    """The parameter's range (its search bounds or physical range): the interval ends there at the most."""
 
     def to_dict(self) -> dict:
-        """{"value", "stderr", "ci95": [lo, hi]}."""
-        return {"value": self.value, "stderr": self.stderr, "ci95": list(self.ci95)}
+        """{"value", "stderr", "ci95": [lo, hi]}, and "bounds": [lo, hi] (null: open) for a bounded parameter."""
+        out: dict = {"value": self.value, "stderr": self.stderr, "ci95": list(self.ci95)}
+        if any(math.isfinite(b) for b in self.bounds):
+            out["bounds"] = [b if math.isfinite(b) else None for b in self.bounds]
+        return out
 
     def shown(self, x: float | None = None) -> str:
         """The value (or `x`, e.g. an interval bound) as `shown_with_error` writes it."""
         return shown_with_error(self.value if x is None else x, self.stderr)
+
+    def interval_ends(self) -> tuple[str, str]:
+        """The 95 % interval's ends as `interval_ends` writes them."""
+        return interval_ends(self.ci95, self.stderr, self.bounds)
+
+    def interval(self) -> str:
+        """'LO .. HI', an end cut at the parameter's bound saying so."""
+        return " .. ".join(self.interval_ends())
+
+
+def interval_ends(ci95, stderr: float | None, bounds=None) -> tuple[str, str]:
+    """An interval's ends with the digits their error allows (`shown_with_error`), an end that lies on the parameter's
+    bound (`bounds`, None or null for open) marked "(its bound)": the normal interval was cut there."""
+    lo, hi = (
+        shown_with_error(end, stderr) + (" (its bound)" if bound is not None and end == bound else "")
+        for end, bound in zip(ci95, bounds or (None, None))
+    )
+    return lo, hi
 
 
 def shown_with_error(x: float, stderr: float | None) -> str:
@@ -174,12 +198,11 @@ def shown_with_error(x: float, stderr: float | None) -> str:
     return f"{x:.{min(digits, 12)}g}"
 
 
-def estimate(value: float, se: float, floor: float | None = None) -> Estimate:
-    """Normal 95 % interval, clipped at `floor` for quantities that cannot be negative."""
-    lo, hi = value - Z95 * se, value + Z95 * se
-    if floor is not None:
-        lo = max(lo, floor)
-    return Estimate(float(value), float(se), (float(lo), float(hi)))
+def estimate(value: float, se: float, bounds: tuple[float, float] = (-math.inf, math.inf)) -> Estimate:
+    """Normal 95 % interval, cut at the parameter's `bounds` (its search bounds or physical range; 0 for quantities
+    that cannot be negative): a value the fit could not reach is no part of it."""
+    lo, hi = max(value - Z95 * se, bounds[0]), min(value + Z95 * se, bounds[1])
+    return Estimate(float(value), float(se), (float(lo), float(hi)), (float(bounds[0]), float(bounds[1])))
 
 
 def estimates_table(parameters: dict[str, Estimate]):
@@ -381,8 +404,7 @@ class IdentResult:
         units = {"f_hz": "Hz", "omega_rad_s": "rad/s", "zeta": "", "l_m": "m", "d_ns_per_m": "N s/m"}
         for key, est in self.parameters.items():
             lines.append(
-                f"  {key:<12} = {est.shown()} ± {est.stderr:.2g} {units.get(key, '')}  "
-                f"(95 % CI {est.shown(est.ci95[0])} .. {est.shown(est.ci95[1])})"
+                f"  {key:<12} = {est.shown()} ± {est.stderr:.2g} {units.get(key, '')}  (95 % CI {est.interval()})"
             )
         if self.mass_kg is not None:
             lines.append(f"  {'m_kg':<12} = {self.mass_kg:g} kg (given)")
@@ -767,12 +789,13 @@ class Identifier:
         params = {
             "f_hz": estimate(omega / (2 * math.pi), se_w / (2 * math.pi)),
             "omega_rad_s": estimate(omega, se_w),
-            "zeta": estimate(zeta, se_z, floor=0.0),
+            "zeta": estimate(zeta, se_z, ZETA_BOUNDS),
             "l_m": estimate(G / omega**2, 2 * G / omega**3 * se_w),
         }
         if st.mass_kg is not None:
             grad = np.array([2 * st.mass_kg * zeta, 2 * st.mass_kg * omega])
-            params["d_ns_per_m"] = estimate(2 * st.mass_kg * omega * zeta, math.sqrt(grad @ fit.cov @ grad), floor=0.0)
+            d_se = math.sqrt(grad @ fit.cov @ grad)
+            params["d_ns_per_m"] = estimate(2 * st.mass_kg * omega * zeta, d_se, (0.0, math.inf))
         checks, lb, lb_lags = _cross_checks(sigs, windows, parts, noise_std, fit)
         fits = [fit.fit_percent(i, p.value) for i, p in enumerate(parts)]
         if prior:

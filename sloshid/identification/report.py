@@ -132,7 +132,7 @@ def _parameter_section(rep: Report, res: IdentResult) -> None:
     for k, e in res.parameters.items():
         label, unit = PARAMETER_LABELS[k]
         group = res.parameter_verdict(k)
-        shown = [e.shown(), e.stderr, e.shown(e.ci95[0]), e.shown(e.ci95[1])]  # digits down to the error's
+        shown = [e.shown(), e.stderr, *e.interval_ends()]  # digits down to the error's
         rows.append([label, unit, *shown, group.quality if group else ""])
     if res.mass_kg is not None:
         rows.append(["liquid mass m", "kg", res.mass_kg, "given", "", "", ""])

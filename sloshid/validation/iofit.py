@@ -271,10 +271,7 @@ class IOFit:
         """Readable summary: parameters, per-run scores, and the gain over the decay-only model."""
         lines = [f"sloshid identify (input-output): {len(self.runs)} run(s)"]
         for key, est in self.parameters.items():
-            lines.append(
-                f"  {key:<15} = {est.shown()} ± {est.stderr:.2g}  (95 % CI {est.shown(est.ci95[0])} .. "
-                f"{est.shown(est.ci95[1])})"
-            )
+            lines.append(f"  {key:<15} = {est.shown()} ± {est.stderr:.2g}  (95 % CI {est.interval()})")
         lines.append(
             "  priors: "
             + ", ".join(
@@ -523,7 +520,7 @@ def fit_io(
     f, zeta = physical["f_hz"], physical["zeta"]
     # on its range's edge: within 1 % of the range (the bounded solver approaches a bound without reaching it)
     at_bound = [nm for nm, v, a, b in zip(FITTED, sol.x, lo, hi) if min(v - a, b - v) < 0.01 * (b - a)]
-    params = _estimates(sol, prob, physical, settings.mass_kg)
+    params = _estimates(sol, prob, physical, settings.mass_kg, ranges)
     mass = settings.mass_kg or 1.0
     physics = SloshParams.from_modal(2 * math.pi * f, zeta, mass)
     envelope = {k: max(motion_range(d.exc)[k] for d in prob.data) for k in MOTION_QUANTITIES}
@@ -605,9 +602,11 @@ def fit_io_files(
     return fit_io(poses, signals, radius_m, io.axis_offset_m, io.smooth_s, settings, names, io.views_deg)
 
 
-def _estimates(sol, prob: _Problem, physical: dict[str, float], mass: float | None) -> dict[str, Estimate]:
+def _estimates(
+    sol, prob: _Problem, physical: dict[str, float], mass: float | None, ranges: dict[str, tuple[float, float]]
+) -> dict[str, Estimate]:
     """The fitted parameters (and omega, l, d from f and zeta) with Newey-West standard errors (per-run blocks; the
-    prior rows one more block), mapped from the scaled vector."""
+    prior rows one more block), mapped from the scaled vector; each interval cut at its physical range (`ranges`)."""
     f, zeta = physical["f_hz"], physical["zeta"]
     data = prob.data
     sizes = np.cumsum([0] + [d.y.size for d in data] + [N_PARAMS])
@@ -617,17 +616,16 @@ def _estimates(sol, prob: _Problem, physical: dict[str, float], mass: float | No
     d_scaled = np.array([prob.priors["f_hz"] / 10, zeta] + [1.0] * (N_PARAMS - 2))
     se = np.sqrt(np.clip(np.diag(cov)[:N_PARAMS], 0, None)) * d_scaled
     omega, se_w = 2 * math.pi * f, 2 * math.pi * se[0]
+    omegas = (2 * math.pi * ranges["f_hz"][0], 2 * math.pi * ranges["f_hz"][1])
     out = {
-        "f_hz": estimate(f, se[0]),
-        "omega_rad_s": estimate(omega, se_w),
-        "zeta": estimate(zeta, se[1], floor=0.0),
-        "l_m": estimate(G / omega**2, 2 * G / omega**3 * se_w),
-        "drag": estimate(physical["drag"], se[2], floor=0.0),
-        "wave_share": estimate(physical["wave_share"], se[3], floor=0.0),
-        **{k: estimate(physical[k], se[FITTED.index(k)]) for k in FITTED[4:]},
+        "f_hz": estimate(f, se[0], ranges["f_hz"]),
+        "omega_rad_s": estimate(omega, se_w, omegas),
+        "zeta": estimate(zeta, se[1], ranges["zeta"]),
+        "l_m": estimate(G / omega**2, 2 * G / omega**3 * se_w, (G / omegas[1] ** 2, G / omegas[0] ** 2)),
+        **{k: estimate(physical[k], se[FITTED.index(k)], ranges[k]) for k in FITTED[2:]},
     }
     if mass is not None:
         out["d_ns_per_m"] = estimate(
-            2 * mass * omega * zeta, 2 * mass * math.hypot(zeta * se_w, omega * se[1]), floor=0.0
+            2 * mass * omega * zeta, 2 * mass * math.hypot(zeta * se_w, omega * se[1]), (0.0, math.inf)
         )
     return out
