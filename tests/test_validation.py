@@ -301,6 +301,8 @@ def test_io_fit_recovers_known_parameters_from_a_noisy_500_hz_pose_log(tmp_path,
     assert data["geometry"]["axis_offset_m"] == OFFSET
     assert "decay-only" in stdout
     assert "wave_share" in (tmp_path / "rep" / "index.html").read_text()
+    # without --views-deg the views' arc reads nothing: it was printed at its prior, 22.5 ± 0, and rated good
+    assert "view_arc_deg" not in p and "view_arc_deg" not in data["fit"]["priors"] and "view_arc_deg" not in stdout
     # every fitted parameter has its physical range, and its interval lies within it
     for key in ("f_hz", "zeta", "drag", "wave_share", "crest_coeff", "rest_tilt_x_deg", "rest_tilt_y_deg"):
         lo, hi = p[key]["bounds"]

@@ -461,9 +461,9 @@ def fit_io(
     names: list[str] | None = None,
     views_deg: float | None = None,
 ) -> IOFit:
-    """Fit f, zeta, the drag, the wall's wave share, crest coefficient and rest tilts jointly over the runs (own lag and
-    offset each), each toward its physical prior and within its physical range; `views_deg`: the wall is read in two
-    views 90 deg apart (`predict.read_out`)."""
+    """Fit f, zeta, the drag, the wall's wave share, crest coefficient and rest tilts (and, with `views_deg`, the
+    views' arc) jointly over the runs (own lag and offset each), each toward its physical prior and within its physical
+    range; `views_deg`: the wall is read in two views 90 deg apart (`predict.read_out`)."""
     if len(poses) != len(signals):
         raise SettingError(
             "trajectory",
@@ -520,11 +520,13 @@ def fit_io(
     f, zeta = physical["f_hz"], physical["zeta"]
     # on its range's edge: within 1 % of the range (the bounded solver approaches a bound without reaching it)
     at_bound = [nm for nm, v, a, b in zip(FITTED, sol.x, lo, hi) if min(v - a, b - v) < 0.01 * (b - a)]
-    params = _estimates(sol, prob, physical, settings.mass_kg, ranges)
+    # without the views the arc reads nothing: it kept its prior, no fitted value to report
+    unread = () if views_deg is not None else ("view_arc_deg",)
+    params = {k: e for k, e in _estimates(sol, prob, physical, settings.mass_kg, ranges).items() if k not in unread}
     mass = settings.mass_kg or 1.0
     physics = SloshParams.from_modal(2 * math.pi * f, zeta, mass)
     envelope = {k: max(motion_range(d.exc)[k] for d in prob.data) for k in MOTION_QUANTITIES}
-    stderr = tuple((k, params[k].stderr) for k in FITTED_ERRORS)
+    stderr = tuple((k, params[k].stderr) for k in FITTED_ERRORS if k in params)
     model = replace(
         start,
         params=physics,
@@ -553,8 +555,8 @@ def fit_io(
         decay_runs=decay_runs,
         at_bound=at_bound,
         n_simulations=prob.n_sim,
-        priors=priors,
-        ranges=ranges,
+        priors={k: v for k, v in priors.items() if k not in unread},
+        ranges={k: v for k, v in ranges.items() if k not in unread},
     )
 
 
