@@ -807,7 +807,9 @@ def test_a_parameter_file_of_another_model_structure_is_one_sentence_and_exit_2(
     write_pose_csv(tmp_path / "move.csv", move_pose())
     for path, named in ((old, "input_gain, vertical_gain"), (other, "'two pendulums'")):
         code, _, err = run_cli("predict", tmp_path / "move.csv", "-o", tmp_path / "p.csv", "--params", path)
-        assert code == 2 and f"another structure ({named})" in err and err.count(".") <= 4
+        assert code == 2 and f"another structure ({named})" in err and err.count(".") <= 6
+        # it named `trajectory`, a pipeline's key, where the command line wants the command that fits one
+        assert err.endswith("(`sloshid identify RUN.mat --trajectory RUN.csv`).\n")
         assert not (tmp_path / "p.csv").exists()
 
 
@@ -863,6 +865,7 @@ def test_a_sloshid_trajectory_is_predicted_about_its_own_point(tmp_path, run_cli
         )  # fmt: skip
         assert code == 0, err
         assert ("is a sloshid trajectory, whose point is the pivot" in err) == (name == "stored")
+        assert ("give `--axis-offset-m` to apply one" in err) == (name == "stored")  # the option, not `axis_offset_m`
         out[name] = np.loadtxt(tmp_path / f"{name}.csv", delimiter=",", skiprows=1)
     assert np.array_equal(out["stored"], out["none"])
     assert np.abs(out["given"] - out["none"]).max() > 0.1  # the offset matters on a tilting move
