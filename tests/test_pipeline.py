@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import html
 import json
 import os
 import re
@@ -307,6 +308,9 @@ def test_the_index_says_whether_joint_signals_agree_and_keeps_fs_digits(tmp_path
     from sloshid.identification.estimator import shown_with_error
 
     assert f"<td>{shown_with_error(f['value'], f['stderr'])}</td>" in page
+    # each reason is a sentence: they were joined as "...stays linear.; RD_3D..."
+    reasons = json.loads((run_dir / "identify" / "params.json").read_text())["reasons"]
+    assert len(reasons) > 1 and "Verdict: uncertain. " + html.escape(" ".join(reasons)) in page and ".;" not in page
 
 
 @pytest.mark.parametrize("name", ["upright_move", "tilt_margin_move"])

@@ -124,7 +124,7 @@ def process_video(video: str, config: BatchConfig, out_root: str) -> dict[str, A
             [*_interval(p, "f_hz"), *_interval(p, "zeta"), *_interval(p, "l_m"), *_interval(p, "d_ns_per_m")],
         )
     )
-    row.update(status="ok", quality=doc["quality"], reasons="; ".join(doc["reasons"]))
+    row.update(status="ok", quality=doc["quality"], reasons=" ".join(doc["reasons"]))  # each a sentence
     written = {name: file_sha256(out / name) for name in OUTPUT_FILES if (out / name).exists()}
     write_json(marker, {"key": key, "settings": dataclasses.asdict(config), "outputs": written, "row": row})
     return row

@@ -59,7 +59,7 @@ def _track(report: Report, run_dir: Path, s: dict[str, Any]) -> None:
 def _identify(report: Report, run_dir: Path, s: dict[str, Any]) -> None:
     """Verdict, parameter table with 95 % intervals and per-parameter verdicts, notes on the inputs, report link."""
     report.add_text(
-        f"Verdict: {s['quality']}" + (f" ({'; '.join(s['reasons'])})" if s["reasons"] else ""),
+        f"Verdict: {s['quality']}" + (f". {' '.join(s['reasons'])}" if s["reasons"] else "."),  # each a sentence
         css_class=f"verdict-{s['quality']}",
     )
     rows = []
