@@ -525,7 +525,7 @@ def test_a_hold_that_noise_could_have_made_is_taken_by_its_evidence():
 
 def test_estimates_show_digits_down_to_their_error():
     # f = 1.9996 +- 0.0002 Hz read "2" and its interval "1.999 .. 2" in the report's 4-digit table
-    from sloshid.identification.estimator import estimate
+    from sloshid.identification.estimates import estimate
 
     f = estimate(1.9996, 0.0002)
     assert f.shown() == "1.9996" and f.shown(f.ci95[0]) == "1.99921"  # 1.9996 - 1.96 * 0.0002, to 0.00001

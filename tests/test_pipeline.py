@@ -305,7 +305,7 @@ def test_the_index_says_whether_joint_signals_agree_and_keeps_fs_digits(tmp_path
     page = (run_dir / "index.html").read_text()
     assert "Signals fitted alone: f 3.001-3.301 Hz" in page and "f disagree" in page
     f = json.loads((run_dir / "manifest.json").read_text())["stages"][0]["summary"]["parameters"]["f_hz"]
-    from sloshid.identification.estimator import shown_with_error
+    from sloshid.identification.estimates import shown_with_error
 
     assert f"<td>{shown_with_error(f['value'], f['stderr'])}</td>" in page
     # each reason is a sentence: they were joined as "...stays linear.; RD_3D..."

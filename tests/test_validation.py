@@ -15,7 +15,8 @@ from scipy.spatial.transform import Rotation
 
 from sloshid.core.errors import UserError
 from sloshid.core.tables import read_csv
-from sloshid.identification.estimator import Z95, IdentSettings, estimate
+from sloshid.identification.estimates import estimate
+from sloshid.identification.estimator import Z95, IdentSettings
 from sloshid.identification.signals import load_signal
 from sloshid.model.pendulum import XI_CYLINDER, G, SloshParams, cylinder_first_mode_omega, rotation_depths
 from sloshid.model.pose import PoseLog, excitation, load_pose_log, respond, savgol_acceleration_response

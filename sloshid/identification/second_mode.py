@@ -9,6 +9,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from sloshid.core.spectrum import SpectralPeak, Spectrum
+from sloshid.identification.estimates import estimate
 from sloshid.identification.pt2fit import Z95, ZETA_BOUNDS, ModeFit, PT2Fit, WindowData, fit_two_modes
 
 MIN_SEPARATION_BINS = 2.0
@@ -45,8 +46,6 @@ class SecondMode:
 
     def to_dict(self) -> dict:
         """f_hz and zeta of the second mode with errors, per-signal amplitude share, the verdict on separation."""
-        from sloshid.identification.estimator import estimate  # the estimator imports this module
-
         m = _second(self.fit)
         se_w, se_z = np.sqrt(np.clip(np.diag(m.cov), 0, None))
         return {

@@ -31,14 +31,8 @@ from scipy.optimize import least_squares
 
 from sloshid.core.errors import SettingError
 from sloshid.core.settings import check_axis_offset, check_in_metres, setting_field
-from sloshid.identification.estimator import (
-    Estimate,
-    Identifier,
-    IdentResult,
-    IdentSettings,
-    estimate,
-    estimates_table,
-)
+from sloshid.identification.estimates import Estimate, estimate
+from sloshid.identification.estimator import Identifier, IdentResult, IdentSettings, estimates_table
 from sloshid.identification.pt2fit import hac_covariance
 from sloshid.identification.signals import Signal
 from sloshid.model.pendulum import XI_CYLINDER, G, SloshParams, cylinder_first_mode_omega, linear_tf_coeffs

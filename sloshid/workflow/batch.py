@@ -23,7 +23,8 @@ from sloshid.core.hashing import file_sha256, json_sha256
 from sloshid.core.outputs import is_sloshid_page, writable_folder
 from sloshid.core.parallel import ClusterSettings, dask_client, wait_with_workers
 from sloshid.core.tables import distinct_names
-from sloshid.identification.estimator import Z95, shown_with_error
+from sloshid.identification.estimates import shown_with_error
+from sloshid.identification.estimator import Z95
 from sloshid.report.html import Report
 from sloshid.workflow.options import BatchConfig
 

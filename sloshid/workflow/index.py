@@ -7,7 +7,7 @@ import html
 from pathlib import Path
 from typing import Any
 
-from sloshid.identification.estimator import interval_ends, shown_with_error
+from sloshid.identification.estimates import interval_ends, shown_with_error
 from sloshid.identification.verdict import PARAMETER_LABELS
 from sloshid.report.html import Report
 from sloshid.workflow.pipeline import StageRecord
