@@ -866,7 +866,7 @@ def test_a_sloshid_trajectory_is_predicted_about_its_own_point(tmp_path, run_cli
         )  # fmt: skip
         assert code == 0, err
         assert ("is a sloshid trajectory, whose point is the pivot" in err) == (name == "stored")
-        assert ("give `--axis-offset-m` to apply one" in err) == (name == "stored")  # the option, not `axis_offset_m`
+        assert ("give --axis-offset-m to apply one" in err) == (name == "stored")  # the option, not `axis_offset_m`
         out[name] = np.loadtxt(tmp_path / f"{name}.csv", delimiter=",", skiprows=1)
     assert np.array_equal(out["stored"], out["none"])
     assert np.abs(out["given"] - out["none"]).max() > 0.1  # the offset matters on a tilting move

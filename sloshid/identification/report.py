@@ -95,8 +95,7 @@ def _signal_section(rep: Report, res: IdentResult, i: int) -> None:
                 f"found automatically after the estimated end of forcing, dashed, at {w.excitation_end_s:.2f} s: where "
                 "the signal's one-period mean last leaves its resting level; the slow last part of a move can drive "
                 "the liquid past it without moving that mean (on the shared measured runs the moves ended 0.2-2.1 s "
-                "later), so where the move's end is known, start the window after it (`--window`; `window_s` in a "
-                "pipeline)"
+                "later), so where the move's end is known, start the window after it (`window_s`)"
             )
     rep.add_figure(fig, f"The whole recording. Shaded: the free-decay window {w.t0_s:.2f}-{w.t1_s:.2f} s ({how}).")
     fig, ax = plt.subplots(figsize=(9, 3.2))

@@ -268,10 +268,12 @@ def load_model(path: str | Path) -> LiquidModel:
     structure = fit.get("structure")
     if old or (structure is not None and structure != STRUCTURE):
         what = ", ".join(old) if old else f"'{structure}'"
-        raise UserError(
+        raise SettingError(  # named by each front-end: `sloshid identify RUN.mat --trajectory RUN.csv`
+            "params",
             f"parameter file {path} comes from a liquid model of another structure ({what}), whose parameters mean "
             "something else here; identify the runs again against their trajectories (`sloshid identify RUN.mat "
-            "--trajectory RUN.csv`)."
+            "{trajectory} RUN.csv`).",
+            "trajectory",
         )
     try:
         share = float(p.get("wave_share", {}).get("value", 1.0))
@@ -375,7 +377,7 @@ def planning_note(path: str | Path, trajectory: str = "TRAJ.csv", peak_deg: floa
 def pivot_for(pose: PoseLog, model: LiquidModel, axis_offset_m: float | None) -> tuple[LiquidModel, str | None]:
     """The model with the pivot offset for this motion: the one given; else, for a sloshid trajectory, whose point is
     the liquid surface's centre (the pivot the planner moved), none instead of the stored one (fitted to robot logs
-    of another point), with a note saying so (naming `predict`'s option: its only front-end); else the stored one."""
+    of another point), with a note saying so; else the stored one."""
     if axis_offset_m is not None:
         return model.with_geometry(axis_offset_m=axis_offset_m), None
     if pose.acc_m_s2 is None or model.axis_offset_m == 0:
@@ -383,7 +385,7 @@ def pivot_for(pose: PoseLog, model: LiquidModel, axis_offset_m: float | None) ->
     note = (
         f"{pose.source} is a sloshid trajectory, whose point is the pivot (the liquid surface's centre), so the "
         f"parameters' axis offset of {model.axis_offset_m:g} m (from the robot logs they were fitted to) is not "
-        "applied; give `--axis-offset-m` to apply one."
+        "applied; give `axis_offset_m` to apply one."
     )
     return model.with_geometry(axis_offset_m=0.0), note
 
