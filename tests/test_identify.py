@@ -75,7 +75,7 @@ def test_uneven_timestamps_gaps_and_invalid_frames_through_cli(tmp_path, run_cli
     assert "verdict: good" in stdout and "skipped" in err
 
 
-def test_window_skips_quiet_lead_in_and_forced_motion():
+def test_window_skips_quiet_lead_in_and_forced_motion(tmp_path):
     # 4 s rest, 3 s of slow forced swing (0.4 Hz, large offset), then the free decay of the mode
     fps, f0, z0 = 60, 3.0, 0.03
     t = np.arange(0, 20, 1 / fps)
@@ -90,6 +90,11 @@ def test_window_skips_quiet_lead_in_and_forced_motion():
     assert 7.0 <= w.t0_s < 8.0  # the ring-down starts at 7 s; a sample earlier would bias zeta
     assert res.parameters["f_hz"].value == pytest.approx(f0, rel=0.003)
     assert res.parameters["zeta"].value == pytest.approx(z0, rel=0.1)
+    # the end is found from the signal alone, and said to be an estimate (a move's slow end can outlast it)
+    legend = [text.get_text() for text in res.plot_signal(0).get_legend().get_texts()]
+    assert "estimated end of forcing" in legend
+    page = res.report(tmp_path).read_text()
+    assert f"after the estimated end of forcing, dashed, at {w.excitation_end_s:.2f} s" in page
 
 
 def test_a_given_window_over_the_forcing_is_judged_uncertain():
@@ -520,7 +525,7 @@ def test_a_hold_that_noise_could_have_made_is_taken_by_its_evidence():
 
 def test_estimates_show_digits_down_to_their_error():
     # f = 1.9996 +- 0.0002 Hz read "2" and its interval "1.999 .. 2" in the report's 4-digit table
-    from sloshid.identification.estimator import estimate
+    from sloshid.identification.estimates import estimate
 
     f = estimate(1.9996, 0.0002)
     assert f.shown() == "1.9996" and f.shown(f.ci95[0]) == "1.99921"  # 1.9996 - 1.96 * 0.0002, to 0.00001

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import html
 import json
 import os
 import re
@@ -54,6 +55,7 @@ def test_cache_skips_unchanged_and_reruns_changed_stage_downstream_only(video, t
     _links_exist(first / "index.html")
     manifest = json.loads((first / "manifest.json").read_text())
     assert str(video) in manifest["input_sha256"] and manifest["settings"]["identify"]["mass_kg"] == 0.5
+    assert manifest["settings"]["run"]["output_dir"] == str(tmp_path / "runs")  # --output-dir, not the default
 
     code, out, _ = run_cli("run", pipe, "--output-dir", tmp_path / "runs", "--quiet")
     second = Path(out.strip()).parent
@@ -303,9 +305,12 @@ def test_the_index_says_whether_joint_signals_agree_and_keeps_fs_digits(tmp_path
     page = (run_dir / "index.html").read_text()
     assert "Signals fitted alone: f 3.001-3.301 Hz" in page and "f disagree" in page
     f = json.loads((run_dir / "manifest.json").read_text())["stages"][0]["summary"]["parameters"]["f_hz"]
-    from sloshid.identification.estimator import shown_with_error
+    from sloshid.identification.estimates import shown_with_error
 
     assert f"<td>{shown_with_error(f['value'], f['stderr'])}</td>" in page
+    # each reason is a sentence: they were joined as "...stays linear.; RD_3D..."
+    reasons = json.loads((run_dir / "identify" / "params.json").read_text())["reasons"]
+    assert len(reasons) > 1 and "Verdict: uncertain. " + html.escape(" ".join(reasons)) in page and ".;" not in page
 
 
 @pytest.mark.parametrize("name", ["upright_move", "tilt_margin_move"])

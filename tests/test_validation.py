@@ -15,11 +15,12 @@ from scipy.spatial.transform import Rotation
 
 from sloshid.core.errors import UserError
 from sloshid.core.tables import read_csv
-from sloshid.identification.estimator import IdentSettings
+from sloshid.identification.estimates import estimate
+from sloshid.identification.estimator import Z95, IdentSettings
 from sloshid.identification.signals import load_signal
 from sloshid.model.pendulum import XI_CYLINDER, G, SloshParams, cylinder_first_mode_omega, rotation_depths
 from sloshid.model.pose import PoseLog, excitation, load_pose_log, respond, savgol_acceleration_response
-from sloshid.validation.iofit import IOFit, fit_io
+from sloshid.validation.iofit import PRIORS, IOFit, fit_io
 from sloshid.validation.predict import (
     MODEL_ERROR_LOG_SD,
     LiquidModel,
@@ -301,6 +302,12 @@ def test_io_fit_recovers_known_parameters_from_a_noisy_500_hz_pose_log(tmp_path,
     assert data["geometry"]["axis_offset_m"] == OFFSET
     assert "decay-only" in stdout
     assert "wave_share" in (tmp_path / "rep" / "index.html").read_text()
+    # without --views-deg the views' arc reads nothing: it was printed at its prior, 22.5 ± 0, and rated good
+    assert "view_arc_deg" not in p and "view_arc_deg" not in data["fit"]["priors"] and "view_arc_deg" not in stdout
+    # every fitted parameter has its physical range, and its interval lies within it
+    for key in ("f_hz", "zeta", "drag", "wave_share", "crest_coeff", "rest_tilt_x_deg", "rest_tilt_y_deg"):
+        lo, hi = p[key]["bounds"]
+        assert lo <= p[key]["ci95"][0] <= p[key]["ci95"][1] <= hi, key
 
 
 def test_a_rest_tilt_reads_zero_at_rest_and_a_small_wave_signed_at_its_own_frequency(tmp_path):
@@ -432,6 +439,15 @@ def test_a_fit_at_the_edge_of_a_physical_range_names_the_parameter():
     )
 
 
+def test_an_interval_ends_at_its_parameters_bound_and_says_so():
+    # the docs' drag, 0.50465 ± 0.3 within its range 0.5-10, read "95 % CI 0 .. 1.0936": values the fit cannot reach
+    drag = estimate(0.50465, 0.3, PRIORS["drag"][2])
+    assert drag.ci95 == pytest.approx((0.5, 0.50465 + Z95 * 0.3), abs=1e-12)
+    assert drag.interval() == "0.5 (its bound) .. 1.0926" and drag.to_dict()["bounds"] == [0.5, 10.0]
+    free = estimate(3.0, 0.01)  # no bound: the normal interval, and no bounds in the JSON
+    assert free.interval() == "2.9804 .. 3.0196" and "bounds" not in free.to_dict()
+
+
 def _io_fit_of(tmp_path, pose: PoseLog, **measured) -> IOFit:
     """The input-output fit of one run of `pose` as the truth model reads it (`measured_csv`'s options), from its
     pose log file, with the decay-only start on the free decay of these moves."""
@@ -496,6 +512,17 @@ def test_validate_scores_the_truth_model_near_perfect(tmp_path, run_cli):
         "validate", "--trajectory", tmp_path / "log.csv", "--measured", tmp_path / "noise.csv", "--params", params
     )
     assert code == 0 and "correlates weakly with the measurement" in err
+    # NaN samples of the measurement were dropped without a word (identify warns of them)
+    gappy = meas.copy()
+    gappy[100:110, 1] = np.nan
+    np.savetxt(tmp_path / "nan.csv", gappy, delimiter=",", header="t_s,height_mm", comments="")
+    log = tmp_path / "log.csv"
+    code, out, err = run_cli(
+        "validate", "--trajectory", log, "--measured", tmp_path / "nan.csv", "--params", params, "--json"
+    )
+    dropped = f"nan.csv: dropped 10 NaN/inf samples of {meas.shape[0]}."
+    assert code == 0 and f"sloshid: warning: {tmp_path / dropped}" in err
+    assert json.loads(out)["runs"][0]["notes"] == [str(tmp_path / dropped)]
     base = ("validate", "--trajectory", tmp_path / "log.csv", "--measured", tmp_path / "three.csv", "--params", params)
     # the table shows the peak error after the move too (only --json had it): the truth model's is small
     code, out, err = run_cli(*base[:4], tmp_path / "meas.csv", "--params", params)
@@ -606,9 +633,21 @@ def test_bad_input_is_one_sentence_and_exit_2_with_nothing_written(tmp_path, run
         (("predict", good, "-o", out, "--params", fast, *radius), "1e+06 rad/s (1.592e+05 Hz) is no sloshing mode"),
         # 1e9 s of settling asked for terabytes (a traceback)
         (("predict", good, "-o", out, "--params", params, *radius, "--settle-s", "1e9"), "between 0 and 600"),
+        # the second of two runs too short: it named no file, and gave the template's 3.68 s as the 1.18 s move's length
         (
-            ("validate", "--trajectory", good, "--measured", tmp_path / "short.csv", "--params", params, *radius),
-            "too short",
+            (
+                "validate",
+                *twice,
+                "--trajectory",
+                good,
+                "--measured",
+                tmp_path / "short.csv",
+                "--params",
+                params,
+                *radius,
+            ),
+            f"{tmp_path / 'short.csv'}: the measured record (2.48 s) is too short to align with the 1.18 s move: it must "
+            "be longer than the move with 0.5 s before and 2 s after it (3.68 s).",
         ),
         (
             (
@@ -769,7 +808,9 @@ def test_a_parameter_file_of_another_model_structure_is_one_sentence_and_exit_2(
     write_pose_csv(tmp_path / "move.csv", move_pose())
     for path, named in ((old, "input_gain, vertical_gain"), (other, "'two pendulums'")):
         code, _, err = run_cli("predict", tmp_path / "move.csv", "-o", tmp_path / "p.csv", "--params", path)
-        assert code == 2 and f"another structure ({named})" in err and err.count(".") <= 4
+        assert code == 2 and f"another structure ({named})" in err and err.count(".") <= 6
+        # it named `trajectory`, a pipeline's key, where the command line wants the command that fits one
+        assert err.endswith("(`sloshid identify RUN.mat --trajectory RUN.csv`).\n")
         assert not (tmp_path / "p.csv").exists()
 
 
@@ -825,6 +866,7 @@ def test_a_sloshid_trajectory_is_predicted_about_its_own_point(tmp_path, run_cli
         )  # fmt: skip
         assert code == 0, err
         assert ("is a sloshid trajectory, whose point is the pivot" in err) == (name == "stored")
+        assert ("give --axis-offset-m to apply one" in err) == (name == "stored")  # the option, not `axis_offset_m`
         out[name] = np.loadtxt(tmp_path / f"{name}.csv", delimiter=",", skiprows=1)
     assert np.array_equal(out["stored"], out["none"])
     assert np.abs(out["given"] - out["none"]).max() > 0.1  # the offset matters on a tilting move

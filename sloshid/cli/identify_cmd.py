@@ -39,9 +39,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         action="append",
         metavar="TRAJECTORY",
         help="input-output identification: the trajectory or pose log that caused each signal (once per signal, same "
-        "order); fits f, zeta, the wall's wave share and crest coefficient (each toward its physical prior: the "
-        "mode from --container-radius-m and --fill-height-m when given) and each run's lag and offset to the whole "
-        "records (see `sloshid predict` for the pose options)",
+        "order); fits f, zeta, the breaking drag, the wall's wave share and crest coefficient, the reading's rest "
+        "tilts along x and y and, with --views-deg, the views' arc (each toward its physical prior and within its "
+        "physical range: the mode from --container-radius-m and --fill-height-m when given) and each run's lag and "
+        "offset to the whole records (see `sloshid predict` for the pose options)",
     )
     add_settings(parser, IOSettings, GROUPS)
 

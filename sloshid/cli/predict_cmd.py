@@ -13,6 +13,7 @@ import argparse
 import sys
 import threading
 
+from sloshid.cli.naming import as_typed
 from sloshid.cli.settings_options import add_settings, settings_from
 
 PHASES_DELAY_S = 2.0
@@ -69,7 +70,7 @@ def run(args: argparse.Namespace) -> int:
         phases.next("write the CSV")
         write_prediction(output, fc)
     for line in ([note] if note else []) + list(fc.notes):
-        print(f"sloshid: note: {line}", file=sys.stderr)
+        print(f"sloshid: note: {as_typed(line, args)}", file=sys.stderr)
     resp = fc.resp
     move = resp.move_span_s
     during = (resp.t_s >= move[0]) & (resp.t_s <= move[1])

@@ -32,8 +32,10 @@ from sloshid.identification.decay_window import (
     user_window,
     without_slow_motion,
 )
+from sloshid.identification.estimates import Estimate, estimate
 from sloshid.identification.pt2fit import (
     Z95,
+    ZETA_BOUNDS,
     PT2Fit,
     WindowData,
     autocorrelation,
@@ -146,40 +148,6 @@ class IdentSettings:
             raise SettingError(bad, f"{{name}} must be positive (m), got {getattr(self, bad):g}.")
         for key in ("container_radius_m", "fill_height_m"):
             check_in_metres(key, getattr(self, key))  # millimetres typed as metres move the prior a 30-fold
-
-
-@dataclass(frozen=True)
-class Estimate:
-    """A value with its standard error and 95 % interval."""
-
-    value: float
-    stderr: float
-    ci95: tuple[float, float]
-
-    def to_dict(self) -> dict:
-        """{"value", "stderr", "ci95": [lo, hi]}."""
-        return {"value": self.value, "stderr": self.stderr, "ci95": list(self.ci95)}
-
-    def shown(self, x: float | None = None) -> str:
-        """The value (or `x`, e.g. an interval bound) as `shown_with_error` writes it."""
-        return shown_with_error(self.value if x is None else x, self.stderr)
-
-
-def shown_with_error(x: float, stderr: float | None) -> str:
-    """`x` with digits down to the standard error's second significant one, at least 5: f = 1.9996 +- 0.0002 Hz must
-    not read 2."""
-    digits = 5
-    if x != 0 and math.isfinite(x) and stderr and stderr > 0 and math.isfinite(stderr):
-        digits = max(5, math.floor(math.log10(abs(x))) - math.floor(math.log10(stderr)) + 2)
-    return f"{x:.{min(digits, 12)}g}"
-
-
-def estimate(value: float, se: float, floor: float | None = None) -> Estimate:
-    """Normal 95 % interval, clipped at `floor` for quantities that cannot be negative."""
-    lo, hi = value - Z95 * se, value + Z95 * se
-    if floor is not None:
-        lo = max(lo, floor)
-    return Estimate(float(value), float(se), (float(lo), float(hi)))
 
 
 def estimates_table(parameters: dict[str, Estimate]):
@@ -381,8 +349,7 @@ class IdentResult:
         units = {"f_hz": "Hz", "omega_rad_s": "rad/s", "zeta": "", "l_m": "m", "d_ns_per_m": "N s/m"}
         for key, est in self.parameters.items():
             lines.append(
-                f"  {key:<12} = {est.shown()} ± {est.stderr:.2g} {units.get(key, '')}  "
-                f"(95 % CI {est.shown(est.ci95[0])} .. {est.shown(est.ci95[1])})"
+                f"  {key:<12} = {est.shown()} ± {est.stderr:.2g} {units.get(key, '')}  (95 % CI {est.interval()})"
             )
         if self.mass_kg is not None:
             lines.append(f"  {'m_kg':<12} = {self.mass_kg:g} kg (given)")
@@ -438,13 +405,14 @@ class IdentResult:
     # ---- plots (each takes ax=None and returns the axes it drew on) ----
 
     def plot_signal(self, i: int = 0, ax=None):
-        """The whole recording with the fit window shaded and the end of the excitation marked."""
+        """The whole recording with the fit window shaded and the estimated end of the excitation marked (from the
+        signal alone: `find_decay_window`)."""
         ax = _axes(ax)
         sig, w = self.signals[i], self.windows[i]
         ax.plot(*min_max_envelope(sig.t_s, sig.value), lw=0.7, color="0.2", label=sig.label)
         ax.axvspan(w.t0_s, w.t1_s, color="tab:green", alpha=0.15, label=f"fit window ({w.chosen_by})")
         if w.excitation_end_s is not None:
-            ax.axvline(w.excitation_end_s, color="tab:red", ls="--", lw=1, label="end of forced motion")
+            ax.axvline(w.excitation_end_s, color="tab:red", ls="--", lw=1, label="estimated end of forcing")
         ax.set_xlabel("t (s)")
         ax.set_ylabel(_ylabel(sig))
         ax.legend(loc="upper right", fontsize=8)
@@ -766,12 +734,13 @@ class Identifier:
         params = {
             "f_hz": estimate(omega / (2 * math.pi), se_w / (2 * math.pi)),
             "omega_rad_s": estimate(omega, se_w),
-            "zeta": estimate(zeta, se_z, floor=0.0),
+            "zeta": estimate(zeta, se_z, ZETA_BOUNDS),
             "l_m": estimate(G / omega**2, 2 * G / omega**3 * se_w),
         }
         if st.mass_kg is not None:
             grad = np.array([2 * st.mass_kg * zeta, 2 * st.mass_kg * omega])
-            params["d_ns_per_m"] = estimate(2 * st.mass_kg * omega * zeta, math.sqrt(grad @ fit.cov @ grad), floor=0.0)
+            d_se = math.sqrt(grad @ fit.cov @ grad)
+            params["d_ns_per_m"] = estimate(2 * st.mass_kg * omega * zeta, d_se, (0.0, math.inf))
         checks, lb, lb_lags = _cross_checks(sigs, windows, parts, noise_std, fit)
         fits = [fit.fit_percent(i, p.value) for i, p in enumerate(parts)]
         if prior:

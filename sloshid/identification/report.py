@@ -87,9 +87,16 @@ def _signal_section(rep: Report, res: IdentResult, i: int) -> None:
     rep.add_heading(f"Signal {i + 1}: {name}")
     fig, ax = plt.subplots(figsize=(9, 3))
     res.plot_signal(i, ax)
-    how = (
-        "found automatically after the last forced motion" if w.chosen_by == "auto" else "given by the user (window_s)"
-    )
+    how = "given by the user (window_s)"
+    if w.chosen_by == "auto":
+        how = "found automatically after the last forced motion"
+        if w.excitation_end_s is not None:
+            how = (
+                f"found automatically after the estimated end of forcing, dashed, at {w.excitation_end_s:.2f} s: where "
+                "the signal's one-period mean last leaves its resting level; the slow last part of a move can drive "
+                "the liquid past it without moving that mean (on the shared measured runs the moves ended 0.2-2.1 s "
+                "later), so where the move's end is known, start the window after it (`window_s`)"
+            )
     rep.add_figure(fig, f"The whole recording. Shaded: the free-decay window {w.t0_s:.2f}-{w.t1_s:.2f} s ({how}).")
     fig, ax = plt.subplots(figsize=(9, 3.2))
     res.plot_psd(i, ax)
@@ -124,7 +131,7 @@ def _parameter_section(rep: Report, res: IdentResult) -> None:
     for k, e in res.parameters.items():
         label, unit = PARAMETER_LABELS[k]
         group = res.parameter_verdict(k)
-        shown = [e.shown(), e.stderr, e.shown(e.ci95[0]), e.shown(e.ci95[1])]  # digits down to the error's
+        shown = [e.shown(), e.stderr, *e.interval_ends()]  # digits down to the error's
         rows.append([label, unit, *shown, group.quality if group else ""])
     if res.mass_kg is not None:
         rows.append(["liquid mass m", "kg", res.mass_kg, "given", "", "", ""])

@@ -9,7 +9,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from sloshid.core.spectrum import SpectralPeak, Spectrum
-from sloshid.identification.pt2fit import Z95, ModeFit, PT2Fit, WindowData, fit_two_modes
+from sloshid.identification.estimates import estimate
+from sloshid.identification.pt2fit import Z95, ZETA_BOUNDS, ModeFit, PT2Fit, WindowData, fit_two_modes
 
 MIN_SEPARATION_BINS = 2.0
 """The fitted modes must lie at least this many Welch resolution bins apart (about four beats in the window):
@@ -47,18 +48,13 @@ class SecondMode:
         """f_hz and zeta of the second mode with errors, per-signal amplitude share, the verdict on separation."""
         m = _second(self.fit)
         se_w, se_z = np.sqrt(np.clip(np.diag(m.cov), 0, None))
-        f, sf = m.omega_rad_s / (2 * math.pi), se_w / (2 * math.pi)
         return {
             "psd_peak_f_hz": self.peak.f_hz,
             "psd_relative_power": self.peak.relative,
             "separated": self.separated,
             "problems": list(self.problems),
-            "f_hz": {"value": f, "stderr": float(sf), "ci95": [f - Z95 * sf, f + Z95 * sf]},
-            "zeta": {
-                "value": m.zeta,
-                "stderr": float(se_z),
-                "ci95": [max(0.0, m.zeta - Z95 * se_z), m.zeta + Z95 * se_z],
-            },
+            "f_hz": estimate(m.omega_rad_s / (2 * math.pi), se_w / (2 * math.pi)).to_dict(),
+            "zeta": estimate(m.zeta, se_z, ZETA_BOUNDS).to_dict(),
             "amplitude_share": [self.amplitude_share(i) for i in range(len(self.fit.linear))],
             "single_mode_f_hz": self.single.omega_rad_s / (2 * math.pi),
             "single_mode_zeta": self.single.zeta,

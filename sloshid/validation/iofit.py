@@ -31,14 +31,8 @@ from scipy.optimize import least_squares
 
 from sloshid.core.errors import SettingError
 from sloshid.core.settings import check_axis_offset, check_in_metres, setting_field
-from sloshid.identification.estimator import (
-    Estimate,
-    Identifier,
-    IdentResult,
-    IdentSettings,
-    estimate,
-    estimates_table,
-)
+from sloshid.identification.estimates import Estimate, estimate
+from sloshid.identification.estimator import Identifier, IdentResult, IdentSettings, estimates_table
 from sloshid.identification.pt2fit import hac_covariance
 from sloshid.identification.signals import Signal
 from sloshid.model.pendulum import XI_CYLINDER, G, SloshParams, cylinder_first_mode_omega, linear_tf_coeffs
@@ -271,10 +265,7 @@ class IOFit:
         """Readable summary: parameters, per-run scores, and the gain over the decay-only model."""
         lines = [f"sloshid identify (input-output): {len(self.runs)} run(s)"]
         for key, est in self.parameters.items():
-            lines.append(
-                f"  {key:<15} = {est.shown()} ± {est.stderr:.2g}  (95 % CI {est.shown(est.ci95[0])} .. "
-                f"{est.shown(est.ci95[1])})"
-            )
+            lines.append(f"  {key:<15} = {est.shown()} ± {est.stderr:.2g}  (95 % CI {est.interval()})")
         lines.append(
             "  priors: "
             + ", ".join(
@@ -323,7 +314,7 @@ def _prepare(pose: PoseLog, sig: Signal, start: LiquidModel) -> _RunData:
         spherical=True,
         depths_m=start.depths_m,
     )
-    al = align(sig.t_s, y_all, resp.t_s, start.reading(resp, kind), exc.move_span_s)
+    al = align(sig.t_s, y_all, resp.t_s, start.reading(resp, kind), exc.move_span_s, sig.source)
     keep = sig.t_s - al.lag_s >= exc.move_span_s[0] - LEAD_IN_S
     y = y_all[keep] - baseline(sig.t_s, y_all, exc.move_span_s[0] + al.lag_s)
     settle = max(float(sig.t_s[-1] - al.lag_s - exc.t_s[-1]) + LAG_SPAN_S, 0.1)
@@ -464,9 +455,9 @@ def fit_io(
     names: list[str] | None = None,
     views_deg: float | None = None,
 ) -> IOFit:
-    """Fit f, zeta, the drag, the wall's wave share, crest coefficient and rest tilts jointly over the runs (own lag and
-    offset each), each toward its physical prior and within its physical range; `views_deg`: the wall is read in two
-    views 90 deg apart (`predict.read_out`)."""
+    """Fit f, zeta, the drag, the wall's wave share, crest coefficient and rest tilts (and, with `views_deg`, the
+    views' arc) jointly over the runs (own lag and offset each), each toward its physical prior and within its physical
+    range; `views_deg`: the wall is read in two views 90 deg apart (`predict.read_out`)."""
     if len(poses) != len(signals):
         raise SettingError(
             "trajectory",
@@ -523,11 +514,13 @@ def fit_io(
     f, zeta = physical["f_hz"], physical["zeta"]
     # on its range's edge: within 1 % of the range (the bounded solver approaches a bound without reaching it)
     at_bound = [nm for nm, v, a, b in zip(FITTED, sol.x, lo, hi) if min(v - a, b - v) < 0.01 * (b - a)]
-    params = _estimates(sol, prob, physical, settings.mass_kg)
+    # without the views the arc reads nothing: it kept its prior, no fitted value to report
+    unread = () if views_deg is not None else ("view_arc_deg",)
+    params = {k: e for k, e in _estimates(sol, prob, physical, settings.mass_kg, ranges).items() if k not in unread}
     mass = settings.mass_kg or 1.0
     physics = SloshParams.from_modal(2 * math.pi * f, zeta, mass)
     envelope = {k: max(motion_range(d.exc)[k] for d in prob.data) for k in MOTION_QUANTITIES}
-    stderr = tuple((k, params[k].stderr) for k in FITTED_ERRORS)
+    stderr = tuple((k, params[k].stderr) for k in FITTED_ERRORS if k in params)
     model = replace(
         start,
         params=physics,
@@ -556,8 +549,8 @@ def fit_io(
         decay_runs=decay_runs,
         at_bound=at_bound,
         n_simulations=prob.n_sim,
-        priors=priors,
-        ranges=ranges,
+        priors={k: v for k, v in priors.items() if k not in unread},
+        ranges={k: v for k, v in ranges.items() if k not in unread},
     )
 
 
@@ -605,9 +598,11 @@ def fit_io_files(
     return fit_io(poses, signals, radius_m, io.axis_offset_m, io.smooth_s, settings, names, io.views_deg)
 
 
-def _estimates(sol, prob: _Problem, physical: dict[str, float], mass: float | None) -> dict[str, Estimate]:
+def _estimates(
+    sol, prob: _Problem, physical: dict[str, float], mass: float | None, ranges: dict[str, tuple[float, float]]
+) -> dict[str, Estimate]:
     """The fitted parameters (and omega, l, d from f and zeta) with Newey-West standard errors (per-run blocks; the
-    prior rows one more block), mapped from the scaled vector."""
+    prior rows one more block), mapped from the scaled vector; each interval cut at its physical range (`ranges`)."""
     f, zeta = physical["f_hz"], physical["zeta"]
     data = prob.data
     sizes = np.cumsum([0] + [d.y.size for d in data] + [N_PARAMS])
@@ -617,17 +612,16 @@ def _estimates(sol, prob: _Problem, physical: dict[str, float], mass: float | No
     d_scaled = np.array([prob.priors["f_hz"] / 10, zeta] + [1.0] * (N_PARAMS - 2))
     se = np.sqrt(np.clip(np.diag(cov)[:N_PARAMS], 0, None)) * d_scaled
     omega, se_w = 2 * math.pi * f, 2 * math.pi * se[0]
+    omegas = (2 * math.pi * ranges["f_hz"][0], 2 * math.pi * ranges["f_hz"][1])
     out = {
-        "f_hz": estimate(f, se[0]),
-        "omega_rad_s": estimate(omega, se_w),
-        "zeta": estimate(zeta, se[1], floor=0.0),
-        "l_m": estimate(G / omega**2, 2 * G / omega**3 * se_w),
-        "drag": estimate(physical["drag"], se[2], floor=0.0),
-        "wave_share": estimate(physical["wave_share"], se[3], floor=0.0),
-        **{k: estimate(physical[k], se[FITTED.index(k)]) for k in FITTED[4:]},
+        "f_hz": estimate(f, se[0], ranges["f_hz"]),
+        "omega_rad_s": estimate(omega, se_w, omegas),
+        "zeta": estimate(zeta, se[1], ranges["zeta"]),
+        "l_m": estimate(G / omega**2, 2 * G / omega**3 * se_w, (G / omegas[1] ** 2, G / omegas[0] ** 2)),
+        **{k: estimate(physical[k], se[FITTED.index(k)], ranges[k]) for k in FITTED[2:]},
     }
     if mass is not None:
         out["d_ns_per_m"] = estimate(
-            2 * mass * omega * zeta, 2 * mass * math.hypot(zeta * se_w, omega * se[1]), floor=0.0
+            2 * mass * omega * zeta, 2 * mass * math.hypot(zeta * se_w, omega * se[1]), (0.0, math.inf)
         )
     return out

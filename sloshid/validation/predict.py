@@ -268,9 +268,12 @@ def load_model(path: str | Path) -> LiquidModel:
     structure = fit.get("structure")
     if old or (structure is not None and structure != STRUCTURE):
         what = ", ".join(old) if old else f"'{structure}'"
-        raise UserError(
+        raise SettingError(  # named by each front-end: `sloshid identify RUN.mat --trajectory RUN.csv`
+            "params",
             f"parameter file {path} comes from a liquid model of another structure ({what}), whose parameters mean "
-            "something else here; identify the runs again against their `trajectory`."
+            "something else here; identify the runs again against their trajectories (`sloshid identify RUN.mat "
+            "{trajectory} RUN.csv`).",
+            "trajectory",
         )
     try:
         share = float(p.get("wave_share", {}).get("value", 1.0))

@@ -28,18 +28,26 @@ class Alignment:
 
 
 def align(
-    t_meas: np.ndarray, y_meas: np.ndarray, t_pred: np.ndarray, y_pred: np.ndarray, move_s: tuple[float, float]
+    t_meas: np.ndarray,
+    y_meas: np.ndarray,
+    t_pred: np.ndarray,
+    y_pred: np.ndarray,
+    move_s: tuple[float, float],
+    source: str = "",
 ) -> Alignment:
-    """Slide the predicted move over the measured record; the lag of the highest Pearson correlation, sub-sample."""
+    """Slide the predicted move over the measured record; the lag of the highest Pearson correlation, sub-sample.
+    `source` (the measured file) names the record in an error."""
     u = to_uniform(t_meas, y_meas)
     dt = 1.0 / u.fs_hz
     t_tpl = np.arange(move_s[0] - TEMPLATE_PAD_S[0], move_s[1] + TEMPLATE_PAD_S[1], dt)
     tpl = np.interp(t_tpl, t_pred, y_pred, left=y_pred[0], right=y_pred[-1])
     m, n = tpl.size, u.value.size
     if m < MIN_TEMPLATE_SAMPLES or n <= m:
+        move = move_s[1] - move_s[0]
         raise UserError(
-            f"the measured record ({u.t_s[-1] - u.t_s[0]:.2f} s) is too short to align with the "
-            f"{t_tpl[-1] - t_tpl[0]:.2f} s move (+{TEMPLATE_PAD_S[1]:g} s after it); it must cover the whole move."
+            f"{f'{source}: ' if source else ''}the measured record ({u.t_s[-1] - u.t_s[0]:.2f} s) is too short to "
+            f"align with the {move:.2f} s move: it must be longer than the move with {TEMPLATE_PAD_S[0]:g} s before "
+            f"and {TEMPLATE_PAD_S[1]:g} s after it ({move + sum(TEMPLATE_PAD_S):.2f} s)."
         )
     tpl = tpl - tpl.mean()
     if not np.any(tpl):

@@ -76,7 +76,7 @@ class ValidationRun:
     """The 95 % band's lower edge on the scored samples (None: no band)."""
     hi: np.ndarray | None = None
     notes: tuple[str, ...] = ()
-    """The prediction's extrapolation notes."""
+    """What reading the measurement dropped (NaN/inf samples) and the prediction's extrapolation notes."""
     in_sample: bool = False
     """The model was identified from this very measurement: its scores show the fit, not a prediction."""
 
@@ -158,7 +158,7 @@ def validate_run(pose: PoseLog, sig: Signal, model: LiquidModel, name: str = "")
     pred = model.reading(resp, kind)
     band = fc.band(lambda r, m: m.reading(r, kind))
     move = resp.move_span_s
-    al = align(sig.t_s, y_all, resp.t_s, pred, move)
+    al = align(sig.t_s, y_all, resp.t_s, pred, move, sig.source)
     base = baseline(sig.t_s, y_all, move[0] + al.lag_s)
     tm = sig.t_s - al.lag_s
     keep = (tm >= move[0] - LEAD_IN_S) & (tm <= resp.t_s[-1])
@@ -168,7 +168,7 @@ def validate_run(pose: PoseLog, sig: Signal, model: LiquidModel, name: str = "")
     scores = {"all": score(y, yhat), "during": score(y[during], yhat[during]), "after": score(y[after], yhat[after])}
     lo, hi = (np.interp(t, resp.t_s, edge, left=edge[0]) for edge in band)
     return ValidationRun(
-        name or Path(sig.source).stem, kind, al, base, move, t, y, yhat, scores, lo, hi, tuple(fc.notes)
+        name or Path(sig.source).stem, kind, al, base, move, t, y, yhat, scores, lo, hi, (*sig.warnings, *fc.notes)
     )
 
 
@@ -289,8 +289,8 @@ class Validation:
 
     @property
     def warnings(self) -> list[str]:
-        """Runs whose prediction correlates weakly with the measurement at the best lag (WEAK_ALIGNMENT): the lag, and
-        every score after it, may be wrong (a measurement of another move, or noise)."""
+        """Each run's notes (samples dropped on reading, extrapolation), then runs whose prediction correlates weakly
+        with the measurement at the best lag (WEAK_ALIGNMENT: the lag and every score may be wrong) or was fitted on it."""
         return (
             [n for r in self.runs for n in r.notes]
             + [

@@ -23,7 +23,8 @@ from sloshid.core.hashing import file_sha256, json_sha256
 from sloshid.core.outputs import is_sloshid_page, writable_folder
 from sloshid.core.parallel import ClusterSettings, dask_client, wait_with_workers
 from sloshid.core.tables import distinct_names
-from sloshid.identification.estimator import Z95, shown_with_error
+from sloshid.identification.estimates import shown_with_error
+from sloshid.identification.estimator import Z95
 from sloshid.report.html import Report
 from sloshid.workflow.options import BatchConfig
 
@@ -124,7 +125,7 @@ def process_video(video: str, config: BatchConfig, out_root: str) -> dict[str, A
             [*_interval(p, "f_hz"), *_interval(p, "zeta"), *_interval(p, "l_m"), *_interval(p, "d_ns_per_m")],
         )
     )
-    row.update(status="ok", quality=doc["quality"], reasons="; ".join(doc["reasons"]))
+    row.update(status="ok", quality=doc["quality"], reasons=" ".join(doc["reasons"]))  # each a sentence
     written = {name: file_sha256(out / name) for name in OUTPUT_FILES if (out / name).exists()}
     write_json(marker, {"key": key, "settings": dataclasses.asdict(config), "outputs": written, "row": row})
     return row

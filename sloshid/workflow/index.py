@@ -7,7 +7,7 @@ import html
 from pathlib import Path
 from typing import Any
 
-from sloshid.identification.estimator import shown_with_error
+from sloshid.identification.estimates import interval_ends, shown_with_error
 from sloshid.identification.verdict import PARAMETER_LABELS
 from sloshid.report.html import Report
 from sloshid.workflow.pipeline import StageRecord
@@ -59,14 +59,14 @@ def _track(report: Report, run_dir: Path, s: dict[str, Any]) -> None:
 def _identify(report: Report, run_dir: Path, s: dict[str, Any]) -> None:
     """Verdict, parameter table with 95 % intervals and per-parameter verdicts, notes on the inputs, report link."""
     report.add_text(
-        f"Verdict: {s['quality']}" + (f" ({'; '.join(s['reasons'])})" if s["reasons"] else ""),
+        f"Verdict: {s['quality']}" + (f". {' '.join(s['reasons'])}" if s["reasons"] else "."),  # each a sentence
         css_class=f"verdict-{s['quality']}",
     )
     rows = []
     for name, p in s["parameters"].items():
         label, unit = PARAMETER_LABELS.get(name, (name, ""))
         se = p.get("stderr")  # values and bounds with the digits their error allows (4 read 1.9996 as 2)
-        bounds = [shown_with_error(b, se) for b in p["ci95"]] if p.get("ci95") else [None, None]
+        bounds = interval_ends(p["ci95"], se, p.get("bounds")) if p.get("ci95") else [None, None]
         rows.append([label, unit, shown_with_error(p["value"], se), se, *bounds, p.get("quality", "given")])
     report.add_table(["parameter", "unit", "value", "std. error", "95 % low", "95 % high", "verdict"], rows)
     if s.get("between"):  # several signals: whether they agree when fitted alone

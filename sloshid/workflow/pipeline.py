@@ -268,9 +268,9 @@ def _stage_error(exc: Exception, stage: str) -> str:
     return str(exc) if isinstance(exc, UserError) else f"unexpected error: {type(exc).__name__}: {exc}"
 
 
-def _new_run_dir(pipeline: Pipeline, output_dir: str | Path | None) -> tuple[Path, Path, str]:
+def _new_run_dir(pipeline: Pipeline) -> tuple[Path, Path, str]:
     """(pipeline root, this run's folder, run id); the run folder is created, after checking it can be."""
-    root = Path(output_dir or pipeline.run.output_dir) / pipeline.run.name
+    root = Path(pipeline.run.output_dir) / pipeline.run.name
     run_id = datetime.now(timezone.utc).strftime("%Y%m%d-%H%M%S-%f")
     run_dir = root / run_id
     writable_folder(run_dir, "the run folder", run_dir)
@@ -333,7 +333,9 @@ def run_pipeline(
     """Run every stage (or reuse its cached outputs) and write the run directory with manifest and index; each stage's
     progress goes to `log` (default: the `sloshid.workflow` logger, at INFO)."""
     log = log or logger.info
-    root, run_dir, run_id = _new_run_dir(pipeline, output_dir)
+    if output_dir:  # the manifest records the folder the run is written to, not the file's default
+        pipeline = replace(pipeline, run=replace(pipeline.run, output_dir=str(output_dir)))
+    root, run_dir, run_id = _new_run_dir(pipeline)
     input_hashes: dict[str, str] = {}
     try:
         records = _run_stages(pipeline, root, run_dir, input_hashes, log)
