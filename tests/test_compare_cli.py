@@ -304,4 +304,7 @@ def test_compare_does_not_send_a_move_the_whole_input_output_model_calls_sloshin
         assert last.startswith(f"next: send {move} to the robot"), last
     else:
         assert last.startswith(f"next: do not send {move} (sloshid robust plan): by the whole model of {params}"), last
-        assert f"up to {peak:.2g} deg" in last and f"`sloshid predict {move} --params {params}`" in last
+        assert (
+            f"up to {peak:.2g} deg" in last
+            and f"`sloshid predict {move} --params {params} -o {tmp_path / 'move_prediction.csv'}`" in last
+        )

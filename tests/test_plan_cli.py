@@ -131,7 +131,7 @@ def test_a_plan_the_whole_input_output_model_calls_sloshing_is_not_sent(run_cli,
     step = out.strip().splitlines()[-1]
     assert peak > 1 and "to the robot" not in step
     assert step.startswith(f"next: do not send {move}: by the whole model of {params} it moves the liquid by up to ")
-    assert f"check a move with `sloshid predict {move} --params {params}`" in step
+    assert f"check a move with `sloshid predict {move} --params {params} -o {tmp_path / 'move_prediction.csv'}`" in step
 
 
 BAD = [

@@ -104,6 +104,12 @@ def test_pipeline_index_opens_with_an_overall_verdict():
     assert quality == "good" and "liquid frequency good" in text and "recommended: sloshid robust plan" in text
     text, quality = overall_verdict([ident, StageRecord("plan", "k", "failed", 1.0, {}, "boom")])
     assert quality == "unreliable" and "plan failed" in text
+    # a move the scenario's arm cannot follow is not sent: the verdict above "Do not send" must not be green
+    arm = {"reason": "joint 5 acceleration 33 > 15 rad/s2"}
+    plan_arm = StageRecord("plan", "k", "ran", 1.0, {"limits_ok": True, "verification": {"ok": True}, "arm": arm})
+    compare_arm = StageRecord("compare", "k", "ran", 1.0, {"recommendation": rec, "recommended": {"arm": arm}})
+    text, quality = overall_verdict([ident, plan_arm, compare_arm])
+    assert quality == "uncertain" and text.count("robot arm cannot follow") == 2
 
 
 def test_misfit_that_fades_with_the_mode_doubts_the_damping_only():

@@ -16,7 +16,7 @@ import argparse
 import json
 import sys
 
-from sloshid.cli.plan_cmd import arm_says, note_io_model, warn_doubtful_parameters
+from sloshid.cli.plan_cmd import arm_says, note_io_model, predict_command, warn_doubtful_parameters
 from sloshid.comparison.recommend import declare_move
 from sloshid.core.outputs import Outputs
 
@@ -134,7 +134,7 @@ def next_line(
         return (
             f"next: do not send {written} ({rec.label}): by the whole model of {params} it moves the liquid by up to "
             f"{peak:.2g} deg (the comparison, with its f and zeta alone, calls a move slosh-free within "
-            f"{comp.settings.peak_ok_deg:g} deg); check a move with `sloshid predict {written} --params {params}` and "
+            f"{comp.settings.peak_ok_deg:g} deg); check a move with {predict_command(written, params)} and "
             "send one it keeps slosh-free."
         )
     if written is not None and arm is not None:

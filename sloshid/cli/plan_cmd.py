@@ -234,6 +234,12 @@ def _run_upright(args, settings: PlanSettings, scenario, outputs, output: Path, 
     return 0 if passed else 1
 
 
+def predict_command(trajectory: str | Path, params: str | Path) -> str:
+    """The `sloshid predict` line that checks a written move by the whole input-output model, runnable as printed."""
+    move = Path(trajectory)
+    return f"`sloshid predict {move} --params {params} -o {move.with_name(move.stem + '_prediction.csv')}`"
+
+
 def note_io_model(params_path: str | None, trajectory: str, planned=None) -> float | None:
     """One stderr note when the parameters are an input-output model, whose gains plan and compare do not use (with
     how far it moves the liquid in the `planned` trajectory, when given); that peak (deg), or None."""
@@ -244,7 +250,7 @@ def note_io_model(params_path: str | None, trajectory: str, planned=None) -> flo
     peak = whole_model_peak_deg(params_path, planned, trajectory) if planned is not None else None
     note = planning_note(params_path, trajectory, peak)
     if note:
-        check = f"`sloshid predict {trajectory} --params {params_path}`"
+        check = predict_command(trajectory, params_path)
         print(f"sloshid: note: {note.removesuffix('.')} ({check}).", file=sys.stderr)
     return peak
 
@@ -263,8 +269,8 @@ def next_step(
     if peak_deg is not None and peak_deg > limit:
         return (
             f"next: do not send {output}: by the whole model of {params_path} it moves the liquid by up to "
-            f"{peak_deg:.2g} deg (the plan holds its pendulum pair within {limit:g} deg); check a move with `sloshid "
-            f"predict {output} --params {params_path}` and send one it keeps slosh-free."
+            f"{peak_deg:.2g} deg (the plan holds its pendulum pair within {limit:g} deg); check a move with "
+            f"{predict_command(output, params_path)} and send one it keeps slosh-free."
         )
     if arm is not None:
         return f"next: do not send {output}: {arm}."

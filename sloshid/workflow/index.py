@@ -213,7 +213,8 @@ RENDERERS = {"track": _track, "identify": _identify, "plan": _plan, "compare": _
 
 def overall_verdict(records: list[StageRecord]) -> tuple[str, str]:
     """(sentence, quality) over the stages: the liquid's frequency verdict, the plan's verification and limits,
-    the comparison's recommendation; the worst of them (a failed stage is unreliable)."""
+    the comparison's recommendation, whether the scenario's arm can follow the move; the worst of them (a failed
+    stage is unreliable; a move the arm cannot follow is at best uncertain)."""
     levels = ("good", "uncertain", "unreliable")
     parts, worst = [], "good"
     for rec in records:
@@ -228,12 +229,17 @@ def overall_verdict(records: list[StageRecord]) -> tuple[str, str]:
         elif rec.name == "plan":  # a move within a spill margin says verification_ok
             verified = s.get("verification_ok", s.get("verification", {}).get("ok", True))
             ok = s.get("limits_ok", True) and verified
-            level = "good" if ok else "uncertain"
+            level = "good" if ok and not s.get("arm") else "uncertain"
             parts.append("plan verified within the robot limits" if ok else "plan NOT verified or over a limit")
+            if s.get("arm"):
+                parts.append("the robot arm cannot follow the plan")
         elif rec.name == "compare" and s.get("recommendation"):
             r = s["recommendation"]
             level = r["risk"]
             parts.append(f"recommended: {r['label']}" if r["method"] else "no method recommended")
+            if (s.get("recommended") or {}).get("arm"):
+                parts.append("the robot arm cannot follow the recommended move")
+                level = max(level, "uncertain", key=levels.index)
         else:
             continue
         worst = max(worst, level, key=levels.index)
