@@ -303,6 +303,27 @@ def test_compare_sends_a_move_the_scenarios_arm_can_follow(tmp_path, run_cli, fi
     )
 
 
+def test_compare_says_not_to_send_a_move_no_slower_plan_fits_to_the_arm(tmp_path, run_cli):
+    # a goal 1.2 m away is out of the Panda's reach: no timing fixes that, so the fastest slosh-free move is written
+    # as before and the line says not to send it, and why
+    arm = '[robot]\nmodel = "panda"\ntool_offset_m = [0.0, 0.0, 0.1]\n'
+    arm += "q_start = [-0.2601, -0.2369, -0.4947, -2.6876, -0.1801, 2.4704, 0.184]\n"
+    path = write_scenario(tmp_path, methods='["constant_acc", "sloshid_robust"]', extra=arm)
+    path.write_text(path.read_text().replace("goal = [0.4, 0.0, 0.2]", "goal = [1.5, 0.0, 0.2]"))
+    move = tmp_path / "move.csv"
+    code, out, err = run_cli("compare", path, "-o", move)
+    assert code == 0, err
+    last = out.strip().splitlines()[-1]
+    assert re.match(
+        rf"next: do not send {re.escape(str(move))} \(sloshid robust plan\): the pose at .* out of the", last
+    )
+    described = json.loads((tmp_path / "move.json").read_text())
+    fit = described["arm_fit"]
+    assert not fit["follows"] and not fit["slowed"] and "out of the Panda's reach" in fit["reason"]
+    assert described["joints_csv"] is None and not (tmp_path / "move_joints.csv").exists()
+    assert described["transfer_time_s"] == fit["transfer_time_first_s"] == fit["transfer_time_s"]
+
+
 @pytest.mark.parametrize(
     ("parameters", "sent"),
     [

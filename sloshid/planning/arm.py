@@ -459,8 +459,8 @@ class ArmFit:
         cost = 100 * (self.trajectory.duration_s / self.first_s - 1)
         return (
             f"slowed for the Panda of [robot] from {self.first_s:.3f} to {self.trajectory.duration_s:.3f} s "
-            f"(+{cost:.1f} %; re-planned {len(self.steps) - 1} time(s) with lower Cartesian limits, as `fit_joints` "
-            f"does), as at full speed {self.steps[0].reason[:1].lower()}{self.steps[0].reason[1:].rstrip('.')}"
+            f"(+{cost:.1f} %; re-planned {len(self.steps) - 1} time(s) with lower Cartesian limits), as at full speed "
+            f"{self.steps[0].reason[:1].lower()}{self.steps[0].reason[1:].rstrip('.')}"
         )
 
     def to_dict(self) -> dict:

@@ -40,8 +40,8 @@ class ArmSettings:
     at the move's start is solved (the nearest, by least joint change)."""
     fit_joints: bool | None = None
     """When the arm cannot follow the fastest plan, re-plan it with lower Cartesian limits until it can (slower; the
-    JSON's joints.fit lists each attempt's T in s). Unset, compare and run send such a fitted move and `plan --joints`
-    fits only when asked; true fits in `plan --joints` too; false fits nowhere (compare and run say not to send)."""
+    JSON's joints.fit lists each attempt's T in s). compare and run send such a fitted move unless [robot] fit_joints
+    = false (then they say not to send the fastest); plan fits its joints only when asked (this, or fit_joints = true)."""
 
     @property
     def fits_sent_moves(self) -> bool:
