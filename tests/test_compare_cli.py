@@ -10,6 +10,7 @@ import pytest
 
 from sloshid.core.errors import UserError
 from sloshid.core.tables import read_csv
+from sloshid.model.trajectory import Trajectory
 
 SCENARIO = """
 [move]
@@ -257,21 +258,70 @@ def test_compare_shows_its_progress_on_a_terminal_and_ends_with_the_next_step(tm
     assert "sloshid compare: figures" in err.getvalue()  # and the report's figures, seconds of drawing
     last = out.strip().splitlines()[-1]
     recommended = json.loads((tmp_path / "move.json").read_text())
-    assert last.startswith(f"next: send {tmp_path / 'move.csv'} to the robot") and recommended["label"] in last
+    # a scenario without [robot]: the move alone, as before, with no joints and no word of an arm
+    assert (
+        last
+        == f"next: send {tmp_path / 'move.csv'} to the robot ({recommended['label']}; {tmp_path / 'move.json'} says why)."
+    )
+    assert recommended["arm_fit"] is None and recommended["joints_csv"] is None
+    assert not (tmp_path / "move_joints.csv").exists() and "Panda" not in out
 
 
-def test_compare_checks_the_move_it_sends_on_the_scenarios_arm(tmp_path, run_cli):
+@pytest.mark.parametrize("fit_joints", [None, False], ids=["fitted", "fit_joints_false"])
+def test_compare_sends_a_move_the_scenarios_arm_can_follow(tmp_path, run_cli, fit_joints):
     # the scenario's Panda was ignored: compare said "next: send move.csv to the robot" for a move whose joint
-    # accelerations the arm cannot follow (`plan --joints` refused it, exit 1)
+    # accelerations the arm cannot follow (`plan --joints` refused it, exit 1); then it said not to send it. It now
+    # sends the robust plan re-planned slower for the arm, with its joints, unless [robot] fit_joints = false
+    from sloshid.planning.arm import check_joints
+    from sloshid.planning.scenario import load_scenario
+
+    arm = '[robot]\nmodel = "panda"\ntool_offset_m = [0.0, 0.0, 0.1]\n'
+    arm += "q_start = [-0.2601, -0.2369, -0.4947, -2.6876, -0.1801, 2.4704, 0.184]\n"
+    arm += "fit_joints = false\n" if fit_joints is False else ""
+    path = write_scenario(tmp_path, methods='["constant_acc", "sloshid_robust"]', extra=arm)
+    move, joints = tmp_path / "move.csv", tmp_path / "move_joints.csv"
+    code, out, err = run_cli("compare", path, "-o", move)
+    assert code == 0, err
+    last = out.strip().splitlines()[-1]
+    described = json.loads((tmp_path / "move.json").read_text())
+    if fit_joints is False:  # as before: the fastest slosh-free move, which the arm cannot follow
+        fit = f"sloshid plan {path} --robust -o TRAJ.csv --joints TRAJ_joints.csv --fit-joints"
+        assert last.startswith(f"next: do not send {move} (sloshid robust plan): the Panda of [robot]")
+        assert f"`{fit}` plans sloshid's move slower" in last and "to the robot" not in last
+        assert described["arm_fit"] is None and not joints.exists()
+        return
+    fitted = described["arm_fit"]
+    assert fitted["follows"] and fitted["slowed"] and fitted["transfer_time_s"] > fitted["transfer_time_first_s"]
+    assert last == (
+        f"next: send {move} (or the joints, {joints}) to the robot (sloshid robust plan, slowed for the arm from "
+        f"{fitted['transfer_time_first_s']:.3f} s; {tmp_path / 'move.json'} says why)."
+    )
+    sent = Trajectory.from_csv(move)
+    assert check_joints(sent, load_scenario(path).arm).executable and joints.exists()
+    assert (
+        f"Slowed for the Panda of [robot] from {fitted['transfer_time_first_s']:.3f} to {sent.duration_s:.3f} s" in out
+    )
+
+
+def test_compare_says_not_to_send_a_move_no_slower_plan_fits_to_the_arm(tmp_path, run_cli):
+    # a goal 1.2 m away is out of the Panda's reach: no timing fixes that, so the fastest slosh-free move is written
+    # as before and the line says not to send it, and why
     arm = '[robot]\nmodel = "panda"\ntool_offset_m = [0.0, 0.0, 0.1]\n'
     arm += "q_start = [-0.2601, -0.2369, -0.4947, -2.6876, -0.1801, 2.4704, 0.184]\n"
     path = write_scenario(tmp_path, methods='["constant_acc", "sloshid_robust"]', extra=arm)
-    code, out, err = run_cli("compare", path, "-o", tmp_path / "move.csv")
+    path.write_text(path.read_text().replace("goal = [0.4, 0.0, 0.2]", "goal = [1.5, 0.0, 0.2]"))
+    move = tmp_path / "move.csv"
+    code, out, err = run_cli("compare", path, "-o", move)
     assert code == 0, err
     last = out.strip().splitlines()[-1]
-    fit = f"sloshid plan {path} --robust -o TRAJ.csv --joints TRAJ_joints.csv --fit-joints"
-    assert last.startswith(f"next: do not send {tmp_path / 'move.csv'} (sloshid robust plan): the Panda of [robot]")
-    assert f"`{fit}` plans sloshid's move slower" in last and "to the robot" not in last
+    assert re.match(
+        rf"next: do not send {re.escape(str(move))} \(sloshid robust plan\): the pose at .* out of the", last
+    )
+    described = json.loads((tmp_path / "move.json").read_text())
+    fit = described["arm_fit"]
+    assert not fit["follows"] and not fit["slowed"] and "out of the Panda's reach" in fit["reason"]
+    assert described["joints_csv"] is None and not (tmp_path / "move_joints.csv").exists()
+    assert described["transfer_time_s"] == fit["transfer_time_first_s"] == fit["transfer_time_s"]
 
 
 @pytest.mark.parametrize(

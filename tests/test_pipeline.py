@@ -353,18 +353,52 @@ def test_a_bad_robust_samples_key_is_refused_before_anything_runs(tmp_path, run_
     assert err.count("\n") == 1 and not (tmp_path / "runs").exists()
 
 
-def test_run_does_not_say_send_a_plan_the_scenarios_arm_cannot_follow(tmp_path, run_cli):
-    # paper_1d names a Panda, whose joint 5 cannot follow the fastest plan (`plan --joints` exits 1), yet run said
-    # "send to the robot: .../plan/trajectory.csv"; the line and the index now say why not and what fits one
+def test_run_sends_the_plan_slowed_for_the_scenarios_arm(tmp_path, run_cli):
+    # paper_1d names a Panda, whose joint 5 cannot follow the fastest plan (`plan --joints` exits 1): run said "send
+    # to the robot: .../plan/trajectory.csv", then why not; it now writes the plan re-planned slower until the arm
+    # can follow it, as `plan --joints --fit-joints` does, and its joints beside it
+    from sloshid.model.trajectory import Trajectory
+    from sloshid.planning.arm import check_joints
+    from sloshid.planning.scenario import load_scenario
+
     scenario = ROOT / "data" / "scenarios" / "paper_1d.toml"
     pipe = _write(tmp_path / "p.toml", f'[plan]\nscenario = "{scenario.as_posix()}"\nuse_identified = false\n')
     code, out, err = run_cli("run", pipe, "--output-dir", tmp_path / "runs")
     assert code == 0, err
     run_dir = Path(out.strip()).parent
+    plan = json.loads((run_dir / "manifest.json").read_text())["stages"][0]["summary"]
+    fit = plan["arm_fit"]
+    assert fit["follows"] and fit["slowed"] and plan["arm"] is None and plan["joints"]["executable"]
+    move, joints = run_dir / "plan" / "trajectory.csv", run_dir / "plan" / "trajectory_joints.csv"
+    line = err.strip().splitlines()[-1]
+    assert line == (
+        f"next: send {move} (or the joints, {joints}) to the robot (the nominal plan (not compared with the "
+        f"alternatives, slowed for the arm from {fit['transfer_time_first_s']:.3f} s)); open:"
+    )
+    sent = Trajectory.from_csv(move)
+    assert check_joints(sent, load_scenario(scenario).arm).executable and joints.exists()
+    # `plan --joints --fit-joints` writes the same move: one transfer time, to a sample (1 ms)
+    code, _, err = run_cli("plan", scenario, "-o", tmp_path / "t.csv", "--joints", tmp_path / "q.csv", "--fit-joints")
+    assert code == 0, err
+    assert abs(Trajectory.from_csv(tmp_path / "t.csv").duration_s - sent.duration_s) <= 1e-3
+    assert abs(plan["T_s"] - sent.duration_s) <= 1e-3 and sent.duration_s > fit["transfer_time_first_s"]
+    page = (run_dir / "index.html").read_text()
+    assert "Send to the robot" in page and 'href="plan/trajectory_joints.csv"' in page
+
+
+def test_run_with_fit_joints_false_does_not_say_send_a_plan_the_scenarios_arm_cannot_follow(tmp_path, run_cli):
+    # [robot] fit_joints = false keeps the fastest plan, and says why not to send it and what fits one
+    text = (ROOT / "data" / "scenarios" / "paper_1d.toml").read_text()
+    scenario = _write(tmp_path / "move.toml", text.replace('model = "panda"', 'model = "panda"\nfit_joints = false'))
+    pipe = _write(tmp_path / "p.toml", '[plan]\nscenario = "move.toml"\nuse_identified = false\n')
+    code, out, err = run_cli("run", pipe, "--output-dir", tmp_path / "runs")
+    assert code == 0, err
+    run_dir = Path(out.strip()).parent
     fit = f"`sloshid plan {scenario} -o TRAJ.csv --joints TRAJ_joints.csv --fit-joints`"
     line = err.strip().splitlines()[-1]
-    assert line.startswith(f"do not send {run_dir / 'plan' / 'trajectory.csv'} to the robot (the nominal plan")
+    assert line.startswith(f"next: do not send {run_dir / 'plan' / 'trajectory.csv'} to the robot (the nominal plan")
     assert "the Panda of [robot] cannot follow it (joint 5 exceeds its acceleration limit" in line and fit in line
+    assert not (run_dir / "plan" / "trajectory_joints.csv").exists()
     page = (run_dir / "index.html").read_text()
     assert "Send to the robot" not in page and "to the robot: the Panda of [robot] cannot follow it" in page
 

@@ -15,10 +15,14 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+from typing import TYPE_CHECKING
 
-from sloshid.cli.plan_cmd import arm_says, note_io_model, predict_command, warn_doubtful_parameters
-from sloshid.comparison.recommend import declare_move
+from sloshid.cli.plan_cmd import arm_clause, fit_command, note_io_model, predict_command, warn_doubtful_parameters
+from sloshid.comparison.recommend import declare_move, joints_path
 from sloshid.core.outputs import Outputs
+
+if TYPE_CHECKING:
+    from sloshid.planning.arm import ArmFit
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -44,7 +48,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default=None,
         help="write the recommended move as a 1 kHz robot trajectory CSV (the columns of `sloshid plan -o`) and "
         "TRAJ.json beside it (which method, why, and the frequency band in Hz it holds over, or within a spill margin "
-        "its risk of breaking it); nothing, and exit code 1, when none is recommended",
+        "its risk of breaking it); with a [robot] arm the fastest move the arm can follow (sloshid's plan slowed for "
+        "it when needed, unless [robot] fit_joints = false) and its joints in TRAJ_joints.csv (t_s, q1..q7 in rad); "
+        "nothing, and exit code 1, when none is recommended",
     )
     parser.add_argument(
         "--json",
@@ -80,16 +86,17 @@ def run(args: argparse.Namespace) -> int:
     print(json.dumps(comp.to_dict(), indent=2) if args.json else comp.summary())
     # with none recommended, the next line says why nothing was written (the library would refuse it)
     written = comp.write_recommended(output, tuple(inputs)) if output is not None and comp.recommended else None
-    arm, peak, rec = None, None, comp.recommended
-    if written is not None and rec is not None:  # the move sent, checked on the scenario's arm and the whole model
-        sent = rec.require_replay().trajectory
-        if scenario.arm is not None:
-            arm = arm_says(scenario.arm, sent, args.scenario, args.params, rec.key == "sloshid_robust", "TRAJ.csv")
+    arm, peak, rec, sent = None, None, comp.recommended, comp.recommended_trajectory()
+    if written is not None and rec is not None and sent is not None:  # checked on the scenario's arm and whole model
+        found = comp.arm_objection(scenario.arm)
+        if found is not None:
+            command = fit_command(args.scenario, args.params, rec.key == "sloshid_robust", "TRAJ.csv")
+            arm = arm_clause(found.reason, found.refit, command)
         if args.params:  # an input-output model: what its whole model says (None for a plain one)
             from sloshid.validation.predict import whole_model_peak_deg
 
             peak = whole_model_peak_deg(args.params, sent, str(written))
-    return _end(args, comp, output, written, arm, peak)
+    return _end(args, comp, output, written, arm, peak, comp.recommendation.arm if comp.recommendation else None)
 
 
 def _run_upright(args, scenario, inputs: list, output, report_dir) -> int:
@@ -109,11 +116,12 @@ def _run_upright(args, scenario, inputs: list, output, report_dir) -> int:
     return _end(args, comp, output, written)
 
 
-def _end(args, comp, output, written, arm: str | None = None, peak: float | None = None) -> int:
-    """The next line (on stderr under --json, which stays JSON; `arm` and `peak` as `next_line` takes them); exit code
-    1, and a line saying nothing was written, when -o was asked for but no method is recommended."""
+def _end(args, comp, output, written, arm: str | None = None, peak: float | None = None, fit=None) -> int:
+    """The next line (on stderr under --json, which stays JSON; `arm`, `peak` and `fit` as `next_line` takes them);
+    exit code 1, and a line saying nothing was written, when -o was asked for but no method is recommended."""
     given = args.scenario + (f" --params {args.params}" if args.params else "")
-    print(next_line(comp, given, written, arm, args.params, peak), file=sys.stderr if args.json else sys.stdout)
+    line = next_line(comp, given, written, arm, args.params, peak, fit)
+    print(line, file=sys.stderr if args.json else sys.stdout)
     if output is None or written is not None:
         return 0
     kept = f"; {output} was left as it was, not this comparison's move" if output.exists() else ""
@@ -122,15 +130,22 @@ def _end(args, comp, output, written, arm: str | None = None, peak: float | None
 
 
 def next_line(
-    comp, scenario: str, written, arm: str | None = None, params: str | None = None, peak: float | None = None
+    comp,
+    scenario: str,
+    written,
+    arm: str | None = None,
+    params: str | None = None,
+    peak: float | None = None,
+    fit: ArmFit | None = None,
 ) -> str:
-    """What to do with the result: send the written move (not when the whole input-output model `params` moves the
-    liquid in it by `peak` deg, past what the comparison calls slosh-free, nor when the scenario's arm cannot follow
-    it: `arm`, why and what to do), or the command that writes it (`scenario`: the scenario and --params as given)."""
+    """What to do with the result: send the written move (and its joints when the scenario's arm follows it: `fit`;
+    not when the whole input-output model `params` moves the liquid in it by `peak` deg, past what the comparison calls
+    slosh-free, nor when the scenario's arm cannot follow it: `arm`, why and what to do), or the command that writes it
+    (`scenario`: the scenario and --params as given)."""
     rec = comp.recommended
     if rec is None:
         return "next: no method is recommended (see why above); change the move, its limits or [compare] and compare again."
-    if written is not None and peak is not None and peak > comp.settings.peak_ok_deg:
+    if written is not None and peak is not None and params is not None and peak > comp.settings.peak_ok_deg:
         return (
             f"next: do not send {written} ({rec.label}): by the whole model of {params} it moves the liquid by up to "
             f"{peak:.2g} deg (the comparison, with its f and zeta alone, calls a move slosh-free within "
@@ -139,8 +154,14 @@ def next_line(
         )
     if written is not None and arm is not None:
         return f"next: do not send {written} ({rec.label}): {arm}."
+    follows = fit is not None and fit.follows
+    slowed = f", slowed for the arm from {fit.first_s:.3f} s" if fit is not None and fit.slowed else ""
     if written is not None:
-        return f"next: send {written} to the robot ({rec.label}; {written.with_suffix('.json')} says why)."
-    if rec.key == "sloshid_robust":
+        joints = f" (or the joints, {joints_path(written)})" if follows else ""
+        return (
+            f"next: send {written}{joints} to the robot ({rec.label}{slowed}; {written.with_suffix('.json')} says why)."
+        )
+    if rec.key == "sloshid_robust" and fit is None:
         return f"next: sloshid plan {scenario} --robust -o TRAJ.csv writes the recommended move ({rec.label})."
-    return f"next: sloshid compare {scenario} -o TRAJ.csv writes the recommended move ({rec.label})."
+    what = f"the recommended move ({rec.label}{slowed})" + " and its joints" * follows
+    return f"next: sloshid compare {scenario} -o TRAJ.csv writes {what}."

@@ -266,7 +266,7 @@ def next_step(
     """The line a user needs after a plan that passed its checks: send it; but not when the whole input-output model
     moves the liquid in it by more than the plan is verified to (`peak_deg` against `limit`, deg): then check first;
     nor when the scenario's arm cannot follow it (`arm`: `arm_objection`'s clause)."""
-    if peak_deg is not None and peak_deg > limit:
+    if peak_deg is not None and params_path is not None and peak_deg > limit:
         return (
             f"next: do not send {output}: by the whole model of {params_path} it moves the liquid by up to "
             f"{peak_deg:.2g} deg (the plan holds its pendulum pair within {limit:g} deg); check a move with "

@@ -51,14 +51,15 @@ def run(args: argparse.Namespace) -> int:
             truncated |= video.get("lost_share", 0.0) > LOST_NOTE
     step = next_step(result.run_dir, result.stages)
     if step is not None and not args.quiet:  # stdout stays the index's path alone
-        move, what, arm = result.run_dir / step[0], step[1], step[2]
+        move, arm = result.run_dir / step.move, step.arm
         if arm is not None:  # the scenario's arm cannot follow it
             from sloshid.cli.plan_cmd import arm_clause, fit_command
 
             command = fit_command(arm["scenario"], arm["params"], arm["robust"], "TRAJ.csv")
             why = arm_clause(arm["reason"], arm["refit"], command)
-            print(f"do not send {move} to the robot ({what}): {why}; open:", file=sys.stderr)
+            print(f"next: do not send {move} to the robot ({step.what}): {why}; open:", file=sys.stderr)
         else:
-            print(f"send to the robot: {move} ({what}); open:", file=sys.stderr)
+            joints = f" (or the joints, {result.run_dir / step.joints})" if step.joints else ""
+            print(f"next: send {move}{joints} to the robot ({step.what}); open:", file=sys.stderr)
     print(result.index_html)
     return 0 if result.ok and not truncated else 1

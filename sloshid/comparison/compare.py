@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, cast
@@ -37,6 +37,8 @@ from sloshid.planning.planner import check_feasible
 from sloshid.planning.scenario import Obstacle, Scenario, Vec3, body_clearance, check_robust_factors
 
 if TYPE_CHECKING:
+    from sloshid.planning.arm import ArmFit, ArmObjection
+    from sloshid.planning.arm_settings import ArmSettings
     from sloshid.planning.result import PlanResult
 
 METHODS: dict[str, str] = {
@@ -184,6 +186,8 @@ class MethodResult:
     """Time to compute the trajectory (planner solve time for sloshid's methods), s."""
     replay: Replay | None = None
     """What it executes when the true liquid differs (robustness sweep)."""
+    plan: PlanResult | None = None
+    """sloshid's planner methods: the plan behind the trajectory (re-planned slower when an arm cannot follow it)."""
 
     @property
     def applicable(self) -> bool:
@@ -400,27 +404,48 @@ def _copies(factors: Iterable[float]) -> tuple[float, ...]:
     return tuple(float(f) for f in factors if abs(f - 1.0) > 1e-9)
 
 
-def sloshid_plan(inp: CompareInput, robust: bool) -> tuple[Trajectory, float]:
+def planned_scenario(scenario: Scenario, robust: bool) -> Scenario:
+    """The scenario that sloshid's plan (robust or nominal: no copies, whatever [solver] lists) is solved for, and
+    re-planned for when an arm cannot follow it."""
+    if robust:
+        return robust_scenario(scenario)
+    return replace(scenario, solver=replace(scenario.solver, robust_omega_factors=[]))
+
+
+def sloshid_plan(inp: CompareInput, robust: bool) -> PlanResult:
     """sloshid's plan (issue 4's planner) for the scenario, nominal or robust, reusing the given plan when it is that
-    variant; (trajectory, solve time in s)."""
+    variant."""
     if inp.scenario is None:
         raise NotApplicable("needs a scenario file for the planner.")
     try:
         from sloshid.planning.planner import plan
+        from sloshid.planning.result import PlanResult
     except ImportError as exc:
         raise NotApplicable(f"the planner is not available ({exc}).") from None
     wanted = _copies(inp.settings.robust_omega_factors) if robust else ()
     if inp.plan is not None and _copies(inp.plan.robust_omega_factors) == wanted:
-        return inp.plan.trajectory, float(inp.plan.solve_time_s)
-    try:  # nominal: no copies, whatever [solver] lists
-        result = (
-            plan(robust_scenario(inp.scenario), inp.params)
-            if robust
-            else plan(inp.scenario, inp.params, robust_omega_factors=())
-        )
+        return inp.plan
+    try:
+        result = plan(planned_scenario(inp.scenario, robust), inp.params)
     except UserError as exc:
         raise NotApplicable(f"the planner could not solve this scenario: {exc}") from None
-    return result.trajectory, float(result.solve_time_s)
+    assert isinstance(result, PlanResult)  # a move within a spill margin is compared by upright_compare
+    return result
+
+
+def arm_follower(inp: CompareInput) -> Callable[[MethodResult], ArmFit] | None:
+    """How the scenario's [robot] arm follows a method's move (`planning.arm.fit_arm`: sloshid's plans re-planned
+    slower where the arm cannot follow them); None without an arm, or with [robot] fit_joints = false."""
+    scenario = inp.scenario
+    if scenario is None or scenario.arm is None or not scenario.arm.fits_sent_moves:
+        return None
+    from sloshid.planning.arm import fit_arm
+
+    def follow(r: MethodResult) -> ArmFit:
+        planned = planned_scenario(scenario, r.key == "sloshid_robust")
+        return fit_arm(r.require_replay().trajectory, planned, inp.params, r.plan)
+
+    return follow
 
 
 def with_feedback(inp: CompareInput, base: Trajectory, fb: FeedbackSettings | None = None) -> Replay:
@@ -462,7 +487,8 @@ def build_trajectory(key: str, inp: CompareInput, built: dict[str, MethodResult]
         elif key in ("ruckig", "ruckig_tilt"):
             traj = jerk_limited(task, inp.jerk_max_m_s3, tilt=key == "ruckig_tilt")
         elif key in ("sloshid", "sloshid_robust"):
-            traj, res.build_time_s = sloshid_plan(inp, robust=key == "sloshid_robust")
+            res.plan = sloshid_plan(inp, robust=key == "sloshid_robust")
+            traj, res.build_time_s = res.plan.trajectory, float(res.plan.solve_time_s)
         else:
             base_key = key.removesuffix("_feedback")
             base = built.get(base_key)
@@ -536,33 +562,57 @@ class Comparison:
         rec = self.recommendation
         return self.result(rec.method) if rec is not None and rec.method else None
 
-    def recommended_move(self) -> dict[str, Any] | None:
-        """What the sidecar JSON of the recommended move says: the method, why, the band it holds over, and for a
-        feedback method that the CSV is its feedforward (the camera loop corrects it on the robot)."""
+    def recommended_trajectory(self) -> Trajectory | None:
+        """The move to send (None when no method is recommended): the recommended method's, or sloshid's plan
+        re-planned slower for the scenario's arm (`Recommendation.arm`)."""
         r, rec = self.recommended, self.recommendation
-        if r is None or rec is None:  # a recommended row comes with its recommendation
+        if r is None or rec is None:
+            return None
+        return rec.arm.trajectory if rec.arm is not None else r.require_replay().trajectory
+
+    def arm_objection(self, arm: ArmSettings | None) -> ArmObjection | None:
+        """Why the scenario's [robot] `arm` cannot follow the move to send (None when it can, or without an arm or a
+        move): the fit's answer (`Recommendation.arm`), or with [robot] fit_joints = false the move checked as it is."""
+        traj, rec = self.recommended_trajectory(), self.recommendation
+        if traj is None or rec is None or arm is None:
+            return None
+        if rec.arm is not None:
+            return rec.arm.objection
+        from sloshid.planning.arm import arm_objection
+
+        return arm_objection(traj, arm)
+
+    def recommended_move(self) -> dict[str, Any] | None:
+        """What the sidecar JSON of the recommended move says: the method, why, the band it holds over, how the
+        scenario's arm follows it (`arm_fit`: slowed, from what transfer time), and for a feedback method that the
+        CSV is its feedforward (the camera loop corrects it on the robot)."""
+        r, rec, traj = self.recommended, self.recommendation, self.recommended_trajectory()
+        if r is None or rec is None or traj is None:  # a recommended row comes with its recommendation
             return None
         closed = r.replay is not None and r.replay.closed_loop
         return {
             "method": r.key,
             "label": r.label,
-            "transfer_time_s": r.require_score().transfer_time_s,
+            "transfer_time_s": traj.duration_s if rec.arm is not None else r.require_score().transfer_time_s,
             "band_hz": list(rec.band_hz),
             "risk": rec.risk,
             "reason": rec.reason,
             "robust_omega_factors": list(self.settings.robust_omega_factors) if r.key == "sloshid_robust" else None,
             "csv_holds": "the feedforward; the camera feedback corrects it on the robot" if closed else "the move",
+            "arm_fit": rec.arm.to_dict() if rec.arm is not None else None,
         }
 
     def write_recommended(self, path: str | Path, inputs: tuple[str | Path, ...] = ()) -> Path:
-        """Write the recommended move as a 1 kHz trajectory CSV at `path` and what it is as JSON beside it
-        (`path` with .json). With no method recommended a UserError says why, and nothing is written: a silent None
-        left a script believing it had a move to send."""
-        move, r = self.recommended_move(), self.recommended
-        if move is None or r is None:  # the move is described when a method is recommended
+        """Write the recommended move as a 1 kHz trajectory CSV at `path`, what it is as JSON beside it (`path` with
+        .json) and, when the scenario's arm follows it, its joints (`path` stem + _joints.csv). With no method
+        recommended a UserError says why, and nothing is written: a silent None left a script believing it had a move
+        to send."""
+        move, traj, rec = self.recommended_move(), self.recommended_trajectory(), self.recommendation
+        if move is None or traj is None or rec is None:  # the move is described when a method is recommended
             why = self.recommendation.reason if self.recommendation is not None else "nothing was scored."
             raise UserError(f"{path} was not written, as no method is recommended: {why[:1].lower()}{why[1:]}")
-        return write_move(r.require_replay().trajectory, move, path, inputs)
+        joints = rec.arm.joints if rec.arm is not None and rec.arm.follows else None
+        return write_move(traj, move, path, inputs, joints)
 
     def summary(self) -> str:
         """The score table as aligned plain text, then the verdict (what `sloshid compare` prints)."""
@@ -740,7 +790,7 @@ def compare(inp: CompareInput, progress: bool = False) -> Comparison:
         linearity=linearity_study(inp),
     )
     step(studies[4])
-    comp.recommendation = recommend(results, inp.params, s, inp.f_interval_hz, progress)
+    comp.recommendation = recommend(results, inp.params, s, inp.f_interval_hz, progress, arm_follower(inp))
     step(studies[5])
     bar.close()
     comp.verdict = verdict(comp)

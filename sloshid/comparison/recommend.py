@@ -4,19 +4,21 @@ knows (the identified 95 % interval of f widened by a margin), within robot and 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from collections.abc import Callable
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from sloshid.comparison.robustness import band_responses
+from sloshid.comparison.robustness import Replay, band_responses
 from sloshid.core.outputs import Outputs
 from sloshid.model.pendulum import SloshParams
 
 if TYPE_CHECKING:
     from sloshid.comparison.compare import CompareSettings, MethodResult
     from sloshid.model.trajectory import Trajectory
+    from sloshid.planning.arm import ArmFit, JointCheck
 
 LOW_RISK_SHARE = 0.5
 """A recommendation whose worst residual and peak over the band stay below this share of their thresholds is low
@@ -55,7 +57,11 @@ class Recommendation:
     risk: str
     """'good' (clear margin), 'uncertain' (close to a threshold) or 'unreliable' (no method qualifies)."""
     checks: dict[str, BandCheck] = field(default_factory=dict)
-    """Per method key: what the band check found (only the methods it had to try, fastest first)."""
+    """Per method key: what the band check found (only the methods it had to try, fastest first; a move slowed for
+    the arm is checked as slowed)."""
+    arm: ArmFit | None = None
+    """How the scenario's [robot] arm follows the recommended move (slowed for it, or why it cannot); None without an
+    arm, or with [robot] fit_joints = false."""
 
     def to_dict(self) -> dict[str, Any]:
         """The JSON `recommendation`: method, band_hz [lo, hi], reason, and the checks behind it."""
@@ -67,6 +73,7 @@ class Recommendation:
             "reason": self.reason,
             "risk": self.risk,
             "checks": {k: c.to_dict() for k, c in self.checks.items()},
+            "arm_fit": self.arm.to_dict() if self.arm is not None else None,
         }
 
 
@@ -118,24 +125,54 @@ def recommend(
     settings: CompareSettings,
     interval_hz: tuple[float, float] | None,
     progress: bool = False,
+    arm: Callable[[MethodResult], ArmFit] | None = None,
 ) -> Recommendation:
-    """Try the methods fastest first: limits and collisions, then the band's ends and middle; the first to pass wins."""
+    """Try the methods fastest first: limits and collisions, then the band's ends and middle; the first to pass wins.
+    With `arm` (how the scenario's arm follows a method's move, sloshid's plans slowed for it) the fastest that passes
+    as the arm follows it wins; when the arm can follow none, the first to pass, with why the arm cannot follow it."""
     band, source = frequency_band(params.f_hz, interval_hz, settings.frequency_margin)
     freqs = (band[0], params.f_hz, band[1])
     truths = [params.scaled(f / params.f_hz, 1.0) for f in freqs]
+
+    def band_check(replay: Replay, label: str) -> BandCheck:
+        resp = band_responses({label: replay}, truths, settings.settle_s, progress)[label]
+        check = BandCheck(freqs, tuple(resp[:, 0]), tuple(resp[:, 1]))
+        return replace(check, loses_because=_band_failure(check, settings))
+
     checks: dict[str, BandCheck] = {}
     losers: list[str] = []
+    first: tuple | None = None  # the first to pass the band (what is recommended without an arm): method, check, fit
+    best: tuple | None = None  # the fastest the arm follows: (its transfer time, method, band check, fit)
     ranked = sorted((r for r in results if r.applicable), key=_transfer_time)
     for r in ranked:
+        if best is not None and _transfer_time(r) >= best[0]:
+            break
         why = _static_failure(r)
         if not why and r.replay is not None:
-            resp = band_responses({r.label: r.replay}, truths, settings.settle_s, progress)[r.label]
-            check = BandCheck(freqs, tuple(resp[:, 0]), tuple(resp[:, 1]))
-            why = _band_failure(check, settings)
-            checks[r.key] = BandCheck(freqs, check.peak_during_deg, check.residual_deg, why)
-            if not why:
+            check = checks[r.key] = band_check(r.replay, r.label)
+            why = check.loses_because
+            if not why and arm is None:
                 return _chosen(r, check, band, source, losers, checks, settings)
+            if not why and arm is not None:
+                fit = arm(r)
+                if fit.slowed:  # a slower plan is another move: it must stay slosh-free over the band too
+                    slowed = band_check(Replay(fit.trajectory), r.label)
+                    if slowed.loses_because:
+                        fit = _refused(fit, r.require_replay().trajectory, slowed.loses_because)
+                    else:
+                        check = checks[r.key] = slowed
+                first = first or (r, checks[r.key], fit, len(losers))
+                if fit.follows:
+                    best = (fit.trajectory.duration_s, r, check, fit)
+                    continue
+                why = fit.objection.reason if fit.objection is not None else ""
         losers.append(f"{r.label} {why}")
+    if best is not None:
+        _, r, check, fit = best
+        return _chosen(r, check, band, source, losers, checks, settings, fit)
+    if first is not None:  # the arm follows none: the first to pass, with why the arm cannot follow it
+        r, check, fit, faster = first
+        return _chosen(r, check, band, source, losers[:faster], checks, settings, fit)
     reason = (
         f"No method stays slosh-free (residual <= {settings.residual_ok_deg:g} deg, peak <= "
         f"{settings.peak_ok_deg:g} deg) over {band[0]:.3g}-{band[1]:.3g} Hz ({source}): " + "; ".join(losers) + "."
@@ -145,19 +182,38 @@ def recommend(
     return Recommendation(None, "none", band, source, reason, "unreliable", checks)
 
 
-def _chosen(r, check, band, source, losers, checks, settings) -> Recommendation:
-    """The recommendation for method r, with one sentence on why the faster ones lose."""
-    share = max(max(check.residual_deg) / settings.residual_ok_deg, max(check.peak_during_deg) / settings.peak_ok_deg)
-    reason = (
-        f"Recommended: {r.label} ({r.score.transfer_time_s:.3g} s), the fastest move that stays slosh-free "
-        f"(residual <= {settings.residual_ok_deg:g} deg, peak during the move <= {settings.peak_ok_deg:g} deg) over "
-        f"{band[0]:.3g}-{band[1]:.3g} Hz, {source}; worst case there {max(check.residual_deg):.2g} deg residual, "
-        f"{max(check.peak_during_deg):.2g} deg peak."
+def _refused(fit: ArmFit, first: Trajectory, loses_because: str) -> ArmFit:
+    """A fit whose slowed plan is not slosh-free over the band: the move first given, with why the arm gets none."""
+    from sloshid.planning.arm import ArmObjection
+
+    why = (
+        f"the Panda of [robot] cannot follow it ({fit.steps[0].reason.rstrip('.')}), and slowed for it, it "
+        f"{loses_because}"
     )
+    return replace(fit, trajectory=first, joints=None, plan=None, objection=ArmObjection(why, refit=False))
+
+
+def _chosen(r, check, band, source, losers, checks, settings, arm: ArmFit | None = None) -> Recommendation:
+    """The recommendation for method r (as the scenario's arm follows it: `arm`), with one sentence on why the faster
+    ones lose."""
+    share = max(max(check.residual_deg) / settings.residual_ok_deg, max(check.peak_during_deg) / settings.peak_ok_deg)
+    follows = arm is not None and arm.follows
+    seconds = arm.trajectory.duration_s if arm is not None else r.score.transfer_time_s
+    reason = (
+        f"Recommended: {r.label} ({seconds:.3g} s), the fastest move that stays slosh-free "
+        f"(residual <= {settings.residual_ok_deg:g} deg, peak during the move <= {settings.peak_ok_deg:g} deg) over "
+        f"{band[0]:.3g}-{band[1]:.3g} Hz, {source}{' and that the Panda of [robot] can follow' * follows}; worst "
+        f"case there {max(check.residual_deg):.2g} deg residual, {max(check.peak_during_deg):.2g} deg peak."
+    )
+    if arm is not None and arm.slowed:
+        said = arm.describe()
+        reason += f" {said[:1].upper()}{said[1:]}."
     if losers:
         reason += " Faster ones lose: " + "; ".join(losers) + "."
+    if arm is not None and arm.objection is not None:
+        reason += f" Do not send it: {arm.objection.reason}."
     risk = "good" if share <= LOW_RISK_SHARE else "uncertain"
-    return Recommendation(r.key, r.label, band, source, reason, risk, checks)
+    return Recommendation(r.key, r.label, band, source, reason, risk, checks, arm)
 
 
 MOVE_JSON_MARK = '"trajectory_csv": '
@@ -165,24 +221,34 @@ MOVE_JSON_MARK = '"trajectory_csv": '
 and sloshid never replaces it."""
 
 
-def declare_move(outputs: Outputs, path: str | Path, role: str, how: str) -> tuple[Path, Path]:
-    """Declare a recommended move's CSV (`role`) and its JSON beside it in `outputs`; a JSON there that sloshid did not
-    write is refused, the sentence ending in `how` to proceed."""
+def joints_path(path: str | Path) -> Path:
+    """Where a move's joint trajectory goes: beside its CSV, the stem + _joints.csv (as `plan --joints` is told)."""
+    move = Path(path)
+    return move.with_name(move.stem + "_joints.csv")
+
+
+def declare_move(outputs: Outputs, path: str | Path, role: str, how: str) -> tuple[Path, Path, Path]:
+    """Declare a recommended move's CSV (`role`), its JSON and its joints CSV beside it in `outputs`; a JSON there that
+    sloshid did not write is refused, the sentence ending in `how` to proceed."""
     csv = outputs.file(path, role, (".csv",))
     sidecar = outputs.file(
         csv.with_suffix(".json"), f"{role}'s description beside it", (".json",), (MOVE_JSON_MARK, how)
     )
-    return csv, sidecar
+    return csv, sidecar, outputs.file(joints_path(csv), f"{role}'s joint trajectory beside it", (".csv",))
 
 
-def write_move(trajectory: Trajectory, move: dict[str, Any], path: str | Path, inputs: tuple = ()) -> Path:
-    """Write a recommended move as a 1 kHz trajectory CSV at `path` and `move` (which method, why) as JSON beside it;
-    both are checked before either is written."""
+def write_move(
+    trajectory: Trajectory, move: dict[str, Any], path: str | Path, inputs: tuple = (), joints: JointCheck | None = None
+) -> Path:
+    """Write a recommended move as a 1 kHz trajectory CSV at `path`, `move` (which method, why) as JSON beside it and,
+    given, the arm's `joints` (`joints_path`, named in the JSON); all are checked before any is written."""
     from sloshid.core.atomic import write_json
 
-    csv, sidecar = declare_move(
+    csv, sidecar, joints_csv = declare_move(
         Outputs(inputs), path, "the recommended move", "write the move to another path, or move that file away"
     )
     trajectory.to_csv(csv, inputs)
-    write_json(sidecar, {**move, "trajectory_csv": csv.name})
+    if joints is not None:
+        joints.write_csv(joints_csv)
+    write_json(sidecar, {**move, "trajectory_csv": csv.name, "joints_csv": joints_csv.name if joints else None})
     return csv

@@ -18,8 +18,9 @@ wheel.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from functools import cache
+from typing import Any
 
 import numpy as np
 
@@ -262,6 +263,18 @@ class JointCheck:
             "q_start_solved_rad": self.q[0].tolist(),
         }
 
+    def objection(self) -> ArmObjection | None:
+        """Why the arm cannot follow the checked move (None when it can): the joint limit it breaks, and whether a
+        slower plan can fix it (a position limit no timing fixes)."""
+        if self.executable:
+            return None
+        why = f"the Panda of [robot] cannot follow it ({self.reason().rstrip('.')})"
+        if any(u.quantity == "position_rad" and not u.ok for u in self.usages):
+            return ArmObjection(
+                f"{why}; no timing fixes a joint position limit: move the path, the base or q_start", False
+            )
+        return ArmObjection(why, refit=True)
+
     def write_csv(self, path) -> None:
         """t_s, q1 ... q7 (rad)."""
         from sloshid.core.tables import write_csv
@@ -336,22 +349,19 @@ def arm_objection(traj: Trajectory, settings: ArmSettings) -> ArmObjection | Non
         check = check_joints(traj, settings)
     except UserError as exc:  # a pose out of reach, which says to move the path or the base
         return ArmObjection(str(exc).rstrip("."), refit=False)
-    if check.executable:
-        return None
-    why = f"the Panda of [robot] cannot follow it ({check.reason().rstrip('.')})"
-    if any(u.quantity == "position_rad" and not u.ok for u in check.usages):
-        return ArmObjection(f"{why}; no timing fixes a joint position limit: move the path, the base or q_start", False)
-    return ArmObjection(why, refit=True)
+    return check.objection()
 
 
 __all__ = [
     "Arm",
+    "ArmFit",
     "ArmObjection",
     "ArmSettings",
     "JointCheck",
     "arm_objection",
     "arm_settings",
     "check_joints",
+    "fit_arm",
     "joint_usages",
 ]
 
@@ -412,3 +422,82 @@ def fit_to_joints(scenario, params, first=None, check: JointCheck | None = None)
         check = check_joints(result.trajectory, scenario.arm, arm)
         steps.append(FitStep(result.T_s, dataclasses.asdict(scenario.robot), check.executable, check.reason()))
     return result, check, steps
+
+
+@dataclass
+class ArmFit:
+    """A move as the scenario's [robot] arm follows it (`fit_arm`): the move to send, its joints, and how much slower
+    it is than the move first given; or why the arm cannot follow it."""
+
+    trajectory: Trajectory
+    """The move to send: the one given, or sloshid's plan re-planned slower when the arm could not follow that."""
+    first_s: float
+    """Transfer time of the move first given (s)."""
+    joints: JointCheck | None
+    """The joint trajectory of `trajectory` and its check; None when a pose is out of reach."""
+    objection: ArmObjection | None
+    """Why the arm cannot follow `trajectory` (None: it can)."""
+    steps: list[FitStep] = field(default_factory=list)
+    """`fit_to_joints`' plans, the first one first (empty when it did not run)."""
+    plan: Any = None
+    """The re-planned `PlanResult` when the move was slowed, else None."""
+
+    @property
+    def follows(self) -> bool:
+        """True when the arm can follow `trajectory`."""
+        return self.objection is None
+
+    @property
+    def slowed(self) -> bool:
+        """True when `trajectory` is a slower plan than the move first given."""
+        return self.plan is not None
+
+    def describe(self) -> str:
+        """One clause on what fitting did: slowed (T before -> after, re-plans, the joint limit that made it) or not."""
+        if not self.slowed:
+            return self.objection.reason if self.objection is not None else "the Panda of [robot] can follow it"
+        cost = 100 * (self.trajectory.duration_s / self.first_s - 1)
+        return (
+            f"slowed for the Panda of [robot] from {self.first_s:.3f} to {self.trajectory.duration_s:.3f} s "
+            f"(+{cost:.1f} %; re-planned {len(self.steps) - 1} time(s) with lower Cartesian limits), as at full speed "
+            f"{self.steps[0].reason[:1].lower()}{self.steps[0].reason[1:].rstrip('.')}"
+        )
+
+    def to_dict(self) -> dict:
+        """The JSON `arm_fit`: whether the arm follows the move, whether it was slowed and from what transfer time."""
+        return {
+            "model": "panda",
+            "follows": self.follows,
+            "reason": self.objection.reason if self.objection is not None else None,
+            "slowed": self.slowed,
+            "transfer_time_first_s": self.first_s,
+            "transfer_time_s": self.trajectory.duration_s,
+            "replans": max(len(self.steps) - 1, 0),
+            "T_steps_s": [s.T_s for s in self.steps],
+        }
+
+
+def fit_arm(traj: Trajectory, scenario, params=None, first=None) -> ArmFit:
+    """How the scenario's arm follows `traj`: checked as `check_joints` does and, when a slower plan can fix what the
+    arm cannot follow and `first` is the `PlanResult` behind `traj` (planned for `scenario` and `params`), re-planned
+    by `fit_to_joints` (as `plan --fit-joints`); a fit that fails keeps `traj` with why the arm cannot follow it."""
+    arm = Arm(scenario.arm)
+    try:
+        check = check_joints(traj, scenario.arm, arm)
+    except UserError as exc:  # a pose out of reach, which says to move the path or the base
+        return ArmFit(traj, traj.duration_s, None, ArmObjection(str(exc).rstrip("."), refit=False))
+    found = check.objection()
+    if found is None or not found.refit or first is None:
+        return ArmFit(traj, traj.duration_s, check, found)
+    try:
+        result, fitted, steps = fit_to_joints(scenario, params, first, check)
+    except UserError as exc:  # a lower limit the planner cannot solve
+        return ArmFit(
+            traj, traj.duration_s, check, ArmObjection(f"{found.reason}; re-planning it slower failed: {exc}", False)
+        )
+    if not fitted.executable:
+        T = " -> ".join(f"{s.T_s:.3f}" for s in steps)
+        why = f"{found.reason}, nor a plan re-planned slower (T {T} s): {steps[-1].reason.rstrip('.')}"
+        return ArmFit(traj, traj.duration_s, check, ArmObjection(why, refit=False), steps)
+    result.joints = fitted
+    return ArmFit(result.trajectory, traj.duration_s, fitted, None, steps, result)

@@ -38,9 +38,15 @@ class ArmSettings:
     q_start: list[float] = setting_field(default_factory=lambda: list(PANDA_Q_READY), unit="rad")
     """Joint angles near the start (rad), one per joint: a seed, from which the configuration that holds the container
     at the move's start is solved (the nearest, by least joint change)."""
-    fit_joints: bool = False
+    fit_joints: bool | None = None
     """When the arm cannot follow the fastest plan, re-plan it with lower Cartesian limits until it can (slower; the
-    JSON's joints.fit lists each attempt's T in s); it takes effect where the joint angles are computed."""
+    JSON's joints.fit lists each attempt's T in s). compare and run send such a fitted move unless [robot] fit_joints
+    = false (then they say not to send the fastest); plan fits its joints only when asked (this, or fit_joints = true)."""
+
+    @property
+    def fits_sent_moves(self) -> bool:
+        """Whether compare and run fit the move they send to this arm (all but `fit_joints = false`)."""
+        return self.fit_joints is not False
 
     def __post_init__(self) -> None:
         if self.model not in MODELS:

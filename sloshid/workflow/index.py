@@ -5,7 +5,7 @@ from __future__ import annotations
 import base64
 import html
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 from sloshid.identification.estimates import interval_ends, shown_with_error
 from sloshid.identification.verdict import PARAMETER_LABELS
@@ -246,18 +246,41 @@ def overall_verdict(records: list[StageRecord]) -> tuple[str, str]:
     return "Overall: " + ("; ".join(parts) or "no stage ran") + ".", worst
 
 
-def next_step(run_dir: Path, records: list[StageRecord]) -> tuple[str, str, dict | None] | None:
-    """(file relative to the run, what it is, why the scenario's arm cannot follow it: the stage's "arm", or None)
-    that a user sends to the robot: the recommended move when compare recommended one, else the plan (said to be
+class NextStep(NamedTuple):
+    """The file a user sends to the robot (relative to the run), what it is, why the scenario's arm cannot follow it
+    (the stage's "arm", or None) and its joint trajectory when the arm follows it (relative to the run, or None)."""
+
+    move: str
+    what: str
+    arm: dict | None
+    joints: str | None
+
+
+def _slowed(fit: dict | None) -> str:
+    """', slowed for the arm from T s' when the stage's `arm_fit` slowed the move, else empty."""
+    return f", slowed for the arm from {fit['transfer_time_first_s']:.3f} s" if fit and fit["slowed"] else ""
+
+
+def _joints(run_dir: Path, stage: str, fit: dict | None) -> str | None:
+    """The joints CSV the stage's `arm_fit` names, relative to the run, when it was written."""
+    name = (fit or {}).get("joints_csv")
+    return f"{stage}/{name}" if name and (run_dir / stage / name).exists() else None
+
+
+def next_step(run_dir: Path, records: list[StageRecord]) -> NextStep | None:
+    """What a user sends to the robot: the recommended move when compare recommended one, else the plan (said to be
     unchecked or not recommended); None when neither was written."""
     summaries = {r.name: r.summary or {} for r in records if r.status in ("ran", "cached")}
     move = summaries.get("compare", {}).get("recommended")
     if move and (run_dir / "compare" / move["csv"]).exists():
-        what = f"the recommended move: {move['label']} ({move['transfer_time_s']:.3f} s)"
-        return f"compare/{move['csv']}", what, move.get("arm")
+        fit = move.get("arm_fit")
+        what = f"the recommended move: {move['label']} ({move['transfer_time_s']:.3f} s{_slowed(fit)})"
+        return NextStep(f"compare/{move['csv']}", what, move.get("arm"), _joints(run_dir, "compare", fit))
     if (run_dir / "plan" / "trajectory.csv").exists():
+        plan = summaries.get("plan", {})
         why = "compare recommended no method" if "compare" in summaries else "not compared with the alternatives"
-        return "plan/trajectory.csv", f"the nominal plan ({why})", summaries.get("plan", {}).get("arm")
+        what = f"the nominal plan ({why}{_slowed(plan.get('arm_fit'))})"
+        return NextStep("plan/trajectory.csv", what, plan.get("arm"), _joints(run_dir, "plan", plan.get("arm_fit")))
     return None
 
 
@@ -266,8 +289,9 @@ def _next_step(report: Report, run_dir: Path, records: list[StageRecord]) -> Non
     step = next_step(run_dir, records)
     if step is None:
         return
-    rel, what, arm = step
-    text = f"Send to the robot: {_link(run_dir, rel, rel)}, {html.escape(what)}."
+    rel, what, arm, joints = step
+    also = f" (or the joints, {_link(run_dir, joints, joints)})" if joints else ""
+    text = f"Send to the robot: {_link(run_dir, rel, rel)}{also}, {html.escape(what)}."
     if arm is not None:
         refit = "; a plan fitted to the arm (sloshid plan's joint check, fit_joints) is slower but can" * arm["refit"]
         why = html.escape(arm["reason"] + refit)

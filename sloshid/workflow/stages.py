@@ -10,6 +10,7 @@ from pathlib import Path
 from typing import Any
 
 from sloshid.comparison.compare import compare_scenario, compare_settings
+from sloshid.comparison.recommend import joints_path
 from sloshid.core.atomic import atomic_path, write_json
 from sloshid.core.errors import UserError
 from sloshid.core.parallel import parallel_map
@@ -23,6 +24,8 @@ from sloshid.workflow.pipeline import Stage, StageContext
 
 RECOMMENDED_CSV = "recommended.csv"
 """The [compare] stage's recommended move (1 kHz trajectory; recommended.json beside it says which method and why)."""
+JOINTS_CSV = joints_path("trajectory.csv").name
+"""The [plan] stage's joint trajectory (t_s, q1..q7 in rad) of trajectory.csv, when the scenario's arm follows it."""
 PLAN_PICKLE = "plan.pickle"
 """The [plan] stage's solution with the scenario it solved, kept so that [compare] does not solve it again."""
 
@@ -184,13 +187,18 @@ def _run_margin_plan(scenario: Scenario, ctx: StageContext) -> dict[str, Any]:
 
 def _arm(scenario: Scenario, traj: Any, ctx: StageContext, robust: bool) -> dict[str, Any]:
     """`{"arm": ...}`: why the scenario's [robot] arm cannot follow the move the run would send
-    (`planning.arm.arm_objection`), with what plans one it can (the scenario, the liquid's JSON, robust); None when
-    it can or the scenario names none. A move within a spill margin is not fitted to the arm (refit false)."""
+    (`planning.arm.arm_objection`), with what plans one it can (`_objection`); None when it can or the scenario names
+    none."""
     if scenario.arm is None:
         return {"arm": None}
     from sloshid.planning.arm import arm_objection
 
-    found = arm_objection(traj, scenario.arm)
+    return _objection(scenario, arm_objection(traj, scenario.arm), ctx, robust)
+
+
+def _objection(scenario: Scenario, found: Any, ctx: StageContext, robust: bool) -> dict[str, Any]:
+    """`{"arm": ...}` for an `ArmObjection` (None: the arm follows the move): why, and what plans one it can (the
+    scenario, the liquid's JSON, robust). A move within a spill margin is not fitted to the arm (refit false)."""
     if found is None:
         return {"arm": None}
     params = ctx.upstream["identify"] / "params.json" if "identify" in ctx.upstream else None
@@ -206,20 +214,37 @@ def _arm(scenario: Scenario, traj: Any, ctx: StageContext, robust: bool) -> dict
 
 
 def run_plan(opts: PlanOptions, ctx: StageContext) -> dict[str, Any]:
-    """Solve the scenario, write the 1 kHz trajectory CSV, the plan (for compare to reuse) and the plan report."""
+    """Solve the scenario, write the 1 kHz trajectory CSV, the plan (for compare to reuse) and the plan report; with a
+    [robot] arm (unless fit_joints = false) the plan the arm can follow, re-planned slower when needed, and its joints
+    (trajectory_joints.csv)."""
     scenario = load_scenario(opts.scenario)
     if scenario.within_margin:
         return _run_margin_plan(scenario, ctx)
-    result = plan(scenario, _liquid(ctx, scenario), progress=True)
+    params = _liquid(ctx, scenario)
+    fastest = plan(scenario, params, progress=True)
+    with atomic_path(ctx.out_dir / PLAN_PICKLE) as tmp:  # the fastest plan: compare scores it, and fits it itself
+        tmp.write_bytes(pickle.dumps({"scenario": str(opts.scenario), "result": fastest}))
+    result: Any = fastest
+    fitted: dict[str, Any] | None = None
+    if scenario.arm is not None and scenario.arm.fits_sent_moves:
+        from sloshid.planning.arm import fit_arm
+
+        fit = fit_arm(fastest.trajectory, scenario, params, fastest)
+        result = fit.plan or fastest
+        result.joints = fit.joints
+        if fit.follows and fit.joints is not None:
+            fit.joints.write_csv(ctx.out_dir / JOINTS_CSV)
+        fitted = {**fit.to_dict(), "joints_csv": JOINTS_CSV if fit.follows else None}
+        arm = _objection(scenario, fit.objection, ctx, robust=False)
+    else:
+        arm = _arm(scenario, fastest.trajectory, ctx, robust=False)
     result.trajectory.to_csv(ctx.out_dir / "trajectory.csv")
-    with atomic_path(ctx.out_dir / PLAN_PICKLE) as tmp:
-        tmp.write_bytes(pickle.dumps({"scenario": str(opts.scenario), "result": result}))
     source = "the pipeline's identify stage" if "identify" in ctx.upstream else "the scenario's [liquid] table"
     links = {"pipeline index": "../../index.html", "trajectory CSV": "../trajectory.csv"}
     result.report(ctx.out_dir / "report", links, liquid_source=source)
     figure = _save_figure(result.plot(), ctx.out_dir / "plan.png")
-    arm = _arm(scenario, result.trajectory, ctx, robust=False)
-    return {"trajectory": "trajectory.csv", "report": "report/index.html", "figure": figure, **result.to_dict(), **arm}
+    summary = {"trajectory": "trajectory.csv", "report": "report/index.html", "figure": figure, **result.to_dict()}
+    return {**summary, **arm, "arm_fit": fitted}
 
 
 @dataclass(frozen=True)
@@ -305,8 +330,10 @@ def run_compare(opts: CompareOptions, ctx: StageContext) -> dict[str, Any]:
     links = {"pipeline index": "../../index.html", "scores JSON": "../scores.json"}
     if move is not None and comp.recommended is not None:
         comp.write_recommended(ctx.out_dir / RECOMMENDED_CSV)
-        sent = comp.recommended.require_replay().trajectory
-        move = {**move, **_arm(scenario, sent, ctx, robust=move["method"] == "sloshid_robust")}
+        found = comp.arm_objection(scenario.arm)
+        move = {**move, **_objection(scenario, found, ctx, robust=move["method"] == "sloshid_robust")}
+        if move["arm_fit"] is not None and move["arm_fit"]["follows"]:
+            move["arm_fit"]["joints_csv"] = joints_path(RECOMMENDED_CSV).name
         links = {"recommended move CSV": f"../{RECOMMENDED_CSV}", **links}
     comp.report(ctx.out_dir / "report", links, progress=True)
     return {
