@@ -1,9 +1,9 @@
-"""`identify` on the eight measured antisloshing runs (physical first mode 3.047 Hz): per-parameter verdicts, frequency
+"""`identify` on the ten measured antisloshing runs (physical first mode 3.047 Hz): per-parameter verdicts, frequency
 and its error, per run and jointly, with the container geometry given (R = 49 mm, h = 78 mm: the prior picks the
 first mode) and without it. Target (issue 10): at least 85 % of the runs get a `good` frequency, and every `good`
 frequency lies within 2 % of the first mode.
 Also looks into the runs that were hard: the mode's envelope over each window (does it decay at all?) and, for the
-run with a second mode, how the two-mode separation depends on where the window ends; draws all eight windows.
+run with a second mode, how the two-mode separation depends on where the window ends; draws all ten windows.
 And how far the end of forcing that identify estimates from the signal alone lies from the move's end on the measured
 clock (the command file's move end plus the lag validate fits with the physical first mode)."""
 
@@ -297,7 +297,7 @@ def main() -> None:
             "window_end_sweep": sweep,
             "growing_run_windows": grow_sweep,
         },
-        "identify: eight measured antisloshing runs",
+        "identify: ten measured antisloshing runs",
         [
             "run",
             "verdict frequency / damping (geometry given)",
