@@ -170,6 +170,11 @@ def test_lens_distortion_moves_picture_and_truth_alike():
     [
         (("--renderer", "pbr", "--roll", "2"), "--roll is not an option of the pbr renderer"),
         (("--renderer", "pbr", "--scene", "surface", "--liquid-color", "red"), "--liquid-color is not an option of"),
+        # the float scene's refusal came first and sent the user to --scene surface, which pbr refuses too
+        (("--renderer", "pbr", "--specular", "0.4"), "--specular is not an option of the pbr renderer"),
+        (("--renderer", "pbr", "--liquid-color", "red"), "--liquid-color is not an option of the pbr renderer"),
+        # the default colour given by name was taken for not given: accepted, and the scene's own drawn
+        (("--renderer", "pbr", "--float-color", "red"), "--float-color is not an option of the pbr renderer"),
         (("--scene-seed", "4"), "--scene-seed applies only to --renderer pbr"),
         (("--renderer", "pbr", "--travel", "2000"), "would leave the"),
         (("--renderer", "pbr", "--amplitude", "30"), "above the rim"),

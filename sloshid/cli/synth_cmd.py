@@ -53,8 +53,13 @@ def settings_from_args(args: argparse.Namespace) -> SynthSettings:
     refused here, where it is known to be given: its default is a colour too)."""
     scene = args.scene or SynthSettings.scene
     for option, only in (("float_color", "float"), ("liquid_color", "surface")):
+        flag = "--" + option.replace("_", "-")
+        if getattr(args, option) is not None and args.renderer == "pbr":  # --scene would not help: say what does
+            raise UserError(
+                f"{flag} is not an option of the pbr renderer (it draws the scene from --scene-seed); leave it out or "
+                "use --renderer painted."
+            )
         if getattr(args, option) is not None and scene != only:
-            flag = "--" + option.replace("_", "-")
             raise UserError(f"{flag} applies only to the {only} scene (--scene {only}), not the {scene} one.")
     return settings_from(args, SynthSettings)
 

@@ -193,21 +193,27 @@ class SynthSettings:
             if not ok:
                 raise SettingError(setting, f"{message}.", *("f_hz", "zeta", "motion", "accel_m_s2", "move_duration_s"))
         check_in_metres("container_diameter_m", self.container_diameter_m, "0.1 for 100 mm")
+        if self.renderer == "pbr":  # first: the other scene would refuse the option too, so it is no way out
+            check_pbr_settings(self)
         # a look of the other scene would be rendered nowhere: refused, not ignored
         other = "surface" if self.scene == "float" else "float"
         for name, label in SCENE_ONLY[other].items():
             if getattr(self, name) != getattr(SynthSettings, name):
-                raise UserError(
-                    f"{label} applies only to the {other} scene (`scene` {other}), not the {self.scene} one."
+                raise SettingError(
+                    name,
+                    f"{{name}} ({label}) applies only to the {other} scene ({{scene}} {other}), not the {self.scene} "
+                    "one.",
+                    "scene",
                 )
-        if self.renderer == "pbr":
-            check_pbr_settings(self)
-        else:
+        if self.renderer != "pbr":
             for name in ("scene_seed", "spp"):
                 if getattr(self, name) != getattr(SynthSettings, name):
                     raise SettingError(name, "{name} applies only to {renderer} pbr.", "renderer")
-        preset(self.float_color)
-        preset(self.liquid_color)
+        for name in ("float_color", "liquid_color"):
+            try:
+                preset(getattr(self, name))
+            except UserError as exc:  # named as the option given: synth --float-color and --liquid-color both check
+                raise SettingError(name, f"{{name}}: {exc}") from None
         _ = self.params  # validates m, l, d
 
     @property
