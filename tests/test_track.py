@@ -412,7 +412,7 @@ def bad_files(tmp_path_factory):
         ("zero.mp4", [], "is empty (0 bytes)"),
         ("empty.mp4", [], "contains no video frames"),
         ("full.mp4", ["--float-color", "yellow"], "no float found in any of the 60 frames"),
-        ("full.mp4", ["--roi", "300,200,50,50"], "reaches beyond the 320x240 frame"),
+        ("full.mp4", ["--roi", "300,200,50,50"], "--roi 300,200,50,50 reaches beyond the 320x240 frame"),
         ("full.mp4", ["--float-hsv-low", "10,20", "--float-hsv-high", "30,255,255"], "three whole numbers"),
         ("full.mp4", ["--float-hsv-low", "0,x,0", "--float-hsv-high", "30,255,255"], "three whole numbers"),
         ("full.mp4", ["--float-hsv-low", "200,50,50", "--float-hsv-high", "30,255,255"], "outside H 0..179"),

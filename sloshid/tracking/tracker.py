@@ -354,7 +354,7 @@ def roi_box(settings: TrackSettings, width: int, height: int) -> tuple[int, int,
         return 0, 0, width, height
     x, y, w, h = settings.roi
     if x + w > width or y + h > height:
-        raise UserError(f"ROI {x},{y},{w},{h} reaches beyond the {width}x{height} frame.")
+        raise SettingError("roi", f"{{name}} {x},{y},{w},{h} reaches beyond the {width}x{height} frame.")
     return x, y, w, h
 
 
