@@ -190,6 +190,7 @@ def test_at_picks_the_frame_on_screen_at_that_time(tmp_path, run_cli):
         (["--at", "0.4"], "--at 0.4 s is beyond the end of"),
         (["--at", "60"], "is beyond the end of"),
         (["--at", "-1"], "--at must be a time of 0 s or more"),
+        (["--at", "inf"], "--at must be a finite number of seconds, got inf"),  # it said "of 0 s or more"
         (["--roi", "300,200,50,50"], "--roi 300,200,50,50 reaches beyond the 320x240 frame"),  # it said "ROI"
         (["-o", "{video}"], "must end in .png"),
     ],
