@@ -63,6 +63,8 @@ def test_a_synth_clip_gets_its_target_and_colour_and_the_command_tracks(tmp_path
     code, out, err = run_cli("inspect", clip, "-o", tmp_path / "look.png")
     assert code == 0, err
     command = _next_command(out)
+    # the next line comes last, after the picture written, as every command's (it came before "wrote ...")
+    assert out.strip().splitlines()[-2:] == [f"wrote {tmp_path / 'look.png'}", "next: " + shlex.join(command)]
     assert command[:5] == ["sloshid", "track", str(clip), "-o", str(tmp_path / "clip_angles.csv")]
     assert command[5 : 5 + len(words)] == words
     assert command[-2:] == ["--reference", "container"]  # the container's walls were found
