@@ -87,7 +87,7 @@ class SynthSettings:
     quality: float | None = setting_field(None, group="camera")
     """Codec quality: x264 CRF 0..51 (default 23) or MPEG-4 qscale 1..31 (default 4); lower is better."""
     float_color: str = setting_field(DEFAULT_FLOAT_COLOR, metavar="NAME", group="camera")
-    """Float colour preset name (see sloshid.video.colors.PRESETS)."""
+    """Float colour preset name: red, orange, yellow, green, blue, magenta or dark."""
     float_length_frac: float = setting_field(0.2, unit="frame heights", option="float-length", group="camera")
     """Float length as a fraction of the frame height."""
     seed: int = setting_field(0, group="camera")
