@@ -8,6 +8,7 @@ from __future__ import annotations
 import json
 import math
 from dataclasses import replace
+from pathlib import Path
 
 import cv2
 import numpy as np
@@ -187,6 +188,14 @@ def test_bad_scene_option_is_one_sentence_and_no_file(run_cli, tmp_path, args, m
     assert message in err
     assert len(err.strip().splitlines()) == 1
     assert list(tmp_path.iterdir()) == []
+
+
+def test_the_next_line_quotes_a_path_with_a_space():
+    # it printed `next: sloshid inspect my clips/a b.mp4 shows ...`: a shell split the path in two
+    from sloshid.cli.synth_cmd import _next_step
+
+    line = _next_step(Path("my clips/a b.mp4"), SynthSettings(renderer="pbr"))
+    assert line.startswith("next: sloshid inspect 'my clips/a b.mp4' shows what each target finds")
 
 
 def test_float_is_where_and_as_turned_as_the_truth_says():

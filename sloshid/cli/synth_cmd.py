@@ -16,6 +16,7 @@ box_y1_px); the draw is written to OUT_scene.json.
 from __future__ import annotations
 
 import argparse
+import shlex
 import sys
 from pathlib import Path
 
@@ -104,6 +105,7 @@ def run(args: argparse.Namespace) -> int:
 def _next_step(video: Path, settings: SynthSettings) -> str:
     """The line a user needs next: track the video as its scene asks (a drawn scene: look at it with inspect)."""
     if settings.renderer == "pbr":  # the dye and the float's colour are the scene draw's
-        return f"next: sloshid inspect {video} shows what each target finds and the track command for this scene."
+        command = shlex.join(["sloshid", "inspect", str(video)])  # runs as printed: quoted, as the track command
+        return f"next: {command} shows what each target finds and the track command for this scene."
     what = {"target": "surface"} if settings.scene == "surface" else {"float_color": settings.float_color}
     return f"next: {track_command(video, what, track_options())} measures it."
