@@ -192,6 +192,14 @@ def test_the_float_colour_help_names_every_preset(command):
     assert "sloshid." not in action.help
 
 
+@pytest.mark.parametrize("command", ["track", "inspect", "synth"])
+def test_no_option_help_names_a_python_function(command):
+    # track --fov-deg's help named `perspective_deg` and `lens_from_rest`, functions no command-line user can look up;
+    # settings named in backticks are re-worded as their options, so a backtick left is such a name
+    for action in _command(command)._actions:
+        assert "`" not in (action.help or ""), (command, action.dest, action.help)
+
+
 def test_the_help_shows_the_settings_default():
     # --min-fit's 15 % is written once, in IdentSettings, and the help reads it from there
     help_text = _command("identify").format_help()

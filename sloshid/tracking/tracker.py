@@ -136,9 +136,8 @@ class TrackSettings:
     """Surface target: the container's inner diameter, for the wall heights in millimetres (the walls give px/m)."""
     fov_deg: float | None = setting_field(None, unit="deg", metavar="DEG", group="surface")
     """Surface target: the camera's horizontal field of view (degrees, of the whole picture); given, the angle is
-    corrected for the perspective of a camera above the liquid looking at a container off the picture's centre
-    (`perspective_deg`). A still picture does not show it; not given, it is found only from a move between two rest
-    places (`lens_from_rest`)."""
+    corrected for the perspective of a camera above the liquid looking at a container off the picture's centre. A
+    still picture does not show it; not given, it is found only from a move between two rest places."""
 
     def __post_init__(self) -> None:
         if self.reference not in ("image", "container"):
