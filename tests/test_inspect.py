@@ -63,6 +63,8 @@ def test_a_synth_clip_gets_its_target_and_colour_and_the_command_tracks(tmp_path
     code, out, err = run_cli("inspect", clip, "-o", tmp_path / "look.png")
     assert code == 0, err
     command = _next_command(out)
+    # the next line comes last, after the picture written, as every command's (it came before "wrote ...")
+    assert out.strip().splitlines()[-2:] == [f"wrote {tmp_path / 'look.png'}", "next: " + shlex.join(command)]
     assert command[:5] == ["sloshid", "track", str(clip), "-o", str(tmp_path / "clip_angles.csv")]
     assert command[5 : 5 + len(words)] == words
     assert command[-2:] == ["--reference", "container"]  # the container's walls were found
@@ -190,7 +192,8 @@ def test_at_picks_the_frame_on_screen_at_that_time(tmp_path, run_cli):
         (["--at", "0.4"], "--at 0.4 s is beyond the end of"),
         (["--at", "60"], "is beyond the end of"),
         (["--at", "-1"], "--at must be a time of 0 s or more"),
-        (["--roi", "300,200,50,50"], "reaches beyond the 320x240 frame"),
+        (["--at", "inf"], "--at must be a finite number of seconds, got inf"),  # it said "of 0 s or more"
+        (["--roi", "300,200,50,50"], "--roi 300,200,50,50 reaches beyond the 320x240 frame"),  # it said "ROI"
         (["-o", "{video}"], "must end in .png"),
     ],
 )

@@ -122,12 +122,18 @@ def test_cli_writes_video_and_truth(run_cli, tmp_path):
         (["--motion", "move", "--px-per-m", "-1"], "--px-per-m must be positive"),
         (["--tilt", "45"], "--tilt must be within 30 degrees"),
         # a look of the other scene would be rendered nowhere
-        (["--elevation", "5"], "a camera elevation applies only to the surface scene"),
+        # named as the option given (it said "a camera elevation applies ...", "unknown colour" without the option)
+        (["--elevation", "5"], "--elevation (a camera elevation) applies only to the surface scene (--scene surface)"),
+        (["--float-color", "purple"], "--float-color: unknown colour 'purple'"),
+        (["--scene", "surface", "--liquid-color", "bleu"], "--liquid-color: unknown colour 'bleu'"),
         (["--scene", "surface", "--float-color", "green"], "--float-color applies only to the float scene"),
         # the default colour given by name was taken for not given
         (["--scene", "surface", "--float-color", "red"], "--float-color applies only to the float scene"),
         (["--liquid-color", "blue"], "--liquid-color applies only to the surface scene"),
-        (["--scene", "surface", "--float-length", "0.1"], "the float length applies only to the float scene"),
+        (
+            ["--scene", "surface", "--float-length", "0.1"],
+            "--float-length (the float length) applies only to the float",
+        ),
         # outside the encoders' ranges: a traceback from PyAV (MPEG-4 0 and 0.5, H.264 -3), or clipped silently
         (["--codec", "mpeg4", "--quality", "0"], "MPEG-4 qscale of 1..31"),
         (["--quality", "-3"], "H.264 CRF of 0..51"),

@@ -8,6 +8,7 @@ from __future__ import annotations
 import json
 import math
 from dataclasses import replace
+from pathlib import Path
 
 import cv2
 import numpy as np
@@ -170,6 +171,11 @@ def test_lens_distortion_moves_picture_and_truth_alike():
     [
         (("--renderer", "pbr", "--roll", "2"), "--roll is not an option of the pbr renderer"),
         (("--renderer", "pbr", "--scene", "surface", "--liquid-color", "red"), "--liquid-color is not an option of"),
+        # the float scene's refusal came first and sent the user to --scene surface, which pbr refuses too
+        (("--renderer", "pbr", "--specular", "0.4"), "--specular is not an option of the pbr renderer"),
+        (("--renderer", "pbr", "--liquid-color", "red"), "--liquid-color is not an option of the pbr renderer"),
+        # the default colour given by name was taken for not given: accepted, and the scene's own drawn
+        (("--renderer", "pbr", "--float-color", "red"), "--float-color is not an option of the pbr renderer"),
         (("--scene-seed", "4"), "--scene-seed applies only to --renderer pbr"),
         (("--renderer", "pbr", "--travel", "2000"), "would leave the"),
         (("--renderer", "pbr", "--amplitude", "30"), "above the rim"),
@@ -182,6 +188,14 @@ def test_bad_scene_option_is_one_sentence_and_no_file(run_cli, tmp_path, args, m
     assert message in err
     assert len(err.strip().splitlines()) == 1
     assert list(tmp_path.iterdir()) == []
+
+
+def test_the_next_line_quotes_a_path_with_a_space():
+    # it printed `next: sloshid inspect my clips/a b.mp4 shows ...`: a shell split the path in two
+    from sloshid.cli.synth_cmd import _next_step
+
+    line = _next_step(Path("my clips/a b.mp4"), SynthSettings(renderer="pbr"))
+    assert line.startswith("next: sloshid inspect 'my clips/a b.mp4' shows what each target finds")
 
 
 def test_float_is_where_and_as_turned_as_the_truth_says():

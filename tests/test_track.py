@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import shlex
 import shutil
 import subprocess
 import sys
@@ -412,7 +413,7 @@ def bad_files(tmp_path_factory):
         ("zero.mp4", [], "is empty (0 bytes)"),
         ("empty.mp4", [], "contains no video frames"),
         ("full.mp4", ["--float-color", "yellow"], "no float found in any of the 60 frames"),
-        ("full.mp4", ["--roi", "300,200,50,50"], "reaches beyond the 320x240 frame"),
+        ("full.mp4", ["--roi", "300,200,50,50"], "--roi 300,200,50,50 reaches beyond the 320x240 frame"),
         ("full.mp4", ["--float-hsv-low", "10,20", "--float-hsv-high", "30,255,255"], "three whole numbers"),
         ("full.mp4", ["--float-hsv-low", "0,x,0", "--float-hsv-high", "30,255,255"], "three whole numbers"),
         ("full.mp4", ["--float-hsv-low", "200,50,50", "--float-hsv-high", "30,255,255"], "outside H 0..179"),
@@ -427,6 +428,19 @@ def test_bad_input_is_one_sentence_and_leaves_nothing(bad_files, tmp_path, run_c
     assert err.count("\n") == 1 and "Traceback" not in err
     assert not out.exists()
     assert list(tmp_path.iterdir()) == []  # no temporary leftovers either
+
+
+def test_the_next_line_runs_as_printed_with_a_space_in_the_path(bad_files, tmp_path, run_cli):
+    # it printed `next: sloshid identify my clips/a b.csv -o params.json`: a shell split the path in two
+    folder = tmp_path / "my clips"
+    folder.mkdir()
+    angles = folder / "a b.csv"
+    code, out, err = run_cli("track", bad_files / "full.mp4", "-o", angles)
+    assert code == 0, err
+    line = out.strip().splitlines()[-1]
+    assert line.startswith("next: ") and line.endswith(" identifies the liquid from this angle trace.")
+    words = shlex.split(line.removeprefix("next: ").removesuffix(" identifies the liquid from this angle trace."))
+    assert words == ["sloshid", "identify", str(angles), "-o", "params.json"]
 
 
 def test_never_found_names_the_range_and_writes_a_first_look(bad_files, tmp_path, run_cli):

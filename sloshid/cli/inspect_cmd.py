@@ -102,8 +102,12 @@ def run(args: argparse.Namespace) -> int:
     result.save_picture(picture)
     options = track_options()
     video = Path("VIDEO") if result.still else args.video  # track takes the video a picture is a frame of
-    print(as_typed(result.summary(lambda settings: track_command(video, settings, options)), args, options))
+    text = as_typed(result.summary(lambda settings: track_command(video, settings, options)), args, options)
+    found, _, next_line = text.rpartition("\n") if text.rsplit("\n", 1)[-1].startswith("next: ") else (text, "", "")
+    print(found)
     print(f"wrote {picture}")
+    if next_line:  # the last line, as every command's: the one a user runs next
+        print(next_line)
     if result.target is None:
         where = f"the picture {args.video}" if result.still else f"the frame at {result.t_s:.2f} s of {args.video}"
         print(

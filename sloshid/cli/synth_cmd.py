@@ -16,6 +16,7 @@ box_y1_px); the draw is written to OUT_scene.json.
 from __future__ import annotations
 
 import argparse
+import shlex
 import sys
 from pathlib import Path
 
@@ -53,8 +54,13 @@ def settings_from_args(args: argparse.Namespace) -> SynthSettings:
     refused here, where it is known to be given: its default is a colour too)."""
     scene = args.scene or SynthSettings.scene
     for option, only in (("float_color", "float"), ("liquid_color", "surface")):
+        flag = "--" + option.replace("_", "-")
+        if getattr(args, option) is not None and args.renderer == "pbr":  # --scene would not help: say what does
+            raise UserError(
+                f"{flag} is not an option of the pbr renderer (it draws the scene from --scene-seed); leave it out or "
+                "use --renderer painted."
+            )
         if getattr(args, option) is not None and scene != only:
-            flag = "--" + option.replace("_", "-")
             raise UserError(f"{flag} applies only to the {only} scene (--scene {only}), not the {scene} one.")
     return settings_from(args, SynthSettings)
 
@@ -99,6 +105,7 @@ def run(args: argparse.Namespace) -> int:
 def _next_step(video: Path, settings: SynthSettings) -> str:
     """The line a user needs next: track the video as its scene asks (a drawn scene: look at it with inspect)."""
     if settings.renderer == "pbr":  # the dye and the float's colour are the scene draw's
-        return f"next: sloshid inspect {video} shows what each target finds and the track command for this scene."
+        command = shlex.join(["sloshid", "inspect", str(video)])  # runs as printed: quoted, as the track command
+        return f"next: {command} shows what each target finds and the track command for this scene."
     what = {"target": "surface"} if settings.scene == "surface" else {"float_color": settings.float_color}
     return f"next: {track_command(video, what, track_options())} measures it."

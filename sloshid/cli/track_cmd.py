@@ -19,6 +19,7 @@ float_angle_deg).
 from __future__ import annotations
 
 import argparse
+import shlex
 import sys
 import textwrap
 from pathlib import Path
@@ -92,8 +93,9 @@ def next_step(result, output: Path, overlay: Path | None) -> str:
     """The line a user needs next: identify the liquid from the trace, unless nothing moved the angle (`still`, which
     the tracker warned of), where identify finds no mode."""
     if not result.still:
-        return f"next: sloshid identify {output} -o params.json identifies the liquid from this angle trace."
-    look = f"look at {overlay}" if overlay else "check what was tracked with --overlay OUT.mp4"
+        command = shlex.join(["sloshid", "identify", str(output), "-o", "params.json"])  # runs as printed: quoted
+        return f"next: {command} identifies the liquid from this angle trace."
+    look = f"look at {shlex.quote(str(overlay))}" if overlay else "check what was tracked with --overlay OUT.mp4"
     return (
         f"next: nothing moved the {result.target}, so identify would find no mode: record a tap that sets the liquid "
         f"swinging, or {look}, then track again."

@@ -87,7 +87,7 @@ class SynthSettings:
     quality: float | None = setting_field(None, group="camera")
     """Codec quality: x264 CRF 0..51 (default 23) or MPEG-4 qscale 1..31 (default 4); lower is better."""
     float_color: str = setting_field(DEFAULT_FLOAT_COLOR, metavar="NAME", group="camera")
-    """Float colour preset name (see sloshid.video.colors.PRESETS)."""
+    """Float colour preset name: red, orange, yellow, green, blue, magenta or dark."""
     float_length_frac: float = setting_field(0.2, unit="frame heights", option="float-length", group="camera")
     """Float length as a fraction of the frame height."""
     seed: int = setting_field(0, group="camera")
@@ -193,21 +193,27 @@ class SynthSettings:
             if not ok:
                 raise SettingError(setting, f"{message}.", *("f_hz", "zeta", "motion", "accel_m_s2", "move_duration_s"))
         check_in_metres("container_diameter_m", self.container_diameter_m, "0.1 for 100 mm")
+        if self.renderer == "pbr":  # first: the other scene would refuse the option too, so it is no way out
+            check_pbr_settings(self)
         # a look of the other scene would be rendered nowhere: refused, not ignored
         other = "surface" if self.scene == "float" else "float"
         for name, label in SCENE_ONLY[other].items():
             if getattr(self, name) != getattr(SynthSettings, name):
-                raise UserError(
-                    f"{label} applies only to the {other} scene (`scene` {other}), not the {self.scene} one."
+                raise SettingError(
+                    name,
+                    f"{{name}} ({label}) applies only to the {other} scene ({{scene}} {other}), not the {self.scene} "
+                    "one.",
+                    "scene",
                 )
-        if self.renderer == "pbr":
-            check_pbr_settings(self)
-        else:
+        if self.renderer != "pbr":
             for name in ("scene_seed", "spp"):
                 if getattr(self, name) != getattr(SynthSettings, name):
                     raise SettingError(name, "{name} applies only to {renderer} pbr.", "renderer")
-        preset(self.float_color)
-        preset(self.liquid_color)
+        for name in ("float_color", "liquid_color"):
+            try:
+                preset(getattr(self, name))
+            except UserError as exc:  # named as the option given: synth --float-color and --liquid-color both check
+                raise SettingError(name, f"{{name}}: {exc}") from None
         _ = self.params  # validates m, l, d
 
     @property

@@ -301,7 +301,8 @@ def read_frame(path: str | Path, at: float | None) -> tuple[np.ndarray, float, b
     its time and whether `path` is a still picture (PNG, JPEG: read by OpenCV, at 0 s); a negative time, one after
     the last frame's time on screen and a video of one frame are refused."""
     if at is not None and not (math.isfinite(at) and at >= 0):
-        raise UserError(f"`at` must be a time of 0 s or more into the video, got {at:g}.")
+        what = "a time of 0 s or more into the video" if math.isfinite(at) else "a finite number of seconds"
+        raise UserError(f"`at` must be {what}, got {at:g}.")
     path = Path(path)
     frames = iter(FrameReader(path, False))
     try:

@@ -103,7 +103,8 @@ class TrackSettings:
     `sloshid.track(...)` keywords all fill."""
 
     float_color: str | None = setting_field(None, metavar="NAME")
-    """Named float colour preset (red, orange, yellow, green, blue, magenta); not given: red for the float target."""
+    """Named float colour preset (red, orange, yellow, green, blue, magenta, or dark: any hue too dark to have one);
+    not given: red for the float target."""
     float_hsv_low: tuple[int, int, int] | None = setting_field(None, metavar="H,S,V")
     """Lower OpenCV HSV corner of the float's colour (H 0..179, S and V 0..255); overrides `float_color`, needs
     `float_hsv_high`. A hue low above the hue high wraps through red."""
@@ -135,9 +136,8 @@ class TrackSettings:
     """Surface target: the container's inner diameter, for the wall heights in millimetres (the walls give px/m)."""
     fov_deg: float | None = setting_field(None, unit="deg", metavar="DEG", group="surface")
     """Surface target: the camera's horizontal field of view (degrees, of the whole picture); given, the angle is
-    corrected for the perspective of a camera above the liquid looking at a container off the picture's centre
-    (`perspective_deg`). A still picture does not show it; not given, it is found only from a move between two rest
-    places (`lens_from_rest`)."""
+    corrected for the perspective of a camera above the liquid looking at a container off the picture's centre. A
+    still picture does not show it; not given, it is found only from a move between two rest places."""
 
     def __post_init__(self) -> None:
         if self.reference not in ("image", "container"):
@@ -354,7 +354,7 @@ def roi_box(settings: TrackSettings, width: int, height: int) -> tuple[int, int,
         return 0, 0, width, height
     x, y, w, h = settings.roi
     if x + w > width or y + h > height:
-        raise UserError(f"ROI {x},{y},{w},{h} reaches beyond the {width}x{height} frame.")
+        raise SettingError("roi", f"{{name}} {x},{y},{w},{h} reaches beyond the {width}x{height} frame.")
     return x, y, w, h
 
 
