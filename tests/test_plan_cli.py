@@ -280,3 +280,21 @@ def test_a_limit_passed_between_grid_points_is_planned_again_lower(run_cli, tmp_
     assert 0.85 < summary["limits_lowered_for_solver"]["[limits].tilt_max_deg"] < 1.0
     first = planner._plan_free(load_scenario(sc), load_scenario(sc).liquid, None, False, None)
     assert first.max_tilt_deg > 1.05  # without the second solve it was passed
+
+
+def test_suggested_commands_run_as_printed_with_a_space_in_a_path():
+    # `sloshid predict my runs/move.csv --params ...` and `sloshid plan my scenarios/a.toml ...` split a path in two
+    # in a shell; the commands are quoted now, as track's and synth's next lines are
+    import shlex
+
+    from sloshid.cli.plan_cmd import fit_command, predict_command
+
+    line = predict_command("my runs/move.csv", "liquid params.json").strip("`")
+    assert shlex.split(line) == [
+        "sloshid", "predict", "my runs/move.csv", "--params", "liquid params.json", "-o", "my runs/move_prediction.csv"
+    ]  # fmt: skip
+    line = fit_command("my scenarios/a.toml", "p q.json", True, "out dir/T.csv")
+    assert shlex.split(line)[2:] == [
+        "my scenarios/a.toml", "--params", "p q.json", "--robust", "-o", "out dir/T.csv",
+        "--joints", "out dir/T_joints.csv", "--fit-joints",
+    ]  # fmt: skip

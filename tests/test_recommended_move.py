@@ -101,15 +101,23 @@ def test_plan_robust_needs_a_free_move_and_one_way_of_asking(run_cli, tmp_path):
 
 
 def test_each_command_of_the_chain_ends_with_the_next_step(run_cli, tmp_path):
-    # issue 39: every command ends with the one line a user needs next, the file to send last
+    # issue 39: every command ends with the one line a user needs next, the file to send last; its commands run as
+    # printed, also from a folder whose name has a space (the paths quoted)
+    import shlex
+
+    tmp_path = tmp_path / "my run"
+    tmp_path.mkdir()
     angles, params, move = tmp_path / "tap.csv", tmp_path / "params.json", tmp_path / "move.csv"
+    q = lambda path: shlex.quote(str(path))  # noqa: E731
     code, out, _ = run_cli("track", ROOT / "data" / "sample_tap.mp4", "-o", angles, "--float-color", "red")
-    assert code == 0 and out.strip().splitlines()[-1].startswith(f"next: sloshid identify {angles} -o ")
+    assert code == 0 and out.strip().splitlines()[-1].startswith(f"next: sloshid identify {q(angles)} -o ")
     code, out, _ = run_cli("identify", angles, "--mass", "0.5", "-o", params)
-    assert code == 0 and out.strip().splitlines()[-1].startswith(f"next: sloshid plan SCENARIO.toml --params {params}")
+    assert code == 0 and out.strip().splitlines()[-1].startswith(
+        f"next: sloshid plan SCENARIO.toml --params {q(params)}"
+    )
     code, out, err = run_cli("plan", SCENARIO, "--params", params, "--robust", "-o", move)
     assert code == 0, err
     # the scenario's Panda cannot follow the robust plan: the line gives the command that fits it to the arm
-    fit = f"sloshid plan {SCENARIO} --params {params} --robust -o {move} --joints {tmp_path / 'move_joints.csv'}"
+    fit = f"sloshid plan {q(SCENARIO)} --params {q(params)} --robust -o {q(move)} --joints {q(tmp_path / 'move_joints.csv')}"
     assert out.strip().splitlines()[-1].startswith(f"next: do not send {move}: the Panda of [robot] cannot follow it")
     assert f"`{fit} --fit-joints` plans sloshid's move slower" in out

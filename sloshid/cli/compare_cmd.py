@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import shlex
 import sys
 from typing import TYPE_CHECKING
 
@@ -119,7 +120,7 @@ def _run_upright(args, scenario, inputs: list, output, report_dir) -> int:
 def _end(args, comp, output, written, arm: str | None = None, peak: float | None = None, fit=None) -> int:
     """The next line (on stderr under --json, which stays JSON; `arm`, `peak` and `fit` as `next_line` takes them);
     exit code 1, and a line saying nothing was written, when -o was asked for but no method is recommended."""
-    given = args.scenario + (f" --params {args.params}" if args.params else "")
+    given = shlex.join([args.scenario] + (["--params", args.params] if args.params else []))
     line = next_line(comp, given, written, arm, args.params, peak, fit)
     print(line, file=sys.stderr if args.json else sys.stdout)
     if output is None or written is not None:

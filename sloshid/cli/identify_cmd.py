@@ -6,6 +6,7 @@ Several signals give one joint estimate (shared frequency and damping, own ampli
 from __future__ import annotations
 
 import argparse
+import shlex
 import sys
 
 from sloshid.cli.naming import as_typed
@@ -103,5 +104,8 @@ def run(args: argparse.Namespace) -> int:
     write_json(output, doc)
     print(as_typed(result.summary(), args))
     print(f"wrote {output}" + (f" and {report_dir / 'index.html'}" if report_dir else ""))
-    print(f"next: sloshid plan SCENARIO.toml --params {output} -o TRAJ.csv plans a slosh-free move for this liquid.")
+    print(
+        f"next: sloshid plan SCENARIO.toml --params {shlex.quote(str(output))} -o TRAJ.csv plans a slosh-free move "
+        "for this liquid."
+    )
     return 0

@@ -11,6 +11,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import shlex
 import sys
 from pathlib import Path
 
@@ -237,7 +238,8 @@ def _run_upright(args, settings: PlanSettings, scenario, outputs, output: Path, 
 def predict_command(trajectory: str | Path, params: str | Path) -> str:
     """The `sloshid predict` line that checks a written move by the whole input-output model, runnable as printed."""
     move = Path(trajectory)
-    return f"`sloshid predict {move} --params {params} -o {move.with_name(move.stem + '_prediction.csv')}`"
+    out = move.with_name(move.stem + "_prediction.csv")
+    return f"`{shlex.join(['sloshid', 'predict', str(move), '--params', str(params), '-o', str(out)])}`"
 
 
 def note_io_model(params_path: str | None, trajectory: str, planned=None) -> float | None:
@@ -281,8 +283,9 @@ def next_step(
 def fit_command(scenario: str | Path, params_path: str | Path | None, robust: bool, output: str | Path) -> str:
     """The `sloshid plan` command that plans the move for the scenario's arm: --joints beside `output`, --fit-joints."""
     out = Path(output)
-    given = f"{scenario}" + (f" --params {params_path}" if params_path else "") + (" --robust" if robust else "")
-    return f"sloshid plan {given} -o {out} --joints {out.with_name(out.stem + '_joints.csv')} --fit-joints"
+    given = [str(scenario)] + (["--params", str(params_path)] if params_path else []) + ["--robust"] * robust
+    joints = out.with_name(out.stem + "_joints.csv")
+    return shlex.join(["sloshid", "plan", *given, "-o", str(out), "--joints", str(joints), "--fit-joints"])
 
 
 def arm_says(arm, traj, scenario: str | Path, params_path: str | Path | None, robust: bool, output) -> str | None:

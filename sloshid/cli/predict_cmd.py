@@ -10,6 +10,7 @@ fitted runs' range is named in a note and its band widened."""
 from __future__ import annotations
 
 import argparse
+import shlex
 import sys
 import threading
 
@@ -84,7 +85,8 @@ def run(args: argparse.Namespace) -> int:
     )
     print(f"wrote {output}")
     print(
-        f"next: sloshid validate --trajectory {args.trajectory} --measured MEASURED.csv --params {args.params} "
+        f"next: sloshid validate --trajectory {shlex.quote(args.trajectory)} --measured MEASURED.csv "
+        f"--params {shlex.quote(args.params)} "
         "scores this prediction against a measured run of the move."
     )
     return 0
