@@ -1256,6 +1256,8 @@ def test_a_still_image_is_refused_as_a_video(tmp_path, run_cli):
     out = tmp_path / "a.csv"
     code, _, err = run_cli("track", tmp_path / "still.png", "-o", out, "--target", "surface")
     assert code == 2 and "still.png holds a single picture, not a video" in err and not out.exists()
+    # and it says what looks at a picture
+    assert f"`sloshid inspect {tmp_path / 'still.png'}` shows what each target would find in it." in err
 
 
 def _tracked_with_band(path: Path, band: bool, monkeypatch) -> tuple[TrackResult, int, int]:

@@ -15,6 +15,7 @@ import logging
 import math
 import multiprocessing
 import os
+import shlex
 import signal
 import sys
 from collections.abc import Callable
@@ -552,7 +553,8 @@ def track_video(
             rows = [row._replace(frame=index) for index, row in enumerate(row for part in parts for row in part.rows)]
             if len(rows) < 2:  # an image (PNG, JPEG) opens as a video of one frame
                 raise UserError(
-                    f"{path} holds a single picture, not a video: track measures the frames of a tap test or a move."
+                    f"{path} holds a single picture, not a video: track measures the frames of a tap test or a move; "
+                    f"`{shlex.join(['sloshid', 'inspect', str(path)])}` shows what each target would find in it."
                 )
             found = any(r.valid for r in rows)
             if kept is not None and not found:  # raised here, the new overlay is not put in place
