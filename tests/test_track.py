@@ -440,7 +440,7 @@ def test_the_next_line_runs_as_printed_with_a_space_in_the_path(bad_files, tmp_p
     line = out.strip().splitlines()[-1]
     assert line.startswith("next: ") and line.endswith(" identifies the liquid from this angle trace.")
     words = shlex.split(line.removeprefix("next: ").removesuffix(" identifies the liquid from this angle trace."))
-    assert words == ["sloshid", "identify", str(angles), "-o", "params.json"]
+    assert words == ["sloshid", "identify", str(angles), "-o", str(folder / "a b_params.json")]  # beside the trace
 
 
 def test_never_found_names_the_range_and_writes_a_first_look(bad_files, tmp_path, run_cli):

@@ -90,10 +90,12 @@ def run(args: argparse.Namespace) -> int:
 
 
 def next_step(result, output: Path, overlay: Path | None) -> str:
-    """The line a user needs next: identify the liquid from the trace, unless nothing moved the angle (`still`, which
-    the tracker warned of), where identify finds no mode."""
+    """The line a user needs next: identify the liquid from the trace, its parameters beside it (ANGLES_params.json:
+    clips tracked in one folder do not share a name), unless nothing moved the angle (`still`, which the tracker
+    warned of), where identify finds no mode."""
     if not result.still:
-        command = shlex.join(["sloshid", "identify", str(output), "-o", "params.json"])  # runs as printed: quoted
+        params = output.with_name(output.stem + "_params.json")
+        command = shlex.join(["sloshid", "identify", str(output), "-o", str(params)])  # runs as printed: quoted
         return f"next: {command} identifies the liquid from this angle trace."
     look = f"look at {shlex.quote(str(overlay))}" if overlay else "check what was tracked with --overlay OUT.mp4"
     return (
