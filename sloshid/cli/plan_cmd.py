@@ -284,8 +284,9 @@ def fit_command(scenario: str | Path, params_path: str | Path | None, robust: bo
     """The `sloshid plan` command that plans the move for the scenario's arm: --joints beside `output`, --fit-joints."""
     out = Path(output)
     given = [str(scenario)] + (["--params", str(params_path)] if params_path else []) + ["--robust"] * robust
-    joints = out.with_name(out.stem + "_joints.csv")
-    return shlex.join(["sloshid", "plan", *given, "-o", str(out), "--joints", str(joints), "--fit-joints"])
+    from sloshid.comparison.recommend import joints_path
+
+    return shlex.join(["sloshid", "plan", *given, "-o", str(out), "--joints", str(joints_path(out)), "--fit-joints"])
 
 
 def arm_says(arm, traj, scenario: str | Path, params_path: str | Path | None, robust: bool, output) -> str | None:
