@@ -358,3 +358,19 @@ def test_compare_does_not_send_a_move_the_whole_input_output_model_calls_sloshin
             f"up to {peak:.2g} deg" in last
             and f"`sloshid predict {move} --params {params} -o {tmp_path / 'move_prediction.csv'}`" in last
         )
+
+
+def test_compare_never_replaces_a_users_file_where_the_joints_would_go(tmp_path, run_cli):
+    # with a [robot] arm compare writes TRAJ_joints.csv beside TRAJ.csv, a name the user did not give: a file there
+    # that sloshid did not write is refused before any work (as TRAJ.json is, whether or not the scenario names an
+    # arm: the outputs are checked before the fit says whether there are joints), and nothing is written
+    path = write_scenario(tmp_path, methods='["constant_acc", "sloshid_robust"]')  # the robust plan is recommended
+    mine = tmp_path / "move_joints.csv"
+    mine.write_text("my own notes\n")
+    code, _, err = run_cli("compare", path, "-o", tmp_path / "move.csv")
+    assert code == 2 and "move_joints.csv is already there and sloshid did not write it" in err
+    assert mine.read_text() == "my own notes\n" and not (tmp_path / "move.csv").exists()
+    # one sloshid wrote (its header) is replaced as before
+    mine.write_text("t_s,q1,q2,q3,q4,q5,q6,q7\n0,0,0,0,0,0,0,0\n")
+    code, _, err = run_cli("compare", path, "-o", tmp_path / "move.csv")
+    assert code == 0, err

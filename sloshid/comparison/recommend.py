@@ -219,6 +219,9 @@ def _chosen(r, check, band, source, losers, checks, settings, arm: ArmFit | None
 MOVE_JSON_MARK = '"trajectory_csv": '
 """What every recommended move's JSON holds (the name of its CSV): a JSON beside TRAJ.csv without it is a user's file,
 and sloshid never replaces it."""
+JOINTS_CSV_MARK = "t_s,q1,q2,q3,q4,q5,q6,q7"
+"""The header of every joint trajectory sloshid writes (`JointCheck.write_csv`): a TRAJ_joints.csv without it is a
+user's file, and sloshid never replaces it."""
 
 
 def joints_path(path: str | Path) -> Path:
@@ -228,13 +231,14 @@ def joints_path(path: str | Path) -> Path:
 
 
 def declare_move(outputs: Outputs, path: str | Path, role: str, how: str) -> tuple[Path, Path, Path]:
-    """Declare a recommended move's CSV (`role`), its JSON and its joints CSV beside it in `outputs`; a JSON there that
-    sloshid did not write is refused, the sentence ending in `how` to proceed."""
+    """Declare a recommended move's CSV (`role`), its JSON and its joints CSV beside it in `outputs`; a JSON or joints
+    CSV there that sloshid did not write is refused, the sentence ending in `how` to proceed."""
     csv = outputs.file(path, role, (".csv",))
     sidecar = outputs.file(
         csv.with_suffix(".json"), f"{role}'s description beside it", (".json",), (MOVE_JSON_MARK, how)
     )
-    return csv, sidecar, outputs.file(joints_path(csv), f"{role}'s joint trajectory beside it", (".csv",))
+    joints = outputs.file(joints_path(csv), f"{role}'s joint trajectory beside it", (".csv",), (JOINTS_CSV_MARK, how))
+    return csv, sidecar, joints
 
 
 def write_move(
