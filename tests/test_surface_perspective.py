@@ -138,6 +138,21 @@ def test_the_lens_is_found_where_the_liquid_rests_before_and_after_a_move():
     assert seen + perspective_deg(centre, WIDTH, sin_e, fov) == pytest.approx(truth, abs=0.05 * abs(truth - seen))
 
 
+def test_a_tilt_that_ends_after_the_move_leaves_the_rest_after_it():
+    # a robot tilts the container back upright after it came back (its walls turn by 2 deg in the first 5 frames of
+    # the rest after the move) and starts tilting it before the centre leaves (the last 3 frames before the move): the
+    # rest places are cut to their parts away from the move, whose liquid is level, and the lens found is the
+    # picture's (to perspective_deg's few per cent, as above)
+    x, y, line, cang, valid, width, moved, sin_e = moved_between([(-0.06, 0.0), (0.06, 0.0)], (10, 15, 14))
+    cang[25:30] = np.linspace(2.0, 0.4, 5)
+    cang[7:10] = [0.3, 0.7, 1.2]
+    fov = lens_from_rest(x, y, line, cang, valid, width, moved, WIDTH, sin_e)
+    assert fov == pytest.approx(math.degrees(2 * math.atan(WIDTH / 2 / FOCAL)), rel=0.05)
+    # too few still frames left (the tilt ends in the rest's last 3 frames): none
+    cang[25:36] = np.linspace(2.0, 0.4, 11)
+    assert lens_from_rest(x, y, line, cang, valid, width, moved, WIDTH, sin_e) is None
+
+
 def test_no_lens_without_two_rest_places():
     # still tilting after the move (the walls turned by a degree): its liquid is not level there
     args = moved_between([(-0.06, 0.0), (0.06, 0.0)], (10, 15, 12), turning_deg=2.0)

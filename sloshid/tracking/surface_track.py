@@ -369,12 +369,33 @@ LENS_REST_FRAMES = 8
 valid frames each: the liquid may ring there, and its median level needs a period or so of them."""
 LENS_TURN_DEG = 0.5
 """... and only where the container's walls turned by less than this at either rest place (the medians of its first
-and second halves): a container still tilting holds its liquid off level."""
+and second halves), or over the part of it away from the move (`_still_part`): a container still tilting holds its
+liquid off level."""
+LENS_STILL_FRAMES = 4
+"""A rest place whose walls turned is cut to its frames away from the move (`_still_part`), at least this many."""
 LENS_TRAVEL_SHARE = 0.15
 """... and only when it moved at least this share of the picture's width between them."""
 LENS_FOV_DEG = (10.0, 120.0)
 """The fields of view a lens found so may have; outside, the two rest places differ by more than perspective (the
 liquid not yet at rest, a misread edge) or by too little to tell, and nothing is corrected."""
+
+
+def _turned(w: np.ndarray, cang: np.ndarray) -> bool:
+    """Whether the container's walls turned by more than LENS_TURN_DEG across the frames `w` (their halves' medians)."""
+    return abs(median(cang[w[: w.size // 2]]) - median(cang[w[w.size // 2 :]])) > LENS_TURN_DEG
+
+
+def _still_part(w: np.ndarray, cang: np.ndarray, far_first: bool) -> np.ndarray:
+    """The rest window `w` (frames), or where its walls turned (`_turned`: a robot starts tilting the container before
+    it carries it away and ends after it is back) its part away from the move: the run of frames from its far end
+    (`far_first`: the window's start) whose walls stand within half LENS_TURN_DEG of the far LENS_STILL_FRAMES
+    frames' median; none where that run is shorter (a container turning there too)."""
+    if not _turned(w, cang):
+        return w
+    ordered = w if far_first else w[::-1]
+    apart = np.abs(cang[ordered] - median(cang[ordered[:LENS_STILL_FRAMES]])) > 0.5 * LENS_TURN_DEG
+    kept = ordered[: int(np.argmax(apart)) if apart.any() else ordered.size]
+    return np.sort(kept) if kept.size >= LENS_STILL_FRAMES else w[:0]
 
 
 def lens_from_rest(x, y, image_deg, cang, valid, width, moved, picture_width: int, sin_e: float) -> float | None:
@@ -392,9 +413,8 @@ def lens_from_rest(x, y, image_deg, cang, valid, width, moved, picture_width: in
     before, after = frames[frames < moved], frames[frames > away[-1]]
     if min(before.size, after.size) < LENS_REST_FRAMES:
         return None
-    if any(
-        abs(median(cang[w[: w.size // 2]]) - median(cang[w[w.size // 2 :]])) > LENS_TURN_DEG for w in (before, after)
-    ):
+    before, after = _still_part(before, cang, far_first=True), _still_part(after, cang, far_first=False)
+    if min(before.size, after.size) == 0:
         return None
     dx = median(x[after]) - median(x[before])
     if abs(dx) < LENS_TRAVEL_SHARE * picture_width:
