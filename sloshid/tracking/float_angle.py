@@ -38,6 +38,9 @@ GROW_ROUNDS = 4
 """At most this many times the searched box is widened around a growing blob."""
 PAD_PX = 6
 """Margin of the measured box around the blob."""
+ELONGATED = 0.5
+"""The elongation (1 - minor/major variance) from which a blob's shape costs its quality nothing: a float is a long
+body, at least `length_to_width(ELONGATED)` (1.41) times as long as wide; a disc's elongation is 0."""
 
 
 @dataclass
@@ -56,6 +59,8 @@ class FloatMeasurement:
     """Length of the float's long axis (rectangle equivalent, sqrt(12 * major variance))."""
     bbox: tuple[int, int, int, int] | None = None
     """Blob box (x0, y0, x1, y1), exclusive end, in frame coordinates."""
+    elongation: float = 0.0
+    """1 - minor/major variance of the measured blob (`principal_axis`): 0 for a disc, near 1 for a thin bar."""
     cut: bool = False
     """The blob reaches the edge of the ROI (or of the picture): part of the float lies outside what was searched, so
     its axis is not the float's; measured with quality 0."""
@@ -131,6 +136,12 @@ def membership_map(crop: np.ndarray, transform: np.ndarray) -> np.ndarray:
     # a slight isotropic blur smooths H.264's 2-pixel chroma staircase; it cannot turn the moments' axes
     value = cv2.GaussianBlur(value, (3, 3), 0.8)
     return np.clip(value, 0, 1, out=value)
+
+
+def length_to_width(elongation: float) -> float:
+    """How many times as long as wide a rectangle of this elongation (`principal_axis`) is: its sides' ratio is the
+    square root of its variances' ratio."""
+    return 1 / math.sqrt(max(1 - elongation, 1e-12))
 
 
 def principal_axis(mo: dict) -> tuple[float, float, float]:
@@ -328,10 +339,9 @@ class FloatFinder:
         area = mo["m00"]
         q_sep = min(1.0, max(0.0, 1 - 2 * rms))
         q_area = min(area, self._ref_area) / max(area, self._ref_area) if self._ref_area else 1.0
-        quality = q_sep * q_area * min(1.0, elong / 0.5)
-        return FloatMeasurement(
-            True, X0 + cx, Y0 + cy, angle, quality, area, math.sqrt(12 * max(lam1, 0)), (X0, Y0, X1, Y1)
-        )
+        quality = q_sep * q_area * min(1.0, elong / ELONGATED)
+        length = math.sqrt(12 * max(lam1, 0))
+        return FloatMeasurement(True, X0 + cx, Y0 + cy, angle, quality, area, length, (X0, Y0, X1, Y1), elong)
 
     def _grown(
         self, frame: np.ndarray, blob: np.ndarray, box: tuple[int, int, int, int]
@@ -396,7 +406,7 @@ def _with_pieces(labels: np.ndarray, stats: np.ndarray, cents: np.ndarray, k: in
     across = np.abs(d[:, 0] * math.sin(a) + d[:, 1] * math.cos(a))
     near = (stats[1:, cv2.CC_STAT_AREA] >= MIN_AREA_PX) & (across <= half_thick) & (along <= 3 * half_len)
     near[k] = False
-    if elong < 0.5 or not near.any():
+    if elong < ELONGATED or not near.any():
         return None
     return np.isin(labels, np.flatnonzero(near) + 1) | (labels == k + 1)
 
@@ -411,6 +421,6 @@ def _likeliest(labels: np.ndarray, stats: np.ndarray, edge: np.ndarray) -> int:
     def float_like(k: int) -> bool:
         x, y, w, h = stats[k + 1, :4]
         angle, elong, _ = principal_axis(cv2.moments((labels[y : y + h, x : x + w] == k + 1).astype(np.uint8), True))
-        return not edge[k] and elong >= 0.5 and abs(angle) <= 45
+        return not edge[k] and elong >= ELONGATED and abs(angle) <= 45
 
     return next((k for k in order if float_like(k)), int(np.argmax(areas)))
