@@ -31,7 +31,7 @@ from sloshid.tracking.container_ref import (
     WallsRecord,
     held_angles,
 )
-from sloshid.tracking.float_angle import FloatFinder
+from sloshid.tracking.float_angle import ELONGATED, FloatFinder, length_to_width
 from sloshid.tracking.repeats import REPEAT_SHARE, Copies, line_regions, repeated_share, stale_repeats
 from sloshid.tracking.rows import SurfaceGeometry, TrackRow
 from sloshid.tracking.smooth import smooth_angle
@@ -473,6 +473,33 @@ def test_never_found_still_writes_the_overlay_as_diagnosis(bad_files, tmp_path, 
     assert code == 2 and f"see the overlay {tmp_path / 'o.mp4'}" in err
     assert not (tmp_path / "a.csv").exists()
     assert len(list(FrameReader(tmp_path / "o.mp4"))) == 60
+
+
+def _disc_video(path: Path, disc: bool) -> None:
+    """12 frames of noisy grey, with a still red disc (the float's colour, not its shape) when `disc`."""
+    rng = np.random.default_rng(3)
+    with VideoWriter(path, 160, 120, 30.0, "h264", 18) as writer:
+        for i in range(12):
+            frame = np.clip(128 + rng.normal(0, 3, (120, 160, 3)), 0, 255).astype(np.uint8)
+            if disc:
+                cv2.circle(frame, (80, 60), 14, (30, 30, 220), -1)
+            writer.write(frame, i / 30)
+
+
+def test_a_round_blob_of_the_float_colour_is_named_not_called_no_float(tmp_path, run_cli):
+    # a red disc was found in every frame but never valid (elongation ~0), and the error said "no float found ... with
+    # HSV range ...", sending the user to the colour range that did find it; a picture without red still says that
+    _disc_video(tmp_path / "disc.mp4", disc=True)
+    code, _, err = run_cli("track", tmp_path / "disc.mp4", "-o", tmp_path / "d.csv", "--target", "float")
+    need = f"{length_to_width(ELONGATED):.2f}"
+    assert code == 2 and err.count("\n") == 1 and "no float found" not in err
+    assert "was found in 12 of 12 frames" in err and "but round, not elongated (at most 1.0" in err
+    assert f"a float needs a length at least {need} times its width" in err and need == "1.41"
+    assert "film a float longer than wide" in err and "--float-hsv-low" in err and "--roi" in err
+    assert not (tmp_path / "d.csv").exists()
+    _disc_video(tmp_path / "grey.mp4", disc=False)
+    code, _, err = run_cli("track", tmp_path / "grey.mp4", "-o", tmp_path / "g.csv", "--target", "float")
+    assert code == 2 and "no float found in any of the 12 frames" in err and "not elongated" not in err
 
 
 def test_container_reference_without_walls_says_so(tmp_path, run_cli):

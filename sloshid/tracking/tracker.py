@@ -34,7 +34,7 @@ from sloshid.core.parallel import die_with_parent, signals_held
 from sloshid.core.settings import check_in_metres, setting_field
 from sloshid.core.tables import to_pandas, write_csv
 from sloshid.tracking.container_ref import ContainerMeasurement, ContainerTracker, WallsRecord
-from sloshid.tracking.float_angle import FloatFinder, FloatMeasurement
+from sloshid.tracking.float_angle import ELONGATED, FloatFinder, FloatMeasurement, length_to_width
 from sloshid.tracking.overlay import draw_overlay
 from sloshid.tracking.repeats import REPEAT_SHARE, Copies, line_regions, repeated_share, stale_repeats
 from sloshid.tracking.robust import percentile_span
@@ -383,6 +383,8 @@ class _FloatStep:
         self.last_angle = math.nan
         self.found = 0
         self.cut = 0  # frames where the float reached the ROI's edge
+        self.round = 0  # frames whose blob was not valid and rounder than a float (`_count`)
+        self.roundest = 0.0  # the largest elongation of those blobs
         self.previous: np.ndarray | None = None
         self.repeated: list[bool] = []
         self.walls_record = WallsRecord()  # by frame in the span
@@ -396,16 +398,14 @@ class _FloatStep:
         if copied is not None:
             fm, cm, row = copied
             self.finder.copied()
-            self.found += 1
-            self.cut += fm.cut
+            self._count(fm)
             if self.walls is not None:
                 self.walls_record.copied.append(len(self.repeated))
             self.repeated.append(True)
             self.previous = frame
             return row, draw_overlay(frame, fm, cm, row.angle_deg, bool(row.valid), self.roi) if draw else None
         fm = self.finder.measure(frame)
-        self.found += fm.found
-        self.cut += fm.cut
+        self._count(fm)
         if fm.found and self.liquid_width is None:
             self.liquid_width = _liquid_width(frame, self.settings.hsv, self.roi)
         repeat = fm.found and repeated_share(frame, self.previous, _box(fm), dy_only=False) >= REPEAT_SHARE
@@ -428,6 +428,15 @@ class _FloatStep:
         self.copies.measured(len(self.repeated) - 1, frame, regions, (fm, cm, row))
         return row, draw_overlay(frame, fm, cm, angle, ok, self.roi) if draw else None
 
+    def _count(self, fm: FloatMeasurement) -> None:
+        """Count a frame's blob for `nothing_found`: found, cut by the ROI, or round: not valid (quality under
+        VALID_QUALITY) and less elongated than a float (under ELONGATED, where its shape lowered that quality)."""
+        self.found += fm.found
+        self.cut += fm.cut
+        if fm.found and not fm.cut and fm.quality < VALID_QUALITY and fm.elongation < ELONGATED:
+            self.round += 1
+            self.roundest = max(self.roundest, fm.elongation)
+
     def revise(self, rows: list[TrackRow]) -> None:
         """Turn the frames whose container walls were held onto the container angle interpolated between the
         measurements around them (`held_angles`; `rows`: this span's, time first, changed in place); then give the
@@ -440,6 +449,8 @@ class _FloatStep:
         """Take in what the step of a later span of the same video found (for `nothing_found` and `finish`)."""
         self.found += later.found
         self.cut += later.cut
+        self.round += later.round
+        self.roundest = max(self.roundest, later.roundest)
         if self.liquid_width is None:
             self.liquid_width = later.liquid_width
 
@@ -468,6 +479,20 @@ class _FloatStep:
                 f"the float was found in {self.found} of {n} frames of {path} but always at the edge of the searched "
                 f"region, partly outside it; {hint} and widen {{name}}.",
                 "overlay",
+                hint=hint,
+            )
+        if self.round and self.round + self.cut == self.found:
+            return NothingFound(
+                "float_color",
+                f"a blob of the float's colour ({self.settings.hsv.describe()}) was found in {self.found} of {n} frames "
+                f"of {path}, but round, not elongated (at most {length_to_width(self.roundest):.2f} times as long as "
+                f"wide): a float needs a length at least {length_to_width(ELONGATED):.2f} times its width for its "
+                f"angle to be measured; {hint}, and film a float longer than wide, or adjust {{name}} or "
+                "{float_hsv_low}/{float_hsv_high}, or {roi}, if that blob is not the float.",
+                "overlay",
+                "float_hsv_low",
+                "float_hsv_high",
+                "roi",
                 hint=hint,
             )
         if self.walls is not None and self.found:
