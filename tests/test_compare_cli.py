@@ -288,7 +288,7 @@ def test_compare_sends_a_move_the_scenarios_arm_can_follow(tmp_path, run_cli, fi
         fit = f"sloshid plan {path} --robust -o TRAJ.csv --joints TRAJ_joints.csv --fit-joints"
         assert last.startswith(f"next: do not send {move} (sloshid robust plan): the Panda of [robot]")
         assert f"`{fit}` plans sloshid's move slower" in last and "to the robot" not in last
-        assert described["arm_fit"] is None and not joints.exists()
+        assert described["arm_fit"] is None and not joints.exists() and "slowed for the arm " not in out
         return
     fitted = described["arm_fit"]
     assert fitted["follows"] and fitted["slowed"] and fitted["transfer_time_s"] > fitted["transfer_time_first_s"]
@@ -301,6 +301,13 @@ def test_compare_sends_a_move_the_scenarios_arm_can_follow(tmp_path, run_cli, fi
     assert (
         f"Slowed for the Panda of [robot] from {fitted['transfer_time_first_s']:.3f} to {sent.duration_s:.3f} s" in out
     )
+    # the score table shows the move sent under the robust plan at full speed, not the full speed's time alone
+    table = out.split("\n\n")[0].splitlines()
+    at = next(i for i, line in enumerate(table) if line.startswith("sloshid robust plan, slowed for the arm "))
+    cells = table[at].removeprefix("sloshid robust plan, slowed for the arm").split()  # T, peak, residual, -, -
+    assert cells[0] == f"{sent.duration_s:.3f}" and cells[3:] == ["-", "-"]
+    full = table[at - 1].removeprefix("sloshid robust plan ").split()
+    assert full[0] == f"{fitted['transfer_time_first_s']:.3f}"
 
 
 def test_compare_says_not_to_send_a_move_no_slower_plan_fits_to_the_arm(tmp_path, run_cli):

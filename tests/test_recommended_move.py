@@ -72,6 +72,23 @@ def test_the_index_links_the_recommended_move_first_and_it_is_the_robust_plan_sl
     assert written.t_s.shape != nominal.t_s.shape
 
 
+def test_the_score_tables_show_the_move_sent_slowed_for_the_arm(demo_run):
+    # the index's and the report's score tables gave the robust plan at full speed only (2.171 s) while the verdict,
+    # recommended.json and the next line gave the move sent (2.222 s): a row under it now shows that move, its slosh
+    # at the identified frequency as the recommendation's band check re-checked it
+    move = json.loads((demo_run / "compare" / "recommended.json").read_text())
+    check = json.loads((demo_run / "compare" / "scores.json").read_text())["recommendation"]["checks"]["sloshid_robust"]
+    fit = move["arm_fit"]
+    assert fit["slowed"] and f"{fit['transfer_time_s']:.4g}" == "2.222" != f"{fit['transfer_time_first_s']:.4g}"
+    full = ["sloshid robust plan", f"{fit['transfer_time_first_s']:.4g}"]
+    sent = ["sloshid robust plan, slowed for the arm", f"{fit['transfer_time_s']:.4g}"]
+    sent += [f"{check['peak_during_deg'][1]:.4g}", f"{check['residual_deg'][1]:.4g}"]  # at the identified f
+    for page in (demo_run / "index.html", demo_run / "compare" / "report" / "index.html"):
+        rows = [re.findall(r"<td>(.*?)</td>", row) for row in re.findall(r"<tr>(.*?)</tr>", page.read_text())]
+        at = [row[:4] for row in rows].index(sent)
+        assert rows[at - 1][:2] == full, page  # under the robust plan at full speed
+
+
 def test_an_independent_simulation_of_the_recommended_move_keeps_its_promise(demo_run):
     move = json.loads((demo_run / "compare" / "recommended.json").read_text())
     scores = json.loads((demo_run / "compare" / "scores.json").read_text())

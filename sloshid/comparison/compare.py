@@ -21,7 +21,7 @@ from tqdm import tqdm
 
 from sloshid.comparison.feedback import FeedbackSettings
 from sloshid.comparison.profiles import MoveTask, NotApplicable, constant_acceleration
-from sloshid.comparison.recommend import Recommendation, recommend, write_move
+from sloshid.comparison.recommend import Recommendation, SlowedRow, recommend, slowed_row, write_move
 from sloshid.comparison.robot_tracking import ClosedLoopResponse, closed_loop_responses
 from sloshid.comparison.robustness import Replay, RobustnessResult, replay_responses, sweep
 from sloshid.comparison.ruckig_moves import jerk_limited
@@ -614,25 +614,42 @@ class Comparison:
         joints = rec.arm.joints if rec.arm is not None and rec.arm.follows else None
         return write_move(traj, move, path, inputs, joints)
 
+    def slowed_row(self) -> SlowedRow | None:
+        """The score table's row of the move sent when it is the recommended method's slowed for the scenario's arm
+        (`recommend.slowed_row`), else None."""
+        rec = self.recommendation
+        return slowed_row(self.recommended_move(), rec.to_dict()["checks"] if rec is not None else {})
+
     def summary(self) -> str:
-        """The score table as aligned plain text, then the verdict (what `sloshid compare` prints)."""
-        head = f"{'method':34s} {'T_s':>7s} {'peak_deg':>9s} {'resid_deg':>9s} {'tilt_deg':>8s} {'limits':>7s}"
+        """The score table as aligned plain text (the move sent, when slowed for the arm, under its method's row at
+        full speed: `slowed_row`; tilt and limits are not scored for it), then the verdict (what `sloshid compare`
+        prints)."""
+        slowed = self.slowed_row()
+        labels = [r.label for r in self.results] + ([slowed.label] if slowed is not None else [])
+        w = max([34, *(len(label) + 1 for label in labels)])  # 34 unless a label is longer
+        head = f"{'method':{w}s} {'T_s':>7s} {'peak_deg':>9s} {'resid_deg':>9s} {'tilt_deg':>8s} {'limits':>7s}"
         lines = [head]
         for r in self.results:
             if not r.applicable:
-                lines.append(f"{r.label:34s} not applicable: {r.reason}")
+                lines.append(f"{r.label:{w}s} not applicable: {r.reason}")
                 continue
             sc = r.require_score()
             collides = sc.min_clearance_m is not None and sc.min_clearance_m < 0
             ok = "COLLIDE" if collides else "ok" if sc.robot_limits_ok and sc.move_limits_ok else "FAIL"
             lines.append(
-                f"{r.label:34s} {sc.transfer_time_s:7.3f} {sc.peak_during_deg:9.3f} "
+                f"{r.label:{w}s} {sc.transfer_time_s:7.3f} {sc.peak_during_deg:9.3f} "
                 f"{sc.residual_deg:9.3f} {sc.peak_tilt_deg:8.2f} {ok:>7s}"
             )
+            if slowed is not None and slowed.method == r.key:
+                lines.append(
+                    f"{slowed.label:{w}s} {slowed.transfer_time_s:7.3f} {slowed.peak_during_deg:9.3f} "
+                    f"{slowed.residual_deg:9.3f} {'-':>8s} {'-':>7s}"
+                )
         return "\n".join([*lines, "", self.verdict])
 
     def to_pandas(self):
-        """One row per applicable method with its scores (the table of `summary()`, all columns)."""
+        """One row per applicable method with its scores (the methods of `summary()`'s table, all columns; the move
+        sent when slowed for the arm is `slowed_row()`)."""
         rows = [{"method": r.key, "label": r.label, **vars(r.score)} for r in self.results if r.applicable]
         return to_pandas({key: [row.get(key) for row in rows] for key in (rows[0] if rows else {})})
 

@@ -7,7 +7,7 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
 
@@ -27,7 +27,8 @@ risk (green); closer to a threshold it is coloured as uncertain."""
 
 @dataclass(frozen=True)
 class BandCheck:
-    """One method over the band: the frequencies tried, its peak during the move and residual after it at each."""
+    """One method over the band: the frequencies tried (the band's low end, the identified frequency, its high end),
+    its peak during the move and residual after it at each."""
 
     f_hz: tuple[float, ...]
     peak_during_deg: tuple[float, ...]
@@ -75,6 +76,37 @@ class Recommendation:
             "checks": {k: c.to_dict() for k, c in self.checks.items()},
             "arm_fit": self.arm.to_dict() if self.arm is not None else None,
         }
+
+
+class SlowedRow(NamedTuple):
+    """The score tables' row of the move sent when it is a method's move slowed for the scenario's arm: under that
+    method's row at full speed, so that the table shows the transfer time the verdict and the JSON give."""
+
+    method: str
+    """The key of the method whose row it follows."""
+    label: str
+    transfer_time_s: float
+    peak_during_deg: float
+    residual_deg: float
+
+
+def slowed_label(label: str) -> str:
+    """How the tables name a method's move slowed for the scenario's arm."""
+    return f"{label}, slowed for the arm"
+
+
+def slowed_row(move: dict[str, Any] | None, checks: dict[str, dict[str, Any]]) -> SlowedRow | None:
+    """The row of the recommended move when it was slowed for the arm (None otherwise): the transfer time sent, and
+    its peak and residual at the identified frequency as the band check re-checked the slowed move. Read from the JSON
+    forms (`Comparison.recommended_move`, `Recommendation.to_dict`'s checks), so the pipeline's index, which has only
+    a run's record, draws the same row."""
+    fit = (move or {}).get("arm_fit")
+    if move is None or not fit or not fit["slowed"]:
+        return None
+    check = checks[move["method"]]  # a slowed move's check is the slowed move's (`recommend`)
+    at = 1  # the identified frequency, the middle of the three the band check tries
+    seconds, peak, residual = move["transfer_time_s"], check["peak_during_deg"][at], check["residual_deg"][at]
+    return SlowedRow(move["method"], slowed_label(move["label"]), seconds, peak, residual)
 
 
 def frequency_band(f_hz: float, interval_hz: tuple[float, float] | None, margin: float) -> tuple[tuple, str]:

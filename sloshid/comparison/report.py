@@ -8,6 +8,7 @@ from typing import TYPE_CHECKING
 import matplotlib.pyplot as plt
 import numpy as np
 
+from sloshid.comparison.recommend import slowed_label
 from sloshid.report.html import Report
 
 if TYPE_CHECKING:  # the comparison draws itself through this module: its class is named for the annotations only
@@ -30,7 +31,9 @@ SCORE_HEADER = (
 
 
 def score_rows(comp: Comparison) -> list[list[object]]:
-    """One table row per method; a method that could not be built says 'not applicable' and why."""
+    """One table row per method; a method that could not be built says 'not applicable' and why; the move sent, when
+    it is the recommended method's slowed for the arm, under that method's row (`Comparison.slowed_row`)."""
+    slowed = comp.slowed_row()
     rows: list[list[object]] = []
     for r in comp.results:
         if not r.applicable:
@@ -57,6 +60,13 @@ def score_rows(comp: Comparison) -> list[list[object]]:
                 notes,
             ]
         )
+        if slowed is not None and slowed.method == r.key:
+            sent = (
+                "the move sent: re-planned slower for the Panda of [robot]; peak and residual at the identified "
+                "frequency, from the band check above; the other columns not scored"
+            )
+            seconds, peak, residual = slowed.transfer_time_s, slowed.peak_during_deg, slowed.residual_deg
+            rows.append([slowed.label, seconds, peak, residual, *[None] * 6, sent])
     return rows
 
 
@@ -165,6 +175,8 @@ def _recommendation_table(rep: Report, comp: Comparison, rec: Recommendation) ->
     """The band check behind the recommendation (`rec`, the comparison's): each method tried, fastest first, at the
     band's ends and middle."""
     labels = {r.key: r.label for r in comp.results}
+    if rec.method is not None and rec.arm is not None and rec.arm.slowed:  # its check is of the move slowed
+        labels[rec.method] = slowed_label(labels[rec.method])
     rows = []
     for key, c in rec.checks.items():
         cells = [f"{p:.2g} / {r:.2g}" for p, r in zip(c.peak_during_deg, c.residual_deg)]

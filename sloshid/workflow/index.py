@@ -7,6 +7,7 @@ import html
 from pathlib import Path
 from typing import Any, NamedTuple
 
+from sloshid.comparison.recommend import slowed_row
 from sloshid.identification.estimates import interval_ends, shown_with_error
 from sloshid.identification.verdict import PARAMETER_LABELS
 from sloshid.report.html import Report
@@ -164,13 +165,15 @@ def _margin_rows(s: dict[str, Any]) -> tuple[list[str], list[list[Any]]]:
 
 
 def _compare(report: Report, run_dir: Path, s: dict[str, Any]) -> None:
-    """The verdict sentence (coloured by the recommendation's risk) and the score table of every method."""
+    """The verdict sentence (coloured by the recommendation's risk) and the score table of every method, with the move
+    sent under its method's row when it was slowed for the arm (`slowed_row`)."""
     rec = s.get("recommendation") or {}
     report.add_text(s["verdict"], css_class=f"verdict-{rec.get('risk', 'uncertain')}")
     if s.get("kind") == "margin":  # ranked by risk, then time
         report.add_table(*_margin_rows(s))
         _compare_links(report, run_dir, s)
         return
+    slowed = slowed_row(s.get("recommended"), rec.get("checks", {}))
     rows = []
     for m in s["methods"]:
         if not m["applicable"]:
@@ -178,6 +181,8 @@ def _compare(report: Report, run_dir: Path, s: dict[str, Any]) -> None:
             continue
         ok = "ok" if m["robot_limits_ok"] and m["move_limits_ok"] else "exceeded"
         rows.append([m["label"], m["transfer_time_s"], m["peak_during_deg"], m["residual_deg"], m["peak_tilt_deg"], ok])
+        if slowed is not None and slowed.method == m["method"]:
+            rows.append([slowed.label, slowed.transfer_time_s, slowed.peak_during_deg, slowed.residual_deg, None, None])
     report.add_table(
         ["method", "transfer time (s)", "peak slosh during (deg)", "residual slosh (deg)", "peak tilt (deg)", "limits"],
         rows,
