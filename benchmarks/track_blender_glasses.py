@@ -57,9 +57,14 @@ MOVE_CASES = {
     "move_b": (1411, 0.09, -12.0),
     "move_c": (1404, 0.09, 12.0),
     "move_d": (1413, 0.09, -12.0),
+    "move_e": (1430, 0.12, 8.0),
+    "move_f": (1431, -0.09, -12.0),
+    "move_g": (1432, 0.06, 15.0),
+    "move_h": (1433, -0.12, 10.0),
 }
 """Robot moves (scene seed, travel m, tilt deg) of glasses from seeds no set uses: 60 frames at 30 fps, zeta 0.02;
-move_c and move_d rendered after the rest-window fix, which they check."""
+move_c and move_d rendered after the rest-window fix, which they check; move_e to move_h after the rest places cut
+to their still parts (2026-12-07), with other travels, both directions and other tilts, which they check."""
 
 
 def need_bpy(blender_python: str, what: str) -> None:
@@ -186,14 +191,19 @@ def clips_report(rows: list[dict]) -> None:
         "reads a track, against the truth trace's, with whether the tracked 95 % interval holds it. Issue 37's "
         "targets: gain 1 +- 0.02, f within 0.3 %, zeta within 5 %. Tracked once; nothing changed for them. "
         "Robot moves (`blender_glasses_scene.py --move`, held out: scenes of seeds 1400, 1411, 1404 and 1413, which no "
-        "other set draws, rendered 2026-12-06 after the decays and read once; move_c and move_d after the rest-window "
-        "fix the first two found): move_a a tumbler of red dye seen 6.6 deg from above, move_b a straight glass of "
-        "orange juice seen 10 deg from above, move_c a straight glass of orange dye seen 12.5 deg from above through a "
-        "20 deg lens, move_d a wide tumbler of red dye seen 6.8 deg from above; each glass, upright at rest, carried "
-        "90 mm across the picture from 0.2 to 1.2 s (a minimum-jerk profile) while tilted about its base by up to "
-        "+12 / -12 deg and back, the camera still and aimed at the middle of the travel, the surface a linear "
-        "pendulum at the cylinder's first mode (3.5, 3.4, 3.9 and 3.5 Hz, zeta 0.02) driven by its centre's horizontal "
-        "acceleration; 60 frames at 30 fps, coded and tracked as the decays. Wall heights: the surface's height at "
+        "other set draws, rendered 2026-12-06 after the decays and read once, again 2026-12-07 in a fresh install; "
+        "move_c and move_d after the rest-window fix the first two found; move_e to move_h, seeds 1430-1433, after "
+        "the rest places cut to their still parts, which move_c found): move_a a tumbler of red dye seen 6.6 deg "
+        "from above, move_b a straight glass of orange juice seen 10 deg from above, move_c a straight glass of orange "
+        "dye seen 12.5 deg from above through a 20 deg lens, move_d a wide tumbler of red dye seen 6.8 deg from above, "
+        "move_e a glass of blue dye seen 14 deg from above, move_f a tumbler of orange dye seen level, move_g a glass "
+        "of cola seen 4.3 deg from above, move_h a tumbler of blue dye seen 4.6 deg from above; each glass, upright "
+        "at rest, carried across the picture from 0.2 to 1.2 s (a minimum-jerk profile; 90 mm to the right for move_a "
+        "to move_d, then 120 mm right, 90 mm left, 60 mm right and 120 mm left) while tilted about its base and back "
+        "(by up to +12, -12, +12, -12, +8, -12, +15 and +10 deg), the camera still and aimed at the middle of the "
+        "travel, the surface a linear pendulum at the cylinder's first mode (3.4-4.0 Hz, zeta 0.02) driven by its "
+        "centre's horizontal acceleration; 60 frames at 30 fps, coded and tracked as the decays. Wall heights: the "
+        "surface's height at "
         "each inner wall above the level at rest, in the glass's frame, seen in the picture (px); issue 37's target "
         "1 px RMSE."
     )

@@ -2395,3 +2395,21 @@ def test_a_juices_top_face_pale_toward_its_back_is_read_on_its_back_edge(tmp_pat
     monkeypatch.setattr("sloshid.tracking.surface.LOW_SCATTER_SHARE", 0.0)  # the 0.5 crossings only, as before
     res = track_video(clip, TrackSettings(target="surface", smooth=False), multithreaded=False)
     assert not held[-1].endswith(" low") and abs(float(np.median(res.angle_deg))) > 1.0
+
+
+def test_a_faint_dye_whose_first_frame_is_not_measured_is_still_chosen_by_its_own_range():
+    # a faint blue (saturation 100, under every preset's 140) whose first frame shows no surface to measure (a round
+    # blob: no walls; a Blender tumbler's first frames, where a glow on the surface tilted the fitted ellipse, were not
+    # measured either, and the later ones were, 40 of 60 frames with this range against 9 with none chosen): with no
+    # preset's region at all, the largest coloured region's own range is the dye, not none
+    frame = np.full((240, 320, 3), 200, np.uint8)
+    blue = cv2.cvtColor(np.uint8([[[120, 100, 180]]]), cv2.COLOR_HSV2BGR)[0, 0].tolist()
+    cv2.circle(frame, (160, 120), 60, blue, -1)
+    name, liquid, rival, _ = tracker._auto_dye(frame, (0, 0, 320, 240), TrackSettings(target="surface"))
+    assert name is not None and name.endswith("no preset's") and rival is None
+    assert liquid.low[0] <= 120 <= liquid.high[0] and liquid.low[1] <= 100
+    # a grey picture has no coloured region: still none
+    assert (
+        tracker._auto_dye(np.full((240, 320, 3), 200, np.uint8), (0, 0, 320, 240), TrackSettings(target="surface"))[1]
+        is None
+    )

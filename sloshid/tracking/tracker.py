@@ -710,7 +710,9 @@ def _auto_dye(first: Picture | np.ndarray, roi: tuple[int, int, int, int], setti
     largest coloured region's own range (`own_range`: a faint dye below every preset's saturation, a dusky red juice
     whose liquid the red preset holds in patches) when it is measured so; else a region darker than the rest in a
     picture with no coloured one large enough (`darker_liquid`: a near-black liquid greyed by the light) when it is
-    measured so; else the largest preset. Returns (its name or None, its HSV range or None, a rival to name or None,
+    measured so; else, where no preset's colour has a region at all, the largest coloured region's own range measured
+    or not (a first frame the tracker reads poorly, as a surface's glow may make it, says nothing of the rest);
+    else the largest preset. Returns (its name or None, its HSV range or None, a rival to name or None,
     whether the rival's region is the larger)."""
     x, y, w, h = roi  # the ROI's pixels only (a Picture converts just them), as auto_liquid_preset reads them
     crop = first[y : y + h, x : x + w]
@@ -733,6 +735,7 @@ def _auto_dye(first: Picture | np.ndarray, roi: tuple[int, int, int, int], setti
     if dark is not None and dark.valid:
         return "dark", preset("dark").hsv, rival, False
     hsv, labels, stats, order = coloured_regions(frame, roi)
+    own = None
     if order and stats[order[0], cv2.CC_STAT_AREA] > MIN_LIQUID_SHARE * w * h:
         own = own_range(hsv[labels == order[0]])
         if measure_frame(frame, 0.0, settings, roi, own)[0].valid:
@@ -740,6 +743,8 @@ def _auto_dye(first: Picture | np.ndarray, roi: tuple[int, int, int, int], setti
     darker = darker_liquid(hsv, stats, order)
     if darker is not None and measure_frame(frame, 0.0, settings, roi, darker[1])[0].valid:
         return f"{darker[1].describe()}, darker than the rest", darker[1], name, name is not None
+    if name is None and own is not None:  # no preset's region at all: the largest coloured one, measured or not here
+        return f"{own.describe()}, no preset's", own, None, False
     return name, preset(name).hsv if name else None, rival, False
 
 
