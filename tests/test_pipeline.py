@@ -316,7 +316,9 @@ def test_the_index_says_whether_joint_signals_agree_and_keeps_fs_digits(tmp_path
 @pytest.mark.parametrize("name", ["upright_move", "tilt_margin_move"])
 def test_a_pipeline_plans_and_compares_a_move_within_a_spill_margin(tmp_path, run_cli, name):
     # upright and tilting moves within a spill margin: plan, compare (ranked by risk) and the index, like a tilting one
-    text = (ROOT / "data" / "scenarios" / f"{name}.toml").read_text().replace("draws = 1000", "draws = 200")
+    # 100 Monte-Carlo draws (the least [risk].draws takes): no check here reads a risk's value, only that the
+    # scenario's number of draws reaches the ranking
+    text = (ROOT / "data" / "scenarios" / f"{name}.toml").read_text().replace("draws = 1000", "draws = 100")
     # one point of each sensitivity study (the full sweeps are the comparison's minutes): every path still runs
     studies = "omega_factors = [1.0]\nzeta_factors = [1.0]\ncamera_fps_sweep = [30.0]\nlinearity_acc_m_s2 = [0.5]\n"
     _write(tmp_path / "move.toml", f"{text}\n[compare]\n{studies}")
@@ -338,7 +340,7 @@ def test_a_pipeline_plans_and_compares_a_move_within_a_spill_margin(tmp_path, ru
     described = json.loads((run_dir / "compare" / "recommended.json").read_text())  # as for a slosh-free move
     assert described["method"] == compare["recommended"]["method"] and described["reason"] == compare["verdict"]
     ours = next(r for r in compare["ranked"] if r["key"] == "sloshid")
-    assert ours["meets_margin_and_residual"] and ours["risk"]["draws"] == 200
+    assert ours["meets_margin_and_residual"] and ours["risk"]["draws"] == 100
     assert {r["key"] for r in compare["ranked"]} >= {"zv", "zvd", "zvdd", "constant_acc", "sloshid"}
     page = index.read_text()
     assert "Recommended: " in page and "peak wall (mm)" in page and "Overall: plan verified" in page

@@ -68,3 +68,21 @@ def test_the_spherical_pendulum_matches_the_adaptive_solver(drag):
     assert np.degrees(np.abs(resp.liquid_rad).max()) > 5.0 and len(resp.t_s) > n  # a real swing, and the settling
     # as the pair's test: the RK4 phase error per radian is at most rtol = 1e-9 by construction
     assert np.degrees(np.abs(resp.liquid_rad - ref[:, :2]).max()) < 1e-5
+
+
+@pytest.mark.parametrize(("members", "spherical"), [(1, False), (3, False), (2, True)])
+def test_the_buffered_evaluation_is_the_casadi_call_bit_for_bit(members, spherical):
+    # the compiled RK4 is evaluated on NumPy buffers (`_evaluate`), not through DM matrices: the same numbers exactly,
+    # whatever the batch's shape (one member is the mapaccum itself, several its map)
+    from sloshid.model.simulate import CHUNK_STEPS, _evaluate, _rk4_chunk
+
+    fn = _rk4_chunk(2, members, spherical)
+    rng = np.random.default_rng(5)
+    q = rng.normal(0.0, 0.1, (4, members))
+    ua, ub = rng.normal(0.0, 2.0, (2, 3, members * CHUNK_STEPS))
+    c = np.repeat([[0.021], [1.5], [1e-3], [0.5]], members * CHUNK_STEPS, axis=1)
+    got = _evaluate(fn, q, ua, ub, c)
+    assert got.shape == (4, members * CHUNK_STEPS) and np.abs(got).max() > 0.01
+    assert np.array_equal(got, np.asarray(fn(q, ua, ub, c)))
+    with pytest.raises(ValueError, match="input 1 of"):
+        _evaluate(fn, q, ua[:, :-1], ub, c)

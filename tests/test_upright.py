@@ -187,9 +187,19 @@ def test_upright_scenario_keys_are_checked():
         vessels_of(scenario_from_dict(data), resolve_liquid(scenario_from_dict(data), None))
 
 
+def _with_100_draws(tmp_path: Path) -> Path:
+    """The upright demo scenario with 100 Monte-Carlo draws instead of its 1000 (the least [risk].draws takes), for
+    the tests of what `plan` prints and writes: none of them reads the risk's value, and the 1000 draws of each plan
+    were most of their time."""
+    path = tmp_path / "upright_100_draws.toml"
+    path.write_text(UPRIGHT.read_text().replace("draws = 1000", "draws = 100"))
+    return path
+
+
 def test_plan_cli_prints_risk_and_draws_the_margin_sweep(run_cli, tmp_path):
     out = tmp_path / "up.csv"
-    code, stdout, err = run_cli("plan", UPRIGHT, "-o", out, "--sweep-margin", "12:16:2", "--report", tmp_path / "rep")
+    scenario = _with_100_draws(tmp_path)
+    code, stdout, err = run_cli("plan", scenario, "-o", out, "--sweep-margin", "12:16:2", "--report", tmp_path / "rep")
     assert code == 0, err
     page = (tmp_path / "rep" / "index.html").read_text(encoding="utf-8")
     assert "sloshid upright plan" in page and "data:image/png;base64" in page
@@ -346,7 +356,7 @@ def test_plan_json_of_a_margin_plan_holds_what_the_help_says(run_cli, tmp_path):
     text = next(a.help for a in sub._actions if "--json" in a.option_strings)
     margin = text.split("a plan within a spill margin's ")[1]
     named = {k for k in re.findall(r"[A-Za-z_]+", margin) if "_" in k or k in ("kind", "status", "containers", "risk")}
-    code, out, err = run_cli("plan", UPRIGHT, "-o", tmp_path / "u.csv", "--json")
+    code, out, err = run_cli("plan", _with_100_draws(tmp_path), "-o", tmp_path / "u.csv", "--json")
     assert code == 0, err
     keys = set(json.loads(out))
     assert named <= keys and {"kind", "verification_ok", "containers", "margin_sweep"} <= named
