@@ -176,8 +176,8 @@ def _evaluate(fn, *args: np.ndarray) -> np.ndarray:
     for i, a in enumerate(ins):
         if a.size != fn.nnz_in(i):  # the buffer would be read short or past its end
             raise ValueError(f"input {i} of {fn.name()} has {a.size} values, not {fn.nnz_in(i)}")
-        buffer.set_arg(i, memoryview(a))
-    buffer.set_res(0, memoryview(flat))
+        buffer.set_arg(i, a.data)
+    buffer.set_res(0, flat.data)
     evaluate()
     if buffer.ret() != 0:  # pragma: no cover - the RK4 has no failing operation
         raise RuntimeError(f"CasADi function {fn.name()} failed (return code {buffer.ret()})")
