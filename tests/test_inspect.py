@@ -15,7 +15,7 @@ import sloshid
 from sloshid.core.tables import read_csv
 from sloshid.synthetic.render import SynthSettings, render_frames, render_video
 from sloshid.synthetic.stills import recoloured, still_clip
-from sloshid.tracking.inspect import inspect_video
+from sloshid.tracking.inspect import TRIAL_S, Trial, _try, inspect_video
 from sloshid.tracking.tracker import TrackSettings, measure_frame, track_video
 from sloshid.video.frames import FrameReader, VideoWriter
 
@@ -398,3 +398,36 @@ def test_a_grey_liquid_darker_than_the_rest_gets_a_range_of_its_own(tmp_path, ru
     assert run_cli(*command[1:])[0] == 0
     angles = read_csv(Path(command[command.index("-o") + 1]))
     assert float(np.median(angles["angle_deg"][angles["valid"] == 1])) == pytest.approx(3.43, abs=0.3)
+
+
+def test_the_suggestion_is_tried_and_tracks_own_choice_replaces_a_worse_one(tmp_path, run_cli):
+    # an orange dye, 2.5 s: the suggestion is tried on the first TRIAL_S seconds and measures them all; given a colour
+    # that holds no liquid (green) and an ROI off the container, the trial measures nothing with them, and track's own
+    # choice of colour and region (every frame) replaces them
+    clip = tmp_path / "clip.mp4"
+    small = [*SMALL[: SMALL.index("--duration")], "--duration", "2.5", *SMALL[SMALL.index("--noise") :]]
+    assert run_cli("synth", clip, *small, "--scene", "surface", "--liquid-color", "orange")[0] == 0
+    res = inspect_video(clip)
+    tracked = track_video(clip, TrackSettings(target="surface", smooth=False))
+    frames, valid = (
+        int(np.count_nonzero(tracked.t_s < TRIAL_S)),
+        int(np.count_nonzero(tracked.valid[tracked.t_s < TRIAL_S])),
+    )
+    assert valid >= 0.8 * frames  # a clean painted clip: only the encoder's repeated pictures are not valid
+    # the suggestion names the colour track finds itself: both measure the same frames, and the suggestion is kept
+    assert res.trial == Trial(TRIAL_S, frames, valid, valid, False) and res.works
+    assert f"the command below measured {valid} of {frames} frames validly" in res.notes[-1]
+    res.track_settings = {"target": "surface", "liquid_color": "green", "roi": (0, 0, 40, 40)}
+    _try(res, given=False)
+    assert res.trial == Trial(TRIAL_S, frames, 0, valid, True) and res.works
+    assert res.track_settings == {"target": "surface"}
+    # a given ROI is the user's: kept in the command either way
+    res.track_settings = {"target": "surface", "liquid_color": "green", "roi": (0, 0, 320, 240)}
+    _try(res, given=True)
+    assert res.track_settings == {"target": "surface", "roi": (0, 0, 320, 240)} and res.trial.own == valid
+    assert json.loads(json.dumps(res.to_dict()))["trial"]["own_taken"] is True
+    # track's own choice measuring something outside the suggested ROI (a label of another colour) is not taken
+    res.track_settings, res.suggested_roi = {"target": "surface", "liquid_color": "green"}, (0, 0, 60, 60)
+    _try(res, given=False)
+    assert res.trial == Trial(TRIAL_S, frames, 0, valid, False) and not res.works
+    assert res.track_settings == {"target": "surface", "liquid_color": "green"}

@@ -13,6 +13,7 @@ largest with an HSV range of its own.
 from __future__ import annotations
 
 import math
+import warnings
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -37,12 +38,14 @@ from sloshid.tracking.surface import (
 from sloshid.tracking.surface_track import SurfaceStep
 from sloshid.tracking.tracker import (
     MeasureStep,
+    TrackResult,
     TrackSettings,
     measure_frame,
     reduction,
     roi_box,
     shrunk_roi,
     surface_roi,
+    track_video,
 )
 from sloshid.video.colors import PRESETS, HsvRange, format_hsv
 from sloshid.video.frames import FrameReader, shrunk
@@ -62,6 +65,33 @@ AT_TOLERANCE_S = 5e-4
 """--at: a frame this close after the time asked for is the one meant (a time typed to the millisecond)."""
 _HUES = ((8, "red"), (22, "orange"), (35, "yellow"), (85, "green"), (100, "cyan"), (125, "blue"), (170, "magenta"))
 """Upper hue bounds (OpenCV, 0..179) of the colour names used to say what was seen; above the last: red again."""
+
+
+TRIAL_S = 2.0
+"""A video looked at from its first frame: the suggested command is tried on its first this many seconds, beside
+track with no colour or ROI of inspect's (its own choices): one frame may show the liquid as no other does (a glow of
+the light lifting a faint dye's surface read no colour range in a robot move's first frame, and inspect's colour held
+the dye in patches: 12 of 60 frames valid, track's own 40)."""
+TRIAL_MARGIN = 0.1
+"""... and track's own choices are suggested instead where they measure at least this share of the tried frames more
+validly than the suggestion."""
+OWN_CHOICES = ("liquid_color", "liquid_hsv_low", "liquid_hsv_high", "roi")
+"""The suggested settings track chooses itself when they are not given (the surface's colour and, for either target,
+where to look); the float's colour is always given (`float_color` defaults to red)."""
+
+
+@dataclass(frozen=True)
+class Trial:
+    """The suggestion tried on the video's first `seconds` (`TRIAL_S`)."""
+
+    seconds: float
+    frames: int
+    valid: int
+    """Frames the suggested command measured validly."""
+    own: int | None = None
+    """Frames track measured validly with its own choices (`OWN_CHOICES`) instead; None: the suggestion is those."""
+    own_taken: bool = False
+    """The suggestion was replaced by track's own choices (`TRIAL_MARGIN`)."""
 
 
 Labels: TypeAlias = dict[str, tuple[np.ndarray, list[int]]]
@@ -196,12 +226,23 @@ class InspectResult:
     """What was seen, as a clause for the one-sentence error when nothing was found."""
     picture: np.ndarray = field(default_factory=lambda: np.zeros((0, 0, 3), np.uint8), repr=False)
     """The annotated picture (BGR): surface target on the left, float target on the right."""
+    trial: Trial | None = None
+    """The suggested command tried on the video's first seconds (None: a still picture, a frame after the first, or
+    nothing to suggest)."""
 
     @property
     def measured(self) -> bool:
         """The suggested command's target was measured in this frame (track would mark it valid)."""
         look = self.liquid if self.target == "surface" else self.float_look if self.target == "float" else None
         return look is not None and look.measured
+
+    @property
+    def works(self) -> bool:
+        """The suggested command measured at least half the frames it was tried on (`trial`)."""
+        tried = self.trial
+        return (
+            tried is not None and 2 * (tried.own if tried.own_taken and tried.own else tried.valid) >= tried.frames > 0
+        )
 
     def suggestion(self, settings: dict[str, Any]) -> str:
         """Tracking settings as the Python call that uses them (the default way `summary` shows them)."""
@@ -263,6 +304,7 @@ class InspectResult:
             "track_settings": {k: list(v) if isinstance(v, tuple) else v for k, v in self.track_settings.items()},
             "notes": list(self.notes),
             "seen": self.seen or None,
+            "trial": None if self.trial is None else self.trial.__dict__,
         }
 
     def save_picture(self, path: str | Path) -> Path:
@@ -615,6 +657,13 @@ def inspect_video(
                 for name in ("colours", "surfaces", "floats", "candidates"):
                     getattr(res, name).extend(getattr(own, name))
     _decide(res, frame, labels, drawn)
+    if not still and t_s == 0.0 and res.track_settings:
+        _try(res, given=roi is not None)
+    if res.track_settings and not res.measured and not res.works:
+        res.notes.append(
+            "track would not measure this frame with those settings today; run it to see its message, with "
+            "`overlay` OUT.mp4 to see what it found"
+        )
     if still and res.track_settings:
         res.notes.append(
             "track measures a video, not a still: run the command below on the video this picture is a frame of "
@@ -622,6 +671,58 @@ def inspect_video(
         )
     res.picture = _picture(res, frame, labels, drawn)
     return res
+
+
+def _try(res: InspectResult, given: bool) -> None:
+    """Track the video's first TRIAL_S seconds with the suggested settings and, where they name a colour or an ROI of
+    inspect's (`OWN_CHOICES`), with track's own choices; take those where they measure more (`TRIAL_MARGIN`) of what
+    inspect found (the measured centre inside the suggested ROI: track's own colour may be a label's), and say how
+    many frames each measured."""
+    own = {k: v for k, v in res.track_settings.items() if k not in OWN_CHOICES or (k == "roi" and given)}
+    runs = [_tried(res.video, res.track_settings)]
+    if own != res.track_settings:
+        runs.append(_tried(res.video, own))
+    frames = max((len(r.valid) for r in runs if r is not None), default=0)
+    if not frames:
+        res.trial = Trial(TRIAL_S, 0, 0)
+        res.notes.append(f"tried on the first {TRIAL_S:g} s: track measured none of its frames")
+        return
+    valid = [0 if r is None else int(np.count_nonzero(r.valid)) for r in runs]
+    taken = len(runs) == 2 and valid[1] >= valid[0] + TRIAL_MARGIN * frames and _within(runs[1], res.suggested_roi)
+    res.trial = Trial(TRIAL_S, frames, valid[0], valid[1] if len(runs) == 2 else None, taken)
+    if taken:
+        res.notes.append(
+            f"tried on the first {TRIAL_S:g} s ({frames} frames): the settings this frame suggests measured "
+            f"{valid[0]} validly, track with its own choice of colour and region {valid[1]}: the command below leaves "
+            "the colour and the region to it"
+        )
+        res.track_settings = own
+    else:
+        res.notes.append(
+            f"tried on the first {TRIAL_S:g} s: the command below measured {valid[0]} of {frames} frames validly"
+            + (f" (track with its own choice of colour and region: {valid[1]})" if len(runs) == 2 else "")
+        )
+
+
+def _tried(video: Path, settings: dict[str, Any]) -> TrackResult | None:
+    """`settings` tracked over the video's first TRIAL_S seconds, quietly (None: track found nothing there)."""
+    try:
+        with warnings.catch_warnings():  # a trial's warnings are not the user's run's
+            warnings.simplefilter("ignore")
+            return track_video(video, TrackSettings(**settings, smooth=False), multithreaded=False, until_s=TRIAL_S)
+    except UserError:
+        return None
+
+
+def _within(tried: TrackResult | None, roi: tuple[int, int, int, int] | None) -> bool:
+    """The tracked centre (median of the valid frames) lies inside `roi` (any, where there is none)."""
+    if tried is None or not tried.valid.any():
+        return False
+    if roi is None:
+        return True
+    ok = tried.valid.astype(bool)
+    x, y, w, h = roi
+    return x <= float(np.median(tried.x_px[ok])) <= x + w and y <= float(np.median(tried.y_px[ok])) <= y + h
 
 
 def _look_at_colours(res: InspectResult, frame: np.ndarray, colours: dict, labels: Labels, drawn: Drawn) -> None:
@@ -699,11 +800,6 @@ def _decide(res: InspectResult, frame: np.ndarray, labels: Labels, drawn: Drawn)
         res.notes.append(
             "nothing here is a dyed liquid or a float: the colours found cover too little of the area, or are not "
             "elongated; try `roi` around the liquid or float, or a frame where they show (`at`)"
-        )
-    if res.track_settings and not res.measured:
-        res.notes.append(
-            "track would not measure this frame with those settings today; run it to see its message, with "
-            "`overlay` OUT.mp4 to see what it found"
         )
 
 

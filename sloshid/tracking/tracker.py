@@ -520,6 +520,7 @@ def track_video(
     overlay: str | Path | None = None,
     progress: bool = False,
     multithreaded: bool = True,
+    until_s: float | None = None,
 ) -> TrackResult:
     """Track the float (or the liquid surface) in every decoded frame of `path`; optionally write an overlay video.
 
@@ -528,7 +529,8 @@ def track_video(
     Truncation and partial loss are reported in `warnings`, `lost_share`, `invalid_share`.
     A long video is tracked in spans (`SPAN_S`), side by side in processes when `multithreaded` and no overlay is
     written; multithreaded=False tracks them one after the other on one core in this thread (for batches that run
-    many videos side by side). The table is the same either way.
+    many videos side by side). The table is the same either way. `until_s`: only the frames shown before this time
+    (a trial of settings, as `inspect` runs one; no truncation is reported then).
     """
     settings = settings or TrackSettings()
     with contextlib.ExitStack() as workers:
@@ -543,6 +545,8 @@ def track_video(
         roi = roi_box(settings, width, height)
         key_times = key_frame_times(path)
         spans = _spans(reader.info, key_times)
+        if until_s is not None:
+            spans = [(s, until_s if e is None else min(e, until_s)) for s, e in spans if s is None or s < until_s]
         log.info("tracking %s (%s target) in %d span(s)", path, settings.target, len(spans))
         reader.end_s = spans[0][1]
         dye, liquid, rival, larger = "", settings.liquid_hsv, None, False
@@ -601,7 +605,7 @@ def track_video(
         repeated = stale_repeats(np.array([r.angle_deg for r in body]), np.array([r.valid for r in body], bool), flags)
         body = [r._replace(valid=int(r.valid and not rep)) for r, rep in zip(body, repeated)]
         smooth = smoother.smooth if smoother is not None else None
-        lost = lost_share(reader.info.frame_count, len(rows))
+        lost = lost_share(reader.info.frame_count, len(rows)) if until_s is None else 0.0
         res = _result(Path(path), body, lost, reader.info, smooth, repeated, settings.target)
     res.target, res.walls, res.repeated, res.dye = settings.target, walls, repeated, dye
     res.warnings.extend(notes)
