@@ -240,9 +240,7 @@ class InspectResult:
     def works(self) -> bool:
         """The suggested command measured at least half the frames it was tried on (`trial`)."""
         tried = self.trial
-        return (
-            tried is not None and 2 * (tried.own if tried.own_taken and tried.own else tried.valid) >= tried.frames > 0
-        )
+        return tried is not None and 2 * ((tried.own or 0) if tried.own_taken else tried.valid) >= tried.frames > 0
 
     def suggestion(self, settings: dict[str, Any]) -> str:
         """Tracking settings as the Python call that uses them (the default way `summary` shows them)."""
@@ -685,7 +683,7 @@ def _try(res: InspectResult, given: bool) -> None:
     frames = max((len(r.valid) for r in runs if r is not None), default=0)
     if not frames:
         res.trial = Trial(TRIAL_S, 0, 0)
-        res.notes.append(f"tried on the first {TRIAL_S:g} s: track measured none of its frames")
+        res.notes.append(f"tried on the first {TRIAL_S:g} s: track found nothing it measures in them")
         return
     valid = [0 if r is None else int(np.count_nonzero(r.valid)) for r in runs]
     taken = len(runs) == 2 and valid[1] >= valid[0] + TRIAL_MARGIN * frames and _within(runs[1], res.suggested_roi)
