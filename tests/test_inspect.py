@@ -426,8 +426,8 @@ def test_the_suggestion_is_tried_and_tracks_own_choice_replaces_a_worse_one(tmp_
     _try(res, given=True)
     assert res.track_settings == {"target": "surface", "roi": (0, 0, 320, 240)} and res.trial.own == valid
     assert json.loads(json.dumps(res.to_dict()))["trial"]["own_taken"] is True
-    # track's own choice measuring something outside the suggested ROI (a label of another colour) is not taken
-    res.track_settings, res.suggested_roi = {"target": "surface", "liquid_color": "green"}, (0, 0, 60, 60)
+    # a suggestion that measures half the frames or more is kept (track's own colour may be a label's)
+    res.track_settings = {"target": "surface", "liquid_color": "orange", "roi": (0, 0, 320, 240)}
     _try(res, given=False)
-    assert res.trial == Trial(TRIAL_S, frames, 0, valid, False) and not res.works
-    assert res.track_settings == {"target": "surface", "liquid_color": "green"}
+    assert res.trial == Trial(TRIAL_S, frames, valid, valid, False) and res.works
+    assert res.track_settings == {"target": "surface", "liquid_color": "orange", "roi": (0, 0, 320, 240)}
