@@ -730,16 +730,18 @@ def test_a_rest_window_is_cut_at_the_move_when_frames_at_rest_come_before_it():
     assert not _rest_before(rest, 35)  # the move after the window: nothing to cut
 
 
-def _finished(left, right, x=None):
-    """The surface step's `finish` on raw rows: 30 fps, a level surface read against the liquid's sides, 130 px wide."""
+def _finished(left, right, x=None, y=None):
+    """The surface step's `finish` on raw rows: 30 fps, a level surface read against the liquid's sides, 130 px wide,
+    its centre at (`x`, `y`) in the picture (default 320, 240)."""
     from sloshid.tracking.rows import SurfaceGeometry, step_row
     from sloshid.tracking.surface_track import SurfaceStep
 
     n = len(left)
     x = np.full(n, 320.0) if x is None else x
+    y = np.full(n, 240.0) if y is None else y
     rows = [
         step_row(
-            0.0, 0.0, 0.0, float(x[k]), 240.0, 0.9, 1, SurfaceGeometry(0.0, 0.0, left[k], right[k], 130.0, 0.0)
+            0.0, 0.0, 0.0, float(x[k]), float(y[k]), 0.9, 1, SurfaceGeometry(0.0, 0.0, left[k], right[k], 130.0, 0.0)
         )._replace(frame=k, t_s=k / 30)
         for k in range(n)
     ]
@@ -751,16 +753,22 @@ def _finished(left, right, x=None):
 def test_wall_heights_are_the_surfaces_rise_about_its_centre_whatever_the_bottom_reads():
     # the wall heights were read from the liquid's bottom: a Blender tumbler's bottom read at depths 24-30 px apart in
     # turn put that into both heights (and into their rest level). A planar slosh keeps the surface's centre where it
-    # was (the liquid's volume), so each height is the rise about the centre; a centre 24 px off (18 % of the width,
-    # more than the 5 % a slosh stays within) still marks its frame not valid
+    # was (the liquid's volume), so each height is the rise about the centre. A level 24 px off (18 % of the width,
+    # more than the 5 % a slosh stays within) whose surface stayed where it was in the picture is the bottom's misread
+    # and keeps its frame (the tumbler's: 25 of 60 frames dropped); where the surface's centre moved in the picture
+    # with the level (2 % of the width is 2.6 px), what was measured there is not the surface, and the frame is dropped
     t = np.arange(90) / 30
     rise = np.where(t > 1.0, 12.0 * np.sin(2 * np.pi * 2.0 * (t - 1.0)), 0.0)
     centre = 70.0 + np.random.default_rng(4).normal(0.0, 2.0, t.size)  # the bottom's read: +-2 px
     centre[5::7] -= 24.0
     valid, walls, notes = _finished(centre - rise, centre + rise)
+    assert valid.all() and not any("centre left its level" in n for n in notes)  # the centre stayed at y 240
+    assert np.allclose(walls["right_wall_px"], rise, atol=1e-9)
+    assert np.allclose(walls["left_wall_px"], -rise, atol=1e-9)
+    # the same levels with the surface's centre seen 24 px lower in those frames: not the surface
+    valid, walls, notes = _finished(centre - rise, centre + rise, y=240.0 + np.where(centre < 60.0, 24.0, 0.0))
     assert np.array_equal(valid, np.abs(centre - 70.0) < 10.0)
     assert np.allclose(walls["right_wall_px"][valid], rise[valid], atol=1e-9)
-    assert np.allclose(walls["left_wall_px"][valid], -rise[valid], atol=1e-9)
     assert any("centre left its level" in n for n in notes)
 
 
@@ -2171,9 +2179,9 @@ def test_a_surface_whose_centre_leaves_its_level_is_not_valid():
         swing = 10 * math.sin(2 * math.pi * 2 * k / 30) if k >= 30 else 0.0
         left, right = 100 - swing, 100 + swing
         if k == 45:
-            left = right = 130  # both walls 30 px (0.15 of the width) up: the rim, not the surface
+            left = right = 130  # both walls 30 px (0.15 of the width) up: the rim, not the surface, seen 30 px higher
         raw = SurfaceGeometry(swing / 100, 0.0, left, right, 200.0, 0.0)
-        rows.append(TrackRow(k, k / 30, 0.0, 0.0, 0.0, 160, 120, 1.0, 1, raw))
+        rows.append(TrackRow(k, k / 30, 0.0, 0.0, 0.0, 160, 120 - 30 * (k == 45), 1.0, 1, raw))
     body, walls, notes = step.finish(rows)
     valid = np.array([b.valid for b in body])
     assert valid.sum() == 59 and valid[45] == 0

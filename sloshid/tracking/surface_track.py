@@ -40,6 +40,11 @@ GLASS_AGREE_DEG = 10.0
 """The glass's walls turn a frame's measurement onto their axis only when their angle is within this of the liquid's
 sides' (the inner walls: a tapered glass, its refraction and a sloshing liquid's sides put them up to 5 deg apart
 on the path-traced tumblers); the real frame brightened had one wall on a highlight 40 deg off in half its frames."""
+CENTRE_KEPT_SHARE = 0.02
+"""... but a frame whose surface centre lies in the picture within this share of the inner width of where the frames
+around it put theirs keeps its row (`_bottom_misread`): its level moved with the liquid's bottom as read there, not
+with the surface (a thick glass bottom seen from above shows two edges, read in turn 30 px apart on a Blender tumbler,
+its surface's centre within 1 px)."""
 TILT_NOTE_DEG = 1.0
 """With ``reference` image`, a container that turns by more than this in the picture (its walls as the liquid's sides
 give them, 1st to 99th percentile of the valid frames) draws a warning: the angle includes its tilt. A still
@@ -301,6 +306,7 @@ class SurfaceStep:
         level = 0.5 * (left + right)
         centre = np.where(valid, self.scale * (level - median(level[valid])) / cos_e, np.nan)
         off = valid & (np.abs(centre) > CENTRE_SHARE * self.scale * median(width[valid]))
+        off &= ~_bottom_misread(off, valid, x, y, median(width[valid]))
         if off.any():
             valid &= ~off
             body = [b._replace(valid=0) if o else b for b, o in zip(body, off)]
@@ -330,6 +336,19 @@ class SurfaceStep:
         for name in ("left_wall", "right_wall"):
             walls[f"{name}_mm"] = walls[f"{name}_px"] * mm_per_px
         return body, walls, notes
+
+
+def _bottom_misread(off: np.ndarray, valid: np.ndarray, x: np.ndarray, y: np.ndarray, width: float) -> np.ndarray:
+    """The frames of `off` (their level off the median, CENTRE_SHARE) whose surface centre (`x`, `y`) lies within
+    CENTRE_KEPT_SHARE of `width` of the line through the nearest valid frames not off before and after them (held
+    beyond the first and last): the surface stayed where it was, and the bottom it was measured from moved."""
+    kept = np.zeros_like(off)
+    good, at = np.flatnonzero(valid & ~off), np.flatnonzero(off)
+    if good.size == 0 or at.size == 0:
+        return kept
+    where = np.hypot(x[at] - np.interp(at, good, x[good]), y[at] - np.interp(at, good, y[good]))
+    kept[at[where <= CENTRE_KEPT_SHARE * width]] = True
+    return kept
 
 
 MOVE_SHARE = 0.03
