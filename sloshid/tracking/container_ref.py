@@ -158,16 +158,21 @@ STEADY_DEPART = 12.0
 moving frames measured in the still ones' axes: a 3.4 deg slosh that was the turn); its running median left the median
 by 33-142 noises, a robot's move in the corpus by 16. The walls read along a sloshing liquid wander with it by up to 6
 (a path-traced tap decay), where the median reads the container better than each frame."""
+STEADY_FLOOR_DEG = 0.1
+"""Walls whose robust scatter and running median stay within this of their median stood still, however small their
+frame-to-frame noise: a Blender tap decay's walls, read every frame to 0.002 deg, drifted 0.02 deg with the slosh
+(their scatter 5 noises), so its first frame's walls, read 2.2 deg off, went into its relative angle."""
 STEADY_SPREAD = 1.3
 """A container angle series (valid frames) whose robust scatter about its median is at most this many times its
 frame-to-frame noise (the differences' robust scatter over sqrt 2) shows no motion beyond that noise: white noise
 gives 1 within a tenth at 100 frames, a slosh's tilt or a robot's move many times more."""
 
 
-def steady_angle(angle: np.ndarray, valid: np.ndarray) -> float | None:
+def steady_angle(angle: np.ndarray, valid: np.ndarray, floor: float = 0.0) -> float | None:
     """The container's angle when it stood still for the whole clip while its walls were measured in every frame (a
     noisy picture keeps them from being held): the median of the measurements, or None when they show motion (or
-    the walls were held, so that consecutive frames repeat a value), or fewer than 20 frames are valid."""
+    the walls were held, so that consecutive frames repeat a value), or fewer than 20 frames are valid. `floor`: a
+    scatter and a running median within this of the median never show motion (`STEADY_FLOOR_DEG`)."""
     a = np.asarray(angle, float)[np.asarray(valid, bool)]
     if a.size < 20:
         return None
@@ -176,11 +181,11 @@ def steady_angle(angle: np.ndarray, valid: np.ndarray) -> float | None:
     if noise <= 0:
         return None
     centre = median(a)
-    if MAD_SIGMA * median(np.abs(a - centre)) > STEADY_SPREAD * noise:
+    if MAD_SIGMA * median(np.abs(a - centre)) > max(STEADY_SPREAD * noise, floor):
         return None
     # a move in fewer than half the frames leaves both robust scatters at the noise: the frames' running median shows it
     running = np.sort(np.lib.stride_tricks.sliding_window_view(a, STEADY_RUN), axis=1)[:, STEADY_RUN // 2]
-    return float(centre) if np.max(np.abs(running - centre)) <= STEADY_DEPART * noise else None
+    return float(centre) if np.max(np.abs(running - centre)) <= max(STEADY_DEPART * noise, floor) else None
 
 
 @dataclass

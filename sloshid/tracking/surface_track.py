@@ -18,6 +18,7 @@ import numpy as np
 from sloshid.core.errors import NothingFound, SettingError
 from sloshid.tracking.container_ref import (
     GUARD_ROWS,
+    STEADY_FLOOR_DEG,
     ContainerMeasurement,
     ContainerTracker,
     EdgeLine,
@@ -226,7 +227,7 @@ class SurfaceStep:
         t = np.array([r.t_s for r in rows], float)
         valid = np.array([r.valid for r in rows], bool)
         slope, cang, left, right, width, opening = (np.array(c, float) for c in zip(*[r.surface for r in rows]))
-        steady = steady_angle(cang, valid) if self.walls is not None else None
+        steady = steady_angle(cang, valid, STEADY_FLOOR_DEG) if self.walls is not None else None
         if steady is not None:  # a container that stood still, its walls measured in every frame: their median
             turn = np.radians(cang - steady)
             slope = np.tan(np.arctan(slope) + turn)
