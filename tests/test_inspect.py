@@ -403,31 +403,39 @@ def test_a_grey_liquid_darker_than_the_rest_gets_a_range_of_its_own(tmp_path, ru
 def test_the_suggestion_is_tried_and_tracks_own_choice_replaces_a_worse_one(tmp_path, run_cli):
     # an orange dye, 2.5 s: the suggestion is tried on the first TRIAL_S seconds and measures them all; given a colour
     # that holds no liquid (green) and an ROI off the container, the trial measures nothing with them, and track's own
-    # choice of colour and region (every frame) replaces them
+    # choice of colour and region (every frame) replaces them; a suggestion that works is kept
     clip = tmp_path / "clip.mp4"
     small = [*SMALL[: SMALL.index("--duration")], "--duration", "2.5", *SMALL[SMALL.index("--noise") :]]
     assert run_cli("synth", clip, *small, "--scene", "surface", "--liquid-color", "orange")[0] == 0
     res = inspect_video(clip)
     tracked = track_video(clip, TrackSettings(target="surface", smooth=False))
-    frames, valid = (
-        int(np.count_nonzero(tracked.t_s < TRIAL_S)),
-        int(np.count_nonzero(tracked.valid[tracked.t_s < TRIAL_S])),
-    )
+    first = tracked.t_s < TRIAL_S
+    frames, valid = int(np.count_nonzero(first)), int(np.count_nonzero(tracked.valid[first]))
     assert valid >= 0.8 * frames  # a clean painted clip: only the encoder's repeated pictures are not valid
     # the suggestion names the colour track finds itself: both measure the same frames, and the suggestion is kept
     assert res.trial == Trial(TRIAL_S, frames, valid, valid, False) and res.works
     assert f"the command below measured {valid} of {frames} frames validly" in res.notes[-1]
     res.track_settings = {"target": "surface", "liquid_color": "green", "roi": (0, 0, 40, 40)}
-    _try(res, given=False)
+    _try(res, None)
     assert res.trial == Trial(TRIAL_S, frames, 0, valid, True) and res.works
     assert res.track_settings == {"target": "surface"}
-    # a given ROI is the user's: kept in the command either way
-    res.track_settings = {"target": "surface", "liquid_color": "green", "roi": (0, 0, 320, 240)}
-    _try(res, given=True)
-    assert res.track_settings == {"target": "surface", "roi": (0, 0, 320, 240)} and res.trial.own == valid
+    assert "leaves the colour and region to it" in res.notes[-1]
+    # an ROI the user gave is kept in track's own choices, in place of inspect's
+    x, y, w, h = res.suggested_roi
+    given = (x - 10, y - 10, w + 20, h + 20)
+    res.track_settings = {"target": "surface", "liquid_color": "green", "roi": res.suggested_roi}
+    _try(res, given)
+    assert res.track_settings == {"target": "surface", "roi": given} and res.trial.own == valid
+    assert "leaves the colour to it" in res.notes[-1]
     assert json.loads(json.dumps(res.to_dict()))["trial"]["own_taken"] is True
     # a suggestion that measures half the frames or more is kept (track's own colour may be a label's)
-    res.track_settings = {"target": "surface", "liquid_color": "orange", "roi": (0, 0, 320, 240)}
-    _try(res, given=False)
+    res.track_settings = {"target": "surface", "liquid_color": "orange", "roi": given}
+    _try(res, None)
     assert res.trial == Trial(TRIAL_S, frames, valid, valid, False) and res.works
-    assert res.track_settings == {"target": "surface", "liquid_color": "orange", "roi": (0, 0, 320, 240)}
+    assert res.track_settings == {"target": "surface", "liquid_color": "orange", "roi": given}
+    # a clip shorter than TRIAL_S is tried whole, and says how long it is
+    short = tmp_path / "short.mp4"
+    assert run_cli("synth", short, *SMALL, "--scene", "surface", "--liquid-color", "orange")[0] == 0
+    look = inspect_video(short)
+    assert look.trial.seconds == pytest.approx(1.0, abs=0.04) and look.trial.frames == 30
+    assert look.notes[-1].startswith("tried on the first 1 s:")

@@ -22,7 +22,7 @@ from sloshid.identification.estimator import Identifier
 from sloshid.identification.signals import load_signal, make_signal, signal_from_track
 from sloshid.synthetic.render import SynthSettings, frame_times, relative_angle_rad, render_frames, render_video
 from sloshid.synthetic.stills import still_clip
-from sloshid.tracking import container_ref, repeats, tracker
+from sloshid.tracking import container_ref, repeats, surface_track, tracker
 from sloshid.tracking.container_ref import (
     HOLD_FRAMES,
     STEADY_DEG,
@@ -770,6 +770,26 @@ def test_wall_heights_are_the_surfaces_rise_about_its_centre_whatever_the_bottom
     assert np.array_equal(valid, np.abs(centre - 70.0) < 10.0)
     assert np.allclose(walls["right_wall_px"][valid], rise[valid], atol=1e-9)
     assert any("centre left its level" in n for n in notes)
+
+
+def test_a_region_of_the_dyes_colour_left_out_is_named_beside_a_bottom_read_at_two_depths():
+    # the note on another region of the dye's colour unpacked its box into the names of the surface centre's columns,
+    # which the centre check reads after it: a crash wherever both happened
+    from sloshid.tracking.rows import SurfaceGeometry, step_row
+    from sloshid.tracking.surface_track import SurfaceStep
+
+    level = np.where(np.arange(60) % 7 == 5, 46.0, 70.0)
+    rows = [
+        step_row(0.0, 0.0, 0.0, 320.0, 240.0, 0.9, 1, SurfaceGeometry(0.0, 0.0, v, v, 130.0, 0.0))._replace(
+            frame=k, t_s=k / 30
+        )
+        for k, v in enumerate(level)
+    ]
+    step = SurfaceStep(TrackSettings(target="surface"), (0, 0, 640, 480))
+    step.finder.elsewhere = (900, (500, 20, 60, 40))
+    body, _, notes = step.finish(rows)
+    assert all(b.valid for b in body)
+    assert any("(60x40 px at x 500-560, y 20-60) was left out" in n for n in notes)
 
 
 def test_a_move_in_the_first_second_ends_the_rest_window_though_the_bottom_reads_at_two_depths():
@@ -1542,6 +1562,9 @@ def test_held_walls_are_interpolated_between_their_measurements(still_surface_vi
     path, truth = still_surface_video
     # the dye named: with none, choosing it measures the first frame once more, which `_held_and_every` would count
     settings = TrackSettings(target="surface", reference="container", liquid_color="green", smooth=False)
+    # walls this still are read as their median (STEADY_FLOOR_DEG); the interpolation itself is checked here, as it
+    # serves a container whose walls move a little more
+    monkeypatch.setattr(surface_track, "STEADY_FLOOR_DEG", 0.0)
     _, held, most, err = _held_and_every(path, settings, truth["surface_angle_deg"], monkeypatch)
     assert 0.5 < held <= (HOLD_FRAMES - 1) / HOLD_FRAMES  # measured 0.81
     assert most < STEADY_DEG  # measured 0.018 (0.009 holding 3 frames of 4)

@@ -16,14 +16,16 @@ dark, a coloured one measured between walls). When no preset colour gives a liqu
 (how coloured the picture is, its largest coloured regions) and measures the largest with an HSV range of its own,
 which the command then gives (--liquid-hsv-low/high).
 
-Looking at the first frame of a video, it tries the command on the video's first two seconds (and, where the command
-names a colour or an ROI, track with its own choices instead: the command printed is the one that measured more
-frames) and says how many frames it measured.
+Looking at the first frame of a video, it tries the command on the video's first two seconds and says how many of
+their frames it measured validly; where the command names a colour or an ROI of inspect's, it also tries track with
+its own choices (your --roi kept), and prints that command instead when the suggested one measured under half the
+frames and track's own at least a tenth of them more.
 
-Exit codes: 0 when the suggested command's target was measured in this frame or in half the frames tried, 1 when
-something was found that track would not measure there today (the text says why), 2 when nothing was found or the
-input is bad (a file that is neither a video nor a picture, --at outside the video or with a picture, an output over
-the input): one sentence on stderr; no picture is written for bad input.
+Exit codes: 0 when the command printed measured at least half the frames tried (not tried, a still picture or a later
+frame: when its target was measured in this frame), 1 when something was found that track would not measure so (the
+text says why), 2 when nothing was found or the input is bad (a file that is neither a video nor a picture, --at
+outside the video or with a picture, an output over the input): one sentence on stderr; no picture is written for bad
+input.
 """
 
 from __future__ import annotations
@@ -119,4 +121,4 @@ def run(args: argparse.Namespace) -> int:
             file=sys.stderr,
         )
         return 2
-    return 0 if result.measured or result.works else 1
+    return 0 if result.works else 1

@@ -15,7 +15,7 @@ from __future__ import annotations
 import math
 import warnings
 from collections.abc import Callable
-from dataclasses import dataclass, field, replace
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import Any, TypeAlias, cast
 
@@ -86,6 +86,7 @@ class Trial:
     """The suggestion tried on the video's first `seconds` (`TRIAL_S`)."""
 
     seconds: float
+    """The time tried: TRIAL_S, or the whole of a shorter video."""
     frames: int
     valid: int
     """Frames the suggested command measured validly."""
@@ -239,9 +240,12 @@ class InspectResult:
 
     @property
     def works(self) -> bool:
-        """The suggested command measured at least half the frames it was tried on (`trial`)."""
+        """The suggested command measured at least half the frames it was tried on (`trial`), or, not tried, this
+        frame (`measured`): what the command line's exit code says."""
         tried = self.trial
-        return tried is not None and 2 * ((tried.own or 0) if tried.own_taken else tried.valid) >= tried.frames > 0
+        if tried is None:
+            return self.measured
+        return 2 * (tried.own if tried.own_taken and tried.own is not None else tried.valid) >= tried.frames > 0
 
     def suggestion(self, settings: dict[str, Any]) -> str:
         """Tracking settings as the Python call that uses them (the default way `summary` shows them)."""
@@ -303,7 +307,7 @@ class InspectResult:
             "track_settings": {k: list(v) if isinstance(v, tuple) else v for k, v in self.track_settings.items()},
             "notes": list(self.notes),
             "seen": self.seen or None,
-            "trial": None if self.trial is None else self.trial.__dict__,
+            "trial": None if self.trial is None else asdict(self.trial),
         }
 
     def save_picture(self, path: str | Path) -> Path:
@@ -656,12 +660,15 @@ def inspect_video(
                 for name in ("colours", "surfaces", "floats", "candidates"):
                     getattr(res, name).extend(getattr(own, name))
     _decide(res, frame, labels, drawn)
-    if not still and t_s == 0.0 and res.track_settings:
-        _try(res, given=roi is not None)
-    if res.track_settings and not res.measured and not res.works:
+    if not still and (at is None or at <= 0) and res.track_settings:
+        _try(res, roi)
+    if res.track_settings and not res.works:
         res.notes.append(
             "track would not measure this frame with those settings today; run it to see its message, with "
             "`overlay` OUT.mp4 to see what it found"
+            if res.trial is None
+            else "the command below measured under half the frames tried; run it with `overlay` OUT.mp4 to see what "
+            "it found, or look at a later frame (`at`)"
         )
     if still and res.track_settings:
         res.notes.append(
@@ -672,35 +679,41 @@ def inspect_video(
     return res
 
 
-def _try(res: InspectResult, given: bool) -> None:
+def _try(res: InspectResult, given: tuple[int, int, int, int] | None) -> None:
     """Track the video's first TRIAL_S seconds with the suggested settings and, where they name a colour or an ROI of
-    inspect's (`OWN_CHOICES`), with track's own choices; take those where the suggestion measured under half the frames
-    and they measure more (`TRIAL_MARGIN`): a suggestion that works is kept (track's own colour may be a label's, which
-    inspect's liquid between walls was chosen over), and say how many frames each measured."""
-    own = {k: v for k, v in res.track_settings.items() if k not in OWN_CHOICES or (k == "roi" and given)}
+    inspect's (`OWN_CHOICES`), with track's own choices (the ROI `given` kept); take those where the suggestion measured
+    under half the frames and they measure more (`TRIAL_MARGIN`): a suggestion that works is kept (track's own colour
+    may be a label's, which inspect's liquid between walls was chosen over). Notes how many frames each measured."""
+    own = {k: v for k, v in res.track_settings.items() if k not in OWN_CHOICES}
+    if given is not None:
+        own["roi"] = tuple(int(v) for v in given)
     runs = [_tried(res.video, res.track_settings)]
     if own != res.track_settings:
         runs.append(_tried(res.video, own))
-    frames = max((len(r.valid) for r in runs if r is not None), default=0)
-    if not frames:
+    tried = [r for r in runs if r is not None]
+    if not tried:
         res.trial = Trial(TRIAL_S, 0, 0)
-        res.notes.append(f"tried on the first {TRIAL_S:g} s: track found nothing it measures in them")
+        res.notes.append(f"tried on the first {TRIAL_S:g} s: track measured none of their frames")
         return
+    frames = max(len(r.valid) for r in tried)
+    times = tried[0].t_s
+    seconds = min(TRIAL_S, float(times[-1] + (times[-1] - times[0]) / max(len(times) - 1, 1)))
     valid = [0 if r is None else int(np.count_nonzero(r.valid)) for r in runs]
-    failing = 2 * valid[0] < frames
-    taken = len(runs) == 2 and failing and valid[1] >= valid[0] + TRIAL_MARGIN * frames
-    res.trial = Trial(TRIAL_S, frames, valid[0], valid[1] if len(runs) == 2 else None, taken)
+    taken = len(runs) == 2 and 2 * valid[0] < frames and valid[1] >= valid[0] + TRIAL_MARGIN * frames
+    res.trial = Trial(seconds, frames, valid[0], valid[1] if len(runs) == 2 else None, taken)
+    which = "colour" if given is not None or "roi" not in res.track_settings else "colour and region"
     if taken:
+        res.notes = [n.split(", used below: ")[0] if n.startswith("suggested ROI:") else n for n in res.notes]
         res.notes.append(
-            f"tried on the first {TRIAL_S:g} s ({frames} frames): the settings this frame suggests measured "
-            f"{valid[0]} validly, track with its own choice of colour and region {valid[1]}: the command below leaves "
-            "the colour and the region to it"
+            f"tried on the first {seconds:.3g} s ({frames} frames): the settings this frame suggests measured "
+            f"{valid[0]} validly, track with its own choice of {which} {valid[1]}: the command below leaves the "
+            f"{which} to it"
         )
         res.track_settings = own
     else:
         res.notes.append(
-            f"tried on the first {TRIAL_S:g} s: the command below measured {valid[0]} of {frames} frames validly"
-            + (f" (track with its own choice of colour and region: {valid[1]})" if len(runs) == 2 else "")
+            f"tried on the first {seconds:.3g} s: the command below measured {valid[0]} of {frames} frames validly"
+            + (f" (track with its own choice of {which}: {valid[1]})" if len(runs) == 2 else "")
         )
 
 

@@ -279,10 +279,10 @@ class SurfaceStep:
         elif self.settings.fov_deg is None and self.picture_width:
             notes += perspective_notes(self.scale * x[valid], self.scale * self.picture_width, sin_e)
         if self.finder.elsewhere is not None:
-            x, y, w, h = (self.scale * v for v in self.finder.elsewhere[1])
+            ex, ey, ew, eh = (self.scale * v for v in self.finder.elsewhere[1])
             notes.append(
-                f"another region of the dye's colour ({w}x{h} px at x {x}-{x + w}, y {y}-{y + h}) was left out: it is "
-                "not beside the largest one, which was measured as the liquid; if the liquid is elsewhere, or the "
+                f"another region of the dye's colour ({ew}x{eh} px at x {ex}-{ex + ew}, y {ey}-{ey + eh}) was left out: "
+                "it is not beside the largest one, which was measured as the liquid; if the liquid is elsewhere, or the "
                 "measured region is not liquid, set `roi` around the container."
             )
         if not rest.any():  # heights from the median of every valid frame: said, as they are not above rest
