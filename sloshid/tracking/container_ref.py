@@ -158,10 +158,11 @@ STEADY_DEPART = 12.0
 moving frames measured in the still ones' axes: a 3.4 deg slosh that was the turn); its running median left the median
 by 33-142 noises, a robot's move in the corpus by 16. The walls read along a sloshing liquid wander with it by up to 6
 (a path-traced tap decay), where the median reads the container better than each frame."""
-STEADY_FLOOR_DEG = 0.1
+STEADY_FLOOR_DEG = 0.03
 """Walls whose robust scatter and running median stay within this of their median stood still, however small their
 frame-to-frame noise: a Blender tap decay's walls, read every frame to 0.002 deg, drifted 0.02 deg with the slosh
-(their scatter 5 noises), so its first frame's walls, read 2.2 deg off, went into its relative angle."""
+(their scatter 5 noises), so its first frame's walls, read 2.2 deg off, went into its relative angle. At 0.1 a painted
+container rocking by 0.06 deg was taken for still (0.044 deg RMS into the angle)."""
 STEADY_SPREAD = 1.3
 """A container angle series (valid frames) whose robust scatter about its median is at most this many times its
 frame-to-frame noise (the differences' robust scatter over sqrt 2) shows no motion beyond that noise: white noise
