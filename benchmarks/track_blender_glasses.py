@@ -37,11 +37,11 @@ import cv2
 import numpy as np
 from bench_output import ROOT, write_results
 from track_pbr import _identified, gain_lag, wall_rmse_px
+from track_real_variants import inspect_row
 from track_table_glasses import group_table, turned_row
 
 from sloshid.core.errors import UserError
 from sloshid.identification.signals import Signal, signal_from_track
-from sloshid.tracking.inspect import inspect_video
 from sloshid.tracking.tracker import TrackSettings, track_video
 from sloshid.video.frames import VideoWriter
 
@@ -154,17 +154,6 @@ def clip_rows(blender_python: str) -> list[dict]:
         print(name, {k: v for k, v in row.items() if k in ("image", "container")}, flush=True)
         rows.append(row)
     return rows
-
-
-def inspect_row(video: Path) -> dict:
-    """`sloshid inspect` on the clip's first frame, and the share of frames its suggested command tracks validly."""
-    look = inspect_video(video)
-    out: dict = {"settings": {k: list(v) if isinstance(v, tuple) else v for k, v in look.track_settings.items()}}
-    try:
-        res = track_video(video, TrackSettings(**look.track_settings, smooth=False))
-    except UserError:
-        return out | {"valid_share": 0.0}
-    return out | {"valid_share": float(np.mean(res.valid))}
 
 
 def clips_report(rows: list[dict]) -> None:

@@ -86,16 +86,23 @@ def variant_row(image: np.ndarray, name: str, make: Callable[[np.ndarray], np.nd
     return row
 
 
-def inspect_tracks(clip: Path) -> bool:
-    """`sloshid inspect` suggests a command for the clip, and that command tracks it (80 % of frames valid)."""
+def inspect_row(clip: Path) -> dict:
+    """`sloshid inspect` on the clip's first frame: the settings it suggests, and the share of the clip's frames its
+    command tracks validly (0 where it suggests none, or track refuses)."""
     look = inspect_video(clip)
+    out: dict = {"settings": {k: list(v) if isinstance(v, tuple) else v for k, v in look.track_settings.items()}}
     if not look.track_settings:
-        return False
+        return out | {"valid_share": 0.0}
     try:
         res = track_video(clip, TrackSettings(**look.track_settings, smooth=False))
     except UserError:
-        return False
-    return bool(res.valid.mean() >= TRACKED_VALID_SHARE)
+        return out | {"valid_share": 0.0}
+    return out | {"valid_share": float(np.mean(res.valid))}
+
+
+def inspect_tracks(clip: Path) -> bool:
+    """`sloshid inspect` suggests a command for the clip, and that command tracks it (80 % of frames valid)."""
+    return bool(inspect_row(clip)["valid_share"] >= TRACKED_VALID_SHARE)
 
 
 def summary(rows: list[dict]) -> dict:
