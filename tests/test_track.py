@@ -730,9 +730,9 @@ def test_a_rest_window_is_cut_at_the_move_when_frames_at_rest_come_before_it():
     assert not _rest_before(rest, 35)  # the move after the window: nothing to cut
 
 
-def _finished(left, right, x=None, y=None):
+def _finished(left, right, x=None, y=None, valid=None):
     """The surface step's `finish` on raw rows: 30 fps, a level surface read against the liquid's sides, 130 px wide,
-    its centre at (`x`, `y`) in the picture (default 320, 240)."""
+    its centre at (`x`, `y`) in the picture (default 320, 240), measured in the frames `valid` (default all)."""
     from sloshid.tracking.rows import SurfaceGeometry, step_row
     from sloshid.tracking.surface_track import SurfaceStep
 
@@ -741,7 +741,14 @@ def _finished(left, right, x=None, y=None):
     y = np.full(n, 240.0) if y is None else y
     rows = [
         step_row(
-            0.0, 0.0, 0.0, float(x[k]), float(y[k]), 0.9, 1, SurfaceGeometry(0.0, 0.0, left[k], right[k], 130.0, 0.0)
+            0.0,
+            0.0,
+            0.0,
+            float(x[k]),
+            float(y[k]),
+            0.9,
+            1 if valid is None else int(valid[k]),
+            SurfaceGeometry(0.0, 0.0, left[k], right[k], 130.0, 0.0),
         )._replace(frame=k, t_s=k / 30)
         for k in range(n)
     ]
@@ -805,6 +812,26 @@ def test_a_move_in_the_first_second_ends_the_rest_window_though_the_bottom_reads
     assert valid.all()
     assert np.allclose(walls["right_wall_px"], rise, atol=1e-9)
     assert any("the container moved at 0.43 s" in n for n in notes)
+
+
+def test_a_container_moving_when_first_measured_takes_its_rest_level_where_it_stood_after_the_move():
+    # Blender's move_h: a glow hid the surface until 0.53 s, mid-move, and the rest window (the first second, cut at
+    # the move when three frames come before it) took three frames of the move, leaning 11 px, for the level at rest:
+    # every height 9 px off. A container measured first while it moved gives its liquid's level where it stood after
+    t = np.arange(90) / 30
+    x = 320.0 - 200.0 * np.minimum(t / 1.2, 1.0)
+    ring = 3.0 * np.sin(2 * np.pi * 3.0 * (t - 1.2)) * np.exp(-0.5 * (t - 1.2))
+    rise = np.where(t < 1.2, 11.0 * np.sin(np.pi * t / 1.2), ring)
+    valid = t > 0.5
+    ok, walls, notes = _finished(70.0 - rise, 70.0 + rise, x, valid=valid)
+    assert np.array_equal(ok, valid)
+    err = (walls["right_wall_px"] - rise)[valid]
+    assert np.abs(err).max() < 0.3  # the level: the median of a ringing over the 1.8 s after the move (9 px before)
+    assert any("was moving when its surface was first measured (0.53 s)" in n and "(from 1.20 s)" in n for n in notes)
+    # moving to the last frame: no place after the move, so the heights are above all valid frames' median, as said
+    ok, walls, notes = _finished(70.0 - rise, 70.0 + rise, 320.0 - 200.0 * t, valid=valid)
+    assert np.isclose(np.nanmedian(walls["right_wall_px"]), 0.0)
+    assert any("moving when" in n and "the median of all valid frames" in n for n in notes)
 
 
 def test_a_tracked_tables_column_is_chosen_as_in_its_csv(surface_video, tmp_path):

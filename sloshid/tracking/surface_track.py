@@ -256,17 +256,8 @@ class SurfaceStep:
             else r._replace(angle_deg=a, float_angle_deg=rv + c, container_angle_deg=c, x_px=sx, y_px=sy, surface=None)
             for r, a, rv, c, (sx, sy) in zip(rows, angle, rel, cang, seen)
         ]
-        n_rest = self.settings.rest_frames
-        check_rest_frames(n_rest, len(t))
-        rest = valid & (np.arange(len(t)) < n_rest if n_rest else t < t[0] + 1.0)
         notes = [] if container else _tilt_notes(cang[valid])
-        moved = None if n_rest else moved_at
-        if moved is not None and _rest_before(rest, moved):
-            rest[moved:] = False
-            notes.append(
-                f"the container moved at {t[moved]:.2f} s, within the first second, so the wall heights are above the "
-                "surface's level in the frames before it; give `rest_frames` for other frames at rest."
-            )
+        rest = _rest_window(t, valid, x, y, width, self.settings.rest_frames, moved_at, notes)
         if found_fov is not None and self.picture_width:
             turn = perspective_deg(x[valid], self.picture_width, sin_e, found_fov)
             notes.append(
@@ -284,20 +275,6 @@ class SurfaceStep:
                 f"another region of the dye's colour ({ew}x{eh} px at x {ex}-{ex + ew}, y {ey}-{ey + eh}) was left out: "
                 "it is not beside the largest one, which was measured as the liquid; if the liquid is elsewhere, or the "
                 "measured region is not liquid, set `roi` around the container."
-            )
-        if not rest.any():  # heights from the median of every valid frame: said, as they are not above rest
-            window = f"the first {n_rest} frames" if n_rest else "the first second"
-            notes.append(
-                f"the surface was measured in none of {window} (the rest window), so left/right_wall_px and _mm are "
-                "heights above the median of all valid frames, not above rest; give `rest_frames` for frames where "
-                "the surface was at rest and measured."
-            )
-            rest = valid
-        elif not n_rest and t[-1] < t[0] + 1.0:  # a clip shorter than the default window
-            notes.append(
-                f"the video lasts {t[-1] - t[0]:.2f} s, less than the rest window (the first second), so "
-                "left/right_wall_px and _mm are heights above the median of all valid frames, not above rest; give "
-                "`rest_frames` for frames where the surface was at rest."
             )
         # each wall's height is the surface's rise there about the mid-line's centre, which a planar slosh keeps where
         # it was (the liquid's volume): read against the liquid's bottom, the centre would add that bottom's misreads
@@ -339,6 +316,49 @@ class SurfaceStep:
         return body, walls, notes
 
 
+def _rest_window(t, valid, x, y, width, n_rest: int | None, moved: int | None, notes: list[str]) -> np.ndarray:
+    """The valid frames whose median rise is the wall heights' zero: the first `n_rest` frames, else the first second,
+    up to the container's move (frame `moved`) within it, or where it stood after the move when it was moving from its
+    first measured frame; every valid frame where none of those was measured. What it took is said in `notes`."""
+    check_rest_frames(n_rest, len(t))
+    rest = valid & (np.arange(len(t)) < n_rest if n_rest else t < t[0] + 1.0)
+    moved = None if n_rest else moved
+    all_valid = "above the median of all valid frames, not above rest; give `rest_frames` for frames where "
+    if moved is not None and _rest_before(rest, moved):
+        rest[moved:] = False
+        notes.append(
+            f"the container moved at {t[moved]:.2f} s, within the first second, so the wall heights are above the "
+            "surface's level in the frames before it; give `rest_frames` for other frames at rest."
+        )
+    elif moved is not None and moved == np.flatnonzero(valid)[0] and rest.any():
+        # measured first while it moved, its liquid off level: the level where it stood after the move instead
+        place = _last_place(valid, x, y, width)
+        rest = np.isin(np.arange(len(t)), place) if place.size >= LENS_REST_FRAMES else valid
+        where = (
+            f"above the surface's level where it stood after its move (from {t[place[0]]:.2f} s); give `rest_frames` "
+            if place.size >= LENS_REST_FRAMES
+            else all_valid
+        )
+        notes.append(
+            f"the container was moving when its surface was first measured ({t[moved]:.2f} s), so the wall heights "
+            f"are {where}for frames where the surface was at rest and measured."
+        )
+    elif not rest.any():  # heights from the median of every valid frame: said, as they are not above rest
+        window = f"the first {n_rest} frames" if n_rest else "the first second"
+        notes.append(
+            f"the surface was measured in none of {window} (the rest window), so left/right_wall_px and _mm are heights "
+            f"{all_valid}the surface was at rest and measured."
+        )
+        rest = valid
+    elif not n_rest and t[-1] < t[0] + 1.0:  # a clip shorter than the default window
+        notes.append(
+            f"the video lasts {t[-1] - t[0]:.2f} s, less than the rest window (the first second), so "
+            "left/right_wall_px and _mm are heights above the median of all valid frames, not above rest; give "
+            "`rest_frames` for frames where the surface was at rest."
+        )
+    return rest
+
+
 def _bottom_misread(off: np.ndarray, valid: np.ndarray, x: np.ndarray, y: np.ndarray, width: float) -> np.ndarray:
     """The frames of `off` (their level off the median, CENTRE_SHARE) whose surface centre (`x`, `y`) lies within
     CENTRE_KEPT_SHARE of `width` of the line through the nearest valid frames not off before and after them (held
@@ -374,19 +394,31 @@ def _away(x: np.ndarray, y: np.ndarray, width: np.ndarray, at: np.ndarray) -> np
 
 
 def _moved_at(valid: np.ndarray, x: np.ndarray, y: np.ndarray, width: np.ndarray) -> int | None:
-    """The first frame of the container's move (MOVE_SHARE), None when it stayed where it stood."""
+    """The first frame of the container's move (MOVE_SHARE), None when it stayed where it stood; the first valid frame
+    where it was already moving there (those frames' centres apart)."""
     frames = np.flatnonzero(valid)
     first = frames[:MIN_REST_FRAMES]
     if len(first) < MIN_REST_FRAMES:
         return None
     away = _away(x, y, width, first)
+    if away[first].any():
+        return int(first[0])
     pairs = away[frames[:-1]] & away[frames[1:]]
     return int(frames[np.argmax(pairs)]) if pairs.any() else None
 
 
+def _last_place(valid: np.ndarray, x: np.ndarray, y: np.ndarray, width: np.ndarray) -> np.ndarray:
+    """The valid frames where the container stood at its last place (MOVE_SHARE of where the last MIN_REST_FRAMES
+    stood), after the last frame away from it; none where it never left it."""
+    frames = np.flatnonzero(valid)
+    away = frames[_away(x, y, width, frames[-MIN_REST_FRAMES:])[frames]]
+    return frames[frames > away[-1]] if away.size else frames[:0]
+
+
 LENS_REST_FRAMES = 8
-"""The container's rests before and after its move are used for the lens (`lens_from_rest`) over at least this many
-valid frames each: the liquid may ring there, and its median level needs a period or so of them."""
+"""The container's rests before and after its move are used for the lens (`lens_from_rest`), and its place after the
+move for the wall heights' level (`_rest_window`), over at least this many valid frames each: the liquid may ring
+there, and its median level needs a period or so of them."""
 LENS_TURN_DEG = 0.5
 """... and only where the container's walls turned by less than this at either rest place (the medians of its first
 and second halves), or over the part of it away from the move (`_still_part`): a container still tilting holds its
@@ -427,10 +459,7 @@ def lens_from_rest(x, y, image_deg, cang, valid, width, moved, picture_width: in
     frames = np.flatnonzero(valid)
     if moved is None or sin_e <= 0:
         return None
-    away = frames[_away(x, y, width, frames[-MIN_REST_FRAMES:])[frames]]
-    if away.size == 0:
-        return None
-    before, after = frames[frames < moved], frames[frames > away[-1]]
+    before, after = frames[frames < moved], _last_place(valid, x, y, width)
     if min(before.size, after.size) < LENS_REST_FRAMES:
         return None
     before, after = _still_part(before, cang, far_first=True), _still_part(after, cang, far_first=False)
