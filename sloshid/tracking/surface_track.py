@@ -395,13 +395,13 @@ def _away(x: np.ndarray, y: np.ndarray, width: np.ndarray, at: np.ndarray) -> np
 
 def _moved_at(valid: np.ndarray, x: np.ndarray, y: np.ndarray, width: np.ndarray) -> int | None:
     """The first frame of the container's move (MOVE_SHARE), None when it stayed where it stood; the first valid frame
-    where it was already moving there (those frames' centres apart)."""
+    where it was already moving there (two of the first MIN_REST_FRAMES away from their median: one is a misread)."""
     frames = np.flatnonzero(valid)
     first = frames[:MIN_REST_FRAMES]
     if len(first) < MIN_REST_FRAMES:
         return None
     away = _away(x, y, width, first)
-    if away[first].any():
+    if np.count_nonzero(away[first]) >= 2:
         return int(first[0])
     pairs = away[frames[:-1]] & away[frames[1:]]
     return int(frames[np.argmax(pairs)]) if pairs.any() else None
