@@ -281,6 +281,47 @@ def test_smoothing_worker_gives_the_in_process_result_and_survives_its_loss():
     assert done.returncode == 0 and done.stdout.strip() == "ok", done.stderr[-2000:]
 
 
+LEFT_DECODER_CHECK = """
+import gc, sys
+import av
+import numpy as np
+from sloshid.tracking.smooth import SmoothingWorker
+container = av.open(sys.argv[1])
+stream = container.streams.video[0]
+stream.thread_type = "AUTO"  # frame threads, which fork does not copy
+for k, frame in enumerate(container.decode(stream)):
+    if k == 5:
+        break
+cycle = [container, stream]
+cycle.append(cycle)
+gc.collect()
+gc.collect()  # the cycle, still named, grows old: once its names go, only a full collection frees it
+del container, stream, cycle, frame
+worker = SmoothingWorker()
+assert worker._proc is not None
+t = np.arange(200) / 30.0
+print("ok" if worker.smooth(t, np.sin(t), np.ones(200, bool), np.ones(200)).shape == (200,) else "no")
+"""
+
+
+def test_a_decoder_left_to_the_garbage_collector_does_not_hang_the_forked_smoother():
+    # tracking a video in a program that had left a PyAV decoder to the garbage collector (a test before it) hung:
+    # the forked smoother's collections freed the copied decoder, which waited in FFmpeg for frame threads that exist
+    # only in the caller, and the caller waited for the smoother. A forked helper now leaves the caller's objects alone
+    done = subprocess.run(
+        [
+            sys.executable,
+            "-c",
+            LEFT_DECODER_CHECK,
+            str(Path(__file__).resolve().parents[1] / "data" / "sample_tap.mp4"),
+        ],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert done.returncode == 0 and done.stdout.strip() == "ok", done.stderr[-2000:]
+
+
 EARLY_CHECK = """
 from sloshid.tracking import smooth
 smooth.start_early()

@@ -1,11 +1,13 @@
-"""The one parallel back-end: Dask. Local work (plan segments, robustness sweeps, a pipeline's videos) runs on
-Dask's local process scheduler; a batch streams results from a `dask.distributed` cluster, local or remote. The
-tracker's own forked helpers (span workers, the smoother) end with the process that forked them (`die_with_parent`)."""
+"""The one parallel back-end: Dask. Local work (plan segments, robustness sweeps, a pipeline's videos) runs on Dask's
+local process scheduler; a batch streams results from a `dask.distributed` cluster, local or remote. The tracker's
+own forked helpers (span workers, the smoother) end with the process that forked them and leave its objects alone
+(`forked_helper`)."""
 
 from __future__ import annotations
 
 import contextlib
 import ctypes
+import gc
 import logging
 import multiprocessing
 import os
@@ -27,10 +29,16 @@ PR_SET_PDEATHSIG = 1
 """Linux prctl option: the signal the kernel sends a process when the thread that forked it ends."""
 
 
-def die_with_parent(parent_pid: int) -> None:
-    """In a forked helper (Linux): be killed as soon as the forking thread ends, and end now if the parent `parent_pid`
-    already has; else a helper can outlive a killed or interrupted command (a pool worker started again while the pool
-    was being stopped was seen waiting for tasks forever), holding the command's output pipes open."""
+def forked_helper(parent_pid: int) -> None:
+    """First thing in a forked helper: leave every object fork copied from the caller to the caller, and (Linux) be
+    killed as soon as the forking thread ends, ending now if the parent `parent_pid` already has.
+
+    The garbage collector must not free the caller's objects here: a video decoder the caller had left to it (its
+    frame threads exist only in the caller) waits forever in FFmpeg for threads that were not copied, and so did the
+    helper and the caller waiting for its answer. Without the second, a helper can outlive a killed or interrupted
+    command (a pool worker started again while the pool was being stopped was seen waiting for tasks forever),
+    holding the command's output pipes open."""
+    gc.freeze()
     if not sys.platform.startswith("linux"):
         return
     ctypes.CDLL(None, use_errno=True).prctl(PR_SET_PDEATHSIG, int(signal.SIGKILL))

@@ -19,7 +19,7 @@ import sys
 
 import numpy as np
 
-from sloshid.core.parallel import die_with_parent
+from sloshid.core.parallel import forked_helper
 
 MEASUREMENT_SIGMA_DEG = 0.05
 """Standard deviation of a quality-1 angle measurement, degrees (tracker accuracy on synthetic video)."""
@@ -209,7 +209,7 @@ def _serve(conn, callers_end, parent_pid: int) -> None:
     (`terminate` must simply end the worker); and it ends with the caller, even one killed outright."""
     callers_end.close()
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
-    die_with_parent(parent_pid)
+    forked_helper(parent_pid)
     quiet = os.open(os.devnull, os.O_WRONLY)
     os.dup2(quiet, 1)
     os.dup2(quiet, 2)

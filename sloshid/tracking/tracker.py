@@ -30,7 +30,7 @@ from tqdm import tqdm
 from sloshid.core.atomic import atomic_path
 from sloshid.core.errors import NothingFound, SettingError, UserError, warn
 from sloshid.core.outputs import Outputs
-from sloshid.core.parallel import die_with_parent, signals_held
+from sloshid.core.parallel import forked_helper, signals_held
 from sloshid.core.settings import check_in_metres, setting_field
 from sloshid.core.tables import to_pandas, write_csv
 from sloshid.tracking.container_ref import ContainerMeasurement, ContainerTracker, WallsRecord
@@ -933,7 +933,7 @@ def _start_worker(done: Synchronized[int], parent_pid: int) -> None:
     _done = done
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
     signal.signal(signal.SIGINT, signal.SIG_IGN)
-    die_with_parent(parent_pid)
+    forked_helper(parent_pid)
 
 
 def _span_job(job: tuple) -> _Span:
