@@ -90,6 +90,11 @@ of the 0.5 crossings' (median rms, the same source): one clean ellipse edge wher
 LOW_BASE_SCATTER_PX = 1.0
 """... and the 0.5 crossings' own scatter is at most this (px): an edge mixed with another, not the speckle of a noisy
 picture, in which the low level finds the speckle too."""
+LOW_CLEAN_PX = 0.5
+"""Where both sources' 0.5 crossings scatter by more than LOW_BASE_SCATTER_PX, the low crossing that scatters less is
+held when its scatter is at most this (px) and it fits validly: one clean edge, where the 0.5 crossings run onto a
+glow on the surface over a third of the width (a faint dye lit from behind: 1.7-1.8 px against 0.1); a noisy
+picture's speckle, which the low level finds too, scatters it as much."""
 LOW_MIN_FRAMES = 5
 """... chosen on the medians of at least this many first frames: on two, a juice's low crossing scattered less by chance
 (a pbr juice seen 14 deg from above: 0.48 deg off, where the 0.5 crossings read 0.18)."""
@@ -844,11 +849,12 @@ class SurfaceFinder:
         if self._edges is not None and m.quality < VALID_QUALITY:
             # a frame the held source misses is read on the other (a moving juice's luma edge blurred), its points
             # under the held source's name: the span's later refits in other axes ask for that one
-            other = {source: sourced_points((OTHER_SOURCE[source],))[OTHER_SOURCE[source]]}
-            again = partial(_fitted, other, n, geom, (X0, Y0), (ytop, uL, uR, du))
-            m_other = again(self._held, source)
-            if m_other.quality > m.quality:
-                points, fitted, m = other, again, m_other
+            for alt in (OTHER_SOURCE[source], "luma", "colour") if source.endswith(" low") else (OTHER_SOURCE[source],):
+                other = {source: sourced_points((alt,))[alt]}
+                again = partial(_fitted, other, n, geom, (X0, Y0), (ytop, uL, uR, du))
+                m_other = again(self._held, source)
+                if m_other.quality > m.quality:
+                    points, fitted, m = other, again, m_other
         if m.found:
             fronts = np.concatenate([front[ok] for _, _, ok, _, front, _ in points[source]])
             m.band, m.luma = _band(fronts, cols, (X0, Y0)), (gray, (X0, Y0))
@@ -863,7 +869,8 @@ class SurfaceFinder:
         LOW_MIN_FRAMES first frames: its high source instead where that fitted validly and clearly better than a poor
         fit of the 0.5 crossings, and scattered less (HIGH_BASE_QUALITY, HIGH_QUALITY_GAIN); else its low source where
         that scattered less (LOW_SCATTER_SHARE, LOW_BASE_SCATTER_PX) and fitted validly and nearly as well
-        (LOW_QUALITY_MARGIN; median quality)."""
+        (LOW_QUALITY_MARGIN; median quality); else the cleaner low source where both 0.5 crossings scattered
+        (LOW_CLEAN_PX)."""
         if not self._scatter:
             return "luma"
         rms, quality = np.split(np.array([median(np.array(v)) for v in zip(*self._scatter)]), 2)
@@ -874,8 +881,11 @@ class SurfaceFinder:
         if poor and quality[i + 4] >= max(VALID_QUALITY, quality[i] + HIGH_QUALITY_GAIN) and rms[i + 4] < rms[i]:
             return EDGE_SOURCES[i + 4]
         mixed = rms[i] <= LOW_BASE_SCATTER_PX and rms[i + 2] < LOW_SCATTER_SHARE * rms[i]
-        kept = quality[i + 2] >= max(VALID_QUALITY, quality[i] - LOW_QUALITY_MARGIN)
-        return EDGE_SOURCES[i + 2] if mixed and kept else EDGE_SOURCES[i]
+        if mixed and quality[i + 2] >= max(VALID_QUALITY, quality[i] - LOW_QUALITY_MARGIN):
+            return EDGE_SOURCES[i + 2]
+        j = 2 + int(np.argmin(rms[2:4]))  # the cleaner low crossing, where both 0.5 crossings run onto another edge
+        clean = min(rms[:2]) > LOW_BASE_SCATTER_PX and rms[j] <= LOW_CLEAN_PX and quality[j] >= VALID_QUALITY
+        return EDGE_SOURCES[j] if clean else EDGE_SOURCES[i]
 
 
 def _source_level(source: str) -> float:
