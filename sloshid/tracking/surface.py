@@ -847,10 +847,13 @@ class SurfaceFinder:
             fitted = partial(_fitted, points, n, geom, (X0, Y0), (ytop, uL, uR, du))
             m = fitted(self._held, source)
         if self._edges is not None and m.quality < VALID_QUALITY:
-            # a frame the held source misses is read on the other (a moving juice's luma edge blurred), its points
-            # under the held source's name: the span's later refits in other axes ask for that one
-            for alt in (OTHER_SOURCE[source], "luma", "colour") if source.endswith(" low") else (OTHER_SOURCE[source],):
-                other = {source: sourced_points((alt,))[alt]}
+            # a frame the held source misses is read on the other (a moving juice's luma edge blurred), a held low
+            # one's also at 0.5 (a glow that ran onto the 0.5 crossings moves off), its points under the held source's
+            # name: the span's later refits in other axes ask for that one
+            alts = (OTHER_SOURCE[source], "luma", "colour") if source.endswith(" low") else (OTHER_SOURCE[source],)
+            found_alts = sourced_points(alts)  # each level's crossings found once
+            for alt in alts:
+                other = {source: found_alts[alt]}
                 again = partial(_fitted, other, n, geom, (X0, Y0), (ytop, uL, uR, du))
                 m_other = again(self._held, source)
                 if m_other.quality > m.quality:
