@@ -2456,6 +2456,14 @@ def _lit_juice(fade: float) -> np.ndarray:
     return img
 
 
+def _held_source(rms, quality):
+    """The edge source `_edge_source` holds after first frames whose medians are `rms` (px per EDGE_SOURCES) and
+    `quality`."""
+    finder = SurfaceFinder(None, (0, 0, 640, 480))
+    finder._scatter = [tuple(rms) + tuple(quality)] * LOW_MIN_FRAMES
+    return finder._edge_source()
+
+
 def test_the_plateau_crossing_is_held_only_where_the_half_crossing_fits_poorly_and_it_clearly_better():
     # a Blender glass of orange juice (held out, seeds 1300 on: glass09) read 4.2 deg off and was refused in two of
     # three turns: its lit top face holds at 0.5-0.8 under a paler highlight at its back, and its 0.5 crossings fitted
@@ -2463,17 +2471,12 @@ def test_the_plateau_crossing_is_held_only_where_the_half_crossing_fits_poorly_a
     # (0.94, 0.21 px). The first frames' medians (rms px per EDGE_SOURCES, then quality) as measured there and in three
     # scenes whose high crossings fitted well too but read worse (a Blender tumbler turned 5 deg, whose 0.5 crossings
     # fitted at 0.66; a pbr still and still55, whose 0.5 crossings scattered 12 px)
-    def chosen(rms, quality):
-        finder = SurfaceFinder(None, (0, 0, 640, 480))
-        finder._scatter = [tuple(rms) + tuple(quality)] * LOW_MIN_FRAMES
-        return finder._edge_source()
-
-    assert chosen([0.56, 0.75, 0.54, 0.54, 0.21, 0.96], [0.55, 0.51, 0.51, 0.51, 0.94, 0.46]) == "luma high"
-    assert chosen([0.12, 0.42, 0.26, 0.36, 0.09, 0.22], [0.66, 0.65, 0.95, 0.53, 0.97, 0.97]) == "luma"
-    assert chosen([11.92, 11.86, 3.32, 3.05, 0.41, 0.34], [0.58, 0.56, 0.65, 0.67, 0.65, 0.93]) == "colour"
-    assert chosen([12.7, 12.53, 4.94, 5.08, 0.97, 0.26], [0.0, 0.0, 0.58, 0.75, 0.58, 0.79]) == "colour"
+    assert _held_source([0.56, 0.75, 0.54, 0.54, 0.21, 0.96], [0.55, 0.51, 0.51, 0.51, 0.94, 0.46]) == "luma high"
+    assert _held_source([0.12, 0.42, 0.26, 0.36, 0.09, 0.22], [0.66, 0.65, 0.95, 0.53, 0.97, 0.97]) == "luma"
+    assert _held_source([11.92, 11.86, 3.32, 3.05, 0.41, 0.34], [0.58, 0.56, 0.65, 0.67, 0.65, 0.93]) == "colour"
+    assert _held_source([12.7, 12.53, 4.94, 5.08, 0.97, 0.26], [0.0, 0.0, 0.58, 0.75, 0.58, 0.79]) == "colour"
     # a high crossing that scatters more than the poor half crossing is not held either
-    assert chosen([0.56, 0.75, 0.54, 0.54, 0.60, 0.96], [0.55, 0.51, 0.51, 0.51, 0.94, 0.46]) == "luma"
+    assert _held_source([0.56, 0.75, 0.54, 0.54, 0.60, 0.96], [0.55, 0.51, 0.51, 0.51, 0.94, 0.46]) == "luma"
 
 
 def test_the_cleaner_low_crossing_is_held_where_both_half_crossings_run_onto_another_edge():
@@ -2484,18 +2487,13 @@ def test_the_cleaner_low_crossing_is_held_where_both_half_crossings_run_onto_ano
     # medians as measured there, and in pbr stills whose 0.5 crossings scattered with the render's speckle and whose
     # low ones, clean, are now held: still52 (0.11 -> 0.02 deg), still48 (a faint red seen 13 deg from above, whose
     # colour low crossing, clean too, reads 0.33 deg off where the 0.5 crossings read 0.08: the rule's cost)
-    def chosen(rms, quality):
-        finder = SurfaceFinder(None, (0, 0, 640, 480))
-        finder._scatter = [tuple(rms) + tuple(quality)] * LOW_MIN_FRAMES
-        return finder._edge_source()
-
-    assert chosen([1.84, 1.66, 0.11, 0.33, 1.08, 1.75], [0.0, 0.0, 0.67, 0.41, 0.27, 0.0]) == "luma low"
-    assert chosen([2.87, 3.04, 0.26, 0.29, 0.34, 0.38], [0.8, 0.82, 0.9, 0.9, 0.67, 0.69]) == "luma low"
-    assert chosen([8.98, 8.44, 0.49, 0.37, 3.1, 1.75], [0.57, 0.55, 0.69, 0.74, 0.29, 0.48]) == "colour low"
+    assert _held_source([1.84, 1.66, 0.11, 0.33, 1.08, 1.75], [0.0, 0.0, 0.67, 0.41, 0.27, 0.0]) == "luma low"
+    assert _held_source([2.87, 3.04, 0.26, 0.29, 0.34, 0.38], [0.8, 0.82, 0.9, 0.9, 0.67, 0.69]) == "luma low"
+    assert _held_source([8.98, 8.44, 0.49, 0.37, 3.1, 1.75], [0.57, 0.55, 0.69, 0.74, 0.29, 0.48]) == "colour low"
     # a low crossing that scatters with the picture's noise (above LOW_CLEAN_PX), or fits under the valid quality, is
     # not held: the 0.5 crossings' source is
-    assert chosen([1.84, 1.66, 0.61, 0.73, 1.08, 1.75], [0.0, 0.0, 0.67, 0.61, 0.27, 0.0]) == "colour"
-    assert chosen([1.84, 1.66, 0.11, 0.33, 1.08, 1.75], [0.0, 0.0, 0.45, 0.41, 0.27, 0.0]) == "colour"
+    assert _held_source([1.84, 1.66, 0.61, 0.73, 1.08, 1.75], [0.0, 0.0, 0.67, 0.61, 0.27, 0.0]) == "colour"
+    assert _held_source([1.84, 1.66, 0.11, 0.33, 1.08, 1.75], [0.0, 0.0, 0.45, 0.41, 0.27, 0.0]) == "colour"
 
 
 def test_a_juices_top_face_pale_toward_its_back_is_read_on_its_back_edge(tmp_path, monkeypatch):
