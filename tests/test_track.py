@@ -2487,13 +2487,17 @@ def test_the_cleaner_low_crossing_is_held_where_both_half_crossings_run_onto_ano
     # medians as measured there, and in pbr stills whose 0.5 crossings scattered with the render's speckle and whose
     # low ones, clean, are now held: still52 (0.11 -> 0.02 deg), still48 (a faint red seen 13 deg from above, whose
     # colour low crossing, clean too, reads 0.33 deg off where the 0.5 crossings read 0.08: the rule's cost)
-    assert _held_source([1.84, 1.66, 0.11, 0.33, 1.08, 1.75], [0.0, 0.0, 0.67, 0.41, 0.27, 0.0]) == "luma low"
-    assert _held_source([2.87, 3.04, 0.26, 0.29, 0.34, 0.38], [0.8, 0.82, 0.9, 0.9, 0.67, 0.69]) == "luma low"
-    assert _held_source([8.98, 8.44, 0.49, 0.37, 3.1, 1.75], [0.57, 0.55, 0.69, 0.74, 0.29, 0.48]) == "colour low"
-    # a low crossing that scatters with the picture's noise (above LOW_CLEAN_PX), or fits under the valid quality, is
-    # not held: the 0.5 crossings' source is
-    assert _held_source([1.84, 1.66, 0.61, 0.73, 1.08, 1.75], [0.0, 0.0, 0.67, 0.61, 0.27, 0.0]) == "colour"
-    assert _held_source([1.84, 1.66, 0.11, 0.33, 1.08, 1.75], [0.0, 0.0, 0.45, 0.41, 0.27, 0.0]) == "colour"
+    cases = {  # rms px and quality per EDGE_SOURCES: the source held
+        "move_h": ((1.84, 1.66, 0.11, 0.33, 1.08, 1.75), (0.0, 0.0, 0.67, 0.41, 0.27, 0.0), "luma low"),
+        "still52": ((2.87, 3.04, 0.26, 0.29, 0.34, 0.38), (0.8, 0.82, 0.9, 0.9, 0.67, 0.69), "luma low"),
+        "still48": ((8.98, 8.44, 0.49, 0.37, 3.1, 1.75), (0.57, 0.55, 0.69, 0.74, 0.29, 0.48), "colour low"),
+        # a low crossing that scatters with the picture's noise (above LOW_CLEAN_PX), or fits under the valid
+        # quality, is not held: the 0.5 crossings' source is
+        "speckled low": ((1.84, 1.66, 0.61, 0.73, 1.08, 1.75), (0.0, 0.0, 0.67, 0.61, 0.27, 0.0), "colour"),
+        "poor low": ((1.84, 1.66, 0.11, 0.33, 1.08, 1.75), (0.0, 0.0, 0.45, 0.41, 0.27, 0.0), "colour"),
+    }
+    held = {name: _held_source(rms, quality) for name, (rms, quality, _) in cases.items()}
+    assert held == {name: want for name, (_, _, want) in cases.items()}
 
 
 def test_a_juices_top_face_pale_toward_its_back_is_read_on_its_back_edge(tmp_path, monkeypatch):
