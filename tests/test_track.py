@@ -2495,6 +2495,9 @@ def test_the_cleaner_low_crossing_is_held_where_both_half_crossings_run_onto_ano
         # quality, is not held: the 0.5 crossings' source is
         "speckled low": ((1.84, 1.66, 0.61, 0.73, 1.08, 1.75), (0.0, 0.0, 0.67, 0.61, 0.27, 0.0), "colour"),
         "poor low": ((1.84, 1.66, 0.11, 0.33, 1.08, 1.75), (0.0, 0.0, 0.45, 0.41, 0.27, 0.0), "colour"),
+        # ... or fits worse than the 0.5 crossings (test_synth_pbr's red juice turned 5 deg, 45 frames: its frames
+        # read on the colour low crossing fell under the valid quality)
+        "juice": ((7.23, 7.1, 0.47, 0.27, 0.3, 0.47), (0.61, 0.62, 0.71, 0.56, 0.76, 0.8), "colour"),
     }
     held = {name: _held_source(rms, quality) for name, (rms, quality, _) in cases.items()}
     assert held == {name: want for name, (_, _, want) in cases.items()}

@@ -92,7 +92,7 @@ LOW_BASE_SCATTER_PX = 1.0
 picture, in which the low level finds the speckle too."""
 LOW_CLEAN_PX = 0.5
 """Where both sources' 0.5 crossings scatter by more than LOW_BASE_SCATTER_PX, the low crossing that scatters less is
-held when its scatter is at most this (px) and it fits validly: one clean edge, where the 0.5 crossings run onto a
+held when its scatter is at most this (px) and it fits validly and better than the 0.5 crossings: one clean edge, where the 0.5 crossings run onto a
 glow on the surface over a third of the width (a faint dye lit from behind: 1.7-1.8 px against 0.1); a noisy
 picture's speckle, which the low level finds too, scatters it as much."""
 LOW_MIN_FRAMES = 5
@@ -872,8 +872,8 @@ class SurfaceFinder:
         LOW_MIN_FRAMES first frames: its high source instead where that fitted validly and clearly better than a poor
         fit of the 0.5 crossings, and scattered less (HIGH_BASE_QUALITY, HIGH_QUALITY_GAIN); else its low source where
         that scattered less (LOW_SCATTER_SHARE, LOW_BASE_SCATTER_PX) and fitted validly and nearly as well
-        (LOW_QUALITY_MARGIN; median quality); else the cleaner low source where both 0.5 crossings scattered
-        (LOW_CLEAN_PX)."""
+        (LOW_QUALITY_MARGIN; median quality); else the cleaner low source where both 0.5 crossings scattered and it
+        fitted better (LOW_CLEAN_PX)."""
         if not self._scatter:
             return "luma"
         rms, quality = np.split(np.array([median(np.array(v)) for v in zip(*self._scatter)]), 2)
@@ -887,7 +887,8 @@ class SurfaceFinder:
         if mixed and quality[i + 2] >= max(VALID_QUALITY, quality[i] - LOW_QUALITY_MARGIN):
             return EDGE_SOURCES[i + 2]
         j = 2 + int(np.argmin(rms[2:4]))  # the cleaner low crossing, where both 0.5 crossings run onto another edge
-        clean = min(rms[:2]) > LOW_BASE_SCATTER_PX and rms[j] <= LOW_CLEAN_PX and quality[j] >= VALID_QUALITY
+        clean = min(rms[:2]) > LOW_BASE_SCATTER_PX and rms[j] <= LOW_CLEAN_PX
+        clean &= quality[j] >= VALID_QUALITY and quality[j] > quality[i]
         return EDGE_SOURCES[j] if clean else EDGE_SOURCES[i]
 
 
