@@ -92,9 +92,9 @@ LOW_BASE_SCATTER_PX = 1.0
 picture, in which the low level finds the speckle too."""
 LOW_CLEAN_PX = 0.5
 """Where both sources' 0.5 crossings scatter by more than LOW_BASE_SCATTER_PX, the low crossing that scatters less is
-held when its scatter is at most this (px) and it fits validly and better than the 0.5 crossings: one clean edge, where the 0.5 crossings run onto a
-glow on the surface over a third of the width (a faint dye lit from behind: 1.7-1.8 px against 0.1); a noisy
-picture's speckle, which the low level finds too, scatters it as much."""
+held when its scatter is at most this (px) and it fits validly and better than the 0.5 crossings: one clean edge,
+where the 0.5 crossings run onto a glow on the surface over a third of the width (a faint dye lit from behind: 1.7-1.8
+px against 0.1); a noisy picture's speckle, which the low level finds too, scatters it as much."""
 LOW_MIN_FRAMES = 5
 """... chosen on the medians of at least this many first frames: on two, a juice's low crossing scattered less by chance
 (a pbr juice seen 14 deg from above: 0.48 deg off, where the 0.5 crossings read 0.18)."""

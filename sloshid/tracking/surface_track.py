@@ -333,10 +333,11 @@ def _rest_window(t, valid, x, y, width, n_rest: int | None, moved: int | None, n
     elif moved is not None and moved == np.flatnonzero(valid)[0] and rest.any():
         # measured first while it moved, its liquid off level: the level where it stood after the move instead
         place = _last_place(valid, x, y, width)
-        rest = np.isin(np.arange(len(t)), place) if place.size >= LENS_REST_FRAMES else valid
+        settled = place.size >= LENS_REST_FRAMES
+        rest = np.isin(np.arange(len(t)), place) if settled else valid
         where = (
             f"above the surface's level where it stood after its move (from {t[place[0]]:.2f} s); give `rest_frames` "
-            if place.size >= LENS_REST_FRAMES
+            if settled
             else all_valid
         )
         notes.append(
@@ -346,15 +347,14 @@ def _rest_window(t, valid, x, y, width, n_rest: int | None, moved: int | None, n
     elif not rest.any():  # heights from the median of every valid frame: said, as they are not above rest
         window = f"the first {n_rest} frames" if n_rest else "the first second"
         notes.append(
-            f"the surface was measured in none of {window} (the rest window), so left/right_wall_px and _mm are heights "
-            f"{all_valid}the surface was at rest and measured."
+            f"the surface was measured in none of {window} (the rest window), so left/right_wall_px and _mm are "
+            f"heights {all_valid}the surface was at rest and measured."
         )
         rest = valid
     elif not n_rest and t[-1] < t[0] + 1.0:  # a clip shorter than the default window
         notes.append(
             f"the video lasts {t[-1] - t[0]:.2f} s, less than the rest window (the first second), so "
-            "left/right_wall_px and _mm are heights above the median of all valid frames, not above rest; give "
-            "`rest_frames` for frames where the surface was at rest."
+            f"left/right_wall_px and _mm are heights {all_valid}the surface was at rest."
         )
     return rest
 
