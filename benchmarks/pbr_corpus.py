@@ -6,9 +6,10 @@ damped, robot moves with tilt, two clips crossing the frame), each a video with 
 A case whose draw cannot show its motion (the liquid over the rim, the container out of the picture) takes the next
 seed. Files present from an earlier run are kept (delete the folder to render again); the folder is git-ignored.
 Writes data/pbr_corpus/. Run from the repository root: python3 benchmarks/pbr_corpus.py (--quick: 6 stills, 2 clips).
-With --holdout: the held-out set (24 stills and 2 surface clips from seeds the corpus does not use) into
-data/pbr_holdout/, which track_pbr reports beside the corpus and nobody tunes on. With --earlier: the first held-out
-draw (24 stills, seeds 7000-7023), which the tracker was tuned on once it had been read, into data/pbr_earlier/.
+With --holdout: the held-out set (24 stills and 2 surface clips from seeds the corpus does not use, 10000-11001) into
+data/pbr_holdout/, which track_pbr reports beside the corpus and nobody tunes on. With --earlier: the two earlier
+held-out draws (48 stills and 2 clips, seeds 7000-7023 and 8000-9001), which the tracker was tuned on once they had
+been read, into data/pbr_earlier/.
 """
 
 from __future__ import annotations
@@ -78,7 +79,7 @@ HOLDOUT = ROOT / "data" / "pbr_holdout"
 
 
 EARLIER = ROOT / "data" / "pbr_earlier"
-"""The first held-out draw (seeds 7000-7023): read on 2026-12-05 and 2026-12-06, so a development set now."""
+"""The earlier held-out draws (seeds 7000-7023 and 8000-9001): read while tuning, so a development set now."""
 
 
 FOLDERS = {"corpus": CORPUS, "holdout": HOLDOUT, "earlier": EARLIER}
@@ -86,16 +87,24 @@ FOLDERS = {"corpus": CORPUS, "holdout": HOLDOUT, "earlier": EARLIER}
 
 
 def earlier_cases() -> list[tuple[str, SynthSettings]]:
-    """24 still scenes of the corpus's draw, seeds 7000-7023 (the first held-out set, replaced by seeds 8000 on)."""
-    return [(f"still{700 + i}", replace(s, scene_seed=7000 + i)) for i, (_, s) in enumerate(still_cases(24))]
+    """The two held-out draws read while tuning: 24 stills of seeds 7000-7023 (read on 2026-12-05), and 24 stills with
+    a decay and a move of seeds 8000-9001 (read on 2026-12-07)."""
+    first = [(f"still{700 + i}", replace(s, scene_seed=7000 + i)) for i, (_, s) in enumerate(still_cases(24))]
+    return first + _draw(8000, "8")
 
 
 def holdout_cases() -> list[tuple[str, SynthSettings]]:
-    """24 still scenes (two of three surfaces) and two surface clips (a tap decay, a move with tilt), seeds 8000-9001:
-    the tracker is tuned on the corpus and reported on these as well."""
-    stills = [(f"still{800 + i}", replace(s, scene_seed=8000 + i)) for i, (_, s) in enumerate(still_cases(24))]
-    decay = replace(CLIP, scene="surface", f_hz=3.0, zeta=0.05, amplitude_deg=5.0, duration_s=DECAY_S, scene_seed=9000)
-    return [*stills, ("decay80", decay), ("move80", _move("surface", 0.6, 0.6, 2.5, 9001))]
+    """The held-out set: 24 still scenes (two of three surfaces) and two surface clips (a tap decay, a move with tilt),
+    seeds 10000-11001; the tracker is tuned on the corpus and reported on these as well."""
+    return _draw(10000, "10")
+
+
+def _draw(seed: int, tag: str) -> list[tuple[str, SynthSettings]]:
+    """24 stills (seeds from `seed`), a surface decay and a surface move with tilt (seed + 1000, + 1001)."""
+    stills = [(f"still{tag}{i:02d}", replace(s, scene_seed=seed + i)) for i, (_, s) in enumerate(still_cases(24))]
+    clip = seed + 1000
+    decay = replace(CLIP, scene="surface", f_hz=3.0, zeta=0.05, amplitude_deg=5.0, duration_s=DECAY_S, scene_seed=clip)
+    return [*stills, (f"decay{tag}0", decay), (f"move{tag}0", _move("surface", 0.6, 0.6, 2.5, clip + 1))]
 
 
 def _move(scene: str, accel: float, duration: float, tilt: float, seed: int) -> SynthSettings:
@@ -150,7 +159,7 @@ def _diff(s: SynthSettings) -> dict:
 
 def build(folder: Path = CORPUS, quick: bool = False, which: str = "corpus") -> list[dict]:
     """Render whatever is missing and return the index (also written to folder/index.json); `which`: the corpus's
-    cases, the held-out set's ("holdout") or the earlier draw's ("earlier")."""
+    cases, the held-out set's ("holdout") or the earlier draws' ("earlier")."""
     folder.mkdir(parents=True, exist_ok=True)
     index_path = folder / "index.json"
     old = {c["name"]: c for c in json.loads(index_path.read_text())} if index_path.exists() else {}
@@ -185,7 +194,7 @@ def main() -> None:
     ap.add_argument("--quick", action="store_true", help="6 stills and 2 clips (a smoke test of the script)")
     which = ap.add_mutually_exclusive_group()
     which.add_argument("--holdout", action="store_true", help="the held-out set (24 stills, 2 clips, other seeds)")
-    which.add_argument("--earlier", action="store_true", help="the first held-out draw (24 stills, seeds 7000-7023)")
+    which.add_argument("--earlier", action="store_true", help="the earlier held-out draws (48 stills, 2 clips)")
     args = ap.parse_args()
     kind = "holdout" if args.holdout else "earlier" if args.earlier else "corpus"
     folder = args.out or FOLDERS[kind]

@@ -183,7 +183,7 @@ def lens_fov_deg(settings: dict) -> float:
 
 
 def pbr_rows(quick: bool, which: str = "corpus") -> list[dict]:
-    """Score every clip of the corpus, the held-out set or the earlier draw (`which`; rendering what is missing)."""
+    """Score every clip of the corpus, the held-out set or the earlier draws (`which`; rendering what is missing)."""
     folder = FOLDERS[which]
     index = build(folder, quick, which)
     rows = []
@@ -274,7 +274,7 @@ def main() -> None:
     sets = {
         "pbr": pbr_rows(args.quick),
         "pbr held-out": pbr_rows(args.quick, "holdout"),
-        "pbr earlier draw": pbr_rows(args.quick, "earlier"),
+        "pbr earlier draws": pbr_rows(args.quick, "earlier"),
         "painted": painted_rows(args.quick),
     }
     table, figures = [], {}
@@ -335,10 +335,10 @@ def main() -> None:
         "30 fps; free decays 4 s, two lightly damped ones 8 s, moves 2.5 s): tap decays, robot moves with tilt, two "
         "crossing the frame "
         "(benchmarks/pbr_corpus.py). pbr held-out: 24 stills and two surface clips (a tap decay, a move with tilt) of "
-        "the same draw from other seeds (`pbr_corpus.py --holdout`), rendered after the tracker's changes of 2026-12-05 "
-        "and never tuned on: a change that helps the corpus and hurts them is not kept. pbr earlier draw: the first "
-        "held-out set (24 stills, seeds 7000-7023, `pbr_corpus.py --earlier`), replaced by the one above once read; "
-        "read again and tuned on 2026-12-06, a development set beside the corpus. "
+        "the same draw from other seeds (`pbr_corpus.py --holdout`, seeds 10000-11001), rendered on 2026-12-07 and "
+        "never tuned on: a change that helps the corpus and hurts them is not kept. pbr earlier draws: the two "
+        "held-out sets before it (`pbr_corpus.py --earlier`: 24 stills of seeds 7000-7023; 24 stills, a decay and a "
+        "move of seeds 8000-9001), each replaced once it had been read and tuned on, development sets now. "
         "painted: six default-renderer clips (640x480, 4 s). 'With the lens given': the "
         "surface clips whose container moves across the picture tracked again with the camera's field of view "
         "(--fov-deg; the camera looks down on a container off the picture's centre, and the line the tracker sees "
