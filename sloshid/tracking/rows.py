@@ -11,7 +11,8 @@ VALID_QUALITY = 0.5
 
 class SurfaceGeometry(NamedTuple):
     """The surface step's raw measurement of a frame, which its `finish` turns into elevation-corrected angles and
-    wall heights: slope against the liquid's sides, their tilt (deg), the wall heights and widths (px)."""
+    wall heights: slope against the container's axis, its tilt (deg), the wall heights and widths (px), and the tilt
+    of the liquid's sides (deg; the axis unless the glass's walls gave it)."""
 
     rel_slope: float
     container_angle_deg: float
@@ -19,6 +20,7 @@ class SurfaceGeometry(NamedTuple):
     right_w: float
     width_px: float
     opening_px: float
+    sides_deg: float = math.nan
 
 
 class TrackRow(NamedTuple):

@@ -37,6 +37,9 @@ CENTRE_SHARE = 0.05
 than this share of the inner width from its median over the valid frames is not valid: a planar slosh keeps the centre
 there. Rendered clips stay within 2 px (0.01 of the width) up to 40 deg of slosh and 20 deg of camera elevation; a
 liquid reaching the rim read 115 px (0.5)."""
+SIDES_STILL_DEG = 0.3
+"""The liquid's sides whose angle scatters by at most this (robustly) through a clip show a container that did not turn:
+their tilt is good to about this much, a sloshing liquid's sides in a tapered glass move them by as much."""
 GLASS_AGREE_DEG = 10.0
 """The glass's walls turn a frame's measurement onto their axis only when their angle is within this of the liquid's
 sides' (the inner walls: a tapered glass, its refraction and a sloshing liquid's sides put them up to 5 deg apart
@@ -128,6 +131,7 @@ class SurfaceStep:
     def _row(self, m: SurfaceMeasurement, cm: ContainerMeasurement | None) -> TrackRow:
         """The track row's fields, then the raw surface geometry, of a measurement (turned onto the container's walls
         `cm` when they were measured and agree with the liquid's sides within GLASS_AGREE_DEG: `m` is changed)."""
+        sides = m.container_angle_deg
         if cm is not None and cm.found and abs(m.container_angle_deg - cm.angle_deg) <= GLASS_AGREE_DEG:
             tilt = math.radians(m.container_angle_deg - cm.angle_deg)  # the liquid's sides against the walls
             seen = math.atan(m.rel_slope) + tilt
@@ -140,7 +144,7 @@ class SurfaceStep:
         rel = math.degrees(math.atan(m.rel_slope)) if m.found else math.nan
         cang = m.container_angle_deg if self.settings.reference == "container" else 0.0
         angle = rel if self.settings.reference == "container" else rel + m.container_angle_deg
-        raw = SurfaceGeometry(m.rel_slope, m.container_angle_deg, m.left_w, m.right_w, m.width_px, m.opening_px)
+        raw = SurfaceGeometry(m.rel_slope, m.container_angle_deg, m.left_w, m.right_w, m.width_px, m.opening_px, sides)
         return step_row(angle, rel + m.container_angle_deg, cang, m.x_px, m.y_px, m.quality, int(ok), raw)
 
     def revise(self, rows: list[TrackRow]) -> None:
@@ -226,8 +230,10 @@ class SurfaceStep:
         """Elevation-corrected angles, the wall heights above rest (px, and mm with the diameter) and warnings."""
         t = np.array([r.t_s for r in rows], float)
         valid = np.array([r.valid for r in rows], bool)
-        slope, cang, left, right, width, opening = (np.array(c, float) for c in zip(*[r.surface for r in rows]))
+        slope, cang, left, right, width, opening, sides = (np.array(c, float) for c in zip(*[r.surface for r in rows]))
         steady = steady_angle(cang, valid, STEADY_FLOOR_DEG) if self.walls is not None else None
+        if steady is None and self.walls is not None and _sides_steady(sides, valid):
+            steady = median(cang[valid])  # the glass's walls misread in some frames (a holder's edge, the slosh)
         if steady is not None:  # a container that stood still, its walls measured in every frame: their median
             turn = np.radians(cang - steady)
             slope = np.tan(np.arctan(slope) + turn)
@@ -391,6 +397,13 @@ def _away(x: np.ndarray, y: np.ndarray, width: np.ndarray, at: np.ndarray) -> np
     """Per frame, whether the surface's centre lies further than MOVE_SHARE of the inner width from where it stood in
     the frames `at` (their medians)."""
     return np.hypot(x - median(x[at]), y - median(y[at])) > MOVE_SHARE * median(width[at])
+
+
+def _sides_steady(sides: np.ndarray, valid: np.ndarray) -> bool:
+    """The liquid's sides kept their angle through the clip (their frames' fresh measurements steady, `steady_angle`):
+    a container that did not turn, whatever its glass walls read."""
+    fresh = valid & np.r_[True, np.diff(sides) != 0]
+    return steady_angle(sides, fresh, SIDES_STILL_DEG) is not None
 
 
 def _moved_at(valid: np.ndarray, x: np.ndarray, y: np.ndarray, width: np.ndarray) -> int | None:
