@@ -19,6 +19,7 @@ from sloshid.core.errors import NothingFound, SettingError
 from sloshid.tracking.container_ref import (
     GUARD_ROWS,
     STEADY_FLOOR_DEG,
+    STEADY_RUN,
     ContainerMeasurement,
     ContainerTracker,
     EdgeLine,
@@ -38,8 +39,12 @@ than this share of the inner width from its median over the valid frames is not 
 there. Rendered clips stay within 2 px (0.01 of the width) up to 40 deg of slosh and 20 deg of camera elevation; a
 liquid reaching the rim read 115 px (0.5)."""
 SIDES_STILL_DEG = 0.3
-"""The liquid's sides whose angle scatters by at most this (robustly) through a clip show a container that did not turn:
-their tilt is good to about this much, a sloshing liquid's sides in a tapered glass move them by as much."""
+"""The liquid's sides whose angle scatters by at most this (robustly, and in a running median) through a clip show a
+container that did not turn: their tilt is good to about this much, a sloshing liquid's sides in a tapered glass move
+them by as much."""
+WALLS_OVER_SIDES = 3.0
+"""... where its glass walls' angles scatter more than this many times as much: a turn would move both alike (pbr
+decay80: walls 2.8 deg, sides 0.1)."""
 GLASS_AGREE_DEG = 10.0
 """The glass's walls turn a frame's measurement onto their axis only when their angle is within this of the liquid's
 sides' (the inner walls: a tapered glass, its refraction and a sloshing liquid's sides put them up to 5 deg apart
@@ -232,7 +237,7 @@ class SurfaceStep:
         valid = np.array([r.valid for r in rows], bool)
         slope, cang, left, right, width, opening, sides = (np.array(c, float) for c in zip(*[r.surface for r in rows]))
         steady = steady_angle(cang, valid, STEADY_FLOOR_DEG) if self.walls is not None else None
-        if steady is None and self.walls is not None and _sides_steady(sides, valid):
+        if steady is None and self.walls is not None and _sides_steady(sides, cang, valid):
             steady = median(cang[valid])  # the glass's walls misread in some frames (a holder's edge, the slosh)
         if steady is not None:  # a container that stood still, its walls measured in every frame: their median
             turn = np.radians(cang - steady)
@@ -399,11 +404,23 @@ def _away(x: np.ndarray, y: np.ndarray, width: np.ndarray, at: np.ndarray) -> np
     return np.hypot(x - median(x[at]), y - median(y[at])) > MOVE_SHARE * median(width[at])
 
 
-def _sides_steady(sides: np.ndarray, valid: np.ndarray) -> bool:
-    """The liquid's sides kept their angle through the clip (their frames' fresh measurements steady, `steady_angle`):
-    a container that did not turn, whatever its glass walls read."""
-    fresh = valid & np.r_[True, np.diff(sides) != 0]
-    return steady_angle(sides, fresh, SIDES_STILL_DEG) is not None
+def _sides_steady(sides: np.ndarray, cang: np.ndarray, valid: np.ndarray) -> bool:
+    """The liquid's sides show a container that did not turn while its glass walls scatter: their fresh measurements
+    (not held or copied from a frame before) stay within SIDES_STILL_DEG of their median, robustly and in a running
+    median over STEADY_RUN of them, or one held value stands for all (the finder found its axes still), and the walls'
+    angles scatter more than WALLS_OVER_SIDES times as much (a turn shows in both: the walls misread)."""
+    fresh = valid & np.isfinite(sides) & np.r_[True, np.diff(sides) != 0]
+    a = sides[fresh]
+    if a.size == 0:
+        return False
+    centre = median(a)
+    spread = MAD_SIGMA * median(np.abs(a - centre))
+    run = min(STEADY_RUN, a.size)
+    running = np.sort(np.lib.stride_tricks.sliding_window_view(a, run), axis=1)[:, run // 2]
+    if spread > SIDES_STILL_DEG or np.max(np.abs(running - centre)) > SIDES_STILL_DEG:
+        return False
+    walls = cang[valid]
+    return MAD_SIGMA * median(np.abs(walls - median(walls))) > WALLS_OVER_SIDES * max(spread, STEADY_FLOOR_DEG)
 
 
 def _moved_at(valid: np.ndarray, x: np.ndarray, y: np.ndarray, width: np.ndarray) -> int | None:
