@@ -6,9 +6,9 @@ damped, robot moves with tilt, two clips crossing the frame), each a video with 
 A case whose draw cannot show its motion (the liquid over the rim, the container out of the picture) takes the next
 seed. Files present from an earlier run are kept (delete the folder to render again); the folder is git-ignored.
 Writes data/pbr_corpus/. Run from the repository root: python3 benchmarks/pbr_corpus.py (--quick: 6 stills, 2 clips).
-With --holdout: the held-out set (24 stills and 2 surface clips from seeds the corpus does not use, 10000-11001) into
+With --holdout: the held-out set (24 stills and 4 clips from seeds the corpus does not use, 10000-11003) into
 data/pbr_holdout/, which track_pbr reports beside the corpus and nobody tunes on. With --earlier: the two earlier
-held-out draws (48 stills and 2 clips, seeds 7000-7023 and 8000-9001), which the tracker was tuned on once they had
+held-out draws (48 stills and 4 clips, seeds 7000-7023 and 8000-9003), which the tracker was tuned on once they had
 been read, into data/pbr_earlier/.
 """
 
@@ -79,7 +79,7 @@ HOLDOUT = ROOT / "data" / "pbr_holdout"
 
 
 EARLIER = ROOT / "data" / "pbr_earlier"
-"""The earlier held-out draws (seeds 7000-7023 and 8000-9001): read while tuning, so a development set now."""
+"""The earlier held-out draws (seeds 7000-7023 and 8000-9003): read while tuning, so a development set now."""
 
 
 FOLDERS = {"corpus": CORPUS, "holdout": HOLDOUT, "earlier": EARLIER}
@@ -88,23 +88,33 @@ FOLDERS = {"corpus": CORPUS, "holdout": HOLDOUT, "earlier": EARLIER}
 
 def earlier_cases() -> list[tuple[str, SynthSettings]]:
     """The two held-out draws read while tuning: 24 stills of seeds 7000-7023 (read on 2026-12-05), and 24 stills with
-    a decay and a move of seeds 8000-9001 (read on 2026-12-07)."""
+    a decay and a move of seeds 8000-9001 (read on 2026-12-07; with a float decay and a crossing, 9002-9003)."""
     first = [(f"still{700 + i}", replace(s, scene_seed=7000 + i)) for i, (_, s) in enumerate(still_cases(24))]
     return first + _draw(8000, "8")
 
 
 def holdout_cases() -> list[tuple[str, SynthSettings]]:
-    """The held-out set: 24 still scenes (two of three surfaces) and two surface clips (a tap decay, a move with tilt),
-    seeds 10000-11001; the tracker is tuned on the corpus and reported on these as well."""
+    """The held-out set: 24 still scenes (two of three surfaces) and four clips (a surface's tap decay, a move with
+    tilt, a float's decay, a surface crossing the frame), seeds 10000-11003; the tracker is tuned on the corpus and
+    reported on these as well."""
     return _draw(10000, "10")
 
 
 def _draw(seed: int, tag: str) -> list[tuple[str, SynthSettings]]:
-    """24 stills (seeds from `seed`), a surface decay and a surface move with tilt (seed + 1000, + 1001)."""
+    """24 stills (seeds from `seed`), a surface decay and a surface move with tilt (seed + 1000, + 1001), a float decay
+    and a surface crossing the frame (seed + 1002, + 1003)."""
     stills = [(f"still{tag}{i:02d}", replace(s, scene_seed=seed + i)) for i, (_, s) in enumerate(still_cases(24))]
     clip = seed + 1000
     decay = replace(CLIP, scene="surface", f_hz=3.0, zeta=0.05, amplitude_deg=5.0, duration_s=DECAY_S, scene_seed=clip)
-    return [*stills, (f"decay{tag}0", decay), (f"move{tag}0", _move("surface", 0.6, 0.6, 2.5, clip + 1))]
+    floated = replace(decay, scene="float", f_hz=3.3, zeta=0.04, scene_seed=clip + 2)
+    cross = replace(decay, travel_px=110.0, f_hz=3.2, zeta=0.06, scene_seed=clip + 3)
+    return [
+        *stills,
+        (f"decay{tag}0", decay),
+        (f"move{tag}0", _move("surface", 0.6, 0.6, 2.5, clip + 1)),
+        (f"decay{tag}1", floated),
+        (f"cross{tag}0", cross),
+    ]
 
 
 def _move(scene: str, accel: float, duration: float, tilt: float, seed: int) -> SynthSettings:
@@ -193,8 +203,8 @@ def main() -> None:
     ap.add_argument("--out", type=Path, help="corpus folder (default data/pbr_corpus, data/pbr_holdout or pbr_earlier)")
     ap.add_argument("--quick", action="store_true", help="6 stills and 2 clips (a smoke test of the script)")
     which = ap.add_mutually_exclusive_group()
-    which.add_argument("--holdout", action="store_true", help="the held-out set (24 stills, 2 clips, other seeds)")
-    which.add_argument("--earlier", action="store_true", help="the earlier held-out draws (48 stills, 2 clips)")
+    which.add_argument("--holdout", action="store_true", help="the held-out set (24 stills, 4 clips, other seeds)")
+    which.add_argument("--earlier", action="store_true", help="the earlier held-out draws (48 stills, 4 clips)")
     args = ap.parse_args()
     kind = "holdout" if args.holdout else "earlier" if args.earlier else "corpus"
     folder = args.out or FOLDERS[kind]
