@@ -23,7 +23,7 @@ from typing import overload
 import cv2
 import numpy as np
 
-from sloshid.tracking.robust import MAD_SIGMA, masked_median, median, robust_lines
+from sloshid.tracking.robust import MAD_SIGMA, masked_median, median, robust_lines, scatter
 from sloshid.video.frames import Picture
 
 BAND_PX = 9
@@ -178,11 +178,11 @@ def steady_angle(angle: np.ndarray, valid: np.ndarray, floor: float = 0.0) -> fl
     if a.size < 20:
         return None
     d = np.diff(a)
-    noise = MAD_SIGMA * median(np.abs(d - median(d))) / math.sqrt(2)
+    noise = scatter(d) / math.sqrt(2)
     if noise <= 0:
         return None
     centre = median(a)
-    if MAD_SIGMA * median(np.abs(a - centre)) > max(STEADY_SPREAD * noise, floor):
+    if scatter(a) > max(STEADY_SPREAD * noise, floor):
         return None
     # a move in fewer than half the frames leaves both robust scatters at the noise: the frames' running median shows it
     running = np.sort(np.lib.stride_tricks.sliding_window_view(a, STEADY_RUN), axis=1)[:, STEADY_RUN // 2]

@@ -124,6 +124,11 @@ def median(values: np.ndarray) -> float:
     return 0.5 * float(part[k - 1] + part[k])
 
 
+def scatter(values: np.ndarray) -> float:
+    """The robust standard deviation of a non-empty 1-D array about its median (MAD_SIGMA median absolute deviations)."""
+    return MAD_SIGMA * median(np.abs(values - median(values)))
+
+
 def percentile_span(values: np.ndarray) -> float:
     """The span from the 1st to the 99th percentile of the finite values (0.0 for none), by one sort: np.percentile
     would import numpy.ma at the end of every tracking run."""

@@ -30,7 +30,7 @@ import numpy as np
 
 from sloshid.tracking.container_ref import EdgeLine, glass_walls, steady_angle, wall_lines
 from sloshid.tracking.float_angle import fit_colour_model, hsv_mask, membership_map
-from sloshid.tracking.robust import MAD_SIGMA, median, normal_solve, robust_lines, straight_part
+from sloshid.tracking.robust import MAD_SIGMA, median, normal_solve, robust_lines, scatter, straight_part
 from sloshid.tracking.rows import VALID_QUALITY
 from sloshid.video.colors import PRESETS, HsvRange
 from sloshid.video.frames import Picture
@@ -1048,9 +1048,7 @@ def steady_axes(axes: list[tuple]) -> tuple | None:
     ox, oy = (np.array([g[1][i] for g in axes]) for i in (0, 1))
     ok = np.ones(len(axes), bool)
     angle = np.degrees(_axis_angle(aL, aR))
-    if steady_angle(angle, ok) is None or any(
-        steady_angle(v, ok) is None and MAD_SIGMA * median(np.abs(v - median(v))) > STILL_PX for v in (ox, oy)
-    ):
+    if steady_angle(angle, ok) is None or any(steady_angle(v, ok) is None and scatter(v) > STILL_PX for v in (ox, oy)):
         return None
     yb = median(oy)
     a_l, a_r = median(aL), median(aR)
