@@ -23,7 +23,7 @@ from typing import overload
 import cv2
 import numpy as np
 
-from sloshid.tracking.robust import MAD_SIGMA, masked_median, median, robust_lines, scatter
+from sloshid.tracking.robust import MAD_SIGMA, masked_median, median, robust_lines, running_median, scatter
 from sloshid.video.frames import Picture
 
 BAND_PX = 9
@@ -185,7 +185,7 @@ def steady_angle(angle: np.ndarray, valid: np.ndarray, floor: float = 0.0) -> fl
     if scatter(a) > max(STEADY_SPREAD * noise, floor):
         return None
     # a move in fewer than half the frames leaves both robust scatters at the noise: the frames' running median shows it
-    running = np.sort(np.lib.stride_tricks.sliding_window_view(a, STEADY_RUN), axis=1)[:, STEADY_RUN // 2]
+    running = running_median(a, STEADY_RUN)
     return float(centre) if np.max(np.abs(running - centre)) <= max(STEADY_DEPART * noise, floor) else None
 
 

@@ -129,6 +129,11 @@ def scatter(values: np.ndarray) -> float:
     return MAD_SIGMA * median(np.abs(values - median(values)))
 
 
+def running_median(values: np.ndarray, size: int) -> np.ndarray:
+    """The medians of every `size` consecutive values (the upper middle one for an even `size`), len - size + 1 of them."""
+    return np.sort(np.lib.stride_tricks.sliding_window_view(values, size), axis=1)[:, size // 2]
+
+
 def percentile_span(values: np.ndarray) -> float:
     """The span from the 1st to the 99th percentile of the finite values (0.0 for none), by one sort: np.percentile
     would import numpy.ma at the end of every tracking run."""

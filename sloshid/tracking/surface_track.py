@@ -28,7 +28,7 @@ from sloshid.tracking.container_ref import (
 )
 from sloshid.tracking.overlay import draw_surface_overlay
 from sloshid.tracking.repeats import REPEAT_SHARE, Copies, line_regions, repeated_share
-from sloshid.tracking.robust import MAD_SIGMA, median, percentile_span, scatter
+from sloshid.tracking.robust import MAD_SIGMA, median, percentile_span, running_median, scatter
 from sloshid.tracking.rows import VALID_QUALITY, SurfaceGeometry, TrackRow, step_row
 from sloshid.tracking.surface import SurfaceFinder, SurfaceMeasurement, steady_axes
 from sloshid.video.colors import HsvRange
@@ -414,8 +414,7 @@ def _sides_steady(sides: np.ndarray, cang: np.ndarray, valid: np.ndarray) -> boo
     if a.size == 0:
         return False
     centre, spread = median(a), scatter(a)
-    run = min(STEADY_RUN, a.size)
-    running = np.sort(np.lib.stride_tricks.sliding_window_view(a, run), axis=1)[:, run // 2]
+    running = running_median(a, min(STEADY_RUN, a.size))
     if spread > SIDES_STILL_DEG or np.max(np.abs(running - centre)) > SIDES_STILL_DEG:
         return False
     return scatter(cang[valid]) > WALLS_OVER_SIDES * max(spread, STEADY_FLOOR_DEG)
