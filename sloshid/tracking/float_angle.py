@@ -43,6 +43,36 @@ ELONGATED = 0.5
 body, at least `length_to_width(ELONGATED)` (1.41) times as long as wide; a disc's elongation is 0."""
 
 
+FLOAT_HUE_REACH = 6
+"""How far (OpenCV hue units, 2 deg each) a named float colour's hue bounds may move out where its range finds no float
+in the first frame (`relaxed_ranges`): a thin float's colour mixes with the liquid's under it (H.264 keeps colour at
+half the resolution), and a yellow plank on orange juice read hue 18-21, below the yellow preset's 22."""
+FLOAT_SAT_REACH = 60
+"""How far a named float colour's saturation floor may move down there: a float lit from above pales in its highlight
+(an orange plank on a yellow dye read saturation 63-182, the orange preset starts at 120)."""
+FLOAT_SAT_LOWEST = 40
+"""The saturation floor never moves below this: a white wall and a grey glass read 0-30."""
+
+
+def relaxed_ranges(hsv: HsvRange) -> list[tuple[int, int, HsvRange]]:
+    """The range's relaxations, as (hue widening, saturation lowering, range), fewest steps first: both hue bounds
+    widened by up to FLOAT_HUE_REACH in steps of 2 and the saturation floor lowered by up to FLOAT_SAT_REACH in steps of
+    10 (not below FLOAT_SAT_LOWEST); none for a range without a hue (`dark`) or a saturation floor."""
+    if hsv.low[1] <= FLOAT_SAT_LOWEST or (hsv.low[0] == 0 and hsv.high[0] == 179):
+        return []
+    floors = sorted({max(FLOAT_SAT_LOWEST, hsv.low[1] - ds) for ds in range(0, FLOAT_SAT_REACH + 1, 10)}, reverse=True)
+    steps = [(dh, hsv.low[1] - s) for dh in range(0, FLOAT_HUE_REACH + 1, 2) for s in floors if dh or s < hsv.low[1]]
+    steps.sort(key=lambda step: (step[0] / 2 + math.ceil(step[1] / 10), step[0]))
+    return [
+        (
+            dh,
+            ds,
+            HsvRange(((hsv.low[0] - dh) % 180, hsv.low[1] - ds, hsv.low[2]), ((hsv.high[0] + dh) % 180, *hsv.high[1:])),
+        )
+        for dh, ds in steps
+    ]
+
+
 @dataclass
 class FloatMeasurement:
     """One frame's measurement of the float (image coordinates: x right, y down, pixel centres at integers)."""

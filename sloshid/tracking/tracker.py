@@ -34,7 +34,7 @@ from sloshid.core.parallel import forked_helper, signals_held
 from sloshid.core.settings import check_in_metres, setting_field
 from sloshid.core.tables import to_pandas, write_csv
 from sloshid.tracking.container_ref import ContainerMeasurement, ContainerTracker, WallsRecord
-from sloshid.tracking.float_angle import ELONGATED, FloatFinder, FloatMeasurement, length_to_width
+from sloshid.tracking.float_angle import ELONGATED, FloatFinder, FloatMeasurement, length_to_width, relaxed_ranges
 from sloshid.tracking.overlay import draw_overlay
 from sloshid.tracking.repeats import REPEAT_SHARE, Copies, line_regions, repeated_share, stale_repeats
 from sloshid.tracking.robust import percentile_span
@@ -376,9 +376,9 @@ def _unwrap(angle: float, previous: float) -> float:
 class _FloatStep:
     """Per-frame float measurement (float_angle) against the image or the container walls (container_ref)."""
 
-    def __init__(self, settings: TrackSettings, roi: tuple[int, int, int, int]) -> None:
-        self.settings, self.roi = settings, roi
-        self.finder = FloatFinder(settings.hsv, roi)
+    def __init__(self, settings: TrackSettings, roi: tuple[int, int, int, int], hsv: HsvRange | None = None) -> None:
+        self.settings, self.roi, self.hsv = settings, roi, hsv or settings.hsv
+        self.finder = FloatFinder(self.hsv, roi)
         self.walls = ContainerTracker(roi) if settings.reference == "container" else None
         self.last_angle = math.nan
         self.found = 0
@@ -407,7 +407,7 @@ class _FloatStep:
         fm = self.finder.measure(frame)
         self._count(fm)
         if fm.found and self.liquid_width is None:
-            self.liquid_width = _liquid_width(frame, self.settings.hsv, self.roi)
+            self.liquid_width = _liquid_width(frame, self.hsv, self.roi)
         repeat = fm.found and repeated_share(frame, self.previous, _box(fm), dy_only=False) >= REPEAT_SHARE
         self.previous = frame
         cm = ContainerMeasurement(True, 0.0)
@@ -484,7 +484,7 @@ class _FloatStep:
         if self.round and self.round + self.cut == self.found:
             return NothingFound(
                 "float_color",
-                f"a blob of the float's colour ({self.settings.hsv.describe()}) was found in {self.found} of {n} frames "
+                f"a blob of the float's colour ({self.hsv.describe()}) was found in {self.found} of {n} frames "
                 f"of {path}, but round, not elongated (at most {length_to_width(self.roundest):.2f} times as long as "
                 f"wide): a float needs a length at least {length_to_width(ELONGATED):.2f} times its width for its "
                 f"angle to be measured; {hint}, and film a float longer than wide, or adjust {{name}} or "
@@ -506,7 +506,7 @@ class _FloatStep:
         return NothingFound(
             "float_color",
             f"no float found in any of the {n} frames of {path} with HSV range "
-            f"{self.settings.hsv.describe()}; {hint} and adjust {{float_hsv_low}}/{{float_hsv_high}} or {{name}}.",
+            f"{self.hsv.describe()}; {hint} and adjust {{float_hsv_low}}/{{float_hsv_high}} or {{name}}.",
             "overlay",
             "float_hsv_low",
             "float_hsv_high",
@@ -557,6 +557,11 @@ def track_video(
             if shrink > 1:  # measured (and the overlay drawn) reduced; its pixels are reported in the video's
                 reader.shrink = shrink
                 height, width = shrunk_size((height, width), shrink)
+        relaxed = None
+        if settings.target == "float" and settings.float_hsv_low is None:  # a named colour: fitted to the first frame
+            liquid, relaxed = float_range(
+                np.asarray(reader.first_picture()), roi, settings.float_color or DEFAULT_FLOAT_COLOR
+            )
         parallel = multithreaded and overlay is None and len(spans) > 1 and _can_fork()
         # a run that finds nothing writes its overlay as the diagnosis, but does not replace one already there
         kept = overlay if overlay is not None and Path(overlay).exists() else None
@@ -617,6 +622,8 @@ def track_video(
             f"{widened}, which was "
             "tracked: the container's walls lie at its edge; draw it a little wider."
         )
+    if relaxed is not None:
+        res.warnings.append(relaxed)
     if rival is not None:
         res.warnings.append(
             f"the dye's colour was chosen from the first frame as {dye.removesuffix(' (chosen from the first frame)')}, "
@@ -633,6 +640,32 @@ def track_video(
         warn(warning)
     log.info("tracked %s: %d frames, %.1f %% valid", path, len(res.t_s), 100 * float(np.mean(res.valid)))
     return res
+
+
+def _valid_float(frame: np.ndarray, hsv: HsvRange, roi: tuple[int, int, int, int]) -> bool:
+    """The float is measured validly in `frame` by the range `hsv` (not cut by the ROI), and is no liquid body."""
+    m = FloatFinder(hsv, roi).measure(frame)
+    return m.found and not m.cut and m.quality >= VALID_QUALITY and not _liquid_width(frame, hsv, roi)
+
+
+def float_range(frame: np.ndarray, roi: tuple[int, int, int, int], name: str) -> tuple[HsvRange, str | None]:
+    """The range of the float colour `name` for a video whose first frame is `frame`: the preset's where it holds
+    anything there (a float found or not: an orange float in a yellow dye that the orange range holds too) or no
+    relaxation finds the float validly, else the nearest relaxation that does (`relaxed_ranges`: a float's colour pales
+    in the light and mixes with the liquid's under it); and the warning to give then (else None)."""
+    hsv = preset(name).hsv
+    if FloatFinder(hsv, roi).measure(frame).found:
+        return hsv, None
+    for dh, ds, wider in relaxed_ranges(hsv):
+        if _valid_float(frame, wider, roi):
+            changes = [f"its hues widened by {dh}" if dh else "", f"its saturation floor lowered by {ds}" if ds else ""]
+            return wider, (
+                f"no float was found in the first frame in the {name} preset's range ({hsv.describe()}); it was "
+                f"found with {' and '.join(c for c in changes if c)} ({wider.describe()}), which was tracked: a float's "
+                "colour pales in the light and mixes with the liquid's under it. If that is not the float, give "
+                "`float_hsv_low` and `float_hsv_high`."
+            )
+    return hsv, None
 
 
 def _liquid_width(frame: np.ndarray, hsv: HsvRange, roi: tuple[int, int, int, int]) -> float:
@@ -843,9 +876,10 @@ def _dye_range(frame: Picture | np.ndarray, roi: tuple, settings: TrackSettings,
     return liquid if settings.liquid_hsv_low is not None else dye_range(np.asarray(frame), roi, liquid)
 
 
-def _step(settings: TrackSettings, roi: tuple[int, int, int, int], liquid: HsvRange | None):
-    """A fresh per-frame measurement step of the target."""
-    return _FloatStep(settings, roi) if settings.target == "float" else SurfaceStep(settings, roi, liquid)
+def _step(settings: TrackSettings, roi: tuple[int, int, int, int], colour: HsvRange | None):
+    """A fresh per-frame measurement step of the target, searching `colour` (the float's or the liquid's; None: the
+    settings' float colour, or the liquid's chosen in the first frame)."""
+    return _FloatStep(settings, roi, colour) if settings.target == "float" else SurfaceStep(settings, roi, colour)
 
 
 def measure_frame(
