@@ -105,7 +105,8 @@ class TrackSettings:
 
     float_color: str | None = setting_field(None, metavar="NAME")
     """Named float colour preset (red, orange, yellow, green, blue, magenta, or dark: any hue too dark to have one);
-    not given: red for the float target."""
+    not given: red for the float target. Where its range holds nothing in the first frame, the nearest relaxation of it
+    that measures the float there is tracked, with a warning."""
     float_hsv_low: tuple[int, int, int] | None = setting_field(None, metavar="H,S,V")
     """Lower OpenCV HSV corner of the float's colour (H 0..179, S and V 0..255); overrides `float_color`, needs
     `float_hsv_high`. A hue low above the hue high wraps through red."""
