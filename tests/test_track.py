@@ -38,6 +38,7 @@ from sloshid.tracking.smooth import smooth_angle
 from sloshid.tracking.surface import (
     LINE_SLOPE_OF_CUBIC,
     LOW_MIN_FRAMES,
+    OWN_HUE_REACH,
     SurfaceFinder,
     SurfaceMeasurement,
     _column_box,
@@ -51,6 +52,7 @@ from sloshid.tracking.surface import (
     _on_wall,
     _sustained,
     dye_range,
+    own_range,
     steady_axes,
 )
 from sloshid.tracking.surface_track import SurfaceStep, _spikes
@@ -2619,3 +2621,18 @@ def test_a_faint_dye_whose_first_frame_is_not_measured_is_still_chosen_by_its_ow
         tracker._auto_dye(np.full((240, 320, 3), 200, np.uint8), (0, 0, 320, 240), TrackSettings(target="surface"))[1]
         is None
     )
+
+
+def test_a_region_of_two_colours_joined_gets_the_range_of_the_larger_one():
+    # cross80 of the earlier pbr draw: a faint blue dye (hue 111) joined through its glass to a violet box behind it
+    # (hue 128) in one coloured region. Its median hue (117) centred the range between them (H 109-125): the tracker
+    # then measured the box's top edge as the surface, with quality 1, through the whole crossing. The larger group's
+    # own hue centres it on the dye; a region of one colour keeps its median.
+    rng = np.random.default_rng(3)
+    dye = np.clip(rng.normal(112, 3.0, 1000), 0, 179).round()  # the dye's hue spreads; the box's is tight
+    box = np.clip(rng.normal(128, 1.0, 960), 0, 179).round()
+    sv = np.tile([[120, 160]], (1960, 1))
+    joined = own_range(np.column_stack([np.concatenate([dye, box]), sv]))  # their median: 118
+    assert (joined.low[0], joined.high[0]) == (112 - OWN_HUE_REACH, 112 + OWN_HUE_REACH)  # the dye's median, 112
+    one = own_range(np.column_stack([box, sv[:960]]))
+    assert (one.low[0], one.high[0]) == (128 - OWN_HUE_REACH, 128 + OWN_HUE_REACH)

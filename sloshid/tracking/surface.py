@@ -408,12 +408,26 @@ def darker_liquid(
     return box, HsvRange((0, 0, 0), (179, 255, ceiling))
 
 
+def _main_hue(hues: np.ndarray) -> float:
+    """The median hue of a region's pixels, or, where its hues form two groups (Otsu's split of them) whose medians lie
+    further apart than OWN_HUE_REACH, the median of the larger group: one range holds no two such colours, and a region
+    of both is two objects joined (a faint blue dye and a violet box behind its glass, hues 111 and 128)."""
+    h = np.ascontiguousarray(hues.astype(np.uint8)).reshape(-1, 1)
+    if h.size < 2:
+        return float(np.median(hues))
+    split, _ = cv2.threshold(h, 0, 179, cv2.THRESH_BINARY + cv2.THRESH_OTSU)
+    low, high = hues[hues <= split], hues[hues > split]
+    if low.size == 0 or high.size == 0 or float(np.median(high)) - float(np.median(low)) <= OWN_HUE_REACH:
+        return float(np.median(hues))
+    return float(np.median(low if low.size >= high.size else high))
+
+
 def own_range(pixels: np.ndarray) -> HsvRange:
     """The HSV box of one region's pixels (n x 3, OpenCV HSV): its median hue +- OWN_HUE_REACH, and from 10 below its
     5th-percentile saturation and value (paler and darker pixels of the dye too), for a dye no preset's range takes (a
     faint dye below every preset's saturation). Its value starts above the `dark` preset's (shadows of the dye's hue,
     a holder's dark parts, are dark: they had joined a faint blue liquid to its holder and the picture's side)."""
-    hue = float(np.median(pixels[:, 0]))
+    hue = _main_hue(pixels[:, 0])
     s_floor, v_floor = (int(np.percentile(pixels[:, c], 5)) - 10 for c in (1, 2))
     low = (int(hue - OWN_HUE_REACH) % 180, max(20, s_floor), max(PRESETS["dark"].hsv.high[2] + 1, v_floor))
     return HsvRange(low, (int(hue + OWN_HUE_REACH) % 180, 255, 255))
