@@ -431,6 +431,30 @@ def test_a_float_seen_just_outside_its_colour_is_found_with_the_range_relaxed(tm
         track_video(tmp_path / "y.mp4", TrackSettings(float_hsv_low=(22, 110, 90), float_hsv_high=(35, 255, 255)))
 
 
+def test_a_float_absent_from_the_first_frames_is_not_traded_for_a_label_of_a_near_colour(tmp_path):
+    # the default red float painted out of the first 40 of 60 frames, and a strip of orange tape (hue 14, inside the
+    # red range relaxed by 4) on the wall behind: the preset's run measures the float in a third of the frames, the
+    # relaxed range finds the tape in every frame and everywhere else than the float; the preset's run is kept
+    s = SynthSettings(**SMALL)
+    frames = list(render_frames(s))
+    tape = cv2.cvtColor(np.uint8([[[14, 200, 230]]]), cv2.COLOR_HSV2BGR)[0, 0].tolist()
+    with VideoWriter(tmp_path / "a.mp4", s.width, s.height, s.fps, "h264", s.quality) as out:
+        for i, (row, frame) in enumerate(frames):
+            picture = frame.copy()
+            if i < 40:
+                hsv = cv2.cvtColor(picture, cv2.COLOR_BGR2HSV)
+                red = ((hsv[..., 0] >= 160) | (hsv[..., 0] <= 20)) & (hsv[..., 1] >= 60)
+                mask = cv2.dilate(red.astype(np.uint8), np.ones((7, 7), np.uint8))
+                picture = cv2.inpaint(picture, mask, 5, cv2.INPAINT_TELEA)
+            cv2.rectangle(picture, (20, 20), (80, 28), tape, -1)
+            out.write(picture, row["t_s"])
+    res = track_video(tmp_path / "a.mp4", TrackSettings())
+    valid = res.valid.astype(bool)
+    assert 0.2 < valid.mean() < 0.5 and not valid[:40].any()
+    assert np.abs(res.x_px - np.array([row["float_x_px"] for row, _ in frames]))[valid].max() < 1.0
+    assert not any("relaxed" in w for w in res.warnings)
+
+
 def test_roi_restricts_the_search(decay_video, tmp_path, run_cli):
     path, _truth = decay_video
     code, _, _ = run_cli("track", path, "-o", tmp_path / "r.csv", "--roi", "100,80,140,100")

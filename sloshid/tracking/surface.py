@@ -408,23 +408,43 @@ def darker_liquid(
     return box, HsvRange((0, 0, 0), (179, 255, ceiling))
 
 
+OWN_VALLEY_SHARE = 0.25
+"""Two hue groups of a region are two colours only where the fewest pixels of a hue between their medians (a running
+sum over 3 hues) number under this share of the smaller group's most (a dye's and a box's hues, 111 and 128: 40 of
+5,300); a dye's hue spread over 20 units has no such valley and keeps its median."""
+
+
 def _main_hue(hues: np.ndarray) -> float:
-    """The median hue of a region's pixels, or, where its hues form two groups (Otsu's split of them) whose medians lie
-    further apart than OWN_HUE_REACH, the median of the larger group: one range holds no two such colours, and a region
-    of both is two objects joined (a faint blue dye and a violet box behind its glass, hues 111 and 128)."""
-    h = np.ascontiguousarray(hues.astype(np.uint8)).reshape(-1, 1)
-    if h.size < 2:
-        return float(np.median(hues))
-    split, _ = cv2.threshold(h, 0, 179, cv2.THRESH_BINARY + cv2.THRESH_OTSU)
-    low, high = hues[hues <= split], hues[hues > split]
-    if low.size == 0 or high.size == 0 or float(np.median(high)) - float(np.median(low)) <= OWN_HUE_REACH:
-        return float(np.median(hues))
-    return float(np.median(low if low.size >= high.size else high))
+    """A region's hue (OpenCV, 0..179) as a circle's median: its median turned so that the widest run of hues it lacks
+    lies at 0/179 (a red's 175-179 and 0-5 are one colour); or, where Otsu's split of its hues gives two groups whose
+    medians lie further apart than OWN_HUE_REACH with a valley between them (`OWN_VALLEY_SHARE`), the larger group's:
+    one range holds no two such colours, and a region of both is two objects joined (a faint blue dye and a violet box
+    behind its glass)."""
+    counts = np.bincount(hues.astype(int) % 180, minlength=180)
+    runs = np.concatenate([counts, counts]) == 0
+    shift, best, length = 0, 0, 0
+    for k, gap in enumerate(runs):  # the end of the widest gap, going round the circle once more
+        length = length + 1 if gap else 0
+        if best < length <= 180:
+            shift, best = (k + 1) % 180, length
+    turned = (hues.astype(float) - shift) % 180
+    centre = float(np.median(turned))
+    if turned.size > 1:
+        split, _ = cv2.threshold(np.ascontiguousarray(turned.astype(np.uint8)).reshape(-1, 1), 0, 179, cv2.THRESH_OTSU)
+        low, high = turned[turned <= split], turned[turned > split]
+        if low.size and high.size and float(np.median(high)) - float(np.median(low)) > OWN_HUE_REACH:
+            histogram = np.convolve(np.roll(counts, -shift), np.ones(3), "same")
+            a, b = int(np.median(low)), int(np.median(high))
+            smaller = low if low.size < high.size else high
+            peak = histogram[int(smaller.min()) : int(smaller.max()) + 1].max()
+            if histogram[a : b + 1].min() < OWN_VALLEY_SHARE * peak:
+                centre = float(np.median(low if low.size >= high.size else high))
+    return (centre + shift) % 180
 
 
 def own_range(pixels: np.ndarray) -> HsvRange:
-    """The HSV box of one region's pixels (n x 3, OpenCV HSV): its median hue +- OWN_HUE_REACH, and from 10 below its
-    5th-percentile saturation and value (paler and darker pixels of the dye too), for a dye no preset's range takes (a
+    """The HSV box of one region's pixels (n x 3, OpenCV HSV): its hue (`_main_hue`) +- OWN_HUE_REACH, and from 10 below
+    its 5th-percentile saturation and value (paler and darker pixels of the dye too), for a dye no preset's range takes (a
     faint dye below every preset's saturation). Its value starts above the `dark` preset's (shadows of the dye's hue,
     a holder's dark parts, are dark: they had joined a faint blue liquid to its holder and the picture's side)."""
     hue = _main_hue(pixels[:, 0])

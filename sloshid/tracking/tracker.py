@@ -105,8 +105,9 @@ class TrackSettings:
 
     float_color: str | None = setting_field(None, metavar="NAME")
     """Named float colour preset (red, orange, yellow, green, blue, magenta, or dark: any hue too dark to have one);
-    not given: red for the float target. Where its range holds nothing in the first frame, the nearest relaxation of it
-    that measures the float there is tracked, with a warning."""
+    not given: red for the float target. Where it measures the float in under half the frames and holds nothing in the
+    first, the clip is tracked again with it relaxed (hues and saturation), kept where that measures more, with a
+    warning."""
     float_hsv_low: tuple[int, int, int] | None = setting_field(None, metavar="H,S,V")
     """Lower OpenCV HSV corner of the float's colour (H 0..179, S and V 0..255); overrides `float_color`, needs
     `float_hsv_high`. A hue low above the hue high wraps through red."""
@@ -531,9 +532,89 @@ def track_video(
     A long video is tracked in spans (`SPAN_S`), side by side in processes when `multithreaded` and no overlay is
     written; multithreaded=False tracks them one after the other on one core in this thread (for batches that run
     many videos side by side). The table is the same either way. `until_s`: only the frames shown before this time
-    (a trial of settings, as `inspect` runs one; no truncation is reported then).
+    (a trial of settings, as `inspect` runs one; no truncation is reported then). A named float colour that measures
+    the float in under RELAX_BELOW of the frames is tried again relaxed (`_relaxed_run`).
     """
     settings = settings or TrackSettings()
+    run = (path, settings, overlay, progress, multithreaded, until_s)
+    res: TrackResult | None = None
+    try:
+        res = _track_once(*run)
+    except NothingFound as exc:
+        if not _may_relax(settings):
+            raise
+        res = _relaxed_run(run, None)
+        if res is None:
+            raise exc from None
+    else:
+        if _may_relax(settings) and float(np.mean(res.valid)) < RELAX_BELOW:
+            res = _relaxed_run(run, res) or res
+    for warning in res.warnings:
+        warn(warning)
+    log.info("tracked %s: %d frames, %.1f %% valid", path, len(res.t_s), 100 * float(np.mean(res.valid)))
+    return res
+
+
+RELAX_BELOW = 0.5
+"""A named float colour whose run measures the float validly in under this share of the frames, and whose range holds
+nothing in the first frame, is tried again with the range relaxed (`float_range`)."""
+SAME_FLOAT_PX = 5.0
+"""... and the relaxed run is kept only where it finds the float within this (median over the frames both runs measured)
+of where the preset's run did: a float absent from the first frame is not traded for a label of a nearby colour."""
+
+
+def _may_relax(settings: TrackSettings) -> bool:
+    """The float target with a named colour (a range given as HSV corners is the user's, used as given)."""
+    return settings.target == "float" and settings.float_hsv_low is None
+
+
+def _relaxed_run(run: tuple, first: TrackResult | None) -> TrackResult | None:
+    """The clip tracked again with its float colour relaxed (`float_range`), with the relaxation's warning first, where
+    that measures more frames validly than the preset's run `first` (None: the preset measured none) and finds the
+    float where it did (`SAME_FLOAT_PX`); else None. Its overlay replaces the first run's only then."""
+    path, settings, overlay, progress, multithreaded, until_s = run
+    reader = FrameReader(Path(path), False, pictures=True)
+    try:
+        picture = np.asarray(reader.first_picture())
+    finally:
+        reader.close()
+    roi = roi_box(settings, picture.shape[1], picture.shape[0])
+    wider, note = float_range(picture, roi, settings.float_color or DEFAULT_FLOAT_COLOR)
+    if note is None:
+        return None
+    trial = None if overlay is None else Path(overlay).with_name(f".{Path(overlay).name}.relaxed.mp4")
+    try:
+        res = _track_once(path, settings, trial, progress, multithreaded, until_s, wider)
+    except NothingFound:
+        res = None
+    if res is not None and first is not None:
+        both = res.valid.astype(bool) & first.valid.astype(bool)
+        apart = np.hypot(res.x_px - first.x_px, res.y_px - first.y_px)[both]
+        if res.valid.sum() <= first.valid.sum() or (
+            first.valid.any() and not (apart.size and np.median(apart) <= SAME_FLOAT_PX)
+        ):
+            res = None
+    if trial is not None and trial.exists():
+        if res is None:
+            trial.unlink()
+        else:
+            os.replace(trial, Path(overlay))
+    if res is not None:
+        res.warnings.insert(0, note)
+    return res
+
+
+def _track_once(
+    path: str | Path,
+    settings: TrackSettings,
+    overlay: str | Path | None,
+    progress: bool,
+    multithreaded: bool,
+    until_s: float | None,
+    colour: HsvRange | None = None,
+) -> TrackResult:
+    """`track_video`'s run with one colour (`colour`: the float's range to search instead of the settings'), its
+    warnings in the result, not yet given."""
     with contextlib.ExitStack() as workers:
         # the smoother's imports load beside opening and decoding, on the other core, instead of after them; forked
         # before the reader opens, so no decoding thread exists at the fork
@@ -550,7 +631,7 @@ def track_video(
             spans = [(s, until_s if e is None else min(e, until_s)) for s, e in spans if s is None or s < until_s]
         log.info("tracking %s (%s target) in %d span(s)", path, settings.target, len(spans))
         reader.end_s = spans[0][1]
-        dye, liquid, rival, larger = "", settings.liquid_hsv, None, False
+        dye, liquid, rival, larger = "", colour if settings.target == "float" else settings.liquid_hsv, None, False
         drawn_roi, widened = roi, None
         shrink = 1
         if settings.target == "surface":  # one dye colour and one size for every span: the first frame's
@@ -558,11 +639,6 @@ def track_video(
             if shrink > 1:  # measured (and the overlay drawn) reduced; its pixels are reported in the video's
                 reader.shrink = shrink
                 height, width = shrunk_size((height, width), shrink)
-        relaxed = None
-        if settings.target == "float" and settings.float_hsv_low is None:  # a named colour: fitted to the first frame
-            liquid, relaxed = float_range(
-                np.asarray(reader.first_picture()), roi, settings.float_color or DEFAULT_FLOAT_COLOR
-            )
         parallel = multithreaded and overlay is None and len(spans) > 1 and _can_fork()
         # a run that finds nothing writes its overlay as the diagnosis, but does not replace one already there
         kept = overlay if overlay is not None and Path(overlay).exists() else None
@@ -623,8 +699,6 @@ def track_video(
             f"{widened}, which was "
             "tracked: the container's walls lie at its edge; draw it a little wider."
         )
-    if relaxed is not None:
-        res.warnings.append(relaxed)
     if rival is not None:
         res.warnings.append(
             f"the dye's colour was chosen from the first frame as {dye.removesuffix(' (chosen from the first frame)')}, "
@@ -637,9 +711,6 @@ def track_video(
             + f": if that is the liquid, give `liquid_color` {rival}."
         )
     res.key_frame = _at_key_frames(np.array([r.t_s for r in body], float), key_times)  # the file's own times
-    for warning in res.warnings:
-        warn(warning)
-    log.info("tracked %s: %d frames, %.1f %% valid", path, len(res.t_s), 100 * float(np.mean(res.valid)))
     return res
 
 
@@ -650,21 +721,25 @@ def _valid_float(frame: np.ndarray, hsv: HsvRange, roi: tuple[int, int, int, int
 
 
 def float_range(frame: np.ndarray, roi: tuple[int, int, int, int], name: str) -> tuple[HsvRange, str | None]:
-    """The range of the float colour `name` for a video whose first frame is `frame`: the preset's where it holds
-    anything there (a float found or not: an orange float in a yellow dye that the orange range holds too) or no
-    relaxation finds the float validly, else the nearest relaxation that does (`relaxed_ranges`: a float's colour pales
-    in the light and mixes with the liquid's under it); and the warning to give then (else None)."""
+    """The range of the float colour `name` for a video whose first frame is `frame`: the preset's where `FloatFinder`
+    finds a blob of it there (found or not: an orange float in a yellow dye that the orange range holds too) or no
+    relaxation measures the float validly, else the nearest relaxation that does (`relaxed_ranges`: a float's colour
+    pales in the light and mixes with the liquid's under it); and the warning to give then (else None)."""
     hsv = preset(name).hsv
-    if FloatFinder(hsv, roi).measure(frame).found:
+    relaxations = relaxed_ranges(hsv)
+    if FloatFinder(hsv, roi).measure(frame).found or not relaxations:
         return hsv, None
-    for dh, ds, wider in relaxed_ranges(hsv):
+    if not FloatFinder(relaxations[-1][2], roi).measure(frame).found:  # the widest finds nothing: none will
+        return hsv, None
+    for dh, ds, wider in relaxations:
         if _valid_float(frame, wider, roi):
             changes = [f"its hues widened by {dh}" if dh else "", f"its saturation floor lowered by {ds}" if ds else ""]
             return wider, (
-                f"no float was found in the first frame in the {name} preset's range ({hsv.describe()}); it was "
-                f"found with {' and '.join(c for c in changes if c)} ({wider.describe()}), which was tracked: a float's "
-                "colour pales in the light and mixes with the liquid's under it. If that is not the float, give "
-                "`float_hsv_low` and `float_hsv_high`."
+                f"the {name} preset's range ({hsv.describe()}) found the float in under half the frames and nothing "
+                f"in the first, so its range was relaxed ({' and '.join(c for c in changes if c)}: "
+                f"{wider.describe()}), as a float's colour pales in the light and mixes with the liquid's under it; "
+                f"if what was tracked is not the float, give `float_hsv_low` {','.join(map(str, hsv.low))} and "
+                f"`float_hsv_high` {','.join(map(str, hsv.high))} (the preset's own range) or a range of your own."
             )
     return hsv, None
 
