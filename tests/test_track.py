@@ -2660,3 +2660,11 @@ def test_a_region_of_two_colours_joined_gets_the_range_of_the_larger_one():
     assert (joined.low[0], joined.high[0]) == (112 - OWN_HUE_REACH, 112 + OWN_HUE_REACH)  # the dye's median, 112
     one = own_range(np.column_stack([box, sv[:960]]))
     assert (one.low[0], one.high[0]) == (128 - OWN_HUE_REACH, 128 + OWN_HUE_REACH)
+    # one dye whose hue spreads (sd 7: Otsu halves it, 10 units apart, but no valley lies between): its median
+    spread = np.clip(rng.normal(110, 7.0, 4000), 0, 179).round()
+    wide = own_range(np.column_stack([spread, np.tile([[120, 160]], (4000, 1))]))
+    assert (wide.low[0], wide.high[0]) == (110 - OWN_HUE_REACH, 110 + OWN_HUE_REACH)
+    # a red of hues 170-179 and 0-10 in equal parts is one colour round the circle (its plain median, 90, is cyan)
+    red = np.concatenate([rng.integers(170, 180, 1000), rng.integers(0, 11, 1000)])
+    ring = own_range(np.column_stack([red, np.tile([[120, 160]], (2000, 1))]))
+    assert ring.wraps and ring.low[0] >= 166 and ring.high[0] <= 12
