@@ -10,6 +10,8 @@ import sys
 from dataclasses import replace
 from fractions import Fraction
 from pathlib import Path
+from types import SimpleNamespace
+from typing import cast
 
 import av
 import cv2
@@ -431,10 +433,12 @@ def test_a_float_seen_just_outside_its_colour_is_found_with_the_range_relaxed(tm
         track_video(tmp_path / "y.mp4", TrackSettings(float_hsv_low=(22, 110, 90), float_hsv_high=(35, 255, 255)))
 
 
-def test_a_float_absent_from_the_first_frames_is_not_traded_for_a_label_of_a_near_colour(tmp_path):
+@pytest.mark.parametrize("tape_until", [60, 40])
+def test_a_float_absent_from_the_first_frames_is_not_traded_for_a_label_of_a_near_colour(tmp_path, tape_until):
     # the default red float painted out of the first 40 of 60 frames, and a strip of orange tape (hue 14, inside the
-    # red range relaxed by 4) on the wall behind: the preset's run measures the float in a third of the frames, the
-    # relaxed range finds the tape in every frame and everywhere else than the float; the preset's run is kept
+    # red range relaxed by 4) on the wall behind, in every frame or only until the float comes in: the preset's run
+    # measures the float in a third of the frames; the relaxed range finds the tape (in every frame, or before the
+    # float and then the float), elsewhere than the preset's float; the preset's run is kept
     s = SynthSettings(**SMALL)
     frames = list(render_frames(s))
     tape = cv2.cvtColor(np.uint8([[[14, 200, 230]]]), cv2.COLOR_HSV2BGR)[0, 0].tolist()
@@ -446,13 +450,54 @@ def test_a_float_absent_from_the_first_frames_is_not_traded_for_a_label_of_a_nea
                 red = ((hsv[..., 0] >= 160) | (hsv[..., 0] <= 20)) & (hsv[..., 1] >= 60)
                 mask = cv2.dilate(red.astype(np.uint8), np.ones((7, 7), np.uint8))
                 picture = cv2.inpaint(picture, mask, 5, cv2.INPAINT_TELEA)
-            cv2.rectangle(picture, (20, 20), (80, 28), tape, -1)
+            if i < tape_until:
+                cv2.rectangle(picture, (20, 20), (80, 28), tape, -1)
             out.write(picture, row["t_s"])
-    res = track_video(tmp_path / "a.mp4", TrackSettings())
+    res = track_video(tmp_path / "a.mp4", TrackSettings(), overlay=tmp_path / "o.mp4")
     valid = res.valid.astype(bool)
     assert 0.2 < valid.mean() < 0.5 and not valid[:40].any()
     assert np.abs(res.x_px - np.array([row["float_x_px"] for row, _ in frames]))[valid].max() < 1.0
     assert not any("relaxed" in w for w in res.warnings)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.mp4", "o.mp4"]  # the relaxed run's overlay removed
+
+
+def test_the_relaxed_run_is_the_presets_float_where_the_preset_measured_some():
+    # `_same_float` on positions alone: a long clip whose preset measured two stray fragments near the float (3 and 28
+    # px off a float 96 px long, a 24 s clip of the hue-19 yellow float) keeps the relaxed run; one that tracked a label
+    # 110 px away in the frames the preset missed, and the float in the rest, does not; nor one measuring fewer frames
+    def run(x: np.ndarray) -> TrackResult:
+        return cast(
+            TrackResult,
+            SimpleNamespace(valid=np.isfinite(x).astype(int), x_px=x, y_px=np.where(np.isfinite(x), 100.0, np.nan)),
+        )
+
+    nan = np.nan
+    relaxed = run(np.full(720, 160.0))
+    strays = run(np.where(np.isin(np.arange(720), [17, 518]), np.where(np.arange(720) == 17, 157.0, 131.7), nan))
+    assert tracker._same_float(relaxed, strays, 96.0) and tracker._same_float(relaxed, None, 96.0)
+    preset = run(np.r_[np.full(40, nan), np.full(20, 160.0)])
+    label_then_float = run(np.r_[np.full(40, 50.0), np.full(17, 160.0), np.full(3, nan)])
+    assert not tracker._same_float(label_then_float, preset, 96.0)
+    assert not tracker._same_float(run(np.r_[np.full(50, nan), np.full(10, 160.0)]), preset, 96.0)
+
+
+def test_the_relaxed_runs_overlay_is_removed_when_the_run_fails(tmp_path, monkeypatch):
+    # the relaxed run writes its overlay beside the requested one and moves it over only when kept: a run interrupted
+    # after writing it leaves no hidden file
+    s = SynthSettings(**{**SMALL, "duration_s": 0.5}, float_color="yellow")
+    with VideoWriter(tmp_path / "y.mp4", s.width, s.height, s.fps, "h264", s.quality) as out:
+        for row, frame in render_frames(s):
+            hsv = cv2.cvtColor(frame, cv2.COLOR_BGR2HSV)
+            hsv[..., 0][(hsv[..., 0] >= 22) & (hsv[..., 0] <= 35) & (hsv[..., 1] >= 20)] = 19
+            out.write(cv2.cvtColor(hsv, cv2.COLOR_HSV2BGR), row["t_s"])
+
+    def interrupted(*_args):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(tracker, "_same_float", interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        track_video(tmp_path / "y.mp4", TrackSettings(float_color="yellow"), overlay=tmp_path / "o.mp4")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["o.mp4", "y.mp4"]  # the preset's diagnosis overlay only
 
 
 def test_roi_restricts_the_search(decay_video, tmp_path, run_cli):

@@ -558,9 +558,6 @@ def track_video(
 RELAX_BELOW = 0.5
 """A named float colour whose run measures the float validly in under this share of the frames, and whose range holds
 nothing in the first frame, is tried again with the range relaxed (`float_range`)."""
-SAME_FLOAT_PX = 5.0
-"""... and the relaxed run is kept only where it finds the float within this (median over the frames both runs measured)
-of where the preset's run did: a float absent from the first frame is not traded for a label of a nearby colour."""
 
 
 def _may_relax(settings: TrackSettings) -> bool:
@@ -569,39 +566,65 @@ def _may_relax(settings: TrackSettings) -> bool:
 
 
 def _relaxed_run(run: tuple, first: TrackResult | None) -> TrackResult | None:
-    """The clip tracked again with its float colour relaxed (`float_range`), with the relaxation's warning first, where
-    that measures more frames validly than the preset's run `first` (None: the preset measured none) and finds the
-    float where it did (`SAME_FLOAT_PX`); else None. Its overlay replaces the first run's only then."""
+    """The clip tracked again with its float colour relaxed (`float_range`), with a warning first that says so, where
+    that run tracked the preset's float (`_same_float`; `first`: the preset's run, None where it measured none); else
+    None. Its overlay replaces the first run's only then."""
     path, settings, overlay, progress, multithreaded, until_s = run
     reader = FrameReader(Path(path), False, pictures=True)
     try:
         picture = np.asarray(reader.first_picture())
     finally:
         reader.close()
-    roi = roi_box(settings, picture.shape[1], picture.shape[0])
-    wider, note = float_range(picture, roi, settings.float_color or DEFAULT_FLOAT_COLOR)
-    if note is None:
+    name = settings.float_color or DEFAULT_FLOAT_COLOR
+    relaxed = float_range(picture, roi_box(settings, picture.shape[1], picture.shape[0]), name)
+    if relaxed is None:
         return None
+    wider, changes, length = relaxed
     trial = None if overlay is None else Path(overlay).with_name(f".{Path(overlay).name}.relaxed.mp4")
+    res: TrackResult | None = None
     try:
-        res = _track_once(path, settings, trial, progress, multithreaded, until_s, wider)
-    except NothingFound:
-        res = None
-    if res is not None and first is not None:
-        both = res.valid.astype(bool) & first.valid.astype(bool)
-        apart = np.hypot(res.x_px - first.x_px, res.y_px - first.y_px)[both]
-        if res.valid.sum() <= first.valid.sum() or (
-            first.valid.any() and not (apart.size and np.median(apart) <= SAME_FLOAT_PX)
-        ):
+        try:
+            res = _track_once(path, settings, trial, progress, multithreaded, until_s, wider)
+        except NothingFound:
             res = None
-    if trial is not None and trial.exists():
-        if res is None:
-            trial.unlink()
-        else:
+        if res is not None and not _same_float(res, first, length):
+            res = None
+        if res is not None and trial is not None and trial.exists():
             os.replace(trial, Path(overlay))
-    if res is not None:
-        res.warnings.insert(0, note)
+    finally:
+        if trial is not None and trial.exists():
+            trial.unlink()
+    if res is None:
+        return None
+    hsv, share = preset(name).hsv, 0.0 if first is None else float(np.mean(first.valid))
+    res.warnings.insert(
+        0,
+        f"the {name} preset's range ({hsv.describe()}) measured the float in {100 * share:.0f} % of the frames and "
+        f"found nothing of its colour in the first, so the clip was tracked again with it relaxed ({changes}: "
+        f"{wider.describe()}), as a float's colour pales in the light and mixes with the liquid's under it; if what "
+        f"was tracked is not the float, give `float_hsv_low` {','.join(map(str, hsv.low))} and `float_hsv_high` "
+        f"{','.join(map(str, hsv.high))} (the preset's own range) or a range of your own.",
+    )
     return res
+
+
+def _same_float(res: TrackResult, first: TrackResult | None, length: float) -> bool:
+    """The relaxed run `res` tracked the preset's float (`first`, its run; None where it measured none): it measures
+    more frames validly, and, where the preset measured any, the median distance from each run's valid positions to
+    the nearest of the other's is at most half the float's `length` (px): a few stray pixels of the preset's colour in a
+    long clip lie about the float; a label of a near colour, tracked before the float came in, lies elsewhere."""
+    if first is None:
+        return True
+    if int(np.sum(res.valid)) <= int(np.sum(first.valid)):
+        return False
+    if not first.valid.any():
+        return True
+    from scipy.spatial import cKDTree  # only here: a run's start does not wait for SciPy
+
+    ours = np.column_stack([res.x_px, res.y_px])[res.valid.astype(bool)]
+    theirs = np.column_stack([first.x_px, first.y_px])[first.valid.astype(bool)]
+    apart = [float(np.median(cKDTree(b).query(a)[0])) for a, b in ((ours, theirs), (theirs, ours))]
+    return max(apart) <= 0.5 * length
 
 
 def _track_once(
@@ -714,34 +737,30 @@ def _track_once(
     return res
 
 
-def _valid_float(frame: np.ndarray, hsv: HsvRange, roi: tuple[int, int, int, int]) -> bool:
-    """The float is measured validly in `frame` by the range `hsv` (not cut by the ROI), and is no liquid body."""
+def _float_in(frame: np.ndarray, hsv: HsvRange, roi: tuple[int, int, int, int]) -> FloatMeasurement | None:
+    """The float measured validly in `frame` by the range `hsv` (not cut by the ROI, and no liquid body), or None."""
     m = FloatFinder(hsv, roi).measure(frame)
-    return m.found and not m.cut and m.quality >= VALID_QUALITY and not _liquid_width(frame, hsv, roi)
+    ok = m.found and not m.cut and m.quality >= VALID_QUALITY and not _liquid_width(frame, hsv, roi)
+    return m if ok else None
 
 
-def float_range(frame: np.ndarray, roi: tuple[int, int, int, int], name: str) -> tuple[HsvRange, str | None]:
-    """The range of the float colour `name` for a video whose first frame is `frame`: the preset's where `FloatFinder`
-    finds a blob of it there (found or not: an orange float in a yellow dye that the orange range holds too) or no
-    relaxation measures the float validly, else the nearest relaxation that does (`relaxed_ranges`: a float's colour
-    pales in the light and mixes with the liquid's under it); and the warning to give then (else None)."""
+def float_range(frame: np.ndarray, roi: tuple[int, int, int, int], name: str) -> tuple[HsvRange, str, float] | None:
+    """The nearest relaxation of the float colour `name`'s preset (`relaxed_ranges`: a float's colour pales in the light
+    and mixes with the liquid's under it) that measures the float validly in `frame` (a video's first frame), where the
+    preset finds no blob of its colour there (an orange float in a yellow dye that the orange range holds too is not
+    relaxed): (its range, what was relaxed, the float's length there in px); None where none does."""
     hsv = preset(name).hsv
     relaxations = relaxed_ranges(hsv)
-    if FloatFinder(hsv, roi).measure(frame).found or not relaxations:
-        return hsv, None
+    if not relaxations or FloatFinder(hsv, roi).measure(frame).found:
+        return None
     if not FloatFinder(relaxations[-1][2], roi).measure(frame).found:  # the widest finds nothing: none will
-        return hsv, None
+        return None
     for dh, ds, wider in relaxations:
-        if _valid_float(frame, wider, roi):
+        m = _float_in(frame, wider, roi)
+        if m is not None:
             changes = [f"its hues widened by {dh}" if dh else "", f"its saturation floor lowered by {ds}" if ds else ""]
-            return wider, (
-                f"the {name} preset's range ({hsv.describe()}) found the float in under half the frames and nothing "
-                f"in the first, so its range was relaxed ({' and '.join(c for c in changes if c)}: "
-                f"{wider.describe()}), as a float's colour pales in the light and mixes with the liquid's under it; "
-                f"if what was tracked is not the float, give `float_hsv_low` {','.join(map(str, hsv.low))} and "
-                f"`float_hsv_high` {','.join(map(str, hsv.high))} (the preset's own range) or a range of your own."
-            )
-    return hsv, None
+            return wider, " and ".join(c for c in changes if c), m.length_px
+    return None
 
 
 def _liquid_width(frame: np.ndarray, hsv: HsvRange, roi: tuple[int, int, int, int]) -> float:
