@@ -410,18 +410,23 @@ def test_every_preset_finds_the_float_synth_paints(tmp_path, colour):
     assert _rmse(res.angle_deg - truth["float_angle_deg"]) < 0.3
 
 
+def _yellow_float_at_hue_19(path: Path) -> list:
+    """A painted yellow float clip (0.5 s) recoloured to hue 19, below the yellow preset's 22; its (truth, frame) list."""
+    s = SynthSettings(**{**SMALL, "duration_s": 0.5}, float_color="yellow")
+    frames = list(render_frames(s))
+    with VideoWriter(path, s.width, s.height, s.fps, "h264", s.quality) as out:
+        for row, frame in frames:
+            hsv = cv2.cvtColor(frame, cv2.COLOR_BGR2HSV)
+            hsv[..., 0][(hsv[..., 0] >= 22) & (hsv[..., 0] <= 35) & (hsv[..., 1] >= 20)] = 19
+            out.write(cv2.cvtColor(hsv, cv2.COLOR_HSV2BGR), row["t_s"])
+    return frames
+
+
 def test_a_float_seen_just_outside_its_colour_is_found_with_the_range_relaxed(tmp_path):
     # a yellow float whose picture reads hue 19 (as a thin yellow plank on orange juice read 18-21 in a held-out pbr
     # clip: its colour mixed with the liquid's), below the yellow preset's 22: the preset finds nothing in any frame; the
     # range fitted to the first frame (hues widened by 4) tracks it, and says so
-    s = SynthSettings(**{**SMALL, "duration_s": 0.5}, float_color="yellow")
-    frames = list(render_frames(s))
-    with VideoWriter(tmp_path / "y.mp4", s.width, s.height, s.fps, "h264", s.quality) as out:
-        for row, frame in frames:
-            hsv = cv2.cvtColor(frame, cv2.COLOR_BGR2HSV)
-            yellow = (hsv[..., 0] >= 22) & (hsv[..., 0] <= 35) & (hsv[..., 1] >= 20)
-            hsv[..., 0][yellow] = 19
-            out.write(cv2.cvtColor(hsv, cv2.COLOR_HSV2BGR), row["t_s"])
+    frames = _yellow_float_at_hue_19(tmp_path / "y.mp4")
     truth = np.array([row["float_angle_deg"] for row, _ in frames])
     with pytest.warns(UserWarning, match="its hues widened by 4"):
         res = track_video(tmp_path / "y.mp4", TrackSettings(float_color="yellow"))
@@ -484,12 +489,7 @@ def test_the_relaxed_run_is_the_presets_float_where_the_preset_measured_some():
 def test_the_relaxed_runs_overlay_is_removed_when_the_run_fails(tmp_path, monkeypatch):
     # the relaxed run writes its overlay beside the requested one and moves it over only when kept: a run interrupted
     # after writing it leaves no hidden file
-    s = SynthSettings(**{**SMALL, "duration_s": 0.5}, float_color="yellow")
-    with VideoWriter(tmp_path / "y.mp4", s.width, s.height, s.fps, "h264", s.quality) as out:
-        for row, frame in render_frames(s):
-            hsv = cv2.cvtColor(frame, cv2.COLOR_BGR2HSV)
-            hsv[..., 0][(hsv[..., 0] >= 22) & (hsv[..., 0] <= 35) & (hsv[..., 1] >= 20)] = 19
-            out.write(cv2.cvtColor(hsv, cv2.COLOR_HSV2BGR), row["t_s"])
+    _yellow_float_at_hue_19(tmp_path / "y.mp4")
 
     def interrupted(*_args):
         raise KeyboardInterrupt

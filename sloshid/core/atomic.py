@@ -20,7 +20,7 @@ from typing import Any
 from sloshid.core.errors import UserError
 
 
-def _sibling(target: Path, suffix: str) -> Path:
+def temporary_sibling(target: Path, suffix: str) -> Path:
     """A hidden temporary name beside `target`, random (64 bits) so that parallel runs never pick the same one, with
     the writing process's id, so that a later run can tell one left by a killed process (`remove_orphans`).
 
@@ -73,7 +73,7 @@ def _write_error(target: Path, exc: OSError) -> UserError:
 def atomic_path(path: str | os.PathLike) -> Iterator[Path]:
     """Yield a temporary path beside `path` (same suffix); it replaces `path` only if the block succeeds."""
     target = Path(path)
-    tmp = _sibling(target, f".part{target.suffix}")
+    tmp = temporary_sibling(target, f".part{target.suffix}")
     made = missing_top(target.parent)
     done = False
     try:
@@ -159,7 +159,7 @@ def atomic_dir(path: str | os.PathLike) -> Iterator[Path]:
     target = Path(path)
     if target.exists():
         raise UserError(f"{target} already exists; sloshid does not replace a folder it did not just create.")
-    tmp = _sibling(target, ".part")
+    tmp = temporary_sibling(target, ".part")
     try:
         target.parent.mkdir(parents=True, exist_ok=True)
         tmp.mkdir()  # mode 0o777 less the umask: readable like any folder the user makes

@@ -27,7 +27,7 @@ import cv2
 import numpy as np
 from tqdm import tqdm
 
-from sloshid.core.atomic import atomic_path
+from sloshid.core.atomic import atomic_path, temporary_sibling
 from sloshid.core.errors import NothingFound, SettingError, UserError, warn
 from sloshid.core.outputs import Outputs
 from sloshid.core.parallel import forked_helper, signals_held
@@ -580,7 +580,7 @@ def _relaxed_run(run: tuple, first: TrackResult | None) -> TrackResult | None:
     if relaxed is None:
         return None
     wider, changes, length = relaxed
-    trial = None if overlay is None else Path(overlay).with_name(f".{Path(overlay).name}.relaxed.mp4")
+    trial = None if overlay is None else temporary_sibling(Path(overlay), ".part.mp4")  # removed unless kept
     res: TrackResult | None = None
     try:
         try:
