@@ -438,6 +438,16 @@ def test_a_float_seen_just_outside_its_colour_is_found_with_the_range_relaxed(tm
         track_video(tmp_path / "y.mp4", TrackSettings(float_hsv_low=(22, 110, 90), float_hsv_high=(35, 255, 255)))
 
 
+def test_the_relaxed_runs_progress_bar_says_why_a_second_one_runs(tmp_path, monkeypatch):
+    # the clip is tracked twice; the second bar is named for the relaxed colour, not a bare "track" again
+    _yellow_float_at_hue_19(tmp_path / "y.mp4")
+    names, bar = [], tracker.tqdm
+    monkeypatch.setattr(tracker, "tqdm", lambda **kw: names.append(kw["desc"]) or bar(**kw))
+    with pytest.warns(UserWarning, match="relaxed"):
+        track_video(tmp_path / "y.mp4", TrackSettings(float_color="yellow"), progress=True)
+    assert names == ["track", "track again, float colour relaxed"]
+
+
 @pytest.mark.parametrize("tape_until", [60, 40])
 def test_a_float_absent_from_the_first_frames_is_not_traded_for_a_label_of_a_near_colour(tmp_path, tape_until):
     # the default red float painted out of the first 40 of 60 frames, and a strip of orange tape (hue 14, inside the

@@ -663,6 +663,7 @@ def _track_once(
                 reader.shrink = shrink
                 height, width = shrunk_size((height, width), shrink)
         parallel = multithreaded and overlay is None and len(spans) > 1 and _can_fork()
+        desc = "track" if colour is None else "track again, float colour relaxed"  # a second bar says why
         # a run that finds nothing writes its overlay as the diagnosis, but does not replace one already there
         kept = overlay if overlay is not None and Path(overlay).exists() else None
         with contextlib.ExitStack() as stack:
@@ -673,9 +674,9 @@ def _track_once(
             jobs = [(Path(path), settings, roi, liquid, span, shrink) for span in spans]
             if parallel:
                 reader.close()
-                parts = _parallel_spans(jobs, reader.info.frame_count, reader.info.duration_s, progress)
+                parts = _parallel_spans(jobs, reader.info.frame_count, reader.info.duration_s, progress, desc)
             else:
-                bar = stack.enter_context(_progress_bar(reader.info.frame_count, progress))
+                bar = stack.enter_context(_progress_bar(reader.info.frame_count, progress, desc))
                 parts = [_track_frames(reader, _step(settings, roi, liquid), bar.update, writer)]
                 for job in jobs[1:]:
                     start, end = job[4]
@@ -1012,9 +1013,9 @@ def _track_frames(reader: FrameReader, step, tick: Callable[[int], object], writ
     return _Span(rows, step.repeated, step)
 
 
-def _progress_bar(total: int, progress: bool) -> tqdm:
-    """The frames' progress bar (shown only when asked and stderr is a terminal)."""
-    return tqdm(total=total or None, desc="track", unit="frame", disable=None if progress else True, leave=False)
+def _progress_bar(total: int, progress: bool, desc: str = "track") -> tqdm:
+    """The frames' progress bar (shown only when asked and stderr is a terminal), named `desc`."""
+    return tqdm(total=total or None, desc=desc, unit="frame", disable=None if progress else True, leave=False)
 
 
 def _can_fork() -> bool:
@@ -1026,8 +1027,8 @@ _done: Synchronized[int] | None = None
 """In a span worker: the shared count of frames tracked, which the parent's progress bar shows."""
 
 
-def _parallel_spans(jobs: list[tuple], total: int, duration: float, progress: bool) -> list[_Span]:
-    """Track the spans in forked processes, one per core, in order; the progress bar counts their frames."""
+def _parallel_spans(jobs: list[tuple], total: int, duration: float, progress: bool, desc: str) -> list[_Span]:
+    """Track the spans in forked processes, one per core, in order; the progress bar (`desc`) counts their frames."""
     ctx = multiprocessing.get_context("fork")
     done = ctx.Value("q", 0)
     # the longest spans first (the last one runs on to the end): no core waits long for another's last span
@@ -1040,7 +1041,7 @@ def _parallel_spans(jobs: list[tuple], total: int, duration: float, progress: bo
                 ctx.Pool(min(len(jobs), os.cpu_count() or 1), _start_worker, (done, os.getpid()))
             )
         pending = pool.map_async(_span_job, [jobs[k] for k in order], chunksize=1)
-        with _progress_bar(total, progress) as bar:  # after the fork: its monitor thread stays here
+        with _progress_bar(total, progress, desc) as bar:  # after the fork: its monitor thread stays here
             while not pending.ready():
                 pending.wait(0.1)
                 bar.update(done.value - bar.n)
