@@ -58,15 +58,17 @@ def inspect(
     at: float | None = None,
     roi: tuple[int, int, int, int] | None = None,
     picture: str | Path | None = None,
+    float_color: str | None = None,
 ) -> InspectResult:
     """Look at one frame of `video` (the first, or the one shown at `at` seconds; or a still picture, `.still`, whose
     settings are for the video it is a frame of) as each target would track it:
     the colour presets found, the liquid's surface and walls, the float candidates, a suggested ROI and the
     settings to track it with (`.track_settings`: `sloshid.track(video, **result.track_settings)`; `.summary()`);
-    `picture` also writes the annotated frame (PNG)."""
+    `picture` also writes the annotated frame (PNG); `float_color`: the float's colour preset, looked at as track
+    looks for it (relaxed where the preset finds nothing) and tracked when found."""
     from sloshid.tracking.inspect import inspect_video
 
-    result = inspect_video(video, at, roi)
+    result = inspect_video(video, at, roi, float_color)
     if picture is not None:
         result.save_picture(picture)
     return result

@@ -195,6 +195,7 @@ def test_at_picks_the_frame_on_screen_at_that_time(tmp_path, run_cli):
         (["--at", "inf"], "--at must be a finite number of seconds, got inf"),  # it said "of 0 s or more"
         (["--roi", "300,200,50,50"], "--roi 300,200,50,50 reaches beyond the 320x240 frame"),  # it said "ROI"
         (["-o", "{video}"], "must end in .png"),
+        (["--float-color", "purple"], "unknown colour 'purple'"),
     ],
 )
 def test_bad_input_is_one_sentence_and_writes_nothing(grey_video, tmp_path, run_cli, extra, message):
@@ -353,6 +354,47 @@ def test_a_float_measured_beside_the_liquid_gets_its_command_too(tmp_path, run_c
     line = next(line for line in out.splitlines() if line.startswith("a red float is measured too"))
     other = shlex.split(line.split("instead: ")[1])
     assert other[5:7] == ["--float-color", "red"] and run_cli(*other[1:])[0] == 0
+
+
+def _yellow_float_on_orange(path: Path) -> list:
+    """A painted yellow float recoloured to hue 18 on its blue liquid recoloured to hue 12 (a thin yellow plank on
+    orange juice read hue 18-21 in a held-out path-traced clip): the orange preset holds both as one body, the yellow
+    preset (from hue 22) not the float. Its (truth, frame) list."""
+    small = dict(width=320, height=240, duration_s=0.5, noise_sigma=3.0, blur_px=1.0, quality=18, seed=11)
+    s = SynthSettings(**small, float_length_frac=0.3, float_color="yellow")
+    frames = list(render_frames(s))
+    with VideoWriter(path, s.width, s.height, s.fps, "h264", s.quality) as video:
+        for row, frame in frames:
+            hsv = cv2.cvtColor(frame, cv2.COLOR_BGR2HSV)
+            hue, coloured = hsv[..., 0], hsv[..., 1] >= 20
+            yellow, blue = coloured & (hue >= 22) & (hue <= 35), coloured & (hue >= 85) & (hue <= 130)
+            hue[yellow], hue[blue] = 18, 12
+            video.write(cv2.cvtColor(hsv, cv2.COLOR_HSV2BGR), row["t_s"])
+    return frames
+
+
+def test_a_named_float_colour_is_looked_at_relaxed_as_track_relaxes_it(tmp_path, run_cli):
+    # unnamed, inspect sees the orange liquid and no yellow float, and suggests the surface; named, the yellow range
+    # is relaxed as track relaxes it (hues widened by 4), the float found on the liquid, and the command tracks it
+    frames = _yellow_float_on_orange(tmp_path / "y.mp4")
+    code, out, _ = run_cli("inspect", tmp_path / "y.mp4", "-o", tmp_path / "a.png")
+    assert code == 0 and "--target surface" in " ".join(_next_command(out)) and "relaxed" not in out
+    code, out, _ = run_cli("inspect", tmp_path / "y.mp4", "-o", tmp_path / "b.png", "--float-color", "yellow")
+    assert code == 0 and "float, yellow (the preset's range relaxed, its hues widened by 4" in out
+    command = _next_command(out)
+    assert "--target" not in command and command[5:7] == ["--float-color", "yellow"]
+    assert run_cli(*command[1:])[0] == 0
+    tracked = read_csv(command[4])
+    assert tracked["valid"].mean() > 0.9
+    # the float's centre (truth), not a speck of the relaxed range elsewhere on the liquid
+    assert np.abs(tracked["x_px"] - np.array([row["float_x_px"] for row, _ in frames])).max() < 1.0
+
+
+def test_a_named_float_colour_not_in_the_frame_says_so_and_suggests_the_surface(tmp_path, run_cli):
+    clip = _surface_clip(tmp_path / "s.mp4", lambda f: None)
+    code, out, _ = run_cli("inspect", clip, "-o", tmp_path / "s.png", "--float-color", "magenta")
+    assert code == 0 and "no magenta float was found in this frame" in out
+    assert "--target surface" in " ".join(_next_command(out))
 
 
 def test_a_path_traced_render_gets_a_surface_command_that_tracks(tmp_path, run_cli):

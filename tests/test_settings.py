@@ -64,7 +64,11 @@ COMMANDS = [
 ]
 """Each command's settings classes, whose every field is one of its options."""
 
-SOME_FIELDS = [("plan", ArmSettings, ("fit_joints",)), ("run", RunSettings, ("output_dir",))]
+SOME_FIELDS = [
+    ("plan", ArmSettings, ("fit_joints",)),
+    ("run", RunSettings, ("output_dir",)),
+    ("inspect", TrackSettings, ("float_color",)),
+]
 """Settings of a TOML table a command's option overrides: the command, the class and the fields it has options for."""
 
 NOT_SETTINGS = {

@@ -19,7 +19,9 @@ which the command then gives (--liquid-hsv-low/high).
 Looking at the first frame of a video, it tries the command on the video's first two seconds and says how many of
 their frames it measured validly; where the command names a colour or an ROI of inspect's, it also tries track with
 its own choices (your --roi kept), and prints that command instead when the suggested one measured under half the
-frames and track's own at least a tenth of them more.
+frames and track's own at least a tenth of them more. With --float-color NAME the command tracks that float where
+the frame shows it, with the preset's range relaxed as track relaxes it where the preset finds nothing (a thin float's
+colour mixes with the liquid's under it).
 
 Exit codes: 0 when the command printed measured at least half the frames tried (not tried, a still picture or a later
 frame: when its target was measured in this frame), 1 when something was found that track would not measure so (the
@@ -38,10 +40,11 @@ from typing import Any
 
 from sloshid.cli import track_cmd
 from sloshid.cli.naming import as_typed, options_of
-from sloshid.cli.settings_options import comma_values
+from sloshid.cli.settings_options import add_settings, comma_values
 from sloshid.core.errors import UserError
 from sloshid.core.outputs import Outputs
 from sloshid.tracking.inspect import default_picture_path, inspect_video
+from sloshid.tracking.tracker import TrackSettings
 
 
 def track_options() -> dict[str, str]:
@@ -87,6 +90,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="look only inside this region: left x, top y, width, height in pixels (default: whole frame); one that "
         "cuts the container's walls is widened a tenth on each side, as track widens it",
     )
+    title = "your float (not given: every preset looked at, a measured liquid's surface suggested first)"
+    add_settings(parser, TrackSettings, only=("float_color",), title=title)
 
 
 def _picture_path(args: argparse.Namespace) -> Path:
@@ -104,7 +109,7 @@ def run(args: argparse.Namespace) -> int:
     """Check the output, look at the frame, write the picture, print what was found and the command to run."""
     picture = _picture_path(args)
     roi = comma_values(args.roi, int, 4, "--roi", "X,Y,W,H") if args.roi is not None else None
-    result = inspect_video(args.video, args.at, roi)
+    result = inspect_video(args.video, args.at, roi, args.float_color)
     result.save_picture(picture)
     options = track_options()
     video = Path("VIDEO") if result.still else args.video  # track takes the video a picture is a frame of

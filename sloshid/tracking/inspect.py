@@ -40,6 +40,7 @@ from sloshid.tracking.tracker import (
     MeasureStep,
     TrackResult,
     TrackSettings,
+    float_range,
     measure_frame,
     reduction,
     roi_box,
@@ -47,7 +48,7 @@ from sloshid.tracking.tracker import (
     surface_roi,
     track_video,
 )
-from sloshid.video.colors import PRESETS, HsvRange, format_hsv
+from sloshid.video.colors import PRESETS, HsvRange, format_hsv, preset
 from sloshid.video.frames import FrameReader, shrunk
 
 LISTED_SHARE = 1e-4
@@ -187,6 +188,8 @@ class FloatLook:
     """Their tilt from vertical, CCW positive as seen (NaN when they were not found)."""
     liquid_like: bool = False
     """What the float target would take is a liquid body between straight walls: dyed liquid, not a float."""
+    relaxed: str = ""
+    """What of the named preset's range was relaxed to find it, as track relaxes it (`float_range`); empty: none."""
 
 
 @dataclass(kw_only=True)
@@ -214,7 +217,10 @@ class InspectResult:
     """The liquid the text and the picture's left panel show: the measured surface (one whose container's walls were
     found first), else the largest liquid region found (its measurement in the suggested ROI when that one was)."""
     float_look: FloatLook | None = None
-    """The float the right panel shows: the best measured, not liquid, not of the measured liquid's colour."""
+    """The float the right panel shows: the named colour's (`float_color`), else the best measured, not liquid, not of
+    the measured liquid's colour."""
+    float_color: str | None = None
+    """The float's colour preset as the user named it: looked at as track looks for it, and tracked when found."""
     track_settings: dict[str, Any] = field(default_factory=dict)
     """The keywords of `sloshid.track` (TrackSettings fields) that track this video, empty when nothing was found."""
     alternative: dict[str, Any] = field(default_factory=dict)
@@ -457,13 +463,17 @@ def _look_at_surface(frame, t_s, colour: ColourMatch, roi: tuple) -> tuple[Surfa
     return look, drawn
 
 
-def _look_at_float(frame, t_s, colour: ColourMatch, roi: tuple) -> tuple[FloatLook, np.ndarray]:
-    """Measure `colour` as the float, against the image (is it measured?) and the container (are walls there?)."""
-    named = colour.settings("float")
+def _look_at_float(frame, t_s, colour: ColourMatch, roi: tuple, relaxed: str = "") -> tuple[FloatLook, np.ndarray]:
+    """Measure `colour` as the float, against the image (is it measured?) and the container (are walls there?);
+    `relaxed`: what of its preset's range was relaxed (measured by its own range, not the preset's)."""
+    named = (
+        {"float_hsv_low": colour.hsv.low, "float_hsv_high": colour.hsv.high} if relaxed else colour.settings("float")
+    )
     row, drawn, step = _measure(frame, t_s, TrackSettings(roi=roi, **named), roi)
     if isinstance(step, SurfaceStep):
         raise TypeError("the float target was measured by a SurfaceStep")
     look = FloatLook(colour.name, step.found > 0, bool(row.valid), float(row.float_angle_deg), float(row.quality))
+    look.relaxed = relaxed
     look.liquid_like = bool(step.liquid_width)
     if look.found:
         row, _, walled = _measure(frame, t_s, TrackSettings(reference="container", roi=roi, **named), roi)
@@ -603,13 +613,19 @@ def default_picture_path(video: Path) -> Path:
 
 
 def inspect_video(
-    path: str | Path, at: float | None = None, roi: tuple[int, int, int, int] | None = None
+    path: str | Path,
+    at: float | None = None,
+    roi: tuple[int, int, int, int] | None = None,
+    float_color: str | None = None,
 ) -> InspectResult:
     """Look at one frame of `path` (the first, or the one at `at` seconds; or a still picture) as each target would
-    track it.
+    track it; `float_color`: the float's colour preset, looked at as track looks for it and tracked when found.
 
-    Raises UserError for a file that is neither a video nor a picture, a time outside the video and a ROI outside the
-    frame. Finding nothing is not an error here: the result says what was seen (`seen`) and has no `target`."""
+    Raises UserError for a file that is neither a video nor a picture, a time outside the video, a ROI outside the
+    frame and an unknown colour. Finding nothing is not an error here: the result says what was seen (`seen`) and has
+    no `target`."""
+    if float_color is not None:
+        preset(float_color)  # an unknown name is refused before the video is read
     video = Path(path)
     frame, t_s, still = read_frame(video, at)
     size = (frame.shape[1], frame.shape[0])
@@ -631,6 +647,7 @@ def inspect_video(
         candidates=[],
         suggested_roi=None,
         target=None,
+        float_color=float_color,
     )
     if widened is not None:
         res.notes.append(
@@ -659,6 +676,7 @@ def inspect_video(
                 labels.update(more)
                 for name in ("colours", "surfaces", "floats", "candidates"):
                     getattr(res, name).extend(getattr(own, name))
+    _look_at_named(res, frame, labels, drawn)
     _decide(res, frame, labels, drawn)
     if not still and (at is None or at <= 0) and res.track_settings:
         _try(res, roi)
@@ -741,6 +759,25 @@ def _look_at_colours(res: InspectResult, frame: np.ndarray, colours: dict, label
     res.colours += found
 
 
+def _look_at_named(res: InspectResult, frame: np.ndarray, labels: Labels, drawn: Drawn) -> None:
+    """The float colour the user named, where its preset finds nothing in this frame: relaxed as track relaxes it
+    (`float_range`: a thin float's colour mixes with the liquid's under it, or pales in the light), in place of what
+    the preset's range fitted to the picture found. Only a named colour: relaxed, every preset finds something."""
+    name = res.float_color
+    found = None if name is None else float_range(frame, res.roi, name)
+    if name is None or found is None:
+        return
+    matches, more = _colour_matches(frame, res.roi, {name: found[0]})
+    res.colours = [m for m in res.colours if m.name != name] + matches
+    res.floats = [f for f in res.floats if f.color != name]
+    res.candidates = [c for c in res.candidates if c.color != name]
+    if matches:
+        labels.update(more)
+        res.candidates += _candidates(name, *more[name], res.roi)
+        look, drawn[("float", name)] = _look_at_float(frame, res.t_s, matches[0], res.roi, found[1])
+        res.floats.append(look)
+
+
 def _decide(res: InspectResult, frame: np.ndarray, labels: Labels, drawn: Drawn) -> None:
     """Choose the target (a measured surface, else a measured float, else liquid found, else a float found), the
     preset and the ROI, and write the notes and the command."""
@@ -755,6 +792,14 @@ def _decide(res: InspectResult, frame: np.ndarray, labels: Labels, drawn: Drawn)
     liquid = measured or next((s for s in res.surfaces if s.liquid), None)
     flt = res.float_look = _best_float(res, None if measured is None else measured.dye)
     surface = measured or (liquid if flt is None or not flt.measured else None)
+    if res.float_color is not None:  # the user's float, when found, is what the command tracks
+        flt = res.float_look = _best_float(res, colour=res.float_color)
+        surface = surface if flt is None else None
+        if flt is None:
+            res.notes.append(
+                f"no {res.float_color} float was found in this frame, also with its range relaxed as track relaxes it"
+                + ("; the command below tracks the liquid's surface" if surface is not None else "")
+            )
     res.liquid = liquid
     if liquid is not None:
         res.notes.append(_surface_note(liquid, _match(res, liquid.dye)))
@@ -894,7 +939,8 @@ def _float_note(f: FloatLook, cands: list[FloatCandidate]) -> str:
         verdict = f"track takes the largest but with quality {f.quality:.2f} (below 0.5: not a float's shape or colour)"
     else:
         verdict = "too small for track to take"
-    return f"float, {f.color}: {len(cands)} candidate(s): {listed}{more}: {verdict}"
+    relaxed = f" (the preset's range relaxed, {f.relaxed}, as track relaxes it)" if f.relaxed else ""
+    return f"float, {f.color}{relaxed}: {len(cands)} candidate(s): {listed}{more}: {verdict}"
 
 
 def _picture(res: InspectResult, frame: np.ndarray, labels: Labels, drawn: Drawn) -> np.ndarray:
@@ -948,10 +994,14 @@ def _title(res: InspectResult, target: str) -> str:
     return f"float: {len(res.candidates)} candidate(s), none measured"
 
 
-def _best_float(res: InspectResult, liquid: str | None = None) -> FloatLook | None:
+def _best_float(res: InspectResult, liquid: str | None = None, colour: str | None = None) -> FloatLook | None:
     """The float track would measure best (measured, not liquid, highest quality), or the first found; not of the
-    colour `liquid` (a measured liquid's)."""
-    found = [f for f in res.floats if f.found and not f.liquid_like and f.color != liquid]
+    colour `liquid` (a measured liquid's); of the colour `colour` only, when given."""
+    found = [
+        f
+        for f in res.floats
+        if f.found and not f.liquid_like and f.color != liquid and (colour is None or f.color == colour)
+    ]
     return max(found, key=lambda f: (f.measured, f.quality), default=None)
 
 
