@@ -135,3 +135,14 @@ def test_a_thin_float_the_colour_range_barely_holds_is_measured_whole_and_follow
     assert all(abs(m.length_px - 60.0) < 2.0 for m in ms)
     # a 4 px bar's rasterisation alone moves its angle by up to 0.14 deg, in the range or not
     assert all(abs(m.angle_deg - angle) < 0.2 for m, angle in zip(ms, angles))
+
+
+def test_a_float_that_jumped_to_the_pictures_edge_is_searched_again_not_in_an_empty_window():
+    # a blob taken for the float at the left, then one at the right edge (a jump of 230 px: another blob): the next
+    # frame's window, moved on by that jump, lies past the picture's edge and holds no pixel; the finder searches
+    # the whole picture again (it raised OpenCV's empty-image error: `track --float-color yellow` on a pbr still)
+    finder = FloatFinder(RED.hsv, (0, 0, 320, 240))
+    assert finder.measure(_frame([(_bar(40.0, 100.0, 50.0, 8.0, 0.0), RED.bgr)])).found
+    assert finder.measure(_frame([(_bar(300.0, 100.0, 50.0, 8.0, 0.0), RED.bgr)])).found
+    m = finder.measure(_frame([(_bar(160.0, 100.0, 50.0, 8.0, 0.0), RED.bgr)]))
+    assert m.found and abs(m.x_px - 160.0) < 0.5

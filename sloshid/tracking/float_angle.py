@@ -222,9 +222,9 @@ class FloatFinder:
         """The float near the last position by its own colour (the balanced model of the last fit, membership >= 0.5)
         where the HSV range found none of it: the blob nearest the last position of at least half the expected area,
         not cut by the window."""
-        if self._seek is None or self._last is None:
-            return FloatMeasurement(False)
         x0, y0, x1, y1 = box
+        if self._seek is None or self._last is None or x1 <= x0 or y1 <= y0:
+            return FloatMeasurement(False)
         mask = (membership_map(frame[y0:y1, x0:x1], self._seek[0]) >= 0.5).astype(np.uint8)
         n, labels, stats, cents = cv2.connectedComponentsWithStats(mask, connectivity=8)
         if n <= 1:
@@ -277,8 +277,11 @@ class FloatFinder:
         return m
 
     def _measure_in(self, frame: np.ndarray, box: tuple[int, int, int, int], local: bool) -> FloatMeasurement:
-        """Detect the float blob by HSV inside `box` (near the last one when `local`) and refine it."""
+        """Detect the float blob by HSV inside `box` (near the last one when `local`) and refine it; a box that holds
+        no pixel (moved past the ROI's edge by the last motion) finds none."""
         x0, y0, x1, y1 = box
+        if x1 <= x0 or y1 <= y0:
+            return FloatMeasurement(False)
         mask = hsv_mask(frame[y0:y1, x0:x1], self.hsv)
         if local:
             # fast path: the window holds one blob of the expected size that the window does not cut
