@@ -390,11 +390,42 @@ def test_a_named_float_colour_is_looked_at_relaxed_as_track_relaxes_it(tmp_path,
     assert np.abs(tracked["x_px"] - np.array([row["float_x_px"] for row, _ in frames])).max() < 1.0
 
 
-def test_a_named_float_colour_not_in_the_frame_says_so_and_suggests_the_surface(tmp_path, run_cli):
-    clip = _surface_clip(tmp_path / "s.mp4", lambda f: None)
-    code, out, _ = run_cli("inspect", clip, "-o", tmp_path / "s.png", "--float-color", "magenta")
-    assert code == 0 and "no magenta float was found in this frame" in out
-    assert "--target surface" in " ".join(_next_command(out))
+def test_a_named_float_colour_not_in_the_frame_says_so_and_suggests_what_it_would_unnamed(tmp_path, run_cli):
+    # a review's cases: relaxed, a colour finds something on any clip; inspect takes it only as a float lying on the
+    # surface, no part of another float, not the liquid's own colour, and on the first frame, which track relaxes on
+    surface = _surface_clip(tmp_path / "s.mp4", lambda f: None)  # a blue dye, no float
+    frames = _yellow_float_on_orange(tmp_path / "y.mp4")
+    cases = [
+        (surface, ["--float-color", "magenta"], "no magenta float was measured", "--target surface"),
+        (surface, ["--float-color", "blue"], "(it is the liquid's colour here)", "--target surface"),
+        (tmp_path / "y.mp4", ["--float-color", "orange"], "(it is the liquid's colour here)", "--target surface"),
+        # frame 3 of 15: track decides on the first frame whether to relax
+        (
+            tmp_path / "y.mp4",
+            ["--float-color", "yellow", "--at", str(frames[3][0]["t_s"])],
+            "on the video's first",
+            "-o",
+        ),
+    ]
+    for clip, extra, note, command in cases:
+        code, out, _ = run_cli("inspect", clip, "-o", tmp_path / "p.png", *extra)
+        assert code == 0 and note in out and "relaxed, its hues" not in out, (extra, out)
+        assert command in " ".join(_next_command(out))
+        (tmp_path / "p.png").unlink()
+
+
+def test_a_relaxed_colour_across_the_surface_or_on_another_float_is_not_taken_for_the_float(tmp_path, run_cli):
+    # an orange dye's rim, read yellow relaxed (hues widened by 6), lies across the level surface (+28 deg): not a
+    # float; a magenta range widened by 6 finds the red float's end: a part of that float, which stays the command's
+    orange = tmp_path / "o.mp4"
+    assert run_cli("synth", orange, "--scene", "surface", "--liquid-color", "orange", *SMALL)[0] == 0
+    code, out, _ = run_cli("inspect", orange, "-o", tmp_path / "o.png", "--float-color", "yellow")
+    assert code == 0 and "across the liquid's surface" in out and "--target surface" in " ".join(_next_command(out))
+    red = tmp_path / "r.mp4"
+    assert run_cli("synth", red, *SMALL)[0] == 0
+    code, out, _ = run_cli("inspect", red, "-o", tmp_path / "r.png", "--float-color", "magenta")
+    assert code == 0 and "a part of the red float" in out
+    assert _next_command(out)[5:7] == ["--float-color", "red"]
 
 
 def test_a_path_traced_render_gets_a_surface_command_that_tracks(tmp_path, run_cli):

@@ -221,6 +221,8 @@ class InspectResult:
     the measured liquid's colour."""
     float_color: str | None = None
     """The float's colour preset as the user named it: looked at as track looks for it, and tracked when found."""
+    float_miss: str = ""
+    """Why the named colour, relaxed, gave no float (empty: it was not relaxed, or gave one)."""
     track_settings: dict[str, Any] = field(default_factory=dict)
     """The keywords of `sloshid.track` (TrackSettings fields) that track this video, empty when nothing was found."""
     alternative: dict[str, Any] = field(default_factory=dict)
@@ -310,6 +312,7 @@ class InspectResult:
             "target": self.target,
             "liquid": self.liquid.dye if self.liquid else None,
             "float": self.float_look.color if self.float_look else None,
+            "float_color": self.float_color,
             "track_settings": {k: list(v) if isinstance(v, tuple) else v for k, v in self.track_settings.items()},
             "notes": list(self.notes),
             "seen": self.seen or None,
@@ -759,23 +762,57 @@ def _look_at_colours(res: InspectResult, frame: np.ndarray, colours: dict, label
     res.colours += found
 
 
+FLOAT_ALONG_DEG = 10.0
+"""A float found only with its named colour relaxed is taken where its long axis lies within this of the measured
+liquid surface's angle (a float follows the surface it lies on); relaxed, a range also finds a liquid's rim (27.8 deg
+across a level surface) and specks."""
+
+
 def _look_at_named(res: InspectResult, frame: np.ndarray, labels: Labels, drawn: Drawn) -> None:
-    """The float colour the user named, where its preset finds nothing in this frame: relaxed as track relaxes it
-    (`float_range`: a thin float's colour mixes with the liquid's under it, or pales in the light), in place of what
-    the preset's range fitted to the picture found. Only a named colour: relaxed, every preset finds something."""
+    """The float colour the user named, where its preset measures no float in the first frame: relaxed as track relaxes
+    it (`float_range`: a thin float's colour mixes with the liquid's under it, or pales in the light), in place of
+    what the preset's range fitted to the picture found, where what it finds lies along the measured surface and is
+    no other colour's float (`_along_surface`). Only a named colour: relaxed, every preset finds something."""
     name = res.float_color
-    found = None if name is None else float_range(frame, res.roi, name)
-    if name is None or found is None:
+    if name is None or any(f.color == name and f.measured and not f.liquid_like for f in res.floats):
         return
-    matches, more = _colour_matches(frame, res.roi, {name: found[0]})
+    if res.t_s > 0 and not res.still:  # track relaxes on the first frame's evidence only
+        res.float_miss = "track relaxes its range only on the video's first frame: look at that one"
+        return
+    found = float_range(frame, res.roi, name)
+    matches, more = _colour_matches(frame, res.roi, {name: found[0]}) if found is not None else ([], {})
+    if found is None or not matches:
+        return
+    look, picture = _look_at_float(frame, res.t_s, matches[0], res.roi, found[1])
+    cands = _candidates(name, *more[name], res.roi)
+    res.float_miss = _along_surface(res, look, cands[0].box)
+    if res.float_miss:
+        return
     res.colours = [m for m in res.colours if m.name != name] + matches
-    res.floats = [f for f in res.floats if f.color != name]
-    res.candidates = [c for c in res.candidates if c.color != name]
-    if matches:
-        labels.update(more)
-        res.candidates += _candidates(name, *more[name], res.roi)
-        look, drawn[("float", name)] = _look_at_float(frame, res.t_s, matches[0], res.roi, found[1])
-        res.floats.append(look)
+    res.floats = [f for f in res.floats if f.color != name] + [look]
+    res.candidates = [c for c in res.candidates if c.color != name] + cands
+    labels.update(more)
+    drawn[("float", name)] = picture
+
+
+def _along_surface(res: InspectResult, look: FloatLook, box: tuple[int, int, int, int]) -> str:
+    """Why a float found with its colour relaxed is not taken ("" where it is): not measured, lying across the measured
+    surface (FLOAT_ALONG_DEG), or its centre inside another colour's measured float (not the liquid's colour's)."""
+    if not look.measured:
+        return f"its range relaxed ({look.relaxed}) finds a region track would not measure"
+    surface = max((s for s in res.surfaces if s.measured), key=lambda s: s.walls, default=None)
+    if surface is not None and abs(look.angle_deg - surface.angle_deg) > FLOAT_ALONG_DEG:
+        return (
+            f"its range relaxed ({look.relaxed}) finds a region at {look.angle_deg:+.1f} deg, across the liquid's "
+            f"surface at {surface.angle_deg:+.1f} deg: not a float lying on it"
+        )
+    cx, cy = box[0] + 0.5 * box[2], box[1] + 0.5 * box[3]
+    for f in res.floats:  # a "float" of the measured liquid's colour is that liquid's body
+        other = next((c.box for c in res.candidates if c.color == f.color), None)
+        on = other is not None and other[0] <= cx <= other[0] + other[2] and other[1] <= cy <= other[1] + other[3]
+        if f.measured and not f.liquid_like and on and (surface is None or f.color != surface.dye):
+            return f"its range relaxed ({look.relaxed}) finds a part of the {f.color} float"
+    return ""
 
 
 def _decide(res: InspectResult, frame: np.ndarray, labels: Labels, drawn: Drawn) -> None:
@@ -790,16 +827,21 @@ def _decide(res: InspectResult, frame: np.ndarray, labels: Labels, drawn: Drawn)
     # a liquid stands in a container: one whose walls were found first, then the largest
     measured = max((s for s in res.surfaces if s.measured), key=lambda s: s.walls, default=None)
     liquid = measured or next((s for s in res.surfaces if s.liquid), None)
-    flt = res.float_look = _best_float(res, None if measured is None else measured.dye)
-    surface = measured or (liquid if flt is None or not flt.measured else None)
-    if res.float_color is not None:  # the user's float, when found, is what the command tracks
-        flt = res.float_look = _best_float(res, colour=res.float_color)
-        surface = surface if flt is None else None
-        if flt is None:
-            res.notes.append(
-                f"no {res.float_color} float was found in this frame, also with its range relaxed as track relaxes it"
-                + ("; the command below tracks the liquid's surface" if surface is not None else "")
-            )
+    dye = None if measured is None else measured.dye
+    # the user's float, when found (not the measured liquid's colour), is what the command tracks
+    named = _best_float(res, dye, res.float_color) if res.float_color is not None else None
+    named = named if named is not None and named.measured else None
+    flt = res.float_look = named or _best_float(res, dye)
+    surface = None if named is not None else measured or (liquid if flt is None or not flt.measured else None)
+    if res.float_color is not None and named is None:
+        why = (
+            "it is the liquid's colour here"
+            if res.float_color == dye
+            else res.float_miss or "track relaxes its range only where the preset finds nothing of its colour"
+        )
+        res.notes.append(
+            f"no {res.float_color} float was measured in this frame ({why}); the command below is as unnamed"
+        )
     res.liquid = liquid
     if liquid is not None:
         res.notes.append(_surface_note(liquid, _match(res, liquid.dye)))
