@@ -238,7 +238,9 @@ def test_float_looks_keep_the_truth_and_change_the_picture():
 
 @pytest.mark.slow
 def test_the_bundled_sample_is_what_the_data_readmes_command_writes(run_cli, tmp_path):
-    # data/README.md says the sample is regenerated bit-for-bit; its truth CSV was not (0.0333333333, now 0.0333...33)
+    # data/README.md says the sample is regenerated bit-for-bit; its truth CSV was not (0.0333333333, now 0.0333...33).
+    # The muxer writes its own version into the file (Lavf62.12.102, 62.12.103 in PyAV 18.1.1: one byte, every
+    # frame's the same), which is left out of the comparison
     import re
     import shlex
     from pathlib import Path
@@ -250,7 +252,8 @@ def test_the_bundled_sample_is_what_the_data_readmes_command_writes(run_cli, tmp
     code, _, err = run_cli(*[names.get(w, w) for w in words])
     assert code == 0, err
     for bundled, fresh in names.items():
-        assert (root / bundled).read_bytes() == fresh.read_bytes(), bundled
+        same = [re.sub(rb"Lavf\d+\.\d+\.\d+", b"Lavf", p.read_bytes()) for p in (root / bundled, fresh)]
+        assert same[0] == same[1], bundled
 
 
 def test_the_bundled_identify_json_names_the_files_its_documented_commands_write():
