@@ -800,7 +800,7 @@ def _along_surface(res: InspectResult, look: FloatLook, box: tuple[int, int, int
     surface (FLOAT_ALONG_DEG), or its centre inside another colour's measured float (not the liquid's colour's)."""
     if not look.measured:
         return f"its range relaxed ({look.relaxed}) finds a region track would not measure"
-    surface = max((s for s in res.surfaces if s.measured), key=lambda s: s.walls, default=None)
+    surface = _measured_surface(res)
     if surface is not None and abs(look.angle_deg - surface.angle_deg) > FLOAT_ALONG_DEG:
         return (
             f"its range relaxed ({look.relaxed}) finds a region at {look.angle_deg:+.1f} deg, across the liquid's "
@@ -825,7 +825,7 @@ def _decide(res: InspectResult, frame: np.ndarray, labels: Labels, drawn: Drawn)
         shares = ", ".join(f"{p.name} {100 * p.share:.2f} %" for p in res.colours)
         res.notes.append(f"colours found (share of the {where}): {shares}")
     # a liquid stands in a container: one whose walls were found first, then the largest
-    measured = max((s for s in res.surfaces if s.measured), key=lambda s: s.walls, default=None)
+    measured = _measured_surface(res)
     liquid = measured or next((s for s in res.surfaces if s.liquid), None)
     dye = None if measured is None else measured.dye
     # the user's float, when found (not the measured liquid's colour), is what the command tracks
@@ -1034,6 +1034,11 @@ def _title(res: InspectResult, target: str) -> str:
     if f is not None and f.measured:
         return f"float: {f.color}, {f.angle_deg:+.2f} deg, quality {f.quality:.2f}"
     return f"float: {len(res.candidates)} candidate(s), none measured"
+
+
+def _measured_surface(res: InspectResult) -> SurfaceLook | None:
+    """The measured liquid surface track would take: one whose container's walls were found first, then the largest."""
+    return max((s for s in res.surfaces if s.measured), key=lambda s: s.walls, default=None)
 
 
 def _best_float(res: InspectResult, liquid: str | None = None, colour: str | None = None) -> FloatLook | None:
