@@ -336,12 +336,9 @@ WALL_FACE = 0.5
 """A wall's second face (the other polarity's longest run) counts when it runs at least this share of the first's
 length: a wall read as one face on one side and as two on the other tilts the axis (0.15 deg on a painted glass)."""
 WALL_DRIFT = 0.5
-"""A wall followed from frame to frame whose offset from its liquid side (at the side's middle row) changed by more
-than this share of WALL_NEAR's reach since the walls were last found afresh, once the sides have moved together by more
-than that reach, is searched for afresh: a glass's walls move with its liquid, while a wall followed onto a box's edge behind
-the glass stays with the box (pbr cross80: the left wall held a box's edge for 40 frames as the glass went on, then
-both walls ran off the other way; the container read up to 9 deg off). A still container's walls are not judged so:
-a faint beaker's walls scatter by more about sides that do not move."""
+"""Share of WALL_NEAR's reach by which a followed wall's offset from its liquid side may change, once both sides moved
+by more than the reach, before the walls are searched afresh: a glass's walls move with its liquid, a box's edge behind
+it does not (docs/design/tracking.md, "A wall held by a box behind the glass")."""
 FOLLOW_SLOPE = 0.04
 """Slope change (x per row, about 2.3 deg) about a wall's last line, predicted on at its last turn, searched in the next
 frame; FOLLOW_PX its sideways shift: a container swung by 20 deg at 0.3 Hz turns by 1.3 deg per frame at 30 fps."""
@@ -493,20 +490,20 @@ def mean_line(faces: list[EdgeLine]) -> EdgeLine:
     return EdgeLine(a, x - a * ym, y0, y1, 0.0, sum(f.rows for f in faces))
 
 
-def _middles(seeds: list[EdgeLine]) -> list[float]:
+def _mid_rows(seeds: list[EdgeLine]) -> list[float]:
     """Each seed's middle row."""
     return [0.5 * (s.y0 + s.y1) for s in seeds]
 
 
-def _mids(seeds: list[EdgeLine], lines: list[EdgeLine] | None = None) -> np.ndarray:
+def _mid_xs(seeds: list[EdgeLine], lines: list[EdgeLine] | None = None) -> np.ndarray:
     """The x of each of `lines` (default the seeds themselves) at its seed's middle row."""
-    return np.array([line.x_at(y) for y, line in zip(_middles(seeds), lines or seeds)])
+    return np.array([line.x_at(y) for y, line in zip(_mid_rows(seeds), seeds if lines is None else lines)])
 
 
 def _reach(seeds: list[EdgeLine]) -> float:
     """How far a wall may pass from its seed at the seed's middle row: WALL_NEAR of the seeds' distance apart, at least
     BAND_PX."""
-    mid = _mids(seeds)
+    mid = _mid_xs(seeds)
     return max(BAND_PX, WALL_NEAR * abs(mid[-1] - mid[0]))
 
 
@@ -602,7 +599,7 @@ def beside_sides(edges: Sequence[EdgeLine], sides: list[EdgeLine]) -> bool:
     """Every one of the liquid's sides has an edge within WALL_NEAR of the width between them (at least BAND_PX) at
     its middle row: walls found elsewhere (a box's edge behind the glass, one side only) are not the container's."""
     reach = _reach(sides)
-    return all(any(abs(e.x_at(y) - side.x_at(y)) <= reach for e in edges) for side, y in zip(sides, _middles(sides)))
+    return all(any(abs(e.x_at(y) - side.x_at(y)) <= reach for e in edges) for side, y in zip(sides, _mid_rows(sides)))
 
 
 def _weighted_angle(edges: list[EdgeLine]) -> float:
@@ -625,8 +622,10 @@ class ContainerTracker:
         self._surface = False  # the walls are the surface target's (`glass_walls` about the liquid's sides)
         self._found: list[list[tuple[EdgeLine, int]]] = []  # their faces' last lines and polarities
         self._found_bottom = 0  # the liquid's bottom row then
-        self._sides_x: np.ndarray | None = None  # the liquid's sides' x (`_mids`) at the last `_glass`
-        self._anchor: tuple | None = None  # the sides' and walls' x (`_mids`) when the walls were last found afresh
+        self._sides_x: np.ndarray | None = None  # the liquid's sides' x (`_mid_xs`) at the last `_glass`
+        self._anchor: tuple[np.ndarray, np.ndarray] | None = (
+            None  # sides' and walls' x when the walls were found afresh
+        )
         self._turn = 0.0  # their slope's change per frame between the last two measurements
         self._on_glass = False  # the walls are found on the glass (`glass_walls`, `glass_edges`: Hough and the rows' edges found none)
         self._hough: list[
@@ -724,14 +723,16 @@ class ContainerTracker:
         move, turn = self._shift * frames, (self._turn * frames if self._surface else 0.0)
         prior = [[(_moved(f, move, turn, lift), sign) for f, sign in faces] for faces in self._found]
         found = len(prior) == len(seeds) and glass_walls(frame, seeds, rows, prior)
-        sides_x, self._sides_x = self._sides_x, _mids(seeds) if self._surface else None
-        if found and self._surface and self._astray(found, seeds):
-            # not the glass's walls: the walls found afresh move on as the liquid's sides moved, and turn as found
+        before, now = self._sides_x, _mid_xs(seeds) if self._surface else None
+        self._sides_x = now
+        if found and now is not None and self._astray(found, seeds, now):
+            # not the glass's walls: the walls found afresh move on as the liquid's sides moved, with no turn predicted
             found, self._found, self._walls = [], [], []
-            self._shift = float(np.mean(self._sides_x - sides_x)) / frames if sides_x is not None else 0.0
+            same = before is not None and before.shape == now.shape
+            self._shift = float(np.mean(now - before)) / frames if same else 0.0
         if not found:
             found = glass_walls(frame, seeds, rows, sides=self._surface)
-            self._anchor = (_mids(seeds), _mids(seeds, wall_lines(found))) if self._surface and found else None
+            self._anchor = (now, _mid_xs(seeds, wall_lines(found))) if now is not None and found else None
         if found and len(found) == len(self._found):
             self._turn = sum(
                 mean_line([f for f, _ in new]).a - mean_line([f for f, _ in old]).a
@@ -755,16 +756,17 @@ class ContainerTracker:
         self._watch(frame, np.arange(*ends), xc[..., None] + np.arange(-BAND_PX, BAND_PX + 1), 0, ends[1] - ends[0])
         return ContainerMeasurement(True, sum(wall.angle_deg for wall in walls) / len(walls), tuple(walls))
 
-    def _astray(self, found: list, seeds: list[EdgeLine]) -> bool:
-        """Walls followed from the last frame (`found`) that left the liquid's sides (`seeds`) by more than WALL_DRIFT
-        of the reach since they were found afresh, once the sides have moved together by more than the reach (one
+    def _astray(self, found: list[list[tuple[EdgeLine, int]]], seeds: list[EdgeLine], now: np.ndarray) -> bool:
+        """Walls followed from the last frame (`found`) that left the liquid's sides (`seeds`, at x `now`) by more than
+        WALL_DRIFT of the reach since they were found afresh, once both sides moved one way by more than the reach (one
         side read elsewhere in a still picture is not a move)."""
-        if self._anchor is None:
+        if self._anchor is None or self._anchor[0].shape != now.shape:
             return False
         sides, walls = self._anchor
-        reach, now = _reach(seeds), _mids(seeds)
-        drift = (_mids(seeds, wall_lines(found)) - now) - (walls - sides)
-        return bool(abs(np.mean(now - sides)) > reach and np.any(np.abs(drift) > WALL_DRIFT * reach))
+        reach, moved = _reach(seeds), now - sides
+        drift = (_mid_xs(seeds, wall_lines(found)) - now) - (walls - sides)
+        together = bool(np.all(moved > reach) or np.all(moved < -reach))
+        return together and bool(np.any(np.abs(drift) > WALL_DRIFT * reach))
 
     def _watch(self, frame: np.ndarray, ys: np.ndarray, cols: np.ndarray, lo: int, hi: int) -> None:
         """Keep the walls' ends as this frame shows them, for `_unmoved`: GUARD_ROWS at each end of rows lo..hi of
