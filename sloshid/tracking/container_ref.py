@@ -623,9 +623,7 @@ class ContainerTracker:
         self._found: list[list[tuple[EdgeLine, int]]] = []  # their faces' last lines and polarities
         self._found_bottom = 0  # the liquid's bottom row then
         self._sides_x: np.ndarray | None = None  # the liquid's sides' x (`_mid_xs`) at the last `_glass`
-        self._anchor: tuple[np.ndarray, np.ndarray] | None = (
-            None  # sides' and walls' x when the walls were found afresh
-        )
+        self._anchor: tuple[np.ndarray, np.ndarray] | None = None  # sides' and walls' x when last found afresh
         self._turn = 0.0  # their slope's change per frame between the last two measurements
         self._on_glass = False  # the walls are found on the glass (`glass_walls`, `glass_edges`: Hough and the rows' edges found none)
         self._hough: list[
