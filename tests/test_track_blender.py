@@ -97,3 +97,17 @@ def test_a_cola_greyed_past_every_preset_is_tracked_as_the_region_darker_than_th
     assert truth["box_x0_px"] - 2 <= x and x + w <= truth["box_x1_px"] + 2 and truth["box_y0_px"] <= y, (x, y, w)
     assert 108 <= dark.high[2] < 230, dark
     assert "darker than the rest" in _read_at_every_turn(tmp_path, image, truth)[0]
+
+
+def test_walls_found_afresh_carry_no_motion_into_the_next_frames_search(tmp_path):
+    # glass16: a tumbler of orange juice seen from the side (0.3 deg), turned by +5 deg. Its first walls were found by
+    # Hough and refitted 2.1 px off the Hough lines; that offset was kept as the walls' motion per frame, the glass's
+    # walls were then sought 2.1 px to the left of where they stood and the right one settled on another edge (the
+    # container read 1.9 deg off in every later frame; 0.03 now). The relative angle is held to the issue's 0.3 deg
+    record = json.loads((BLENDER / "glass16.json").read_text())
+    clip = tmp_path / "turned.mp4"
+    still_clip(cv2.imread(str(BLENDER / "glass16.jpg")), clip, 5.0, frames=10, seed=3)
+    res = track_video(clip, TrackSettings(target="surface", reference="container", smooth=False))
+    ok = res.valid.astype(bool)
+    assert ok.mean() >= 0.8
+    assert np.abs(res.angle_deg[ok] - record["truth"]["rel_angle_deg"]).max() < 0.3

@@ -693,8 +693,8 @@ class ContainerTracker:
             if m.found:
                 return m, False
         self._walls, strongest = detect_walls(frame, float_x, float_y, float_len, self.roi)
-        self._shift = 0.0
         m = self._follow(frame, rows) if self._walls else ContainerMeasurement(False)
+        self._shift = 0.0  # the edges' offset from the Hough lines they were refitted from is not a motion
         self._hough = [] if m.found else strongest
         return m, True
 
