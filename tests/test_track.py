@@ -1604,23 +1604,27 @@ def test_the_elevation_is_held_from_the_frames_measured_validly():
 
 def test_of_two_readings_of_the_elevation_the_one_that_fits_every_first_frame_is_held():
     # a Blender tumbler of orange juice seen 6.7 deg from above (sin 0.117): its lit top face's front edge was fitted in
-    # 4 first frames (k / R 0.094, quality 0.75) and a line above it in 11 (0.285, quality 0.50): the median was held and
-    # the surface read 1.5 deg off. Measured again with each reading, every first frame fits the first one better
+    # 5 first frames (k / R 0.094-0.098, quality 0.60-0.75) and a line above it in 10 (0.27-0.285, quality 0.50-0.55):
+    # the median was held and the surface read 1.5 deg off. Measured again with each reading's medians (the elevation
+    # and the ellipse's centre), every first frame fits the first one better; a frame under the valid quality is left
+    # out of the readings
     def refit(quality_at: dict):
-        return lambda held, source: SurfaceMeasurement(True, True, quality=quality_at[round(held[0], 3)])
+        return lambda held, source: SurfaceMeasurement(True, True, quality=quality_at[round(held[0], 3), held[1]])
 
     finder = SurfaceFinder(PRESETS["orange"].hsv, (0, 0, 640, 480))
-    finder._k, finder._e = [0.094] * 4 + [0.285] * 11, [0.0] * 15
-    finder._q = [0.75] * 4 + [0.50] * 11
-    finder._refits = [refit({0.094: 0.75, 0.285: 0.55})] * 15
-    assert finder.settled()[0] == (0.094, 0.0)
+    finder._k = [0.094, 0.094, 0.094, 0.094, 0.098] + [0.285] * 10
+    finder._e = [0.007] * 5 + [0.099] * 10
+    finder._q = [0.75, 0.75, 0.75, 0.75, 0.60] + [0.50] * 9 + [0.30]
+    finder._k[-1] = 0.5  # under the valid quality: no reading of its own
+    finder._refits = [refit({(0.094, 0.007): 0.75, (0.285, 0.099): 0.55, (0.5, 0.099): 0.9})] * 15
+    assert finder.settled()[0] == (0.094, 0.007)
     # a reading that fits hardly better (under ELEVATION_GAIN) does not replace the median
-    finder._refits = [refit({0.094: 0.58, 0.285: 0.55})] * 15
-    assert finder.settled()[0] == (0.285, 0.0)
+    finder._refits = [refit({(0.094, 0.007): 0.58, (0.285, 0.099): 0.55, (0.5, 0.099): 0.9})] * 15
+    assert finder.settled()[0] == (0.285, 0.099)
     # a front edge (k > 0) is not weighed against a back edge (k < 0): a pbr cola seen 5 deg from above fitted its
     # two front-edge frames better, but the back edge read the line 0.11 deg closer to the truth
-    finder._k, finder._q = [0.064] * 2 + [-0.085] * 13, [0.85] * 2 + [0.74] * 13
-    finder._refits = [refit({0.064: 0.85, -0.085: 0.74})] * 15
+    finder._k, finder._e, finder._q = [0.064] * 2 + [-0.085] * 13, [0.0] * 15, [0.85] * 2 + [0.74] * 13
+    finder._refits = [refit({(0.064, 0.0): 0.85, (-0.085, 0.0): 0.74})] * 15
     assert finder.settled()[0] == (-0.085, 0.0)
 
 

@@ -663,7 +663,8 @@ class ContainerTracker:
         if not self._on_glass:
             m, anew = self._measure(frame, float_x, float_y, float_len, frames)
             if m.found and glass is not None and not beside_sides(m.edges, glass[0]):
-                m, self._walls = ContainerMeasurement(False), []  # another thing's edges: the glass's, about the sides
+                # another thing's edges, and their motion: the glass's, about the sides
+                m, self._walls, self._shift = ContainerMeasurement(False), [], 0.0
             if not m.found and (glass is not None or self._hough):
                 # no wall edge found row by row (faint glass, a noisy picture): the glass's line sums from now on
                 self._on_glass = True
@@ -693,8 +694,9 @@ class ContainerTracker:
             if m.found:
                 return m, False
         self._walls, strongest = detect_walls(frame, float_x, float_y, float_len, self.roi)
+        self._shift = 0.0  # the Hough lines are sought where they are, not moved on at the last walls' motion
         m = self._follow(frame, rows) if self._walls else ContainerMeasurement(False)
-        self._shift = 0.0  # the edges' offset from the Hough lines they were refitted from is not a motion
+        self._shift = 0.0  # nor is the edges' offset from the Hough lines they were refitted from a motion
         self._hough = [] if m.found else strongest
         return m, True
 

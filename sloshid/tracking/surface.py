@@ -183,11 +183,11 @@ MAX_ELEVATION_SIN = 0.3
 """Largest camera elevation's sine looked for (17 deg): the surface ellipse seen from above is at most this share of
 the inner width tall, so a column's front edge is searched that far below its first crossing (`_front_below`)."""
 ELEVATION_GAP = 0.05
-"""The first frames' elevations (k / R, of one sign) further apart than this (3 deg) are two readings, not noise: on a
-juice's lit top face some frames fitted its front edge and others a line above it (k / R 0.09 against 0.28)."""
+"""The first frames' elevations (k / R, of one sign), sorted, split into two readings where neighbours lie further apart
+than this (3 deg): on a juice's lit top face some frames fitted its front edge and others a line above it (0.09, 0.28)."""
 ELEVATION_GAIN = 0.05
 """... and the reading whose elevation fits all the first frames better by this much in median quality is held, though
-fewer frames read it (a Blender tumbler of orange juice: 4 frames at 0.75 against 11 at 0.50-0.55, 1.5 deg off)."""
+fewer frames read it (a Blender tumbler of orange juice: 5 frames at 0.60-0.75, 10 at 0.50-0.55; 1.5 deg off)."""
 
 
 @dataclass
